@@ -1,0 +1,243 @@
+//! Headless GPU device creation.
+//!
+//! Prefers a hardware adapter (discrete, then integrated, then virtual) and falls back to a software
+//! one (lavapipe over Vulkan, llvmpipe over GL/EGL). Overrides, read once per context:
+//! - `MANYLIGHTS_ADAPTER=hardware|software|<substring of the adapter name>`
+//! - `WGPU_BACKEND=vulkan|gl|metal|dx12` (wgpu's own variable) restricts the backends tried.
+//!
+//! See `../shared/docs/WGPU_HEADLESS.md` for what software adapters can and cannot do (loop limit of
+//! 65,535 iterations per invocation on Mesa 22.3, 128 MiB per storage binding).
+use crate::error::{Error, Result};
+use std::sync::{Arc, OnceLock};
+
+/// What `manylights.device_info()` reports.
+#[derive(Debug, Clone)]
+pub struct AdapterSummary {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+    pub driver_info: String,
+    pub is_software: bool,
+}
+
+/// A device and its queue, plus what was chosen. Cheap to clone (Arc inside wgpu types).
+#[derive(Clone)]
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter: wgpu::Adapter,
+    pub summary: AdapterSummary,
+    pub limits: wgpu::Limits,
+}
+
+/// The install hint given when no adapter exists.
+pub const INSTALL_HINT: &str = "no GPU adapter found. Install a software Vulkan driver \
+(Debian/Ubuntu: `apt-get install mesa-vulkan-drivers libvulkan1`) or Mesa's EGL/GL (`libegl1 libgl1-mesa-dri`), \
+or a driver for your GPU; MANYLIGHTS_ADAPTER and WGPU_BACKEND select among adapters";
+
+fn is_software(info: &wgpu::AdapterInfo) -> bool {
+    let name = info.name.to_lowercase();
+    info.device_type == wgpu::DeviceType::Cpu
+        || name.contains("llvmpipe")
+        || name.contains("lavapipe")
+        || name.contains("swiftshader")
+        || name.contains("software")
+}
+
+fn rank(info: &wgpu::AdapterInfo) -> i32 {
+    let type_rank = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    };
+    // Among software adapters prefer Vulkan (lavapipe: fully compliant, float32 blending) over GL.
+    let backend_rank = match info.backend {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    };
+    type_rank * 10 + backend_rank
+}
+
+impl GpuContext {
+    /// Create a new device, choosing an adapter as described in the module docs.
+    pub fn new() -> Result<GpuContext> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
+        let instance = wgpu::Instance::new(desc);
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(desc_backends()));
+        if adapters.is_empty() {
+            return Err(Error::GpuUnavailable(INSTALL_HINT.to_string()));
+        }
+        let choice = std::env::var("MANYLIGHTS_ADAPTER").unwrap_or_default().to_lowercase();
+        adapters.sort_by_key(|a| rank(&a.get_info()));
+        let adapter = match choice.as_str() {
+            "" | "auto" | "hardware" => {
+                if choice == "hardware" && adapters.iter().all(|a| is_software(&a.get_info())) {
+                    return Err(Error::GpuUnavailable(format!(
+                        "MANYLIGHTS_ADAPTER=hardware but only software adapters exist: {}",
+                        names(&adapters)
+                    )));
+                }
+                adapters.remove(0)
+            }
+            "software" => {
+                let i = adapters.iter().position(|a| is_software(&a.get_info())).ok_or_else(|| {
+                    Error::GpuUnavailable(format!(
+                        "MANYLIGHTS_ADAPTER=software but no software adapter exists ({}); install \
+                         mesa-vulkan-drivers",
+                        names(&adapters)
+                    ))
+                })?;
+                adapters.remove(i)
+            }
+            name => {
+                let i = adapters
+                    .iter()
+                    .position(|a| a.get_info().name.to_lowercase().contains(name))
+                    .ok_or_else(|| {
+                        Error::GpuUnavailable(format!(
+                            "MANYLIGHTS_ADAPTER={name:?} matches no adapter; found: {}",
+                            names(&adapters)
+                        ))
+                    })?;
+                adapters.remove(i)
+            }
+        };
+        let info = adapter.get_info();
+        let adapter_limits = adapter.limits();
+        // Ask for the adapter's own limits where we need more than the defaults (storage size, layers).
+        let mut limits = wgpu::Limits::downlevel_defaults();
+        limits.max_storage_buffer_binding_size = adapter_limits.max_storage_buffer_binding_size;
+        limits.max_buffer_size = adapter_limits.max_buffer_size;
+        limits.max_texture_array_layers = adapter_limits.max_texture_array_layers;
+        limits.max_texture_dimension_2d = adapter_limits.max_texture_dimension_2d;
+        limits.max_storage_buffers_per_shader_stage =
+            adapter_limits.max_storage_buffers_per_shader_stage.min(16);
+        limits.max_compute_workgroup_storage_size = adapter_limits.max_compute_workgroup_storage_size;
+        limits.max_compute_invocations_per_workgroup = adapter_limits.max_compute_invocations_per_workgroup;
+        limits.max_compute_workgroup_size_x = adapter_limits.max_compute_workgroup_size_x;
+        limits.max_compute_workgroup_size_y = adapter_limits.max_compute_workgroup_size_y;
+        limits.max_compute_workgroups_per_dimension = adapter_limits.max_compute_workgroups_per_dimension;
+        limits.max_storage_textures_per_shader_stage = adapter_limits.max_storage_textures_per_shader_stage;
+        limits.max_color_attachments = adapter_limits.max_color_attachments;
+        limits.max_color_attachment_bytes_per_sample = adapter_limits.max_color_attachment_bytes_per_sample;
+        let mut features = wgpu::Features::empty();
+        for f in [wgpu::Features::FLOAT32_FILTERABLE, wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES] {
+            if adapter.features().contains(f) {
+                features |= f;
+            }
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("manylights::GpuContext::device"),
+            required_features: features,
+            required_limits: limits.clone(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| Error::GpuUnavailable(format!("adapter {:?} refused a device: {e}", info.name)))?;
+        let summary = AdapterSummary {
+            name: info.name.clone(),
+            backend: format!("{:?}", info.backend).to_lowercase(),
+            device_type: format!("{:?}", info.device_type),
+            driver: info.driver.clone(),
+            driver_info: info.driver_info.clone(),
+            is_software: is_software(&info),
+        };
+        Ok(GpuContext { device, queue, adapter, summary, limits })
+    }
+
+    /// The process-wide shared context (created on first use). Errors are not cached, so a user who
+    /// installs a driver can retry in the same process.
+    pub fn shared() -> Result<Arc<GpuContext>> {
+        static CTX: OnceLock<Arc<GpuContext>> = OnceLock::new();
+        if let Some(c) = CTX.get() {
+            return Ok(c.clone());
+        }
+        let ctx = Arc::new(GpuContext::new()?);
+        Ok(CTX.get_or_init(|| ctx).clone())
+    }
+
+    /// Wait for all submitted work; turn a lost device into an error.
+    pub fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| Error::Gpu(format!("waiting for the device failed: {e}")))
+    }
+
+    /// Copy a storage buffer back to the host (the buffer needs COPY_SRC usage).
+    pub fn read_buffer<T: bytemuck::Pod>(&self, src: &wgpu::Buffer, offset: u64, count: usize) -> Result<Vec<T>> {
+        let size = (count * std::mem::size_of::<T>()) as u64;
+        if size == 0 {
+            return Ok(Vec::new());
+        }
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("GpuContext::read_buffer::staging"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("GpuContext::read_buffer"),
+        });
+        enc.copy_buffer_to_buffer(src, offset, &staging, 0, size);
+        self.queue.submit(Some(enc.finish()));
+        let slice = staging.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|e| Error::Gpu(format!("buffer map callback lost: {e}")))?
+            .map_err(|e| Error::Gpu(format!("mapping a buffer for readback failed: {e}")))?;
+        let data = slice
+            .get_mapped_range()
+            .map_err(|e| Error::Gpu(format!("reading a mapped buffer failed: {e:?}")))?;
+        let out = bytemuck::cast_slice::<u8, T>(&data).to_vec();
+        drop(data);
+        staging.unmap();
+        Ok(out)
+    }
+}
+
+fn desc_backends() -> wgpu::Backends {
+    wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all())
+}
+
+fn names(adapters: &[wgpu::Adapter]) -> String {
+    adapters
+        .iter()
+        .map(|a| {
+            let i = a.get_info();
+            format!("{} ({:?})", i.name, i.backend)
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn creates_a_device_and_reads_back() {
+        let ctx = GpuContext::new().expect("a GPU adapter (software is fine) must exist in tests");
+        assert!(!ctx.summary.name.is_empty());
+        let data: Vec<u32> = (0..1000).collect();
+        let buf = wgpu::util::DeviceExt::create_buffer_init(
+            &ctx.device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("test"),
+                contents: bytemuck::cast_slice(&data),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            },
+        );
+        let back: Vec<u32> = ctx.read_buffer(&buf, 0, 1000).unwrap();
+        assert_eq!(back, data);
+    }
+}

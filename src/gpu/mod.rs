@@ -1,0 +1,5 @@
+//! GPU passes on wgpu. `context` creates the device; one file per pass, each driving its own WGSL in
+//! `shaders/` (assembled in `shaders`).
+pub mod context;
+
+pub use context::GpuContext;

@@ -1,0 +1,11 @@
+//! PyO3 bindings (feature `python`): thin wrappers that check arguments, release the GIL and call core.
+use pyo3::prelude::*;
+
+pub mod errors;
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    errors::register(m)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
