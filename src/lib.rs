@@ -3,6 +3,7 @@ pub mod error;
 pub mod gpu;
 pub mod scene;
 pub mod shading;
+pub mod view;
 
 #[cfg(feature = "python")]
 pub mod py;
