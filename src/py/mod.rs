@@ -2,10 +2,17 @@
 use pyo3::prelude::*;
 
 pub mod errors;
+pub mod image;
+pub mod matrix;
+pub mod scene;
+pub mod util;
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
+    scene::register(m)?;
+    matrix::register(m)?;
+    image::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
