@@ -299,4 +299,25 @@ mod tests {
         assert_eq!((wo, l), (Vec3::Y, Vec3::splat(3.0)));
         assert!(d.is_infinite());
     }
+
+    /// Writes `emitted` for fixed lights and points to $ML_DUMP (checked against Mitsuba's
+    /// `sample_direction` by a Python script; run with `--ignored`).
+    #[test]
+    #[ignore]
+    fn dump_emitted_for_mitsuba() {
+        let Ok(path) = std::env::var("ML_DUMP") else { return };
+        let mut s = LightSet::new(Vec3::ZERO, 1.0);
+        s.push_point(Vec3::new(0.3, 1.0, -0.2), Vec3::new(1.0, 2.0, 3.0)).unwrap();
+        s.push_spot(Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.1, -1.0, 0.2), Vec3::new(2.0, 1.0, 0.5), 0.6, 0.35).unwrap();
+        s.push_directional(Vec3::new(0.3, -1.0, 0.2), Vec3::new(0.7, 0.8, 0.9)).unwrap();
+        let mut out = String::new();
+        for j in 0..3 {
+            for k in 0..40 {
+                let p = Vec3::new(-1.0 + 0.05 * k as f32, -0.3 + 0.01 * k as f32, 0.4 - 0.03 * k as f32);
+                let (wo, l, _) = s.emitted(j, p).unwrap_or((Vec3::ZERO, Vec3::ZERO, 0.0));
+                out += &format!("{j} {} {} {} {} {} {} {} {} {}\n", p.x, p.y, p.z, wo.x, wo.y, wo.z, l.x, l.y, l.z);
+            }
+        }
+        std::fs::write(path, out).unwrap();
+    }
 }
