@@ -43,6 +43,12 @@ struct ViewSample {
 @group(0) @binding(6) var shadow_maps: texture_depth_2d_array;
 @group(0) @binding(7) var<storage, read_write> accum: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> columns: array<f32>;
+@group(0) @binding(9) var<storage, read> bsdf_tables: array<f32>;
+
+// Rough-plastic tables for `bsdf_eval` (common/bsdf.wgsl).
+fn bsdf_table(i: u32) -> f32 {
+    return bsdf_tables[i];
+}
 
 fn light_layer(l: Light, p: vec3<f32>) -> u32 {
     if l.is_cube != 0u {

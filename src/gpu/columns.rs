@@ -88,23 +88,25 @@ pub struct ColumnParams {
     pub _pad1: f32,
 }
 
-/// The WGSL module of the pass. STAND-IN: `bsdf_standin.wgsl` until `common/bsdf.wgsl` lands.
+/// The WGSL module of the pass.
 pub const COLUMNS_WGSL: &str = concat!(
-    include_str!("../../shaders/common/bsdf_standin.wgsl"),
+    include_str!("../../shaders/common/bsdf.wgsl"),
     include_str!("../../shaders/common/light.wgsl"),
     include_str!("../../shaders/common/shadow_layer.wgsl"),
     include_str!("../../shaders/columns.wgsl"),
 );
 
-/// View samples on the GPU: geometry (64 B each) and BSDFs (80 B each), separate bindings.
+/// View samples on the GPU: geometry (64 B each) and BSDFs (80 B each), separate bindings, plus the
+/// rough-plastic tables the BSDFs index (`crate::shading::bsdf::roughplastic_table_buffer`).
 pub struct ViewBuffers {
     pub samples: wgpu::Buffer,
     pub bsdfs: wgpu::Buffer,
+    pub bsdf_tables: wgpu::Buffer,
     pub num_samples: u32,
 }
 
 impl ViewBuffers {
-    pub fn upload(device: &wgpu::Device, view: &ViewSamples) -> ViewBuffers {
+    pub fn upload(device: &wgpu::Device, view: &ViewSamples, bsdf_tables: &[f32]) -> ViewBuffers {
         let samples: Vec<GpuViewSample> = (0..view.len())
             .map(|i| GpuViewSample {
                 position: view.position[i].to_array(),
@@ -128,7 +130,8 @@ impl ViewBuffers {
             contents: &pad(bytemuck::cast_slice(&view.bsdf)),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        ViewBuffers { samples: samples_buf, bsdfs, num_samples: view.len() as u32 }
+        let bsdf_tables = storage_buffer(device, "ViewBuffers::bsdf_tables", bsdf_tables, wgpu::BufferUsages::STORAGE);
+        ViewBuffers { samples: samples_buf, bsdfs, bsdf_tables, num_samples: view.len() as u32 }
     }
 }
 
@@ -206,6 +209,7 @@ impl ColumnsPass {
                 },
                 storage(7, false),
                 storage(8, false),
+                storage(9, true),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -242,6 +246,7 @@ impl ColumnsPass {
                 wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(inputs.shadow_maps) },
                 buf(7, inputs.accum),
                 buf(8, inputs.columns),
+                buf(9, &inputs.view.bsdf_tables),
             ],
         });
         let (gx, gy, _) = dispatch_size(inputs.view.num_samples);

@@ -131,7 +131,8 @@ impl LightMatrix {
         let device = &ctx.device;
         let tris = triangle_positions(&scene);
         let vertices = storage_buffer(device, "LightMatrix::vertices", &tris, wgpu::BufferUsages::VERTEX);
-        let view_buffers = ViewBuffers::upload(device, &view);
+        let tables = crate::shading::bsdf::roughplastic_table_buffer(&scene.bsdfs);
+        let view_buffers = ViewBuffers::upload(device, &view, &tables);
         let atlas = ShadowAtlas::new(device, opts.shadow_resolution, max_layers);
         Ok(LightMatrix {
             shadow_pass: ShadowMapPass::new(device),

@@ -1,21 +1,10 @@
 //! CPU reference for light-matrix elements: the same shading as `columns.wgsl` with exact visibility by
 //! brute-force ray casting against every scene triangle (Möller-Trumbore). O(triangles) per element:
 //! for tiny hand-made scenes and tests only.
-//!
-//! STAND-IN: `eval_bsdf` is diffuse only until `crate::shading::bsdf::eval` (helper "bsdf") lands.
 use crate::lights::LightSet;
 use crate::scene::Scene;
-use crate::shading::GpuBsdf;
 use crate::view::ViewSamples;
 use glam::Vec3;
-
-/// STAND-IN for `crate::shading::bsdf::eval`: diffuse/pi * cos(theta_o), one-sided; local frame.
-pub fn eval_bsdf(b: &GpuBsdf, wi: Vec3, wo: Vec3) -> Vec3 {
-    if wi.z <= 0.0 || wo.z <= 0.0 {
-        return Vec3::ZERO;
-    }
-    Vec3::from_array(b.diffuse) * (wo.z * std::f32::consts::FRAC_1_PI)
-}
 
 /// Mitsuba's `coordinate_system(n)` (Duff et al. 2017): (s, t) completing n to a right-handed frame.
 pub fn coordinate_system(n: Vec3) -> (Vec3, Vec3) {
@@ -98,7 +87,7 @@ impl CpuReference {
         let n = view.normal[i];
         let (s, t) = coordinate_system(n);
         let local = |v: Vec3| Vec3::new(v.dot(s), v.dot(t), v.dot(n));
-        let f = eval_bsdf(&view.bsdf[i], local(view.wi[i]), local(wo)) * radiance;
+        let f = crate::shading::bsdf::eval(&view.bsdf[i], local(view.wi[i]), local(wo)) * radiance;
         let vis = self.visible(p, view.geo_normal[i], wo, dist);
         (if vis { f } else { Vec3::ZERO }, vis)
     }
