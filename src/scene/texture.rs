@@ -1,1 +1,292 @@
-//! (being written)
+//! Bitmap loading and texture evaluation as Mitsuba 3.9.1 does them (`src/textures/bitmap.cpp`,
+//! `src/textures/checkerboard.cpp`, Dr.Jit 1.5 `include/drjit/texture_impl.h`).
+//!
+//! Bitmaps: PNG/JPEG through `image`, EXR through `exr` ([`crate::image::io`]). Row 0 is the first row of
+//! the file (the top of the picture) and is looked up at v = 0: Mitsuba's texture row is `floor(v*H - 1/2)`
+//! with no flip (the OBJ loader's `v' = 1 - v` is what makes OBJ files come out upright).
+//! Storage follows Mitsuba's `format="auto"`: 8-bit images keep their bytes and are decoded per texel
+//! (`b / 255`, then sRGB to linear unless `raw`) *before* interpolation, which is what decoding at load
+//! time and interpolating linear values gives; 16-bit PNGs are linearised and rounded to half floats;
+//! EXR half and float channels are used as stored. Alpha is dropped, Y (grey) is replicated to RGB.
+//!
+//! Lookup (Dr.Jit `tex_eval`): `uv = to_uv * (u, v, 1)`; bilinear: `x = u*W - 1/2`, `i = floor(x)`,
+//! weights `(1 - (x - i), x - i)`, texels `i` and `i + 1` wrapped; nearest: `floor(u*W)` wrapped. Wrap
+//! modes: repeat (Euclidean modulo), mirror (period 2W, edge texel repeated: -1 -> 0, W -> W-1), clamp.
+//!
+//! Checkerboard: `frac(uv) > 1/2` per axis; `color0` where both tests agree, `color1` otherwise (so
+//! `color0` covers [0, 1/2]^2). Mitsuba's `eval_1` (scalar lookups) inverts this and returns the colours'
+//! channel means: see [`eval_1`].
+//!
+//! Deviation: the sRGB curve is the exact piecewise formula (evaluated in f64, rounded to f32); Dr.Jit
+//! uses a rational approximation of it. They differ by at most 1 ulp on the 256 8-bit values
+//! (see the test `srgb_table_matches_mitsuba`). Images smaller than 2x2 are used as they are (Mitsuba pads
+//! them to 2x2).
+use crate::error::{Error, Location, Result};
+use crate::scene::types::{FilterType, Param, Texture, WrapMode};
+use glam::{Vec2, Vec3};
+use std::path::Path;
+
+/// Loads a bitmap as linear RGB: (width, height, texels row-major, row 0 = top of the file).
+///
+/// PNG/JPEG: sRGB decoded to linear unless `raw`; EXR: linear as stored (`raw` has no effect).
+/// Errors: `FileNotFound`; `Scene` for unreadable or unsupported images (naming the file).
+pub fn load_bitmap(path: &Path, loc: &Location, raw: bool) -> Result<(u32, u32, Vec<Vec3>)> {
+    if !path.exists() {
+        return Err(Error::FileNotFound { loc: loc.clone(), path: path.to_path_buf() });
+    }
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    if ext == "exr" {
+        let (w, h, px) = crate::image::io::read_exr(path)
+            .map_err(|e| Error::scene(loc, format!("cannot read \"{}\": {e}", path.display())))?;
+        return Ok((w, h, px.into_iter().map(Vec3::from_array).collect()));
+    }
+    let img = image::ImageReader::open(path)
+        .map_err(|e| Error::io(path, e))?
+        .with_guessed_format()
+        .map_err(|e| Error::io(path, e))?
+        .decode()
+        .map_err(|e| Error::scene(loc, format!("cannot decode image \"{}\": {e}", path.display())))?;
+    let (w, h) = (img.width(), img.height());
+    use image::DynamicImage as D;
+    let data = match img {
+        D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => {
+            let table = byte_table(raw);
+            img.to_rgb8().pixels().map(|p| Vec3::new(table[p[0] as usize], table[p[1] as usize], table[p[2] as usize])).collect()
+        }
+        D::ImageRgb32F(_) | D::ImageRgba32F(_) => img.to_rgb32f().pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
+        _ => {
+            // 16-bit: Mitsuba stores these as half floats after linearisation.
+            let decode = |c: u16| {
+                let x = c as f32 / 65535.0;
+                round_to_half(if raw { x } else { srgb_to_linear(x) })
+            };
+            img.to_rgb16().pixels().map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2]))).collect()
+        }
+    };
+    Ok((w, h, data))
+}
+
+/// The exact sRGB decoding curve (IEC 61966-2-1), evaluated in f64.
+pub fn srgb_to_linear(x: f32) -> f32 {
+    let x = x as f64;
+    (if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }) as f32
+}
+
+/// The exact sRGB encoding curve (inverse of [`srgb_to_linear`]), evaluated in f64.
+pub fn linear_to_srgb(x: f32) -> f32 {
+    let x = x as f64;
+    (if x <= 0.0031308 { x * 12.92 } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }) as f32
+}
+
+/// Linear value of each 8-bit code as Dr.Jit decodes it: `b * (1/255)` in f32, then sRGB unless `raw`.
+fn byte_table(raw: bool) -> [f32; 256] {
+    std::array::from_fn(|b| {
+        let x = b as f32 * (1.0f32 / 255.0);
+        if raw {
+            x
+        } else {
+            srgb_to_linear(x)
+        }
+    })
+}
+
+/// Rounds an f32 to the nearest IEEE half value (ties to even), returned as f32.
+pub fn round_to_half(x: f32) -> f32 {
+    if !x.is_finite() || x == 0.0 {
+        return x;
+    }
+    let a = x.abs();
+    if a >= 65520.0 {
+        return f32::INFINITY.copysign(x);
+    }
+    // Spacing of halves around a: 2^(e-10) for normal halves (e >= -14), 2^-24 for subnormals.
+    let e = a.log2().floor().max(-14.0) as i32;
+    let step = 2f32.powi(e - 10);
+    let q = a / step; // exact: division by a power of two
+    let f = q.floor();
+    let r = match (q - f).partial_cmp(&0.5) {
+        Some(std::cmp::Ordering::Less) => f,
+        Some(std::cmp::Ordering::Greater) => f + 1.0,
+        _ => f + (f % 2.0), // tie: to even
+    };
+    (r * step).copysign(x)
+}
+
+/// Dr.Jit's `tex_wrap`: maps an integer texel coordinate into [0, res).
+fn wrap(i: i64, res: i64, mode: WrapMode) -> usize {
+    let m = match mode {
+        WrapMode::Clamp => i.clamp(0, res - 1),
+        WrapMode::Repeat => i.rem_euclid(res),
+        WrapMode::Mirror => {
+            let m = i.rem_euclid(2 * res);
+            if m < res {
+                m
+            } else {
+                2 * res - 1 - m
+            }
+        }
+    };
+    m as usize
+}
+
+fn to_uv(m: &glam::Mat3, uv: Vec2) -> Vec2 {
+    m.transform_point2(uv)
+}
+
+/// Bilinear or nearest lookup of a bitmap at a (transformed) uv.
+fn lookup(width: u32, height: u32, data: &[Vec3], filter: FilterType, wrap_mode: WrapMode, uv: Vec2) -> Vec3 {
+    let (w, h) = (width as i64, height as i64);
+    let texel = |x: i64, y: i64| data[wrap(y, h, wrap_mode) * width as usize + wrap(x, w, wrap_mode)];
+    match filter {
+        FilterType::Nearest => {
+            let (x, y) = ((uv.x * width as f32).floor(), (uv.y * height as f32).floor());
+            texel(x as i64, y as i64)
+        }
+        FilterType::Bilinear => {
+            let px = uv.x * width as f32 - 0.5;
+            let py = uv.y * height as f32 - 0.5;
+            let (fx, fy) = (px.floor(), py.floor());
+            let (wx1, wy1) = (px - fx, py - fy);
+            let (wx0, wy0) = (1.0 - wx1, 1.0 - wy1);
+            let (ix, iy) = (fx as i64, fy as i64);
+            // Corner order and weight products as in Dr.Jit's tex_eval.
+            let mut out = Vec3::ZERO;
+            out += texel(ix, iy) * (wx0 * wy0);
+            out += texel(ix + 1, iy) * (wx1 * wy0);
+            out += texel(ix, iy + 1) * (wx0 * wy1);
+            out += texel(ix + 1, iy + 1) * (wx1 * wy1);
+            out
+        }
+    }
+}
+
+/// `true` where Mitsuba's checkerboard `eval` picks `color0`.
+fn checker_is_color0(uv: Vec2) -> bool {
+    (uv.x - uv.x.floor() > 0.5) == (uv.y - uv.y.floor() > 0.5)
+}
+
+/// Evaluates an RGB texture at a surface uv (Mitsuba's `Texture::eval` in RGB variants).
+pub fn eval(tex: &Texture, uv: Vec2) -> Vec3 {
+    match tex {
+        Texture::Bitmap { width, height, data, filter, wrap, to_uv: m, .. } => {
+            lookup(*width, *height, data, *filter, *wrap, to_uv(m, uv))
+        }
+        Texture::Checkerboard { color0, color1, to_uv: m } => {
+            if checker_is_color0(to_uv(m, uv)) {
+                *color0
+            } else {
+                *color1
+            }
+        }
+    }
+}
+
+/// Mitsuba's luminance weights (`include/mitsuba/core/spectrum.h`).
+pub fn luminance(c: Vec3) -> f32 {
+    c.x * 0.212671 + c.y * 0.715160 + c.z * 0.072169
+}
+
+/// Evaluates a texture as a scalar, as Mitsuba's `eval_1` does (used for textured scalar parameters such
+/// as roughness): a bitmap gives the luminance of its RGB lookup (grey images: the value); a checkerboard
+/// gives the *mean* of `color1`'s channels where `eval` gives `color0`, and vice versa (Mitsuba 3.9.1's
+/// `Checkerboard::eval_1` uses the opposite mask to `eval`; reproduced, not fixed).
+pub fn eval_1(tex: &Texture, uv: Vec2) -> f32 {
+    match tex {
+        Texture::Bitmap { .. } => luminance(eval(tex, uv)),
+        Texture::Checkerboard { color0, color1, to_uv: m } => {
+            let c = if checker_is_color0(to_uv(m, uv)) { *color1 } else { *color0 };
+            (c.x + c.y + c.z) / 3.0
+        }
+    }
+}
+
+/// Evaluates an RGB parameter: its value, or `eval` of `textures[i]`.
+pub fn eval_param(textures: &[Texture], p: &Param, uv: Vec2) -> Vec3 {
+    match p {
+        Param::Value(v) => *v,
+        Param::Texture(i) => eval(&textures[*i], uv),
+    }
+}
+
+/// Evaluates a scalar parameter as Mitsuba does: a value's first channel, or `eval_1` of the texture.
+pub fn eval_param_1(textures: &[Texture], p: &Param, uv: Vec2) -> f32 {
+    match p {
+        Param::Value(v) => v.x,
+        Param::Texture(i) => eval_1(&textures[*i], uv),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Mat3;
+
+    fn bitmap(w: u32, h: u32, data: Vec<Vec3>, filter: FilterType, wrap: WrapMode) -> Texture {
+        Texture::Bitmap { width: w, height: h, data, filter, wrap, to_uv: Mat3::IDENTITY, loc: Location::default() }
+    }
+
+    #[test]
+    fn wrap_modes_match_drjit() {
+        let r: Vec<usize> = (-5..9).map(|i| wrap(i, 4, WrapMode::Repeat)).collect();
+        assert_eq!(r, vec![3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0]);
+        let m: Vec<usize> = (-5..9).map(|i| wrap(i, 4, WrapMode::Mirror)).collect();
+        assert_eq!(m, vec![3, 3, 2, 1, 0, 0, 1, 2, 3, 3, 2, 1, 0, 0]);
+        let c: Vec<usize> = (-2..6).map(|i| wrap(i, 4, WrapMode::Clamp)).collect();
+        assert_eq!(c, vec![0, 0, 0, 1, 2, 3, 3, 3]);
+    }
+
+    #[test]
+    fn bilinear_texel_centres_and_rows() {
+        // 2x2: row 0 (top) = (0, 1), row 1 = (2, 3) in the red channel.
+        let data = (0..4).map(|i| Vec3::splat(i as f32)).collect();
+        let t = bitmap(2, 2, data, FilterType::Bilinear, WrapMode::Clamp);
+        assert_eq!(eval(&t, Vec2::new(0.25, 0.25)).x, 0.0); // texel centre of (0, 0): v=0 is row 0
+        assert_eq!(eval(&t, Vec2::new(0.75, 0.75)).x, 3.0);
+        assert_eq!(eval(&t, Vec2::new(0.5, 0.25)).x, 0.5);
+        assert_eq!(eval(&t, Vec2::new(0.5, 0.5)).x, 1.5);
+        assert_eq!(eval(&t, Vec2::new(0.0, 0.0)).x, 0.0); // clamped
+        let t = bitmap(2, 2, (0..4).map(|i| Vec3::splat(i as f32)).collect(), FilterType::Bilinear, WrapMode::Repeat);
+        assert_eq!(eval(&t, Vec2::new(0.0, 0.25)).x, 0.5); // halfway between texel 1 (wrapped) and 0
+        let t = bitmap(2, 2, (0..4).map(|i| Vec3::splat(i as f32)).collect(), FilterType::Nearest, WrapMode::Repeat);
+        assert_eq!(eval(&t, Vec2::new(0.99, 0.01)).x, 1.0);
+        assert_eq!(eval(&t, Vec2::new(1.01, 0.51)).x, 2.0);
+    }
+
+    #[test]
+    fn checkerboard_rule() {
+        let t = Texture::Checkerboard { color0: Vec3::splat(0.4), color1: Vec3::splat(0.2), to_uv: Mat3::IDENTITY };
+        assert_eq!(eval(&t, Vec2::new(0.25, 0.25)).x, 0.4);
+        assert_eq!(eval(&t, Vec2::new(0.75, 0.25)).x, 0.2);
+        assert_eq!(eval(&t, Vec2::new(0.75, 0.75)).x, 0.4);
+        assert_eq!(eval(&t, Vec2::new(-0.25, 0.25)).x, 0.2);
+        assert_eq!(eval(&t, Vec2::new(0.5, 0.5)).x, 0.4); // > 0.5 is strict
+        assert_eq!(eval_1(&t, Vec2::new(0.25, 0.25)), 0.2); // Mitsuba's inverted eval_1
+        let scaled = Texture::Checkerboard {
+            color0: Vec3::X,
+            color1: Vec3::Y,
+            to_uv: Mat3::from_scale(Vec2::new(4.0, 4.0)),
+        };
+        assert_eq!(eval(&scaled, Vec2::new(0.2, 0.05)), Vec3::Y); // uv' = (0.8, 0.2)
+    }
+
+    #[test]
+    fn half_rounding() {
+        assert_eq!(round_to_half(1.0), 1.0);
+        assert_eq!(round_to_half(1.0 + 1.0 / 2048.0), 1.0); // tie to even
+        assert_eq!(round_to_half(1.0 + 3.0 / 2048.0), 1.0 + 2.0 / 1024.0);
+        assert_eq!(round_to_half(0.1), 0.099975586);
+        assert_eq!(round_to_half(-3.0e-6), -2.9802322e-6); // subnormal half: 50 * 2^-24
+        assert_eq!(round_to_half(70000.0), f32::INFINITY);
+    }
+
+    #[test]
+    fn srgb_curve() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert_eq!(srgb_to_linear(1.0), 1.0);
+        assert!((srgb_to_linear(0.5) - 0.21404114).abs() < 1e-7);
+        for i in 0..=100 {
+            let x = i as f32 / 100.0;
+            assert!((linear_to_srgb(srgb_to_linear(x)) - x).abs() < 1e-6);
+        }
+    }
+}
