@@ -403,6 +403,25 @@ mod mitsuba_tests {
     }
 
     #[test]
+    fn veach_ajar_checkerboard_matches_mitsuba() {
+        // color0 0.8, color1 0.2, to_uv scale(20, 80); mitsuba 3.9.1 eval (and eval_1 for the first 8).
+        let t = Texture::Checkerboard {
+            color0: Vec3::splat(0.8),
+            color1: Vec3::splat(0.2),
+            to_uv: Mat3::from_scale(Vec2::new(20.0, 80.0)),
+        };
+        let uvs = UVS[..8].iter().map(|u| Vec2::from_array(*u))
+            .chain([Vec2::new(0.01, 0.01), Vec2::new(0.026, 0.003), Vec2::new(0.026, 0.0068)]);
+        let want = [0.8, 0.8, 0.8, 0.8, 0.8, 0.8, 0.2, 0.2, 0.2, 0.2, 0.8];
+        for (k, (uv, w)) in uvs.zip(want).enumerate() {
+            assert_eq!(eval(&t, uv), Vec3::splat(w), "uv {uv}");
+            if k < 8 {
+                assert!((eval_1(&t, uv) - (1.0 - w)).abs() < 1e-6, "eval_1 at {uv}");
+            }
+        }
+    }
+
+    #[test]
     fn missing_bitmap_is_file_not_found() {
         let e = load_bitmap(Path::new("/nonexistent.png"), &Location::new("s.xml", 7), false).unwrap_err();
         assert!(matches!(e, Error::FileNotFound { .. }) && e.to_string().starts_with("s.xml:7"), "{e}");
