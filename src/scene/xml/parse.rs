@@ -448,6 +448,9 @@ impl Parser {
             }
             other => return Err(Error::scene(&loc, format!("unsupported XML element <{other}>"))),
         };
+        if let Some(prev) = self.nodes[parent].props.iter().find(|p| p.name == name) {
+            return Err(Error::scene(&loc, format!("property \"{name}\" is given twice (first at {})", prev.loc)));
+        }
         self.nodes[parent].props.push(Prop { name, value, loc });
         Ok(())
     }

@@ -8,7 +8,7 @@
 //! - shapes without a BSDF share one default `diffuse` (reflectance 0.5) entry;
 //! - emissive parameters (`radiance`, `intensity`, `irradiance`) must be constant (no textures).
 use super::materials;
-use super::parse::Document;
+use super::parse::{Document, Value};
 use super::props::{ObjectRef, Props};
 use crate::error::{Error, Location, Result};
 use crate::scene::transform;
@@ -139,8 +139,23 @@ impl<'a> Builder<'a> {
         Ok(i)
     }
 
-    /// A colour parameter: constant, or a nested / referenced texture.
+    /// A reflectance parameter: constant, or a nested / referenced texture. Like Mitsuba's
+    /// `get_texture`, an `<rgb>` value must lie in [0, 1].
     fn param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
+        let v = self.unbounded_param(p, name, default)?;
+        if let (Param::Value(c), Some(prop)) = (v, p.prop(name)) {
+            if matches!(prop.value, Value::Rgb(_)) && !(c.min_element() >= 0.0 && c.max_element() <= 1.0) {
+                return Err(Error::scene(
+                    &prop.loc,
+                    format!("invalid RGB reflectance {name}=[{}, {}, {}] in {}: must be in [0, 1]", c.x, c.y, c.z, p.what()),
+                ));
+            }
+        }
+        Ok(v)
+    }
+
+    /// A parameter without range check (Mitsuba's `get_unbounded_texture`: roughness, eta, k).
+    fn unbounded_param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
         if let Some(r) = p.named_object(name)? {
             self.expect_class(&r, "texture", &format!("\"{name}\" of {}", p.what()))?;
             return Ok(Param::Texture(self.texture(r.node)?));
@@ -161,9 +176,9 @@ impl<'a> Builder<'a> {
     fn ior(&self, p: &mut Props, name: &str, default: &str) -> Result<f32> {
         if let Some(prop) = p.prop(name) {
             return match &prop.value {
-                super::parse::Value::Float(v) => Ok(*v as f32),
-                super::parse::Value::Int(v) => Ok(*v as f32),
-                super::parse::Value::Str(s) => materials::lookup_ior(s).ok_or_else(|| {
+                Value::Float(v) => Ok(*v as f32),
+                Value::Int(v) => Ok(*v as f32),
+                Value::Str(s) => materials::lookup_ior(s).ok_or_else(|| {
                     Error::scene(&prop.loc, format!("unknown IOR name {name}=\"{s}\"; valid names: {}", materials::ior_names()))
                 }),
                 other => Err(Error::scene(&prop.loc, format!("{name} must be a <float> or <string>, got <{}>", other.type_name()))),
@@ -185,21 +200,17 @@ impl<'a> Builder<'a> {
 
     /// eta and k of a conductor: `eta`/`k` or a `material` preset (default "none": eta 0, k 1).
     fn complex_ior(&mut self, p: &mut Props) -> Result<(Vec3, Vec3)> {
-        let material = p.string("material")?;
-        if p.has("eta") || matches!(material, None | Some(("none", _))) {
-            if let Some((m, l)) = material {
-                if m != "none" {
-                    return Err(Error::scene(l, "specify either (eta, k) or material, not both"));
+        match p.string("material")? {
+            Some((m, l)) if m != "none" => {
+                if p.has("eta") || p.has("k") {
+                    return Err(Error::scene(l, format!("material=\"{m}\": specify either (eta, k) or material, not both")));
                 }
+                materials::conductor(m).ok_or_else(|| {
+                    Error::scene(l, format!("unknown conductor material \"{m}\"; valid names: {}", materials::conductor_names()))
+                })
             }
-            let eta = self.constant_color(p, "eta", 0.0)?;
-            let k = self.constant_color(p, "k", 1.0)?;
-            return Ok((eta, k));
+            _ => Ok((self.constant_color(p, "eta", 0.0)?, self.constant_color(p, "k", 1.0)?)),
         }
-        let (m, l) = material.expect("material is Some here");
-        materials::conductor(m).ok_or_else(|| {
-            Error::scene(l, format!("unknown conductor material \"{m}\"; valid names: {}", materials::conductor_names()))
-        })
     }
 
     /// Index into `bsdfs` of a `<bsdf>` node.
@@ -259,9 +270,9 @@ impl<'a> Builder<'a> {
                     if p.has("alpha") {
                         return Err(Error::scene(p.loc(), "roughconductor: give either alpha or alpha_u/alpha_v, not both"));
                     }
-                    (self.param(&mut p, "alpha_u", 0.1)?, self.param(&mut p, "alpha_v", 0.1)?)
+                    (self.unbounded_param(&mut p, "alpha_u", 0.1)?, self.unbounded_param(&mut p, "alpha_v", 0.1)?)
                 } else {
-                    let a = self.param(&mut p, "alpha", 0.1)?;
+                    let a = self.unbounded_param(&mut p, "alpha", 0.1)?;
                     (a, a)
                 };
                 let specular_reflectance = self.param(&mut p, "specular_reflectance", 1.0)?;
@@ -303,7 +314,8 @@ impl<'a> Builder<'a> {
         let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
         let flip_normals = p.bool("flip_normals", false)?;
         let plugin = p.node.plugin.as_str();
-        let is_mesh = matches!(plugin, "obj" | "ply" | "cube");
+        // Mitsuba 3.9.1 meshes (these read face_normals); sphere and disk are analytic there.
+        let is_mesh = matches!(plugin, "obj" | "ply" | "cube" | "rectangle");
         let face_normals = if is_mesh { p.bool("face_normals", false)? } else { false };
         let (kind, data, world_from_local) = match plugin {
             "obj" | "ply" => {

@@ -277,6 +277,19 @@ fn refusals_name_file_and_line() {
     assert_err(load_str("unref", "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n<float name=\"foo\" value=\"1\"/></bsdf></shape>"), 5, &["foo", "diffuse"]);
     assert_err(load_str("badrgb", "<shape type=\"rectangle\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.1 0.2\"/></bsdf></shape>"), 4, &["0.1 0.2"]);
     assert_err(load_str("ior", "<shape type=\"rectangle\"><bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"glas\"/></bsdf></shape>"), 4, &["\"glas\"", "bk7"]);
+    assert_err(
+        load_str("range", "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n<rgb name=\"reflectance\" value=\"1.5, -0.2, 0.3\"/></bsdf></shape>"),
+        5,
+        &["[1.5, -0.2, 0.3]", "[0, 1]"],
+    );
+    assert_err(load_str("twice", "<shape type=\"sphere\"><float name=\"radius\" value=\"1\"/>\n<float name=\"radius\" value=\"2\"/></shape>"), 5, &["\"radius\" is given twice"]);
+    assert_err(load_str("disk-fn", "<shape type=\"disk\"><boolean name=\"face_normals\" value=\"true\"/></shape>"), 4, &["face_normals", "disk"]);
+    assert!(load_str("rect-fn", "<shape type=\"rectangle\"><boolean name=\"face_normals\" value=\"true\"/></shape>").is_ok());
+    assert_err(
+        load_str("shared-area", "<shape type=\"rectangle\"><emitter type=\"area\" id=\"a\"/></shape>\n<shape type=\"rectangle\"><ref id=\"a\"/></shape>"),
+        5,
+        &["already attached"],
+    );
     let zero = "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"0\"/></film></sensor><shape type=\"rectangle\"/></scene>";
     let path = write("zero", &[("scene.xml", zero)]);
     assert_err(load_scene(&path, &LoadOptions::default()), 2, &["0x576"]);
