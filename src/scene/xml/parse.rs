@@ -8,7 +8,8 @@
 //! - `<include filename>` is resolved relative to the including file; the included `<scene>`'s children
 //!   join the including element; defaults declared in it stay visible afterwards (one parameter list).
 //! - `<path value>` (root only) adds a search directory for the files plugins name (newest first, then the
-//!   main scene's directory).
+//!   main scene's directory). As in Mitsuba, a mesh or texture named in an included file is looked up
+//!   there too, not relative to the included file.
 //! - Property elements become [`Prop`]s (transforms are evaluated here); nested objects and `<ref>`s
 //!   become [`Child`]ren; ids are collected so references may come before their declaration.
 //!

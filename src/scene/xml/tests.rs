@@ -1,6 +1,8 @@
 //! Tests of `load_scene`. Reference numbers (bounding boxes, fields of view, camera matrices) were read
 //! from mitsuba 3.9.1 `scalar_rgb` with `mi.load_file(path, optimize=False)` (`shape.bbox()`,
 //! `mi.traverse(sensor)["x_fov"]`, `sensor.world_transform()`).
+// Reference numbers are pasted verbatim from Mitsuba's printouts (f32 values printed as f64).
+#![allow(clippy::excessive_precision)]
 use super::*;
 use crate::scene::{Bsdf, Emitter, MicrofacetDistribution, Param, ShapeKind, Texture};
 use glam::{Vec3, Vec4};

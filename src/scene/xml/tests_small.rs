@@ -1,4 +1,6 @@
 //! Small hand-written scenes: parameters, includes, references, defaults, and every refusal.
+// Reference numbers are pasted verbatim from Mitsuba's printouts (f32 values printed as f64).
+#![allow(clippy::excessive_precision)]
 use super::*;
 use crate::error::Error;
 use crate::scene::{Bsdf, Emitter, MicrofacetDistribution, Param, ShapeKind};
