@@ -8,7 +8,6 @@ pub mod texture;
 pub mod transform;
 pub mod types;
 pub mod xml;
-mod xml_assets_shim; // TEMPORARY until scene-assets lands
 
 pub use types::*;
 pub use xml::{load_scene, LoadOptions};

@@ -13,9 +13,7 @@ use super::props::{ObjectRef, Props};
 use crate::error::{Error, Location, Result};
 use crate::scene::transform;
 use crate::scene::types::*;
-// TEMPORARY (until scene-assets lands): the shim stands in for `crate::scene::{mesh, texture}`.
-use crate::scene::xml_assets_shim as mesh;
-use crate::scene::xml_assets_shim as texture;
+use crate::scene::{mesh, texture};
 use glam::{DMat4, DVec3, Mat4, Vec3};
 use std::collections::HashMap;
 use std::path::PathBuf;
