@@ -240,8 +240,10 @@ fn bunny() {
 #[test]
 fn veach_ajar() {
     let s = load("veach-ajar");
-    assert_eq!(tris(&s), vec![2, 2, 12, 2, 2944, 372, 620, 372, 12, 44, 12, 12, 12, 12, 12, 104]);
-    assert_eq!(tris(&s).iter().sum::<usize>(), 4546);
+    // Mitsuba keeps 2944 triangles in DoorHandle (4546 in all); `scene::mesh::finalize` drops the 62
+    // zero-area ones of models/Mesh015.obj (documented deviation there).
+    assert_eq!(tris(&s), vec![2, 2, 12, 2, 2944 - 62, 372, 620, 372, 12, 44, 12, 12, 12, 12, 12, 104]);
+    assert_eq!(tris(&s).iter().sum::<usize>(), 4546 - 62);
     // 10 used twosided BSDFs, each with its nested one; the 3 unused ones are dropped.
     assert_eq!(s.bsdfs.len(), 20);
     assert_eq!(s.textures.len(), 4);
