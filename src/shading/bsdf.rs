@@ -29,10 +29,11 @@
 //! buffer's element i. The Rust `eval` reads the same values from the memo in `bsdf_tables`.
 //!
 //! Deviations: a `twosided` whose back BSDF differs from its front resolves to the front for both sides
-//! (no shared scene has one). Texture lookups use a local `eval_param` until `scene::texture` lands.
+//! (no shared scene has one). Textures are evaluated with `scene::texture` (scalar parameters as Mitsuba's `eval_1`).
 use super::bsdf_tables::{roughplastic_tables, TABLE_RES};
 use super::GpuBsdf;
-use crate::scene::{Bsdf, FilterType, MicrofacetDistribution, Param, Texture, WrapMode};
+use crate::scene::texture::{eval_param, eval_param_1};
+use crate::scene::{Bsdf, MicrofacetDistribution, Param, Texture};
 use glam::{Vec2, Vec3};
 
 /// Black: evaluates to 0.
@@ -103,8 +104,8 @@ pub fn resolve(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: Vec2) -> 
             b.specular = rgb(specular_reflectance);
             b.eta = eta.to_array();
             b.k = k.to_array();
-            b.alpha_u = eval_param(textures, alpha_u, uv).x.max(1e-4);
-            b.alpha_v = eval_param(textures, alpha_v, uv).x.max(1e-4);
+            b.alpha_u = eval_param_1(textures, alpha_u, uv).max(1e-4);
+            b.alpha_v = eval_param_1(textures, alpha_v, uv).max(1e-4);
         }
         Bsdf::Conductor { eta, k, specular_reflectance } => {
             b.kind = KIND_SMOOTH;
@@ -286,49 +287,6 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
     } else {
         let c = [0.919317f32, -3.4793, 6.75335, -7.80989, 4.98554, -1.36881];
         c.iter().rev().fold(0.0f32, |acc, &ci| acc.mul_add(inv_eta, ci))
-    }
-}
-
-/// Evaluate an RGB parameter at `uv` (scalar parameters use `.x`). Local stand-in for
-/// `crate::scene::texture::eval_param` (being written elsewhere): checkerboard as Mitsuba's, bitmaps with
-/// nearest / bilinear lookup, row = v * height.
-fn eval_param(textures: &[Texture], p: &Param, uv: Vec2) -> Vec3 {
-    match p {
-        Param::Value(v) => *v,
-        Param::Texture(i) => match textures.get(*i) {
-            None => Vec3::ZERO,
-            Some(Texture::Checkerboard { color0, color1, to_uv }) => {
-                let t = to_uv.transform_point2(uv);
-                let (mx, my) = (t.x - t.x.floor() > 0.5, t.y - t.y.floor() > 0.5);
-                if mx == my { *color0 } else { *color1 }
-            }
-            Some(Texture::Bitmap { width, height, data, filter, wrap, to_uv, .. }) => {
-                let (w, h) = (*width as i64, *height as i64);
-                let t = to_uv.transform_point2(uv) * Vec2::new(w as f32, h as f32);
-                let texel = |x: i64, y: i64| {
-                    let wrapc = |c: i64, n: i64| match wrap {
-                        WrapMode::Repeat => c.rem_euclid(n),
-                        WrapMode::Clamp => c.clamp(0, n - 1),
-                        WrapMode::Mirror => {
-                            let m = c.rem_euclid(2 * n);
-                            if m < n { m } else { 2 * n - 1 - m }
-                        }
-                    };
-                    data.get((wrapc(y, h) * w + wrapc(x, w)) as usize).copied().unwrap_or(Vec3::ZERO)
-                };
-                match filter {
-                    FilterType::Nearest => texel(t.x.floor() as i64, t.y.floor() as i64),
-                    FilterType::Bilinear => {
-                        let p = t - Vec2::splat(0.5);
-                        let (x0, y0) = (p.x.floor(), p.y.floor());
-                        let (fx, fy) = (p.x - x0, p.y - y0);
-                        let (x0, y0) = (x0 as i64, y0 as i64);
-                        (texel(x0, y0) * (1.0 - fx) + texel(x0 + 1, y0) * fx) * (1.0 - fy)
-                            + (texel(x0, y0 + 1) * (1.0 - fx) + texel(x0 + 1, y0 + 1) * fx) * fy
-                    }
-                }
-            }
-        },
     }
 }
 
