@@ -4,6 +4,7 @@ pub mod gpu;
 pub mod scene;
 pub mod shading;
 pub mod view;
+pub mod view_resolve;
 
 #[cfg(feature = "python")]
 pub mod py;

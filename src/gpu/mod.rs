@@ -1,5 +1,8 @@
 //! GPU passes on wgpu. `context` creates the device; one file per pass, each driving its own WGSL in
 //! `shaders/` (assembled in `shaders`).
 pub mod context;
+pub mod gbuffer;
+pub mod scene_buffers;
+pub mod shaders;
 
 pub use context::GpuContext;
