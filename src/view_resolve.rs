@@ -16,6 +16,7 @@
 //!   `prim_index` of a sphere sample is the tessellation triangle the raster found (Mitsuba's is 0).
 //!   When the f64 ray misses the sphere (grazing rays at the silhouette), the triangle is used.
 //! - `wi = -d`; albedo and bsdf from the mesh's BSDF resolved at uv.
+//!
 //! Background pixels: `shape_index = prim_index = -1`, every vector 0, bsdf zeroed.
 use crate::error::{Error, Result};
 use crate::gpu::scene_buffers::{locate_triangle, triangle_offsets};

@@ -246,3 +246,96 @@ fn sphere_enlargement_encloses() {
     // 48 segments: cos(pi / 48) ~ 0.99786 at the equator; the polar caps need a bit more.
     assert!(s > 1.0 / (std::f32::consts::PI / 48.0).cos() && s < 1.02, "{s}");
 }
+
+/// Dump scenes for `tests/mitsuba_check_gbuffer.py` (run with `MANYLIGHTS_GBUFFER_DUMP=<dir> cargo test
+/// --release -- --ignored dump_scenes_for_mitsuba`): per scene a folder with `view.bin` (per pixel 12
+/// little-endian f32: position, normal, geo_normal, uv, shape_index), `camera.txt` (world_from_camera
+/// row-major, fov_x in degrees, near, far, width, height) and one OBJ per mesh (`<index>.obj`, uv v
+/// flipped back to the file convention) or `<index>.sphere` (centre, radius).
+#[test]
+#[ignore]
+fn dump_scenes_for_mitsuba() {
+    use std::fmt::Write;
+    let root = std::path::PathBuf::from(std::env::var("MANYLIGHTS_GBUFFER_DUMP").unwrap_or("/tmp/gbuffer_dump".into()));
+    for (name, scene) in [("sphere", sphere_scene(false)), ("cornell_cbox", cornell_scene(128, 96, 278.0, 0.01))] {
+        let dir = root.join(name);
+        std::fs::create_dir_all(&dir).unwrap();
+        let v = render_view_samples(&ctx(), &scene).unwrap();
+        let mut out: Vec<f32> = Vec::with_capacity(v.len() * 12);
+        for i in 0..v.len() {
+            out.extend(v.position[i].to_array());
+            out.extend(v.normal[i].to_array());
+            out.extend(v.geo_normal[i].to_array());
+            out.extend(v.uv[i].to_array());
+            out.push(v.shape_index[i] as f32);
+        }
+        std::fs::write(dir.join("view.bin"), bytemuck::cast_slice(&out)).unwrap();
+        let c = &scene.camera;
+        let m = c.world_from_camera.transpose().to_cols_array();
+        let mut cam: String = m.iter().map(|x| format!("{x:.9e} ")).collect();
+        writeln!(cam, "\n{} {} {} {} {}", c.fov_x.to_degrees(), c.near_clip, c.far_clip, c.width, c.height).unwrap();
+        std::fs::write(dir.join("camera.txt"), cam).unwrap();
+        for (k, mesh) in scene.meshes.iter().enumerate() {
+            if let ShapeKind::Sphere { center, radius, .. } = mesh.kind {
+                std::fs::write(dir.join(format!("{k}.sphere")), format!("{} {} {} {}", center.x, center.y, center.z, radius)).unwrap();
+                continue;
+            }
+            let mut obj = String::new();
+            for p in &mesh.positions {
+                writeln!(obj, "v {:.9e} {:.9e} {:.9e}", p.x, p.y, p.z).unwrap();
+            }
+            for t in &mesh.uvs {
+                writeln!(obj, "vt {:.9e} {:.9e}", t.x, 1.0 - t.y).unwrap();
+            }
+            for n in &mesh.normals {
+                writeln!(obj, "vn {:.9e} {:.9e} {:.9e}", n.x, n.y, n.z).unwrap();
+            }
+            for f in &mesh.indices {
+                let corner = |v: u32| match (mesh.uvs.is_empty(), mesh.normals.is_empty()) {
+                    (true, true) => format!("{}", v + 1),
+                    (false, true) => format!("{0}/{0}", v + 1),
+                    (true, false) => format!("{0}//{0}", v + 1),
+                    (false, false) => format!("{0}/{0}/{0}", v + 1),
+                };
+                writeln!(obj, "f {} {} {}", corner(f[0]), corner(f[1]), corner(f[2])).unwrap();
+            }
+            std::fs::write(dir.join(format!("{k}.obj")), obj).unwrap();
+        }
+    }
+}
+
+#[test]
+fn clip_range_is_mitsubas() {
+    // The markers lie at z = 5 in the camera frame: visible iff near_clip <= 5 <= far_clip.
+    let ctx = ctx();
+    for (near, far, visible) in [(0.01, 4.99, false), (0.01, 5.01, true), (4.99, 1e4, true), (5.01, 1e4, false)] {
+        let mut scene = marker_scene();
+        scene.camera.near_clip = near;
+        scene.camera.far_clip = far;
+        let ids = render_visibility(&ctx, &scene).unwrap();
+        let n = ids.iter().filter(|&&id| id != 0).count();
+        assert_eq!(n > 0, visible, "near {near} far {far}: {n} pixels");
+        assert_eq!(ids, cast_visibility_cpu(&scene).unwrap(), "near {near} far {far}");
+    }
+    // Infinite far clip.
+    let mut scene = marker_scene();
+    scene.camera.far_clip = f32::INFINITY;
+    assert_eq!(render_visibility(&ctx, &scene).unwrap(), cast_visibility_cpu(&marker_scene()).unwrap());
+}
+
+#[test]
+fn empty_scene_and_empty_meshes() {
+    let ctx = ctx();
+    let mut scene = marker_scene();
+    let meshes = std::mem::take(&mut scene.meshes);
+    let v = render_view_samples(&ctx, &scene).unwrap();
+    assert_eq!(v.len(), 48 * 32);
+    assert!(v.shape_index.iter().all(|&s| s == -1) && v.prim_index.iter().all(|&s| s == -1));
+    // An empty mesh between two others must not shift the shape indices.
+    let mut empty = meshes[0].clone();
+    empty.indices.clear();
+    scene.meshes = vec![meshes[0].clone(), empty, meshes[1].clone()];
+    let v = render_view_samples(&ctx, &scene).unwrap();
+    let count = |s: i32| v.shape_index.iter().filter(|&&x| x == s).count();
+    assert!(count(0) > 10 && count(1) == 0 && count(2) > 10, "{} {} {}", count(0), count(1), count(2));
+}
