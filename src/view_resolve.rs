@@ -228,29 +228,46 @@ pub fn resolve_view_samples(scene: &Scene, ids: &[u32]) -> Result<ViewSamples> {
         return Err(Error::invalid(format!("visibility buffer has {} pixels, the film {w}x{h} has {n}", ids.len())));
     }
     let offsets = triangle_offsets(&scene.meshes)?;
-    let samples: Vec<Sample> = ids
-        .par_iter()
-        .enumerate()
-        .map(|(i, &id)| {
+    // Start from background everywhere, then fill hit pixels in place (no per-pixel intermediate).
+    let bg = Sample::background();
+    let mut out = ViewSamples {
+        width: w,
+        height: h,
+        position: vec![bg.position; n],
+        normal: vec![bg.normal; n],
+        geo_normal: vec![bg.geo_normal; n],
+        wi: vec![bg.wi; n],
+        uv: vec![bg.uv; n],
+        albedo: vec![bg.albedo; n],
+        shape_index: vec![bg.shape_index; n],
+        prim_index: vec![bg.prim_index; n],
+        bsdf: vec![bg.bsdf; n],
+    };
+    (
+        ids.par_iter().enumerate(),
+        out.position.par_iter_mut(),
+        out.normal.par_iter_mut(),
+        out.geo_normal.par_iter_mut(),
+        out.wi.par_iter_mut(),
+        out.uv.par_iter_mut(),
+        out.albedo.par_iter_mut(),
+        out.shape_index.par_iter_mut(),
+        out.prim_index.par_iter_mut(),
+        out.bsdf.par_iter_mut(),
+    )
+        .into_par_iter()
+        .try_for_each(|((i, &id), position, normal, geo_normal, wi, uv, albedo, shape_index, prim_index, bsdf)| {
             if id == 0 {
-                return Ok(Sample::background());
+                return Ok(());
             }
             let (m, prim) = locate_triangle(&offsets, id - 1).ok_or_else(|| {
                 Error::Gpu(format!("visibility buffer names triangle {} of {}", id - 1, offsets.last().unwrap_or(&0)))
             })?;
-            resolve_pixel(scene, m, prim, i as u32 % w, i as u32 / w)
-        })
-        .collect::<Result<_>>()?;
-    let mut out = ViewSamples { width: w, height: h, ..Default::default() };
-    out.position = samples.iter().map(|s| s.position).collect();
-    out.normal = samples.iter().map(|s| s.normal).collect();
-    out.geo_normal = samples.iter().map(|s| s.geo_normal).collect();
-    out.wi = samples.iter().map(|s| s.wi).collect();
-    out.uv = samples.iter().map(|s| s.uv).collect();
-    out.albedo = samples.iter().map(|s| s.albedo).collect();
-    out.shape_index = samples.iter().map(|s| s.shape_index).collect();
-    out.prim_index = samples.iter().map(|s| s.prim_index).collect();
-    out.bsdf = samples.iter().map(|s| s.bsdf).collect();
+            let s = resolve_pixel(scene, m, prim, i as u32 % w, i as u32 / w)?;
+            (*position, *normal, *geo_normal, *wi, *uv) = (s.position, s.normal, s.geo_normal, s.wi, s.uv);
+            (*albedo, *shape_index, *prim_index, *bsdf) = (s.albedo, s.shape_index, s.prim_index, s.bsdf);
+            Ok::<(), Error>(())
+        })?;
     Ok(out)
 }
 

@@ -339,3 +339,35 @@ fn empty_scene_and_empty_meshes() {
     let count = |s: i32| v.shape_index.iter().filter(|&&x| x == s).count();
     assert!(count(0) > 10 && count(1) == 0 && count(2) > 10, "{} {} {}", count(0), count(1), count(2));
 }
+
+/// Timing on a larger frame (`cargo test --release -- --ignored timing_large_frame --nocapture`).
+#[test]
+#[ignore]
+fn timing_large_frame() {
+    let ctx = ctx();
+    let mut scene = cornell_scene(1024, 768, 278.0, 0.01);
+    // ~110k extra triangles: dense spheres drawn as plain meshes, plus one analytic sphere.
+    for k in 0..50 {
+        let c = Vec3::new(100.0 + 8.0 * k as f32, 60.0, 300.0);
+        let mut m = sphere_mesh("dense", c, 20.0, false, 0);
+        m.kind = ShapeKind::Obj;
+        scene.meshes.push(m);
+    }
+    scene.meshes.push(sphere_mesh("analytic", Vec3::new(300.0, 300.0, 200.0), 60.0, false, 0));
+    let tris: usize = scene.meshes.iter().map(|m| m.indices.len()).sum();
+    let _ = render_view_samples(&ctx, &scene).unwrap();
+    let t0 = std::time::Instant::now();
+    let ids = render_visibility(&ctx, &scene).unwrap();
+    let t1 = std::time::Instant::now();
+    let v = crate::view_resolve::resolve_view_samples(&scene, &ids).unwrap();
+    let t2 = std::time::Instant::now();
+    eprintln!(
+        "{}x{}, {tris} triangles ({}): visibility {:.1} ms, resolve {:.1} ms, {} background",
+        scene.camera.width,
+        scene.camera.height,
+        ctx.summary.backend,
+        (t1 - t0).as_secs_f64() * 1e3,
+        (t2 - t1).as_secs_f64() * 1e3,
+        v.shape_index.iter().filter(|&&s| s < 0).count()
+    );
+}
