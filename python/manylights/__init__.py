@@ -1,5 +1,163 @@
-"""manylights: many-light rendering research (Rust core, wgpu)."""
+"""manylights: many-light rendering research on the GPU (Rust core, wgpu), checked against Mitsuba 3.
+
+Quick start::
+
+    import manylights as ml
+    scene = ml.load_scene("scene.xml", res=128)       # like mitsuba.load_file(path, **params)
+    lights = ml.scene_lights(scene)                    # point / spot / directional emitters
+    A = ml.LightMatrix(scene, lights)                  # m x n: m = H*W view samples, n = len(lights)
+    img = A.column_sum()                               # (H, W, 3) float32, all lights (brute force)
+    ml.write_exr("out.exr", img); ml.write_png("out.png", img)
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Optional, Sequence
+
+import numpy as np
+
 from . import _native
-from ._native import ManyLightsError, GpuUnavailableError, GpuError, SceneError
+from ._native import (
+    GpuError,
+    GpuUnavailableError,
+    LightSet,
+    ManyLightsError,
+    Scene,
+    SceneError,
+    device_info,
+    read_exr,
+)
+from .metrics import fraction_within, relative_l2
 
 __version__ = _native.__version__
+
+__all__ = [
+    "GpuError",
+    "GpuUnavailableError",
+    "LightMatrix",
+    "LightSet",
+    "ManyLightsError",
+    "Scene",
+    "SceneError",
+    "device_info",
+    "fraction_within",
+    "load_scene",
+    "read_exr",
+    "relative_l2",
+    "scene_lights",
+    "write_exr",
+    "write_png",
+]
+
+
+def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = None, **params) -> Scene:
+    """Load a Mitsuba 3 XML scene.
+
+    Args:
+        path: the scene's XML file.
+        size: optional (width, height) overriding the film (for scenes whose film size is no parameter).
+        **params: values for the file's ``<default name=...>`` parameters, as ``mitsuba.load_file`` takes
+            them (``res=128``); converted with ``str``.
+
+    Raises:
+        FileNotFoundError: the scene or a file it names is missing.
+        SceneError: malformed XML or an unsupported plugin (the message names file, line and value).
+    """
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"scene file not found: {p}")
+    conv = []
+    for k, v in params.items():
+        if isinstance(v, bool):
+            v = "true" if v else "false"
+        conv.append((k, str(v)))
+    if size is not None:
+        if len(size) != 2 or any(int(s) != s or s <= 0 for s in size):
+            raise ValueError(f"size must be (width, height) positive integers, got {size!r}")
+        size = (int(size[0]), int(size[1]))
+    return _native.load_scene(str(p), conv, size)
+
+
+def scene_lights(scene: Scene) -> LightSet:
+    """The scene's point, spot and directional emitters as a LightSet (area and environment emitters are
+    turned into lights by the many-light generation, not here)."""
+    return _native.scene_lights(scene)
+
+
+class LightMatrix:
+    """The m x n light matrix of a scene: A[i, j] = light j's contribution to view sample i (pixel centre).
+
+    Columns are evaluated on the GPU with shadow maps (cube maps for point lights, perspective maps for
+    spots, orthographic maps for directional lights) and accumulated there; nothing is read back per column.
+
+    Args:
+        scene: a loaded Scene.
+        lights: a LightSet (e.g. ``scene_lights(scene)``).
+        shadow_map_size: texels per side of each shadow map (cube face).
+    """
+
+    def __init__(self, scene: Scene, lights: LightSet, *, shadow_map_size: int = 1024):
+        self.scene = scene
+        self.lights = lights
+        self._m = _native.LightMatrix(scene, lights, int(shadow_map_size))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(m, n): view samples (H * W) by lights."""
+        return tuple(self._m.shape)
+
+    def columns(self, indices: Sequence[int]) -> np.ndarray:
+        """Columns ``indices`` as images, (k, H, W, 3) float32."""
+        idx = np.asarray(indices, dtype=np.int64).reshape(-1)
+        return self._m.columns([int(i) for i in idx])
+
+    def column_sum(self, weights: Optional[Sequence[float]] = None, *, progress: bool = True) -> np.ndarray:
+        """Sum of all columns, each times its weight (default 1): the brute-force image, (H, W, 3) float32.
+
+        Args:
+            weights: optional (n,) weights.
+            progress: show a tqdm progress bar over light batches.
+        """
+        w = None
+        if weights is not None:
+            w = np.ascontiguousarray(weights, dtype=np.float32).reshape(-1)
+            if w.shape[0] != self.shape[1]:
+                raise ValueError(f"weights must have length n = {self.shape[1]}, got {w.shape[0]}")
+        bar = None
+        callback = None
+        if progress and self.shape[1] > 0:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=self.shape[1], desc="columns", unit="light", leave=False)
+
+            def callback(done: int, total: int) -> None:
+                bar.n = done
+                bar.refresh()
+
+        try:
+            return self._m.column_sum(w, callback)
+        finally:
+            if bar is not None:
+                bar.close()
+
+    def __repr__(self) -> str:
+        m, n = self.shape
+        return f"LightMatrix({m} view samples x {n} lights)"
+
+
+def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Write an (H, W, 3) image as float32 RGB OpenEXR."""
+    _native.write_exr(str(path), _as_image(image))
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0) -> None:
+    """Write an (H, W, 3) linear image as 8-bit sRGB PNG, scaled by 2**exposure and clamped."""
+    _native.write_png(str(path), _as_image(image), float(exposure))
+
+
+def _as_image(image) -> np.ndarray:
+    a = np.ascontiguousarray(image, dtype=np.float32)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"image must have shape (H, W, 3), got {a.shape}")
+    return a

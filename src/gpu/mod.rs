@@ -1,5 +1,6 @@
 //! GPU passes on wgpu. `context` creates the device; one file per pass, each driving its own WGSL in
 //! `shaders/` (assembled in `shaders`).
+pub mod bsdf_eval;
 pub mod context;
 pub mod gbuffer;
 pub mod scene_buffers;

@@ -1,11 +1,20 @@
 //! PyO3 bindings (feature `python`): thin wrappers that check arguments, release the GIL and call core.
 use pyo3::prelude::*;
 
+pub mod bsdf;
 pub mod errors;
+pub mod image;
+pub mod matrix;
+pub mod scene;
+pub mod util;
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
+    scene::register(m)?;
+    matrix::register(m)?;
+    image::register(m)?;
+    bsdf::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,0 +1,86 @@
+"""Type stub of the native module ``manylights._native`` (Rust, PyO3). Keep in sync with ``src/py/``."""
+from os import PathLike
+from typing import Any, Callable, Optional, Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class ManyLightsError(Exception):
+    """Base class of manylights' own exceptions."""
+
+class GpuUnavailableError(ManyLightsError):
+    """No GPU adapter (hardware or software) could be created; the message says what to install."""
+
+class GpuError(ManyLightsError):
+    """A GPU operation failed."""
+
+class SceneError(ManyLightsError):
+    """A scene file is malformed or unsupported; the message names file, line and value."""
+
+class Scene:
+    """A scene loaded from Mitsuba 3 XML."""
+    path: str
+    width: int
+    height: int
+    resolution: tuple[int, int]
+    shapes: list[dict[str, Any]]
+    emitters: list[dict[str, Any]]
+    bsdfs: list[dict[str, Any]]
+    camera: dict[str, Any]
+    bounds: tuple[tuple[float, float, float], tuple[float, float, float]]
+    def gbuffer(self) -> dict[str, np.ndarray]:
+        """View samples at pixel centres: position, normal, geo_normal, wi, albedo (H, W, 3) float32,
+        uv (H, W, 2) float32, shape_index, prim_index (H, W) int32 (-1 = background)."""
+    def mesh(self, index: int) -> dict[str, np.ndarray]:
+        """World-space positions, normals (V, 3), uvs (V, 2) float32 and indices (T, 3) uint32 of a shape.
+
+        Raises:
+            ValueError: index out of range."""
+
+class LightSet:
+    """Lights as a struct of arrays (numpy views)."""
+    kind: npt.NDArray[np.int32]
+    position: npt.NDArray[np.float32]
+    direction: npt.NDArray[np.float32]
+    intensity: npt.NDArray[np.float32]
+    power: npt.NDArray[np.float32]
+    def __len__(self) -> int: ...
+
+class LightMatrix:
+    """The m x n light matrix (GPU columns with shadow maps)."""
+    shape: tuple[int, int]
+    def __init__(self, scene: Scene, lights: LightSet, shadow_map_size: int = 1024) -> None: ...
+    def columns(self, indices: Sequence[int]) -> npt.NDArray[np.float32]:
+        """(k, H, W, 3). Raises ValueError for an index >= n."""
+    def column_sum(self, weights: Optional[npt.NDArray[np.float32]] = None,
+                   progress: Optional[Callable[[int, int], None]] = None) -> npt.NDArray[np.float32]:
+        """(H, W, 3) weighted sum. Raises ValueError for a wrong length or NaN/inf weights."""
+
+def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None) -> Scene:
+    """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film.
+
+    Raises:
+        FileNotFoundError, SceneError, OSError."""
+
+def device_info() -> dict[str, Any]:
+    """The GPU adapter: name, backend, device_type, driver, driver_info, is_software.
+
+    Raises:
+        GpuUnavailableError: no adapter; the message names the package to install."""
+
+def scene_lights(scene: Scene) -> LightSet:
+    """The scene's point, spot and directional emitters."""
+
+def write_exr(path: str | PathLike[str], image: npt.NDArray[np.float32]) -> None: ...
+def read_exr(path: str | PathLike[str]) -> npt.NDArray[np.float32]: ...
+def write_png(path: str | PathLike[str], image: npt.NDArray[np.float32], exposure: float = 0.0) -> None: ...
+
+def bsdf_eval(spec: dict[str, Any], wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32], device: str) -> npt.NDArray[np.float32]:
+    """Evaluate a BSDF given as a dict ({"type": "roughplastic", "alpha": 0.1, ...; "twosided": True}) on
+    (N, 3) unit directions in the local shading frame (wi toward the viewer, wo toward the light), on
+    device "cpu" (Rust reference) or "gpu" (WGSL twin). Returns (N, 3) f(wi, wo) |cos theta_o|.
+
+    Raises:
+        ValueError: bad spec or shapes. GpuUnavailableError / GpuError for device="gpu"."""

@@ -1,0 +1,54 @@
+//! EXR / PNG I/O for (H, W, 3) float32 images.
+use super::util::array;
+use crate::error::Error;
+use numpy::{PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+fn hw3(img: &PyReadonlyArrayDyn<'_, f32>) -> PyResult<(u32, u32, Vec<[f32; 3]>)> {
+    let shape = img.shape();
+    if shape.len() != 3 || shape[2] != 3 {
+        return Err(Error::invalid(format!("image must have shape (H, W, 3), got {shape:?}")).into());
+    }
+    let a = img.as_array();
+    let data: Vec<[f32; 3]> = a
+        .as_standard_layout()
+        .as_slice()
+        .ok_or_else(|| Error::invalid("image is not contiguous"))?
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    Ok((shape[1] as u32, shape[0] as u32, data))
+}
+
+/// Write a float32 RGB OpenEXR file.
+#[pyfunction]
+pub fn write_exr(py: Python<'_>, path: PathBuf, image: PyReadonlyArrayDyn<'_, f32>) -> PyResult<()> {
+    let (w, h, data) = hw3(&image)?;
+    py.detach(move || crate::image::write_exr(&path, w, h, &data))?;
+    Ok(())
+}
+
+/// Read an OpenEXR file as (H, W, 3) float32 (RGB; Y is broadcast).
+#[pyfunction]
+pub fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    let (w, h, data) = py.detach(move || crate::image::read_exr(&path))?;
+    let flat: Vec<f32> = data.into_iter().flatten().collect();
+    array(py, flat, &[h as usize, w as usize, 3])
+}
+
+/// Write an 8-bit sRGB PNG of a linear image scaled by 2^exposure (clamped).
+#[pyfunction]
+#[pyo3(signature = (path, image, exposure=0.0))]
+pub fn write_png(py: Python<'_>, path: PathBuf, image: PyReadonlyArrayDyn<'_, f32>, exposure: f32) -> PyResult<()> {
+    let (w, h, data) = hw3(&image)?;
+    py.detach(move || crate::image::write_png(&path, w, h, &data, exposure))?;
+    Ok(())
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(write_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(write_png, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,127 @@
+//! `LightSet`, `scene_lights` and `LightMatrix`.
+use super::scene::Scene;
+use super::util::{array, vec3_array};
+use crate::error::Error;
+use crate::gpu::GpuContext;
+use crate::lights;
+use crate::matrix::{ColumnOptions, LightMatrix as CoreMatrix};
+use numpy::{PyArrayDyn, PyReadonlyArray1};
+use pyo3::prelude::*;
+use std::sync::Arc;
+
+/// A set of lights (struct of arrays); numpy views via the properties.
+#[pyclass(module = "manylights._native", frozen)]
+pub struct LightSet {
+    pub inner: Arc<lights::LightSet>,
+}
+
+#[pymethods]
+impl LightSet {
+    fn __len__(&self) -> usize {
+        self.inner.len()
+    }
+    /// Light kinds as int32 (0 point, 1 spot, 2 directional).
+    #[getter]
+    fn kind<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<i32>>> {
+        let k: Vec<i32> = self.inner.kind.iter().map(|k| *k as i32).collect();
+        let n = k.len();
+        array(py, k, &[n])
+    }
+    /// (n, 3) world positions (0 for directional lights).
+    #[getter]
+    fn position<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.position)
+    }
+    /// (n, 3) unit directions: spot axis, directional travel direction, 0 for point lights.
+    #[getter]
+    fn direction<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.direction)
+    }
+    /// (n, 3) RGB intensity (W/sr) or irradiance (W/m^2, directional).
+    #[getter]
+    fn intensity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.intensity)
+    }
+    /// (n, 3) RGB emitted power (W).
+    #[getter]
+    fn power<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let p: Vec<glam::Vec3> = (0..self.inner.len()).map(|j| self.inner.power(j)).collect();
+        vec3_array(py, &p)
+    }
+    fn __repr__(&self) -> String {
+        format!("LightSet({} lights)", self.inner.len())
+    }
+}
+
+/// The scene's point, spot and directional emitters.
+#[pyfunction]
+pub fn scene_lights(scene: &Scene) -> PyResult<LightSet> {
+    Ok(LightSet { inner: Arc::new(lights::LightSet::from_scene(&scene.inner)?) })
+}
+
+/// The light matrix of a scene and a light set (GPU columns; see `manylights.LightMatrix`).
+#[pyclass(module = "manylights._native", frozen)]
+pub struct LightMatrix {
+    inner: Arc<CoreMatrix>,
+}
+
+#[pymethods]
+impl LightMatrix {
+    #[new]
+    #[pyo3(signature = (scene, lights, shadow_map_size=1024))]
+    fn new(py: Python<'_>, scene: &Scene, lights: &LightSet, shadow_map_size: u32) -> PyResult<Self> {
+        if !(16..=8192).contains(&shadow_map_size) {
+            return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
+        }
+        let view = scene.view_samples(py)?;
+        let (s, l) = (scene.inner.clone(), lights.inner.clone());
+        let opts = ColumnOptions { shadow_map_size, ..Default::default() };
+        let m = py.detach(move || -> crate::error::Result<CoreMatrix> {
+            let ctx = GpuContext::shared()?;
+            CoreMatrix::new(ctx, s, view, l, opts)
+        })?;
+        Ok(LightMatrix { inner: Arc::new(m) })
+    }
+    #[getter]
+    fn shape(&self) -> (usize, usize) {
+        self.inner.shape()
+    }
+    /// Columns `indices` as a (k, H, W, 3) float32 array.
+    fn columns<'py>(&self, py: Python<'py>, indices: Vec<usize>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let m = self.inner.clone();
+        let k = indices.len();
+        let data = py.detach(move || m.columns(&indices))?;
+        let (h, w) = self.inner.image_size();
+        array(py, data, &[k, h, w, 3])
+    }
+    /// Weighted sum of all columns, (H, W, 3) float32; `progress(done, total)` is called per batch.
+    #[pyo3(signature = (weights=None, progress=None))]
+    fn column_sum<'py>(
+        &self,
+        py: Python<'py>,
+        weights: Option<PyReadonlyArray1<'py, f32>>,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let w: Option<Vec<f32>> = weights.map(|w| w.as_array().to_vec());
+        let m = self.inner.clone();
+        let data = py.detach(move || {
+            let mut cb = |done: usize, total: usize| {
+                if let Some(p) = &progress {
+                    Python::attach(|py| {
+                        let _ = p.call1(py, (done, total));
+                    });
+                }
+            };
+            m.column_sum(w.as_deref(), &mut cb)
+        })?;
+        let (h, w) = self.inner.image_size();
+        array(py, data, &[h, w, 3])
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<LightSet>()?;
+    m.add_class::<LightMatrix>()?;
+    m.add_function(wrap_pyfunction!(scene_lights, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,320 @@
+//! `load_scene`, `Scene` (introspection + G-buffer) and `device_info`.
+use super::util::{array, vec3_array};
+use crate::gpu::GpuContext;
+use crate::scene::{self, Bsdf, Emitter, LoadOptions, Param, ShapeKind};
+use crate::view::ViewSamples;
+use numpy::PyArrayDyn;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+/// A scene loaded from Mitsuba 3 XML (see `manylights.load_scene`).
+#[pyclass(module = "manylights._native", frozen)]
+pub struct Scene {
+    pub inner: Arc<scene::Scene>,
+    view: Mutex<Option<Arc<ViewSamples>>>,
+}
+
+impl Scene {
+    /// The view samples (G-buffer), rendered once on the GPU and cached.
+    pub fn view_samples(&self, py: Python<'_>) -> PyResult<Arc<ViewSamples>> {
+        if let Some(v) = self.view.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            return Ok(v.clone());
+        }
+        let scene = self.inner.clone();
+        let v = py.detach(move || -> crate::error::Result<ViewSamples> {
+            let ctx = GpuContext::shared()?;
+            crate::gpu::gbuffer::render_view_samples(&ctx, &scene)
+        })?;
+        let v = Arc::new(v);
+        *self.view.lock().unwrap_or_else(|e| e.into_inner()) = Some(v.clone());
+        Ok(v)
+    }
+}
+
+fn rgb(v: glam::Vec3) -> [f32; 3] {
+    v.to_array()
+}
+
+fn param<'py>(py: Python<'py>, p: &Param) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match p {
+        Param::Value(v) => rgb(*v).into_pyobject(py)?.into_any(),
+        Param::Texture(i) => format!("texture[{i}]").into_pyobject(py)?.into_any(),
+    })
+}
+
+#[pymethods]
+impl Scene {
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.inner.path.clone()
+    }
+    #[getter]
+    fn width(&self) -> u32 {
+        self.inner.camera.width
+    }
+    #[getter]
+    fn height(&self) -> u32 {
+        self.inner.camera.height
+    }
+    /// Film size as (height, width), numpy order.
+    #[getter]
+    fn resolution(&self) -> (u32, u32) {
+        (self.inner.camera.height, self.inner.camera.width)
+    }
+    /// One dict per shape: id, type, triangles, vertices, bsdf (index), emitter (index or None), file/line.
+    #[getter]
+    fn shapes<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.inner
+            .meshes
+            .iter()
+            .map(|m| {
+                let d = PyDict::new(py);
+                d.set_item("id", &m.id)?;
+                let kind = match &m.kind {
+                    ShapeKind::Obj => "obj",
+                    ShapeKind::Ply => "ply",
+                    ShapeKind::Rectangle => "rectangle",
+                    ShapeKind::Cube => "cube",
+                    ShapeKind::Sphere { center, radius, .. } => {
+                        d.set_item("center", rgb(*center))?;
+                        d.set_item("radius", *radius)?;
+                        "sphere"
+                    }
+                    ShapeKind::Disk => "disk",
+                };
+                d.set_item("type", kind)?;
+                d.set_item("triangles", m.indices.len())?;
+                d.set_item("vertices", m.positions.len())?;
+                d.set_item("bsdf", m.bsdf)?;
+                d.set_item("emitter", m.emitter)?;
+                d.set_item("face_normals", m.face_normals)?;
+                let lo = m.positions.iter().fold(glam::Vec3::splat(f32::INFINITY), |a, p| a.min(*p));
+                let hi = m.positions.iter().fold(glam::Vec3::splat(f32::NEG_INFINITY), |a, p| a.max(*p));
+                let (lo, hi) = match &m.kind {
+                    ShapeKind::Sphere { center, radius, .. } => (*center - *radius, *center + *radius),
+                    _ => (lo, hi),
+                };
+                d.set_item("bbox_min", rgb(lo))?;
+                d.set_item("bbox_max", rgb(hi))?;
+                d.set_item("file", m.loc.file.display().to_string())?;
+                d.set_item("line", m.loc.line)?;
+                Ok(d)
+            })
+            .collect()
+    }
+    /// One dict per emitter with its type and parameters (radians for angles).
+    #[getter]
+    fn emitters<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.inner
+            .emitters
+            .iter()
+            .map(|e| {
+                let d = PyDict::new(py);
+                match e {
+                    Emitter::Point { position, intensity, .. } => {
+                        d.set_item("type", "point")?;
+                        d.set_item("position", rgb(*position))?;
+                        d.set_item("intensity", rgb(*intensity))?;
+                    }
+                    Emitter::Spot { world_from_light, intensity, cutoff_angle, beam_width, .. } => {
+                        d.set_item("type", "spot")?;
+                        d.set_item("position", rgb(world_from_light.w_axis.truncate()))?;
+                        d.set_item("direction", rgb(world_from_light.z_axis.truncate().normalize()))?;
+                        d.set_item("intensity", rgb(*intensity))?;
+                        d.set_item("cutoff_angle", *cutoff_angle)?;
+                        d.set_item("beam_width", *beam_width)?;
+                    }
+                    Emitter::Directional { direction, irradiance, .. } => {
+                        d.set_item("type", "directional")?;
+                        d.set_item("direction", rgb(*direction))?;
+                        d.set_item("irradiance", rgb(*irradiance))?;
+                    }
+                    Emitter::Area { mesh, radiance, .. } => {
+                        d.set_item("type", "area")?;
+                        d.set_item("shape", *mesh)?;
+                        d.set_item("radiance", rgb(*radiance))?;
+                    }
+                    Emitter::EnvMap { map, .. } => {
+                        d.set_item("type", "envmap")?;
+                        d.set_item("width", map.width)?;
+                        d.set_item("height", map.height)?;
+                        d.set_item("scale", map.scale)?;
+                    }
+                    Emitter::Constant { radiance, .. } => {
+                        d.set_item("type", "constant")?;
+                        d.set_item("radiance", rgb(*radiance))?;
+                    }
+                }
+                Ok(d)
+            })
+            .collect()
+    }
+    /// One dict per BSDF with its type and parameters (textured ones as "texture[i]").
+    #[getter]
+    fn bsdfs<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.inner
+            .bsdfs
+            .iter()
+            .map(|b| {
+                let d = PyDict::new(py);
+                match b {
+                    Bsdf::Diffuse { reflectance } => {
+                        d.set_item("type", "diffuse")?;
+                        d.set_item("reflectance", param(py, reflectance)?)?;
+                    }
+                    Bsdf::TwoSided { front, back } => {
+                        d.set_item("type", "twosided")?;
+                        d.set_item("front", *front)?;
+                        d.set_item("back", *back)?;
+                    }
+                    Bsdf::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, alpha, int_ior, ext_ior, nonlinear } => {
+                        d.set_item("type", "roughplastic")?;
+                        d.set_item("diffuse_reflectance", param(py, diffuse_reflectance)?)?;
+                        d.set_item("specular_reflectance", param(py, specular_reflectance)?)?;
+                        d.set_item("distribution", format!("{distribution:?}").to_lowercase())?;
+                        d.set_item("alpha", *alpha)?;
+                        d.set_item("int_ior", *int_ior)?;
+                        d.set_item("ext_ior", *ext_ior)?;
+                        d.set_item("nonlinear", *nonlinear)?;
+                    }
+                    Bsdf::Plastic { diffuse_reflectance, specular_reflectance, int_ior, ext_ior, nonlinear } => {
+                        d.set_item("type", "plastic")?;
+                        d.set_item("diffuse_reflectance", param(py, diffuse_reflectance)?)?;
+                        d.set_item("specular_reflectance", param(py, specular_reflectance)?)?;
+                        d.set_item("int_ior", *int_ior)?;
+                        d.set_item("ext_ior", *ext_ior)?;
+                        d.set_item("nonlinear", *nonlinear)?;
+                    }
+                    Bsdf::RoughConductor { distribution, alpha_u, alpha_v, eta, k, specular_reflectance } => {
+                        d.set_item("type", "roughconductor")?;
+                        d.set_item("distribution", format!("{distribution:?}").to_lowercase())?;
+                        d.set_item("alpha_u", param(py, alpha_u)?)?;
+                        d.set_item("alpha_v", param(py, alpha_v)?)?;
+                        d.set_item("eta", rgb(*eta))?;
+                        d.set_item("k", rgb(*k))?;
+                        d.set_item("specular_reflectance", param(py, specular_reflectance)?)?;
+                    }
+                    Bsdf::Conductor { eta, k, specular_reflectance } => {
+                        d.set_item("type", "conductor")?;
+                        d.set_item("eta", rgb(*eta))?;
+                        d.set_item("k", rgb(*k))?;
+                        d.set_item("specular_reflectance", param(py, specular_reflectance)?)?;
+                    }
+                    Bsdf::Dielectric { int_ior, ext_ior } => {
+                        d.set_item("type", "dielectric")?;
+                        d.set_item("int_ior", *int_ior)?;
+                        d.set_item("ext_ior", *ext_ior)?;
+                    }
+                }
+                Ok(d)
+            })
+            .collect()
+    }
+    /// Camera: origin, forward, up, left (world), fov_x / fov_y (degrees), near_clip, width, height.
+    #[getter]
+    fn camera<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let c = &self.inner.camera;
+        let m = c.world_from_camera;
+        let d = PyDict::new(py);
+        d.set_item("origin", rgb(c.origin()))?;
+        d.set_item("left", rgb(m.x_axis.truncate()))?;
+        d.set_item("up", rgb(m.y_axis.truncate()))?;
+        d.set_item("forward", rgb(m.z_axis.truncate()))?;
+        d.set_item("fov_x", c.fov_x.to_degrees())?;
+        d.set_item("fov_y", c.fov_y().to_degrees())?;
+        d.set_item("near_clip", c.near_clip)?;
+        d.set_item("far_clip", c.far_clip)?;
+        d.set_item("width", c.width)?;
+        d.set_item("height", c.height)?;
+        Ok(d)
+    }
+    /// Scene bounds ((min xyz), (max xyz)).
+    #[getter]
+    fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let (lo, hi) = self.inner.bounds();
+        (lo.to_array(), hi.to_array())
+    }
+    /// The deep framebuffer at pixel centres as numpy arrays: position, normal, geo_normal, wi, albedo
+    /// (H, W, 3) float32, uv (H, W, 2) float32, shape_index and prim_index (H, W) int32 (-1 = background).
+    fn gbuffer<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let v = self.view_samples(py)?;
+        let (h, w) = (v.height as usize, v.width as usize);
+        let d = PyDict::new(py);
+        for (name, data) in [
+            ("position", &v.position),
+            ("normal", &v.normal),
+            ("geo_normal", &v.geo_normal),
+            ("wi", &v.wi),
+            ("albedo", &v.albedo),
+        ] {
+            d.set_item(name, vec3_array(py, data)?.reshape(vec![h, w, 3])?)?;
+        }
+        let uv: Vec<f32> = v.uv.iter().flat_map(|p| p.to_array()).collect();
+        d.set_item("uv", array(py, uv, &[h, w, 2])?)?;
+        d.set_item("shape_index", array(py, v.shape_index.clone(), &[h, w])?)?;
+        d.set_item("prim_index", array(py, v.prim_index.clone(), &[h, w])?)?;
+        Ok(d)
+    }
+    /// Mesh `index` as numpy arrays: positions, normals (V, 3), uvs (V, 2), indices (T, 3) uint32 (world space).
+    fn mesh<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
+        let m = self.inner.meshes.get(index).ok_or_else(|| {
+            crate::error::Error::invalid(format!("mesh index {index} out of range (scene has {})", self.inner.meshes.len()))
+        })?;
+        let d = PyDict::new(py);
+        d.set_item("positions", vec3_array(py, &m.positions)?)?;
+        d.set_item("normals", vec3_array(py, &m.normals)?)?;
+        let uv: Vec<f32> = m.uvs.iter().flat_map(|p| p.to_array()).collect();
+        d.set_item("uvs", array(py, uv, &[m.uvs.len(), 2])?)?;
+        let idx: Vec<u32> = m.indices.iter().flatten().copied().collect();
+        d.set_item("indices", array(py, idx, &[m.indices.len(), 3])?)?;
+        Ok(d)
+    }
+    fn __repr__(&self) -> String {
+        let s = &self.inner;
+        format!(
+            "Scene('{}', {}x{}, {} shapes, {} triangles, {} emitters)",
+            s.path.display(),
+            s.camera.width,
+            s.camera.height,
+            s.meshes.len(),
+            s.meshes.iter().map(|m| m.indices.len()).sum::<usize>(),
+            s.emitters.len()
+        )
+    }
+}
+
+use numpy::PyArrayMethods;
+
+/// Load a Mitsuba 3 XML scene. `params` substitute `$name` defaults; `size` = (width, height) overrides the film.
+#[pyfunction]
+#[pyo3(signature = (path, params, size=None))]
+pub fn load_scene(py: Python<'_>, path: PathBuf, params: Vec<(String, String)>, size: Option<(u32, u32)>) -> PyResult<Scene> {
+    let opts = LoadOptions { params, size, ..Default::default() };
+    let s = py.detach(move || scene::load_scene(&path, &opts))?;
+    Ok(Scene { inner: Arc::new(s), view: Mutex::new(None) })
+}
+
+/// The GPU adapter in use: name, backend, device_type, driver, is_software.
+#[pyfunction]
+pub fn device_info<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    let ctx = py.detach(GpuContext::shared)?;
+    let s = &ctx.summary;
+    let d = PyDict::new(py);
+    d.set_item("name", &s.name)?;
+    d.set_item("backend", &s.backend)?;
+    d.set_item("device_type", &s.device_type)?;
+    d.set_item("driver", &s.driver)?;
+    d.set_item("driver_info", &s.driver_info)?;
+    d.set_item("is_software", s.is_software)?;
+    Ok(d)
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Scene>()?;
+    m.add_function(wrap_pyfunction!(load_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(device_info, m)?)?;
+    Ok(())
+}
+

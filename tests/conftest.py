@@ -1,0 +1,57 @@
+"""Shared fixtures: where the shared scenes are, Mitsuba references, and failure images."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def shared_dir() -> Path:
+    """../shared beside the checkout (CI and developers), or $MANYLIGHTS_SHARED."""
+    env = os.environ.get("MANYLIGHTS_SHARED")
+    for cand in ([Path(env)] if env else []) + [REPO.parent / "shared", Path("/work/shared")]:
+        if (cand / "scenes").is_dir():
+            return cand
+    raise RuntimeError("the shared scenes were not found: put shared/ beside the checkout or set MANYLIGHTS_SHARED")
+
+
+SCENES = shared_dir() / "scenes"
+
+# Test configurations per shared scene: (xml, loader params, film size (W, H)). Sizes keep each film's
+# aspect ratio; Mitsuba rays use normalised film positions, so its own film size does not matter.
+SCENE_CONFIGS = {
+    "cbox": (SCENES / "cbox" / "scene.xml", {"res": 128}, (128, 128)),
+    "cbox-lights": (SCENES / "cbox-lights" / "scene.xml", {"res": 128}, (128, 128)),
+    "matpreview": (SCENES / "matpreview" / "scene.xml", {"width": 128, "height": 96}, (128, 96)),
+    "bunny": (SCENES / "bunny" / "scene.xml", {}, (128, 96)),
+    "veach-ajar": (SCENES / "veach-ajar" / "scene.xml", {"resx": 128, "resy": 72}, (128, 72)),
+}
+
+FAILURES = REPO / "tests" / "_failures"
+
+
+def save_failure_images(name: str, **images) -> Path:
+    """Write the images of a failing comparison (EXR) to tests/_failures/<name>/ (git-ignored)."""
+    import manylights as ml
+
+    d = FAILURES / name
+    d.mkdir(parents=True, exist_ok=True)
+    for k, v in images.items():
+        v = np.asarray(v, dtype=np.float32)
+        if v.ndim == 2:
+            v = np.repeat(v[..., None], 3, axis=-1)
+        ml.write_exr(d / f"{k}.exr", v)
+    return d
+
+
+@pytest.fixture(scope="session")
+def mitsuba_ref():
+    """The reference module with Mitsuba imported (skips nothing: Mitsuba is a test dependency)."""
+    from manylights import reference
+
+    reference.mitsuba()
+    return reference

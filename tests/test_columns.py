@@ -1,0 +1,85 @@
+"""Delta-light columns (brute force) against Mitsuba rendered deterministically at pixel centres."""
+import numpy as np
+import pytest
+
+import manylights as ml
+from conftest import SCENE_CONFIGS, save_failure_images
+
+# Acceptance (issue 2): relative L2 <= 1% and >= 99% of pixels within 2% relative or 1e-3 absolute.
+MAX_REL_L2 = 0.01
+MIN_PIXELS_OK = 0.99
+PIXEL_REL, PIXEL_ABS = 0.02, 1e-3
+
+CBOX_LIGHTS = SCENE_CONFIGS["cbox-lights"]
+DELTA_LIGHTS = {"point": 0, "spot": 1, "directional": 2}  # top-level emitters in document order
+
+
+def _render_ours(xml, params, size):
+    scene = ml.load_scene(xml, size=size, **params)
+    lights = ml.scene_lights(scene)
+    return ml.LightMatrix(scene, lights).column_sum(progress=False), scene, lights
+
+
+def _render_ref(ref, xml, params, size):
+    img, var = ref.mitsuba_render(xml, size[0], size[1], max_depth=2, spp=1, **params)
+    assert float(var.max()) == 0.0
+    return img
+
+
+def _check(name, ours, ref):
+    err = ml.relative_l2(ours, ref)
+    ok = ml.fraction_within(ours, ref, PIXEL_REL, PIXEL_ABS)
+    if err > MAX_REL_L2 or ok < MIN_PIXELS_OK:
+        save_failure_images(name, ours=ours, ref=ref, diff=np.abs(ours - ref))
+    assert err <= MAX_REL_L2, f"{name}: relative L2 {err:.4%} > {MAX_REL_L2:.0%}"
+    assert ok >= MIN_PIXELS_OK, f"{name}: only {ok:.3%} of pixels within {PIXEL_REL:.0%} / {PIXEL_ABS}"
+    return err, ok
+
+
+@pytest.fixture(scope="module")
+def single_light_refs(mitsuba_ref, tmp_path_factory):
+    xml, params, size = CBOX_LIGHTS
+    out = {}
+    d = tmp_path_factory.mktemp("cbox-lights")
+    for name, k in DELTA_LIGHTS.items():
+        variant = mitsuba_ref.scene_variant(xml, d, keep_emitters=[k])
+        out[name] = (variant, _render_ref(mitsuba_ref, variant, params, size))
+    return out
+
+
+@pytest.mark.parametrize("light", list(DELTA_LIGHTS))
+def test_cbox_lights_single_delta_light(light, single_light_refs):
+    _, params, size = CBOX_LIGHTS
+    variant, ref = single_light_refs[light]
+    ours, scene, lights = _render_ours(variant, params, size)
+    assert len(lights) == 1
+    assert float(ref.max()) > 0.01, "reference must not be black"
+    _check(f"cbox-lights-{light}", ours, ref)
+
+
+def test_cbox_lights_all_delta_lights_sum(mitsuba_ref, single_light_refs, tmp_path):
+    xml, params, size = CBOX_LIGHTS
+    variant = mitsuba_ref.scene_variant(xml, tmp_path, keep_emitters=list(DELTA_LIGHTS.values()))
+    ours, _, lights = _render_ours(variant, params, size)
+    assert len(lights) == 3
+    ref = sum(r for _, r in single_light_refs.values())
+    _check("cbox-lights-all", ours, ref)
+
+
+@pytest.mark.parametrize(
+    "name, emitter",
+    [
+        ("cbox", '<emitter type="point"><point name="position" x="278" y="480" z="250"/>'
+                 '<rgb name="intensity" value="40000, 36000, 30000"/></emitter>'),
+        ("veach-ajar", '<emitter type="point"><point name="position" x="1.6" y="2.0" z="-2.6"/>'
+                       '<rgb name="intensity" value="3, 3, 3"/></emitter>'),
+    ],
+)
+def test_point_light_inside_scene(name, emitter, mitsuba_ref, tmp_path):
+    xml, params, size = SCENE_CONFIGS[name]
+    variant = mitsuba_ref.scene_variant(xml, tmp_path, keep_emitters=[], add_emitters=[emitter])
+    ref = _render_ref(mitsuba_ref, variant, params, size)
+    assert float((ref > 0).mean()) > 0.3, "the light must reach a good part of the image"
+    ours, _, lights = _render_ours(variant, params, size)
+    assert len(lights) == 1
+    _check(f"{name}-point", ours, ref)
