@@ -15,12 +15,13 @@
 //!   a rotation; `ShapeKind::Sphere` keeps only centre and radius, so a rotated sphere's uv differ.
 //!   `prim_index` of a sphere sample is the tessellation triangle the raster found (Mitsuba's is 0).
 //!   When the f64 ray misses the sphere (grazing rays at the silhouette), the triangle is used.
-//! - `wi = -d`; albedo and bsdf from the mesh's BSDF resolved at uv.
+//! - `wi = -d`; bsdf = `shading::bsdf::resolve` of the mesh's BSDF at uv, albedo = its diffuse
+//!   reflectance (diffuse, plastic, roughplastic; 0 for conductors and dielectrics).
 //!
 //! Background pixels: `shape_index = prim_index = -1`, every vector 0, bsdf zeroed.
 use crate::error::{Error, Result};
 use crate::gpu::scene_buffers::{locate_triangle, triangle_offsets};
-use crate::scene::{Bsdf, Camera, Param, Scene, ShapeKind};
+use crate::scene::{Camera, Scene, ShapeKind};
 use crate::shading::GpuBsdf;
 use crate::view::ViewSamples;
 use glam::{DVec3, Vec2, Vec3};
@@ -183,7 +184,7 @@ fn resolve_pixel(scene: &Scene, m: usize, prim: u32, x: u32, y: u32) -> Result<S
             (position, normal, n_geo, uv)
         }
     };
-    let bsdf = resolve_bsdf(scene, mesh.bsdf, uv)?;
+    let bsdf = resolve_bsdf(scene, m, uv)?;
     Ok(Sample {
         position: position.as_vec3(),
         normal: normal.as_vec3(),
@@ -197,25 +198,17 @@ fn resolve_pixel(scene: &Scene, m: usize, prim: u32, x: u32, y: u32) -> Result<S
     })
 }
 
-// FALLBACK, remove at merge: stands in for `crate::shading::bsdf::resolve(&scene.bsdfs,
-// &scene.textures, index, uv) -> GpuBsdf` (helper "bsdf"). Handles only diffuse with a constant
-// reflectance (through two-sided); every other BSDF resolves to zeros with kind 0.
-fn resolve_bsdf(scene: &Scene, index: usize, uv: Vec2) -> Result<GpuBsdf> {
-    let _ = uv;
-    let mut gpu: GpuBsdf = bytemuck::Zeroable::zeroed();
-    let mut i = index;
-    for _ in 0..8 {
-        match scene.bsdfs.get(i) {
-            None => return Err(Error::invalid(format!("BSDF index {i} out of range ({} BSDFs)", scene.bsdfs.len()))),
-            Some(Bsdf::TwoSided { front, .. }) => i = *front,
-            Some(Bsdf::Diffuse { reflectance: Param::Value(r) }) => {
-                gpu.diffuse = r.to_array();
-                return Ok(gpu);
-            }
-            Some(_) => return Ok(gpu),
-        }
+/// The mesh's BSDF resolved at `uv` (`crate::shading::bsdf::resolve`, textures evaluated); an index
+/// past `Scene::bsdfs` is an error naming the mesh (`resolve` itself would return an empty BSDF).
+fn resolve_bsdf(scene: &Scene, m: usize, uv: Vec2) -> Result<GpuBsdf> {
+    let mesh = &scene.meshes[m];
+    if mesh.bsdf >= scene.bsdfs.len() {
+        return Err(Error::scene(
+            &mesh.loc,
+            format!("shape {:?} uses BSDF {} but the scene has {}", mesh.id, mesh.bsdf, scene.bsdfs.len()),
+        ));
     }
-    Err(Error::invalid(format!("BSDF {index}: two-sided nesting deeper than 8")))
+    Ok(crate::shading::bsdf::resolve(&scene.bsdfs, &scene.textures, mesh.bsdf, uv))
 }
 
 /// Turn a visibility buffer into view samples. `ids[y * width + x]` = global triangle id + 1 (0 =
@@ -416,11 +409,44 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn textured_albedo_follows_uv() {
+        use crate::scene::{Bsdf, Param, Texture};
+        // Checkerboard on the back wall (uv (0,0) at its lower-left corner, 2x2 checks).
+        let mut scene = cornell_scene(64, 48, 1.0, 0.05);
+        let (c0, c1) = (Vec3::new(0.9, 0.1, 0.1), Vec3::new(0.1, 0.1, 0.9));
+        scene.textures = vec![Texture::Checkerboard { color0: c0, color1: c1, to_uv: glam::Mat3::IDENTITY }];
+        scene.bsdfs.push(Bsdf::Diffuse { reflectance: Param::Texture(0) });
+        scene.meshes[0].bsdf = scene.bsdfs.len() - 1;
+        let v = view_samples_cpu_reference(&scene).unwrap();
+        let (mut n0, mut n1) = (0, 0);
+        for i in 0..v.len() {
+            if v.shape_index[i] != 0 {
+                continue;
+            }
+            let uv = v.uv[i];
+            // Mitsuba's checkerboard: color0 where both or neither coordinate is in the upper half.
+            let expect = if (uv.x.fract() > 0.5) == (uv.y.fract() > 0.5) { c0 } else { c1 };
+            assert_eq!(v.albedo[i], expect, "pixel {i} uv {uv}");
+            assert_eq!(v.bsdf[i].kind, crate::shading::bsdf::KIND_DIFFUSE);
+            if expect == c0 { n0 += 1 } else { n1 += 1 }
+        }
+        assert!(n0 > 50 && n1 > 50, "{n0} {n1}");
+        // Two-sided red wall: albedo of the nested diffuse, two-sided flag set.
+        let left = v.shape_index.iter().position(|&s| s == 3).unwrap();
+        assert_eq!(v.albedo[left], Vec3::new(0.6, 0.1, 0.1));
+        assert_ne!(v.bsdf[left].flags & crate::shading::bsdf::FLAG_TWOSIDED, 0);
+    }
+
+    #[test]
     fn resolve_errors() {
         let scene = cornell_scene(32, 24, 1.0, 0.05);
         assert!(resolve_view_samples(&scene, &[0, 1]).is_err());
         let mut ids = vec![0u32; 32 * 24];
         ids[5] = 1_000_000;
         assert!(resolve_view_samples(&scene, &ids).is_err());
+        let mut bad = scene.clone();
+        bad.meshes[0].bsdf = 99;
+        let e = view_samples_cpu_reference(&bad).unwrap_err().to_string();
+        assert!(e.contains("BSDF 99") && e.contains("\"back\""), "{e}");
     }
 }
