@@ -408,6 +408,16 @@ pub fn render_view_samples(ctx: &GpuContext, scene: &Scene) -> Result<ViewSample
     crate::view_resolve::resolve_view_samples(scene, &ids)
 }
 
+/// As [`render_view_samples`], reusing geometry already uploaded with `SceneGeometry::upload(device,
+/// scene)` (e.g. shared with shadow-map passes).
+pub fn render_view_samples_with_geometry(ctx: &GpuContext, scene: &Scene, geometry: &SceneGeometry) -> Result<ViewSamples> {
+    if geometry.triangle_offsets != crate::gpu::scene_buffers::triangle_offsets(&scene.meshes)? {
+        return Err(Error::invalid("the uploaded geometry belongs to another scene (triangle counts differ)"));
+    }
+    let ids = GBufferPass::cached(&ctx.device)?.render_visibility(ctx, scene, geometry)?;
+    crate::view_resolve::resolve_view_samples(scene, &ids)
+}
+
 /// Only the visibility buffer of `scene` (global triangle id + 1 per pixel, 0 = background).
 pub fn render_visibility(ctx: &GpuContext, scene: &Scene) -> Result<Vec<u32>> {
     validate_camera(&scene.camera, ctx.limits.max_texture_dimension_2d)?;

@@ -305,6 +305,17 @@ fn dump_scenes_for_mitsuba() {
 }
 
 #[test]
+fn shared_geometry() {
+    let ctx = ctx();
+    let scene = sphere_scene(false);
+    let geometry = SceneGeometry::upload(&ctx.device, &scene).unwrap();
+    let a = render_view_samples_with_geometry(&ctx, &scene, &geometry).unwrap();
+    let b = render_view_samples(&ctx, &scene).unwrap();
+    assert_eq!((a.position, a.shape_index, a.prim_index), (b.position, b.shape_index, b.prim_index));
+    assert!(render_view_samples_with_geometry(&ctx, &marker_scene(), &geometry).is_err());
+}
+
+#[test]
 fn clip_range_is_mitsubas() {
     // The markers lie at z = 5 in the camera frame: visible iff near_clip <= 5 <= far_clip.
     let ctx = ctx();
