@@ -7,6 +7,7 @@ pub mod matrix;
 pub mod scene;
 pub mod shading;
 pub mod view;
+pub mod view_resolve;
 
 #[cfg(feature = "python")]
 pub mod py;
