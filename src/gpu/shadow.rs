@@ -13,7 +13,7 @@
 //! in world space (normal offset + slope-scaled depth bias, in units of the layer's world-space texel
 //! size) and compares its projected depth with the stored one. Biases are in `ColumnOptions`.
 use crate::lights::{LightKind, LightSet};
-use crate::scene::Scene;
+use crate::gpu::scene_buffers::SceneGeometry;
 use glam::{Mat4, Vec3};
 
 /// Depth format of the shadow-map array.
@@ -154,20 +154,6 @@ pub fn light_layers(lights: &LightSet, j: usize, resolution: u32) -> Vec<GpuShad
     }
 }
 
-/// STAND-IN for the scene's unshared-vertex triangle buffer of `gpu::scene_buffers` (helper "gbuffer"):
-/// all triangles' world positions, 3 vertices per triangle.
-pub fn triangle_positions(scene: &Scene) -> Vec<[f32; 3]> {
-    let mut out = Vec::new();
-    for m in &scene.meshes {
-        for tri in &m.indices {
-            for &v in tri {
-                out.push(m.positions[v as usize].to_array());
-            }
-        }
-    }
-    out
-}
-
 /// A 2D depth array texture holding a batch's shadow maps, with one attachment view per layer.
 pub struct ShadowAtlas {
     pub texture: wgpu::Texture,
@@ -252,15 +238,7 @@ impl ShadowMapPass {
                 module: &module,
                 entry_point: Some("vs_main"),
                 compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: 12,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &[wgpu::VertexAttribute {
-                        format: wgpu::VertexFormat::Float32x3,
-                        offset: 0,
-                        shader_location: 0,
-                    }],
-                })],
+                buffers: &[Some(SceneGeometry::VERTEX_LAYOUT)],
             },
             primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
             depth_stencil: Some(wgpu::DepthStencilState {
@@ -278,7 +256,8 @@ impl ShadowMapPass {
         ShadowMapPass { pipeline, bind_group_layout }
     }
 
-    /// Render `num_layers` layers of `atlas`, layer l with `layers_buffer` at offset l * 256.
+    /// Render `num_layers` layers of `atlas`, layer l with `layers_buffer` at offset l * 256, drawing the
+    /// scene's triangles from `geometry` (shared with the G-buffer pass).
     pub fn encode(
         &self,
         device: &wgpu::Device,
@@ -286,8 +265,7 @@ impl ShadowMapPass {
         atlas: &ShadowAtlas,
         layers_buffer: &wgpu::Buffer,
         num_layers: u32,
-        vertices: &wgpu::Buffer,
-        vertex_count: u32,
+        geometry: &SceneGeometry,
     ) {
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("ShadowMapPass::bind_group"),
@@ -314,13 +292,12 @@ impl ShadowMapPass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            if vertex_count == 0 {
+            if geometry.num_triangles == 0 {
                 continue;
             }
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &bind_group, &[(l as u64 * SHADOW_LAYER_STRIDE) as u32]);
-            pass.set_vertex_buffer(0, vertices.slice(..));
-            pass.draw(0..vertex_count, 0..1);
+            geometry.draw_all(&mut pass);
         }
     }
 }

@@ -18,7 +18,8 @@ use crate::gpu::columns::{
     dispatch_size, storage_buffer, ColumnParams, ColumnsInputs, ColumnsPass, GpuLight, ViewBuffers,
     MAX_LIGHTS_PER_DISPATCH,
 };
-use crate::gpu::shadow::{layer_count, light_layers, triangle_positions, uses_cube, ShadowAtlas, ShadowMapPass};
+use crate::gpu::scene_buffers::SceneGeometry;
+use crate::gpu::shadow::{layer_count, light_layers, uses_cube, ShadowAtlas, ShadowMapPass};
 use crate::gpu::GpuContext;
 use crate::lights::LightSet;
 use crate::scene::Scene;
@@ -65,8 +66,8 @@ pub struct LightMatrix {
     pub opts: ColumnOptions,
     shadow_pass: ShadowMapPass,
     columns_pass: ColumnsPass,
-    vertices: wgpu::Buffer,
-    vertex_count: u32,
+    /// The scene's triangles (unshared vertices), drawn into every shadow map.
+    geometry: SceneGeometry,
     view_buffers: ViewBuffers,
     atlas: ShadowAtlas,
     /// Largest storage binding in bytes.
@@ -129,16 +130,14 @@ impl LightMatrix {
             .min(6 * opts.max_lights_per_batch as u64)
             .max(6) as u32;
         let device = &ctx.device;
-        let tris = triangle_positions(&scene);
-        let vertices = storage_buffer(device, "LightMatrix::vertices", &tris, wgpu::BufferUsages::VERTEX);
+        let geometry = SceneGeometry::upload(device, &scene)?;
         let tables = crate::shading::bsdf::roughplastic_table_buffer(&scene.bsdfs);
         let view_buffers = ViewBuffers::upload(device, &view, &tables);
         let atlas = ShadowAtlas::new(device, opts.shadow_resolution, max_layers);
         Ok(LightMatrix {
             shadow_pass: ShadowMapPass::new(device),
             columns_pass: ColumnsPass::new(device),
-            vertex_count: tris.len() as u32,
-            vertices,
+            geometry,
             view_buffers,
             atlas,
             max_binding,
@@ -234,7 +233,7 @@ impl LightMatrix {
         };
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::batch") });
-        self.shadow_pass.encode(device, &mut encoder, &self.atlas, &layers_buf, batch.num_layers, &self.vertices, self.vertex_count);
+        self.shadow_pass.encode(device, &mut encoder, &self.atlas, &layers_buf, batch.num_layers, &self.geometry);
         self.columns_pass.encode(
             device,
             &mut encoder,
