@@ -21,7 +21,7 @@ def _render_ours(xml, params, size):
 
 
 def _render_ref(ref, xml, params, size):
-    img, var = ref.mitsuba_render(xml, size[0], size[1], max_depth=2, spp=1, **params)
+    img, var = ref.mitsuba_render(xml, size, max_depth=2, spp=1, **params)
     assert float(var.max()) == 0.0
     return img
 

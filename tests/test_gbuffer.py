@@ -31,7 +31,7 @@ def test_gbuffer_matches_mitsuba(name, mitsuba_ref):
     scene = ml.load_scene(xml, size=(w, h), **params)
     assert (scene.width, scene.height) == (w, h)
     gb = scene.gbuffer()
-    ref = mitsuba_ref.mitsuba_gbuffer(xml, w, h, **params)
+    ref = mitsuba_ref.mitsuba_gbuffer(xml, (w, h), **params)
     mapping = _match_shapes(scene, ref["shape_bbox"])
     ref_sid = mapping[ref["shape_index"] + 1]
     lo, hi = scene.bounds

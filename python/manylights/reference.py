@@ -6,8 +6,10 @@ pixel by pixel. Mitsuba (``mitsuba==3.9.1``, ``drjit==1.5.0``) is imported lazil
 dependency, not a runtime one.
 
 Functions:
-    mitsuba_gbuffer(path, width, height, **params)    -> dict of (H, W, ...) arrays (position, normal, ...)
-    mitsuba_render(path, width, height, max_depth=2, spp=1, seed=0, **params) -> (H, W, 3) float32
+    mitsuba_gbuffer(path, (W, H), **params)    -> dict of (H, W, ...) arrays (position, normal, ...)
+    mitsuba_render(path, (W, H), max_depth=2, spp=1, seed=0, **params) -> (mean, variance), (H, W, 3) float32
+
+``size`` is separate from ``**params`` because scenes name their own parameters ``width``/``height``.
     scene_variant(path, out_dir, keep_emitters=..., add_emitters=...) -> path of an edited copy of the XML
 """
 from __future__ import annotations
@@ -81,7 +83,7 @@ def load(path, **params):
     return mi.load_file(str(path), optimize=False, **_params_str(params))
 
 
-def mitsuba_gbuffer(path, width: int, height: int, **params) -> dict:
+def mitsuba_gbuffer(path, size: tuple[int, int], **params) -> dict:
     """Pixel-centre G-buffer by Mitsuba's own ray intersection (what its ``aov`` integrator reports).
 
     Returns float32/int32 arrays of shape (H, W, 3) / (H, W): ``position``, ``normal`` (shading),
@@ -89,8 +91,7 @@ def mitsuba_gbuffer(path, width: int, height: int, **params) -> dict:
     shapes' bounding boxes ``shape_bbox`` (S, 2, 3) so callers can match shapes to their own.
     """
     mi = mitsuba()
-    import drjit as dr
-
+    width, height = size
     scene = load(path, **params)
     sensor = scene.sensors()[0]
     shapes = scene.shapes()
@@ -131,7 +132,7 @@ def mitsuba_gbuffer(path, width: int, height: int, **params) -> dict:
     return res
 
 
-def mitsuba_render(path, width: int, height: int, *, max_depth: int = 2, spp: int = 1, seed: int = 0,
+def mitsuba_render(path, size: tuple[int, int], *, max_depth: int = 2, spp: int = 1, seed: int = 0,
                    batch: int = 16, progress=None, **params) -> tuple[np.ndarray, np.ndarray]:
     """Pixel-centre render with Mitsuba's ``path`` integrator: every camera ray through the pixel centre,
     everything after it random. Returns (mean, variance of the mean), both (H, W, 3) float32.
@@ -141,6 +142,7 @@ def mitsuba_render(path, width: int, height: int, *, max_depth: int = 2, spp: in
     mi = mitsuba()
     import drjit as dr
 
+    width, height = size
     scene = load(path, **params)
     sensor = scene.sensors()[0]
     integrator = mi.load_dict({"type": "path", "max_depth": int(max_depth)})

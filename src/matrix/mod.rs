@@ -154,6 +154,11 @@ impl LightMatrix {
         (self.view.len(), self.lights.len())
     }
 
+    /// Image size (height, width) of the view samples, numpy order.
+    pub fn image_size(&self) -> (usize, usize) {
+        (self.view.height as usize, self.view.width as usize)
+    }
+
     fn check_indices(&self, js: &[usize]) -> Result<()> {
         let n = self.lights.len();
         if let Some((k, &j)) = js.iter().enumerate().find(|(_, &j)| j >= n) {

@@ -68,14 +68,34 @@ pub struct LightMatrix {
 #[pymethods]
 impl LightMatrix {
     #[new]
-    #[pyo3(signature = (scene, lights, shadow_map_size=1024))]
-    fn new(py: Python<'_>, scene: &Scene, lights: &LightSet, shadow_map_size: u32) -> PyResult<Self> {
+    #[pyo3(signature = (scene, lights, shadow_map_size=1024, normal_offset=None, depth_bias=None, slope_bias=None))]
+    fn new(
+        py: Python<'_>,
+        scene: &Scene,
+        lights: &LightSet,
+        shadow_map_size: u32,
+        normal_offset: Option<f32>,
+        depth_bias: Option<f32>,
+        slope_bias: Option<f32>,
+    ) -> PyResult<Self> {
         if !(16..=8192).contains(&shadow_map_size) {
             return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
         }
         let view = scene.view_samples(py)?;
         let (s, l) = (scene.inner.clone(), lights.inner.clone());
-        let opts = ColumnOptions { shadow_map_size, ..Default::default() };
+        let mut opts = ColumnOptions { shadow_resolution: shadow_map_size, ..Default::default() };
+        for (name, v, slot) in [
+            ("normal_offset", normal_offset, &mut opts.normal_offset),
+            ("depth_bias", depth_bias, &mut opts.depth_bias),
+            ("slope_bias", slope_bias, &mut opts.slope_bias),
+        ] {
+            if let Some(v) = v {
+                if !v.is_finite() || v < 0.0 {
+                    return Err(Error::invalid(format!("{name} must be finite and >= 0 (shadow-map texels), got {v}")).into());
+                }
+                *slot = v;
+            }
+        }
         let m = py.detach(move || -> crate::error::Result<CoreMatrix> {
             let ctx = GpuContext::shared()?;
             CoreMatrix::new(ctx, s, view, l, opts)

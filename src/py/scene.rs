@@ -3,7 +3,6 @@ use super::util::{array, vec3_array};
 use crate::gpu::GpuContext;
 use crate::scene::{self, Bsdf, Emitter, LoadOptions, Param, ShapeKind};
 use crate::view::ViewSamples;
-use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
