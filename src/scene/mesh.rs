@@ -12,7 +12,8 @@
 //! Deviations (all on inputs Mitsuba either rejects or handles by accident):
 //! - zero-area triangles (world space, `cross == 0` in f32, the test Mitsuba's normal computation uses) are
 //!   dropped with a `log::warn`: the shared scene veach-ajar (`models/Mesh015.obj`) has 62 of them. Mitsuba
-//!   keeps them (rays never hit them), so primitive indices after the first dropped face shift.
+//!   keeps them (rays never hit them), so primitive indices after the first dropped face shift. A mesh
+//!   whose triangles are *all* zero-area is an error naming the file.
 //! - `flip_normals=true` negates the normals *and* reverses the winding (`[i0, i2, i1]`), so that
 //!   `cross(p1-p0, p2-p0)` is Mitsuba's flipped geometric normal; Mitsuba keeps the winding and negates
 //!   `si.n` at intersection time.
@@ -99,13 +100,23 @@ pub fn finalize(
         .filter(|(t, tri)| {
             let keep = face_cross(&world, tri).length_squared() > 0.0;
             if !keep && first_dropped.is_none() {
-                first_dropped = Some(*t);
+                first_dropped = Some((*t, tri.map(|v| world[v as usize])));
             }
             keep
         })
         .map(|(_, tri)| tri)
         .collect();
-    if let Some(t) = first_dropped {
+    if let Some((t, corners)) = first_dropped {
+        if indices.is_empty() {
+            // Nothing left to render: a degenerate mesh is an input error, not something to drop silently.
+            return Err(Error::scene(
+                loc,
+                format!(
+                    "degenerate mesh: all {total} triangles have zero area (e.g. triangle {t} with corners {} {} {})",
+                    corners[0], corners[1], corners[2]
+                ),
+            ));
+        }
         log::warn!("{loc}: dropped {} zero-area triangles of {total} (first: triangle {t})", total - indices.len());
     }
 
