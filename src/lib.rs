@@ -1,10 +1,14 @@
 //! manylights: many-light rendering research core (Rust), with Python bindings behind the `python` feature.
 pub mod error;
 pub mod gpu;
+pub mod image;
+pub mod lights;
+pub mod matrix;
 pub mod raytrace;
 pub mod scene;
 pub mod shading;
 pub mod view;
+pub mod view_resolve;
 
 #[cfg(feature = "python")]
 pub mod py;

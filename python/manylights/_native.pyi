@@ -76,3 +76,11 @@ def scene_lights(scene: Scene) -> LightSet:
 def write_exr(path: str | PathLike[str], image: npt.NDArray[np.float32]) -> None: ...
 def read_exr(path: str | PathLike[str]) -> npt.NDArray[np.float32]: ...
 def write_png(path: str | PathLike[str], image: npt.NDArray[np.float32], exposure: float = 0.0) -> None: ...
+
+def bsdf_eval(spec: dict[str, Any], wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32], device: str) -> npt.NDArray[np.float32]:
+    """Evaluate a BSDF given as a dict ({"type": "roughplastic", "alpha": 0.1, ...; "twosided": True}) on
+    (N, 3) unit directions in the local shading frame (wi toward the viewer, wo toward the light), on
+    device "cpu" (Rust reference) or "gpu" (WGSL twin). Returns (N, 3) f(wi, wo) |cos theta_o|.
+
+    Raises:
+        ValueError: bad spec or shapes. GpuUnavailableError / GpuError for device="gpu"."""

@@ -1,6 +1,7 @@
 //! PyO3 bindings (feature `python`): thin wrappers that check arguments, release the GIL and call core.
 use pyo3::prelude::*;
 
+pub mod bsdf;
 pub mod errors;
 pub mod image;
 pub mod matrix;
@@ -13,6 +14,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     scene::register(m)?;
     matrix::register(m)?;
     image::register(m)?;
+    bsdf::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

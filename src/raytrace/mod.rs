@@ -347,6 +347,25 @@ mod tests {
     }
 
     #[test]
+    fn loaded_shared_scenes_match_brute_force() {
+        use crate::scene::{load_scene, LoadOptions};
+        let dir = test_scenes::scenes_dir();
+        for (name, n) in [("cbox", 20_000), ("cbox-lights", 20_000), ("bunny", 3_000), ("matpreview", 2_000), ("veach-ajar", 3_000)] {
+            let scene = load_scene(&dir.join(name).join("scene.xml"), &LoadOptions::default()).unwrap();
+            let spheres = scene.meshes.iter().filter(|m| matches!(m.kind, ShapeKind::Sphere { .. })).count();
+            let (disagree, hits) = count_disagreements(&scene, n, 6);
+            let agreement = 1.0 - disagree as f64 / n as f64;
+            println!("{name} (load_scene, {spheres} spheres): {n} rays, {hits} hits, {disagree} disagreements");
+            assert!(agreement >= MIN_AGREEMENT, "{name}: agreement {agreement}");
+            assert!(hits > n / 4, "{name}: only {hits} hits of {n} rays");
+        }
+        // The hand-built test scenes are the same geometry as the XML files.
+        let loaded = load_scene(&dir.join("bunny/scene.xml"), &LoadOptions::default()).unwrap();
+        let (lo, hi) = (loaded.bounds(), test_scenes::bunny().bounds());
+        assert!((lo.0 - hi.0).abs().max_element() < 1e-4 && (lo.1 - hi.1).abs().max_element() < 1e-4, "{lo:?} vs {hi:?}");
+    }
+
+    #[test]
     fn sphere_interactions_are_analytic() {
         let (c, r) = (Vec3::new(3.0, -2.0, 1.5), 0.75);
         for flip in [false, true] {

@@ -80,8 +80,8 @@ pub enum Param {
     Texture(usize),
 }
 
-/// A scalar parameter that may be textured (e.g. roughness `alpha`); textured scalars take the texture's
-/// first channel, as Mitsuba does in RGB mode.
+/// A scalar parameter that may be textured (e.g. roughness `alpha`); textured scalars are evaluated as
+/// Mitsuba's `eval_1` does (`crate::scene::texture::eval_param_1`).
 pub type ScalarParam = Param;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

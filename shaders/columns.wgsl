@@ -1,0 +1,130 @@
+// Light columns (src/gpu/columns.rs): one thread per view sample loops over the batch's lights
+// (<= 256 per dispatch: far below Mesa 22.3's 65,535-iteration limit), shades each with bsdf_eval and
+// shadow-map visibility, writes the individual columns if asked and adds sum_j w_j column_j to a
+// GPU-resident accumulator. Needs common/bsdf.wgsl, common/light.wgsl, common/shadow_layer.wgsl.
+
+const WORKGROUP_SIZE: u32 = 64u;
+
+// Keep in sync with `ColumnParams` in src/gpu/columns.rs (48 bytes).
+struct ColumnParams {
+    num_samples: u32,
+    num_lights: u32,
+    write_columns: u32,
+    accumulate: u32,
+    resolution: u32,
+    // Threads per dispatch row (groups_x * WORKGROUP_SIZE); sample i = gid.y * dispatch_width + gid.x.
+    dispatch_width: u32,
+    _pad0: vec2<u32>,
+    // Biases in units of the layer's world-space texel size.
+    normal_offset: f32,
+    depth_bias: f32,
+    slope_bias: f32,
+    _pad1: f32,
+}
+
+// Keep in sync with `GpuViewSample` in src/gpu/columns.rs (64 bytes).
+struct ViewSample {
+    position: vec3<f32>,
+    shape_index: i32,
+    normal: vec3<f32>,
+    _pad0: u32,
+    geo_normal: vec3<f32>,
+    _pad1: u32,
+    wi: vec3<f32>,
+    _pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: ColumnParams;
+@group(0) @binding(1) var<storage, read> samples: array<ViewSample>;
+@group(0) @binding(2) var<storage, read> bsdfs: array<Bsdf>;
+@group(0) @binding(3) var<storage, read> lights: array<Light>;
+@group(0) @binding(4) var<storage, read> layers: array<ShadowLayer>;
+@group(0) @binding(5) var<storage, read> weights: array<f32>;
+@group(0) @binding(6) var shadow_maps: texture_depth_2d_array;
+@group(0) @binding(7) var<storage, read_write> accum: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read_write> columns: array<f32>;
+@group(0) @binding(9) var<storage, read> bsdf_tables: array<f32>;
+
+// Rough-plastic tables for `bsdf_eval` (common/bsdf.wgsl).
+fn bsdf_table(i: u32) -> f32 {
+    return bsdf_tables[i];
+}
+
+fn light_layer(l: Light, p: vec3<f32>) -> u32 {
+    if l.is_cube != 0u {
+        return l.first_layer + cube_face(p - l.position);
+    }
+    return l.first_layer;
+}
+
+// 1 if p (geometric normal n_g) sees light l along wo, from the light's shadow map.
+fn visibility(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f32 {
+    // World-space texel size at p in the layer that holds p.
+    let clip0 = layers[light_layer(l, p)].view_proj * vec4<f32>(p, 1.0);
+    let texel = layers[light_layer(l, p)].texel_scale * abs(clip0.w);
+    // Normal offset toward the light's side of the surface, plus a slope-scaled push toward the light.
+    let cos_g = dot(n_g, wo);
+    let n_side = select(-n_g, n_g, cos_g >= 0.0);
+    let c = max(abs(cos_g), 0.05);
+    let tan_g = min(sqrt(max(1.0 - c * c, 0.0)) / c, 10.0);
+    let p_off = p + n_side * (params.normal_offset * texel)
+        + wo * (texel * (params.depth_bias + params.slope_bias * tan_g));
+    let li = light_layer(l, p_off);
+    let clip = layers[li].view_proj * vec4<f32>(p_off, 1.0);
+    if clip.w <= 0.0 {
+        return 1.0;
+    }
+    let ndc = clip.xyz / clip.w;
+    let res = f32(params.resolution);
+    let x = (ndc.x * 0.5 + 0.5) * res;
+    let y = (0.5 - ndc.y * 0.5) * res;
+    if l.is_cube == 0u && (x < 0.0 || x >= res || y < 0.0 || y >= res) {
+        // Outside a spot's cone (falloff 0 there) or outside the scene bounds (directional).
+        return 1.0;
+    }
+    let r = i32(params.resolution) - 1;
+    let texel_xy = vec2<i32>(clamp(i32(floor(x)), 0, r), clamp(i32(floor(y)), 0, r));
+    let stored = textureLoad(shadow_maps, texel_xy, i32(li), 0);
+    return select(0.0, 1.0, ndc.z <= stored);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.y * params.dispatch_width + gid.x;
+    if i >= params.num_samples {
+        return;
+    }
+    let s = samples[i];
+    let is_surface = s.shape_index >= 0;
+    // Mitsuba's shading frame from the shading normal (Frame3f(n) = coordinate_system(n), n).
+    let n = s.normal;
+    let fs = coordinate_system_s(n);
+    let ft = coordinate_system_t(n);
+    let wi_local = vec3<f32>(dot(s.wi, fs), dot(s.wi, ft), dot(s.wi, n));
+    let b = bsdfs[i];
+    var acc = vec3<f32>(0.0);
+    for (var j = 0u; j < params.num_lights; j = j + 1u) {
+        var contribution = vec3<f32>(0.0);
+        if is_surface {
+            let l = lights[j];
+            let e = light_emitted(l, s.position);
+            if e.valid {
+                let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
+                let f = bsdf_eval(b, wi_local, wo_local) * e.radiance;
+                if any(f != vec3<f32>(0.0)) {
+                    contribution = f * visibility(l, s.position, s.geo_normal, e.wo);
+                }
+            }
+        }
+        if params.write_columns != 0u {
+            let base = (j * params.num_samples + i) * 3u;
+            columns[base] = contribution.x;
+            columns[base + 1u] = contribution.y;
+            columns[base + 2u] = contribution.z;
+        }
+        acc = acc + weights[j] * contribution;
+    }
+    if params.accumulate != 0u {
+        accum[i] = accum[i] + vec4<f32>(acc, 0.0);
+    }
+}

@@ -1,0 +1,167 @@
+// BSDF evaluation as Mitsuba 3.9.1 (RGB) does; twin of src/shading/bsdf.rs (field use per kind documented
+// there). No entry points. The including module must define `fn bsdf_table(i: u32) -> f32` returning
+// element i of `shading::bsdf::roughplastic_table_buffer` (roughplastic transmittance tables).
+
+// Keep in sync with `GpuBsdf` in src/shading/mod.rs (80 bytes).
+struct Bsdf {
+    diffuse: vec3<f32>,
+    kind: u32,
+    specular: vec3<f32>,
+    flags: u32,
+    eta: vec3<f32>,
+    alpha_u: f32,
+    k: vec3<f32>,
+    alpha_v: f32,
+    extra: vec4<f32>,
+}
+
+const BSDF_KIND_DIFFUSE: u32 = 1u;
+const BSDF_KIND_ROUGHPLASTIC: u32 = 2u;
+const BSDF_KIND_PLASTIC: u32 = 3u;
+const BSDF_KIND_ROUGHCONDUCTOR: u32 = 4u;
+const BSDF_FLAG_TWOSIDED: u32 = 1u;
+const BSDF_FLAG_NONLINEAR: u32 = 2u;
+const BSDF_FLAG_GGX: u32 = 4u;
+const BSDF_TABLE_RES: u32 = 64u;
+const BSDF_PI: f32 = 3.14159265358979;
+const BSDF_INV_PI: f32 = 0.318309886183791;
+
+// Microfacet distribution D (Beckmann or GGX), zero where D cos(theta_m) <= 1e-20.
+fn bsdf_microfacet_d(ggx: bool, alpha_u: f32, alpha_v: f32, m: vec3<f32>) -> f32 {
+    let alpha_uv = alpha_u * alpha_v;
+    let cos_theta_2 = m.z * m.z;
+    let sx = m.x / alpha_u;
+    let sy = m.y / alpha_v;
+    var result: f32;
+    if ggx {
+        let s = sx * sx + sy * sy + m.z * m.z;
+        result = 1.0 / (BSDF_PI * alpha_uv * s * s);
+    } else {
+        result = exp(-(sx * sx + sy * sy) / cos_theta_2) / (BSDF_PI * alpha_uv * cos_theta_2 * cos_theta_2);
+    }
+    return select(0.0, result, result * m.z > 1e-20);
+}
+
+// Smith's G1 (Beckmann: Mitsuba's rational approximation).
+fn bsdf_smith_g1(ggx: bool, alpha_u: f32, alpha_v: f32, v: vec3<f32>, m: vec3<f32>) -> f32 {
+    let ax = alpha_u * v.x;
+    let ay = alpha_v * v.y;
+    let xy_alpha_2 = ax * ax + ay * ay;
+    let tan_theta_alpha_2 = xy_alpha_2 / (v.z * v.z);
+    var result: f32;
+    if ggx {
+        result = 2.0 / (1.0 + sqrt(1.0 + tan_theta_alpha_2));
+    } else {
+        let a = 1.0 / sqrt(tan_theta_alpha_2);
+        let a_sqr = a * a;
+        result = select((3.535 * a + 2.181 * a_sqr) / (1.0 + 2.276 * a + 2.577 * a_sqr), 1.0, a >= 1.6);
+    }
+    if xy_alpha_2 == 0.0 {
+        result = 1.0;
+    }
+    if dot(v, m) * v.z <= 0.0 {
+        result = 0.0;
+    }
+    return result;
+}
+
+// Dielectric Fresnel reflectance.
+fn bsdf_fresnel(cos_theta_i: f32, eta: f32) -> f32 {
+    let outside = cos_theta_i >= 0.0;
+    let eta_it = select(1.0 / eta, eta, outside);
+    let eta_ti = select(eta, 1.0 / eta, outside);
+    let cos_theta_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
+    let ci = abs(cos_theta_i);
+    let ct = sqrt(max(cos_theta_t_sqr, 0.0));
+    if eta == 1.0 {
+        return 0.0;
+    }
+    if ci == 0.0 {
+        return 1.0;
+    }
+    let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
+    let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
+    return 0.5 * (a_s * a_s + a_p * a_p);
+}
+
+// Conductor Fresnel reflectance per channel (complex IOR eta + i k).
+fn bsdf_fresnel_conductor(cos_theta_i: f32, eta: vec3<f32>, k: vec3<f32>) -> vec3<f32> {
+    let cos_theta_i_2 = cos_theta_i * cos_theta_i;
+    let sin_theta_i_2 = 1.0 - cos_theta_i_2;
+    let sin_theta_i_4 = sin_theta_i_2 * sin_theta_i_2;
+    let temp_1 = eta * eta - k * k - sin_theta_i_2;
+    let a_2_pb_2 = sqrt(max(temp_1 * temp_1 + 4.0 * k * k * eta * eta, vec3<f32>(0.0)));
+    let a = sqrt(max(0.5 * (a_2_pb_2 + temp_1), vec3<f32>(0.0)));
+    let term_1 = a_2_pb_2 + cos_theta_i_2;
+    let term_2 = 2.0 * cos_theta_i * a;
+    let r_s = (term_1 - term_2) / (term_1 + term_2);
+    let term_3 = a_2_pb_2 * cos_theta_i_2 + sin_theta_i_4;
+    let term_4 = term_2 * sin_theta_i_2;
+    let r_p = r_s * (term_3 - term_4) / (term_3 + term_4);
+    return 0.5 * (r_s + r_p);
+}
+
+// Mitsuba's lerp_gather over the 64-entry table starting at `offset`.
+fn bsdf_lerp_gather(offset: u32, x_in: f32) -> f32 {
+    let x = x_in * f32(BSDF_TABLE_RES - 1u);
+    let index = min(u32(x), BSDF_TABLE_RES - 2u);
+    let v0 = bsdf_table(offset + index);
+    let v1 = bsdf_table(offset + index + 1u);
+    let t = x - f32(index);
+    return fma(v1, t, fma(-v0, t, v0));
+}
+
+// f(wi, wo) |cos theta_o| in the local shading frame (wi toward the viewer, wo toward the light).
+fn bsdf_eval(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
+    var wi = wi_in;
+    var wo = wo_in;
+    if (b.flags & BSDF_FLAG_TWOSIDED) != 0u && wi.z < 0.0 {
+        wi.z = -wi.z;
+        wo.z = -wo.z;
+    }
+    let cos_i = wi.z;
+    let cos_o = wo.z;
+    if !(cos_i > 0.0 && cos_o > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let nonlinear = (b.flags & BSDF_FLAG_NONLINEAR) != 0u;
+    let ggx = (b.flags & BSDF_FLAG_GGX) != 0u;
+    switch b.kind {
+        case BSDF_KIND_DIFFUSE: {
+            return b.diffuse * BSDF_INV_PI * cos_o;
+        }
+        case BSDF_KIND_PLASTIC: {
+            let f_i = bsdf_fresnel(cos_i, b.eta.x);
+            let f_o = bsdf_fresnel(cos_o, b.eta.x);
+            let fdr_int = b.extra.x;
+            let diff = b.diffuse / (vec3<f32>(1.0) - select(vec3<f32>(fdr_int), b.diffuse * fdr_int, nonlinear));
+            return diff * (BSDF_INV_PI * cos_o * b.eta.y * (1.0 - f_i) * (1.0 - f_o));
+        }
+        case BSDF_KIND_ROUGHPLASTIC: {
+            let h = normalize(wo + wi);
+            let d = bsdf_microfacet_d(ggx, b.alpha_u, b.alpha_v, h);
+            let f = bsdf_fresnel(dot(wi, h), b.eta.x);
+            let g = bsdf_smith_g1(ggx, b.alpha_u, b.alpha_v, wi, h) * bsdf_smith_g1(ggx, b.alpha_u, b.alpha_v, wo, h);
+            let spec = b.specular * (f * d * g / (4.0 * cos_i));
+            let offset = bitcast<u32>(b.extra.y);
+            let t_i = bsdf_lerp_gather(offset, cos_i);
+            let t_o = bsdf_lerp_gather(offset, cos_o);
+            let internal = b.extra.x;
+            let diff = b.diffuse / (vec3<f32>(1.0) - select(vec3<f32>(internal), b.diffuse * internal, nonlinear));
+            return spec + diff * (BSDF_INV_PI * b.eta.y * cos_o * t_i * t_o);
+        }
+        case BSDF_KIND_ROUGHCONDUCTOR: {
+            let h = normalize(wo + wi);
+            let d = bsdf_microfacet_d(ggx, b.alpha_u, b.alpha_v, h);
+            if d == 0.0 {
+                return vec3<f32>(0.0);
+            }
+            let g = bsdf_smith_g1(ggx, b.alpha_u, b.alpha_v, wi, h) * bsdf_smith_g1(ggx, b.alpha_u, b.alpha_v, wo, h);
+            let value = d * g / (4.0 * cos_i);
+            return bsdf_fresnel_conductor(dot(wi, h), b.eta, b.k) * (vec3<f32>(value) * b.specular);
+        }
+        default: {
+            return vec3<f32>(0.0);
+        }
+    }
+}

@@ -1,0 +1,188 @@
+//! Batch BSDF evaluation on the GPU: `bsdf_eval` of `shaders/common/bsdf.wgsl` for N (bsdf, wi, wo)
+//! triples, read back to the host. Used to check the WGSL twin against `shading::bsdf::eval` and Mitsuba.
+use super::GpuContext;
+use crate::error::{Error, Result};
+use crate::shading::GpuBsdf;
+use glam::Vec3;
+use std::sync::{Arc, Mutex, OnceLock};
+use wgpu::util::DeviceExt;
+
+/// Threads per workgroup (mirrored in `shaders/bsdf_eval.wgsl`).
+pub const WORKGROUP_SIZE: u32 = 64;
+
+/// The assembled module: common BSDF code, then the pass.
+pub const BSDF_EVAL_WGSL: &str =
+    concat!(include_str!("../../shaders/common/bsdf.wgsl"), "\n", include_str!("../../shaders/bsdf_eval.wgsl"));
+
+/// Uniforms. Keep in sync with `BsdfEvalParams` in `shaders/bsdf_eval.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct BsdfEvalParams {
+    count: u32,
+    broadcast: u32,
+    _pad: [u32; 2],
+}
+
+/// The compute pipeline (built once per device).
+pub struct BsdfEvalPass {
+    pipeline: wgpu::ComputePipeline,
+    bind_group_layout: wgpu::BindGroupLayout,
+}
+
+impl BsdfEvalPass {
+    pub fn new(device: &wgpu::Device) -> BsdfEvalPass {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("BsdfEvalPass::module"),
+            source: wgpu::ShaderSource::Wgsl(BSDF_EVAL_WGSL.into()),
+        });
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("BsdfEvalPass::bind_group_layout"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                storage(1, true),
+                storage(2, true),
+                storage(3, true),
+                storage(4, false),
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("BsdfEvalPass::pipeline_layout"),
+            bind_group_layouts: &[Some(&bind_group_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("BsdfEvalPass::pipeline"),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        BsdfEvalPass { pipeline, bind_group_layout }
+    }
+
+    /// The pass for `ctx`'s device, built on first use.
+    fn shared(ctx: &GpuContext) -> Arc<BsdfEvalPass> {
+        static PASSES: OnceLock<Mutex<Vec<(wgpu::Device, Arc<BsdfEvalPass>)>>> = OnceLock::new();
+        let mut passes = PASSES.get_or_init(|| Mutex::new(Vec::new())).lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, p)) = passes.iter().find(|(d, _)| *d == ctx.device) {
+            return p.clone();
+        }
+        let p = Arc::new(BsdfEvalPass::new(&ctx.device));
+        passes.push((ctx.device.clone(), p.clone()));
+        p
+    }
+}
+
+/// Evaluate `bsdf_eval(bsdfs[i], wi[i], wo[i])` on the GPU (or `bsdfs[0]` for every i when `bsdfs` has one
+/// element). `tables` is `shading::bsdf::roughplastic_table_buffer` of the scene the BSDFs came from.
+pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], tables: &[f32], wi: &[Vec3], wo: &[Vec3]) -> Result<Vec<Vec3>> {
+    let n = wi.len();
+    if wo.len() != n || !(bsdfs.len() == 1 || bsdfs.len() == n) {
+        return Err(Error::invalid(format!(
+            "eval_batch_gpu: wi and wo must have equal lengths and bsdfs length 1 or N (got wi {n}, wo {}, bsdfs {})",
+            wo.len(),
+            bsdfs.len()
+        )));
+    }
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    let pass = BsdfEvalPass::shared(ctx);
+    let device = &ctx.device;
+    let params = BsdfEvalParams { count: n as u32, broadcast: (bsdfs.len() == 1 && n > 1) as u32, _pad: [0; 2] };
+    let directions: Vec<[f32; 4]> =
+        wi.iter().zip(wo).flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
+    let tables: &[f32] = if tables.is_empty() { &[0.0] } else { tables };
+    let init = |label, contents: &[u8], usage| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+    };
+    let params_buf = init("BsdfEvalPass::params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+    let bsdf_buf = init("BsdfEvalPass::bsdfs", bytemuck::cast_slice(bsdfs), wgpu::BufferUsages::STORAGE);
+    let dir_buf = init("BsdfEvalPass::directions", bytemuck::cast_slice(&directions), wgpu::BufferUsages::STORAGE);
+    let table_buf = init("BsdfEvalPass::tables", bytemuck::cast_slice(tables), wgpu::BufferUsages::STORAGE);
+    let out_buf = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("BsdfEvalPass::results"),
+        size: (n * 16) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("BsdfEvalPass::bind_group"),
+        layout: &pass.bind_group_layout,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: params_buf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: bsdf_buf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: dir_buf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 3, resource: table_buf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 4, resource: out_buf.as_entire_binding() },
+        ],
+    });
+    let groups = (n as u32).div_ceil(WORKGROUP_SIZE);
+    let gx = groups.min(ctx.limits.max_compute_workgroups_per_dimension.max(1));
+    let gy = groups.div_ceil(gx);
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("BsdfEvalPass::encoder") });
+    {
+        let mut cpass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("BsdfEvalPass"), timestamp_writes: None });
+        cpass.set_pipeline(&pass.pipeline);
+        cpass.set_bind_group(0, &bind_group, &[]);
+        cpass.dispatch_workgroups(gx, gy, 1);
+    }
+    ctx.queue.submit(Some(enc.finish()));
+    let out: Vec<[f32; 4]> = ctx.read_buffer(&out_buf, 0, n)?;
+    Ok(out.into_iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shading::bsdf::{eval, random_directions, resolve, roughplastic_table_buffer, test_sets};
+
+    /// WGSL vs Rust: relative difference with an absolute floor of 1e-6 (values below it are
+    /// rounding noise of zero-or-tiny lobes).
+    const RTOL: f32 = 1e-3;
+    const ATOL: f32 = 1e-6;
+
+    #[test]
+    fn wgsl_matches_rust() {
+        let ctx = GpuContext::new().expect("a GPU adapter (software is fine) must exist in tests");
+        let dirs = random_directions(4000, 11);
+        let (wi, wo): (Vec<Vec3>, Vec<Vec3>) = dirs.chunks(2).map(|p| (p[0], p[1])).unzip();
+        for (name, bsdfs, i) in test_sets() {
+            let b = resolve(&bsdfs, &[], i, glam::Vec2::ZERO);
+            let tables = roughplastic_table_buffer(&bsdfs);
+            let gpu = eval_batch_gpu(&ctx, &[b], &tables, &wi, &wo).unwrap();
+            let mut worst = 0.0f32;
+            let mut nonzero = 0;
+            for j in 0..wi.len() {
+                let cpu = eval(&b, wi[j], wo[j]);
+                nonzero += (cpu.max_element() > 0.0) as usize;
+                let rel = ((gpu[j] - cpu).abs() / (cpu.abs().max(Vec3::splat(ATOL)))).max_element();
+                let rel = if (gpu[j] - cpu).abs().max_element() <= ATOL { 0.0 } else { rel };
+                worst = worst.max(rel);
+            }
+            println!("{name}: max rel diff WGSL vs Rust {worst:.3e} ({nonzero} nonzero of {})", wi.len());
+            assert!(worst < RTOL, "{name}: {worst}");
+            assert!(nonzero > 200, "{name}: only {nonzero} nonzero values");
+        }
+    }
+}

@@ -1,0 +1,122 @@
+//! EXR and PNG input/output.
+//!
+//! - [`read_exr`]: the first valid layer of an OpenEXR file (any compression the `exr` crate reads, PIZ
+//!   included; half, float or uint channels), channels R, G, B (A ignored) or a single Y channel
+//!   replicated to RGB. Linear, as stored.
+//! - [`write_exr`]: float32 RGB, lossless.
+//! - [`write_png`]: 8-bit sRGB: `value * 2^exposure`, exact sRGB encoding curve, clamped to [0, 1],
+//!   rounded to nearest.
+use crate::error::{Error, Result};
+use exr::prelude::*;
+use std::path::Path;
+
+/// Reads an EXR file: (width, height, linear RGB pixels, row 0 = top).
+///
+/// Errors: `Io` naming the file when it cannot be read or has neither R, G, B nor Y channels.
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
+    let image = read_first_flat_layer_from_file(path).map_err(|e| Error::io(path, e))?;
+    let layer = &image.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    let channel = |name: &str| -> Option<Vec<f32>> {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == name)
+            .map(|c| c.sample_data.values_as_f32().collect())
+    };
+    let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+    let pixels: Vec<[f32; 3]> = match (channel("R"), channel("G"), channel("B"), channel("Y")) {
+        (Some(r), Some(g), Some(b), _) => r.iter().zip(&g).zip(&b).map(|((r, g), b)| [*r, *g, *b]).collect(),
+        (_, _, _, Some(y)) => y.iter().map(|&y| [y, y, y]).collect(),
+        _ => return Err(Error::io(path, format!("EXR has channels {names:?}; expected R, G, B or Y"))),
+    };
+    if pixels.len() != w * h {
+        return Err(Error::io(path, format!("EXR has {} samples for {w}x{h} pixels", pixels.len())));
+    }
+    Ok((w as u32, h as u32, pixels))
+}
+
+fn check_len(path: &Path, w: u32, h: u32, n: usize) -> Result<()> {
+    if n != w as usize * h as usize {
+        return Err(Error::invalid(format!(
+            "{}: image of {w}x{h} needs {} pixels, got {n}",
+            path.display(),
+            w as usize * h as usize
+        )));
+    }
+    Ok(())
+}
+
+/// Writes float32 RGB pixels (row 0 = top) to an EXR file.
+pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<()> {
+    check_len(path, width, height, pixels.len())?;
+    write_rgb_file(path, width as usize, height as usize, |x, y| {
+        let p = pixels[y * width as usize + x];
+        (p[0], p[1], p[2])
+    })
+    .map_err(|e| Error::io(path, e))
+}
+
+/// 8-bit sRGB code of a linear value.
+pub fn encode_srgb8(linear: f32) -> u8 {
+    let v = crate::scene::texture::linear_to_srgb(linear.max(0.0)).clamp(0.0, 1.0);
+    (v * 255.0).round() as u8 // NaN maps to 0
+}
+
+/// Writes linear RGB pixels as an 8-bit sRGB PNG after scaling by `2^exposure`.
+pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure: f32) -> Result<()> {
+    check_len(path, width, height, pixels.len())?;
+    let scale = exposure.exp2();
+    let bytes: Vec<u8> = pixels.iter().flat_map(|p| p.map(|c| encode_srgb8(c * scale))).collect();
+    image::save_buffer(path, &bytes, width, height, image::ColorType::Rgb8).map_err(|e| Error::io(path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("manylights-image-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join(name)
+    }
+
+    #[test]
+    fn exr_round_trip_is_exact() {
+        let (w, h) = (5u32, 3u32);
+        let px: Vec<[f32; 3]> =
+            (0..w * h).map(|i| [i as f32 * 0.1, -(i as f32) * 1e-3, 1e6 + i as f32 * std::f32::consts::PI]).collect();
+        let p = tmp("rt.exr");
+        write_exr(&p, w, h, &px).unwrap();
+        let (w2, h2, back) = read_exr(&p).unwrap();
+        assert_eq!((w2, h2), (w, h));
+        assert_eq!(back, px);
+        assert!(write_exr(&p, 4, 4, &px).is_err());
+    }
+
+    #[test]
+    fn reads_piz_half_exr_of_shared_scene() {
+        // bunny/textures/museum.exr: PIZ-compressed half RGB(A), as in the shared scenes.
+        let p = crate::scene::mesh::shared_dir().join("scenes/bunny/textures/museum.exr");
+        let (w, h, px) = read_exr(&p).unwrap();
+        assert_eq!(px.len(), (w * h) as usize);
+        assert!(px.iter().all(|c| c.iter().all(|v| v.is_finite() && *v >= 0.0)));
+        let mean: f64 = px.iter().map(|c| c[1] as f64).sum::<f64>() / px.len() as f64;
+        assert!(mean > 0.0);
+    }
+
+    #[test]
+    fn png_write_encodes_srgb() {
+        let p = tmp("w.png");
+        let px = [[0.0, 0.5, 1.0], [0.21586, 2.0, -1.0], [0.0031308, 0.25, f32::NAN], [1.0, 1.0, 1.0]];
+        write_png(&p, 2, 2, &px, 0.0).unwrap();
+        let img = image::open(&p).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (2, 2));
+        assert_eq!(img.get_pixel(0, 0).0, [0, 188, 255]);
+        assert_eq!(img.get_pixel(1, 0).0, [128, 255, 0]);
+        assert_eq!(img.get_pixel(0, 1).0, [10, 137, 0]);
+        write_png(&p, 2, 2, &px, -1.0).unwrap();
+        assert_eq!(image::open(&p).unwrap().to_rgb8().get_pixel(1, 1).0, [188, 188, 188]);
+    }
+}

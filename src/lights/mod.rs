@@ -1,0 +1,323 @@
+//! LightSet: the typed delta lights that are the columns of the light matrix.
+//!
+//! Struct-of-arrays: `kind[j]`, `position[j]`, `direction[j]`, `intensity[j]` ... describe light j.
+//! Kinds now: `Point`, `Spot`, `Directional` (from the scene's `point`, `spot`, `directional` emitters);
+//! the `LightKind` discriminants leave room for oriented points / VPLs and environment-directional lights.
+//!
+//! Emission follows Mitsuba 3.9.1 (`src/emitters/{point,spot,directional}.cpp`):
+//! - point: radiance arriving at p = I / d^2 from direction wo = (position - p) / d.
+//! - spot: I * falloff(theta) / d^2, theta = angle between the light's +z axis and (p - position):
+//!   falloff = 1 if cos(theta) >= cos(beam_width), (cutoff_angle - theta) / (cutoff_angle - beam_width)
+//!   otherwise, and 0 unless cos(theta) > cos(cutoff_angle) (Mitsuba's `falloff_curve`).
+//! - directional: E (irradiance), wo = -direction. The cosine is inside `bsdf_eval`.
+//!
+//! `power()` (W): point 4 pi I; spot I * 2 pi (1 - (sin c - sin b) / (c - b)) with c = cutoff_angle,
+//! b = beam_width (the exact integral of Mitsuba's falloff over the sphere, i.e. the mean weight of its
+//! `sample_ray`; 2 pi (1 - cos c) when b = c); directional E * pi r^2 with r the radius of the scene's
+//! bounding sphere (half the bounding-box diagonal): the power crossing the scene's bounding disk.
+//! Powers are per RGB channel; `power_luminance()` gives a scalar (mean of the channels).
+//!
+//! Deviation: a spot `world_from_light` must be a rotation times a uniform scale (plus translation);
+//! shear or non-uniform scale (which would distort Mitsuba's cone) is an error.
+//!
+//! Rust twin of `shaders/common/light.wgsl` (`emitted`), used by the CPU reference.
+use crate::error::{Error, Result};
+use crate::scene::{Emitter, Scene};
+use glam::Vec3;
+
+/// Light types. Values are shared with `shaders/common/light.wgsl` (`LIGHT_*`).
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LightKind {
+    Point = 0,
+    Spot = 1,
+    Directional = 2,
+    // 3: oriented point / VPL (cosine lobe around `direction`), 4: environment-directional (next).
+}
+
+/// A set of delta lights, struct of arrays.
+#[derive(Debug, Clone, Default)]
+pub struct LightSet {
+    pub kind: Vec<LightKind>,
+    /// World position (point, spot); zero for directional.
+    pub position: Vec<Vec3>,
+    /// Unit vector: spot axis (local +z in world); directional: the direction the light travels; point: 0.
+    pub direction: Vec<Vec3>,
+    /// Intensity I in W/sr (point, spot), irradiance E in W/m^2 (directional); RGB.
+    pub intensity: Vec<Vec3>,
+    /// Spot cutoff angle (radians); 0 for other kinds.
+    pub cutoff_angle: Vec<f32>,
+    /// Spot beam width (radians); 0 for other kinds.
+    pub beam_width: Vec<f32>,
+    /// Centre and radius of the scene's bounding sphere (directional power and shadow-map fitting).
+    pub scene_center: Vec3,
+    pub scene_radius: f32,
+}
+
+fn check_vec(what: &str, j: usize, v: Vec3, nonneg: bool) -> Result<()> {
+    if !v.is_finite() || (nonneg && v.min_element() < 0.0) {
+        return Err(Error::invalid(format!(
+            "light {j}: {what} must be finite{}, got {v:?}",
+            if nonneg { " and non-negative" } else { "" }
+        )));
+    }
+    Ok(())
+}
+
+impl LightSet {
+    /// An empty set for the scene whose bounding sphere is (center, radius).
+    pub fn new(scene_center: Vec3, scene_radius: f32) -> Self {
+        LightSet { scene_center, scene_radius, ..Default::default() }
+    }
+
+    /// The scene's point, spot and directional emitters, in `Scene::emitters` order (others are skipped).
+    pub fn from_scene(scene: &Scene) -> Result<LightSet> {
+        let (lo, hi) = scene.bounds();
+        let (center, radius) =
+            if lo.is_finite() && hi.is_finite() { ((lo + hi) * 0.5, (hi - lo).length() * 0.5) } else { (Vec3::ZERO, 0.0) };
+        let mut set = LightSet::new(center, radius);
+        for e in &scene.emitters {
+            let r = match e {
+                Emitter::Point { position, intensity, loc } => {
+                    set.push_point(*position, *intensity).map_err(|err| Error::scene(loc, err.to_string()))
+                }
+                Emitter::Spot { world_from_light, intensity, cutoff_angle, beam_width, loc } => {
+                    let m = glam::Mat3::from_mat4(*world_from_light);
+                    let (x, y, z) = (m.x_axis, m.y_axis, m.z_axis);
+                    let s = z.length();
+                    let tol = 1e-4 * s.max(1e-20);
+                    if !(s > 0.0)
+                        || (x.length() - s).abs() > tol
+                        || (y.length() - s).abs() > tol
+                        || x.dot(y).abs() > tol * s
+                        || x.dot(z).abs() > tol * s
+                        || y.dot(z).abs() > tol * s
+                    {
+                        return Err(Error::scene(
+                            loc,
+                            format!("spot to_world must be a rotation with uniform scale, got {m:?}"),
+                        ));
+                    }
+                    let position = world_from_light.w_axis.truncate();
+                    set.push_spot(position, z / s, *intensity, *cutoff_angle, *beam_width)
+                        .map_err(|err| Error::scene(loc, err.to_string()))
+                }
+                Emitter::Directional { direction, irradiance, loc } => {
+                    set.push_directional(*direction, *irradiance).map_err(|err| Error::scene(loc, err.to_string()))
+                }
+                _ => Ok(()),
+            };
+            r?;
+        }
+        Ok(set)
+    }
+
+    pub fn len(&self) -> usize {
+        self.kind.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.kind.is_empty()
+    }
+
+    fn push(&mut self, kind: LightKind, position: Vec3, direction: Vec3, intensity: Vec3, cutoff: f32, beam: f32) {
+        self.kind.push(kind);
+        self.position.push(position);
+        self.direction.push(direction);
+        self.intensity.push(intensity);
+        self.cutoff_angle.push(cutoff);
+        self.beam_width.push(beam);
+    }
+
+    /// Add an isotropic point light of intensity I (W/sr).
+    pub fn push_point(&mut self, position: Vec3, intensity: Vec3) -> Result<()> {
+        let j = self.len();
+        check_vec("position", j, position, false)?;
+        check_vec("intensity", j, intensity, true)?;
+        self.push(LightKind::Point, position, Vec3::ZERO, intensity, 0.0, 0.0);
+        Ok(())
+    }
+
+    /// Add a spot light at `position` pointing along `axis`; angles in radians,
+    /// 0 <= beam_width <= cutoff_angle <= pi.
+    pub fn push_spot(&mut self, position: Vec3, axis: Vec3, intensity: Vec3, cutoff_angle: f32, beam_width: f32) -> Result<()> {
+        let j = self.len();
+        check_vec("position", j, position, false)?;
+        check_vec("intensity", j, intensity, true)?;
+        check_vec("axis", j, axis, false)?;
+        if axis.length() < 1e-12 {
+            return Err(Error::invalid(format!("light {j}: spot axis must be non-zero, got {axis:?}")));
+        }
+        if !(cutoff_angle > 0.0 && cutoff_angle <= std::f32::consts::PI) {
+            return Err(Error::invalid(format!("light {j}: spot cutoff_angle must be in (0, pi], got {cutoff_angle}")));
+        }
+        if !(beam_width >= 0.0 && beam_width <= cutoff_angle) {
+            return Err(Error::invalid(format!(
+                "light {j}: spot beam_width must be in [0, cutoff_angle = {cutoff_angle}], got {beam_width}"
+            )));
+        }
+        self.push(LightKind::Spot, position, axis.normalize(), intensity, cutoff_angle, beam_width);
+        Ok(())
+    }
+
+    /// Add a directional light travelling along `direction` with irradiance E (W/m^2).
+    pub fn push_directional(&mut self, direction: Vec3, irradiance: Vec3) -> Result<()> {
+        let j = self.len();
+        check_vec("direction", j, direction, false)?;
+        check_vec("irradiance", j, irradiance, true)?;
+        if direction.length() < 1e-12 {
+            return Err(Error::invalid(format!("light {j}: direction must be non-zero, got {direction:?}")));
+        }
+        self.push(LightKind::Directional, Vec3::ZERO, direction.normalize(), irradiance, 0.0, 0.0);
+        Ok(())
+    }
+
+    /// Emitted power of light j per RGB channel (W); formulas in the module docs.
+    pub fn power(&self, j: usize) -> Vec3 {
+        let i = self.intensity[j];
+        match self.kind[j] {
+            LightKind::Point => i * (4.0 * std::f32::consts::PI),
+            LightKind::Spot => i * spot_solid_angle(self.cutoff_angle[j], self.beam_width[j]),
+            LightKind::Directional => i * (std::f32::consts::PI * self.scene_radius * self.scene_radius),
+        }
+    }
+
+    /// Scalar power (mean of the RGB channels) of every light.
+    pub fn power_luminance(&self) -> Vec<f32> {
+        (0..self.len()).map(|j| self.power(j).element_sum() / 3.0).collect()
+    }
+
+    /// What light j sends to point p: (wo, unit direction from p toward the light; radiance factor
+    /// (I falloff / d^2 or E); distance to the light, infinite for directional). `None` when it sends
+    /// nothing (outside the spot cone, or p at the light's position).
+    pub fn emitted(&self, j: usize, p: Vec3) -> Option<(Vec3, Vec3, f32)> {
+        match self.kind[j] {
+            LightKind::Directional => Some((-self.direction[j], self.intensity[j], f32::INFINITY)),
+            kind => {
+                let d = self.position[j] - p;
+                let dist2 = d.length_squared();
+                if !(dist2 > 0.0) {
+                    return None;
+                }
+                let dist = dist2.sqrt();
+                let wo = d / dist;
+                let mut scale = 1.0 / dist2;
+                if kind == LightKind::Spot {
+                    let falloff = spot_falloff(-wo.dot(self.direction[j]), self.cutoff_angle[j], self.beam_width[j]);
+                    if falloff <= 0.0 {
+                        return None;
+                    }
+                    scale *= falloff;
+                }
+                Some((wo, self.intensity[j] * scale, dist))
+            }
+        }
+    }
+}
+
+/// Mitsuba's spot `falloff_curve` for cos(theta) (theta from the axis).
+pub fn spot_falloff(cos_theta: f32, cutoff_angle: f32, beam_width: f32) -> f32 {
+    if !(cos_theta > cutoff_angle.cos()) {
+        return 0.0;
+    }
+    if cos_theta >= beam_width.cos() {
+        1.0
+    } else {
+        (cutoff_angle - cos_theta.clamp(-1.0, 1.0).acos()) / (cutoff_angle - beam_width)
+    }
+}
+
+/// Integral of Mitsuba's spot falloff over the sphere (sr): 2 pi (1 - (sin c - sin b) / (c - b)).
+pub fn spot_solid_angle(cutoff_angle: f32, beam_width: f32) -> f32 {
+    let (c, b) = (cutoff_angle as f64, beam_width as f64);
+    let inner = if c - b > 1e-6 { (c.sin() - b.sin()) / (c - b) } else { c.cos() };
+    (2.0 * std::f64::consts::PI * (1.0 - inner)) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spot_falloff_matches_mitsuba_definition() {
+        let (c, b) = (20f32.to_radians(), 15f32.to_radians());
+        assert_eq!(spot_falloff(1.0, c, b), 1.0);
+        assert_eq!(spot_falloff(14.9f32.to_radians().cos(), c, b), 1.0);
+        let mid = spot_falloff(17.5f32.to_radians().cos(), c, b);
+        assert!((mid - 0.5).abs() < 1e-4, "{mid}");
+        assert_eq!(spot_falloff(20.01f32.to_radians().cos(), c, b), 0.0);
+        assert_eq!(spot_falloff(-1.0, c, b), 0.0);
+    }
+
+    #[test]
+    fn spot_solid_angle_is_the_falloff_integral() {
+        // Midpoint rule over theta of 2 pi falloff(theta) sin(theta).
+        let (c, b) = (40f32.to_radians(), 25f32.to_radians());
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        for k in 0..n {
+            let theta = (k as f64 + 0.5) / n as f64 * std::f64::consts::PI;
+            sum += spot_falloff(theta.cos() as f32, c, b) as f64 * theta.sin();
+        }
+        let numeric = 2.0 * std::f64::consts::PI * sum * std::f64::consts::PI / n as f64;
+        let closed = spot_solid_angle(c, b) as f64;
+        assert!((numeric - closed).abs() < 1e-4 * closed, "{numeric} vs {closed}");
+        // b = c: a hard cone.
+        let hard = spot_solid_angle(c, c) as f64;
+        assert!((hard - 2.0 * std::f64::consts::PI * (1.0 - (c as f64).cos())).abs() < 1e-5);
+    }
+
+    #[test]
+    fn powers_and_validation() {
+        let mut s = LightSet::new(Vec3::ZERO, 2.0);
+        s.push_point(Vec3::ONE, Vec3::new(1.0, 2.0, 3.0)).unwrap();
+        s.push_directional(Vec3::new(0.0, -2.0, 0.0), Vec3::splat(0.5)).unwrap();
+        let p = s.power(0);
+        assert!((p.x - 4.0 * std::f32::consts::PI).abs() < 1e-5 && (p.z - 12.0 * std::f32::consts::PI).abs() < 1e-4);
+        assert!((s.power(1).x - 0.5 * std::f32::consts::PI * 4.0).abs() < 1e-5);
+        assert_eq!(s.direction[1], Vec3::new(0.0, -1.0, 0.0));
+        let e = s.push_point(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ONE).unwrap_err().to_string();
+        assert!(e.contains("light 2") && e.contains("position"), "{e}");
+        let e = s.push_point(Vec3::ZERO, Vec3::new(1.0, -1.0, 0.0)).unwrap_err().to_string();
+        assert!(e.contains("non-negative"), "{e}");
+        let e = s.push_spot(Vec3::ZERO, Vec3::Z, Vec3::ONE, 0.3, 0.4).unwrap_err().to_string();
+        assert!(e.contains("beam_width"), "{e}");
+        assert_eq!(s.len(), 2);
+    }
+
+    #[test]
+    fn emitted_point_spot_directional() {
+        let mut s = LightSet::new(Vec3::ZERO, 1.0);
+        s.push_point(Vec3::new(0.0, 2.0, 0.0), Vec3::splat(4.0)).unwrap();
+        s.push_spot(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y, Vec3::splat(4.0), 0.5, 0.25).unwrap();
+        s.push_directional(Vec3::new(0.0, -1.0, 0.0), Vec3::splat(3.0)).unwrap();
+        let (wo, l, d) = s.emitted(0, Vec3::ZERO).unwrap();
+        assert_eq!((wo, l, d), (Vec3::Y, Vec3::splat(1.0), 2.0));
+        assert_eq!(s.emitted(1, Vec3::ZERO).unwrap().1, Vec3::splat(1.0));
+        assert!(s.emitted(1, Vec3::new(2.0, 0.0, 0.0)).is_none());
+        let (wo, l, d) = s.emitted(2, Vec3::ZERO).unwrap();
+        assert_eq!((wo, l), (Vec3::Y, Vec3::splat(3.0)));
+        assert!(d.is_infinite());
+    }
+
+    /// Writes `emitted` for fixed lights and points to $ML_DUMP (checked against Mitsuba's
+    /// `sample_direction` by a Python script; run with `--ignored`).
+    #[test]
+    #[ignore]
+    fn dump_emitted_for_mitsuba() {
+        let Ok(path) = std::env::var("ML_DUMP") else { return };
+        let mut s = LightSet::new(Vec3::ZERO, 1.0);
+        s.push_point(Vec3::new(0.3, 1.0, -0.2), Vec3::new(1.0, 2.0, 3.0)).unwrap();
+        s.push_spot(Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.1, -1.0, 0.2), Vec3::new(2.0, 1.0, 0.5), 0.6, 0.35).unwrap();
+        s.push_directional(Vec3::new(0.3, -1.0, 0.2), Vec3::new(0.7, 0.8, 0.9)).unwrap();
+        let mut out = String::new();
+        for j in 0..3 {
+            for k in 0..40 {
+                let p = Vec3::new(-1.0 + 0.05 * k as f32, -0.3 + 0.01 * k as f32, 0.4 - 0.03 * k as f32);
+                let (wo, l, _) = s.emitted(j, p).unwrap_or((Vec3::ZERO, Vec3::ZERO, 0.0));
+                out += &format!("{j} {} {} {} {} {} {} {} {} {}\n", p.x, p.y, p.z, wo.x, wo.y, wo.z, l.x, l.y, l.z);
+            }
+        }
+        std::fs::write(path, out).unwrap();
+    }
+}

@@ -1,0 +1,328 @@
+//! LightMatrix: the m x n light-to-pixel matrix A, A(i, j) = light j's direct contribution (RGB) to view
+//! sample i, evaluated on the GPU column by column (Hašan, Pellacini, Bala, "Matrix Row-Column Sampling
+//! for the Many-Light Problem", SIGGRAPH 2007, Sec. 3: columns are shadow-mapped lights).
+//!
+//! `columns(J)` reads individual columns back; `column_sum(w)` accumulates `sum_j w_j A(:, j)` on the GPU
+//! and reads back only the final image. Lights are processed in batches: a batch's shadow maps (cube
+//! faces, spot and orthographic maps) are layers of one depth array texture, rendered and consumed in one
+//! command submission; a batch holds at most `max_lights_per_batch` (<= 256) lights and as many layers as
+//! `shadow_memory_budget` allows. `reference` evaluates elements on the CPU by ray casting (tests).
+//!
+//! Symbols: m = number of view samples (`width * height`), n = number of lights, w = weights.
+pub mod reference;
+#[cfg(test)]
+mod tests;
+
+use crate::error::{Error, Result};
+use crate::gpu::columns::{
+    dispatch_size, storage_buffer, ColumnParams, ColumnsInputs, ColumnsPass, GpuLight, ViewBuffers,
+    MAX_LIGHTS_PER_DISPATCH,
+};
+use crate::gpu::scene_buffers::SceneGeometry;
+use crate::gpu::shadow::{layer_count, light_layers, uses_cube, ShadowAtlas, ShadowMapPass};
+use crate::gpu::GpuContext;
+use crate::lights::LightSet;
+use crate::scene::Scene;
+use crate::view::ViewSamples;
+use std::sync::Arc;
+
+/// How columns are computed.
+#[derive(Debug, Clone)]
+pub struct ColumnOptions {
+    /// Shadow-map texels per side (each cube face, spot or orthographic map).
+    pub shadow_resolution: u32,
+    /// Most lights shaded per dispatch (<= 256, keeps shader loops far below 65,535 iterations).
+    pub max_lights_per_batch: usize,
+    /// Bytes of shadow-map layers per batch (Depth32Float: 4 * resolution^2 per layer; at least one cube).
+    pub shadow_memory_budget: u64,
+    /// Normal offset (toward the light's side of the geometric normal), in shadow-map texels.
+    pub normal_offset: f32,
+    /// Constant depth bias toward the light, in texels.
+    pub depth_bias: f32,
+    /// Slope-scaled depth bias (times tan of the angle between geometric normal and light), in texels.
+    pub slope_bias: f32,
+}
+
+impl Default for ColumnOptions {
+    fn default() -> Self {
+        ColumnOptions {
+            shadow_resolution: 1024,
+            max_lights_per_batch: MAX_LIGHTS_PER_DISPATCH,
+            shadow_memory_budget: 256 << 20,
+            // Chosen by `tests::bias_sweep` (0 acne/leak pixels away from edges at 256-1024 texels).
+            normal_offset: 1.0,
+            depth_bias: 0.25,
+            slope_bias: 0.1,
+        }
+    }
+}
+
+/// The light matrix of a scene, its view samples and a light set.
+pub struct LightMatrix {
+    ctx: Arc<GpuContext>,
+    pub scene: Arc<Scene>,
+    pub view: Arc<ViewSamples>,
+    pub lights: Arc<LightSet>,
+    pub opts: ColumnOptions,
+    shadow_pass: ShadowMapPass,
+    columns_pass: ColumnsPass,
+    /// The scene's triangles (unshared vertices), drawn into every shadow map.
+    geometry: SceneGeometry,
+    view_buffers: ViewBuffers,
+    atlas: ShadowAtlas,
+    /// Largest storage binding in bytes.
+    max_binding: u64,
+}
+
+/// Lights `js[start..end]` and the first layer of each.
+struct Batch {
+    start: usize,
+    end: usize,
+    layers: Vec<u32>,
+    num_layers: u32,
+}
+
+impl LightMatrix {
+    pub fn new(
+        ctx: Arc<GpuContext>,
+        scene: Arc<Scene>,
+        view: Arc<ViewSamples>,
+        lights: Arc<LightSet>,
+        opts: ColumnOptions,
+    ) -> Result<LightMatrix> {
+        let m = view.len();
+        let wh = view.width as usize * view.height as usize;
+        if m != wh || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len(), view.bsdf.len()].iter().any(|&l| l != m) {
+            return Err(Error::invalid(format!(
+                "view samples are inconsistent: {}x{} = {wh} pixels, shape_index {m}, position {}, normal {}, \
+                 geo_normal {}, wi {}, bsdf {}",
+                view.width, view.height, view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len(), view.bsdf.len()
+            )));
+        }
+        let limits = &ctx.limits;
+        if opts.shadow_resolution == 0 || opts.shadow_resolution > limits.max_texture_dimension_2d {
+            return Err(Error::invalid(format!(
+                "shadow_resolution must be in [1, {}], got {}",
+                limits.max_texture_dimension_2d, opts.shadow_resolution
+            )));
+        }
+        if opts.max_lights_per_batch == 0 || opts.max_lights_per_batch > MAX_LIGHTS_PER_DISPATCH {
+            return Err(Error::invalid(format!(
+                "max_lights_per_batch must be in [1, {MAX_LIGHTS_PER_DISPATCH}], got {}",
+                opts.max_lights_per_batch
+            )));
+        }
+        for (name, v) in [("normal_offset", opts.normal_offset), ("depth_bias", opts.depth_bias), ("slope_bias", opts.slope_bias)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::invalid(format!("{name} must be finite and >= 0, got {v}")));
+            }
+        }
+        let max_binding = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
+        if m as u64 * 80 > max_binding {
+            return Err(Error::invalid(format!(
+                "{m} view samples need {} bytes of BSDFs, above the {max_binding}-byte storage binding limit",
+                m as u64 * 80
+            )));
+        }
+        let layer_bytes = 4 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64;
+        let max_layers = (opts.shadow_memory_budget / layer_bytes)
+            .min(limits.max_texture_array_layers as u64)
+            .min(6 * opts.max_lights_per_batch as u64)
+            .max(6) as u32;
+        let device = &ctx.device;
+        let geometry = SceneGeometry::upload(device, &scene)?;
+        let tables = crate::shading::bsdf::roughplastic_table_buffer(&scene.bsdfs);
+        let view_buffers = ViewBuffers::upload(device, &view, &tables);
+        let atlas = ShadowAtlas::new(device, opts.shadow_resolution, max_layers);
+        Ok(LightMatrix {
+            shadow_pass: ShadowMapPass::new(device),
+            columns_pass: ColumnsPass::new(device),
+            geometry,
+            view_buffers,
+            atlas,
+            max_binding,
+            ctx,
+            scene,
+            view,
+            lights,
+            opts,
+        })
+    }
+
+    /// (m, n): view samples x lights.
+    pub fn shape(&self) -> (usize, usize) {
+        (self.view.len(), self.lights.len())
+    }
+
+    fn check_indices(&self, js: &[usize]) -> Result<()> {
+        let n = self.lights.len();
+        if let Some((k, &j)) = js.iter().enumerate().find(|(_, &j)| j >= n) {
+            return Err(Error::invalid(format!("light index {j} (at position {k}) is out of range for {n} lights")));
+        }
+        Ok(())
+    }
+
+    /// Split `js` into batches by lights per dispatch, shadow-map layers and (if given) columns per batch.
+    fn batches(&self, js: &[usize], max_columns: usize) -> Vec<Batch> {
+        let cap = self.opts.max_lights_per_batch.min(max_columns).max(1);
+        let mut out: Vec<Batch> = Vec::new();
+        let mut cur = Batch { start: 0, end: 0, layers: Vec::new(), num_layers: 0 };
+        for (k, &j) in js.iter().enumerate() {
+            let need = layer_count(&self.lights, j);
+            if cur.end > cur.start && (cur.end - cur.start >= cap || cur.num_layers + need > self.atlas.num_layers) {
+                let start = cur.end;
+                out.push(std::mem::replace(&mut cur, Batch { start, end: start, layers: Vec::new(), num_layers: 0 }));
+            }
+            cur.layers.push(cur.num_layers);
+            cur.num_layers += need;
+            cur.end = k + 1;
+        }
+        if cur.end > cur.start {
+            out.push(cur);
+        }
+        out
+    }
+
+    /// Encode and submit one batch: shadow maps, then the column pass. Returns the submission.
+    fn run_batch(
+        &self,
+        js: &[usize],
+        batch: &Batch,
+        weights: &[f32],
+        accum: &wgpu::Buffer,
+        columns: Option<&wgpu::Buffer>,
+    ) -> wgpu::SubmissionIndex {
+        let device = &self.ctx.device;
+        let res = self.opts.shadow_resolution;
+        let mut gpu_lights = Vec::with_capacity(batch.end - batch.start);
+        let mut layers = Vec::with_capacity(batch.num_layers as usize);
+        for (k, &j) in js[batch.start..batch.end].iter().enumerate() {
+            gpu_lights.push(GpuLight::new(&self.lights, j, batch.layers[k], uses_cube(&self.lights, j)));
+            layers.extend(light_layers(&self.lights, j, res));
+        }
+        let layers_buf = storage_buffer(
+            device,
+            "LightMatrix::layers",
+            &layers,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
+        );
+        let lights_buf = storage_buffer(device, "LightMatrix::lights", &gpu_lights, wgpu::BufferUsages::STORAGE);
+        let weights_buf = storage_buffer(device, "LightMatrix::weights", weights, wgpu::BufferUsages::STORAGE);
+        let (_, _, dispatch_width) = dispatch_size(self.view_buffers.num_samples);
+        let params = ColumnParams {
+            num_samples: self.view_buffers.num_samples,
+            num_lights: gpu_lights.len() as u32,
+            write_columns: columns.is_some() as u32,
+            accumulate: columns.is_none() as u32,
+            resolution: res,
+            dispatch_width,
+            _pad0: [0; 2],
+            normal_offset: self.opts.normal_offset,
+            depth_bias: self.opts.depth_bias,
+            slope_bias: self.opts.slope_bias,
+            _pad1: 0.0,
+        };
+        let params_buf = storage_buffer(device, "LightMatrix::params", &[params], wgpu::BufferUsages::UNIFORM);
+        let dummy;
+        let columns_buf = match columns {
+            Some(b) => b,
+            None => {
+                dummy = storage_buffer::<f32>(device, "LightMatrix::no_columns", &[], wgpu::BufferUsages::STORAGE);
+                &dummy
+            }
+        };
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::batch") });
+        self.shadow_pass.encode(device, &mut encoder, &self.atlas, &layers_buf, batch.num_layers, &self.geometry);
+        self.columns_pass.encode(
+            device,
+            &mut encoder,
+            &ColumnsInputs {
+                params: &params_buf,
+                view: &self.view_buffers,
+                lights: &lights_buf,
+                layers: &layers_buf,
+                weights: &weights_buf,
+                shadow_maps: &self.atlas.array_view,
+                accum,
+                columns: columns_buf,
+            },
+        );
+        self.ctx.queue.submit(Some(encoder.finish()))
+    }
+
+    fn wait_for(&self, submission: wgpu::SubmissionIndex) -> Result<()> {
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait { submission_index: Some(submission), timeout: None })
+            .map(|_| ())
+            .map_err(|e| Error::Gpu(format!("waiting for a column batch failed: {e}")))
+    }
+
+    /// Columns `js` (any order, repeats allowed): k * H * W * 3 floats, column-major by light, then
+    /// row 0 at the top, then RGB.
+    pub fn columns(&self, js: &[usize]) -> Result<Vec<f32>> {
+        self.check_indices(js)?;
+        let m = self.view.len();
+        let column_bytes = (m as u64 * 12).max(4);
+        let max_columns = (self.max_binding.min(128 << 20) / column_bytes) as usize;
+        if max_columns == 0 {
+            return Err(Error::invalid(format!(
+                "one column of {m} view samples ({column_bytes} bytes) exceeds the storage binding limit"
+            )));
+        }
+        let batches = self.batches(js, max_columns);
+        let largest = batches.iter().map(|b| b.end - b.start).max().unwrap_or(0);
+        let columns_buf = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("LightMatrix::columns"),
+            size: (largest as u64 * column_bytes).max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let accum = storage_buffer::<f32>(&self.ctx.device, "LightMatrix::no_accum", &[], wgpu::BufferUsages::STORAGE);
+        let mut out = Vec::with_capacity(js.len() * m * 3);
+        for batch in &batches {
+            let zeros = vec![0.0f32; batch.end - batch.start];
+            self.run_batch(js, batch, &zeros, &accum, Some(&columns_buf));
+            out.extend(self.ctx.read_buffer::<f32>(&columns_buf, 0, (batch.end - batch.start) * m * 3)?);
+        }
+        Ok(out)
+    }
+
+    /// `sum_j w_j A(:, j)` over all lights (weights `None` = all 1) as H * W * 3 floats, accumulated on
+    /// the GPU; `progress(lights_done, n)` is called after each batch completes.
+    pub fn column_sum(&self, weights: Option<&[f32]>, progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
+        let n = self.lights.len();
+        let ones;
+        let w = match weights {
+            Some(w) => {
+                if w.len() != n {
+                    return Err(Error::invalid(format!("weights must have length {n} (one per light), got {}", w.len())));
+                }
+                if let Some((j, v)) = w.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                    return Err(Error::invalid(format!("weights must be finite, got {v} for light {j}")));
+                }
+                w
+            }
+            None => {
+                ones = vec![1.0f32; n];
+                &ones
+            }
+        };
+        let js: Vec<usize> = (0..n).collect();
+        let m = self.view.len();
+        let accum = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("LightMatrix::accum"),
+            size: (m as u64 * 16).max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        for batch in self.batches(&js, usize::MAX) {
+            let submission = self.run_batch(&js, &batch, &w[batch.start..batch.end], &accum, None);
+            self.wait_for(submission)?;
+            progress(batch.end, n);
+        }
+        let rgba = self.ctx.read_buffer::<[f32; 4]>(&accum, 0, m)?;
+        Ok(rgba.iter().flat_map(|p| [p[0], p[1], p[2]]).collect())
+    }
+}

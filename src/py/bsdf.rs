@@ -1,0 +1,157 @@
+//! `bsdf_eval`: evaluate one BSDF given as a small dict on the CPU reference or the GPU (tests against
+//! Mitsuba's Python API use it).
+use crate::error::{Error, Result};
+use crate::gpu::{bsdf_eval::eval_batch_gpu, GpuContext};
+use crate::scene::{Bsdf, MicrofacetDistribution, Param};
+use crate::shading::bsdf::{eval, resolve, roughplastic_table_buffer};
+use glam::{Vec2, Vec3};
+use numpy::{ndarray::Array2, IntoPyArray, PyArray2, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+fn get<'py, T: FromPyObjectOwned<'py>>(spec: &Bound<'py, PyDict>, key: &str) -> PyResult<Option<T>> {
+    match spec.get_item(key)? {
+        Some(v) => match v.extract::<T>() {
+            Ok(x) => Ok(Some(x)),
+            Err(_) => Err(Error::invalid(format!("spec[{key:?}] has the wrong type: {v}")).into()),
+        },
+        None => Ok(None),
+    }
+}
+
+/// An RGB value: a float or three floats.
+fn rgb(spec: &Bound<'_, PyDict>, key: &str, default: f32) -> PyResult<Vec3> {
+    match spec.get_item(key)? {
+        None => Ok(Vec3::splat(default)),
+        Some(v) => {
+            if let Ok(x) = v.extract::<f32>() {
+                return Ok(Vec3::splat(x));
+            }
+            let c: Vec<f32> = v.extract().map_err(|e| Error::invalid(format!("spec[{key:?}]: {e}")))?;
+            if c.len() != 3 {
+                return Err(Error::invalid(format!("spec[{key:?}] must have 3 components, got {}", c.len())).into());
+            }
+            Ok(Vec3::new(c[0], c[1], c[2]))
+        }
+    }
+}
+
+fn distribution(spec: &Bound<'_, PyDict>) -> PyResult<MicrofacetDistribution> {
+    match get::<String>(spec, "distribution")?.as_deref().unwrap_or("beckmann") {
+        "beckmann" => Ok(MicrofacetDistribution::Beckmann),
+        "ggx" => Ok(MicrofacetDistribution::Ggx),
+        d => Err(Error::invalid(format!("distribution must be \"beckmann\" or \"ggx\", got {d:?}")).into()),
+    }
+}
+
+/// Build the scene BSDF list for `spec` (Mitsuba's defaults; `twosided: True` wraps it) and its index.
+fn bsdf_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<(Vec<Bsdf>, usize)> {
+    let ty: String = get(spec, "type")?.ok_or_else(|| Error::invalid("spec needs a \"type\""))?;
+    let f = |key: &str, default: f32| -> PyResult<f32> { Ok(get::<f32>(spec, key)?.unwrap_or(default)) };
+    let nonlinear = get::<bool>(spec, "nonlinear")?.unwrap_or(false);
+    let value = |v: Vec3| Param::Value(v);
+    let conductor_ior = || -> PyResult<(Vec3, Vec3)> {
+        if spec.get_item("eta")?.is_none() || spec.get_item("k")?.is_none() {
+            return Err(Error::invalid(format!("{ty}: spec needs \"eta\" and \"k\"")).into());
+        }
+        Ok((rgb(spec, "eta", 0.0)?, rgb(spec, "k", 1.0)?))
+    };
+    let bsdf = match ty.as_str() {
+        "diffuse" => Bsdf::Diffuse { reflectance: value(rgb(spec, "reflectance", 0.5)?) },
+        "plastic" => Bsdf::Plastic {
+            diffuse_reflectance: value(rgb(spec, "diffuse_reflectance", 0.5)?),
+            specular_reflectance: value(rgb(spec, "specular_reflectance", 1.0)?),
+            int_ior: f("int_ior", 1.49)?,
+            ext_ior: f("ext_ior", 1.000277)?,
+            nonlinear,
+        },
+        "roughplastic" => Bsdf::RoughPlastic {
+            diffuse_reflectance: value(rgb(spec, "diffuse_reflectance", 0.5)?),
+            specular_reflectance: value(rgb(spec, "specular_reflectance", 1.0)?),
+            distribution: distribution(spec)?,
+            alpha: f("alpha", 0.1)?,
+            int_ior: f("int_ior", 1.49)?,
+            ext_ior: f("ext_ior", 1.000277)?,
+            nonlinear,
+        },
+        "roughconductor" => {
+            let (eta, k) = conductor_ior()?;
+            let alpha = f("alpha", 0.1)?;
+            Bsdf::RoughConductor {
+                distribution: distribution(spec)?,
+                alpha_u: value(Vec3::splat(f("alpha_u", alpha)?)),
+                alpha_v: value(Vec3::splat(f("alpha_v", alpha)?)),
+                eta,
+                k,
+                specular_reflectance: value(rgb(spec, "specular_reflectance", 1.0)?),
+            }
+        }
+        "conductor" => {
+            let (eta, k) = conductor_ior()?;
+            Bsdf::Conductor { eta, k, specular_reflectance: value(rgb(spec, "specular_reflectance", 1.0)?) }
+        }
+        "dielectric" => Bsdf::Dielectric { int_ior: f("int_ior", 1.5046)?, ext_ior: f("ext_ior", 1.000277)? },
+        t => return Err(Error::invalid(format!("unsupported BSDF type {t:?}")).into()),
+    };
+    if get::<bool>(spec, "twosided")?.unwrap_or(false) {
+        Ok((vec![bsdf, Bsdf::TwoSided { front: 0, back: 0 }], 1))
+    } else {
+        Ok((vec![bsdf], 0))
+    }
+}
+
+fn directions(a: &PyReadonlyArray2<'_, f32>, name: &str) -> Result<Vec<Vec3>> {
+    let a = a.as_array();
+    if a.ncols() != 3 {
+        return Err(Error::invalid(format!("{name} must have shape (N, 3), got {:?}", a.shape())));
+    }
+    Ok(a.rows().into_iter().map(|r| Vec3::new(r[0], r[1], r[2])).collect())
+}
+
+/// Evaluate a BSDF as Mitsuba's `bsdf.eval(ctx, si, wo)` does, in the local frame (z = normal).
+///
+/// Args:
+///     spec: {"type": "diffuse" | "plastic" | "roughplastic" | "roughconductor" | "conductor" | "dielectric",
+///         parameters by Mitsuba's names (reflectance, diffuse_reflectance, specular_reflectance, alpha,
+///         alpha_u, alpha_v, distribution, int_ior, ext_ior, nonlinear, eta, k) with Mitsuba's defaults,
+///         "twosided": True wraps it}.
+///     wi: (N, 3) float32 unit directions toward the viewer.
+///     wo: (N, 3) float32 unit directions toward the light.
+///     device: "cpu" (Rust reference) or "gpu" (the WGSL twin).
+/// Returns:
+///     (N, 3) float32: f(wi, wo) |cos theta_o|.
+/// Raises:
+///     ValueError: bad spec or shapes. GpuUnavailableError / GpuError for device="gpu".
+#[pyfunction]
+fn bsdf_eval<'py>(
+    py: Python<'py>,
+    spec: &Bound<'py, PyDict>,
+    wi: PyReadonlyArray2<'py, f32>,
+    wo: PyReadonlyArray2<'py, f32>,
+    device: &str,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let (bsdfs, index) = bsdf_from_spec(spec)?;
+    let (wi, wo) = (directions(&wi, "wi")?, directions(&wo, "wo")?);
+    if wi.len() != wo.len() {
+        return Err(Error::invalid(format!("wi and wo must have the same length, got {} and {}", wi.len(), wo.len())).into());
+    }
+    let device = device.to_string();
+    let out: Vec<Vec3> = py.detach(|| -> Result<Vec<Vec3>> {
+        let b = resolve(&bsdfs, &[], index, Vec2::ZERO);
+        match device.as_str() {
+            "cpu" => Ok(wi.iter().zip(&wo).map(|(a, c)| eval(&b, *a, *c)).collect()),
+            "gpu" => {
+                let ctx = GpuContext::shared()?;
+                eval_batch_gpu(&ctx, &[b], &roughplastic_table_buffer(&bsdfs), &wi, &wo)
+            }
+            d => Err(Error::invalid(format!("device must be \"cpu\" or \"gpu\", got {d:?}"))),
+        }
+    })?;
+    let flat: Vec<f32> = out.iter().flat_map(|v| v.to_array()).collect();
+    let arr = Array2::from_shape_vec((out.len(), 3), flat).map_err(|e| Error::invalid(e.to_string()))?;
+    Ok(arr.into_pyarray(py))
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(bsdf_eval, m)?)
+}

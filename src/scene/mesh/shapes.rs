@@ -1,0 +1,210 @@
+//! Mitsuba 3.9.1's built-in shapes as local-space triangle meshes.
+//!
+//! - `rectangle` (`src/shapes/rectangle.cpp`, a mesh in Mitsuba too): vertex k at
+//!   `(2(k&1)-1, 2(k>>1)-1, 0)` with uv `(k&1, k>>1)`, normal +z, faces `[1,2,0], [1,3,2]`: exact.
+//! - `cube` (`src/shapes/cube.cpp`, a mesh in Mitsuba too): Mitsuba's 24 vertices, normals, uvs and 12
+//!   triangles, verbatim: exact.
+//! - `disk` (analytic in Mitsuba): a fan of [`DISK_SEGMENTS`] triangles in z=0, normal +z. Mitsuba's uv
+//!   is `(r, phi / 2pi)` with phi in [0, 2pi): rim vertex i has uv `(1, i/N)` (the seam is duplicated, so
+//!   the last rim vertex has v=1) and each triangle has its own centre vertex with uv `(0, (i+1/2)/N)`.
+//! - `sphere` (analytic in Mitsuba): a UV sphere of [`SPHERE_PHI_SEGMENTS`] x [`SPHERE_THETA_SEGMENTS`]
+//!   with Mitsuba's parameterisation: local point `(sin t cos p, sin t sin p, cos t)`, uv `(p/2pi, t/pi)`,
+//!   outward unit normals; seam duplicated (u=0 and u=1), one pole vertex per segment at u=(i+1/2)/N.
+//!   The exact sphere is used by ray-traced code through `ShapeKind::Sphere`.
+//!
+//! Tessellated shapes are inscribed: the largest radial error is `1 - cos(pi/N)` (3.0e-4 for the sphere,
+//! 7.5e-5 for the disk).
+use super::MeshData;
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Number of rim segments of the disk.
+pub const DISK_SEGMENTS: u32 = 256;
+/// Segments around the sphere's z axis (phi).
+pub const SPHERE_PHI_SEGMENTS: u32 = 128;
+/// Rings from +z to -z (theta).
+pub const SPHERE_THETA_SEGMENTS: u32 = 64;
+
+/// Mitsuba's `rectangle`: [-1,1]^2 in z=0, normal +z.
+pub fn rectangle() -> MeshData {
+    let mut d = MeshData::default();
+    for k in 0..4u32 {
+        let (xf, yf) = ((k & 1) as f32, (k >> 1) as f32);
+        d.positions.push(Vec3::new(2.0 * xf - 1.0, 2.0 * yf - 1.0, 0.0));
+        d.normals.push(Vec3::Z);
+        d.uvs.push(Vec2::new(xf, yf));
+    }
+    d.indices = vec![[1, 2, 0], [1, 3, 2]];
+    d
+}
+
+/// Mitsuba's `cube`: [-1,1]^3, 24 vertices (4 per face), per-face normals and uvs.
+pub fn cube() -> MeshData {
+    const P: [[f32; 3]; 24] = [
+        [1., -1., -1.], [1., -1., 1.], [-1., -1., 1.], [-1., -1., -1.],
+        [1., 1., -1.], [-1., 1., -1.], [-1., 1., 1.], [1., 1., 1.],
+        [1., -1., -1.], [1., 1., -1.], [1., 1., 1.], [1., -1., 1.],
+        [1., -1., 1.], [1., 1., 1.], [-1., 1., 1.], [-1., -1., 1.],
+        [-1., -1., 1.], [-1., 1., 1.], [-1., 1., -1.], [-1., -1., -1.],
+        [1., 1., -1.], [1., -1., -1.], [-1., -1., -1.], [-1., 1., -1.],
+    ];
+    // One normal per group of 4 vertices: -y, +y, +x, +z, -x, -z.
+    const N: [[f32; 3]; 6] = [[0., -1., 0.], [0., 1., 0.], [1., 0., 0.], [0., 0., 1.], [-1., 0., 0.], [0., 0., -1.]];
+    const UV: [[f32; 2]; 4] = [[0., 1.], [1., 1.], [1., 0.], [0., 0.]];
+    let mut d = MeshData::default();
+    for (i, p) in P.iter().enumerate() {
+        d.positions.push(Vec3::from_array(*p));
+        d.normals.push(Vec3::from_array(N[i / 4]));
+        d.uvs.push(Vec2::from_array(UV[i % 4]));
+    }
+    for f in 0..6u32 {
+        let b = 4 * f;
+        d.indices.push([b, b + 1, b + 2]);
+        d.indices.push([b + 3, b, b + 2]);
+    }
+    d
+}
+
+/// Mitsuba's `disk`: the unit disk in z=0, normal +z, uv (r, phi/2pi).
+pub fn disk() -> MeshData {
+    let n = DISK_SEGMENTS;
+    let mut d = MeshData::default();
+    for i in 0..=n {
+        let phi = 2.0 * PI * (i % n) as f32 / n as f32;
+        d.positions.push(Vec3::new(phi.cos(), phi.sin(), 0.0));
+        d.normals.push(Vec3::Z);
+        d.uvs.push(Vec2::new(1.0, i as f32 / n as f32));
+    }
+    for i in 0..n {
+        let centre = d.positions.len() as u32;
+        d.positions.push(Vec3::ZERO);
+        d.normals.push(Vec3::Z);
+        d.uvs.push(Vec2::new(0.0, (i as f32 + 0.5) / n as f32));
+        d.indices.push([centre, i, i + 1]);
+    }
+    d
+}
+
+/// Unit sphere (centre 0, radius 1), Mitsuba's uv and outward normals.
+pub fn sphere() -> MeshData {
+    let (np, nt) = (SPHERE_PHI_SEGMENTS, SPHERE_THETA_SEGMENTS);
+    let mut d = MeshData::default();
+    for j in 0..=nt {
+        let theta = PI * j as f32 / nt as f32;
+        let (sin_t, cos_t) = if j == 0 {
+            (0.0, 1.0)
+        } else if j == nt {
+            (0.0, -1.0)
+        } else {
+            theta.sin_cos()
+        };
+        let pole = j == 0 || j == nt;
+        for i in 0..=np {
+            let phi = 2.0 * PI * (i % np) as f32 / np as f32;
+            let (sin_p, cos_p) = phi.sin_cos();
+            let p = Vec3::new(sin_t * cos_p, sin_t * sin_p, cos_t);
+            d.positions.push(p);
+            d.normals.push(p);
+            let u = if pole { (i as f32 + 0.5) / np as f32 } else { i as f32 / np as f32 };
+            d.uvs.push(Vec2::new(u, j as f32 / nt as f32));
+        }
+    }
+    let at = |j: u32, i: u32| j * (np + 1) + i;
+    for j in 0..nt {
+        for i in 0..np {
+            let (a, b, c, e) = (at(j, i), at(j + 1, i), at(j + 1, i + 1), at(j, i + 1));
+            if j != nt - 1 {
+                d.indices.push([a, b, c]);
+            }
+            if j != 0 {
+                d.indices.push([a, c, e]);
+            }
+        }
+    }
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cross(d: &MeshData, t: &[u32; 3]) -> Vec3 {
+        let p = |k: usize| d.positions[t[k] as usize];
+        (p(1) - p(0)).cross(p(2) - p(0))
+    }
+
+    #[test]
+    fn rectangle_matches_mitsuba() {
+        let d = rectangle();
+        assert_eq!(d.positions[0], Vec3::new(-1., -1., 0.));
+        assert_eq!(d.positions[3], Vec3::new(1., 1., 0.));
+        assert_eq!(d.uvs[0], Vec2::ZERO);
+        assert_eq!(d.uvs[1], Vec2::new(1., 0.));
+        assert_eq!(d.indices, vec![[1, 2, 0], [1, 3, 2]]);
+        for t in &d.indices {
+            assert!(cross(&d, t).normalize() == Vec3::Z);
+        }
+    }
+
+    #[test]
+    fn cube_matches_mitsuba() {
+        let d = cube();
+        assert_eq!((d.positions.len(), d.indices.len()), (24, 12));
+        assert_eq!(d.indices[1], [3, 0, 2]);
+        assert_eq!(d.indices[11], [23, 20, 22]);
+        assert_eq!(d.uvs[6], Vec2::new(1., 0.));
+        for (k, t) in d.indices.iter().enumerate() {
+            let n = cross(&d, t).normalize();
+            assert_eq!(n, d.normals[t[0] as usize], "triangle {k}: winding agrees with the normal");
+            for &i in t {
+                assert_eq!(d.positions[i as usize].dot(n), 1.0); // on the face plane, outward
+            }
+        }
+    }
+
+    #[test]
+    fn disk_is_an_upward_fan() {
+        let d = disk();
+        let n = DISK_SEGMENTS as usize;
+        assert_eq!((d.positions.len(), d.indices.len()), (2 * n + 1, n));
+        assert_eq!(d.positions[n], d.positions[0]);
+        let area: f32 = d.indices.iter().map(|t| 0.5 * cross(&d, t).z).sum();
+        let expect = 0.5 * n as f32 * (2.0 * PI / n as f32).sin();
+        assert!((area - expect).abs() < 1e-5 && (area - PI).abs() < 4e-4, "{area}");
+        assert!(d.indices.iter().all(|t| cross(&d, t).z > 0.0));
+        // uv (r, phi/2pi): the rim point at phi = pi/2 has v = 1/4.
+        assert_eq!(d.uvs[n / 4], Vec2::new(1.0, 0.25));
+        assert!((d.positions[n / 4] - Vec3::Y).length() < 1e-6);
+    }
+
+    #[test]
+    fn sphere_is_closed_and_outward() {
+        let d = sphere();
+        let (np, nt) = (SPHERE_PHI_SEGMENTS as usize, SPHERE_THETA_SEGMENTS as usize);
+        assert_eq!(d.positions.len(), (np + 1) * (nt + 1));
+        assert_eq!(d.indices.len(), np * (2 * nt - 2));
+        let mut volume = 0.0f64;
+        for t in &d.indices {
+            let c = cross(&d, t);
+            assert!(c.length() > 0.0);
+            let centroid = (d.positions[t[0] as usize] + d.positions[t[1] as usize] + d.positions[t[2] as usize]) / 3.0;
+            assert!(c.dot(centroid) > 0.0, "outward");
+            volume += (c.dot(d.positions[t[0] as usize]) / 6.0) as f64;
+        }
+        // Inscribed: slightly less than 4/3 pi (4.18879), by about 2 (1 - cos(pi/128)) relative.
+        let exact = 4.0 / 3.0 * std::f64::consts::PI;
+        assert!(volume < exact && exact - volume < 5e-3, "{volume}");
+        for (p, (n, uv)) in d.positions.iter().zip(d.normals.iter().zip(&d.uvs)) {
+            assert!((p.length() - 1.0).abs() < 1e-6 && p == n);
+            // Mitsuba's uv: theta = acos(z) / pi, phi = atan2(y, x) / 2pi in [0, 1).
+            assert!((uv.y - p.z.clamp(-1., 1.).acos() / PI).abs() < 1e-6);
+            if p.z.abs() < 0.999 {
+                let mut phi = p.y.atan2(p.x) / (2.0 * PI);
+                if phi < 0.0 {
+                    phi += 1.0;
+                }
+                assert!((uv.x - phi).abs() < 1e-5 || (uv.x - 1.0).abs() < 1e-6 && phi < 1e-6, "{uv} {phi}");
+            }
+        }
+    }
+}

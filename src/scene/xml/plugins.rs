@@ -1,0 +1,595 @@
+//! Stage 2 of loading: object nodes -> `Bsdf`, `Texture`, `Mesh`, `Emitter`, `Camera`, with the
+//! defaults of Mitsuba 3.9.1's plugins (`src/bsdfs/*.cpp`, `src/textures/*.cpp`, `src/emitters/*.cpp`,
+//! `src/shapes/*.cpp`, `src/sensors/perspective.cpp`, `src/render/sensor.cpp`).
+//!
+//! BSDFs and textures are built once per node (memoised by node index), so shapes sharing a `<ref>` share
+//! one `Scene::bsdfs` entry. Deviations from Mitsuba:
+//! - a sphere whose `to_world` has a non-uniform scale or shear is an error (Mitsuba only warns);
+//! - shapes without a BSDF share one default `diffuse` (reflectance 0.5) entry;
+//! - emissive parameters (`radiance`, `intensity`, `irradiance`) must be constant (no textures).
+use super::materials;
+use super::parse::{Document, Value};
+use super::props::{ObjectRef, Props};
+use crate::error::{Error, Location, Result};
+use crate::scene::transform;
+use crate::scene::types::*;
+use crate::scene::{mesh, texture};
+use glam::{DMat4, DVec3, Mat4, Vec3};
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+/// Film size when the file gives none (Mitsuba's `hdrfilm` defaults).
+const DEFAULT_FILM_SIZE: (i64, i64) = (768, 576);
+
+/// Everything built so far.
+pub struct Builder<'a> {
+    pub doc: &'a Document,
+    pub size_override: Option<(u32, u32)>,
+    pub bsdfs: Vec<Bsdf>,
+    pub textures: Vec<Texture>,
+    pub meshes: Vec<Mesh>,
+    /// Top-level emitters in document order.
+    pub emitters: Vec<Emitter>,
+    /// Area emitters of shapes, in shape order (`Emitter::Area::mesh` is set).
+    pub area_emitters: Vec<Emitter>,
+    bsdf_memo: HashMap<usize, usize>,
+    texture_memo: HashMap<usize, usize>,
+    default_bsdf: Option<usize>,
+    /// Area emitter nodes already attached to a shape (node -> where).
+    attached: HashMap<usize, Location>,
+}
+
+fn unknown_plugin(p: &Props) -> Error {
+    Error::scene(p.loc(), format!("unsupported {} plugin type=\"{}\"", p.node.class, p.node.plugin))
+}
+
+impl<'a> Builder<'a> {
+    pub fn new(doc: &'a Document, size_override: Option<(u32, u32)>) -> Self {
+        Builder {
+            doc,
+            size_override,
+            bsdfs: Vec::new(),
+            textures: Vec::new(),
+            meshes: Vec::new(),
+            emitters: Vec::new(),
+            area_emitters: Vec::new(),
+            bsdf_memo: HashMap::new(),
+            texture_memo: HashMap::new(),
+            default_bsdf: None,
+            attached: HashMap::new(),
+        }
+    }
+
+    /// A file named by a plugin: searched in the `<path>` directories, then the scene's directory.
+    fn resolve_file(&self, name: &str, loc: &Location) -> Result<PathBuf> {
+        let p = PathBuf::from(name);
+        if p.is_absolute() {
+            return if p.is_file() { Ok(p) } else { Err(Error::FileNotFound { loc: loc.clone(), path: p }) };
+        }
+        for dir in &self.doc.search_dirs {
+            let c = dir.join(&p);
+            if c.is_file() {
+                return Ok(c);
+            }
+        }
+        let fallback = self.doc.search_dirs.last().cloned().unwrap_or_default().join(&p);
+        Err(Error::FileNotFound { loc: loc.clone(), path: fallback })
+    }
+
+    fn filename(&self, p: &mut Props, what: &str) -> Result<(PathBuf, Location)> {
+        let Some((name, loc)) = p.string("filename")? else {
+            return Err(Error::scene(p.loc(), format!("{what}: missing <string name=\"filename\">")));
+        };
+        Ok((self.resolve_file(name, loc)?, loc.clone()))
+    }
+
+    fn expect_class(&self, r: &ObjectRef, class: &str, role: &str) -> Result<()> {
+        let n = &self.doc.nodes[r.node];
+        if n.class != class {
+            return Err(Error::scene(&r.loc, format!("{role} must be a <{class}>, got <{} type=\"{}\">", n.class, n.plugin)));
+        }
+        Ok(())
+    }
+
+    // ---- textures ----
+
+    /// Index into `textures` of a `<texture>` node.
+    pub fn texture(&mut self, node: usize) -> Result<usize> {
+        if let Some(&i) = self.texture_memo.get(&node) {
+            return Ok(i);
+        }
+        let mut p = Props::new(self.doc, node);
+        let to_uv = transform::to_uv_matrix(&p.transform("to_uv")?.unwrap_or(DMat4::IDENTITY));
+        let tex = match p.node.plugin.as_str() {
+            "bitmap" => {
+                let (path, loc) = self.filename(&mut p, "bitmap texture")?;
+                let filter = match p.string("filter_type")? {
+                    None | Some(("bilinear", _)) => FilterType::Bilinear,
+                    Some(("nearest", _)) => FilterType::Nearest,
+                    Some((v, l)) => {
+                        return Err(Error::scene(l, format!("invalid filter_type \"{v}\", must be \"nearest\" or \"bilinear\"")));
+                    }
+                };
+                let wrap = match p.string("wrap_mode")? {
+                    None | Some(("repeat", _)) => WrapMode::Repeat,
+                    Some(("mirror", _)) => WrapMode::Mirror,
+                    Some(("clamp", _)) => WrapMode::Clamp,
+                    Some((v, l)) => {
+                        return Err(Error::scene(l, format!("invalid wrap_mode \"{v}\", must be \"repeat\", \"mirror\" or \"clamp\"")));
+                    }
+                };
+                let raw = p.bool("raw", false)?;
+                p.ignore(&["format"]);
+                let (width, height, data) = texture::load_bitmap(&path, &loc, raw)?;
+                Texture::Bitmap { width, height, data, filter, wrap, to_uv, loc }
+            }
+            "checkerboard" => {
+                let color0 = self.constant_color(&mut p, "color0", 0.4)?;
+                let color1 = self.constant_color(&mut p, "color1", 0.2)?;
+                Texture::Checkerboard { color0, color1, to_uv }
+            }
+            _ => return Err(unknown_plugin(&p)),
+        };
+        p.finish()?;
+        self.textures.push(tex);
+        let i = self.textures.len() - 1;
+        self.texture_memo.insert(node, i);
+        Ok(i)
+    }
+
+    /// A reflectance parameter: constant, or a nested / referenced texture. Like Mitsuba's
+    /// `get_texture`, an `<rgb>` value must lie in [0, 1].
+    fn param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
+        let v = self.unbounded_param(p, name, default)?;
+        if let (Param::Value(c), Some(prop)) = (v, p.prop(name)) {
+            if matches!(prop.value, Value::Rgb(_)) && !(c.min_element() >= 0.0 && c.max_element() <= 1.0) {
+                return Err(Error::scene(
+                    &prop.loc,
+                    format!("invalid RGB reflectance {name}=[{}, {}, {}] in {}: must be in [0, 1]", c.x, c.y, c.z, p.what()),
+                ));
+            }
+        }
+        Ok(v)
+    }
+
+    /// A parameter without range check (Mitsuba's `get_unbounded_texture`: roughness, eta, k).
+    fn unbounded_param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
+        if let Some(r) = p.named_object(name)? {
+            self.expect_class(&r, "texture", &format!("\"{name}\" of {}", p.what()))?;
+            return Ok(Param::Texture(self.texture(r.node)?));
+        }
+        Ok(Param::Value(p.color_prop(name)?.unwrap_or(Vec3::splat(default))))
+    }
+
+    /// A colour that must be constant (emitters, checkerboard colours).
+    fn constant_color(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Vec3> {
+        if let Some(r) = p.named_object(name)? {
+            return Err(Error::scene(&r.loc, format!("\"{name}\" of {} must be a constant colour (textures are not supported here)", p.what())));
+        }
+        Ok(p.color_prop(name)?.unwrap_or(Vec3::splat(default)))
+    }
+
+    // ---- BSDFs ----
+
+    fn ior(&self, p: &mut Props, name: &str, default: &str) -> Result<f32> {
+        if let Some(prop) = p.prop(name) {
+            return match &prop.value {
+                Value::Float(v) => Ok(*v as f32),
+                Value::Int(v) => Ok(*v as f32),
+                Value::Str(s) => materials::lookup_ior(s).ok_or_else(|| {
+                    Error::scene(&prop.loc, format!("unknown IOR name {name}=\"{s}\"; valid names: {}", materials::ior_names()))
+                }),
+                other => Err(Error::scene(&prop.loc, format!("{name} must be a <float> or <string>, got <{}>", other.type_name()))),
+            };
+        }
+        Ok(materials::lookup_ior(default).unwrap_or(1.0))
+    }
+
+    fn distribution(&self, p: &mut Props) -> Result<MicrofacetDistribution> {
+        match p.string("distribution")? {
+            None => Ok(MicrofacetDistribution::Beckmann),
+            Some((v, l)) => match v.to_lowercase().as_str() {
+                "beckmann" => Ok(MicrofacetDistribution::Beckmann),
+                "ggx" => Ok(MicrofacetDistribution::Ggx),
+                _ => Err(Error::scene(l, format!("invalid distribution \"{v}\", must be \"beckmann\" or \"ggx\""))),
+            },
+        }
+    }
+
+    /// eta and k of a conductor: `eta`/`k` or a `material` preset (default "none": eta 0, k 1).
+    fn complex_ior(&mut self, p: &mut Props) -> Result<(Vec3, Vec3)> {
+        match p.string("material")? {
+            Some((m, l)) if m != "none" => {
+                if p.has("eta") || p.has("k") {
+                    return Err(Error::scene(l, format!("material=\"{m}\": specify either (eta, k) or material, not both")));
+                }
+                materials::conductor(m).ok_or_else(|| {
+                    Error::scene(l, format!("unknown conductor material \"{m}\"; valid names: {}", materials::conductor_names()))
+                })
+            }
+            _ => Ok((self.constant_color(p, "eta", 0.0)?, self.constant_color(p, "k", 1.0)?)),
+        }
+    }
+
+    /// Index into `bsdfs` of a `<bsdf>` node.
+    pub fn bsdf(&mut self, node: usize) -> Result<usize> {
+        if let Some(&i) = self.bsdf_memo.get(&node) {
+            return Ok(i);
+        }
+        let mut p = Props::new(self.doc, node);
+        let bsdf = match p.node.plugin.as_str() {
+            "diffuse" => Bsdf::Diffuse { reflectance: self.param(&mut p, "reflectance", 0.5)? },
+            "twosided" => {
+                let children = p.objects()?;
+                let mut inner = Vec::new();
+                for r in &children {
+                    self.expect_class(r, "bsdf", "a child of twosided")?;
+                    inner.push(self.bsdf(r.node)?);
+                }
+                match inner[..] {
+                    [front] => Bsdf::TwoSided { front, back: front },
+                    [front, back] => Bsdf::TwoSided { front, back },
+                    [] => return Err(Error::scene(p.loc(), "twosided: a nested BSDF is required")),
+                    _ => return Err(Error::scene(p.loc(), format!("twosided: at most two nested BSDFs, got {}", inner.len()))),
+                }
+            }
+            kind @ ("plastic" | "roughplastic") => {
+                let int_ior = self.ior(&mut p, "int_ior", "polypropylene")?;
+                let ext_ior = self.ior(&mut p, "ext_ior", "air")?;
+                if int_ior < 0.0 || ext_ior < 0.0 || int_ior == ext_ior {
+                    return Err(Error::scene(p.loc(), format!("{kind}: int_ior ({int_ior}) and ext_ior ({ext_ior}) must be positive and differ")));
+                }
+                let diffuse_reflectance = self.param(&mut p, "diffuse_reflectance", 0.5)?;
+                let specular_reflectance = self.param(&mut p, "specular_reflectance", 1.0)?;
+                let nonlinear = p.bool("nonlinear", false)?;
+                if kind == "plastic" {
+                    Bsdf::Plastic { diffuse_reflectance, specular_reflectance, int_ior, ext_ior, nonlinear }
+                } else {
+                    let distribution = self.distribution(&mut p)?;
+                    if p.has("alpha_u") || p.has("alpha_v") {
+                        return Err(Error::scene(p.loc(), "roughplastic does not support anisotropic roughness (alpha_u/alpha_v)"));
+                    }
+                    let alpha = p.float("alpha", 0.1)? as f32;
+                    Bsdf::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, alpha, int_ior, ext_ior, nonlinear }
+                }
+            }
+            "conductor" => {
+                let (eta, k) = self.complex_ior(&mut p)?;
+                let specular_reflectance = self.param(&mut p, "specular_reflectance", 1.0)?;
+                Bsdf::Conductor { eta, k, specular_reflectance }
+            }
+            "roughconductor" => {
+                let (eta, k) = self.complex_ior(&mut p)?;
+                let distribution = self.distribution(&mut p)?;
+                let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
+                    if !(p.has("alpha_u") && p.has("alpha_v")) {
+                        return Err(Error::scene(p.loc(), "roughconductor: both alpha_u and alpha_v must be given"));
+                    }
+                    if p.has("alpha") {
+                        return Err(Error::scene(p.loc(), "roughconductor: give either alpha or alpha_u/alpha_v, not both"));
+                    }
+                    (self.unbounded_param(&mut p, "alpha_u", 0.1)?, self.unbounded_param(&mut p, "alpha_v", 0.1)?)
+                } else {
+                    let a = self.unbounded_param(&mut p, "alpha", 0.1)?;
+                    (a, a)
+                };
+                let specular_reflectance = self.param(&mut p, "specular_reflectance", 1.0)?;
+                Bsdf::RoughConductor { distribution, alpha_u, alpha_v, eta, k, specular_reflectance }
+            }
+            "dielectric" => {
+                let int_ior = self.ior(&mut p, "int_ior", "bk7")?;
+                let ext_ior = self.ior(&mut p, "ext_ior", "air")?;
+                if int_ior < 0.0 || ext_ior < 0.0 || int_ior == ext_ior {
+                    return Err(Error::scene(p.loc(), format!("dielectric: int_ior ({int_ior}) and ext_ior ({ext_ior}) must be positive and differ")));
+                }
+                for n in ["specular_reflectance", "specular_transmittance"] {
+                    if let Param::Value(v) = self.param(&mut p, n, 1.0)? {
+                        if v != Vec3::ONE {
+                            return Err(Error::scene(p.loc(), format!("dielectric: {n} other than 1 is not supported")));
+                        }
+                    } else {
+                        return Err(Error::scene(p.loc(), format!("dielectric: a textured {n} is not supported")));
+                    }
+                }
+                Bsdf::Dielectric { int_ior, ext_ior }
+            }
+            _ => return Err(unknown_plugin(&p)),
+        };
+        p.finish()?;
+        self.bsdfs.push(bsdf);
+        let i = self.bsdfs.len() - 1;
+        self.bsdf_memo.insert(node, i);
+        Ok(i)
+    }
+
+    // ---- shapes ----
+
+    /// Builds one `<shape>` into `meshes` (and its area emitter into `area_emitters`).
+    pub fn shape(&mut self, node: usize) -> Result<()> {
+        let mut p = Props::new(self.doc, node);
+        let loc = p.loc().clone();
+        let k = self.meshes.len();
+        let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let flip_normals = p.bool("flip_normals", false)?;
+        let plugin = p.node.plugin.as_str();
+        // Mitsuba 3.9.1 meshes (these read face_normals); sphere and disk are analytic there.
+        let is_mesh = matches!(plugin, "obj" | "ply" | "cube" | "rectangle");
+        let face_normals = if is_mesh { p.bool("face_normals", false)? } else { false };
+        let (kind, data, world_from_local) = match plugin {
+            "obj" | "ply" => {
+                let (path, floc) = self.filename(&mut p, &format!("{plugin} shape"))?;
+                let mut data = if plugin == "obj" { mesh::load_obj(&path, &floc)? } else { mesh::load_ply(&path, &floc)? };
+                // `load_*` apply Mitsuba's default (OBJ: flip, PLY: no flip); undo/apply on request.
+                let default_flip = plugin == "obj";
+                if p.bool("flip_tex_coords", default_flip)? != default_flip {
+                    data.uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
+                }
+                let kind = if plugin == "obj" { ShapeKind::Obj } else { ShapeKind::Ply };
+                (kind, data, to_world)
+            }
+            "rectangle" => (ShapeKind::Rectangle, mesh::rectangle(), to_world),
+            "cube" => (ShapeKind::Cube, mesh::cube(), to_world),
+            "disk" => (ShapeKind::Disk, mesh::disk(), to_world),
+            "sphere" => {
+                let center = p.vector("center")?.unwrap_or(DVec3::ZERO);
+                let radius = p.float("radius", 1.0)?;
+                let m = to_world * DMat4::from_translation(center) * DMat4::from_scale(DVec3::splat(radius));
+                let cols = [m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()];
+                let l = cols.map(|c| c.length());
+                let uniform = (l[1] - l[0]).abs() <= 1e-5 * l[0] && (l[2] - l[0]).abs() <= 1e-5 * l[0];
+                let orthogonal = (0..3).all(|i| cols[i].dot(cols[(i + 1) % 3]).abs() <= 1e-5 * l[0] * l[0]);
+                if !(uniform && orthogonal) || l[0] == 0.0 {
+                    return Err(Error::scene(
+                        &loc,
+                        format!("sphere: to_world must be a similarity (uniform scale, no shear); axis lengths {:.6}, {:.6}, {:.6}", l[0], l[1], l[2]),
+                    ));
+                }
+                let mirrored = glam::DMat3::from_mat4(m).determinant() < 0.0;
+                let kind = ShapeKind::Sphere {
+                    center: m.w_axis.truncate().as_vec3(),
+                    radius: l[0] as f32,
+                    flip_normals: flip_normals != mirrored,
+                };
+                (kind, mesh::sphere(), m)
+            }
+            "serialized" => {
+                return Err(Error::scene(&loc, "shape type=\"serialized\" is not supported: convert the mesh to PLY (the shared scenes' scene.xml files do)"));
+            }
+            _ => return Err(unknown_plugin(&p)),
+        };
+        // Children: one BSDF and at most one area emitter.
+        let mut bsdf = None;
+        let mut emitter_node = None;
+        for r in p.objects()? {
+            let n = &self.doc.nodes[r.node];
+            match n.class.as_str() {
+                "bsdf" if bsdf.is_none() => bsdf = Some(self.bsdf(r.node)?),
+                "bsdf" => return Err(Error::scene(&r.loc, "only a single BSDF can be given per shape")),
+                "emitter" if emitter_node.is_none() => emitter_node = Some(r),
+                "emitter" => return Err(Error::scene(&r.loc, "only a single emitter can be given per shape")),
+                other => {
+                    return Err(Error::scene(&r.loc, format!("unsupported <{other} type=\"{}\"> inside a shape", n.plugin)));
+                }
+            }
+        }
+        let id = p.node.id.clone().unwrap_or_else(|| format!("shape_{k}"));
+        p.finish()?;
+        let bsdf = match bsdf {
+            Some(b) => b,
+            None => *self.default_bsdf.get_or_insert_with(|| {
+                self.bsdfs.push(Bsdf::Diffuse { reflectance: Param::Value(Vec3::splat(0.5)) });
+                self.bsdfs.len() - 1
+            }),
+        };
+        let world_from_local: Mat4 = transform::to_f32(&world_from_local);
+        let (positions, normals, uvs, indices) = mesh::finalize(data, world_from_local, face_normals, flip_normals, &loc)?;
+        let emitter = match emitter_node {
+            Some(r) => {
+                let e = self.area_emitter(&r, k)?;
+                self.area_emitters.push(e);
+                Some(self.area_emitters.len() - 1)
+            }
+            None => None,
+        };
+        self.meshes.push(Mesh { id, kind, positions, normals, uvs, indices, face_normals, bsdf, emitter, loc });
+        Ok(())
+    }
+
+    fn area_emitter(&mut self, r: &ObjectRef, mesh: usize) -> Result<Emitter> {
+        let mut p = Props::new(self.doc, r.node);
+        if p.node.plugin != "area" {
+            return Err(Error::scene(&r.loc, format!("a shape's emitter must be type=\"area\", got \"{}\"", p.node.plugin)));
+        }
+        if let Some(prev) = self.attached.insert(r.node, r.loc.clone()) {
+            return Err(Error::scene(&r.loc, format!("area emitter already attached to another shape at {prev}")));
+        }
+        if p.has("to_world") {
+            return Err(Error::scene(p.loc(), "area emitter: a to_world transform is not allowed (the shape's applies)"));
+        }
+        let radiance = self.constant_color(&mut p, "radiance", 1.0)?;
+        let loc = p.loc().clone();
+        p.finish()?;
+        Ok(Emitter::Area { mesh, radiance, loc })
+    }
+
+    /// True if this top-level emitter node was attached to a shape.
+    pub fn is_attached(&self, node: usize) -> bool {
+        self.attached.contains_key(&node)
+    }
+
+    // ---- emitters ----
+
+    /// Builds a top-level, non-area `<emitter>` into `emitters`.
+    pub fn emitter(&mut self, node: usize) -> Result<()> {
+        let mut p = Props::new(self.doc, node);
+        let loc = p.loc().clone();
+        let to_world = p.transform("to_world")?;
+        let e = match p.node.plugin.as_str() {
+            "point" => {
+                let position = match (p.vector("position")?, to_world) {
+                    (Some(_), Some(_)) => {
+                        return Err(Error::scene(&loc, "point: give either position or to_world, not both"));
+                    }
+                    (Some(v), None) => v.as_vec3(),
+                    (None, m) => m.unwrap_or(DMat4::IDENTITY).w_axis.truncate().as_vec3(),
+                };
+                Emitter::Point { position, intensity: self.constant_color(&mut p, "intensity", 1.0)?, loc }
+            }
+            "spot" => {
+                if p.has("texture") {
+                    return Err(Error::scene(&loc, "spot: a projected texture is not supported"));
+                }
+                let intensity = self.constant_color(&mut p, "intensity", 1.0)?;
+                let cutoff = p.float("cutoff_angle", 20.0)?;
+                let beam = p.float("beam_width", cutoff * 0.75)?;
+                Emitter::Spot {
+                    world_from_light: transform::to_f32(&to_world.unwrap_or(DMat4::IDENTITY)),
+                    intensity,
+                    cutoff_angle: (cutoff as f32).to_radians(),
+                    beam_width: (beam as f32).to_radians(),
+                    loc,
+                }
+            }
+            "directional" => {
+                let direction = match (p.vector("direction")?, to_world) {
+                    (Some(_), Some(_)) => {
+                        return Err(Error::scene(&loc, "directional: give either direction or to_world, not both"));
+                    }
+                    (Some(d), None) => d,
+                    (None, m) => m.unwrap_or(DMat4::IDENTITY).transform_vector3(DVec3::Z),
+                };
+                if direction.length_squared() == 0.0 {
+                    return Err(Error::scene(&loc, "directional: direction must not be zero"));
+                }
+                let irradiance = self.constant_color(&mut p, "irradiance", 1.0)?;
+                Emitter::Directional { direction: direction.normalize().as_vec3(), irradiance, loc }
+            }
+            "envmap" => {
+                let (path, floc) = self.filename(&mut p, "envmap")?;
+                let scale = p.float("scale", 1.0)? as f32;
+                let (width, height, data) = texture::load_bitmap(&path, &floc, false)?;
+                let world_from_env = transform::to_f32(&to_world.unwrap_or(DMat4::IDENTITY));
+                Emitter::EnvMap { map: EnvMap { width, height, data, scale, world_from_env }, loc }
+            }
+            "constant" => Emitter::Constant { radiance: self.constant_color(&mut p, "radiance", 1.0)?, loc },
+            _ => return Err(unknown_plugin(&p)),
+        };
+        p.finish()?;
+        self.emitters.push(e);
+        Ok(())
+    }
+
+    // ---- sensor ----
+
+    /// The camera of a `<sensor type="perspective">` node.
+    pub fn sensor(&mut self, node: usize) -> Result<Camera> {
+        let mut p = Props::new(self.doc, node);
+        let loc = p.loc().clone();
+        if p.node.plugin != "perspective" {
+            return Err(unknown_plugin(&p));
+        }
+        let mut film = None;
+        for r in p.objects()? {
+            let n = &self.doc.nodes[r.node];
+            match n.class.as_str() {
+                "film" if film.is_none() => film = Some(r.node),
+                "film" => return Err(Error::scene(&r.loc, "only a single film can be given per sensor")),
+                "sampler" => {}
+                other => return Err(Error::scene(&r.loc, format!("unsupported <{other} type=\"{}\"> inside a sensor", n.plugin))),
+            }
+        }
+        let (width, height) = self.film(film, &loc)?;
+        let aspect = width as f64 / height as f64;
+        let fov_x = parse_fov(&mut p, aspect)?;
+        let near_clip = p.float("near_clip", 1e-2)?;
+        let far_clip = p.float("far_clip", 1e4)?;
+        if near_clip <= 0.0 || near_clip >= far_clip {
+            return Err(Error::scene(&loc, format!("near_clip ({near_clip}) must be > 0 and < far_clip ({far_clip})")));
+        }
+        let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        if transform::has_scale(&to_world) {
+            return Err(Error::scene(&loc, "scale factors in the camera to_world transformation are not allowed"));
+        }
+        p.finish()?;
+        Ok(Camera {
+            world_from_camera: transform::to_f32(&to_world),
+            fov_x: (fov_x as f32).to_radians(),
+            near_clip: near_clip as f32,
+            far_clip: far_clip as f32,
+            width,
+            height,
+            loc,
+        })
+    }
+
+    /// Film size: `hdrfilm` width/height (default 768x576), replaced by `size_override`.
+    fn film(&mut self, film: Option<usize>, sensor_loc: &Location) -> Result<(u32, u32)> {
+        let (mut w, mut h, mut loc) = (DEFAULT_FILM_SIZE.0, DEFAULT_FILM_SIZE.1, sensor_loc.clone());
+        if let Some(node) = film {
+            let mut p = Props::new(self.doc, node);
+            if p.node.plugin != "hdrfilm" {
+                return Err(unknown_plugin(&p));
+            }
+            loc = p.loc().clone();
+            (w, _) = p.int("width", w)?;
+            (h, _) = p.int("height", h)?;
+            for r in p.objects()? {
+                let n = &self.doc.nodes[r.node];
+                if n.class != "rfilter" {
+                    return Err(Error::scene(&r.loc, format!("unsupported <{} type=\"{}\"> inside a film", n.class, n.plugin)));
+                }
+            }
+            p.finish()?;
+        }
+        if let Some((ow, oh)) = self.size_override {
+            (w, h) = (ow as i64, oh as i64);
+        }
+        if w <= 0 || h <= 0 || w > u32::MAX as i64 || h > u32::MAX as i64 {
+            return Err(Error::scene(&loc, format!("film size {w}x{h}: width and height must be positive")));
+        }
+        Ok((w as u32, h as u32))
+    }
+}
+
+/// Horizontal field of view in degrees (Mitsuba's `parse_fov`, `src/render/sensor.cpp`).
+fn parse_fov(p: &mut Props, aspect: f64) -> Result<f64> {
+    let loc = p.loc().clone();
+    let (fov, axis) = match p.opt_float("fov")? {
+        Some(fov) => {
+            if p.has("focal_length") {
+                return Err(Error::scene(&loc, "give either fov or focal_length, not both"));
+            }
+            let axis = p.string("fov_axis")?.map(|(s, _)| s.to_lowercase()).unwrap_or_else(|| "x".into());
+            let axis = match axis.as_str() {
+                "smaller" => if aspect > 1.0 { "y" } else { "x" }.to_string(),
+                "larger" => if aspect > 1.0 { "x" } else { "y" }.to_string(),
+                _ => axis,
+            };
+            (fov, axis)
+        }
+        None => {
+            let f = p.string("focal_length")?.map(|(s, _)| s).unwrap_or("50mm");
+            let v = f.strip_suffix("mm").unwrap_or(f);
+            let v: f64 = v.trim().parse().map_err(|_| {
+                Error::scene(&loc, format!("could not parse focal_length \"{f}\" (must be of the form <x>mm)"))
+            })?;
+            (2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * v)).atan().to_degrees(), "diagonal".to_string())
+        }
+    };
+    let fov_x = match axis.as_str() {
+        "x" => fov,
+        "y" => (2.0 * ((0.5 * fov).to_radians().tan() * aspect).atan()).to_degrees(),
+        "diagonal" => {
+            let diagonal = 2.0 * (0.5 * fov).to_radians().tan();
+            let width = diagonal / (1.0 + 1.0 / (aspect * aspect)).sqrt();
+            (2.0 * (width * 0.5).atan()).to_degrees()
+        }
+        other => {
+            return Err(Error::scene(&loc, format!("fov_axis \"{other}\" must be one of smaller, larger, diagonal, x, y")));
+        }
+    };
+    if !(fov_x > 0.0 && fov_x < 180.0) {
+        return Err(Error::scene(&loc, format!("the horizontal field of view ({fov_x} degrees) must be in (0, 180)")));
+    }
+    Ok(fov_x)
+}
