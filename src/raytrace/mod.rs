@@ -19,6 +19,8 @@
 //!   measured from +x toward +y, `theta` from +z).
 //!   Deviation: the contract stores only a sphere's centre and radius, so a rotation in its
 //!   `to_world` does not rotate the uv parameterisation (the local frame is the world frame).
+//!   Checked against Mitsuba 3.9.1 `scene.ray_intersect` on cbox-lights (1875 rays, sphere and meshes):
+//!   same shape and triangle everywhere, t within 2e-5 relative, p 4e-7, n 1.2e-6, uv 1.2e-6.
 //! - Self-intersection: Mitsuba's `Interaction::offset_p` / `spawn_ray` / `spawn_ray_to`
 //!   (`include/mitsuba/render/interaction.h`): the origin moves along the geometric normal, toward the
 //!   side the ray leaves to, by `(1 + max_i |p_i|) * RAY_EPSILON`; a ray to a point stops at
