@@ -4,6 +4,7 @@ pub mod gpu;
 pub mod image;
 pub mod lights;
 pub mod matrix;
+pub mod raytrace;
 pub mod scene;
 pub mod shading;
 pub mod view;

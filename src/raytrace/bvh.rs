@@ -1,0 +1,155 @@
+//! The acceleration structure: one compressed wide BVH (obvhs `CwBvh`, 8-wide, Ylitie, Karras and
+//! Laine, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs", HPG 2017) over every
+//! primitive of the scene, built with PLOC (Meister and Bittner, TVCG 2018) plus reinsertion.
+//!
+//! Primitives are the triangles of every mesh, except `ShapeKind::Sphere` meshes, which are one
+//! analytic sphere primitive each (their tessellation is for rasterisers only). Primitives are stored
+//! in BVH leaf order so a leaf's primitives are contiguous in memory.
+use super::intersect::{intersect_sphere, WatertightRay};
+use crate::scene::{Scene, ShapeKind};
+use glam::{Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::builder::build_cwbvh;
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::{Ray, RayHit};
+use obvhs::{Boundable, BvhBuildParams};
+
+/// A primitive's geometry.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Geometry {
+    Triangle([Vec3; 3]),
+    Sphere { center: Vec3, radius: f32 },
+}
+
+/// A primitive: its geometry and where it comes from.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Primitive {
+    pub geometry: Geometry,
+    /// Index into `Scene::meshes`.
+    pub mesh: u32,
+    /// Triangle index in the mesh (0 for spheres).
+    pub prim: u32,
+}
+
+impl Boundable for Primitive {
+    fn aabb(&self) -> Aabb {
+        match self.geometry {
+            Geometry::Triangle([p0, p1, p2]) => {
+                Aabb::new(p0.min(p1).min(p2).into(), p0.max(p1).max(p2).into())
+            }
+            Geometry::Sphere { center, radius } => {
+                Aabb::new((center - Vec3::splat(radius)).into(), (center + Vec3::splat(radius)).into())
+            }
+        }
+    }
+}
+
+/// What a closest-hit query found: the primitive and its local hit data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct PrimitiveHit {
+    /// Index into `SceneBvh::primitives`.
+    pub index: usize,
+    pub t: f32,
+    /// Barycentrics of vertices 1 and 2 (zero for spheres).
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// The obvhs ray for `o + t d`. Negative zeros in `d` become positive: obvhs picks a slab's near
+/// side from `d < 0` but inverts `-0.0` to a large negative number, which would cull every box (axis-
+/// aligned rays such as `-Vec3::Z` would miss everything).
+fn obvhs_ray(o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Ray {
+    Ray::new(Vec3A::from(o), Vec3A::from(d) + Vec3A::ZERO, t_min, t_max)
+}
+
+/// Every primitive of a scene and the BVH over them.
+pub(crate) struct SceneBvh {
+    /// In BVH leaf order.
+    pub primitives: Vec<Primitive>,
+    /// `None` for a scene without primitives.
+    bvh: Option<CwBvh>,
+}
+
+impl SceneBvh {
+    /// Collects the primitives (the caller has validated indices and positions) and builds the BVH.
+    pub fn build(scene: &Scene) -> SceneBvh {
+        let mut primitives = Vec::new();
+        for (mesh_index, mesh) in scene.meshes.iter().enumerate() {
+            if let ShapeKind::Sphere { center, radius, .. } = mesh.kind {
+                primitives.push(Primitive { geometry: Geometry::Sphere { center, radius }, mesh: mesh_index as u32, prim: 0 });
+                continue;
+            }
+            for (prim, tri) in mesh.indices.iter().enumerate() {
+                let v = [mesh.positions[tri[0] as usize], mesh.positions[tri[1] as usize], mesh.positions[tri[2] as usize]];
+                primitives.push(Primitive { geometry: Geometry::Triangle(v), mesh: mesh_index as u32, prim: prim as u32 });
+            }
+        }
+        if primitives.is_empty() {
+            return SceneBvh { primitives, bvh: None };
+        }
+        let mut build_time = std::time::Duration::ZERO;
+        let mut bvh = build_cwbvh(&primitives, BvhBuildParams::medium_build(), &mut build_time);
+        // Reorder primitives into leaf order; the BVH then indexes them directly.
+        primitives = bvh.primitive_indices.iter().map(|&i| primitives[i as usize]).collect();
+        bvh.primitive_indices = (0..primitives.len() as u32).collect();
+        SceneBvh { primitives, bvh: Some(bvh) }
+    }
+
+    /// Closest primitive hit by `o + t d` with `t_min < t < t_max`.
+    pub fn closest(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<PrimitiveHit> {
+        let bvh = self.bvh.as_ref()?;
+        let wt = WatertightRay::new(o, d);
+        let mut best = PrimitiveHit { index: usize::MAX, t: f32::INFINITY, b1: 0.0, b2: 0.0 };
+        let mut hit = RayHit::none();
+        let ray = obvhs_ray(o, d, t_min, t_max);
+        bvh.ray_traverse(ray, &mut hit, |ray, index| {
+            // `ray.tmax` is the closest hit so far: anything returned below it becomes the new closest.
+            match self.intersect_primitive(&wt, d, index, ray.tmin, ray.tmax) {
+                Some((t, b1, b2)) => {
+                    best = PrimitiveHit { index, t, b1, b2 };
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        (best.index != usize::MAX).then_some(best)
+    }
+
+    /// Whether anything is hit with `t_min < t < t_max` (stops at the first hit).
+    pub fn any(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else { return false };
+        let wt = WatertightRay::new(o, d);
+        let ray = obvhs_ray(o, d, t_min, t_max);
+        !bvh.ray_traverse_miss(ray, |ray, index| {
+            self.intersect_primitive(&wt, d, index, ray.tmin, ray.tmax).map_or(f32::INFINITY, |h| h.0)
+        })
+    }
+
+    /// Closest hit by testing every primitive (the reference for tests); ties go to the lower index.
+    #[cfg(test)]
+    pub fn closest_brute_force(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<PrimitiveHit> {
+        let wt = WatertightRay::new(o, d);
+        let mut best: Option<PrimitiveHit> = None;
+        let mut t_max = t_max;
+        for index in 0..self.primitives.len() {
+            if let Some((t, b1, b2)) = self.intersect_primitive(&wt, d, index, t_min, t_max) {
+                best = Some(PrimitiveHit { index, t, b1, b2 });
+                t_max = t;
+            }
+        }
+        best
+    }
+
+    #[inline]
+    fn intersect_primitive(&self, wt: &WatertightRay, d: Vec3, index: usize, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+        match self.primitives[index].geometry {
+            Geometry::Triangle([p0, p1, p2]) => {
+                wt.intersect_triangle(p0, p1, p2, t_min, t_max).map(|h| (h.t, h.b1, h.b2))
+            }
+            Geometry::Sphere { center, radius } => {
+                intersect_sphere(center, radius, wt.o, d, t_min, t_max).map(|t| (t, 0.0, 0.0))
+            }
+        }
+    }
+}
+

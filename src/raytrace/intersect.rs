@@ -1,0 +1,233 @@
+//! Ray-primitive tests: watertight ray-triangle and analytic ray-sphere.
+//!
+//! Triangles: the watertight test of Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection",
+//! JCGT 2(1), 2013. The ray is sheared so that it runs along +z of a permuted frame; the three 2D edge
+//! functions `u`, `v`, `w` are then evaluated exactly at the origin, so a ray through a shared edge or
+//! vertex hits at least one of the triangles meeting there (no leaks between neighbours, which matters
+//! for visibility oracles). Edge functions that come out exactly zero are recomputed in f64 (Sec. 3.4
+//! of the paper). Both faces are hit (no culling).
+//!
+//! Spheres: as Mitsuba 3.9.1 `src/shapes/sphere.cpp` (`ray_intersect_preliminary_impl`) does in its
+//! scalar variants: in f64, the origin is first moved to the foot of the perpendicular from the centre
+//! onto the ray, the quadratic is solved from there (much less cancellation for distant origins), and
+//! the plane distance is added back. Deviation: Mitsuba assumes a unit `d`; we divide by `d.d` so any
+//! non-zero `d` works.
+//!
+//! All `t` are parametric in units of the ray direction `d` (`p = o + t d`), accepted on the open
+//! interval `(t_min, t_max)`.
+use glam::{DVec3, Vec3};
+
+/// A ray prepared for the watertight triangle test: origin, the axis permutation and the shear.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct WatertightRay {
+    pub o: Vec3,
+    /// Permuted axes: `kz` is the dominant axis of `d`, (`kx`, `ky`) keep the winding.
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    /// Shear constants `d[kx]/d[kz]`, `d[ky]/d[kz]`, `1/d[kz]`.
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+/// A triangle hit: parametric distance and the barycentrics of vertices 1 and 2.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct TriangleHit {
+    pub t: f32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
+impl WatertightRay {
+    /// `d` must be finite and non-zero (the caller checks).
+    pub fn new(o: Vec3, d: Vec3) -> Self {
+        let a = d.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        // Swap to preserve the winding direction of triangles when d[kz] is negative.
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        WatertightRay { o, kx, ky, kz, sx: d[kx] / d[kz], sy: d[ky] / d[kz], sz: 1.0 / d[kz] }
+    }
+
+    /// Intersects the triangle (`p0`, `p1`, `p2`); a hit needs `t_min < t < t_max`.
+    #[inline]
+    pub fn intersect_triangle(&self, p0: Vec3, p1: Vec3, p2: Vec3, t_min: f32, t_max: f32) -> Option<TriangleHit> {
+        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
+        let a = p0 - self.o;
+        let b = p1 - self.o;
+        let c = p2 - self.o;
+        // Shear and scale the vertices into the ray's frame.
+        let ax = a[kx] - self.sx * a[kz];
+        let ay = a[ky] - self.sy * a[kz];
+        let bx = b[kx] - self.sx * b[kz];
+        let by = b[ky] - self.sy * b[kz];
+        let cx = c[kx] - self.sx * c[kz];
+        let cy = c[ky] - self.sy * c[kz];
+        // Scaled barycentrics (2D edge functions); u weights p0, v p1, w p2.
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            // Exactly on an edge in f32: decide in double precision (the paper's fallback).
+            let (ax, ay, bx, by, cx, cy) =
+                (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+            u = (cx * by - cy * bx) as f32;
+            v = (ax * cy - ay * cx) as f32;
+            w = (bx * ay - by * ax) as f32;
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let az = self.sz * a[kz];
+        let bz = self.sz * b[kz];
+        let cz = self.sz * c[kz];
+        let t_scaled = u * az + v * bz + w * cz;
+        let inv_det = 1.0 / det;
+        let t = t_scaled * inv_det;
+        if !(t > t_min && t < t_max) {
+            return None;
+        }
+        Some(TriangleHit { t, b1: v * inv_det, b2: w * inv_det })
+    }
+}
+
+/// Roots of `a x^2 + b x + c = 0` in increasing order (Mitsuba's `math::solve_quadratic`: the linear
+/// case when `a == 0`, and the cancellation-free form of the two roots).
+fn solve_quadratic(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
+    if a == 0.0 {
+        if b == 0.0 {
+            return None;
+        }
+        let x = -c / b;
+        return Some((x, x));
+    }
+    let discrim = b * b - 4.0 * a * c;
+    if discrim < 0.0 {
+        return None;
+    }
+    let temp = -0.5 * (b + discrim.sqrt().copysign(b));
+    let x0 = temp / a;
+    let x1 = if temp != 0.0 { c / temp } else { x0 };
+    Some(if x0 <= x1 { (x0, x1) } else { (x1, x0) })
+}
+
+/// Closest intersection of `o + t d`, `t_min < t < t_max`, with the sphere (`center`, `radius`).
+#[inline]
+pub(crate) fn intersect_sphere(center: Vec3, radius: f32, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
+    let c = center.as_dvec3();
+    let d64: DVec3 = d.as_dvec3();
+    let l = o.as_dvec3() - c;
+    let dd = d64.dot(d64);
+    // Foot of the perpendicular from the centre onto the ray, relative to the centre.
+    let plane_t = -l.dot(d64) / dd;
+    let o_plane = l + d64 * plane_t;
+    let r = radius as f64;
+    let (near, far) = solve_quadratic(dd, 2.0 * o_plane.dot(d64), o_plane.dot(o_plane) - r * r)?;
+    let (near, far) = (near + plane_t, far + plane_t);
+    let (t_min, t_max) = (t_min as f64, t_max as f64);
+    let t = if near > t_min && near < t_max {
+        near
+    } else if far > t_min && far < t_max {
+        far
+    } else {
+        return None;
+    };
+    Some(t as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    /// Tolerance of f32 results against f64 closed forms (a few ulps of the largest coordinate).
+    const REL_TOL: f32 = 1e-5;
+
+    #[test]
+    fn triangle_hit_barycentrics_and_t() {
+        let (p0, p1, p2) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let o = Vec3::new(0.25, 0.5, 2.0);
+        let d = Vec3::new(0.0, 0.0, -2.0);
+        let hit = WatertightRay::new(o, d).intersect_triangle(p0, p1, p2, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(hit, TriangleHit { t: 1.0, b1: 0.25, b2: 0.5 });
+        // Back side is hit too, from below.
+        let hit = WatertightRay::new(Vec3::new(0.25, 0.5, -1.0), Vec3::Z).intersect_triangle(p0, p1, p2, 0.0, 5.0);
+        assert_eq!(hit.map(|h| h.t), Some(1.0));
+        // Interval is open and respected.
+        assert!(WatertightRay::new(o, d).intersect_triangle(p0, p1, p2, 0.0, 1.0).is_none());
+        assert!(WatertightRay::new(o, d).intersect_triangle(p0, p1, p2, 1.0, 2.0).is_none());
+        // Outside.
+        assert!(WatertightRay::new(Vec3::new(0.75, 0.5, 2.0), d).intersect_triangle(p0, p1, p2, 0.0, 9.0).is_none());
+    }
+
+    #[test]
+    fn shared_edge_is_watertight() {
+        // A quad split along its diagonal; rays exactly through the diagonal must hit one of the halves.
+        let q = [Vec3::new(0.0, 0.0, 0.3), Vec3::new(1.0, 0.0, 0.3), Vec3::new(1.0, 1.0, 0.3), Vec3::new(0.0, 1.0, 0.3)];
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(7);
+        for _ in 0..10_000 {
+            let s: f32 = rng.random();
+            let target = q[0] + (q[2] - q[0]) * s;
+            let o = Vec3::new(rng.random::<f32>() * 3.0 - 1.0, rng.random::<f32>() * 3.0 - 1.0, 2.0);
+            let ray = WatertightRay::new(o, target - o);
+            let h0 = ray.intersect_triangle(q[0], q[1], q[2], 0.0, 2.0);
+            let h1 = ray.intersect_triangle(q[0], q[2], q[3], 0.0, 2.0);
+            assert!(h0.is_some() || h1.is_some(), "ray through the shared edge leaked at s={s}");
+        }
+    }
+
+    #[test]
+    fn sphere_matches_closed_form() {
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(11);
+        let mut hits = 0;
+        for _ in 0..20_000 {
+            let center = Vec3::new(rng.random::<f32>() * 20.0 - 10.0, rng.random::<f32>() * 20.0 - 10.0, 3.0);
+            let radius = 0.1 + rng.random::<f32>() * 3.0;
+            let o = Vec3::new(rng.random::<f32>() * 40.0 - 20.0, rng.random::<f32>() * 40.0 - 20.0, rng.random::<f32>() * 40.0 - 20.0);
+            // Aim near the sphere (about half the rays hit), with a non-unit direction.
+            let aim = center + Vec3::new(rng.random::<f32>() - 0.5, rng.random::<f32>() - 0.5, rng.random::<f32>() - 0.5) * 3.0 * radius;
+            let d = (aim - o) * (0.1 + rng.random::<f32>() * 3.0);
+            // Closed form in f64: |o + t d - c|^2 = r^2.
+            let (c64, o64, d64) = (center.as_dvec3(), o.as_dvec3(), d.as_dvec3());
+            let l = o64 - c64;
+            let (a, b, c) = (d64.dot(d64), 2.0 * l.dot(d64), l.dot(l) - (radius as f64).powi(2));
+            let disc = b * b - 4.0 * a * c;
+            let expected = if disc < 0.0 {
+                None
+            } else {
+                let (t0, t1) = ((-b - disc.sqrt()) / (2.0 * a), (-b + disc.sqrt()) / (2.0 * a));
+                if t0 > 0.0 { Some(t0) } else if t1 > 0.0 { Some(t1) } else { None }
+            };
+            let got = intersect_sphere(center, radius, o, d, 0.0, f32::INFINITY);
+            match (expected, got) {
+                (None, None) => {}
+                (Some(e), Some(g)) => {
+                    hits += 1;
+                    let scale = (o64 - c64).length() / d64.length() + radius as f64;
+                    assert!(((g as f64) - e).abs() <= REL_TOL as f64 * scale, "t {g} vs {e}");
+                }
+                // Grazing rays may differ by rounding: allow only when the discriminant is tiny.
+                (e, g) => assert!(disc.abs() < 1e-9 * b * b, "hit mismatch {e:?} vs {g:?}, disc {disc}"),
+            }
+        }
+        assert!(hits > 5000, "too few hits ({hits}) for a meaningful test");
+        // From inside, the far root is taken.
+        let t = intersect_sphere(Vec3::ZERO, 2.0, Vec3::new(0.0, 0.0, 1.0), Vec3::Z, 0.0, f32::INFINITY);
+        assert_eq!(t, Some(1.0));
+        assert_eq!(intersect_sphere(Vec3::ZERO, 2.0, Vec3::new(0.0, 0.0, 1.0), Vec3::Z, 0.0, 1.0), None);
+    }
+}
