@@ -166,7 +166,7 @@ def mitsuba_render(path, size: tuple[int, int], *, max_depth: int = 2, spp: int 
         while done < spp:
             b = min(batch, spp - done)
             sampler = mi.load_dict({"type": "independent"})
-            sampler.seed(seed * 1000003 + done, n * b)
+            sampler.seed((seed * 1000003 + done) % 2**32, n * b)
             idx = dr.arange(mi.UInt32, n * b) % n
             x = mi.Float(idx % width)
             y = mi.Float(idx // width)

@@ -1,0 +1,137 @@
+"""Render the stored Mitsuba references under tests/references/ (run once; the tests read the results).
+
+Each reference is a pixel-centre render (camera rays through pixel centres, everything after them random)
+with Mitsuba 3.9.1's ``path`` integrator, accumulated until the estimated relative L2 noise of the mean,
+sqrt(sum var) / ||mean||, is below the target -- at least 4x below the tolerance the tests apply to it.
+Next to each ``<name>.exr`` go ``<name>.var.exr`` (variance of the mean per pixel) and ``<name>.json``
+(Mitsuba version, variant, spp, seed, noise, scene hash, parameters, edits).
+
+    .venv/bin/python tests/make_references.py            # all missing references
+    .venv/bin/python tests/make_references.py --force cbox-direct
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from conftest import SCENES  # noqa: E402
+
+import manylights as ml  # noqa: E402
+from manylights import reference  # noqa: E402
+
+OUT = HERE / "references"
+
+# name -> (scene xml, loader params, film size (W, H), max_depth, target relative noise, scene edit)
+# Edits: "no-smooth-specular" sets specular_reflectance=0 on smooth plastics (our lights cannot reach a
+# delta lobe; the remaining diffuse part is exactly what both renderers compute).
+REFERENCES = {
+    "cbox-direct": (SCENES / "cbox" / "scene.xml", {"res": 128}, (128, 128), 2, 0.0075, None),
+    "cbox-lights-direct": (SCENES / "cbox-lights" / "scene.xml", {"res": 128}, (128, 128), 2, 0.0075, None),
+    "matpreview-direct": (SCENES / "matpreview" / "scene.xml", {"width": 128, "height": 96}, (128, 96), 2, 0.01,
+                          "no-smooth-specular"),
+    "bunny-direct": (SCENES / "bunny" / "scene.xml", {}, (128, 96), 2, 0.01, None),
+    "cbox-gi": (SCENES / "cbox" / "scene.xml", {"res": 128}, (128, 128), -1, 0.02, None),
+    "veach-ajar-gi": (SCENES / "veach-ajar" / "scene.xml", {"resx": 64, "resy": 36}, (64, 36), -1, 0.05, None),
+}
+
+
+def scene_hash(xml: Path) -> str:
+    """sha256 over the XML and every file in its folder (meshes, textures), in sorted order."""
+    h = hashlib.sha256()
+    for f in sorted(p for p in xml.parent.rglob("*") if p.is_file()):
+        h.update(f.relative_to(xml.parent).as_posix().encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def edited(xml: Path, edit, tmp: Path) -> Path:
+    if edit is None:
+        return xml
+    if edit == "no-smooth-specular":
+        import xml.etree.ElementTree as ET
+
+        out = reference.scene_variant(xml, tmp, remove_area_emitters=False)
+        tree = ET.parse(out)
+        for b in tree.getroot().iter("bsdf"):
+            if b.get("type") == "plastic":
+                for c in [c for c in b if c.get("name") == "specular_reflectance"]:
+                    b.remove(c)
+                ET.SubElement(b, "float", {"name": "specular_reflectance", "value": "0"})
+        tree.write(out)
+        return out
+    raise ValueError(edit)
+
+
+def render(name: str, max_seconds: float, seed: int = 0) -> dict:
+    import tempfile
+
+    import mitsuba as mi
+
+    xml, params, size, max_depth, target, edit = REFERENCES[name]
+    tmp = Path(tempfile.mkdtemp(prefix="ml-ref-"))
+    path = edited(xml, edit, tmp)
+    total = np.zeros((size[1], size[0], 3), np.float64)
+    total2 = np.zeros_like(total)
+    spp, batch, t0 = 0, 64, time.perf_counter()
+    noise = float("inf")
+    while noise > target and time.perf_counter() - t0 < max_seconds:
+        mean, var = reference.mitsuba_render(path, size, max_depth=max_depth, spp=batch, seed=seed * 7919 + spp,
+                                             batch=16, **params)
+        # Merge batch statistics: sums of samples and of squares.
+        total += mean.astype(np.float64) * batch
+        total2 += (var.astype(np.float64) * max(batch - 1, 1) + mean.astype(np.float64) ** 2) * batch
+        spp += batch
+        m = total / spp
+        v = np.maximum(total2 / spp - m * m, 0) / max(spp - 1, 1)
+        noise = float(np.sqrt(v.sum()) / np.linalg.norm(m))
+        print(f"{name}: {spp} spp, noise {noise:.4%} (target {target:.2%}), {time.perf_counter() - t0:.0f} s",
+              flush=True)
+        batch = min(batch * 2, 1024)
+    OUT.mkdir(exist_ok=True)
+    ml.write_exr(OUT / f"{name}.exr", m.astype(np.float32))
+    ml.write_exr(OUT / f"{name}.var.exr", v.astype(np.float32))
+    meta = {
+        "scene": str(xml.relative_to(SCENES.parent)),
+        "scene_sha256": scene_hash(xml),
+        "params": params,
+        "size": list(size),
+        "integrator": {"type": "path", "max_depth": max_depth},
+        "edit": edit,
+        "footprint": "pixel centre (camera ray through the pixel centre, all else random)",
+        "spp": spp,
+        "seed": seed,
+        "relative_noise": noise,
+        "target_noise": target,
+        "mitsuba": mi.__version__,
+        "variant": mi.variant(),
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
+    (OUT / f"{name}.json").write_text(json.dumps(meta, indent=2) + "\n")
+    return meta
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("names", nargs="*", help=f"subset of {list(REFERENCES)}")
+    ap.add_argument("--force", action="store_true", help="re-render existing references")
+    ap.add_argument("--max-seconds", type=float, default=900.0)
+    a = ap.parse_args(argv)
+    reference.mitsuba()
+    for name in a.names or list(REFERENCES):
+        if (OUT / f"{name}.json").exists() and not a.force:
+            print(f"{name}: exists")
+            continue
+        meta = render(name, a.max_seconds)
+        print(json.dumps(meta))
+
+
+if __name__ == "__main__":
+    main()
