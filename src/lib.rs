@@ -7,6 +7,8 @@ pub mod matrix;
 pub mod raytrace;
 pub mod scene;
 pub mod shading;
+#[cfg(test)]
+pub(crate) mod testing;
 pub mod view;
 pub mod view_resolve;
 

@@ -5,17 +5,7 @@ use crate::scene::{Camera, Mesh, Scene, ShapeKind};
 use glam::{Mat4, Vec3};
 use std::path::PathBuf;
 
-/// The shared folder: `$MANYLIGHTS_SHARED`, `<manifest>/../shared`, then `/work/shared`.
-pub fn shared_dir() -> PathBuf {
-    if let Ok(dir) = std::env::var("MANYLIGHTS_SHARED") {
-        return PathBuf::from(dir);
-    }
-    let sibling = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared"));
-    if sibling.join("scenes").is_dir() {
-        return sibling;
-    }
-    PathBuf::from("/work/shared")
-}
+pub use crate::testing::shared_dir;
 
 pub fn scenes_dir() -> PathBuf {
     shared_dir().join("scenes")

@@ -220,21 +220,8 @@ fn unshare_with_face_normals(world: &[Vec3], uvs: &[Vec2], indices: &[[u32; 3]])
     (p, nrm, uv, idx)
 }
 
-/// Where the shared scenes are: `$MANYLIGHTS_SHARED`, then `<manifest>/../shared`, then `/work/shared`
-/// (each must contain `scenes/`).
 #[cfg(test)]
-pub(crate) fn shared_dir() -> std::path::PathBuf {
-    let candidates = [
-        std::env::var("MANYLIGHTS_SHARED").ok().map(std::path::PathBuf::from),
-        Some(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared")),
-        Some(std::path::PathBuf::from("/work/shared")),
-    ];
-    candidates
-        .into_iter()
-        .flatten()
-        .find(|d| d.join("scenes").is_dir())
-        .expect("shared scenes not found: set MANYLIGHTS_SHARED to the folder holding scenes/")
-}
+pub(crate) use crate::testing::shared_dir;
 
 #[cfg(test)]
 mod tests {

@@ -6,23 +6,13 @@
 use super::*;
 use crate::scene::{Bsdf, Emitter, MicrofacetDistribution, Param, ShapeKind, Texture};
 use glam::{Vec3, Vec4};
-use std::path::PathBuf;
 
 /// Bounding boxes from Mitsuba are f32 world coordinates; ours go through the same f64 -> f32 path.
 const BBOX_TOL: f32 = 2e-5;
 /// Angles: Mitsuba stores x_fov as f32 degrees.
 const FOV_TOL_DEG: f32 = 2e-5;
 
-fn shared() -> PathBuf {
-    if let Ok(p) = std::env::var("MANYLIGHTS_SHARED") {
-        return PathBuf::from(p);
-    }
-    let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared"));
-    if p.join("scenes").is_dir() {
-        return p;
-    }
-    PathBuf::from("/work/shared")
-}
+use crate::testing::shared_dir as shared;
 
 fn load(name: &str) -> Scene {
     let path = shared().join("scenes").join(name).join("scene.xml");
