@@ -137,7 +137,11 @@ impl PackedBvh {
     /// Errors: `Error::Scene` for out-of-range indices, non-finite vertices or invalid spheres;
     /// `Error::InvalidParameter` for a tree deeper than the traversal stack.
     pub fn build(scene: &Scene) -> Result<PackedBvh> {
-        let prims = scene_primitives(scene)?;
+        PackedBvh::from_primitives(scene_primitives(scene)?)
+    }
+
+    /// Builds the BVH over `prims` (any order).
+    pub fn from_primitives(prims: Vec<GpuPrimitive>) -> Result<PackedBvh> {
         if prims.is_empty() {
             // One leaf holding a degenerate triangle (never hit), so the arrays bind and the root exists.
             let nothing = GpuPrimitive { v0: [0.0; 3], kind: PRIM_TRIANGLE, v1: [0.0; 3], _pad0: 0, v2: [0.0; 3], _pad1: 0 };
@@ -188,7 +192,16 @@ impl GpuBvh {
     /// Builds (`PackedBvh::build`) and uploads the BVH of `scene`; `max_binding` is the device's largest
     /// storage binding in bytes. An empty scene gets one leaf with a degenerate triangle (every ray is free).
     pub fn upload(device: &wgpu::Device, scene: &Scene, max_binding: u64) -> Result<GpuBvh> {
-        let packed = PackedBvh::build(scene)?;
+        GpuBvh::from_packed(device, &PackedBvh::build(scene)?, max_binding)
+    }
+
+    /// A BVH that blocks nothing (for passes that bind one but cast no rays).
+    pub fn empty(device: &wgpu::Device) -> Result<GpuBvh> {
+        GpuBvh::from_packed(device, &PackedBvh::from_primitives(Vec::new())?, u64::MAX)
+    }
+
+    /// Uploads a packed BVH.
+    pub fn from_packed(device: &wgpu::Device, packed: &PackedBvh, max_binding: u64) -> Result<GpuBvh> {
         for (what, bytes) in [
             ("nodes", std::mem::size_of_val(packed.nodes.as_slice())),
             ("primitives", std::mem::size_of_val(packed.primitives.as_slice())),

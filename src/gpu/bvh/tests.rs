@@ -61,7 +61,7 @@ fn random_queries(scene: &Scene, tracer: &RayTracer, n: usize, seed: u64) -> Vec
     let (lo, hi) = scene.bounds();
     let (c, h) = ((lo + hi) * 0.5, (hi - lo) * 0.55);
     let verts: Vec<Vec3> = scene.meshes.iter().flat_map(|m| m.positions.iter().copied()).collect();
-    let mut point = |rng: &mut Pcg32| c + h * Vec3::new(rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0);
+    let point = |rng: &mut Pcg32| c + h * Vec3::new(rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0);
     let unit = |rng: &mut Pcg32| loop {
         let v = Vec3::new(rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0);
         if v.length_squared() > 1e-4 && v.length_squared() <= 1.0 {
