@@ -77,6 +77,8 @@ struct WatertightRay {
     sx: f32,
     sy: f32,
     sz: f32,
+    // Smallest accepted triangle t: (1 + max_i |o_i|) 2^-20 (see hit_triangle).
+    t_min: f32,
 }
 
 fn watertight_ray(o: vec3<f32>, d: vec3<f32>) -> WatertightRay {
@@ -102,6 +104,8 @@ fn watertight_ray(o: vec3<f32>, d: vec3<f32>) -> WatertightRay {
     r.sx = d[kx] / d[kz];
     r.sy = d[ky] / d[kz];
     r.sz = 1.0 / d[kz];
+    let ao = abs(o);
+    r.t_min = (1.0 + max(max(ao.x, ao.y), ao.z)) * 9.5367431640625e-7;
     return r;
 }
 
@@ -126,7 +130,12 @@ fn diff_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
     return (p - q) + (ep - eq);
 }
 
-// Watertight ray-triangle test (both faces); a hit needs 0 < t < t_max.
+// Watertight ray-triangle test (both faces); a hit needs t_min < t < t_max. Deviation: the CPU tracer
+// (and Mitsuba) accept any t > 0; when the origin lies exactly in a triangle's plane (a shadow ray from
+// a wall/ceiling contact edge, offset along the wall's normal, starts in the ceiling's plane) the sign
+// of t is rounding noise, and the GPU's rounding (fused multiply-adds) differs from the CPU's. Hits
+// closer than about 1e-6 relative to the origin's magnitude (100x below Mitsuba's ray offset) are
+// treated as that degenerate case and ignored.
 fn hit_triangle(r: WatertightRay, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, t_max: f32) -> bool {
     let a = p0 - r.o;
     let b = p1 - r.o;
@@ -153,8 +162,8 @@ fn hit_triangle(r: WatertightRay, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, t
         return false;
     }
     let t_scaled = u * (r.sz * a[r.kz]) + v * (r.sz * b[r.kz]) + w * (r.sz * c[r.kz]);
-    let t = t_scaled / det;
-    return t > 0.0 && t < t_max;
+    let t = t_scaled * (1.0 / det);
+    return t > r.t_min && t < t_max;
 }
 
 // Ray-sphere test as Mitsuba's sphere.cpp: the origin is moved to the foot of the perpendicular from the

@@ -159,3 +159,22 @@ fn empty_scene_blocks_nothing() {
     let r = OccludedPass::new(&ctx.device).run(&ctx, &bvh, &[OcclusionQuery::ray(Vec3::ZERO, Vec3::X, 10.0)]).unwrap();
     assert_eq!(r[0], OcclusionResult { occluded: false, gave_up: false, steps: 1 });
 }
+
+/// Shadow rays from the wall/ceiling contact edge of cbox-lights (pixel (115, 12) at 128^2; the G-buffer
+/// puts p on the wall, Mitsuba on the ceiling): the origin lies exactly in the ceiling's plane. Mitsuba
+/// 3.9.1 and the CPU tracer say free; so must the GPU (it needed the t_min of `hit_triangle`).
+#[test]
+fn contact_edge_rays_are_free() {
+    let ctx = GpuContext::shared().unwrap();
+    let scene = load_shared("cbox-lights");
+    let tracer = RayTracer::new(&scene).unwrap();
+    let bvh = GpuBvh::upload(&ctx.device, &scene, 1 << 27).unwrap();
+    let lights = crate::lights::LightSet::from_scene(&scene).unwrap();
+    let q = lights.position[0];
+    let cases = [(Vec3::new(1.0, 1.0, 0.8998124), Vec3::new(-1.0, 0.0, 0.0)), (Vec3::new(0.99999964, 1.0, 0.89981294), Vec3::new(0.0, -1.0, 0.0))];
+    let qs: Vec<OcclusionQuery> = cases.iter().map(|&(p, n)| OcclusionQuery::to_point(p, n, q)).collect();
+    let gpu = OccludedPass::new(&ctx.device).run(&ctx, &bvh, &qs).unwrap();
+    for ((p, n), g) in cases.iter().zip(gpu) {
+        assert!(!tracer.occluded(*p, *n, q) && !g.occluded && !g.gave_up, "p {p} n {n}: gpu {g:?}");
+    }
+}
