@@ -1,7 +1,8 @@
 // Light columns (src/gpu/columns.rs): one thread per view sample loops over the batch's lights
 // (<= 256 per dispatch: far below Mesa 22.3's 65,535-iteration limit), shades each with bsdf_eval and
 // shadow-map visibility, writes the individual columns if asked and adds sum_j w_j column_j to a
-// GPU-resident accumulator. Needs common/bsdf.wgsl, common/light.wgsl, common/shadow_layer.wgsl.
+// GPU-resident accumulator. Needs common/bsdf.wgsl, common/light.wgsl, common/shadow_layer.wgsl,
+// common/bvh.wgsl. Visibility: shadow map, exact BVH ray, or the hybrid of both (see `visibility`).
 
 const WORKGROUP_SIZE: u32 = 64u;
 
@@ -14,7 +15,10 @@ struct ColumnParams {
     resolution: u32,
     // Threads per dispatch row (groups_x * WORKGROUP_SIZE); sample i = gid.y * dispatch_width + gid.x.
     dispatch_width: u32,
-    _pad0: vec2<u32>,
+    // Lights [first_light, first_light + num_lights) of the batch's arrays are shaded by this dispatch.
+    first_light: u32,
+    // VISIBILITY_SHADOW_MAP, VISIBILITY_HYBRID or VISIBILITY_RAY_TRACED.
+    visibility: u32,
     // Biases in units of the layer's world-space texel size.
     normal_offset: f32,
     depth_bias: f32,
@@ -44,6 +48,45 @@ struct ViewSample {
 @group(0) @binding(7) var<storage, read_write> accum: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> columns: array<f32>;
 @group(0) @binding(9) var<storage, read> bsdf_tables: array<f32>;
+@group(0) @binding(10) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(11) var<storage, read> bvh_prims: array<BvhPrim>;
+// 64-bit counters as (lo, hi) u32 pairs: shadow tests, ray casts, rays that gave up.
+@group(0) @binding(12) var<storage, read_write> stats: array<atomic<u32>, 6>;
+
+// Keep in sync with `Visibility` in src/matrix/mod.rs.
+const VISIBILITY_SHADOW_MAP: u32 = 0u;
+const VISIBILITY_HYBRID: u32 = 1u;
+const VISIBILITY_RAY_TRACED: u32 = 2u;
+// Outcome of the hybrid shadow-map test.
+const SM_SHADOW: u32 = 0u;
+const SM_LIT: u32 = 1u;
+const SM_UNSURE: u32 = 2u;
+// Hybrid tolerances, in texels of the layer's world-space texel size at p (see `shadow_map_decide`).
+// A tap matches the receiver's plane within LIT_TOL + LIT_SLOPE_TOL * (plane's depth change per texel).
+const LIT_TOL: f32 = 0.05;
+const LIT_SLOPE_TOL: f32 = 0.01;
+// An occluder is certain when it lies at least OCCLUDER_GAP in front of p (and of p's plane at every tap).
+const OCCLUDER_GAP: f32 = 0.25;
+// The four taps count as one plane when their bilinear twist is below PLANAR_TOL.
+const PLANAR_TOL: f32 = 0.02;
+// Depth-buffer rounding allowance: this many ulps of 1.0 in NDC depth (Depth32Float).
+const DEPTH_ULPS: f32 = 16.0;
+// Receiver planes seen more grazing than this (texel-area ratio of the plane's projection) are unsure.
+const MIN_PROJECTED_AREA: f32 = 0.02;
+
+// Per-invocation visibility counters, added to `stats` once at the end.
+var<private> count_tests: u32 = 0u;
+var<private> count_rays: u32 = 0u;
+var<private> count_gave_up: u32 = 0u;
+
+fn add_stat(k: u32, v: u32) {
+    if v != 0u {
+        let old = atomicAdd(&stats[2u * k], v);
+        if old + v < old {
+            atomicAdd(&stats[2u * k + 1u], 1u);
+        }
+    }
+}
 
 // Rough-plastic tables for `bsdf_eval` (common/bsdf.wgsl).
 fn bsdf_table(i: u32) -> f32 {
@@ -57,8 +100,9 @@ fn light_layer(l: Light, p: vec3<f32>) -> u32 {
     return l.first_layer;
 }
 
-// 1 if p (geometric normal n_g) sees light l along wo, from the light's shadow map.
-fn visibility(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f32 {
+// Shadow-map-only visibility with biases (ColumnOptions::normal_offset, depth_bias, slope_bias):
+// 1 if p (geometric normal n_g) sees light l along wo.
+fn visibility_biased(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f32 {
     // World-space texel size at p in the layer that holds p.
     let clip0 = layers[light_layer(l, p)].view_proj * vec4<f32>(p, 1.0);
     let texel = layers[light_layer(l, p)].texel_scale * abs(clip0.w);
@@ -88,6 +132,135 @@ fn visibility(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f32 {
     return select(0.0, 1.0, ndc.z <= stored);
 }
 
+// p projected into a shadow layer: (texel x, texel y, NDC depth); w <= 0 behind the light.
+fn to_map(m: mat4x4<f32>, p: vec3<f32>) -> vec4<f32> {
+    let clip = m * vec4<f32>(p, 1.0);
+    let res = f32(params.resolution);
+    let ndc = clip.xyz / clip.w;
+    return vec4<f32>((ndc.x * 0.5 + 0.5) * res, (0.5 - ndc.y * 0.5) * res, ndc.z, clip.w);
+}
+
+// The hybrid test: decide visibility from the shadow map only where the map is certain.
+// The four texels whose centres surround p (its bilinear footprint) are compared with two models:
+// - p's own plane (geometric normal n_g): its depth at each tap centre is predicted from the plane's
+//   depth gradient in map space (NDC depth of a plane is affine in map x, y for perspective and
+//   orthographic maps alike, so the prediction is exact up to rounding). All four taps on that plane
+//   (within LIT_TOL + LIT_SLOPE_TOL * gradient texels, plus DEPTH_ULPS) -> nothing occludes the
+//   footprint -> SM_LIT.
+// - one occluder plane: the taps are coplanar (bilinear twist below PLANAR_TOL), their bilinear
+//   interpolation at p (the occluder's depth on p's own light ray) lies more than OCCLUDER_GAP in front
+//   of p, and every tap lies more than OCCLUDER_GAP in front of p's plane there -> SM_SHADOW.
+// Everything else is SM_UNSURE and goes to an exact ray: contact edges and creases (taps on two planes,
+// e.g. a grazing ceiling meeting a wall), shadow boundaries inside the footprint, curved or grazing
+// receivers, taps outside the layer (map edges, cube-face seams) and points behind the light.
+// Depth differences are turned into world distances along wo with the local depth scale
+// k = d(NDC depth)/d(distance toward the light) at p; tolerances are in world texels at p.
+// Limits: an occluder smaller than a texel that misses all four tap rays, or a gap narrower than a
+// texel between two occluders aligned with the texel grid, is not seen (as in any shadow map).
+fn shadow_map_decide(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> u32 {
+    let li = light_layer(l, p);
+    let m = layers[li].view_proj;
+    let c = to_map(m, p);
+    if c.w <= 0.0 {
+        return SM_UNSURE;
+    }
+    let texel = layers[li].texel_scale * abs(c.w);
+    let x0 = i32(floor(c.x - 0.5));
+    let y0 = i32(floor(c.y - 0.5));
+    let r = i32(params.resolution) - 1;
+    if x0 < 0 || y0 < 0 || x0 + 1 > r || y0 + 1 > r {
+        return SM_UNSURE;
+    }
+    // Taps where p's own light ray would also land (the footprint must be in p's layer).
+    if l.is_cube != 0u && light_layer(l, p + wo * texel) != li {
+        return SM_UNSURE;
+    }
+    // Depth scale toward the light.
+    let cn = to_map(m, p + wo * texel);
+    let k = (c.z - cn.z) / texel;
+    if !(k > 0.0) || cn.w <= 0.0 {
+        return SM_UNSURE;
+    }
+    let ulps = DEPTH_ULPS * 1.1920929e-7 / k;
+    // p's plane in map space: depth gradient from two tangent directions.
+    let s = coordinate_system_s(n_g);
+    let t = coordinate_system_t(n_g);
+    let a = to_map(m, p + s * texel) - c;
+    let b = to_map(m, p + t * texel) - c;
+    let det = a.x * b.y - b.x * a.y;
+    if !(abs(det) > MIN_PROJECTED_AREA) {
+        return SM_UNSURE;
+    }
+    let gx = (a.z * b.y - b.z * a.y) / det;
+    let gy = (a.x * b.z - b.x * a.z) / det;
+    let slope = (abs(gx) + abs(gy)) / k / texel;
+    let lit_tol = texel * (LIT_TOL + LIT_SLOPE_TOL * slope) + ulps;
+    let gap = texel * OCCLUDER_GAP + ulps;
+    var lit_taps = 0u;
+    var occluded_taps = 0u;
+    var z: array<f32, 4>;
+    for (var q = 0u; q < 4u; q = q + 1u) {
+        let tx = x0 + i32(q & 1u);
+        let ty = y0 + i32(q >> 1u);
+        z[q] = textureLoad(shadow_maps, vec2<i32>(tx, ty), i32(li), 0);
+        let plane_z = c.z + gx * (f32(tx) + 0.5 - c.x) + gy * (f32(ty) + 0.5 - c.y);
+        // How far the stored surface lies in front of p's plane on the tap's ray.
+        let in_front = (plane_z - z[q]) / k;
+        if abs(in_front) <= lit_tol {
+            lit_taps = lit_taps + 1u;
+        } else if in_front > gap {
+            occluded_taps = occluded_taps + 1u;
+        }
+    }
+    if lit_taps == 4u {
+        return SM_LIT;
+    }
+    if occluded_taps == 4u {
+        let twist = abs(z[0] + z[3] - z[1] - z[2]) / k;
+        let fx = c.x - 0.5 - f32(x0);
+        let fy = c.y - 0.5 - f32(y0);
+        let z_p = mix(mix(z[0], z[1], fx), mix(z[2], z[3], fx), fy);
+        if twist <= texel * PLANAR_TOL + ulps && (c.z - z_p) / k > gap {
+            return SM_SHADOW;
+        }
+    }
+    return SM_UNSURE;
+}
+
+// Exact visibility of light l from surface point p by a BVH ray (Mitsuba's spawn_ray_to toward point
+// and spot lights; spawn_ray along wo, unbounded, for directional lights). `fallback` is returned when
+// the ray runs out of steps (counted; must never happen).
+fn visibility_ray(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>, fallback: f32) -> f32 {
+    count_rays = count_rays + 1u;
+    var res = BVH_FREE;
+    if l.kind == LIGHT_DIRECTIONAL {
+        res = trace_direction(p, n_g, wo);
+    } else {
+        res = trace_to_point(p, n_g, l.position);
+    }
+    if res == BVH_GAVE_UP {
+        count_gave_up = count_gave_up + 1u;
+        return fallback;
+    }
+    return select(1.0, 0.0, res == BVH_BLOCKED);
+}
+
+// 1 if p (geometric normal n_g) sees light l along wo, by params.visibility.
+fn visibility(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f32 {
+    count_tests = count_tests + 1u;
+    if params.visibility == VISIBILITY_RAY_TRACED {
+        return visibility_ray(l, p, n_g, wo, 1.0);
+    }
+    if params.visibility == VISIBILITY_HYBRID {
+        let d = shadow_map_decide(l, p, n_g, wo);
+        if d == SM_UNSURE {
+            return visibility_ray(l, p, n_g, wo, visibility_biased(l, p, n_g, wo));
+        }
+        return select(0.0, 1.0, d == SM_LIT);
+    }
+    return visibility_biased(l, p, n_g, wo);
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.y * params.dispatch_width + gid.x;
@@ -103,7 +276,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let wi_local = vec3<f32>(dot(s.wi, fs), dot(s.wi, ft), dot(s.wi, n));
     let b = bsdfs[i];
     var acc = vec3<f32>(0.0);
-    for (var j = 0u; j < params.num_lights; j = j + 1u) {
+    for (var k = 0u; k < params.num_lights; k = k + 1u) {
+        let j = params.first_light + k;
         var contribution = vec3<f32>(0.0);
         if is_surface {
             let l = lights[j];
@@ -127,4 +301,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if params.accumulate != 0u {
         accum[i] = accum[i] + vec4<f32>(acc, 0.0);
     }
+    add_stat(0u, count_tests);
+    add_stat(1u, count_rays);
+    add_stat(2u, count_gave_up);
 }

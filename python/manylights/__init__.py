@@ -95,12 +95,25 @@ class LightMatrix:
         scene: a loaded Scene.
         lights: a LightSet (e.g. ``scene_lights(scene)``).
         shadow_map_size: texels per side of each shadow map (cube face).
+        visibility: how shadow tests are decided: ``"hybrid"`` (default: shadow maps where they are
+            certain, an exact GPU ray against the scene BVH elsewhere), ``"ray_traced"`` (an exact ray for
+            every test; columns equal Mitsuba's ray-traced visibility) or ``"shadow_map"`` (biased shadow
+            maps only; fastest, small errors at contact edges).
+
+    Raises:
+        ValueError: an unknown ``visibility`` or a bad ``shadow_map_size``.
     """
 
-    def __init__(self, scene: Scene, lights: LightSet, *, shadow_map_size: int = 1024):
+    def __init__(self, scene: Scene, lights: LightSet, *, shadow_map_size: int = 1024,
+                 visibility: str = "hybrid"):
         self.scene = scene
         self.lights = lights
-        self._m = _native.LightMatrix(scene, lights, int(shadow_map_size))
+        self._m = _native.LightMatrix(scene, lights, int(shadow_map_size), visibility=str(visibility))
+
+    def visibility_stats(self) -> dict[str, int]:
+        """Counters since creation: ``shadow_tests``, ``ray_casts`` (tests resolved by exact rays) and
+        ``gave_up`` (rays that ran out of traversal steps; should be 0)."""
+        return dict(self._m.visibility_stats())
 
     @property
     def shape(self) -> tuple[int, int]:

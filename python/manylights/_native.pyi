@@ -51,7 +51,14 @@ class LightSet:
 class LightMatrix:
     """The m x n light matrix (GPU columns with shadow maps)."""
     shape: tuple[int, int]
-    def __init__(self, scene: Scene, lights: LightSet, shadow_map_size: int = 1024) -> None: ...
+    def __init__(self, scene: Scene, lights: LightSet, shadow_map_size: int = 1024,
+                 normal_offset: Optional[float] = None, depth_bias: Optional[float] = None,
+                 slope_bias: Optional[float] = None, visibility: str = "hybrid") -> None:
+        """visibility: "hybrid" (shadow maps where certain, exact GPU rays elsewhere), "ray_traced" or
+        "shadow_map". Raises ValueError for an unknown visibility or bias < 0."""
+    def visibility_stats(self) -> dict[str, int]:
+        """shadow_tests, ray_casts, gave_up since creation or reset_visibility_stats()."""
+    def reset_visibility_stats(self) -> None: ...
     def columns(self, indices: Sequence[int]) -> npt.NDArray[np.float32]:
         """(k, H, W, 3). Raises ValueError for an index >= n."""
     def column_sum(self, weights: Optional[npt.NDArray[np.float32]] = None,

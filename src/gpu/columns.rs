@@ -81,7 +81,10 @@ pub struct ColumnParams {
     pub accumulate: u32,
     pub resolution: u32,
     pub dispatch_width: u32,
-    pub _pad0: [u32; 2],
+    /// First light (index into the batch's light, weight and column arrays) of this dispatch.
+    pub first_light: u32,
+    /// `matrix::Visibility as u32`.
+    pub visibility: u32,
     pub normal_offset: f32,
     pub depth_bias: f32,
     pub slope_bias: f32,
@@ -93,6 +96,7 @@ pub const COLUMNS_WGSL: &str = concat!(
     include_str!("../../shaders/common/bsdf.wgsl"),
     include_str!("../../shaders/common/light.wgsl"),
     include_str!("../../shaders/common/shadow_layer.wgsl"),
+    include_str!("../../shaders/common/bvh.wgsl"),
     include_str!("../../shaders/columns.wgsl"),
 );
 
@@ -145,6 +149,11 @@ pub struct ColumnsInputs<'a> {
     pub shadow_maps: &'a wgpu::TextureView,
     pub accum: &'a wgpu::Buffer,
     pub columns: &'a wgpu::Buffer,
+    /// The scene BVH (`gpu::bvh::GpuBvh`) for exact shadow rays.
+    pub bvh_nodes: &'a wgpu::Buffer,
+    pub bvh_prims: &'a wgpu::Buffer,
+    /// Six u32 (64-bit counters as lo, hi): shadow tests, ray casts, rays that gave up.
+    pub stats: &'a wgpu::Buffer,
 }
 
 pub struct ColumnsPass {
@@ -210,6 +219,9 @@ impl ColumnsPass {
                 storage(7, false),
                 storage(8, false),
                 storage(9, true),
+                storage(10, true),
+                storage(11, true),
+                storage(12, false),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -247,6 +259,9 @@ impl ColumnsPass {
                 buf(7, inputs.accum),
                 buf(8, inputs.columns),
                 buf(9, &inputs.view.bsdf_tables),
+                buf(10, inputs.bvh_nodes),
+                buf(11, inputs.bvh_prims),
+                buf(12, inputs.stats),
             ],
         });
         let (gx, gy, _) = dispatch_size(inputs.view.num_samples);

@@ -1,6 +1,7 @@
 //! GPU passes on wgpu. `context` creates the device; one file per pass, each driving its own WGSL in
 //! `shaders/`.
 pub mod bsdf_eval;
+pub mod bvh;
 pub mod columns;
 pub mod context;
 pub mod gbuffer;

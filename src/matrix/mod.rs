@@ -8,6 +8,16 @@
 //! command submission; a batch holds at most `max_lights_per_batch` (<= 256) lights and as many layers as
 //! `shadow_memory_budget` allows. `reference` evaluates elements on the CPU by ray casting (tests).
 //!
+//! Visibility (`ColumnOptions::visibility`): `ShadowMap` tests shadow maps with biases only;
+//! `RayTraced` casts an exact shadow ray per test against the scene BVH on the GPU (`gpu::bvh`, Mitsuba's
+//! ray offsets, so columns equal the CPU `RayTracer`'s); `Hybrid` (default) decides from the shadow map
+//! where its 2x2 footprint around p is unambiguous (all taps on p's own plane: lit; all on one occluder
+//! plane well in front of p: shadow) and casts the exact ray everywhere else (contact edges, grazing or
+//! curved receivers, shadow boundaries, map edges; design in `shaders/columns.wgsl`, `shadow_map_decide`).
+//! `visibility_stats` counts shadow tests and ray casts. With rays, a dispatch shades at most
+//! `gpu::bvh::RAYS_PER_INVOCATION` lights so that an invocation's loops stay below Mesa 22.3's 65,535
+//! iterations even if every ray takes the most steps.
+//!
 //! Symbols: m = number of view samples (`width * height`), n = number of lights, w = weights.
 pub mod reference;
 #[cfg(test)]
@@ -18,6 +28,7 @@ use crate::gpu::columns::{
     dispatch_size, storage_buffer, ColumnParams, ColumnsInputs, ColumnsPass, GpuLight, ViewBuffers,
     MAX_LIGHTS_PER_DISPATCH,
 };
+use crate::gpu::bvh::{GpuBvh, RAYS_PER_INVOCATION};
 use crate::gpu::scene_buffers::SceneGeometry;
 use crate::gpu::shadow::{layer_count, light_layers, uses_cube, ShadowAtlas, ShadowMapPass};
 use crate::gpu::GpuContext;
@@ -26,9 +37,48 @@ use crate::scene::Scene;
 use crate::view::ViewSamples;
 use std::sync::Arc;
 
+/// How shadow tests are decided. Keep in sync with `VISIBILITY_*` in `shaders/columns.wgsl`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Visibility {
+    /// Shadow maps with normal offset, depth and slope biases (fast; acne/leaks at contact edges).
+    ShadowMap = 0,
+    /// Shadow maps where they are certain, exact BVH rays elsewhere.
+    #[default]
+    Hybrid = 1,
+    /// An exact BVH ray for every shadow test (no shadow maps are rendered).
+    RayTraced = 2,
+}
+
+impl Visibility {
+    /// "shadow_map", "hybrid" or "ray_traced".
+    pub fn parse(name: &str) -> Result<Visibility> {
+        match name {
+            "shadow_map" => Ok(Visibility::ShadowMap),
+            "hybrid" => Ok(Visibility::Hybrid),
+            "ray_traced" => Ok(Visibility::RayTraced),
+            _ => Err(Error::invalid(format!(
+                "visibility must be 'shadow_map', 'hybrid' or 'ray_traced', got '{name}'"
+            ))),
+        }
+    }
+}
+
+/// Visibility counters of a `LightMatrix` since creation or `reset_visibility_stats`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct VisibilityStats {
+    /// Shadow tests (light-sample pairs with a non-zero unshadowed contribution).
+    pub shadow_tests: u64,
+    /// Tests resolved by an exact BVH ray.
+    pub ray_casts: u64,
+    /// Rays that ran out of traversal steps or stack (then the biased shadow map decided); must be 0.
+    pub gave_up: u64,
+}
+
 /// How columns are computed.
 #[derive(Debug, Clone)]
 pub struct ColumnOptions {
+    /// Shadow maps, exact rays, or both (default `Hybrid`).
+    pub visibility: Visibility,
     /// Shadow-map texels per side (each cube face, spot or orthographic map).
     pub shadow_resolution: u32,
     /// Most lights shaded per dispatch (<= 256, keeps shader loops far below 65,535 iterations).
@@ -46,6 +96,7 @@ pub struct ColumnOptions {
 impl Default for ColumnOptions {
     fn default() -> Self {
         ColumnOptions {
+            visibility: Visibility::Hybrid,
             shadow_resolution: 1024,
             max_lights_per_batch: MAX_LIGHTS_PER_DISPATCH,
             shadow_memory_budget: 256 << 20,
@@ -70,6 +121,10 @@ pub struct LightMatrix {
     geometry: SceneGeometry,
     view_buffers: ViewBuffers,
     atlas: ShadowAtlas,
+    /// The scene BVH for exact shadow rays (a one-leaf empty BVH in `ShadowMap` mode).
+    bvh: GpuBvh,
+    /// `VisibilityStats` as six u32 (lo, hi pairs), added to by every column dispatch.
+    stats: wgpu::Buffer,
     /// Largest storage binding in bytes.
     max_binding: u64,
 }
@@ -134,7 +189,20 @@ impl LightMatrix {
         let tables = crate::shading::bsdf::roughplastic_table_buffer(&scene.bsdfs);
         let view_buffers = ViewBuffers::upload(device, &view, &tables);
         let atlas = ShadowAtlas::new(device, opts.shadow_resolution, max_layers);
+        let bvh = if opts.visibility == Visibility::ShadowMap {
+            GpuBvh::empty(device)?
+        } else {
+            GpuBvh::upload(device, &scene, max_binding)?
+        };
+        let stats = storage_buffer::<u32>(
+            device,
+            "LightMatrix::stats",
+            &[0; 6],
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        );
         Ok(LightMatrix {
+            bvh,
+            stats,
             shadow_pass: ShadowMapPass::new(device),
             columns_pass: ColumnsPass::new(device),
             geometry,
@@ -214,20 +282,6 @@ impl LightMatrix {
         let lights_buf = storage_buffer(device, "LightMatrix::lights", &gpu_lights, wgpu::BufferUsages::STORAGE);
         let weights_buf = storage_buffer(device, "LightMatrix::weights", weights, wgpu::BufferUsages::STORAGE);
         let (_, _, dispatch_width) = dispatch_size(self.view_buffers.num_samples);
-        let params = ColumnParams {
-            num_samples: self.view_buffers.num_samples,
-            num_lights: gpu_lights.len() as u32,
-            write_columns: columns.is_some() as u32,
-            accumulate: columns.is_none() as u32,
-            resolution: res,
-            dispatch_width,
-            _pad0: [0; 2],
-            normal_offset: self.opts.normal_offset,
-            depth_bias: self.opts.depth_bias,
-            slope_bias: self.opts.slope_bias,
-            _pad1: 0.0,
-        };
-        let params_buf = storage_buffer(device, "LightMatrix::params", &[params], wgpu::BufferUsages::UNIFORM);
         let dummy;
         let columns_buf = match columns {
             Some(b) => b,
@@ -238,21 +292,48 @@ impl LightMatrix {
         };
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::batch") });
-        self.shadow_pass.encode(device, &mut encoder, &self.atlas, &layers_buf, batch.num_layers, &self.geometry);
-        self.columns_pass.encode(
-            device,
-            &mut encoder,
-            &ColumnsInputs {
-                params: &params_buf,
-                view: &self.view_buffers,
-                lights: &lights_buf,
-                layers: &layers_buf,
-                weights: &weights_buf,
-                shadow_maps: &self.atlas.array_view,
-                accum,
-                columns: columns_buf,
-            },
-        );
+        if self.opts.visibility != Visibility::RayTraced {
+            self.shadow_pass.encode(device, &mut encoder, &self.atlas, &layers_buf, batch.num_layers, &self.geometry);
+        }
+        // With rays, few enough lights per dispatch that an invocation's loops stay bounded (module doc).
+        let per_dispatch = match self.opts.visibility {
+            Visibility::ShadowMap => gpu_lights.len(),
+            Visibility::Hybrid | Visibility::RayTraced => RAYS_PER_INVOCATION as usize,
+        };
+        for first in (0..gpu_lights.len()).step_by(per_dispatch.max(1)) {
+            let params = ColumnParams {
+                num_samples: self.view_buffers.num_samples,
+                num_lights: per_dispatch.min(gpu_lights.len() - first) as u32,
+                write_columns: columns.is_some() as u32,
+                accumulate: columns.is_none() as u32,
+                resolution: res,
+                dispatch_width,
+                first_light: first as u32,
+                visibility: self.opts.visibility as u32,
+                normal_offset: self.opts.normal_offset,
+                depth_bias: self.opts.depth_bias,
+                slope_bias: self.opts.slope_bias,
+                _pad1: 0.0,
+            };
+            let params_buf = storage_buffer(device, "LightMatrix::params", &[params], wgpu::BufferUsages::UNIFORM);
+            self.columns_pass.encode(
+                device,
+                &mut encoder,
+                &ColumnsInputs {
+                    params: &params_buf,
+                    view: &self.view_buffers,
+                    lights: &lights_buf,
+                    layers: &layers_buf,
+                    weights: &weights_buf,
+                    shadow_maps: &self.atlas.array_view,
+                    accum,
+                    columns: columns_buf,
+                    bvh_nodes: &self.bvh.nodes,
+                    bvh_prims: &self.bvh.primitives,
+                    stats: &self.stats,
+                },
+            );
+        }
         self.ctx.queue.submit(Some(encoder.finish()))
     }
 
@@ -262,6 +343,18 @@ impl LightMatrix {
             .poll(wgpu::PollType::Wait { submission_index: Some(submission), timeout: None })
             .map(|_| ())
             .map_err(|e| Error::Gpu(format!("waiting for a column batch failed: {e}")))
+    }
+
+    /// Visibility counters since creation or the last `reset_visibility_stats` (waits for the GPU).
+    pub fn visibility_stats(&self) -> Result<VisibilityStats> {
+        let w = self.ctx.read_buffer::<u32>(&self.stats, 0, 6)?;
+        let c = |k: usize| w[2 * k] as u64 | (w[2 * k + 1] as u64) << 32;
+        Ok(VisibilityStats { shadow_tests: c(0), ray_casts: c(1), gave_up: c(2) })
+    }
+
+    /// Sets the visibility counters to 0.
+    pub fn reset_visibility_stats(&self) {
+        self.ctx.queue.write_buffer(&self.stats, 0, bytemuck::cast_slice(&[0u32; 6]));
     }
 
     /// Columns `js` (any order, repeats allowed): k * H * W * 3 floats, column-major by light, then

@@ -418,7 +418,7 @@ fn bias_sweep() {
     let m = (size * size) as usize;
     for res in [256u32, 512, 1024] {
         for (no, db, sb) in [(1.0, 0.0, 0.0), (1.0, 0.5, 0.0), (1.0, 0.25, 0.1), (1.5, 0.25, 0.1), (0.75, 0.25, 0.1), (1.0, 0.25, 0.25)] {
-            let opts = ColumnOptions { shadow_resolution: res, normal_offset: no, depth_bias: db, slope_bias: sb, ..Default::default() };
+            let opts = ColumnOptions { visibility: Visibility::ShadowMap, shadow_resolution: res, normal_offset: no, depth_bias: db, slope_bias: sb, ..Default::default() };
             let mat = LightMatrix::new(ctx.clone(), scene.clone(), view.clone(), lights.clone(), opts).unwrap();
             let gpu = mat.columns(&[0, 1, 2]).unwrap();
             let mut line = format!("res {res} normal {no} depth {db} slope {sb}:");

@@ -4,7 +4,7 @@ use super::util::{array, vec3_array};
 use crate::error::Error;
 use crate::gpu::GpuContext;
 use crate::lights;
-use crate::matrix::{ColumnOptions, LightMatrix as CoreMatrix};
+use crate::matrix::{ColumnOptions, LightMatrix as CoreMatrix, Visibility};
 use numpy::{PyArrayDyn, PyReadonlyArray1};
 use pyo3::prelude::*;
 use std::sync::Arc;
@@ -68,7 +68,8 @@ pub struct LightMatrix {
 #[pymethods]
 impl LightMatrix {
     #[new]
-    #[pyo3(signature = (scene, lights, shadow_map_size=1024, normal_offset=None, depth_bias=None, slope_bias=None))]
+    #[pyo3(signature = (scene, lights, shadow_map_size=1024, normal_offset=None, depth_bias=None, slope_bias=None, visibility="hybrid"))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         scene: &Scene,
@@ -77,13 +78,15 @@ impl LightMatrix {
         normal_offset: Option<f32>,
         depth_bias: Option<f32>,
         slope_bias: Option<f32>,
+        visibility: &str,
     ) -> PyResult<Self> {
         if !(16..=8192).contains(&shadow_map_size) {
             return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
         }
         let view = scene.view_samples(py)?;
         let (s, l) = (scene.inner.clone(), lights.inner.clone());
-        let mut opts = ColumnOptions { shadow_resolution: shadow_map_size, ..Default::default() };
+        let visibility = Visibility::parse(visibility)?;
+        let mut opts = ColumnOptions { visibility, shadow_resolution: shadow_map_size, ..Default::default() };
         for (name, v, slot) in [
             ("normal_offset", normal_offset, &mut opts.normal_offset),
             ("depth_bias", depth_bias, &mut opts.depth_bias),
@@ -105,6 +108,17 @@ impl LightMatrix {
     #[getter]
     fn shape(&self) -> (usize, usize) {
         self.inner.shape()
+    }
+    /// Visibility counters since creation or `reset_visibility_stats()`: dict with shadow_tests,
+    /// ray_casts, gave_up (ints).
+    fn visibility_stats(&self, py: Python<'_>) -> PyResult<std::collections::HashMap<&'static str, u64>> {
+        let m = self.inner.clone();
+        let s = py.detach(move || m.visibility_stats())?;
+        Ok([("shadow_tests", s.shadow_tests), ("ray_casts", s.ray_casts), ("gave_up", s.gave_up)].into_iter().collect())
+    }
+    /// Sets the visibility counters to 0.
+    fn reset_visibility_stats(&self) {
+        self.inner.reset_visibility_stats()
     }
     /// Columns `indices` as a (k, H, W, 3) float32 array.
     fn columns<'py>(&self, py: Python<'py>, indices: Vec<usize>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {

@@ -1,0 +1,320 @@
+// Exact shadow rays on the GPU: any-hit traversal of a binary BVH (obvhs Bvh2, built and packed by
+// src/gpu/bvh.rs) over triangles (watertight test, Woop, Benthin and Wald, JCGT 2013) and analytic
+// spheres (Mitsuba 3.9.1 sphere.cpp, in f32), with Mitsuba's ray offsets (offset_p / spawn_ray_to), so
+// that results match the CPU `raytrace::RayTracer::occluded`.
+// Needs, declared by the including module: `bvh_nodes: array<BvhNode>` and `bvh_prims: array<BvhPrim>`
+// (storage, read).
+//
+// Loop bounds (Mesa 22.3 silently stops an invocation after 65,535 loop iterations, WGPU_HEADLESS.md
+// Trap 1): one ray takes at most BVH_MAX_RAY_STEPS steps (a step = one visited node pair or one
+// primitive test), and all rays of one invocation share BVH_INVOCATION_BUDGET steps. A ray that runs
+// out (or overflows its stack) returns BVH_GAVE_UP; callers count those (they must never happen).
+
+// Keep in sync with src/gpu/bvh.rs.
+const BVH_MAX_RAY_STEPS: u32 = 2048u;
+const BVH_INVOCATION_BUDGET: u32 = 61440u;
+const BVH_STACK_SIZE: u32 = 48u;
+const PRIM_TRIANGLE: u32 = 0u;
+const PRIM_SPHERE: u32 = 1u;
+// Mitsuba's math::RayEpsilon<float> (1500 * 2^-24) and ShadowEpsilon (10 RayEpsilon).
+const RAY_EPSILON: f32 = 8.940696716308594e-5;
+const SHADOW_EPSILON: f32 = 8.940696716308594e-4;
+// Results of trace_occlusion.
+const BVH_FREE: u32 = 0u;
+const BVH_BLOCKED: u32 = 1u;
+const BVH_GAVE_UP: u32 = 2u;
+const BVH_T_INF: f32 = 3.0e38;
+
+// Keep in sync with `GpuBvhNode` in src/gpu/bvh.rs (32 bytes). Inner node: prim_count 0, children at
+// first_index and first_index + 1. Leaf: prim_count primitives from bvh_prims[first_index].
+struct BvhNode {
+    aabb_min: vec3<f32>,
+    prim_count: u32,
+    aabb_max: vec3<f32>,
+    first_index: u32,
+}
+
+// Keep in sync with `GpuPrimitive` in src/gpu/bvh.rs (48 bytes). Triangle: v0, v1, v2.
+// Sphere: v0 = centre, v1.x = radius.
+struct BvhPrim {
+    v0: vec3<f32>,
+    kind: u32,
+    v1: vec3<f32>,
+    _pad0: u32,
+    v2: vec3<f32>,
+    _pad1: u32,
+}
+
+// Steps left for this invocation (shared by all its rays).
+var<private> bvh_budget: u32 = BVH_INVOCATION_BUDGET;
+// Steps taken by the current ray.
+var<private> bvh_ray_steps: u32 = 0u;
+
+// One more step of the current ray; false when the ray or the invocation is out of steps.
+fn bvh_step() -> bool {
+    if bvh_ray_steps >= BVH_MAX_RAY_STEPS || bvh_budget == 0u {
+        return false;
+    }
+    bvh_ray_steps = bvh_ray_steps + 1u;
+    bvh_budget = bvh_budget - 1u;
+    return true;
+}
+
+// Mitsuba's Interaction::offset_p: p moved along n_g toward the side d points to by
+// (1 + max_i |p_i|) RAY_EPSILON.
+fn offset_p(p: vec3<f32>, n_g: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    let a = abs(p);
+    let mag = (1.0 + max(max(a.x, a.y), a.z)) * RAY_EPSILON;
+    return p + n_g * select(-mag, mag, dot(n_g, d) >= 0.0);
+}
+
+// A ray prepared for the watertight triangle test: origin, permuted axes, shear constants.
+struct WatertightRay {
+    o: vec3<f32>,
+    kx: u32,
+    ky: u32,
+    kz: u32,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+    // Smallest accepted triangle t: (1 + max_i |o_i|) 2^-20 (see hit_triangle).
+    t_min: f32,
+}
+
+fn watertight_ray(o: vec3<f32>, d: vec3<f32>) -> WatertightRay {
+    var r: WatertightRay;
+    let a = abs(d);
+    var kz = 2u;
+    if a.x >= a.y && a.x >= a.z {
+        kz = 0u;
+    } else if a.y >= a.z {
+        kz = 1u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    if d[kz] < 0.0 {
+        let tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    r.o = o;
+    r.kx = kx;
+    r.ky = ky;
+    r.kz = kz;
+    r.sx = d[kx] / d[kz];
+    r.sy = d[ky] / d[kz];
+    r.sz = 1.0 / d[kz];
+    let ao = abs(o);
+    r.t_min = (1.0 + max(max(ao.x, ao.y), ao.z)) * 9.5367431640625e-7;
+    return r;
+}
+
+// Dekker's split of an f32 into two 12-bit halves.
+fn split_f32(a: f32) -> vec2<f32> {
+    let c = 4097.0 * a;
+    let hi = c - (c - a);
+    return vec2<f32>(hi, a - hi);
+}
+
+// a*b - c*d with the products computed exactly (Dekker's two-product): stands in for the CPU's f64
+// fallback on edge functions that round to exactly 0 (WGSL has no f64 on downlevel devices).
+fn diff_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
+    let p = a * b;
+    let q = c * d;
+    let sa = split_f32(a);
+    let sb = split_f32(b);
+    let sc = split_f32(c);
+    let sd = split_f32(d);
+    let ep = ((sa.x * sb.x - p) + sa.x * sb.y + sa.y * sb.x) + sa.y * sb.y;
+    let eq = ((sc.x * sd.x - q) + sc.x * sd.y + sc.y * sd.x) + sc.y * sd.y;
+    return (p - q) + (ep - eq);
+}
+
+// Watertight ray-triangle test (both faces); a hit needs t_min < t < t_max. Deviation: the CPU tracer
+// (and Mitsuba) accept any t > 0; when the origin lies exactly in a triangle's plane (a shadow ray from
+// a wall/ceiling contact edge, offset along the wall's normal, starts in the ceiling's plane) the sign
+// of t is rounding noise, and the GPU's rounding (fused multiply-adds) differs from the CPU's. Hits
+// closer than about 1e-6 relative to the origin's magnitude (100x below Mitsuba's ray offset) are
+// treated as that degenerate case and ignored.
+fn hit_triangle(r: WatertightRay, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, t_max: f32) -> bool {
+    let a = p0 - r.o;
+    let b = p1 - r.o;
+    let c = p2 - r.o;
+    let ax = a[r.kx] - r.sx * a[r.kz];
+    let ay = a[r.ky] - r.sy * a[r.kz];
+    let bx = b[r.kx] - r.sx * b[r.kz];
+    let by = b[r.ky] - r.sy * b[r.kz];
+    let cx = c[r.kx] - r.sx * c[r.kz];
+    let cy = c[r.ky] - r.sy * c[r.kz];
+    var u = cx * by - cy * bx;
+    var v = ax * cy - ay * cx;
+    var w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        u = diff_of_products(cx, by, cy, bx);
+        v = diff_of_products(ax, cy, ay, cx);
+        w = diff_of_products(bx, ay, by, ax);
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return false;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return false;
+    }
+    let t_scaled = u * (r.sz * a[r.kz]) + v * (r.sz * b[r.kz]) + w * (r.sz * c[r.kz]);
+    let t = t_scaled * (1.0 / det);
+    return t > r.t_min && t < t_max;
+}
+
+// Ray-sphere test as Mitsuba's sphere.cpp: the origin is moved to the foot of the perpendicular from the
+// centre before solving the quadratic (in f32 here; the CPU tracer uses f64). Hit when 0 < t < t_max.
+fn hit_sphere(center: vec3<f32>, radius: f32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
+    let l = o - center;
+    let dd = dot(d, d);
+    let plane_t = -dot(l, d) / dd;
+    let o_plane = l + d * plane_t;
+    let qa = dd;
+    let qb = 2.0 * dot(o_plane, d);
+    let qc = dot(o_plane, o_plane) - radius * radius;
+    let discrim = qb * qb - 4.0 * qa * qc;
+    if discrim < 0.0 {
+        return false;
+    }
+    let temp = -0.5 * (qb + select(-sqrt(discrim), sqrt(discrim), qb >= 0.0));
+    let x0 = temp / qa;
+    let x1 = select(x0, qc / temp, temp != 0.0);
+    let near = min(x0, x1) + plane_t;
+    let far = max(x0, x1) + plane_t;
+    return (near > 0.0 && near < t_max) || (far > 0.0 && far < t_max);
+}
+
+// Entry distance of the ray into a node's box, or -1 when it misses [0, t_max]. Boxes are padded on the
+// host and the exit distance is scaled by 1 + 2 gamma(3) (Ize, "Robust BVH Ray Traversal", JCGT 2013),
+// so rounding never culls a box the ray touches.
+fn box_entry(bmin: vec3<f32>, bmax: vec3<f32>, o: vec3<f32>, inv_d: vec3<f32>, t_max: f32) -> f32 {
+    let t1 = (bmin - o) * inv_d;
+    let t2 = (bmax - o) * inv_d;
+    let tn = min(t1, t2);
+    let tf = max(t1, t2);
+    let t_near = max(max(max(tn.x, tn.y), tn.z), 0.0);
+    let t_far = min(min(min(tf.x, tf.y), tf.z), t_max) * 1.0000004;
+    return select(-1.0, t_near, t_near <= t_far);
+}
+
+// Any primitive of a leaf hit with 0 < t < t_max? BVH_GAVE_UP when out of steps.
+fn leaf_occlusion(node: BvhNode, r: WatertightRay, d: vec3<f32>, t_max: f32) -> u32 {
+    for (var k = 0u; k < node.prim_count; k = k + 1u) {
+        if !bvh_step() {
+            return BVH_GAVE_UP;
+        }
+        let prim = bvh_prims[node.first_index + k];
+        var hit = false;
+        if prim.kind == PRIM_SPHERE {
+            hit = hit_sphere(prim.v0, prim.v1.x, r.o, d, t_max);
+        } else {
+            hit = hit_triangle(r, prim.v0, prim.v1, prim.v2, t_max);
+        }
+        if hit {
+            return BVH_BLOCKED;
+        }
+    }
+    return BVH_FREE;
+}
+
+// Whether anything lies on o + t d for 0 < t < t_max: BVH_FREE, BVH_BLOCKED or BVH_GAVE_UP.
+fn trace_occlusion(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> u32 {
+    bvh_ray_steps = 0u;
+    // Zero components become tiny ones of either sign: the slab of that axis then holds the origin or not.
+    let tiny = vec3<f32>(1e-30);
+    let d_safe = select(d, select(tiny, -tiny, d < vec3<f32>(0.0)), abs(d) < tiny);
+    let inv_d = 1.0 / d_safe;
+    let r = watertight_ray(o, d);
+    let root = bvh_nodes[0];
+    if box_entry(root.aabb_min, root.aabb_max, o, inv_d, t_max) < 0.0 {
+        return BVH_FREE;
+    }
+    if root.prim_count > 0u {
+        return leaf_occlusion(root, r, d, t_max);
+    }
+    var stack: array<u32, BVH_STACK_SIZE>;
+    var sp = 0u;
+    var current = root.first_index;
+    loop {
+        if !bvh_step() {
+            return BVH_GAVE_UP;
+        }
+        var near_node = bvh_nodes[current];
+        var far_node = bvh_nodes[current + 1u];
+        var t_near = box_entry(near_node.aabb_min, near_node.aabb_max, o, inv_d, t_max);
+        var t_far = box_entry(far_node.aabb_min, far_node.aabb_max, o, inv_d, t_max);
+        // Visit the nearer child first (misses sort last).
+        if t_far >= 0.0 && (t_near < 0.0 || t_far < t_near) {
+            let tn = near_node;
+            near_node = far_node;
+            far_node = tn;
+            let tt = t_near;
+            t_near = t_far;
+            t_far = tt;
+        }
+        var go_near = false;
+        if t_near >= 0.0 {
+            if near_node.prim_count > 0u {
+                let res = leaf_occlusion(near_node, r, d, t_max);
+                if res != BVH_FREE {
+                    return res;
+                }
+            } else {
+                go_near = true;
+            }
+        }
+        var go_far = false;
+        if t_far >= 0.0 {
+            if far_node.prim_count > 0u {
+                let res = leaf_occlusion(far_node, r, d, t_max);
+                if res != BVH_FREE {
+                    return res;
+                }
+            } else {
+                go_far = true;
+            }
+        }
+        if go_near && go_far {
+            if sp >= BVH_STACK_SIZE {
+                return BVH_GAVE_UP;
+            }
+            stack[sp] = far_node.first_index;
+            sp = sp + 1u;
+            current = near_node.first_index;
+        } else if go_near {
+            current = near_node.first_index;
+        } else if go_far {
+            current = far_node.first_index;
+        } else {
+            if sp == 0u {
+                return BVH_FREE;
+            }
+            sp = sp - 1u;
+            current = stack[sp];
+        }
+    }
+    return BVH_FREE;
+}
+
+// Whether anything lies on o + t d for 0 < t < t_max (d need not be unit length). A ray that gave up
+// counts as occluded; use trace_occlusion to tell.
+fn occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
+    return trace_occlusion(o, d, t_max) != BVH_FREE;
+}
+
+// Mitsuba's spawn_ray_to + ray_test: shadow ray from surface point p (geometric normal n_g) to point q.
+fn trace_to_point(p: vec3<f32>, n_g: vec3<f32>, q: vec3<f32>) -> u32 {
+    let o = offset_p(p, n_g, q - p);
+    let d = q - o;
+    let dist = length(d);
+    return trace_occlusion(o, d / dist, dist * (1.0 - SHADOW_EPSILON));
+}
+
+// Mitsuba's spawn_ray + ray_test: from surface point p along unit direction wo, unbounded.
+fn trace_direction(p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> u32 {
+    return trace_occlusion(offset_p(p, n_g, wo), wo, BVH_T_INF);
+}
