@@ -39,7 +39,7 @@ mod tests;
 
 use super::{scene_sphere, LightSet};
 use crate::error::{Error, Result};
-use crate::scene::{Emitter, Scene};
+use crate::scene::Scene;
 
 /// Largest count accepted for each of `area`, `environment`, `indirect`.
 pub const MAX_LIGHTS: usize = 1 << 26;
