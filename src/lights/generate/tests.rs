@@ -6,7 +6,7 @@ use super::test_scenes::{furnace_box, open_box, quad};
 use super::*;
 use crate::error::Location;
 use crate::lights::LightKind;
-use crate::scene::{Bsdf, EnvMap, Mesh, Param, ShapeKind};
+use crate::scene::{Bsdf, EnvMap, Emitter, Mesh, Param, ShapeKind};
 use glam::{Mat4, Vec3};
 use std::f64::consts::PI;
 
