@@ -42,6 +42,7 @@ __all__ = [
     "SceneError",
     "device_info",
     "fraction_within",
+    "generate_lights",
     "load_scene",
     "read_exr",
     "relative_l2",
@@ -83,6 +84,61 @@ def scene_lights(scene: Scene) -> LightSet:
     """The scene's point, spot and directional emitters as a LightSet (area and environment emitters are
     turned into lights by the many-light generation, not here)."""
     return _native.scene_lights(scene)
+
+
+def generate_lights(
+    scene: Scene,
+    area: int = 4096,
+    environment: int = 0,
+    indirect: int = 0,
+    max_depth: int = 5,
+    clamp: Optional[float] = None,
+    env_importance: bool = False,
+    seed: int = 0,
+) -> LightSet:
+    """Turn a scene's emitters and its indirect light into point-like lights (many-light columns).
+
+    The scene's point, spot and directional emitters come first, then ``area`` oriented point lights
+    (stratified by area over all area emitters, split by power; their powers sum exactly to
+    sum pi * area * radiance), ``environment`` directional lights (equal-area strata of the sphere, each
+    carrying the environment radiance integrated over its stratum; powers sum to pi r^2 * int L dw with r
+    the scene's bounding-sphere radius) and about ``indirect`` VPLs from particle tracing (paths with
+    1 ..= max_depth - 2 bounces before the receiver, so the direct lights plus the VPLs estimate Mitsuba's
+    ``path`` integrator with the same ``max_depth``).
+
+    Args:
+        scene: a loaded Scene.
+        area: number of oriented point lights over all area emitters (0 for none).
+        environment: number of directional lights over envmap / constant emitters.
+        indirect: expected number of VPLs (the actual count is random around it).
+        max_depth: Mitsuba's max_depth of the represented paths (>= 3 with indirect; -1 = unlimited).
+        clamp: bound on the VPL geometry term cos cos / d^2 in 1/m^2; None = 1 / (0.1 * diagonal)^2,
+            ``float("inf")`` = no clamp.
+        env_importance: allocate environment strata by luminance (equal power per light).
+        seed: same seed -> identical LightSet.
+
+    Returns:
+        LightSet with numpy views ``kind`` (0 point, 1 spot, 2 directional, 3 oriented point, 4 VPL),
+        ``position``, ``direction``, ``normal``, ``geo_normal``, ``incident``, ``intensity``, ``power``.
+
+    Raises:
+        ValueError: a negative, non-integer or too large count, a NaN or non-positive clamp,
+            max_depth < 3 with indirect > 0, or a scene without emitters. Zero-area or zero-radiance
+            emitters contribute nothing (no lights, no NaN).
+    """
+    counts = {"area": area, "environment": environment, "indirect": indirect, "max_depth": max_depth}
+    for name, v in counts.items():
+        if isinstance(v, bool) or int(v) != v:
+            raise ValueError(f"{name} must be an integer, got {v!r}")
+        if name != "max_depth" and v < 0:
+            raise ValueError(f"{name} must be a count >= 0, got {v}")
+    if clamp is not None:
+        clamp = float(clamp)
+        if not clamp > 0.0:
+            raise ValueError(f"clamp must be > 0 (or inf for no clamp), got {clamp}")
+    return _native.generate_lights(
+        scene, int(area), int(environment), int(indirect), int(max_depth), clamp, bool(env_importance), int(seed)
+    )
 
 
 class LightMatrix:

@@ -40,12 +40,17 @@ class Scene:
             ValueError: index out of range."""
 
 class LightSet:
-    """Lights as a struct of arrays (numpy views)."""
+    """Lights as a struct of arrays (numpy views). kind: 0 point, 1 spot, 2 directional, 3 oriented
+    point (area light sample), 4 VPL."""
     kind: npt.NDArray[np.int32]
     position: npt.NDArray[np.float32]
     direction: npt.NDArray[np.float32]
+    normal: npt.NDArray[np.float32]
+    geo_normal: npt.NDArray[np.float32]
+    incident: npt.NDArray[np.float32]
     intensity: npt.NDArray[np.float32]
     power: npt.NDArray[np.float32]
+    vpl_clamp: float
     def __len__(self) -> int: ...
 
 class LightMatrix:
@@ -79,6 +84,14 @@ def device_info() -> dict[str, Any]:
 
 def scene_lights(scene: Scene) -> LightSet:
     """The scene's point, spot and directional emitters."""
+
+def generate_lights(scene: Scene, area: int = 4096, environment: int = 0, indirect: int = 0, max_depth: int = 5,
+                    clamp: Optional[float] = None, env_importance: bool = False, seed: int = 0) -> LightSet:
+    """Delta emitters plus area, environment and indirect (VPL) lights; see ``manylights.generate_lights``.
+
+    Raises:
+        ValueError: negative or too large counts, NaN / non-positive clamp, max_depth < 3 with indirect,
+            a scene without emitters."""
 
 def write_exr(path: str | PathLike[str], image: npt.NDArray[np.float32]) -> None: ...
 def read_exr(path: str | PathLike[str]) -> npt.NDArray[np.float32]: ...

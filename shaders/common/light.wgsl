@@ -1,11 +1,14 @@
-// Delta lights (point, spot, directional) as Mitsuba 3.9.1 evaluates them; twin of src/lights/mod.rs.
-// Needs nothing else; used by shaders/columns.wgsl.
+// Point-like lights: point, spot, directional (as Mitsuba 3.9.1 evaluates them), oriented points (area
+// light samples) and VPLs; twin of `LightSet::emitted` in src/lights/mod.rs (formulas documented there).
+// Needs common/bsdf.wgsl (a VPL's BSDF is evaluated with bsdf_eval); used by shaders/columns.wgsl.
 
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;
 const LIGHT_DIRECTIONAL: u32 = 2u;
+const LIGHT_ORIENTED_POINT: u32 = 3u;
+const LIGHT_VPL: u32 = 4u;
 
-// Keep in sync with `GpuLight` in src/gpu/columns.rs (64 bytes).
+// Keep in sync with `GpuLight` in src/gpu/columns.rs (192 bytes).
 struct Light {
     position: vec3<f32>,
     kind: u32,
@@ -22,6 +25,18 @@ struct Light {
     inv_transition: f32,
     // 1 when the light's shadow map is a cube (6 layers), 0 for one layer.
     is_cube: u32,
+    // Oriented point: emission normal; VPL: shading normal n_s.
+    normal: vec3<f32>,
+    // VPL geometry-term clamp (1/m^2; a huge value = none).
+    clamp: f32,
+    // VPL: geometric normal n_g.
+    geo_normal: vec3<f32>,
+    _pad0: u32,
+    // VPL: unit direction toward where its particle came from.
+    incident: vec3<f32>,
+    _pad1: u32,
+    // VPL: the BSDF at its hit (zero for other kinds).
+    bsdf: Bsdf,
 }
 
 // What a light sends to p: wo (unit, toward the light), radiance factor, distance (1e30 for directional).
@@ -43,7 +58,8 @@ fn spot_falloff(l: Light, cos_theta: f32) -> f32 {
     return (l.cutoff_angle - acos(clamp(cos_theta, -1.0, 1.0))) * l.inv_transition;
 }
 
-fn light_emitted(l: Light, p: vec3<f32>) -> Emitted {
+// What light l sends to p (receiver shading normal n, used by the VPL clamp).
+fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
     var e: Emitted;
     e.valid = false;
     if l.kind == LIGHT_DIRECTIONAL {
@@ -60,15 +76,41 @@ fn light_emitted(l: Light, p: vec3<f32>) -> Emitted {
     }
     e.dist = sqrt(dist2);
     e.wo = d / e.dist;
-    var scale = 1.0 / dist2;
+    let inv_d2 = 1.0 / dist2;
     if l.kind == LIGHT_SPOT {
         let falloff = spot_falloff(l, -dot(e.wo, l.direction));
         if falloff <= 0.0 {
             return e;
         }
-        scale = scale * falloff;
+        e.radiance = l.intensity * (falloff * inv_d2);
+    } else if l.kind == LIGHT_ORIENTED_POINT {
+        let cos_theta = -dot(e.wo, l.normal);
+        if !(cos_theta > 0.0) {
+            return e;
+        }
+        e.radiance = l.intensity * (cos_theta * inv_d2);
+    } else if l.kind == LIGHT_VPL {
+        // I(w) = Phi f(incident, w) |w . n_g|, then the geometry-term clamp min(1, clamp / G).
+        let w = -e.wo;
+        let cos_g_out = dot(w, l.geo_normal);
+        if !(cos_g_out * dot(l.incident, l.geo_normal) > 0.0) {
+            return e;
+        }
+        let fs = coordinate_system_s(l.normal);
+        let ft = coordinate_system_t(l.normal);
+        let wi_local = vec3<f32>(dot(l.incident, fs), dot(l.incident, ft), dot(l.incident, l.normal));
+        let wo_local = vec3<f32>(dot(w, fs), dot(w, ft), dot(w, l.normal));
+        if wo_local.z == 0.0 {
+            return e;
+        }
+        let f_cos = bsdf_eval(l.bsdf, wi_local, wo_local);
+        let intensity = l.intensity * f_cos * (abs(cos_g_out) / abs(wo_local.z));
+        let g = abs(cos_g_out) * abs(dot(e.wo, n)) * inv_d2;
+        let scale = select(1.0, l.clamp / g, g > l.clamp);
+        e.radiance = intensity * (inv_d2 * scale);
+    } else {
+        e.radiance = l.intensity * inv_d2;
     }
-    e.radiance = l.intensity * scale;
     e.valid = true;
     return e;
 }

@@ -21,7 +21,9 @@ pub const WORKGROUP_SIZE: u32 = 64;
 /// Most lights one dispatch loops over.
 pub const MAX_LIGHTS_PER_DISPATCH: usize = 256;
 
-/// Keep in sync with `struct Light` in `shaders/common/light.wgsl` (64 bytes).
+/// Keep in sync with `struct Light` in `shaders/common/light.wgsl` (192 bytes: 64 for every kind, then
+/// oriented-point / VPL fields and the VPL's 80-byte BSDF, stored in the light itself so the column
+/// pass needs no extra binding; its roughplastic table offset indexes the scene's table buffer).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuLight {
@@ -35,6 +37,18 @@ pub struct GpuLight {
     pub cos_beam: f32,
     pub inv_transition: f32,
     pub is_cube: u32,
+    /// Oriented point: emission normal; VPL: shading normal.
+    pub normal: [f32; 3],
+    /// VPL geometry-term clamp (1/m^2); f32::MAX when there is none.
+    pub clamp: f32,
+    /// VPL geometric normal.
+    pub geo_normal: [f32; 3],
+    pub _pad0: u32,
+    /// VPL incident direction (toward where its particle came from).
+    pub incident: [f32; 3],
+    pub _pad1: u32,
+    /// VPL BSDF (zero for other kinds).
+    pub bsdf: crate::shading::GpuBsdf,
 }
 
 impl GpuLight {
@@ -53,6 +67,13 @@ impl GpuLight {
             cos_beam: if spot { beam.cos() } else { -2.0 },
             inv_transition: if cutoff > beam { 1.0 / (cutoff - beam) } else { 0.0 },
             is_cube: is_cube as u32,
+            normal: lights.normal[j].to_array(),
+            clamp: lights.vpl_clamp.min(f32::MAX),
+            geo_normal: lights.geo_normal[j].to_array(),
+            _pad0: 0,
+            incident: lights.incident[j].to_array(),
+            _pad1: 0,
+            bsdf: lights.bsdf[j],
         }
     }
 }
@@ -290,7 +311,7 @@ mod tests {
 
     #[test]
     fn struct_sizes() {
-        assert_eq!(std::mem::size_of::<GpuLight>(), 64);
+        assert_eq!(std::mem::size_of::<GpuLight>(), 192);
         assert_eq!(std::mem::size_of::<GpuViewSample>(), 64);
         assert_eq!(std::mem::size_of::<ColumnParams>(), 48);
         assert_eq!(std::mem::size_of::<crate::shading::GpuBsdf>(), 80);
@@ -306,7 +327,7 @@ mod tests {
         // WGSL struct sizes equal the Rust mirrors.
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).unwrap();
-        for (name, size) in [("Light", 64), ("ViewSample", 64), ("ColumnParams", 48), ("Bsdf", 80), ("ShadowLayer", 256)] {
+        for (name, size) in [("Light", 192), ("ViewSample", 64), ("ColumnParams", 48), ("Bsdf", 80), ("ShadowLayer", 256)] {
             let (h, _) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(name)).expect(name);
             assert_eq!(layouter[h].size, size, "{name}");
         }

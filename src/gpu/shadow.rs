@@ -5,7 +5,9 @@
 //!   shader picks the face from the major axis of (p - light position).
 //! - spot light: one perspective layer covering the cutoff cone (fov = 2 atan(1.02 tan(cutoff))); spots
 //!   wider than `MAX_SPOT_MAP_CUTOFF` use a cube like a point light.
-//! - directional light: one orthographic layer fitted to the scene's bounding sphere.
+//! - directional light (also environment strata): one orthographic layer fitted to the scene's bounding sphere.
+//! - oriented point (area light sample) and VPL: a cube map like a point light (all 6 faces are kept,
+//!   even those behind the emitting hemisphere, so batches lay out alike).
 //! Near/far planes enclose the scene's bounding sphere (near = 1e-3 radius: geometry closer than that to
 //! a point/spot light is clipped and casts no shadow). No face culling (occluders are two-sided).
 //!
@@ -50,7 +52,7 @@ pub fn cube_face_dirs() -> [(Vec3, Vec3); 6] {
 /// True when light j's shadow map is a cube (6 layers).
 pub fn uses_cube(lights: &LightSet, j: usize) -> bool {
     match lights.kind[j] {
-        LightKind::Point => true,
+        LightKind::Point | LightKind::OrientedPoint | LightKind::Vpl => true,
         LightKind::Spot => lights.cutoff_angle[j] > MAX_SPOT_MAP_CUTOFF,
         LightKind::Directional => false,
     }

@@ -1,28 +1,51 @@
-//! LightSet: the typed delta lights that are the columns of the light matrix.
+//! LightSet: the typed point-like lights that are the columns of the light matrix.
 //!
 //! Struct-of-arrays: `kind[j]`, `position[j]`, `direction[j]`, `intensity[j]` ... describe light j.
-//! Kinds now: `Point`, `Spot`, `Directional` (from the scene's `point`, `spot`, `directional` emitters);
-//! the `LightKind` discriminants leave room for oriented points / VPLs and environment-directional lights.
+//! Kinds: `Point`, `Spot`, `Directional` (the scene's `point`, `spot`, `directional` emitters, and the
+//! strata of environment maps), `OrientedPoint` (samples of area emitters) and `Vpl` (virtual point
+//! lights from particle tracing); `generate` makes the last three from a scene (`generate_lights`).
 //!
-//! Emission follows Mitsuba 3.9.1 (`src/emitters/{point,spot,directional}.cpp`):
-//! - point: radiance arriving at p = I / d^2 from direction wo = (position - p) / d.
+//! Emission (what `emitted(j, p, n)` returns: wo toward the light, a radiance factor F and the distance;
+//! the receiver multiplies F by its `bsdf_eval(wi, wo)`, i.e. f_r |cos theta_r|). Delta lights follow
+//! Mitsuba 3.9.1 (`src/emitters/{point,spot,directional}.cpp`):
+//! - point: F = I / d^2, wo = (position - p) / d.
 //! - spot: I * falloff(theta) / d^2, theta = angle between the light's +z axis and (p - position):
 //!   falloff = 1 if cos(theta) >= cos(beam_width), (cutoff_angle - theta) / (cutoff_angle - beam_width)
 //!   otherwise, and 0 unless cos(theta) > cos(cutoff_angle) (Mitsuba's `falloff_curve`).
-//! - directional: E (irradiance), wo = -direction. The cosine is inside `bsdf_eval`.
+//! - directional: F = E (irradiance at normal incidence), wo = -direction.
+//! - oriented point (a piece of area A_k of an emitter of radiance L, `intensity` I0 = L A_k in W/sr):
+//!   I(w) = I0 max(0, cos theta), theta between `normal` and w = (p - position) / d; F = I(w) / d^2.
+//! - VPL (`intensity` = Phi, W): a particle that arrived at the VPL from direction `incident` (unit,
+//!   pointing from the VPL back toward where the particle came from) with flux Phi (already multiplied
+//!   by the shading-normal correction |incident . n_s| / |incident . n_g|). Its radiant intensity toward
+//!   w = (p - position) / d is
+//!       I(w) = Phi f(incident, w) |w . n_g|        (W/sr)
+//!   with f the VPL's BSDF (`bsdf[j]`, evaluated by `shading::bsdf::eval` in the frame of `normal` = n_s:
+//!   `eval(incident, w) / |w . n_s| = f`; Mitsuba's BSDFs here are reciprocal so the order does not matter),
+//!   zero unless `incident` and w lie on the same side of the geometric normal n_g (`geo_normal`).
+//!   F = I(w) / d^2, scaled by min(1, clamp / G) with G = |w . n_g| |wo . n| / d^2 the geometry term
+//!   (n = the receiver's shading normal): the VPL contribution becomes Phi f_v f_r min(G, clamp),
+//!   the usual bound of the 1 / d^2 singularity (`vpl_clamp`, infinite = no clamp).
 //!
 //! `power()` (W): point 4 pi I; spot I * 2 pi (1 - (sin c - sin b) / (c - b)) with c = cutoff_angle,
 //! b = beam_width (the exact integral of Mitsuba's falloff over the sphere, i.e. the mean weight of its
 //! `sample_ray`; 2 pi (1 - cos c) when b = c); directional E * pi r^2 with r the radius of the scene's
-//! bounding sphere (half the bounding-box diagonal): the power crossing the scene's bounding disk.
+//! bounding sphere (half the bounding-box diagonal): the power crossing the scene's bounding disk;
+//! oriented point pi I0; VPL the reflected flux Phi * rho(incident), rho = integral of f |w . n_g| over
+//! the sphere, by a fixed 32 x 32 stratified cosine-weighted quadrature (exact for diffuse).
 //! Powers are per RGB channel; `power_luminance()` gives a scalar (mean of the channels).
 //!
 //! Deviation: a spot `world_from_light` must be a rotation times a uniform scale (plus translation);
 //! shear or non-uniform scale (which would distort Mitsuba's cone) is an error.
 //!
-//! Rust twin of `shaders/common/light.wgsl` (`emitted`), used by the CPU reference.
+//! Rust twin of `shaders/common/light.wgsl` (`light_emitted`), used by the CPU reference.
+pub mod generate;
+
+pub use generate::{generate_lights, GenerateOptions};
+
 use crate::error::{Error, Result};
 use crate::scene::{Emitter, Scene};
+use crate::shading::GpuBsdf;
 use glam::Vec3;
 
 /// Light types. Values are shared with `shaders/common/light.wgsl` (`LIGHT_*`).
@@ -32,7 +55,10 @@ pub enum LightKind {
     Point = 0,
     Spot = 1,
     Directional = 2,
-    // 3: oriented point / VPL (cosine lobe around `direction`), 4: environment-directional (next).
+    /// A piece of an area emitter: cosine lobe around `normal`.
+    OrientedPoint = 3,
+    /// Virtual point light: a particle's flux reflected by the BSDF at its hit.
+    Vpl = 4,
 }
 
 /// A set of delta lights, struct of arrays.
@@ -43,8 +69,17 @@ pub struct LightSet {
     pub position: Vec<Vec3>,
     /// Unit vector: spot axis (local +z in world); directional: the direction the light travels; point: 0.
     pub direction: Vec<Vec3>,
-    /// Intensity I in W/sr (point, spot), irradiance E in W/m^2 (directional); RGB.
+    /// Intensity I in W/sr (point, spot), irradiance E in W/m^2 (directional), I0 in W/sr (oriented
+    /// point: intensity along its normal), flux Phi in W (VPL); RGB.
     pub intensity: Vec<Vec3>,
+    /// Unit emission normal (oriented point), shading normal n_s (VPL); 0 for other kinds.
+    pub normal: Vec<Vec3>,
+    /// Unit geometric normal n_g (VPL; oriented point: equal to `normal`); 0 for other kinds.
+    pub geo_normal: Vec<Vec3>,
+    /// VPL: unit direction from the VPL toward where its particle came from; 0 for other kinds.
+    pub incident: Vec<Vec3>,
+    /// VPL: the BSDF at its hit (resolved, textures evaluated); `GpuBsdf::zeroed()` for other kinds.
+    pub bsdf: Vec<GpuBsdf>,
     /// Spot cutoff angle (radians); 0 for other kinds.
     pub cutoff_angle: Vec<f32>,
     /// Spot beam width (radians); 0 for other kinds.
@@ -52,6 +87,8 @@ pub struct LightSet {
     /// Centre and radius of the scene's bounding sphere (directional power and shadow-map fitting).
     pub scene_center: Vec3,
     pub scene_radius: f32,
+    /// Bound on the VPL geometry term G = cos cos / d^2 (1/m^2); `f32::INFINITY` = no clamp.
+    pub vpl_clamp: f32,
 }
 
 fn check_vec(what: &str, j: usize, v: Vec3, nonneg: bool) -> Result<()> {
@@ -67,14 +104,12 @@ fn check_vec(what: &str, j: usize, v: Vec3, nonneg: bool) -> Result<()> {
 impl LightSet {
     /// An empty set for the scene whose bounding sphere is (center, radius).
     pub fn new(scene_center: Vec3, scene_radius: f32) -> Self {
-        LightSet { scene_center, scene_radius, ..Default::default() }
+        LightSet { scene_center, scene_radius, vpl_clamp: f32::INFINITY, ..Default::default() }
     }
 
     /// The scene's point, spot and directional emitters, in `Scene::emitters` order (others are skipped).
     pub fn from_scene(scene: &Scene) -> Result<LightSet> {
-        let (lo, hi) = scene.bounds();
-        let (center, radius) =
-            if lo.is_finite() && hi.is_finite() { ((lo + hi) * 0.5, (hi - lo).length() * 0.5) } else { (Vec3::ZERO, 0.0) };
+        let (center, radius) = scene_sphere(scene);
         let mut set = LightSet::new(center, radius);
         for e in &scene.emitters {
             let r = match e {
@@ -127,6 +162,51 @@ impl LightSet {
         self.intensity.push(intensity);
         self.cutoff_angle.push(cutoff);
         self.beam_width.push(beam);
+        self.normal.push(Vec3::ZERO);
+        self.geo_normal.push(Vec3::ZERO);
+        self.incident.push(Vec3::ZERO);
+        self.bsdf.push(bytemuck::Zeroable::zeroed());
+    }
+
+    /// Add an oriented point light: I(w) = I0 max(0, cos theta) around the unit `normal`; I0 in W/sr.
+    pub fn push_oriented_point(&mut self, position: Vec3, normal: Vec3, intensity: Vec3) -> Result<()> {
+        let j = self.len();
+        check_vec("position", j, position, false)?;
+        check_vec("intensity", j, intensity, true)?;
+        let n = unit("normal", j, normal)?;
+        self.push(LightKind::OrientedPoint, position, Vec3::ZERO, intensity, 0.0, 0.0);
+        self.normal[j] = n;
+        self.geo_normal[j] = n;
+        Ok(())
+    }
+
+    /// Add a VPL (formula in the module docs): flux Phi (W), shading normal `n_s`, geometric normal
+    /// `n_g`, `incident` (unit, toward where the particle came from) and the BSDF at the hit.
+    pub fn push_vpl(&mut self, position: Vec3, n_s: Vec3, n_g: Vec3, incident: Vec3, flux: Vec3, bsdf: GpuBsdf) -> Result<()> {
+        let j = self.len();
+        check_vec("position", j, position, false)?;
+        check_vec("flux", j, flux, true)?;
+        let (n_s, n_g, incident) = (unit("n_s", j, n_s)?, unit("n_g", j, n_g)?, unit("incident", j, incident)?);
+        self.push(LightKind::Vpl, position, Vec3::ZERO, flux, 0.0, 0.0);
+        self.normal[j] = n_s;
+        self.geo_normal[j] = n_g;
+        self.incident[j] = incident;
+        self.bsdf[j] = bsdf;
+        Ok(())
+    }
+
+    /// Append every light of `other` (same scene sphere expected; `vpl_clamp` is kept from `self`).
+    pub fn extend(&mut self, other: &LightSet) {
+        self.kind.extend_from_slice(&other.kind);
+        self.position.extend_from_slice(&other.position);
+        self.direction.extend_from_slice(&other.direction);
+        self.intensity.extend_from_slice(&other.intensity);
+        self.cutoff_angle.extend_from_slice(&other.cutoff_angle);
+        self.beam_width.extend_from_slice(&other.beam_width);
+        self.normal.extend_from_slice(&other.normal);
+        self.geo_normal.extend_from_slice(&other.geo_normal);
+        self.incident.extend_from_slice(&other.incident);
+        self.bsdf.extend_from_slice(&other.bsdf);
     }
 
     /// Add an isotropic point light of intensity I (W/sr).
@@ -179,6 +259,8 @@ impl LightSet {
             LightKind::Point => i * (4.0 * std::f32::consts::PI),
             LightKind::Spot => i * spot_solid_angle(self.cutoff_angle[j], self.beam_width[j]),
             LightKind::Directional => i * (std::f32::consts::PI * self.scene_radius * self.scene_radius),
+            LightKind::OrientedPoint => i * std::f32::consts::PI,
+            LightKind::Vpl => i * vpl_reflectance(&self.bsdf[j], self.normal[j], self.geo_normal[j], self.incident[j]),
         }
     }
 
@@ -187,32 +269,120 @@ impl LightSet {
         (0..self.len()).map(|j| self.power(j).element_sum() / 3.0).collect()
     }
 
-    /// What light j sends to point p: (wo, unit direction from p toward the light; radiance factor
-    /// (I falloff / d^2 or E); distance to the light, infinite for directional). `None` when it sends
-    /// nothing (outside the spot cone, or p at the light's position).
-    pub fn emitted(&self, j: usize, p: Vec3) -> Option<(Vec3, Vec3, f32)> {
-        match self.kind[j] {
-            LightKind::Directional => Some((-self.direction[j], self.intensity[j], f32::INFINITY)),
-            kind => {
-                let d = self.position[j] - p;
-                let dist2 = d.length_squared();
-                if !(dist2 > 0.0) {
+    /// What light j sends to point p whose shading normal is `n` (used only by the VPL clamp):
+    /// (wo, unit direction from p toward the light; radiance factor F (module docs); distance to the
+    /// light, infinite for directional). `None` when it sends nothing (outside a spot cone, behind an
+    /// oriented point or VPL, or p at the light's position).
+    pub fn emitted(&self, j: usize, p: Vec3, n: Vec3) -> Option<(Vec3, Vec3, f32)> {
+        let kind = self.kind[j];
+        if kind == LightKind::Directional {
+            return Some((-self.direction[j], self.intensity[j], f32::INFINITY));
+        }
+        let d = self.position[j] - p;
+        let dist2 = d.length_squared();
+        if !(dist2 > 0.0) {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wo = d / dist;
+        let inv_d2 = 1.0 / dist2;
+        let radiance = match kind {
+            LightKind::Point | LightKind::Directional => self.intensity[j] * inv_d2,
+            LightKind::Spot => {
+                let falloff = spot_falloff(-wo.dot(self.direction[j]), self.cutoff_angle[j], self.beam_width[j]);
+                if falloff <= 0.0 {
                     return None;
                 }
-                let dist = dist2.sqrt();
-                let wo = d / dist;
-                let mut scale = 1.0 / dist2;
-                if kind == LightKind::Spot {
-                    let falloff = spot_falloff(-wo.dot(self.direction[j]), self.cutoff_angle[j], self.beam_width[j]);
-                    if falloff <= 0.0 {
-                        return None;
-                    }
-                    scale *= falloff;
-                }
-                Some((wo, self.intensity[j] * scale, dist))
+                self.intensity[j] * (falloff * inv_d2)
             }
+            LightKind::OrientedPoint => {
+                let cos = -wo.dot(self.normal[j]);
+                if !(cos > 0.0) {
+                    return None;
+                }
+                self.intensity[j] * (cos * inv_d2)
+            }
+            LightKind::Vpl => {
+                let (n_s, n_g, incident) = (self.normal[j], self.geo_normal[j], self.incident[j]);
+                let w = -wo;
+                let (cos_g_out, cos_g_in) = (w.dot(n_g), incident.dot(n_g));
+                if !(cos_g_out * cos_g_in > 0.0) {
+                    return None;
+                }
+                let (s, t) = coordinate_system(n_s);
+                let local = |v: Vec3| Vec3::new(v.dot(s), v.dot(t), v.dot(n_s));
+                let (wi_local, wo_local) = (local(incident), local(w));
+                if wo_local.z == 0.0 {
+                    return None;
+                }
+                // eval = f |w . n_s|; I(w) = Phi f |w . n_g|.
+                let f_cos = crate::shading::bsdf::eval(&self.bsdf[j], wi_local, wo_local);
+                let intensity = self.intensity[j] * f_cos * (cos_g_out.abs() / wo_local.z.abs());
+                let g = cos_g_out.abs() * wo.dot(n).abs() * inv_d2;
+                let clamp = if g > self.vpl_clamp { self.vpl_clamp / g } else { 1.0 };
+                intensity * (inv_d2 * clamp)
+            }
+        };
+        Some((wo, radiance, dist))
+    }
+}
+
+/// Centre and radius of the scene's bounding sphere (half the bounding-box diagonal); (0, 0) without
+/// geometry.
+pub fn scene_sphere(scene: &Scene) -> (Vec3, f32) {
+    let (lo, hi) = scene.bounds();
+    if lo.is_finite() && hi.is_finite() {
+        ((lo + hi) * 0.5, (hi - lo).length() * 0.5)
+    } else {
+        (Vec3::ZERO, 0.0)
+    }
+}
+
+fn unit(what: &str, j: usize, v: Vec3) -> Result<Vec3> {
+    check_vec(what, j, v, false)?;
+    let len = v.length();
+    if !(len > 1e-12) {
+        return Err(Error::invalid(format!("light {j}: {what} must be non-zero, got {v:?}")));
+    }
+    Ok(v / len)
+}
+
+/// Mitsuba's `coordinate_system(n)` (Duff et al. 2017): (s, t) completing n to a right-handed frame;
+/// the same as `coordinate_system_s/t` in `light.wgsl`.
+pub fn coordinate_system(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
+}
+
+/// rho(incident) = integral over the sphere of f(incident, w) |w . n_g| dw for a VPL, by a 32 x 32
+/// stratified cosine-weighted quadrature about n_s on the side of `incident` (exact for diffuse).
+pub fn vpl_reflectance(bsdf: &GpuBsdf, n_s: Vec3, n_g: Vec3, incident: Vec3) -> Vec3 {
+    const N: usize = 32;
+    let (s, t) = coordinate_system(n_s);
+    let local = |v: Vec3| Vec3::new(v.dot(s), v.dot(t), v.dot(n_s));
+    let wi = local(incident);
+    let side = if incident.dot(n_g) >= 0.0 { 1.0 } else { -1.0 };
+    let zs = if wi.z >= 0.0 { 1.0 } else { -1.0 };
+    let mut sum = Vec3::ZERO;
+    for a in 0..N {
+        for b in 0..N {
+            let (u1, u2) = ((a as f32 + 0.5) / N as f32, (b as f32 + 0.5) / N as f32);
+            let r = u1.sqrt();
+            let phi = 2.0 * std::f32::consts::PI * u2;
+            let z = (1.0 - u1).max(0.0).sqrt();
+            let wo = Vec3::new(r * phi.cos(), r * phi.sin(), zs * z);
+            let w_world = s * wo.x + t * wo.y + n_s * wo.z;
+            let cos_g = w_world.dot(n_g) * side;
+            if !(cos_g > 0.0) || z <= 0.0 {
+                continue;
+            }
+            // eval / pdf with pdf = z / pi; times |w . n_g| / |w . n_s|.
+            sum += crate::shading::bsdf::eval(bsdf, wi, wo) * (std::f32::consts::PI * cos_g / (z * z));
         }
     }
+    sum / (N * N) as f32
 }
 
 /// Mitsuba's spot `falloff_curve` for cos(theta) (theta from the axis).
@@ -291,11 +461,11 @@ mod tests {
         s.push_point(Vec3::new(0.0, 2.0, 0.0), Vec3::splat(4.0)).unwrap();
         s.push_spot(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y, Vec3::splat(4.0), 0.5, 0.25).unwrap();
         s.push_directional(Vec3::new(0.0, -1.0, 0.0), Vec3::splat(3.0)).unwrap();
-        let (wo, l, d) = s.emitted(0, Vec3::ZERO).unwrap();
+        let (wo, l, d) = s.emitted(0, Vec3::ZERO, Vec3::Y).unwrap();
         assert_eq!((wo, l, d), (Vec3::Y, Vec3::splat(1.0), 2.0));
-        assert_eq!(s.emitted(1, Vec3::ZERO).unwrap().1, Vec3::splat(1.0));
-        assert!(s.emitted(1, Vec3::new(2.0, 0.0, 0.0)).is_none());
-        let (wo, l, d) = s.emitted(2, Vec3::ZERO).unwrap();
+        assert_eq!(s.emitted(1, Vec3::ZERO, Vec3::Y).unwrap().1, Vec3::splat(1.0));
+        assert!(s.emitted(1, Vec3::new(2.0, 0.0, 0.0), Vec3::Y).is_none());
+        let (wo, l, d) = s.emitted(2, Vec3::ZERO, Vec3::Y).unwrap();
         assert_eq!((wo, l), (Vec3::Y, Vec3::splat(3.0)));
         assert!(d.is_infinite());
     }
@@ -314,7 +484,7 @@ mod tests {
         for j in 0..3 {
             for k in 0..40 {
                 let p = Vec3::new(-1.0 + 0.05 * k as f32, -0.3 + 0.01 * k as f32, 0.4 - 0.03 * k as f32);
-                let (wo, l, _) = s.emitted(j, p).unwrap_or((Vec3::ZERO, Vec3::ZERO, 0.0));
+                let (wo, l, _) = s.emitted(j, p, Vec3::Y).unwrap_or((Vec3::ZERO, Vec3::ZERO, 0.0));
                 out += &format!("{j} {} {} {} {} {} {} {} {} {}\n", p.x, p.y, p.z, wo.x, wo.y, wo.z, l.x, l.y, l.z);
             }
         }

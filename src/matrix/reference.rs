@@ -81,7 +81,7 @@ impl CpuReference {
             return (Vec3::ZERO, false);
         }
         let p = view.position[i];
-        let Some((wo, radiance, dist)) = lights.emitted(j, p) else {
+        let Some((wo, radiance, dist)) = lights.emitted(j, p, view.normal[i]) else {
             return (Vec3::ZERO, false);
         };
         let n = view.normal[i];

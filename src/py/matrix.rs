@@ -20,7 +20,7 @@ impl LightSet {
     fn __len__(&self) -> usize {
         self.inner.len()
     }
-    /// Light kinds as int32 (0 point, 1 spot, 2 directional).
+    /// Light kinds as int32 (0 point, 1 spot, 2 directional, 3 oriented point, 4 VPL).
     #[getter]
     fn kind<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<i32>>> {
         let k: Vec<i32> = self.inner.kind.iter().map(|k| *k as i32).collect();
@@ -37,7 +37,28 @@ impl LightSet {
     fn direction<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         vec3_array(py, &self.inner.direction)
     }
-    /// (n, 3) RGB intensity (W/sr) or irradiance (W/m^2, directional).
+    /// (n, 3) unit emission normal (oriented point) or shading normal (VPL); 0 for other kinds.
+    #[getter]
+    fn normal<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.normal)
+    }
+    /// (n, 3) VPL geometric normal (oriented point: its normal); 0 for other kinds.
+    #[getter]
+    fn geo_normal<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.geo_normal)
+    }
+    /// (n, 3) VPL incident direction (unit, toward where its particle came from); 0 for other kinds.
+    #[getter]
+    fn incident<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.incident)
+    }
+    /// VPL geometry-term clamp (1/m^2; inf = none).
+    #[getter]
+    fn vpl_clamp(&self) -> f32 {
+        self.inner.vpl_clamp
+    }
+    /// (n, 3) RGB intensity (W/sr; oriented point: along its normal), irradiance (W/m^2, directional)
+    /// or flux (W, VPL).
     #[getter]
     fn intensity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         vec3_array(py, &self.inner.intensity)

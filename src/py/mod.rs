@@ -4,6 +4,7 @@ use pyo3::prelude::*;
 pub mod bsdf;
 pub mod errors;
 pub mod image;
+pub mod lights;
 pub mod matrix;
 pub mod scene;
 pub mod util;
@@ -15,6 +16,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     matrix::register(m)?;
     image::register(m)?;
     bsdf::register(m)?;
+    lights::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -211,7 +211,7 @@ fn lerp_gather(table: &[f32; TABLE_RES], x: f32) -> f32 {
 }
 
 /// `MicrofacetDistribution::eval` (D).
-fn microfacet_d(ggx: bool, alpha_u: f32, alpha_v: f32, m: Vec3) -> f32 {
+pub fn microfacet_d(ggx: bool, alpha_u: f32, alpha_v: f32, m: Vec3) -> f32 {
     let alpha_uv = alpha_u * alpha_v;
     let cos_theta_2 = m.z * m.z;
     let sx = m.x / alpha_u;
@@ -246,7 +246,7 @@ fn smith_g1(ggx: bool, alpha_u: f32, alpha_v: f32, v: Vec3, m: Vec3) -> f32 {
 }
 
 /// Mitsuba's dielectric `fresnel` (reflectance only).
-fn fresnel(cos_theta_i: f32, eta: f32) -> f32 {
+pub fn fresnel(cos_theta_i: f32, eta: f32) -> f32 {
     let (eta_it, eta_ti) = if cos_theta_i >= 0.0 { (eta, 1.0 / eta) } else { (1.0 / eta, eta) };
     let cos_theta_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
     let ci = cos_theta_i.abs();
@@ -263,7 +263,7 @@ fn fresnel(cos_theta_i: f32, eta: f32) -> f32 {
 }
 
 /// Mitsuba's `fresnel_conductor` for one channel (complex IOR eta + i k).
-fn fresnel_conductor(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
+pub fn fresnel_conductor(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
     let cos_theta_i_2 = cos_theta_i * cos_theta_i;
     let sin_theta_i_2 = 1.0 - cos_theta_i_2;
     let sin_theta_i_4 = sin_theta_i_2 * sin_theta_i_2;

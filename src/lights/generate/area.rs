@@ -1,0 +1,168 @@
+//! Area emitters -> oriented point lights (MRCS 2007 Sec. 4: "area lights ... are handled by stratified
+//! uniform sampling").
+//!
+//! The `area` lights are split among the scene's area emitters in proportion to their power
+//! pi A_e mean(L_e) (largest-remainder rounding, so the counts sum to `area` whenever some emitter has
+//! power). Emitter e's n_e lights are stratified by area: light k sits in the k-th of n_e equal-area
+//! strata (meshes: the 1D stratum [k, k+1) / n_e of the triangles' cumulative area, jittered, then a
+//! uniform point of the triangle it falls in; spheres: the k-th cell of the equal-area partition of
+//! `sampling::equal_area_cells`, jittered). Each light carries I0 = L_e A_e / n_e (W/sr) with a cosine
+//! lobe around the surface normal, so its power is pi L_e A_e / n_e and the lights of an emitter sum to
+//! pi A_e L_e exactly (up to float rounding). Spheres use their analytic area 4 pi r^2.
+//!
+//! Mitsuba's area emitters emit on the +normal side only: the lobe's normal is the triangle's geometric
+//! normal, flipped to agree with the mesh's vertex normals when it has any (sphere: outward, inward with
+//! `flip_normals`). The light sits at Mitsuba's `offset_p` above the surface, so its own surface never
+//! shadows it. Zero-area or zero-radiance emitters get no lights (zero contribution).
+use super::sampling::{equal_area_cells, stream, uniform, uniform_triangle, STREAM_AREA};
+use crate::error::Result;
+use crate::lights::LightSet;
+use crate::raytrace::offset_p;
+use crate::scene::{Emitter, Scene, ShapeKind};
+use glam::Vec3;
+use rand_pcg::Pcg32;
+
+/// An area emitter ready for sampling.
+#[derive(Debug, Clone)]
+pub struct AreaEmitter {
+    /// Index into `Scene::emitters`.
+    pub emitter: usize,
+    pub radiance: Vec3,
+    /// Total area (m^2).
+    pub area: f32,
+    pub shape: AreaShape,
+}
+
+#[derive(Debug, Clone)]
+pub enum AreaShape {
+    /// Triangles (p0, p1, p2, emitting normal) and the cumulative area after each.
+    Triangles { triangles: Vec<([Vec3; 3], Vec3)>, cdf: Vec<f64> },
+    Sphere { center: Vec3, radius: f32, flip: bool },
+}
+
+impl AreaEmitter {
+    /// Emitted power pi A L (W per channel).
+    pub fn power(&self) -> Vec3 {
+        self.radiance * (std::f32::consts::PI * self.area)
+    }
+
+    /// A point and its emitting normal, uniform by area, for (u0, u1) in [0,1)^2 (u0 selects the triangle).
+    pub fn sample_point(&self, u0: f32, u1: f32) -> (Vec3, Vec3) {
+        match &self.shape {
+            AreaShape::Triangles { triangles, cdf } => {
+                let total = *cdf.last().unwrap_or(&0.0);
+                let target = u0 as f64 * total;
+                let k = cdf.partition_point(|&c| c <= target).min(triangles.len() - 1);
+                let before = if k == 0 { 0.0 } else { cdf[k - 1] };
+                let a = cdf[k] - before;
+                let v = if a > 0.0 { (((target - before) / a) as f32).clamp(0.0, 1.0 - f32::EPSILON) } else { 0.5 };
+                let ([p0, p1, p2], n) = triangles[k];
+                let b = uniform_triangle(v, u1);
+                (p0 * (1.0 - b.x - b.y) + p1 * b.x + p2 * b.y, n)
+            }
+            AreaShape::Sphere { center, radius, flip } => {
+                let d = super::sampling::uniform_sphere(u0, u1);
+                (*center + d * *radius, if *flip { -d } else { d })
+            }
+        }
+    }
+}
+
+/// The scene's area emitters (in `Scene::emitters` order) with their sampling tables.
+pub fn area_emitters(scene: &Scene) -> Vec<AreaEmitter> {
+    let mut out = Vec::new();
+    for (e, emitter) in scene.emitters.iter().enumerate() {
+        let Emitter::Area { mesh, radiance, .. } = emitter else { continue };
+        let Some(m) = scene.meshes.get(*mesh) else { continue };
+        let radiance = radiance.max(Vec3::ZERO);
+        let shape = if let ShapeKind::Sphere { center, radius, flip_normals } = m.kind {
+            AreaShape::Sphere { center, radius, flip: flip_normals }
+        } else {
+            let mut triangles = Vec::with_capacity(m.indices.len());
+            let mut cdf = Vec::with_capacity(m.indices.len());
+            let mut acc = 0.0f64;
+            for idx in &m.indices {
+                let [i0, i1, i2] = idx.map(|i| i as usize);
+                if [i0, i1, i2].iter().any(|&i| i >= m.positions.len()) {
+                    continue;
+                }
+                let p = [m.positions[i0], m.positions[i1], m.positions[i2]];
+                let c = (p[1] - p[0]).cross(p[2] - p[0]);
+                let area2 = c.length();
+                if !(area2 > 0.0 && area2.is_finite()) {
+                    continue;
+                }
+                let mut n = c / area2;
+                if m.normals.len() == m.positions.len() {
+                    let ns = m.normals[i0] + m.normals[i1] + m.normals[i2];
+                    if ns.dot(n) < 0.0 {
+                        n = -n;
+                    }
+                }
+                acc += 0.5 * area2 as f64;
+                triangles.push((p, n));
+                cdf.push(acc);
+            }
+            AreaShape::Triangles { triangles, cdf }
+        };
+        let area = match &shape {
+            AreaShape::Triangles { cdf, .. } => *cdf.last().unwrap_or(&0.0) as f32,
+            AreaShape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
+        };
+        out.push(AreaEmitter { emitter: e, radiance, area: if area.is_finite() { area } else { 0.0 }, shape });
+    }
+    out
+}
+
+/// Split `n` among weights (largest remainder; all zero weights -> all zero counts).
+pub fn split_counts(weights: &[f64], n: usize) -> Vec<usize> {
+    let total: f64 = weights.iter().sum();
+    if !(total > 0.0) || n == 0 {
+        return vec![0; weights.len()];
+    }
+    let exact: Vec<f64> = weights.iter().map(|w| w / total * n as f64).collect();
+    let mut counts: Vec<usize> = exact.iter().map(|e| e.floor() as usize).collect();
+    let mut left = n - counts.iter().sum::<usize>();
+    let mut order: Vec<usize> = (0..weights.len()).filter(|&i| weights[i] > 0.0).collect();
+    order.sort_by(|&a, &b| (exact[b] - exact[b].floor()).total_cmp(&(exact[a] - exact[a].floor())).then(a.cmp(&b)));
+    for &i in order.iter().cycle() {
+        if left == 0 {
+            break;
+        }
+        counts[i] += 1;
+        left -= 1;
+    }
+    counts
+}
+
+/// `n` oriented point lights over `emitters` (module docs).
+pub fn area_lights(emitters: &[AreaEmitter], n: usize, seed: u64, center: Vec3, radius: f32) -> Result<LightSet> {
+    let mut set = LightSet::new(center, radius);
+    let weights: Vec<f64> = emitters.iter().map(|e| e.power().element_sum() as f64).collect();
+    let counts = split_counts(&weights, n);
+    for (e, (emitter, &n_e)) in emitters.iter().zip(&counts).enumerate() {
+        if n_e == 0 {
+            continue;
+        }
+        let mut rng: Pcg32 = stream(seed, STREAM_AREA, e as u64);
+        let i0 = emitter.radiance * (emitter.area / n_e as f32);
+        match &emitter.shape {
+            AreaShape::Triangles { .. } => {
+                for k in 0..n_e {
+                    let u0 = ((k as f64 + uniform(&mut rng) as f64) / n_e as f64) as f32;
+                    let (p, normal) = emitter.sample_point(u0.min(1.0 - f32::EPSILON), uniform(&mut rng));
+                    set.push_oriented_point(offset_p(p, normal, normal), normal, i0)?;
+                }
+            }
+            AreaShape::Sphere { center, radius, flip } => {
+                for cell in equal_area_cells(n_e) {
+                    let d = cell.sample(uniform(&mut rng), uniform(&mut rng));
+                    let normal = if *flip { -d } else { d };
+                    let p = *center + d * *radius;
+                    set.push_oriented_point(offset_p(p, normal, normal), normal, i0)?;
+                }
+            }
+        }
+    }
+    Ok(set)
+}

@@ -1,0 +1,284 @@
+//! Indirect light -> virtual point lights by particle tracing (Keller, "Instant Radiosity", SIGGRAPH 1997;
+//! MRCS 2007 Sec. 4: "indirect lights are computed using particle tracing as in [Keller 1997]").
+//!
+//! Emission: each particle picks an emitter with probability proportional to its power (mean of RGB):
+//! area (uniform point by area, cosine direction on the +normal side; Phi_e = pi A L), environment
+//! (direction from `EnvSampler`, origin on the scene's bounding disk facing it; Phi_e = pi r^2 int L),
+//! point (uniform direction; 4 pi I), spot (uniform in the cutoff cone, times the falloff; its
+//! `spot_solid_angle` power), directional (origin on the bounding disk; pi r^2 E). A particle starts
+//! with flux Phi_0 = L_e(y, w) / (p(e) p(y, w) N) -- per emitter that is Phi_e / (p(e) N) times the
+//! (unit-mean) ratio of emission to its sampling density -- with N the number of particles.
+//!
+//! Tracing: at the k-th surface hit x_k (k = 1, 2, ...), with incident direction w_in (toward x_{k-1})
+//! and flux Phi, a VPL is stored when the BSDF has a non-delta lobe (diffuse, plastic, roughplastic,
+//! roughconductor) and w_in is on its reflecting side: flux Phi_vpl = Phi |w_in . n_s| / |w_in . n_g|
+//! (the adjoint shading-normal correction), so that its intensity Phi_vpl f(w_in, w) |w . n_g|
+//! (`LightSet::emitted`) is the particle estimate of the radiance x_k reflects. VPLs are stored for
+//! k <= max_depth - 2 (Mitsuba's max_depth). The particle continues along w sampled from the BSDF
+//! (`sampling::sample_bsdf`) with flux Phi_vpl f |w . n_g| / pdf(w) (= I(w) / pdf, the same correction)
+//! for non-delta lobes and Phi * weight for delta lobes (smooth conductor / dielectric / plastic's
+//! coating, where no VPL is stored). A reflection whose sampled direction crosses the geometric surface
+//! (shading-normal leak) ends the particle. Russian roulette from the 3rd bounce on: continue with
+//! probability q = min(0.95, lum(Phi_next) / lum(Phi_0)), dividing the flux by q.
+//!
+//! Unbiasedness: E[sum over VPLs at bounce k of Phi_vpl] = the flux arriving at bounce k; so the set's
+//! total reflected flux (sum of `LightSet::power`) estimates the power the scene reflects at bounces
+//! 1 ..= max_depth - 2 (tested on a closed diffuse box against Phi sum_k rho^k).
+//!
+//! Count: N is fixed before the main run from a pilot run (its own random streams) as
+//! ceil(indirect / mean VPLs per particle), so N does not depend on the main run and the flux stays
+//! unbiased; the number of VPLs is random with expectation about `indirect`.
+use super::area::AreaEmitter;
+use super::environment::{EnvSampler, Environment};
+use super::sampling::{
+    cosine_hemisphere, has_smooth_lobe_only, sample_bsdf, stream, to_local, to_world, uniform, uniform_cone,
+    uniform_sphere, STREAM_PARTICLE, STREAM_PILOT,
+};
+use super::GenerateOptions;
+use crate::error::Result;
+use crate::lights::{scene_sphere, spot_falloff, spot_solid_angle, LightKind, LightSet};
+use crate::raytrace::{offset_p, spawn_ray, RayTracer};
+use crate::scene::Scene;
+use crate::shading::bsdf::{resolve, FLAG_TWOSIDED};
+use crate::shading::GpuBsdf;
+use glam::Vec3;
+use rand_pcg::Pcg32;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+/// Bounce from which Russian roulette applies.
+const RR_DEPTH: u32 = 3;
+/// Pilot particles used to estimate VPLs per particle.
+const PILOT_PARTICLES: usize = 4096;
+
+/// Where particles come from.
+enum Source<'a> {
+    Area(&'a AreaEmitter),
+    Env(EnvSampler),
+    /// Index into the delta `LightSet`.
+    Delta(usize),
+}
+
+/// One VPL before it enters the set.
+struct Vpl {
+    position: Vec3,
+    n_s: Vec3,
+    n_g: Vec3,
+    incident: Vec3,
+    flux: Vec3,
+    bsdf: GpuBsdf,
+}
+
+struct Tracer<'a> {
+    scene: &'a Scene,
+    rt: RayTracer,
+    sources: Vec<(Source<'a>, Vec3)>,
+    /// Selection CDF over `sources` (by mean power) and the probabilities.
+    cdf: Vec<f64>,
+    prob: Vec<f32>,
+    delta: LightSet,
+    env: Option<&'a Environment>,
+    center: Vec3,
+    radius: f32,
+    max_vpl_depth: u32,
+}
+
+fn luminance(v: Vec3) -> f32 {
+    v.element_sum() / 3.0
+}
+
+impl<'a> Tracer<'a> {
+    /// Emits one particle: (origin, direction, flux before division by N).
+    fn emit(&self, rng: &mut Pcg32) -> Option<(Vec3, Vec3, Vec3)> {
+        let total = *self.cdf.last()?;
+        let u = uniform(rng) as f64 * total;
+        let s = self.cdf.partition_point(|&c| c <= u).min(self.sources.len() - 1);
+        let (source, power) = &self.sources[s];
+        let p_select = self.prob[s];
+        let (u0, u1, u2, u3) = (uniform(rng), uniform(rng), uniform(rng), uniform(rng));
+        // A point on the bounding disk facing direction `d` (toward the sky), outside the scene.
+        let disk_origin = |d: Vec3, a: f32, b: f32| {
+            let r = a.sqrt() * self.radius;
+            let phi = 2.0 * PI * b;
+            self.center + to_world(d, Vec3::new(r * phi.cos(), r * phi.sin(), 1.01 * self.radius))
+        };
+        match source {
+            Source::Area(e) => {
+                let (p, n) = e.sample_point(u0, u1);
+                let w = to_world(n, cosine_hemisphere(u2, u3));
+                Some((offset_p(p, n, w), w, *power / p_select))
+            }
+            Source::Env(sampler) => {
+                let (d, pdf) = sampler.sample(u0, u1, u2);
+                let l = self.env_radiance(d);
+                if !(pdf > 0.0) {
+                    return None;
+                }
+                let v = uniform(rng);
+                Some((disk_origin(d, u3, v), -d, l * (PI * self.radius * self.radius / (pdf * p_select))))
+            }
+            Source::Delta(j) => {
+                let j = *j;
+                let i = self.delta.intensity[j];
+                match self.delta.kind[j] {
+                    LightKind::Point => Some((self.delta.position[j], uniform_sphere(u0, u1), *power / p_select)),
+                    LightKind::Spot => {
+                        let (c, b) = (self.delta.cutoff_angle[j], self.delta.beam_width[j]);
+                        let cos_c = c.cos();
+                        let local = uniform_cone(u0, u1, cos_c);
+                        let falloff = spot_falloff(local.z, c, b);
+                        let w = to_world(self.delta.direction[j], local);
+                        let solid = 2.0 * PI * (1.0 - cos_c);
+                        Some((self.delta.position[j], w, i * (falloff * solid / p_select)))
+                    }
+                    _ => {
+                        let dir = self.delta.direction[j];
+                        Some((disk_origin(-dir, u2, u3), dir, *power / p_select))
+                    }
+                }
+            }
+        }
+    }
+
+    fn env_radiance(&self, d: Vec3) -> Vec3 {
+        self.env.map_or(Vec3::ZERO, |e| e.radiance(d))
+    }
+
+    /// Traces particle `index` of stream family `family`; VPL fluxes still to be divided by N.
+    fn trace(&self, seed: u64, family: u64, index: u64, out: &mut Vec<Vpl>) {
+        let mut rng = stream(seed, family, index);
+        let Some((mut o, mut d, phi_0)) = self.emit(&mut rng) else { return };
+        if !(phi_0.max_element() > 0.0 && phi_0.is_finite()) {
+            return;
+        }
+        let lum_0 = luminance(phi_0);
+        let mut phi = phi_0;
+        let mut depth = 0u32;
+        loop {
+            let Some(hit) = self.rt.intersect(o, d, 0.0, f32::INFINITY) else { return };
+            depth += 1;
+            let mesh = &self.scene.meshes[hit.mesh];
+            let b = resolve(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, hit.uv);
+            let (n_s, n_g, w_in) = (hit.n_s, hit.n_g, hit.wi);
+            let (cos_s_in, cos_g_in) = (w_in.dot(n_s), w_in.dot(n_g));
+            let non_delta = !has_smooth_lobe_only(&b);
+            let mut phi_vpl = phi;
+            if non_delta {
+                // Reflecting side: w_in on the same side of n_s and n_g, and the front unless two-sided.
+                if !(cos_s_in * cos_g_in > 0.0) || (b.flags & FLAG_TWOSIDED == 0 && cos_s_in <= 0.0) {
+                    return;
+                }
+                phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
+                if depth <= self.max_vpl_depth {
+                    out.push(Vpl {
+                        position: offset_p(hit.p, n_g, w_in),
+                        n_s,
+                        n_g,
+                        incident: w_in,
+                        flux: phi_vpl,
+                        bsdf: b,
+                    });
+                }
+            }
+            if depth >= self.max_vpl_depth {
+                return;
+            }
+            let Some(sample) = sample_bsdf(&b, to_local(n_s, w_in), &mut rng) else { return };
+            let w = to_world(n_s, sample.wo);
+            let cos_g_out = w.dot(n_g);
+            let mut phi_next = if sample.delta {
+                phi * sample.weight
+            } else {
+                // Same side as w_in for reflection lobes; f |w . n_g| / pdf = weight |w . n_g| / |w . n_s|.
+                if !(cos_g_out * cos_g_in > 0.0) || sample.wo.z == 0.0 {
+                    return;
+                }
+                phi_vpl * sample.weight * (cos_g_out.abs() / sample.wo.z.abs())
+            };
+            if depth >= RR_DEPTH {
+                let q = (luminance(phi_next) / lum_0).min(0.95);
+                if !(uniform(&mut rng) < q) {
+                    return;
+                }
+                phi_next /= q;
+            }
+            if !(phi_next.max_element() > 0.0 && phi_next.is_finite()) {
+                return;
+            }
+            phi = phi_next;
+            o = spawn_ray(hit.p, n_g, w);
+            d = w;
+        }
+    }
+}
+
+/// About `opts.indirect` VPLs (module docs); `areas` and `env` are the scene's area emitters and
+/// environment. Returns an empty set when no particle deposits a VPL.
+pub fn trace_vpls(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environment>, opts: &GenerateOptions) -> Result<LightSet> {
+    let (center, radius) = scene_sphere(scene);
+    let mut out = LightSet::new(center, radius);
+    if opts.indirect == 0 || opts.max_depth < 3 {
+        return Ok(out);
+    }
+    let delta = LightSet::from_scene(scene)?;
+    let mut sources: Vec<(Source, Vec3)> = Vec::new();
+    for e in areas {
+        sources.push((Source::Area(e), e.power()));
+    }
+    if let Some(env) = env {
+        let sampler = env.sampler();
+        let power = sampler.integral * (PI * radius * radius);
+        sources.push((Source::Env(sampler), power));
+    }
+    for j in 0..delta.len() {
+        let power = match delta.kind[j] {
+            LightKind::Spot => delta.intensity[j] * spot_solid_angle(delta.cutoff_angle[j], delta.beam_width[j]),
+            _ => delta.power(j),
+        };
+        sources.push((Source::Delta(j), power));
+    }
+    let weights: Vec<f64> = sources.iter().map(|(_, p)| luminance(*p).max(0.0) as f64).collect();
+    let total: f64 = weights.iter().sum();
+    if !(total > 0.0) || radius <= 0.0 {
+        return Ok(out);
+    }
+    let mut acc = 0.0;
+    let cdf: Vec<f64> = weights.iter().map(|w| { acc += w; acc }).collect();
+    let prob: Vec<f32> = weights.iter().map(|w| (w / total) as f32).collect();
+    let tracer = Tracer {
+        scene,
+        rt: RayTracer::new(scene)?,
+        sources,
+        cdf,
+        prob,
+        delta,
+        env,
+        center,
+        radius,
+        max_vpl_depth: opts.max_depth.saturating_sub(2),
+    };
+    let run = |family: u64, n: usize| -> Vec<Vec<Vpl>> {
+        (0..n)
+            .into_par_iter()
+            .with_min_len(64)
+            .map(|k| {
+                let mut v = Vec::new();
+                tracer.trace(opts.seed, family, k as u64, &mut v);
+                v
+            })
+            .collect()
+    };
+    // Pilot: mean VPLs per particle fixes N independently of the main run.
+    let pilot = PILOT_PARTICLES.min(opts.indirect.max(256));
+    let pilot_count: usize = run(STREAM_PILOT, pilot).iter().map(Vec::len).sum();
+    if pilot_count == 0 {
+        return Ok(out);
+    }
+    let per_particle = pilot_count as f64 / pilot as f64;
+    let n = ((opts.indirect as f64 / per_particle).ceil() as usize).max(1);
+    let inv_n = 1.0 / n as f32;
+    for v in run(STREAM_PARTICLE, n).into_iter().flatten() {
+        out.push_vpl(v.position, v.n_s, v.n_g, v.incident, v.flux * inv_n, v.bsdf)?;
+    }
+    Ok(out)
+}
