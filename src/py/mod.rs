@@ -2,6 +2,7 @@
 use pyo3::prelude::*;
 
 pub mod bsdf;
+pub mod cluster;
 pub mod errors;
 pub mod image;
 pub mod matrix;
@@ -15,6 +16,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     matrix::register(m)?;
     image::register(m)?;
     bsdf::register(m)?;
+    cluster::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
