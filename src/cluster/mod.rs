@@ -230,7 +230,9 @@ pub fn cluster_reduced_columns(reduced: ReducedMatrix, num_clusters: usize, opts
         }
     }
 
+    let t0 = std::time::Instant::now();
     let stats = columns::column_stats(&reduced);
+    log::debug!("cluster: column stats {:.3} s", t0.elapsed().as_secs_f64());
     let (nonzero, zero): (Vec<u32>, Vec<u32>) = (0..n as u32).partition(|&j| stats.norm[j as usize] > 0.0);
     let m = nonzero.len();
 
@@ -249,13 +251,16 @@ pub fn cluster_reduced_columns(reduced: ReducedMatrix, num_clusters: usize, opts
         let num_zero_clusters = if zero.is_empty() { 0 } else { 1.max(num_clusters.saturating_sub(m)) };
         let num_nonzero_clusters = num_clusters - num_zero_clusters;
         let features = columns::project(&reduced, &nonzero, opts.projection_dim, &mut phase_rng(opts.seed, 0));
+        log::debug!("cluster: projection {:.3} s", t0.elapsed().as_secs_f64());
         let num_sampled = ((opts.sampling_fraction * num_nonzero_clusters as f64).round() as usize).min(num_nonzero_clusters);
         let mut local = if num_sampled == 0 {
             vec![(0..m as u32).collect::<Vec<u32>>()]
         } else {
             sampling::cluster_by_sampling(&features, num_sampled, &mut phase_rng(opts.seed, 1))
         };
+        log::debug!("cluster: sampling {:.3} s", t0.elapsed().as_secs_f64());
         splitting::split_until(&features, &mut local, num_nonzero_clusters, &mut phase_rng(opts.seed, 2));
+        log::debug!("cluster: splitting {:.3} s", t0.elapsed().as_secs_f64());
         let mut clusters: Vec<Vec<u32>> = Vec::with_capacity(num_clusters);
         let mut reps = Vec::with_capacity(num_clusters);
         let mut w = Vec::with_capacity(num_clusters);
@@ -283,6 +288,7 @@ pub fn cluster_reduced_columns(reduced: ReducedMatrix, num_clusters: usize, opts
         }
     }
     let cost = columns::cluster_costs(&reduced, &assignment, clusters.len(), &stats.norm);
+    log::debug!("cluster: representatives and costs {:.3} s", t0.elapsed().as_secs_f64());
     Ok(Clustering { assignment, clusters, cost, representatives, weights })
 }
 
