@@ -3,6 +3,7 @@ pub mod error;
 pub mod gpu;
 pub mod image;
 pub mod lights;
+pub mod cluster;
 pub mod matrix;
 pub mod raytrace;
 pub mod scene;

@@ -2,6 +2,7 @@
 use pyo3::prelude::*;
 
 pub mod bsdf;
+pub mod cluster;
 pub mod errors;
 pub mod image;
 pub mod lights;
@@ -17,6 +18,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     image::register(m)?;
     bsdf::register(m)?;
     lights::register(m)?;
+    cluster::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

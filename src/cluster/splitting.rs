@@ -1,0 +1,192 @@
+//! Sec. 3.5 "Clustering by top-down splitting": repeatedly split the cluster of highest cost. A split
+//! projects the normalised columns `rho_i / |rho_i|` of the cluster onto a random line (Gaussian
+//! direction), sorts them along it and takes the best of the |C| - 1 cuts, where a cut's cost is the sum
+//! of the Sec. 3.4 costs of both halves. With `s_L = sum |rho|`, `P_L = sum rho` over the left part and
+//! `s, T` over the cluster, `cost = s_L^2 - |P_L|^2 + (s - s_L)^2 - |T - P_L|^2`; `|P_L|^2` and `T . P_L`
+//! are updated incrementally, so a split costs O(|C| (r' + log |C|)).
+use super::columns::Features;
+use super::normal;
+use rand_pcg::Pcg64;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Sec. 3.4 cost of a cluster of feature columns: `s^2 - |sum rho|^2` (clamped at 0).
+pub fn cluster_cost(features: &Features, members: &[u32]) -> f64 {
+    let mut total = vec![0.0f64; features.dim];
+    let mut s = 0.0f64;
+    for &i in members {
+        s += features.norm[i as usize];
+        for (t, v) in total.iter_mut().zip(features.column(i as usize)) {
+            *t += v;
+        }
+    }
+    roundoff_to_zero(s * s - total.iter().map(|v| v * v).sum::<f64>(), s)
+}
+
+/// A cost `s^2 - |sum rho|^2` at round-off level (below `1e-12 s^2`, e.g. parallel columns) is 0.
+pub fn roundoff_to_zero(cost: f64, s: f64) -> f64 {
+    if cost <= 1e-12 * s * s {
+        0.0
+    } else {
+        cost
+    }
+}
+
+/// Splits `members` (at least 2) at the best cut along a random line: (left, right, cost_left, cost_right).
+pub fn split(features: &Features, members: &[u32], rng: &mut Pcg64) -> (Vec<u32>, Vec<u32>, f64, f64) {
+    let d = features.dim;
+    let direction: Vec<f64> = (0..d).map(|_| normal(rng)).collect();
+    let mut order: Vec<(f64, u32)> = members
+        .iter()
+        .map(|&i| {
+            let col = features.column(i as usize);
+            let t: f64 = col.iter().zip(&direction).map(|(a, b)| a * b).sum();
+            (t / features.norm[i as usize], i)
+        })
+        .collect();
+    order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+
+    let mut total = vec![0.0f64; d];
+    let mut s = 0.0f64;
+    for &(_, i) in &order {
+        s += features.norm[i as usize];
+        for (t, v) in total.iter_mut().zip(features.column(i as usize)) {
+            *t += v;
+        }
+    }
+    let total_sq: f64 = total.iter().map(|v| v * v).sum();
+    let tie = 1e-12 * s * s;
+    let len = order.len();
+    let (mut left_sum, mut left_sq, mut total_dot_left, mut s_left) = (vec![0.0f64; d], 0.0f64, 0.0f64, 0.0f64);
+    // (cut position = size of the left part, total, left cost, right cost)
+    let mut best = (0usize, f64::INFINITY, 0.0, 0.0);
+    for (pos, &(_, i)) in order.iter().enumerate().take(len - 1) {
+        let col = features.column(i as usize);
+        let (mut dot_left, mut dot_total) = (0.0f64, 0.0f64);
+        for ((l, t), v) in left_sum.iter().zip(&total).zip(col) {
+            dot_left += l * v;
+            dot_total += t * v;
+        }
+        let norm = features.norm[i as usize];
+        left_sq += 2.0 * dot_left + norm * norm;
+        total_dot_left += dot_total;
+        for (l, v) in left_sum.iter_mut().zip(col) {
+            *l += v;
+        }
+        s_left += norm;
+        let cost_left = roundoff_to_zero(s_left * s_left - left_sq, s_left);
+        let s_right = s - s_left;
+        let cost_right = roundoff_to_zero(s_right * s_right - (total_sq - 2.0 * total_dot_left + left_sq), s_right);
+        let cut = pos + 1;
+        let sum = cost_left + cost_right;
+        let balance = |c: usize| (2 * c).abs_diff(len);
+        if sum < best.1 - tie || ((sum - best.1).abs() <= tie && balance(cut) < balance(best.0)) {
+            best = (cut, sum, cost_left, cost_right);
+        }
+    }
+    let left = order[..best.0].iter().map(|&(_, i)| i).collect();
+    let right = order[best.0..].iter().map(|&(_, i)| i).collect();
+    (left, right, best.2, best.3)
+}
+
+/// Heap entry: highest cost first, then largest, then lowest id.
+#[derive(PartialEq)]
+struct Candidate {
+    cost: f64,
+    size: usize,
+    id: usize,
+}
+
+impl Eq for Candidate {}
+
+impl Ord for Candidate {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.cost.total_cmp(&other.cost).then(self.size.cmp(&other.size)).then(other.id.cmp(&self.id))
+    }
+}
+
+impl PartialOrd for Candidate {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// Splits the highest-cost cluster until there are `target` clusters (or every cluster is a singleton).
+pub fn split_until(features: &Features, clusters: &mut Vec<Vec<u32>>, target: usize, rng: &mut Pcg64) {
+    let mut heap: BinaryHeap<Candidate> = clusters
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.len() >= 2)
+        .map(|(id, c)| Candidate { cost: cluster_cost(features, c), size: c.len(), id })
+        .collect();
+    while clusters.len() < target {
+        let Some(top) = heap.pop() else { break };
+        let (left, right, cost_left, cost_right) = split(features, &clusters[top.id], rng);
+        let new_id = clusters.len();
+        for (id, part, cost) in [(top.id, &left, cost_left), (new_id, &right, cost_right)] {
+            if part.len() >= 2 {
+                heap.push(Candidate { cost, size: part.len(), id });
+            }
+        }
+        clusters[top.id] = left;
+        clusters.push(right);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn split_separates_two_directions_at_zero_cost_and_matches_direct_costs() {
+        // 6 columns along two directions with different norms: the best cut costs 0.
+        let dirs = [[1.0, 0.0, 0.0], [0.0, 0.6, 0.8]];
+        let mut data = Vec::new();
+        let mut norm = Vec::new();
+        for k in 0..6 {
+            let scale = 1.0 + k as f64;
+            data.extend(dirs[k % 2].iter().map(|v| v * scale));
+            norm.push(scale);
+        }
+        let f = Features { dim: 3, data, norm };
+        let members: Vec<u32> = (0..6).collect();
+        assert!(cluster_cost(&f, &members) > 1.0);
+        let (mut left, mut right, cl, cr) = split(&f, &members, &mut Pcg64::seed_from_u64(2));
+        left.sort();
+        right.sort();
+        let groups = [vec![0, 2, 4], vec![1, 3, 5]];
+        assert!(groups.contains(&left) && groups.contains(&right), "{left:?} {right:?}");
+        assert!(cl.abs() < 1e-9 && cr.abs() < 1e-9);
+    }
+
+    #[test]
+    fn incremental_cut_costs_equal_direct_costs() {
+        let mut rng = Pcg64::seed_from_u64(9);
+        let (d, m) = (5, 40);
+        let data: Vec<f64> = (0..d * m).map(|_| normal(&mut rng).abs()).collect();
+        let norm = data.chunks(d).map(|c| c.iter().map(|v| v * v).sum::<f64>().sqrt()).collect();
+        let f = Features { dim: d, data, norm };
+        let members: Vec<u32> = (0..m as u32).collect();
+        let (left, right, cl, cr) = split(&f, &members, &mut rng);
+        assert_eq!(left.len() + right.len(), m);
+        assert!((cl - cluster_cost(&f, &left)).abs() < 1e-9 * (1.0 + cl));
+        assert!((cr - cluster_cost(&f, &right)).abs() < 1e-9 * (1.0 + cr));
+        assert!(cl + cr < cluster_cost(&f, &members));
+    }
+
+    #[test]
+    fn split_until_reaches_target_even_at_zero_cost() {
+        // Ten parallel columns: every cluster costs 0, splitting must still produce 4 balanced parts.
+        let data: Vec<f64> = (0..10).flat_map(|k| [1.0 + k as f64, 2.0 + 2.0 * k as f64]).collect();
+        let norm = data.chunks(2).map(|c| (c[0] * c[0] + c[1] * c[1]).sqrt()).collect();
+        let f = Features { dim: 2, data, norm };
+        let mut clusters = vec![(0..10).collect::<Vec<u32>>()];
+        split_until(&f, &mut clusters, 4, &mut Pcg64::seed_from_u64(1));
+        assert_eq!(clusters.len(), 4);
+        let mut all: Vec<u32> = clusters.iter().flatten().copied().collect();
+        all.sort();
+        assert_eq!(all, (0..10).collect::<Vec<u32>>());
+        assert!(clusters.iter().all(|c| (2..=3).contains(&c.len())), "{clusters:?}");
+    }
+}
