@@ -26,7 +26,22 @@ def _render_ref(ref, xml, params, size):
     return img
 
 
-def _check(name, ours, ref):
+# Pixels whose centre lies exactly on an edge between two shapes (the hit changes within 1e-3 px; see
+# reference.mitsuba_edge_pixels) are decided by rounding -- Mitsuba's own variants disagree there -- so
+# they are left out of the light comparison. At most this share of the image may be such pixels.
+MAX_EDGE_PIXELS = 0.01  # cbox-lights, head-on symmetric box: 85 of 16384 (0.52%)
+
+
+def _edge_mask(ref_module, xml, params, size):
+    edges = ref_module.mitsuba_edge_pixels(xml, size, **params)
+    assert edges.mean() <= MAX_EDGE_PIXELS, f"{edges.sum()} edge pixels: the comparison would leave out too much"
+    return edges
+
+
+def _check(name, ours, ref, edges=None):
+    if edges is not None:
+        keep = ~edges[..., None]
+        ours, ref = ours * keep, ref * keep
     err = ml.relative_l2(ours, ref)
     ok = ml.fraction_within(ours, ref, PIXEL_REL, PIXEL_ABS)
     if err > MAX_REL_L2 or ok < MIN_PIXELS_OK:
@@ -34,6 +49,12 @@ def _check(name, ours, ref):
     assert err <= MAX_REL_L2, f"{name}: relative L2 {err:.4%} > {MAX_REL_L2:.0%}"
     assert ok >= MIN_PIXELS_OK, f"{name}: only {ok:.3%} of pixels within {PIXEL_REL:.0%} / {PIXEL_ABS}"
     return err, ok
+
+
+@pytest.fixture(scope="module")
+def cbox_lights_edges(mitsuba_ref):
+    xml, params, size = CBOX_LIGHTS
+    return _edge_mask(mitsuba_ref, xml, params, size)
 
 
 @pytest.fixture(scope="module")
@@ -48,22 +69,22 @@ def single_light_refs(mitsuba_ref, tmp_path_factory):
 
 
 @pytest.mark.parametrize("light", list(DELTA_LIGHTS))
-def test_cbox_lights_single_delta_light(light, single_light_refs):
+def test_cbox_lights_single_delta_light(light, single_light_refs, cbox_lights_edges):
     _, params, size = CBOX_LIGHTS
     variant, ref = single_light_refs[light]
     ours, scene, lights = _render_ours(variant, params, size)
     assert len(lights) == 1
     assert float(ref.max()) > 0.01, "reference must not be black"
-    _check(f"cbox-lights-{light}", ours, ref)
+    _check(f"cbox-lights-{light}", ours, ref, cbox_lights_edges)
 
 
-def test_cbox_lights_all_delta_lights_sum(mitsuba_ref, single_light_refs, tmp_path):
+def test_cbox_lights_all_delta_lights_sum(mitsuba_ref, single_light_refs, cbox_lights_edges, tmp_path):
     xml, params, size = CBOX_LIGHTS
     variant = mitsuba_ref.scene_variant(xml, tmp_path, keep_emitters=list(DELTA_LIGHTS.values()))
     ours, _, lights = _render_ours(variant, params, size)
     assert len(lights) == 3
     ref = sum(r for _, r in single_light_refs.values())
-    _check("cbox-lights-all", ours, ref)
+    _check("cbox-lights-all", ours, ref, cbox_lights_edges)
 
 
 @pytest.mark.parametrize(
@@ -82,4 +103,4 @@ def test_point_light_inside_scene(name, emitter, mitsuba_ref, tmp_path):
     assert float((ref > 0).mean()) > 0.3, "the light must reach a good part of the image"
     ours, _, lights = _render_ours(variant, params, size)
     assert len(lights) == 1
-    _check(f"{name}-point", ours, ref)
+    _check(f"{name}-point", ours, ref, _edge_mask(mitsuba_ref, variant, params, size))

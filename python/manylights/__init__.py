@@ -35,6 +35,8 @@ __version__ = _native.__version__
 __all__ = [
     "GpuError",
     "GpuUnavailableError",
+    "cluster_reduced_columns",
+    "clustering_cost",
     "LightMatrix",
     "LightSet",
     "ManyLightsError",
@@ -213,6 +215,35 @@ class LightMatrix:
     def __repr__(self) -> str:
         m, n = self.shape
         return f"LightMatrix({m} view samples x {n} lights)"
+
+
+def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_dim: int = 50,
+                            sampling_fraction: float = 2.0 / 3.0, color_averaging: bool = False) -> dict:
+    """Cluster the reduced columns of a reduced matrix as Matrix Row-Column Sampling does (Hašan et al. 2007).
+
+    Args:
+        R: (r, n, 3) RGB or (r, n) scalar reduced matrix (any float dtype; converted to float32).
+        c: number of clusters (1 <= c <= n).
+        seed: seeds the random projection, the sampling, the splitting lines and the representatives.
+        power: optional (n,) light powers, used to pick representatives of zero-norm reduced columns.
+        projection_dim: r' of the random Gaussian projection applied when r > r'.
+        sampling_fraction: share of the clusters made by sampling before top-down splitting (paper: 2/3).
+        color_averaging: the paper's per-channel representative scaling (biased; off = unbiased grey weights).
+
+    Returns:
+        dict with assignment (n,), representatives (c,), weights (c, 3), cost, cluster_costs (c,).
+    """
+    R = np.ascontiguousarray(R, dtype=np.float32)
+    if power is not None:
+        power = np.ascontiguousarray(power, dtype=np.float32).reshape(-1)
+    return _native.cluster_reduced_columns(R, int(c), int(seed), power, int(projection_dim),
+                                           float(sampling_fraction), bool(color_averaging))
+
+
+def clustering_cost(R, assignment) -> float:
+    """Sum of the paper's cluster costs of a partition (assignment (n,)) on the scalar reduced matrix."""
+    R = np.ascontiguousarray(R, dtype=np.float32)
+    return _native.clustering_cost(R, np.ascontiguousarray(assignment, dtype=np.int32))
 
 
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:

@@ -104,3 +104,17 @@ def bsdf_eval(spec: dict[str, Any], wi: npt.NDArray[np.float32], wo: npt.NDArray
 
     Raises:
         ValueError: bad spec or shapes. GpuUnavailableError / GpuError for device="gpu"."""
+
+def cluster_reduced_columns(R: npt.NDArray[np.float32], c: int, seed: int = 0,
+                            power: Optional[npt.NDArray[np.float32]] = None, projection_dim: int = 50,
+                            sampling_fraction: float = 2.0 / 3.0, color_averaging: bool = False) -> dict[str, Any]:
+    """MRCS clustering of the reduced columns of R ((r, n, 3) or (r, n) float32) into c clusters.
+
+    Returns a dict: assignment (n,) int32, representatives (c,) int64, weights (c, 3) float32 (unbiased
+    estimator: sum_k weights[k] * column[representatives[k]]), cost float, cluster_costs (c,) float64.
+
+    Raises:
+        ValueError: c = 0 or c > n, NaN/inf (names row and column), bad shapes or power."""
+
+def clustering_cost(R: npt.NDArray[np.float32], assignment: npt.NDArray[np.int32]) -> float:
+    """Sum of the paper's cluster costs of a partition on the (unprojected, scalar) reduced matrix."""

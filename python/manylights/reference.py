@@ -59,14 +59,15 @@ def _params_str(params: dict) -> dict:
     return {k: str(v) for k, v in params.items()}
 
 
-def _pixel_centre_rays(mi, sensor, width: int, height: int):
-    """Mitsuba camera rays through the centres of a width x height film (any film size of the same aspect)."""
+def _pixel_centre_rays(mi, sensor, width: int, height: int, offset=(0.0, 0.0)):
+    """Mitsuba camera rays through the centres of a width x height film (any film size of the same aspect),
+    moved by ``offset`` pixels."""
     import drjit as dr
 
     idx = dr.arange(mi.UInt32, width * height)
     x = mi.Float(idx % width)
     y = mi.Float(idx // width)
-    pos = mi.Point2f((x + 0.5) / width, (y + 0.5) / height)
+    pos = mi.Point2f((x + 0.5 + offset[0]) / width, (y + 0.5 + offset[1]) / height)
     ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
     return ray
 
@@ -130,6 +131,33 @@ def mitsuba_gbuffer(path, size: tuple[int, int], **params) -> dict:
     res["shape_index"] = sid.reshape(height, width)
     res["shape_bbox"] = bbox
     return res
+
+
+def mitsuba_edge_pixels(path, size: tuple[int, int], eps_px: float = 1e-3, **params) -> np.ndarray:
+    """(H, W) bool: pixels whose centre lies on an edge between shapes, by Mitsuba's own intersection:
+    the shape hit changes when the centre moves by ``eps_px`` pixels in x or y.
+
+    At such centres (e.g. the image diagonals of a box seen head-on, where two walls meet exactly under
+    the pixel centre) the hit surface is decided by rounding: Mitsuba's scalar and llvm variants disagree
+    there too, so light-transport comparisons leave them out (the G-buffer test covers them).
+    """
+    mi = mitsuba()
+    if mi.variant().startswith("scalar"):
+        raise RuntimeError("mitsuba_edge_pixels needs a vectorised (llvm) variant")
+    width, height = size
+    scene = load(path, **params)
+    sensor = scene.sensors()[0]
+    shapes = scene.shapes()
+    ids = []
+    for off in [(0.0, 0.0), (eps_px, 0.0), (-eps_px, 0.0), (0.0, eps_px), (0.0, -eps_px)]:
+        si = scene.ray_intersect(_pixel_centre_rays(mi, sensor, width, height, off))
+        sid = np.full(width * height, -1, np.int32)
+        valid = np.array(si.is_valid())
+        for k, sh in enumerate(shapes):
+            sid[np.array(si.shape == mi.ShapePtr(sh)) & valid] = k
+        ids.append(sid)
+    ids = np.stack(ids)
+    return (ids != ids[0]).any(axis=0).reshape(height, width)
 
 
 def mitsuba_render(path, size: tuple[int, int], *, max_depth: int = 2, spp: int = 1, seed: int = 0,
