@@ -43,7 +43,8 @@ struct ViewSample {
 @group(0) @binding(2) var<storage, read> bsdfs: array<Bsdf>;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read> layers: array<ShadowLayer>;
-@group(0) @binding(5) var<storage, read> weights: array<f32>;
+// RGB weight of each light of the batch (w unused).
+@group(0) @binding(5) var<storage, read> weights: array<vec4<f32>>;
 @group(0) @binding(6) var shadow_maps: texture_depth_2d_array;
 @group(0) @binding(7) var<storage, read_write> accum: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> columns: array<f32>;
@@ -296,7 +297,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             columns[base + 1u] = contribution.y;
             columns[base + 2u] = contribution.z;
         }
-        acc = acc + weights[j] * contribution;
+        acc = acc + weights[j].xyz * contribution;
     }
     if params.accumulate != 0u {
         accum[i] = accum[i] + vec4<f32>(acc, 0.0);

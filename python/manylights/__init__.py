@@ -29,12 +29,17 @@ from ._native import (
     read_exr,
 )
 from .metrics import fraction_within, relative_l2
+from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
 
 __version__ = _native.__version__
 
 __all__ = [
     "GpuError",
     "GpuUnavailableError",
+    "RenderResult",
+    "instant_radiosity",
+    "mrcs",
+    "power_sampling",
     "cluster_reduced_columns",
     "clustering_cost",
     "LightMatrix",
@@ -195,26 +200,47 @@ class LightMatrix:
             w = np.ascontiguousarray(weights, dtype=np.float32).reshape(-1)
             if w.shape[0] != self.shape[1]:
                 raise ValueError(f"weights must have length n = {self.shape[1]}, got {w.shape[0]}")
-        bar = None
-        callback = None
-        if progress and self.shape[1] > 0:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(total=self.shape[1], desc="columns", unit="light", leave=False)
-
-            def callback(done: int, total: int) -> None:
-                bar.n = done
-                bar.refresh()
-
-        try:
+        with _progress_bar(self.shape[1], "columns", progress) as callback:
             return self._m.column_sum(w, callback)
-        finally:
-            if bar is not None:
-                bar.close()
+
+    def weighted_sum(self, indices: Sequence[int], weights, *, progress: bool = False) -> np.ndarray:
+        """``sum_k weights[k] * column[indices[k]]`` with (k, 3) RGB weights, rendering only those columns
+        (repeated indices add up): how clustered renderers reconstruct an image. (H, W, 3) float32."""
+        idx = [int(i) for i in np.asarray(indices, dtype=np.int64).reshape(-1)]
+        w = np.ascontiguousarray(weights, dtype=np.float32)
+        if w.ndim == 1:
+            w = np.repeat(w[:, None], 3, axis=1)
+        with _progress_bar(len(idx), "columns", progress) as callback:
+            return self._m.weighted_sum(idx, w, callback)
 
     def __repr__(self) -> str:
         m, n = self.shape
         return f"LightMatrix({m} view samples x {n} lights)"
+
+
+class _progress_bar:
+    """A tqdm bar driven by the native (done, total) callbacks; a no-op when disabled or empty."""
+
+    def __init__(self, total: int, desc: str, enabled: bool):
+        self.total, self.desc, self.enabled, self.bar = total, desc, enabled and total > 0, None
+
+    def __enter__(self):
+        if not self.enabled:
+            return None
+        from tqdm.auto import tqdm
+
+        self.bar = tqdm(total=self.total, desc=self.desc, unit="light", leave=False)
+
+        def callback(done: int, total: int) -> None:
+            self.bar.n = done
+            self.bar.refresh()
+
+        return callback
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.close()
+        return False
 
 
 def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_dim: int = 50,

@@ -261,7 +261,7 @@ impl LightMatrix {
         &self,
         js: &[usize],
         batch: &Batch,
-        weights: &[f32],
+        weights: &[[f32; 4]],
         accum: &wgpu::Buffer,
         columns: Option<&wgpu::Buffer>,
     ) -> wgpu::SubmissionIndex {
@@ -380,7 +380,7 @@ impl LightMatrix {
         let accum = storage_buffer::<f32>(&self.ctx.device, "LightMatrix::no_accum", &[], wgpu::BufferUsages::STORAGE);
         let mut out = Vec::with_capacity(js.len() * m * 3);
         for batch in &batches {
-            let zeros = vec![0.0f32; batch.end - batch.start];
+            let zeros = vec![[0.0f32; 4]; batch.end - batch.start];
             self.run_batch(js, batch, &zeros, &accum, Some(&columns_buf));
             out.extend(self.ctx.read_buffer::<f32>(&columns_buf, 0, (batch.end - batch.start) * m * 3)?);
         }
@@ -388,26 +388,43 @@ impl LightMatrix {
     }
 
     /// `sum_j w_j A(:, j)` over all lights (weights `None` = all 1) as H * W * 3 floats, accumulated on
-    /// the GPU; `progress(lights_done, n)` is called after each batch completes.
+    /// the GPU; `progress(done, n)` after each batch.
     pub fn column_sum(&self, weights: Option<&[f32]>, progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
         let n = self.lights.len();
-        let ones;
-        let w = match weights {
+        let w: Vec<[f32; 3]> = match weights {
             Some(w) => {
                 if w.len() != n {
                     return Err(Error::invalid(format!("weights must have length {n} (one per light), got {}", w.len())));
                 }
-                if let Some((j, v)) = w.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-                    return Err(Error::invalid(format!("weights must be finite, got {v} for light {j}")));
-                }
-                w
+                w.iter().map(|&v| [v; 3]).collect()
             }
-            None => {
-                ones = vec![1.0f32; n];
-                &ones
-            }
+            None => vec![[1.0; 3]; n],
         };
         let js: Vec<usize> = (0..n).collect();
+        self.weighted_sum(&js, &w, progress)
+    }
+
+    /// `sum_k weights[k] * A(:, js[k])` with RGB weights, rendering only the listed columns (repeats add
+    /// up): the reconstruction of clustered renderers (representatives and their weights). H * W * 3
+    /// floats; `progress(done, k)` after each batch.
+    pub fn weighted_sum(
+        &self,
+        js: &[usize],
+        weights: &[[f32; 3]],
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<Vec<f32>> {
+        self.check_indices(js)?;
+        if weights.len() != js.len() {
+            return Err(Error::invalid(format!(
+                "weights must have one RGB triple per column: {} columns, {} weights",
+                js.len(),
+                weights.len()
+            )));
+        }
+        if let Some((k, v)) = weights.iter().enumerate().find(|(_, v)| !v.iter().all(|c| c.is_finite())) {
+            return Err(Error::invalid(format!("weights must be finite, got {v:?} for light {}", js[k])));
+        }
+        let w4: Vec<[f32; 4]> = weights.iter().map(|v| [v[0], v[1], v[2], 0.0]).collect();
         let m = self.view.len();
         let accum = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("LightMatrix::accum"),
@@ -415,10 +432,10 @@ impl LightMatrix {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        for batch in self.batches(&js, usize::MAX) {
-            let submission = self.run_batch(&js, &batch, &w[batch.start..batch.end], &accum, None);
+        for batch in self.batches(js, usize::MAX) {
+            let submission = self.run_batch(js, &batch, &w4[batch.start..batch.end], &accum, None);
             self.wait_for(submission)?;
-            progress(batch.end, n);
+            progress(batch.end, js.len());
         }
         let rgba = self.ctx.read_buffer::<[f32; 4]>(&accum, 0, m)?;
         Ok(rgba.iter().flat_map(|p| [p[0], p[1], p[2]]).collect())

@@ -297,6 +297,23 @@ fn argument_errors_are_clear() {
     let e = s.matrix.column_sum(Some(&[1.0, f32::NAN, 0.0]), &mut |_, _| {}).unwrap_err().to_string();
     assert!(e.contains("NaN") && e.contains("light 1"), "{e}");
     assert!(s.matrix.columns(&[]).unwrap().is_empty());
+    let e = s.matrix.weighted_sum(&[0, 2], &[[1.0; 3]], &mut |_, _| {}).unwrap_err().to_string();
+    assert!(e.contains("2 columns, 1 weights"), "{e}");
+}
+
+#[test]
+fn weighted_sum_with_rgb_weights_and_repeats() {
+    let s = setup(16, three_lights(), ColumnOptions { shadow_resolution: 64, ..Default::default() });
+    let cols = s.matrix.columns(&[0, 1, 2]).unwrap();
+    let m = 16 * 16 * 3;
+    // Light 2 twice: its weights add up.
+    let w = [[0.5, 1.0, 2.0], [1.0, 0.0, -1.0], [0.25, 0.25, 0.25]];
+    let got = s.matrix.weighted_sum(&[2, 0, 2], &w, &mut |_, _| {}).unwrap();
+    for (p, g) in got.iter().enumerate() {
+        let c = p % 3;
+        let want = (w[0][c] + w[2][c]) * cols[2 * m + p] + w[1][c] * cols[p];
+        assert!((g - want).abs() <= 1e-5 * (1.0 + want.abs()), "entry {p}: {g} vs {want}");
+    }
 }
 
 /// Fraction of channels of a 300-light sum within REL_TOL of the CPU sum (every pixel lies near some of

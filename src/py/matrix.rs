@@ -5,7 +5,7 @@ use crate::error::Error;
 use crate::gpu::GpuContext;
 use crate::lights;
 use crate::matrix::{ColumnOptions, LightMatrix as CoreMatrix, Visibility};
-use numpy::{PyArrayDyn, PyReadonlyArray1};
+use numpy::{PyArrayDyn, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use std::sync::Arc;
 
@@ -168,6 +168,40 @@ impl LightMatrix {
                 }
             };
             m.column_sum(w.as_deref(), &mut cb)
+        })?;
+        let (h, w) = self.inner.image_size();
+        array(py, data, &[h, w, 3])
+    }
+    /// `sum_k weights[k] * column[indices[k]]` with (k, 3) RGB weights, rendering only those columns
+    /// (repeated indices add up); (H, W, 3) float32.
+    #[pyo3(signature = (indices, weights, progress=None))]
+    fn weighted_sum<'py>(
+        &self,
+        py: Python<'py>,
+        indices: Vec<usize>,
+        weights: PyReadonlyArray2<'py, f32>,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let shape = weights.shape().to_vec();
+        if shape.len() != 2 || shape[1] != 3 || shape[0] != indices.len() {
+            return Err(Error::invalid(format!(
+                "weights must have shape ({}, 3) for {} indices, got {shape:?}",
+                indices.len(),
+                indices.len()
+            ))
+            .into());
+        }
+        let w: Vec<[f32; 3]> = weights.as_array().rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
+        let m = self.inner.clone();
+        let data = py.detach(move || {
+            let mut cb = |done: usize, total: usize| {
+                if let Some(p) = &progress {
+                    Python::attach(|py| {
+                        let _ = p.call1(py, (done, total));
+                    });
+                }
+            };
+            m.weighted_sum(&indices, &w, &mut cb)
         })?;
         let (h, w) = self.inner.image_size();
         array(py, data, &[h, w, 3])

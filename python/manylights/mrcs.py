@@ -1,0 +1,164 @@
+"""Matrix Row-Column Sampling (Hašan, Pellacini, Bala, SIGGRAPH 2007) and its baselines.
+
+``mrcs(A, rows, columns)`` follows the paper's four steps, each replaceable from Python:
+
+1. rows: ``stratified_rows`` picks one view sample per image block (section 4); ``A.rows`` renders them on
+   the GPU (a cube shadow map at each sample, all lights evaluated against it) -> the reduced matrix R (r x n);
+2. clustering: ``cluster_reduced_columns(R, columns)`` (sampling by cluster cost, then splitting);
+3. representatives: one light per cluster, chosen by reduced-column norm, weighted so that the estimate of
+   the full column sum is unbiased (``weights``);
+4. reconstruction: ``A.weighted_sum(representatives, weights)`` renders only the c representative columns
+   on the GPU and accumulates them there.
+
+A researcher substitutes a step by passing ``row_indices=`` or ``clustering=`` (any dict with
+``representatives`` and ``weights``), or by calling the pieces directly.
+
+Baselines: ``power_sampling`` (c lights drawn by power, unbiased weights, no rows) and
+``instant_radiosity`` (fewer lights, all rendered).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from . import _native
+
+# Rec. 709 luminance, for turning RGB powers into sampling weights.
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722], dtype=np.float64)
+
+
+@dataclass
+class RenderResult:
+    """What a renderer did: the image (column estimate + what the camera sees of emitters) and how."""
+
+    image: np.ndarray
+    method: str
+    seed: int
+    timings: dict = field(default_factory=dict)
+    rows: Optional[np.ndarray] = None
+    clusters: Optional[np.ndarray] = None
+    representatives: Optional[np.ndarray] = None
+    weights: Optional[np.ndarray] = None
+    budget: dict = field(default_factory=dict)
+
+    @property
+    def seconds(self) -> float:
+        """Total time of all stages."""
+        return float(sum(self.timings.values()))
+
+
+def _light_luminance_power(lights) -> np.ndarray:
+    return np.maximum(np.asarray(lights.power, dtype=np.float64) @ LUMINANCE, 0.0)
+
+
+def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=None, clustering=None,
+         add_emitted: bool = True, progress: bool = False, **cluster_options) -> RenderResult:
+    """Render the column sum of light matrix ``A`` by Matrix Row-Column Sampling.
+
+    Args:
+        A: a ``LightMatrix``.
+        rows: r, the number of sampled rows (ignored when ``row_indices`` is given).
+        columns: c, the number of clusters = representative columns rendered.
+        seed: seeds row selection, projection, sampling, splitting and representatives.
+        row_indices: your own rows (view-sample indices) instead of ``stratified_rows``.
+        clustering: your own clustering result (a dict with ``representatives`` (c,) and ``weights`` (c, 3)).
+        add_emitted: add what the camera sees of emitters (``A.emitted()``), as every renderer does.
+        **cluster_options: passed to ``cluster_reduced_columns`` (projection_dim, sampling_fraction, ...).
+
+    Returns:
+        RenderResult with image (H, W, 3), rows, clusters (assignment per light), representatives, weights,
+        and timings per stage in seconds: rows (GPU shadow maps + evaluation + readback), clustering,
+        columns (GPU shadow maps + shading of the representatives), emitted.
+    """
+    from . import cluster_reduced_columns, stratified_rows
+
+    m, n = A.shape
+    if n == 0:
+        raise ValueError("the light matrix has no lights (n = 0): nothing to sample")
+    timings = {}
+    t = time.perf_counter()
+    if row_indices is None:
+        row_indices = stratified_rows(A.scene, rows, seed=seed)
+    row_indices = np.asarray(row_indices, dtype=np.int64).reshape(-1)
+    R = A.rows(row_indices, progress=progress) if clustering is None else None
+    timings["rows"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    if clustering is None:
+        clustering = cluster_reduced_columns(R, columns, seed=seed, power=_light_luminance_power(A.lights),
+                                             **cluster_options)
+    reps = np.asarray(clustering["representatives"], dtype=np.int64)
+    weights = np.asarray(clustering["weights"], dtype=np.float32).reshape(len(reps), 3)
+    timings["clustering"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    image = A.weighted_sum(reps, weights, progress=progress)
+    timings["columns"] = time.perf_counter() - t
+    if add_emitted:
+        t = time.perf_counter()
+        image = image + A.emitted()
+        timings["emitted"] = time.perf_counter() - t
+    return RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
+                        clusters=clustering.get("assignment"), representatives=reps, weights=weights,
+                        budget={"rows": int(len(row_indices)), "columns": int(len(reps)), "lights": int(n)})
+
+
+def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = True,
+                   progress: bool = False) -> RenderResult:
+    """Baseline: draw ``columns`` lights with probability proportional to their power (with replacement)
+    and weight each by 1 / (columns * p_j): an unbiased estimate of the column sum that ignores visibility
+    and geometry (no rows). Lights of zero power are never drawn (they emit nothing)."""
+    m, n = A.shape
+    if n == 0 or columns <= 0:
+        raise ValueError(f"power_sampling needs lights and columns >= 1 (n = {n}, columns = {columns})")
+    t = time.perf_counter()
+    p = _light_luminance_power(A.lights)
+    if not np.isfinite(p).all() or p.sum() <= 0:
+        raise ValueError("power_sampling: the lights carry no (finite) power")
+    p = p / p.sum()
+    rng = np.random.default_rng(seed)
+    reps = rng.choice(n, size=int(columns), p=p)
+    w = (1.0 / (columns * p[reps])).astype(np.float32)
+    weights = np.repeat(w[:, None], 3, axis=1)
+    timings = {"sampling": time.perf_counter() - t}
+    t = time.perf_counter()
+    image = A.weighted_sum(reps, weights, progress=progress)
+    timings["columns"] = time.perf_counter() - t
+    if add_emitted:
+        t = time.perf_counter()
+        image = image + A.emitted()
+        timings["emitted"] = time.perf_counter() - t
+    return RenderResult(image=image, method="power_sampling", seed=seed, timings=timings, representatives=reps,
+                        weights=weights, budget={"columns": int(columns), "lights": int(n)})
+
+
+def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction: float = 0.5,
+                      environment_fraction: float = 0.0, max_depth: int = 5, clamp=None,
+                      progress: bool = False, **matrix_options) -> RenderResult:
+    """Baseline: generate only ``lights`` lights (area / environment / indirect shares as given) and render
+    all of them (Keller's instant radiosity with the same light generation as the large matrix)."""
+    from . import LightMatrix, generate_lights
+
+    if lights <= 0:
+        raise ValueError(f"instant_radiosity needs lights >= 1, got {lights}")
+    t = time.perf_counter()
+    has_env = any(e["type"] in ("envmap", "constant") for e in scene.emitters)
+    has_area = any(e["type"] == "area" for e in scene.emitters)
+    n_env = int(round(lights * environment_fraction)) if has_env else 0
+    n_area = int(round(lights * area_fraction)) if has_area else 0
+    n_ind = max(lights - n_env - n_area, 0)
+    L = generate_lights(scene, area=n_area, environment=n_env, indirect=n_ind, max_depth=max_depth, clamp=clamp,
+                        seed=seed)
+    timings = {"lights": time.perf_counter() - t}
+    t = time.perf_counter()
+    A = LightMatrix(scene, L, **matrix_options)
+    image = A.column_sum(progress=progress)
+    timings["columns"] = time.perf_counter() - t
+    t = time.perf_counter()
+    image = image + A.emitted()
+    timings["emitted"] = time.perf_counter() - t
+    return RenderResult(image=image, method="instant_radiosity", seed=seed, timings=timings,
+                        budget={"lights": int(len(L)), "area": n_area, "environment": n_env, "indirect": n_ind})
