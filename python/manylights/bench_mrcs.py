@@ -1,0 +1,145 @@
+"""``python -m manylights.bench mrcs``: error against time for MRCS and its baselines (the paper's Figure 6).
+
+Renders the brute-force image of a scene's light matrix once, then instant radiosity, power sampling and
+MRCS at row:column ratios 1:1, 1:2, 1:3 and 1:5 over increasing budgets, each at several seeds, all in
+one run so the timings compare side by side. Writes ``<out>/mrcs-<scene>.json`` (method, budget, seconds
+per stage, relative L2 mean and std) and ``<out>/mrcs-<scene>.png`` (relative L2 vs seconds, log-log,
+error bars = std over seeds), and prints the speed-up over brute force and the share of MRCS time spent
+outside shadow maps + shading (clustering and readback).
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+RATIOS = {"1:1": 1, "1:2": 2, "1:3": 3, "1:5": 5}
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("mrcs", help="MRCS vs baselines: relative L2 against time (JSON + PNG chart)")
+    p.add_argument("--scene", required=True, help="scene XML (or a shared scene name: cbox, veach-ajar, ...)")
+    p.add_argument("--lights", type=int, default=100_000, help="total generated lights (area + indirect)")
+    p.add_argument("--res", type=int, default=128, help="image width (height follows the film's aspect)")
+    p.add_argument("--columns", type=int, nargs="+", default=[100, 300, 900, 2700],
+                   help="MRCS column budgets (rows = columns / ratio)")
+    p.add_argument("--ratios", nargs="+", default=list(RATIOS), choices=list(RATIOS))
+    p.add_argument("--seeds", type=int, default=8)
+    p.add_argument("--visibility", default="hybrid", choices=["hybrid", "shadow_map", "ray_traced"])
+    p.add_argument("--shadow-map-size", type=int, default=512)
+    p.add_argument("--out", default="out/bench")
+    p.set_defaults(run=run)
+
+
+def _resolve_scene(name: str) -> Path:
+    p = Path(name)
+    if p.exists():
+        return p
+    for base in (Path(__file__).resolve().parents[2].parent / "shared" / "scenes", Path("/work/shared/scenes")):
+        cand = base / name / "scene.xml"
+        if cand.exists():
+            return cand
+    raise FileNotFoundError(f"scene not found: {name}")
+
+
+def _load(path: Path, res: int):
+    """The scene at width ``res``, height from the film's own aspect ratio."""
+    import manylights as ml
+
+    film = ml.load_scene(path)
+    return ml.load_scene(path, size=(res, max(1, round(res * film.height / film.width))))
+
+
+def run(args) -> dict:
+    import manylights as ml
+
+    path = _resolve_scene(args.scene)
+    scene = _load(path, args.res)
+    has_area = any(e["type"] == "area" for e in scene.emitters)
+    has_env = any(e["type"] in ("envmap", "constant") for e in scene.emitters)
+    n_area = args.lights // 4 if has_area else 0
+    n_env = args.lights // 4 if has_env else 0
+    t = time.perf_counter()
+    lights = ml.generate_lights(scene, area=n_area, environment=n_env, indirect=args.lights - n_area - n_env, seed=0)
+    t_gen = time.perf_counter() - t
+    A = ml.LightMatrix(scene, lights, visibility=args.visibility, shadow_map_size=args.shadow_map_size)
+    print(f"{path}: {scene.width}x{scene.height}, {len(lights)} lights (generated in {t_gen:.2f} s), "
+          f"visibility {args.visibility}, shadow maps {args.shadow_map_size}^2")
+
+    t = time.perf_counter()
+    reference = A.column_sum(progress=True) + A.emitted()
+    t_brute = time.perf_counter() - t
+    print(f"brute force: {t_brute:.1f} s")
+
+    records = []
+
+    def record(method, budget, results):
+        errs = [ml.relative_l2(r.image, reference) for r in results]
+        stages = {k: float(np.mean([r.timings.get(k, 0.0) for r in results])) for k in results[0].timings}
+        rec = {"method": method, "budget": budget, "seconds": float(np.mean([r.seconds for r in results])),
+               "stages": stages, "rel_l2_mean": float(np.mean(errs)), "rel_l2_std": float(np.std(errs)),
+               "seeds": len(results)}
+        records.append(rec)
+        print(f"  {method:<18s} {json.dumps(budget):<34s} {rec['seconds']:8.3f} s   "
+              f"rel L2 {rec['rel_l2_mean']:.4f} +- {rec['rel_l2_std']:.4f}", flush=True)
+        return rec
+
+    seeds = range(args.seeds)
+    for c in args.columns:
+        record("power_sampling", {"columns": c}, [ml.power_sampling(A, columns=c, seed=s) for s in seeds])
+        record("instant_radiosity", {"lights": c},
+               [ml.instant_radiosity(scene, lights=c, seed=s, visibility=args.visibility,
+                                     shadow_map_size=args.shadow_map_size) for s in seeds])
+        for name in args.ratios:
+            r = max(1, c // RATIOS[name])
+            record("mrcs " + name, {"rows": r, "columns": c}, [ml.mrcs(A, rows=r, columns=c, seed=s) for s in seeds])
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = f"mrcs-{path.parent.name}"
+    summary = {"scene": str(path), "size": [scene.width, scene.height], "lights": len(lights),
+               "visibility": args.visibility, "shadow_map_size": args.shadow_map_size,
+               "brute_force_seconds": t_brute, "records": records, "adapter": ml.device_info()}
+    # Speed-up at <= 2% error, and the overhead share of MRCS (clustering + readback of rows).
+    mrcs_recs = [r for r in records if r["method"].startswith("mrcs")]
+    good = [r for r in mrcs_recs if r["rel_l2_mean"] <= 0.02]
+    if good:
+        best = min(good, key=lambda r: r["seconds"])
+        summary["speedup_at_2pct"] = t_brute / best["seconds"]
+        summary["speedup_config"] = best["budget"]
+        print(f"speed-up over brute force at <= 2% error: {summary['speedup_at_2pct']:.1f}x ({best['budget']})")
+    else:
+        print("no MRCS configuration reached 2% relative L2")
+    if mrcs_recs:
+        overhead = np.mean([r["stages"].get("clustering", 0.0) / max(r["seconds"], 1e-9) for r in mrcs_recs])
+        summary["clustering_share"] = float(overhead)
+        print(f"share of MRCS time in clustering (outside shadow maps + shading): {overhead:.1%}")
+    (out / f"{stem}.json").write_text(json.dumps(summary, indent=2) + "\n")
+    _chart(records, out / f"{stem}.png", f"{path.parent.name}: {len(lights)} lights, {scene.width}x{scene.height}")
+    print(f"wrote {out / (stem + '.json')} and {out / (stem + '.png')}")
+    return summary
+
+
+def _chart(records, png: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 5))
+    for method in dict.fromkeys(r["method"] for r in records):
+        rs = sorted((r for r in records if r["method"] == method), key=lambda r: r["seconds"])
+        ax.errorbar([r["seconds"] for r in rs], [r["rel_l2_mean"] for r in rs], yerr=[r["rel_l2_std"] for r in rs],
+                    marker="o", capsize=3, label=method)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("relative L2 error vs brute force")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(png, dpi=120)
+    plt.close(fig)
