@@ -1,0 +1,126 @@
+"""Matrix Row-Column Sampling end to end: unbiasedness, clustering objective, baselines, bad input."""
+import numpy as np
+import pytest
+
+import manylights as ml
+from conftest import SCENE_CONFIGS, SCENES
+
+# Unbiasedness test configuration (issue 4): cbox-lights at 32x32 with ~2k lights, 64 seeds.
+SEEDS = 64
+# Per block and channel the mean over seeds must lie within this many standard errors of the truth.
+MAX_Z = 3.0
+# Error of the mean over 4 -> 64 seeds should fall like 1/sqrt(seeds) (x 0.25); allow noise up to 0.5.
+MAX_RATIO_64_OVER_4 = 0.5
+
+
+@pytest.fixture(scope="module")
+def small_matrix():
+    xml, _, _ = SCENE_CONFIGS["cbox-lights"]
+    scene = ml.load_scene(xml, res=32)
+    lights = ml.generate_lights(scene, area=512, environment=512, indirect=1024, seed=3)
+    A = ml.LightMatrix(scene, lights, shadow_map_size=256)
+    truth = A.column_sum(progress=False)
+    return scene, lights, A, truth
+
+
+@pytest.fixture(scope="module")
+def mrcs_runs(small_matrix):
+    _, _, A, _ = small_matrix
+    return np.stack([ml.mrcs(A, rows=24, columns=48, seed=s, add_emitted=False).image for s in range(SEEDS)])
+
+
+def test_mrcs_is_unbiased(small_matrix, mrcs_runs):
+    _, _, A, truth = small_matrix
+    h, w, _ = truth.shape
+    # Quadrant blocks x channels: block sums per seed.
+    blocks = mrcs_runs.reshape(SEEDS, 2, h // 2, 2, w // 2, 3).sum(axis=(2, 4))
+    true_blocks = truth.reshape(2, h // 2, 2, w // 2, 3).sum(axis=(1, 3))
+    mean = blocks.mean(axis=0)
+    se = blocks.std(axis=0, ddof=1) / np.sqrt(SEEDS)
+    z = (mean - true_blocks) / np.maximum(se, 1e-12)
+    assert np.abs(z).max() <= MAX_Z, f"block z-scores {np.round(z, 2)}"
+
+
+def test_mrcs_error_of_mean_shrinks_like_inverse_sqrt(small_matrix, mrcs_runs):
+    _, _, _, truth = small_matrix
+    err = {k: ml.relative_l2(mrcs_runs[:k].mean(axis=0), truth) for k in (4, 16, 64)}
+    assert err[64] <= MAX_RATIO_64_OVER_4 * err[4], err
+    assert err[16] < err[4], err
+
+
+def test_clustering_beats_random_partition_and_sampling_alone(small_matrix):
+    _, _, A, _ = small_matrix
+    rows = ml.stratified_rows(A.scene, 32, seed=1)
+    R = A.rows(rows)
+    c = 64
+    full = ml.cluster_reduced_columns(R, c, seed=1)
+    sampled = ml.cluster_reduced_columns(R, c, seed=1, sampling_fraction=1.0)
+    rng = np.random.default_rng(1)
+    random_assignment = rng.permutation(np.arange(R.shape[1]) % c)
+    cost_random = ml.clustering_cost(R, random_assignment)
+    assert full["cost"] < sampled["cost"], (full["cost"], sampled["cost"])
+    assert full["cost"] < 0.5 * cost_random, (full["cost"], cost_random)
+
+
+def test_mrcs_beats_baselines_at_equal_columns(small_matrix):
+    scene, _, A, truth = small_matrix
+    emitted = A.emitted()
+    ref = truth + emitted
+    e_mrcs = np.mean([ml.relative_l2(ml.mrcs(A, rows=32, columns=96, seed=s).image, ref) for s in range(4)])
+    e_power = np.mean([ml.relative_l2(ml.power_sampling(A, columns=96, seed=s).image, ref) for s in range(4)])
+    e_ir = np.mean([ml.relative_l2(ml.instant_radiosity(scene, lights=96, seed=s, shadow_map_size=256).image, ref)
+                    for s in range(4)])
+    assert e_mrcs < e_power, (e_mrcs, e_power)
+    assert e_mrcs < e_ir, (e_mrcs, e_ir)
+
+
+def test_result_records_what_was_done(small_matrix):
+    _, lights, A, _ = small_matrix
+    res = ml.mrcs(A, rows=16, columns=32, seed=5)
+    assert res.image.shape == (32, 32, 3) and np.isfinite(res.image).all()
+    assert len(res.rows) == 16 and len(res.representatives) == 32 and res.weights.shape == (32, 3)
+    assert res.clusters.shape == (len(lights),) and set(np.unique(res.clusters)) <= set(range(32))
+    assert set(res.timings) >= {"rows", "clustering", "columns"} and res.seconds > 0
+    again = ml.mrcs(A, rows=16, columns=32, seed=5)
+    np.testing.assert_array_equal(again.image, res.image)
+
+
+def test_custom_rows_and_clustering_from_python(small_matrix):
+    _, _, A, truth = small_matrix
+    rows = np.arange(0, 32 * 32, 37)
+    R = A.rows(rows)
+    cl = ml.cluster_reduced_columns(R, 40, seed=2)
+    res = ml.mrcs(A, row_indices=rows, clustering=cl, add_emitted=False)
+    np.testing.assert_array_equal(res.representatives, cl["representatives"])
+    assert ml.relative_l2(res.image, truth) < 1.0
+
+
+def test_bad_input(small_matrix):
+    scene, lights, A, _ = small_matrix
+    m, n = A.shape
+    with pytest.raises(ValueError):
+        ml.stratified_rows(scene, m + 1)
+    with pytest.raises(ValueError):
+        ml.stratified_rows(scene, 0)
+    with pytest.raises(ValueError):
+        ml.mrcs(A, rows=8, columns=n + 1)
+    with pytest.raises(ValueError):
+        ml.mrcs(A, rows=8, columns=0)
+    with pytest.raises(ValueError):
+        ml.cluster_reduced_columns(np.full((4, 10, 3), np.nan, np.float32), 2)
+    # An all-zero reduced matrix is exact behaviour, not an error: power sampling among all lights.
+    zero = ml.cluster_reduced_columns(np.zeros((4, n, 3), np.float32), 8, power=np.ones(n, np.float32))
+    assert len(zero["representatives"]) == 8 and np.isfinite(zero["weights"]).all()
+
+
+def test_zero_light_matrix_is_an_error():
+    # cbox has one area emitter and no delta lights: asking for no area lights leaves none at all.
+    scene = ml.load_scene(SCENES / "cbox" / "scene.xml", res=16)
+    lights = ml.generate_lights(scene, area=0, environment=0, indirect=0)
+    assert len(lights) == 0
+    A = ml.LightMatrix(scene, lights)
+    assert A.shape == (256, 0)
+    with pytest.raises(ValueError, match="no lights"):
+        ml.mrcs(A, rows=4, columns=4)
+    with pytest.raises(ValueError):
+        ml.power_sampling(A, columns=4)
