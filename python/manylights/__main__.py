@@ -6,6 +6,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 DEMO_SCENE = Path(__file__).resolve().parents[2] / "scenes" / "demo" / "scene.xml"
 
 
@@ -34,17 +36,40 @@ class Stopwatch:
             print(f"  {name:<28s} {s * 1000:9.1f} ms")
 
 
-def render(scene_path, out, size=None, params=None, shadow_map_size=1024, png=True, quiet=False):
+def render(scene_path, out, size=None, params=None, shadow_map_size=1024, area=0, environment=0, indirect=0,
+           seed=0, visibility="hybrid", png=True, quiet=False):
+    """Brute force: every column of the light matrix (the scene's delta lights, plus generated area /
+    environment / indirect lights when asked) plus what the camera sees of emitters."""
     import manylights as ml
 
     sw = Stopwatch()
     dev = sw("gpu device", ml.device_info)
     scene = sw("load scene", ml.load_scene, scene_path, size=size, **(params or {}))
     sw("g-buffer (view samples)", scene.gbuffer)
-    lights = sw("lights", ml.scene_lights, scene)
-    A = sw("light matrix setup", ml.LightMatrix, scene, lights, shadow_map_size=shadow_map_size)
+    if area or environment or indirect:
+        lights = sw("generate lights", ml.generate_lights, scene, area=area, environment=environment,
+                    indirect=indirect, seed=seed)
+    else:
+        lights = sw("lights", ml.scene_lights, scene)
+    A = sw("light matrix setup", ml.LightMatrix, scene, lights, shadow_map_size=shadow_map_size,
+           visibility=visibility)
     img = sw("columns (brute force)", A.column_sum, progress=not quiet)
-    out = Path(out)
+    img = img + sw("emitted", A.emitted)
+    written = _write(sw, Path(out), img, png)
+    if not quiet:
+        print(f"scene: {scene!r}")
+        print(f"adapter: {dev['name']} ({dev['backend']}, {'software' if dev['is_software'] else 'hardware'})")
+        print(f"lights: {len(lights)}; matrix {A.shape[0]} x {A.shape[1]}; shadow maps {shadow_map_size}^2, "
+              f"visibility {visibility}")
+        sw.report()
+        for w in written:
+            print(f"wrote {w}")
+    return img, written
+
+
+def _write(sw, out: Path, img, png: bool):
+    import manylights as ml
+
     out.parent.mkdir(parents=True, exist_ok=True)
     sw("write exr", ml.write_exr, out, img)
     written = [out]
@@ -52,15 +77,46 @@ def render(scene_path, out, size=None, params=None, shadow_map_size=1024, png=Tr
         p = out.with_suffix(".png")
         sw("write png", ml.write_png, p, img)
         written.append(p)
-    if not quiet:
-        print(f"scene: {scene!r}")
-        print(f"adapter: {dev['name']} ({dev['backend']}, {'software' if dev['is_software'] else 'hardware'})")
-        print(f"lights: {len(lights)}; matrix {A.shape[0]} x {A.shape[1]}; shadow maps {shadow_map_size}^2")
-        sw.report()
-        print(f"  {'total':<28s} {sum(s for _, s in sw.stages) * 1000:9.1f} ms")
-        for w in written:
-            print(f"wrote {w}")
-    return img, written
+    return written
+
+
+def demo(out_dir="out/demo", res=128, area=1024, indirect=6000, rows=300, columns=900, seed=0):
+    """The project's main job on the bundled scene: many lights (area + indirect + delta), Matrix Row-Column
+    Sampling at a default budget next to brute force, with the error and the time of every stage."""
+    import manylights as ml
+    from manylights.metrics import error_map
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    sw = Stopwatch()
+    dev = sw("gpu device", ml.device_info)
+    scene = sw("load scene", ml.load_scene, DEMO_SCENE, res=res)
+    sw("g-buffer (view samples)", scene.gbuffer)
+    lights = sw("generate lights", ml.generate_lights, scene, area=area, indirect=indirect, seed=seed)
+    A = sw("light matrix setup", ml.LightMatrix, scene, lights, shadow_map_size=512)
+    print(f"manylights demo: {DEMO_SCENE}")
+    print(f"adapter: {dev['name']} ({dev['backend']}, {'software' if dev['is_software'] else 'hardware'})")
+    print(f"{scene!r}; {len(lights)} lights (area {area}, indirect ~{indirect}, + delta); matrix {A.shape[0]} x {A.shape[1]}")
+    t = time.perf_counter()
+    brute = A.column_sum(progress=True) + A.emitted()
+    t_brute = time.perf_counter() - t
+    res_mrcs = ml.mrcs(A, rows=rows, columns=columns, seed=seed, progress=True)
+    err = ml.relative_l2(res_mrcs.image, brute)
+    written = _write(sw, out / "brute_force.exr", brute, True)
+    written += _write(sw, out / "mrcs.exr", res_mrcs.image, True)
+    emap = error_map(res_mrcs.image, brute)
+    written += _write(sw, out / "error_map.exr", np.repeat(emap[..., None], 3, axis=-1) * 10.0, True)
+    print("setup:")
+    sw.report()
+    print(f"brute force ({A.shape[1]} columns): {t_brute:.2f} s")
+    print(f"MRCS ({rows} rows, {columns} columns): {res_mrcs.seconds:.2f} s")
+    for k, v in res_mrcs.timings.items():
+        print(f"  {k:<28s} {v * 1000:9.1f} ms")
+    print(f"relative L2 error of MRCS vs brute force: {err:.4f}")
+    print(f"speed-up over brute force: {t_brute / res_mrcs.seconds:.1f}x")
+    for w in written:
+        print(f"wrote {w}")
+    return err
 
 
 def main(argv=None):
@@ -72,18 +128,26 @@ def main(argv=None):
     r.add_argument("--size", type=int, nargs=2, metavar=("W", "H"))
     r.add_argument("-D", dest="params", action="append", metavar="NAME=VALUE", help="scene parameter")
     r.add_argument("--shadow-map-size", type=int, default=1024)
+    r.add_argument("--area", type=int, default=0, help="area emitters -> this many oriented point lights")
+    r.add_argument("--environment", type=int, default=0, help="env map -> this many directional lights")
+    r.add_argument("--indirect", type=int, default=0, help="this many VPLs for indirect light")
+    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--visibility", default="hybrid", choices=["hybrid", "shadow_map", "ray_traced"])
     r.add_argument("--no-png", action="store_true")
-    d = sub.add_parser("demo", help="render the bundled demo scene")
-    d.add_argument("-o", "--output", default="out/demo.exr")
+    d = sub.add_parser("demo", help="MRCS vs brute force on the bundled demo scene")
+    d.add_argument("-o", "--output", default="out/demo", help="output folder")
+    d.add_argument("--res", type=int, default=128)
+    d.add_argument("--rows", type=int, default=300)
+    d.add_argument("--columns", type=int, default=900)
     sub.add_parser("info", help="print the GPU adapter")
     a = ap.parse_args(argv)
     try:
         if a.cmd == "render":
             render(a.scene, a.output, size=tuple(a.size) if a.size else None, params=_params(a.params),
-                   shadow_map_size=a.shadow_map_size, png=not a.no_png)
+                   shadow_map_size=a.shadow_map_size, area=a.area, environment=a.environment, indirect=a.indirect,
+                   seed=a.seed, visibility=a.visibility, png=not a.no_png)
         elif a.cmd == "demo":
-            print(f"manylights demo: {DEMO_SCENE}")
-            render(DEMO_SCENE, a.output)
+            demo(a.output, res=a.res, rows=a.rows, columns=a.columns)
         elif a.cmd == "info":
             import manylights as ml
 
