@@ -24,11 +24,13 @@
 //! missed by a certain-looking map (as for point lights in columns); the cube centre is the sample
 //! moved off its surface by Mitsuba's offset_p toward the viewer.
 //!
-//! `stratified_rows(width, height, r, seed)`: the image is cut into `gy` horizontal bands of equal
-//! height (`gy = round(sqrt(r * height / width))`, clamped to [ceil(r / width), min(r, height)]), band b
-//! holds `floor((b + 1) r / gy) - floor(b r / gy)` blocks of equal width, so every block is non-empty and
-//! block areas differ by at most one band's share (exactly r blocks for any r, factorable or not; for
-//! r = gx * gy with matching aspect this is the plain gx x gy grid). One pixel is drawn uniformly in each
+//! `stratified_rows(width, height, r, seed)`: the image is cut into `gy` horizontal bands
+//! (`gy = round(sqrt(r * height / width))`, clamped to [ceil(r / width), min(r, height)]); band b holds
+//! `r_b = floor((b + 1) r / gy) - floor(b r / gy)` blocks (r_b differ by at most 1) of equal width, and
+//! its height is proportional to r_b (rounded; equal band heights if rounding would empty a band). So
+//! there are exactly r non-empty blocks for any r, factorable or not, of nearly equal area (pixel
+//! rounding only: 49..64 pixels for r = 300 at 128x128); for r = gx * gy with the image's aspect this is
+//! the plain gx x gy grid. One pixel is drawn uniformly in each
 //! block (`rand_pcg::Pcg32` seeded by `seed`). Background pixels are allowed (their rows are zero): the
 //! choice keeps the row distribution uniform over the image, so estimators built on R stay simple;
 //! callers wanting surface samples only can redraw.
@@ -173,6 +175,10 @@ impl LightMatrix {
                 });
             }
             let num_layers = layers.len() as u32;
+            if layers.is_empty() {
+                // The binding needs one whole layer even when no row has a cube.
+                layers.push(bytemuck::Zeroable::zeroed());
+            }
             let layers_buf = storage_buffer(
                 device,
                 "LightMatrix::row_layers",
@@ -270,13 +276,23 @@ pub fn stratified_blocks(width: u32, height: u32, r: usize) -> Vec<(usize, usize
         return Vec::new();
     }
     let gy = ((r as f64 * h as f64 / w as f64).sqrt().round() as usize).clamp(r.div_ceil(w), r.min(h));
+    // Blocks before band b; band heights proportional to their block counts, or equal heights when
+    // rounding would leave a band empty.
+    let before = |b: usize| b * r / gy;
+    let mut band_y: Vec<usize> = (0..=gy).map(|b| h * before(b) / r).collect();
+    if band_y.windows(2).any(|y| y[1] <= y[0]) {
+        band_y = (0..=gy).map(|b| b * h / gy).collect();
+    }
     let mut out = Vec::with_capacity(r);
     for b in 0..gy {
-        let (y0, y1) = (b * h / gy, (b + 1) * h / gy);
-        let blocks = (b + 1) * r / gy - b * r / gy;
+        let blocks = before(b + 1) - before(b);
         for k in 0..blocks {
-            out.push((y0, y1, k * w / blocks, (k + 1) * w / blocks));
+            out.push((band_y[b], band_y[b + 1], k * w / blocks, (k + 1) * w / blocks));
         }
     }
     out
 }
+
+#[cfg(test)]
+#[path = "rows_tests.rs"]
+mod tests;
