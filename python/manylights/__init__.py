@@ -47,6 +47,7 @@ __all__ = [
     "read_exr",
     "relative_l2",
     "scene_lights",
+    "stratified_rows",
     "write_exr",
     "write_png",
 ]
@@ -210,9 +211,87 @@ class LightMatrix:
             if bar is not None:
                 bar.close()
 
+    def rows(self, indices: Sequence[int], *, progress: bool = True, shadow_map_size: int = 256,
+             return_timings: bool = False):
+        """Rows ``indices`` of the matrix (the reduced matrix R of matrix row-column sampling), (r, n, 3)
+        float32: R[k, j] = light j's contribution to view sample ``indices[k]`` (pixel ``y * W + x``).
+
+        Each row is shaded from a cube depth map centred at its view sample (``shadow_map_size`` texels per
+        face), with the same emission, BSDF and hybrid visibility as ``columns``, so
+        ``A.rows(I)[:, J]`` equals ``A.columns(J).reshape(len(J), -1, 3)[:, I].transpose(1, 0, 2)`` up to
+        ambiguous visibility. Background samples give zero rows.
+
+        Args:
+            indices: (r,) view sample indices in [0, m), repeats allowed, 1 <= r <= m.
+            progress: show a tqdm progress bar over row batches.
+            shadow_map_size: texels per cube face (16..=8192).
+            return_timings: also return a dict of seconds per stage (shadow_maps, evaluation, readback).
+
+        Raises:
+            ValueError: no indices, more indices than view samples, an index outside [0, m), or a bad
+                ``shadow_map_size``.
+        """
+        m, n = self.shape
+        idx = np.asarray(indices)
+        if idx.dtype == bool or (idx.size > 0 and not np.issubdtype(idx.dtype, np.integer)):
+            raise ValueError(f"row indices must be integers, got dtype {idx.dtype}")
+        idx = idx.astype(np.int64).reshape(-1)
+        if idx.size == 0:
+            raise ValueError("rows needs at least one row index, got 0")
+        if idx.size > m:
+            raise ValueError(f"{idx.size} rows requested but the matrix has only m = {m} view samples")
+        bad = np.flatnonzero((idx < 0) | (idx >= m))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"row index {int(idx[k])} (at position {k}) is out of range for m = {m} view samples")
+        if not 16 <= int(shadow_map_size) <= 8192:
+            raise ValueError(f"shadow_map_size must be in 16..=8192, got {shadow_map_size}")
+        bar = None
+        callback = None
+        if progress:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=int(idx.size), desc="rows", unit="row", leave=False)
+
+            def callback(done: int, total: int) -> None:
+                bar.n = done
+                bar.refresh()
+
+        try:
+            R, timings = self._m.rows([int(i) for i in idx], callback, int(shadow_map_size))
+        finally:
+            if bar is not None:
+                bar.close()
+        if return_timings:
+            return R, dict(timings)
+        return R
+
     def __repr__(self) -> str:
         m, n = self.shape
         return f"LightMatrix({m} view samples x {n} lights)"
+
+
+def stratified_rows(scene: Scene, r: int, seed: int = 0) -> np.ndarray:
+    """Stratified row selection (Hašan et al. 2007, Sec. 4): the image is cut into ``r`` blocks of nearly
+    equal area (bands of about sqrt(r * H / W) rows of blocks, heights proportional to their block counts)
+    and one pixel is drawn uniformly in each block (``seed``: same seed, same rows).
+
+    Background pixels may be drawn; their rows are zero.
+
+    Returns:
+        (r,) int64 view sample indices ``y * W + x``, one per block, top band first.
+
+    Raises:
+        ValueError: r not an integer, r < 1 or r > W * H.
+    """
+    if isinstance(r, bool) or int(r) != r:
+        raise ValueError(f"r must be an integer, got {r!r}")
+    m = scene.width * scene.height
+    if not 1 <= int(r) <= m:
+        raise ValueError(f"r must be in [1, {m}] (view samples of a {scene.width}x{scene.height} image), got {r}")
+    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    return _native.stratified_rows(scene.width, scene.height, int(r), int(seed))
 
 
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
