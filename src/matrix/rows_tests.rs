@@ -252,7 +252,7 @@ fn stratified_rows_one_per_block_and_reproducible() {
 }
 
 /// Timing of r = 300 rows x ~100k lights on the shared cbox at 128x128 (run with `--ignored --nocapture`;
-/// `ML_ROWS_RES` sets the cube resolution).
+/// `ML_ROWS_RES` sets the cube resolution, `ML_ROWS_VIS` the visibility: hybrid, shadow_map, ray_traced).
 #[test]
 #[ignore]
 fn bench_rows_cbox() {
@@ -263,7 +263,9 @@ fn bench_rows_cbox() {
     let ctx = GpuContext::shared().unwrap();
     let view = crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap();
     let n = lights.len();
-    let matrix = LightMatrix::new(ctx.clone(), Arc::new(scene), Arc::new(view), Arc::new(lights), ColumnOptions::default()).unwrap();
+    let visibility = Visibility::parse(&std::env::var("ML_ROWS_VIS").unwrap_or("hybrid".into())).unwrap();
+    let copts = ColumnOptions { visibility, ..Default::default() };
+    let matrix = LightMatrix::new(ctx.clone(), Arc::new(scene), Arc::new(view), Arc::new(lights), copts).unwrap();
     let is = stratified_rows(128, 128, 300, 0).unwrap();
     let res = std::env::var("ML_ROWS_RES").ok().and_then(|v| v.parse().ok()).unwrap_or(256);
     let opts = RowOptions { resolution: res, ..Default::default() };
@@ -272,7 +274,7 @@ fn bench_rows_cbox() {
     let t = std::time::Instant::now();
     let (rows, timings) = matrix.rows_timed(&is, &opts, &mut |_, _| {}).unwrap();
     eprintln!(
-        "cbox 128x128, {n} lights, 300 rows, cubes {res}^2 ({}): total {:.3} s = shadow maps {:.3} + evaluation {:.3} + readback {:.3} s; {} batches; {:?}",
+        "cbox 128x128, {n} lights, 300 rows, cubes {res}^2, {visibility:?} ({}): total {:.3} s = shadow maps {:.3} + evaluation {:.3} + readback {:.3} s; {} batches; {:?}",
         ctx.summary.name,
         t.elapsed().as_secs_f64(),
         timings.shadow_maps,
