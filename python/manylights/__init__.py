@@ -36,24 +36,25 @@ __version__ = _native.__version__
 __all__ = [
     "GpuError",
     "GpuUnavailableError",
-    "RenderResult",
-    "instant_radiosity",
-    "mrcs",
-    "power_sampling",
-    "cluster_reduced_columns",
-    "clustering_cost",
     "LightMatrix",
     "LightSet",
     "ManyLightsError",
+    "RenderResult",
     "Scene",
     "SceneError",
+    "cluster_reduced_columns",
+    "clustering_cost",
     "device_info",
     "fraction_within",
     "generate_lights",
+    "instant_radiosity",
     "load_scene",
+    "mrcs",
+    "power_sampling",
     "read_exr",
     "relative_l2",
     "scene_lights",
+    "stratified_rows",
     "write_exr",
     "write_png",
 ]
@@ -213,6 +214,47 @@ class LightMatrix:
         with _progress_bar(len(idx), "columns", progress) as callback:
             return self._m.weighted_sum(idx, w, callback)
 
+    def rows(self, indices: Sequence[int], *, progress: bool = True, shadow_map_size: int = 256,
+             return_timings: bool = False):
+        """Rows ``indices`` of the matrix (the reduced matrix R of matrix row-column sampling), (r, n, 3)
+        float32: R[k, j] = light j's contribution to view sample ``indices[k]`` (pixel ``y * W + x``).
+
+        Each row is shaded from a cube depth map centred at its view sample (``shadow_map_size`` texels per
+        face), with the same emission, BSDF and hybrid visibility as ``columns``, so
+        ``A.rows(I)[:, J]`` equals ``A.columns(J).reshape(len(J), -1, 3)[:, I].transpose(1, 0, 2)`` up to
+        ambiguous visibility. Background samples give zero rows.
+
+        Args:
+            indices: (r,) view sample indices in [0, m), repeats allowed, 1 <= r <= m.
+            progress: show a tqdm progress bar over row batches.
+            shadow_map_size: texels per cube face (16..=8192).
+            return_timings: also return a dict of seconds per stage (shadow_maps, evaluation, readback).
+
+        Raises:
+            ValueError: no indices, more indices than view samples, an index outside [0, m), or a bad
+                ``shadow_map_size``.
+        """
+        m, n = self.shape
+        idx = np.asarray(indices)
+        if idx.dtype == bool or (idx.size > 0 and not np.issubdtype(idx.dtype, np.integer)):
+            raise ValueError(f"row indices must be integers, got dtype {idx.dtype}")
+        idx = idx.astype(np.int64).reshape(-1)
+        if idx.size == 0:
+            raise ValueError("rows needs at least one row index, got 0")
+        if idx.size > m:
+            raise ValueError(f"{idx.size} rows requested but the matrix has only m = {m} view samples")
+        bad = np.flatnonzero((idx < 0) | (idx >= m))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"row index {int(idx[k])} (at position {k}) is out of range for m = {m} view samples")
+        if not 16 <= int(shadow_map_size) <= 8192:
+            raise ValueError(f"shadow_map_size must be in 16..=8192, got {shadow_map_size}")
+        with _progress_bar(int(idx.size), "rows", progress, unit="row") as callback:
+            R, timings = self._m.rows([int(i) for i in idx], callback, int(shadow_map_size))
+        if return_timings:
+            return R, dict(timings)
+        return R
+
     def __repr__(self) -> str:
         m, n = self.shape
         return f"LightMatrix({m} view samples x {n} lights)"
@@ -221,15 +263,15 @@ class LightMatrix:
 class _progress_bar:
     """A tqdm bar driven by the native (done, total) callbacks; a no-op when disabled or empty."""
 
-    def __init__(self, total: int, desc: str, enabled: bool):
-        self.total, self.desc, self.enabled, self.bar = total, desc, enabled and total > 0, None
+    def __init__(self, total: int, desc: str, enabled: bool, unit: str = "light"):
+        self.total, self.desc, self.enabled, self.bar, self.unit = total, desc, enabled and total > 0, None, unit
 
     def __enter__(self):
         if not self.enabled:
             return None
         from tqdm.auto import tqdm
 
-        self.bar = tqdm(total=self.total, desc=self.desc, unit="light", leave=False)
+        self.bar = tqdm(total=self.total, desc=self.desc, unit=self.unit, leave=False)
 
         def callback(done: int, total: int) -> None:
             self.bar.n = done
@@ -270,6 +312,27 @@ def clustering_cost(R, assignment) -> float:
     """Sum of the paper's cluster costs of a partition (assignment (n,)) on the scalar reduced matrix."""
     R = np.ascontiguousarray(R, dtype=np.float32)
     return _native.clustering_cost(R, np.ascontiguousarray(assignment, dtype=np.int32))
+def stratified_rows(scene: Scene, r: int, seed: int = 0) -> np.ndarray:
+    """Stratified row selection (Hašan et al. 2007, Sec. 4): the image is cut into ``r`` blocks of nearly
+    equal area (bands of about sqrt(r * H / W) rows of blocks, heights proportional to their block counts)
+    and one pixel is drawn uniformly in each block (``seed``: same seed, same rows).
+
+    Background pixels may be drawn; their rows are zero.
+
+    Returns:
+        (r,) int64 view sample indices ``y * W + x``, one per block, top band first.
+
+    Raises:
+        ValueError: r not an integer, r < 1 or r > W * H.
+    """
+    if isinstance(r, bool) or int(r) != r:
+        raise ValueError(f"r must be an integer, got {r!r}")
+    m = scene.width * scene.height
+    if not 1 <= int(r) <= m:
+        raise ValueError(f"r must be in [1, {m}] (view samples of a {scene.width}x{scene.height} image), got {r}")
+    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    return _native.stratified_rows(scene.width, scene.height, int(r), int(seed))
 
 
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:

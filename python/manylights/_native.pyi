@@ -72,6 +72,10 @@ class LightMatrix:
     def weighted_sum(self, indices: Sequence[int], weights: npt.NDArray[np.float32],
                      progress: Optional[Callable[[int, int], None]] = None) -> npt.NDArray[np.float32]:
         """(H, W, 3): sum_k weights[k] * column[indices[k]], (k, 3) RGB weights; only those columns are rendered."""
+    def rows(self, indices: Sequence[int], progress: Optional[Callable[[int, int], None]] = None,
+             shadow_map_size: int = 256) -> tuple[npt.NDArray[np.float32], dict[str, float]]:
+        """(r, n, 3) rows from cube depth maps at the view samples, and seconds per stage (shadow_maps,
+        evaluation, readback; batches). Raises ValueError for an index >= m or a bad shadow_map_size."""
 
 def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None) -> Scene:
     """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film.
@@ -95,6 +99,12 @@ def generate_lights(scene: Scene, area: int = 4096, environment: int = 0, indire
     Raises:
         ValueError: negative or too large counts, NaN / non-positive clamp, max_depth < 3 with indirect,
             a scene without emitters."""
+
+def stratified_rows(width: int, height: int, r: int, seed: int = 0) -> npt.NDArray[np.int64]:
+    """(r,) int64 pixel indices, one drawn uniformly per block of an r-block stratification of the image.
+
+    Raises:
+        ValueError: r = 0 or r > width * height."""
 
 def write_exr(path: str | PathLike[str], image: npt.NDArray[np.float32]) -> None: ...
 def read_exr(path: str | PathLike[str]) -> npt.NDArray[np.float32]: ...

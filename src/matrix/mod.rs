@@ -20,6 +20,7 @@
 //!
 //! Symbols: m = number of view samples (`width * height`), n = number of lights, w = weights.
 pub mod reference;
+pub mod rows;
 #[cfg(test)]
 mod tests;
 
@@ -127,6 +128,8 @@ pub struct LightMatrix {
     stats: wgpu::Buffer,
     /// Largest storage binding in bytes.
     max_binding: u64,
+    /// The row pass (`rows.rs`), compiled on first use.
+    rows_pass: std::sync::OnceLock<crate::gpu::rows::RowsPass>,
 }
 
 /// Lights `js[start..end]` and the first layer of each.
@@ -209,6 +212,7 @@ impl LightMatrix {
             view_buffers,
             atlas,
             max_binding,
+            rows_pass: std::sync::OnceLock::new(),
             ctx,
             scene,
             view,

@@ -194,6 +194,21 @@ impl LightMatrix {
         let w: Vec<[f32; 3]> = weights.as_array().rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
         let m = self.inner.clone();
         let data = py.detach(move || {
+    /// Rows `indices` (view sample indices) as an (r, n, 3) float32 array and the per-stage timings
+    /// (dict of seconds: shadow_maps, evaluation, readback; batches). `progress(done, total)` is called
+    /// per row batch; `shadow_map_size` = texels per cube face.
+    #[pyo3(signature = (indices, progress=None, shadow_map_size=256))]
+    fn rows<'py>(
+        &self,
+        py: Python<'py>,
+        indices: Vec<usize>,
+        progress: Option<Py<PyAny>>,
+        shadow_map_size: u32,
+    ) -> PyResult<(Bound<'py, PyArrayDyn<f32>>, std::collections::HashMap<&'static str, f64>)> {
+        let m = self.inner.clone();
+        let r = indices.len();
+        let opts = crate::matrix::rows::RowOptions { resolution: shadow_map_size, ..Default::default() };
+        let (data, t) = py.detach(move || {
             let mut cb = |done: usize, total: usize| {
                 if let Some(p) = &progress {
                     Python::attach(|py| {
@@ -206,9 +221,27 @@ impl LightMatrix {
         let (h, w) = self.inner.image_size();
         array(py, data, &[h, w, 3])
     }
+            m.rows_timed(&indices, &opts, &mut cb)
+        })?;
+        let n = self.inner.shape().1;
+        let timings = [("shadow_maps", t.shadow_maps), ("evaluation", t.evaluation), ("readback", t.readback), ("batches", t.batches as f64)]
+            .into_iter()
+            .collect();
+        Ok((array(py, data, &[r, n, 3])?, timings))
+    }
+}
+
+/// One view sample index (`y * width + x`) per block of an r-block stratification of a width x height
+/// image, drawn uniformly in each block (seeded); (r,) int64. Raises ValueError for r = 0 or r > width * height.
+#[pyfunction]
+#[pyo3(signature = (width, height, r, seed=0))]
+pub fn stratified_rows<'py>(py: Python<'py>, width: u32, height: u32, r: usize, seed: u64) -> PyResult<Bound<'py, PyArrayDyn<i64>>> {
+    let rows: Vec<i64> = crate::matrix::rows::stratified_rows(width, height, r, seed)?.into_iter().map(|i| i as i64).collect();
+    array(py, rows, &[r])
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(stratified_rows, m)?)?;
     m.add_class::<LightSet>()?;
     m.add_class::<LightMatrix>()?;
     m.add_function(wrap_pyfunction!(scene_lights, m)?)?;

@@ -1,0 +1,339 @@
+// Light rows (src/gpu/rows.rs): row i of the light matrix = every light's contribution to view sample i.
+// Each row has a cube depth map (6 layers of the batch's depth array) centred at its view sample, and
+// one thread per (row, light) evaluates A(i, j) = bsdf_eval(...) * light_emitted(l_j, p_i, n_i) * V(i, j)
+// exactly as columns.wgsl does (same light.wgsl / bsdf.wgsl), with V read from the row's cube map: the
+// roles of `shadow_map_decide` are swapped (the map is centred at the receiver, the light end is tested).
+// Needs common/bsdf.wgsl, common/light.wgsl, common/shadow_layer.wgsl, common/bvh.wgsl.
+//
+// Loops per invocation: 4 footprint taps and at most one BVH ray (<= BVH_MAX_RAY_STEPS = 2048 steps):
+// far below Mesa 22.3's 65,535 iterations.
+
+const WORKGROUP_SIZE: u32 = 64u;
+
+// Keep in sync with `RowParams` in src/gpu/rows.rs (48 bytes).
+struct RowParams {
+    // Rows of this dispatch: entries [first_row, first_row + num_rows) of `rows`; output row k = gid.y.
+    num_rows: u32,
+    // Lights of this dispatch: `lights[0 .. num_lights]` are global lights first_light + gid.x.
+    num_lights: u32,
+    first_row: u32,
+    first_light: u32,
+    // n: the output row stride (in RGB triples).
+    total_lights: u32,
+    resolution: u32,
+    // VISIBILITY_SHADOW_MAP, VISIBILITY_HYBRID or VISIBILITY_RAY_TRACED.
+    visibility: u32,
+    _pad0: u32,
+    // Biases of the shadow-map-only mode, in texels of the cube face at the light end.
+    normal_offset: f32,
+    depth_bias: f32,
+    slope_bias: f32,
+    _pad1: f32,
+}
+
+// Keep in sync with `GpuRowInfo` in src/gpu/rows.rs (32 bytes).
+struct RowInfo {
+    // Cube centre: the view sample offset off its surface toward the viewer's side (Mitsuba's offset_p).
+    center: vec3<f32>,
+    // View sample index i.
+    sample: u32,
+    // Distance from the centre of the far point standing in for directional lights (outside the scene).
+    far_dist: f32,
+    // First of the row's 6 layers; ROW_NO_MAP for background samples (no cube rendered).
+    first_layer: u32,
+    _pad0: vec2<u32>,
+}
+
+// Keep in sync with `GpuViewSample` in src/gpu/columns.rs (64 bytes).
+struct ViewSample {
+    position: vec3<f32>,
+    shape_index: i32,
+    normal: vec3<f32>,
+    _pad0: u32,
+    geo_normal: vec3<f32>,
+    _pad1: u32,
+    wi: vec3<f32>,
+    _pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: RowParams;
+@group(0) @binding(1) var<storage, read> samples: array<ViewSample>;
+@group(0) @binding(2) var<storage, read> bsdfs: array<Bsdf>;
+@group(0) @binding(3) var<storage, read> lights: array<Light>;
+@group(0) @binding(4) var<storage, read> rows: array<RowInfo>;
+@group(0) @binding(5) var<storage, read> layers: array<ShadowLayer>;
+@group(0) @binding(6) var cube_maps: texture_depth_2d_array;
+@group(0) @binding(7) var<storage, read_write> out_rows: array<f32>;
+@group(0) @binding(8) var<storage, read> bsdf_tables: array<f32>;
+@group(0) @binding(9) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(10) var<storage, read> bvh_prims: array<BvhPrim>;
+// 64-bit counters as (lo, hi) u32 pairs: shadow tests, ray casts, rays that gave up (shared with columns).
+@group(0) @binding(11) var<storage, read_write> stats: array<atomic<u32>, 6>;
+
+const ROW_NO_MAP: u32 = 0xffffffffu;
+// Keep in sync with `Visibility` in src/matrix/mod.rs.
+const VISIBILITY_SHADOW_MAP: u32 = 0u;
+const VISIBILITY_HYBRID: u32 = 1u;
+const VISIBILITY_RAY_TRACED: u32 = 2u;
+const SM_SHADOW: u32 = 0u;
+const SM_LIT: u32 = 1u;
+const SM_UNSURE: u32 = 2u;
+// Tolerances as in columns.wgsl (texels of the cube face's world-space texel size at the light end).
+const LIT_TOL: f32 = 0.05;
+const LIT_SLOPE_TOL: f32 = 0.01;
+const OCCLUDER_GAP: f32 = 0.25;
+const PLANAR_TOL: f32 = 0.02;
+const DEPTH_ULPS: f32 = 16.0;
+const MIN_PROJECTED_AREA: f32 = 0.02;
+
+fn bsdf_table(i: u32) -> f32 {
+    return bsdf_tables[i];
+}
+
+fn add_stat(k: u32, v: u32) {
+    if v != 0u {
+        let old = atomicAdd(&stats[2u * k], v);
+        if old + v < old {
+            atomicAdd(&stats[2u * k + 1u], 1u);
+        }
+    }
+}
+
+// q projected into a cube face: (texel x, texel y, NDC depth, clip w).
+fn to_map(m: mat4x4<f32>, q: vec3<f32>) -> vec4<f32> {
+    let clip = m * vec4<f32>(q, 1.0);
+    let res = f32(params.resolution);
+    let ndc = clip.xyz / clip.w;
+    return vec4<f32>((ndc.x * 0.5 + 0.5) * res, (0.5 - ndc.y * 0.5) * res, ndc.z, clip.w);
+}
+
+// Where the light is tested in the row's cube: its position, or for a directional light a point at
+// far_dist along wo (outside the scene's bounding sphere, inside the cube's far plane).
+fn light_end(row: RowInfo, l: Light, wo: vec3<f32>) -> vec3<f32> {
+    if l.kind == LIGHT_DIRECTIONAL {
+        return row.center + wo * row.far_dist;
+    }
+    return l.position;
+}
+
+// The plane a light lies on (oriented points: their emission normal; VPLs: their geometric normal);
+// zero for lights in free space.
+fn light_plane(l: Light) -> vec3<f32> {
+    if l.kind == LIGHT_ORIENTED_POINT {
+        return l.normal;
+    }
+    if l.kind == LIGHT_VPL {
+        return l.geo_normal;
+    }
+    return vec3<f32>(0.0);
+}
+
+// The hybrid test from the row's cube map: the 2x2 texel footprint around the light end q decides where
+// it is unambiguous, everything else is SM_UNSURE (-> exact ray, as columns.wgsl).
+// - Light on a surface (oriented point, VPL; plane normal n_l): all four taps on q's own plane (depth
+//   predicted from the plane's map-space gradient) -> the light's surface is the first thing seen from
+//   the view sample -> SM_LIT. (This replaces an offset of q along n_l: the ties are tested directly.)
+// - Light in free space (point, spot, directional's far point): all four taps farther than q (or empty:
+//   depth 1) -> nothing lies between the view sample and q -> SM_LIT.
+// - One coplanar occluder well in front of q at every tap and at q's own ray -> SM_SHADOW.
+// Also SM_UNSURE: lights on the other side of the sample's geometric plane than the viewer (the cube is
+// centred on the viewer's side; the exact ray decides those as columns do), q behind the near plane,
+// footprints crossing a face edge.
+fn row_map_decide(row: RowInfo, s: ViewSample, l: Light, wo: vec3<f32>) -> u32 {
+    if dot(wo, s.geo_normal) * dot(s.wi, s.geo_normal) <= 0.0 {
+        return SM_UNSURE;
+    }
+    let q = light_end(row, l, wo);
+    let v = q - row.center;
+    let li = row.first_layer + cube_face(v);
+    let m = layers[li].view_proj;
+    let c = to_map(m, q);
+    if c.w <= 0.0 || c.z < 0.0 {
+        return SM_UNSURE;
+    }
+    let texel = layers[li].texel_scale * abs(c.w);
+    let x0 = i32(floor(c.x - 0.5));
+    let y0 = i32(floor(c.y - 0.5));
+    let r = i32(params.resolution) - 1;
+    if x0 < 0 || y0 < 0 || x0 + 1 > r || y0 + 1 > r {
+        return SM_UNSURE;
+    }
+    // Depth scale toward the cube centre: d(NDC depth) per unit of distance from q toward the centre.
+    let toward = -normalize(v);
+    let cn = to_map(m, q + toward * texel);
+    let k = (c.z - cn.z) / texel;
+    if !(k > 0.0) || cn.w <= 0.0 {
+        return SM_UNSURE;
+    }
+    let ulps = DEPTH_ULPS * 1.1920929e-7 / k;
+    let n_l = light_plane(l);
+    let on_surface = any(n_l != vec3<f32>(0.0));
+    var gx = 0.0;
+    var gy = 0.0;
+    var slope = 0.0;
+    if on_surface {
+        let a = to_map(m, q + coordinate_system_s(n_l) * texel) - c;
+        let b = to_map(m, q + coordinate_system_t(n_l) * texel) - c;
+        let det = a.x * b.y - b.x * a.y;
+        if !(abs(det) > MIN_PROJECTED_AREA) {
+            return SM_UNSURE;
+        }
+        gx = (a.z * b.y - b.z * a.y) / det;
+        gy = (a.x * b.z - b.x * a.z) / det;
+        slope = (abs(gx) + abs(gy)) / k / texel;
+    }
+    let lit_tol = texel * (LIT_TOL + LIT_SLOPE_TOL * slope) + ulps;
+    let gap = texel * OCCLUDER_GAP + ulps;
+    var lit_taps = 0u;
+    var occluded_taps = 0u;
+    var z: array<f32, 4>;
+    for (var t = 0u; t < 4u; t = t + 1u) {
+        let tx = x0 + i32(t & 1u);
+        let ty = y0 + i32(t >> 1u);
+        z[t] = textureLoad(cube_maps, vec2<i32>(tx, ty), i32(li), 0);
+        // q's plane (or q's own depth for free lights) on the tap's ray.
+        let plane_z = c.z + gx * (f32(tx) + 0.5 - c.x) + gy * (f32(ty) + 0.5 - c.y);
+        // How far the stored surface lies in front of q (toward the view sample).
+        let in_front = (plane_z - z[t]) / k;
+        if on_surface {
+            if abs(in_front) <= lit_tol {
+                lit_taps = lit_taps + 1u;
+            } else if in_front > gap {
+                occluded_taps = occluded_taps + 1u;
+            }
+        } else {
+            if z[t] >= 1.0 || in_front < -lit_tol {
+                lit_taps = lit_taps + 1u;
+            } else if in_front > gap {
+                occluded_taps = occluded_taps + 1u;
+            }
+        }
+    }
+    if lit_taps == 4u {
+        return SM_LIT;
+    }
+    if occluded_taps == 4u {
+        let twist = abs(z[0] + z[3] - z[1] - z[2]) / k;
+        let fx = c.x - 0.5 - f32(x0);
+        let fy = c.y - 0.5 - f32(y0);
+        let z_q = mix(mix(z[0], z[1], fx), mix(z[2], z[3], fx), fy);
+        if twist <= texel * PLANAR_TOL + ulps && (c.z - z_q) / k > gap {
+            return SM_SHADOW;
+        }
+    }
+    return SM_UNSURE;
+}
+
+// Shadow-map-only visibility (biases of ColumnOptions, in texels at the light end): the light end moved
+// toward the cube centre by depth_bias (+ slope_bias * tan of the angle to a surface light's plane) and,
+// for lights on surfaces, along their plane normal toward the centre by normal_offset; then one depth
+// comparison at its texel.
+fn row_visibility_biased(row: RowInfo, l: Light, wo: vec3<f32>) -> f32 {
+    let q = light_end(row, l, wo);
+    let li0 = row.first_layer + cube_face(q - row.center);
+    let c0 = layers[li0].view_proj * vec4<f32>(q, 1.0);
+    let texel = layers[li0].texel_scale * abs(c0.w);
+    let toward = normalize(row.center - q);
+    var q_off = q + toward * (texel * params.depth_bias);
+    let n_l = light_plane(l);
+    if any(n_l != vec3<f32>(0.0)) {
+        let cos_l = dot(n_l, toward);
+        let side = select(-n_l, n_l, cos_l >= 0.0);
+        let cl = max(abs(cos_l), 0.05);
+        let tan_l = min(sqrt(max(1.0 - cl * cl, 0.0)) / cl, 10.0);
+        q_off = q_off + side * (texel * params.normal_offset) + toward * (texel * params.slope_bias * tan_l);
+    }
+    let li = row.first_layer + cube_face(q_off - row.center);
+    let c = to_map(layers[li].view_proj, q_off);
+    if c.w <= 0.0 {
+        return 1.0;
+    }
+    let r = i32(params.resolution) - 1;
+    let xy = vec2<i32>(clamp(i32(floor(c.x)), 0, r), clamp(i32(floor(c.y)), 0, r));
+    let stored = textureLoad(cube_maps, xy, i32(li), 0);
+    return select(0.0, 1.0, c.z <= stored);
+}
+
+// The exact ray of columns.wgsl's visibility_ray (Mitsuba's spawn_ray_to / spawn_ray from the view
+// sample), so that rows and columns agree wherever either casts a ray.
+fn row_visibility_ray(l: Light, s: ViewSample, wo: vec3<f32>, fallback: f32) -> f32 {
+    count_rays = count_rays + 1u;
+    var res = BVH_FREE;
+    if l.kind == LIGHT_DIRECTIONAL {
+        res = trace_direction(s.position, s.geo_normal, wo);
+    } else {
+        res = trace_to_point(s.position, s.geo_normal, l.position);
+    }
+    if res == BVH_GAVE_UP {
+        count_gave_up = count_gave_up + 1u;
+        return fallback;
+    }
+    return select(1.0, 0.0, res == BVH_BLOCKED);
+}
+
+var<private> count_tests: u32 = 0u;
+var<private> count_rays: u32 = 0u;
+var<private> count_gave_up: u32 = 0u;
+
+fn row_visibility(row: RowInfo, s: ViewSample, l: Light, wo: vec3<f32>) -> f32 {
+    count_tests = count_tests + 1u;
+    if params.visibility == VISIBILITY_RAY_TRACED {
+        return row_visibility_ray(l, s, wo, 1.0);
+    }
+    if params.visibility == VISIBILITY_HYBRID {
+        let d = row_map_decide(row, s, l, wo);
+        if d == SM_UNSURE {
+            return row_visibility_ray(l, s, wo, row_visibility_biased(row, l, wo));
+        }
+        return select(0.0, 1.0, d == SM_LIT);
+    }
+    return row_visibility_biased(row, l, wo);
+}
+
+// Per-workgroup visibility counters, added to `stats` by one thread (one global atomic per workgroup).
+var<workgroup> wg_stats: array<atomic<u32>, 3>;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let k = gid.x;
+    if k < params.num_lights && gid.y < params.num_rows {
+        let row = rows[params.first_row + gid.y];
+        let s = samples[row.sample];
+        var contribution = vec3<f32>(0.0);
+        if s.shape_index >= 0 {
+            // Mitsuba's shading frame from the shading normal, as columns.wgsl.
+            let n = s.normal;
+            let fs = coordinate_system_s(n);
+            let ft = coordinate_system_t(n);
+            let wi_local = vec3<f32>(dot(s.wi, fs), dot(s.wi, ft), dot(s.wi, n));
+            let l = lights[k];
+            let e = light_emitted(l, s.position, n);
+            if e.valid {
+                let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
+                let f = bsdf_eval(bsdfs[row.sample], wi_local, wo_local) * e.radiance;
+                if any(f != vec3<f32>(0.0)) {
+                    contribution = f * row_visibility(row, s, l, e.wo);
+                }
+            }
+        }
+        let base = (gid.y * params.total_lights + params.first_light + k) * 3u;
+        out_rows[base] = contribution.x;
+        out_rows[base + 1u] = contribution.y;
+        out_rows[base + 2u] = contribution.z;
+        if count_tests != 0u {
+            atomicAdd(&wg_stats[0], count_tests);
+        }
+        if count_rays != 0u {
+            atomicAdd(&wg_stats[1], count_rays);
+        }
+        if count_gave_up != 0u {
+            atomicAdd(&wg_stats[2], count_gave_up);
+        }
+    }
+    workgroupBarrier();
+    if local == 0u {
+        add_stat(0u, atomicLoad(&wg_stats[0]));
+        add_stat(1u, atomicLoad(&wg_stats[1]));
+        add_stat(2u, atomicLoad(&wg_stats[2]));
+    }
+}

@@ -1,0 +1,248 @@
+//! The row pass (`shaders/rows.wgsl`): rows of the light matrix from cube depth maps centred at view
+//! samples (Hašan, Pellacini, Bala, "Matrix Row-Column Sampling for the Many-Light Problem", SIGGRAPH
+//! 2007, Sec. 3.1: "shadow mapping can be also used to evaluate the contribution of all lights to a
+//! sample by computing the depth map centered at the sample location"; Sec. 4: "Row visibility is
+//! evaluated by computing a cube shadow map at the sample location").
+//!
+//! A batch's rows each own 6 layers (cube faces, in `shadow::cube_face_dirs` order) of one
+//! `ShadowAtlas`, rendered by the shared `ShadowMapPass`; then one thread per (row, light) evaluates
+//! A(i, j) with the same WGSL as the column pass (`light_emitted`, `bsdf_eval`) and writes RGB f32 to
+//! `[row][light][rgb]`. The driver (`matrix::rows`) sizes row chunks so the output binding stays under
+//! the 128 MiB storage-binding limit and light chunks so a dispatch's x size stays under 65,535 groups.
+//!
+//! Deviation from the paper: visibility is the hybrid of `columns.wgsl` (cube map where its 2x2
+//! footprint is unambiguous, the exact BVH ray of the column pass elsewhere), so rows equal columns up
+//! to the (rare) cases where a certain-looking map disagrees with the ray; see `row_map_decide`.
+use super::columns::{storage_buffer, ViewBuffers};
+use crate::gpu::shadow::GpuShadowLayer;
+
+/// Threads per workgroup (along lights); mirrored in `rows.wgsl`.
+pub const WORKGROUP_SIZE: u32 = 64;
+/// Most lights per dispatch: 65,535 workgroups along x.
+pub const MAX_LIGHTS_PER_DISPATCH: usize = 65_535 * WORKGROUP_SIZE as usize;
+/// `first_layer` of a row without a cube map (background samples); mirrored in `rows.wgsl`.
+pub const ROW_NO_MAP: u32 = u32::MAX;
+
+/// Keep in sync with `struct RowParams` in `shaders/rows.wgsl` (48 bytes).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct RowParams {
+    pub num_rows: u32,
+    pub num_lights: u32,
+    pub first_row: u32,
+    pub first_light: u32,
+    pub total_lights: u32,
+    pub resolution: u32,
+    /// `matrix::Visibility as u32`.
+    pub visibility: u32,
+    pub _pad0: u32,
+    pub normal_offset: f32,
+    pub depth_bias: f32,
+    pub slope_bias: f32,
+    pub _pad1: f32,
+}
+
+/// One row of a batch. Keep in sync with `struct RowInfo` in `shaders/rows.wgsl` (32 bytes).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuRowInfo {
+    /// Cube centre (the view sample, offset toward the viewer's side of its surface).
+    pub center: [f32; 3],
+    /// View sample index i.
+    pub sample: u32,
+    /// Distance of the stand-in far point for directional lights.
+    pub far_dist: f32,
+    /// First of the row's 6 layers, `ROW_NO_MAP` for background samples.
+    pub first_layer: u32,
+    pub _pad0: [u32; 2],
+}
+
+/// The WGSL module of the pass.
+pub const ROWS_WGSL: &str = concat!(
+    include_str!("../../shaders/common/bsdf.wgsl"),
+    include_str!("../../shaders/common/light.wgsl"),
+    include_str!("../../shaders/common/shadow_layer.wgsl"),
+    include_str!("../../shaders/common/bvh.wgsl"),
+    include_str!("../../shaders/rows.wgsl"),
+);
+
+/// Per-dispatch inputs.
+pub struct RowsInputs<'a> {
+    pub params: RowParams,
+    pub view: &'a ViewBuffers,
+    /// `GpuLight`s of this dispatch's light chunk.
+    pub lights: &'a wgpu::Buffer,
+    /// The batch's `GpuRowInfo`s.
+    pub rows: &'a wgpu::Buffer,
+    /// The batch's cube layers (`GpuShadowLayer`, 6 per row with a map).
+    pub layers: &'a wgpu::Buffer,
+    pub cube_maps: &'a wgpu::TextureView,
+    /// `num_rows * total_lights * 3` f32 (at most one storage binding).
+    pub out_rows: &'a wgpu::Buffer,
+    pub bvh_nodes: &'a wgpu::Buffer,
+    pub bvh_prims: &'a wgpu::Buffer,
+    pub stats: &'a wgpu::Buffer,
+}
+
+/// The row evaluation pass: pipeline and bind group layout, compiled once.
+pub struct RowsPass {
+    pub pipeline: wgpu::ComputePipeline,
+    pub bind_group_layout: wgpu::BindGroupLayout,
+}
+
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl RowsPass {
+    pub fn new(device: &wgpu::Device) -> RowsPass {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("RowsPass::module"),
+            source: wgpu::ShaderSource::Wgsl(ROWS_WGSL.into()),
+        });
+        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("RowsPass::bind_group_layout"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                storage(1, true),
+                storage(2, true),
+                storage(3, true),
+                storage(4, true),
+                storage(5, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 6,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                storage(7, false),
+                storage(8, true),
+                storage(9, true),
+                storage(10, true),
+                storage(11, false),
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("RowsPass::pipeline_layout"),
+            bind_group_layouts: &[Some(&bind_group_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("RowsPass::pipeline"),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        RowsPass { pipeline, bind_group_layout }
+    }
+
+    /// Dispatch one thread per (row, light): x over `params.num_lights`, y over `params.num_rows`.
+    pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &RowsInputs) {
+        fn buf(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+            wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }
+        }
+        let params = storage_buffer(device, "RowsPass::params", &[inputs.params], wgpu::BufferUsages::UNIFORM);
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("RowsPass::bind_group"),
+            layout: &self.bind_group_layout,
+            entries: &[
+                buf(0, &params),
+                buf(1, &inputs.view.samples),
+                buf(2, &inputs.view.bsdfs),
+                buf(3, inputs.lights),
+                buf(4, inputs.rows),
+                buf(5, inputs.layers),
+                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(inputs.cube_maps) },
+                buf(7, inputs.out_rows),
+                buf(8, &inputs.view.bsdf_tables),
+                buf(9, inputs.bvh_nodes),
+                buf(10, inputs.bvh_prims),
+                buf(11, inputs.stats),
+            ],
+        });
+        let gx = (inputs.params.num_lights).div_ceil(WORKGROUP_SIZE).max(1);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("RowsPass::dispatch"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups(gx, inputs.params.num_rows.max(1), 1);
+    }
+}
+
+/// The 6 cube layers of a row centred at `center` (90-degree faces; near/far planes of a point light
+/// there, `shadow::light_layers`: far encloses the scene's bounding sphere).
+pub fn row_cube_layers(scene_center: glam::Vec3, scene_radius: f32, center: glam::Vec3, resolution: u32) -> Vec<GpuShadowLayer> {
+    let mut set = crate::lights::LightSet::new(scene_center, scene_radius);
+    // A point light only carries the cube's centre here; its intensity is unused.
+    if set.push_point(center, glam::Vec3::ONE).is_err() {
+        return Vec::new();
+    }
+    crate::gpu::shadow::light_layers(&set, 0, resolution)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn struct_sizes() {
+        assert_eq!(std::mem::size_of::<RowParams>(), 48);
+        assert_eq!(std::mem::size_of::<GpuRowInfo>(), 32);
+    }
+
+    #[test]
+    fn rows_wgsl_validates_and_layouts_match() {
+        let module = naga::front::wgsl::parse_str(ROWS_WGSL).expect("rows.wgsl parses");
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+            .validate(&module)
+            .expect("rows.wgsl validates");
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        for (name, size) in [("RowParams", 48), ("RowInfo", 32), ("Light", 192), ("ViewSample", 64), ("ShadowLayer", 256)] {
+            let (h, _) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(name)).expect(name);
+            assert_eq!(layouter[h].size, size, "{name}");
+        }
+        // The WGSL mirrors of the Rust constants.
+        assert!(ROWS_WGSL.contains(&format!("const WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;")));
+        assert!(ROWS_WGSL.contains("const ROW_NO_MAP: u32 = 0xffffffffu;"));
+    }
+
+    #[test]
+    fn row_cube_faces_look_along_their_axes() {
+        let c = glam::Vec3::new(0.2, -0.1, 0.3);
+        let layers = row_cube_layers(glam::Vec3::ZERO, 2.0, c, 64);
+        assert_eq!(layers.len(), 6);
+        for (f, (dir, _)) in crate::gpu::shadow::cube_face_dirs().iter().enumerate() {
+            let m = glam::Mat4::from_cols_array_2d(&layers[f].view_proj);
+            let clip = m * (c + *dir * 1.5).extend(1.0);
+            let ndc = clip.truncate() / clip.w;
+            assert!(ndc.x.abs() < 1e-5 && ndc.y.abs() < 1e-5 && ndc.z > 0.0 && ndc.z < 1.0, "face {f}: {ndc:?}");
+        }
+    }
+}
