@@ -160,13 +160,7 @@ impl LightMatrix {
         let w: Option<Vec<f32>> = weights.map(|w| w.as_array().to_vec());
         let m = self.inner.clone();
         let data = py.detach(move || {
-            let mut cb = |done: usize, total: usize| {
-                if let Some(p) = &progress {
-                    Python::attach(|py| {
-                        let _ = p.call1(py, (done, total));
-                    });
-                }
-            };
+            let mut cb = progress_callback(progress);
             m.column_sum(w.as_deref(), &mut cb)
         })?;
         let (h, w) = self.inner.image_size();
@@ -194,6 +188,12 @@ impl LightMatrix {
         let w: Vec<[f32; 3]> = weights.as_array().rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
         let m = self.inner.clone();
         let data = py.detach(move || {
+            let mut cb = progress_callback(progress);
+            m.weighted_sum(&indices, &w, &mut cb)
+        })?;
+        let (h, w) = self.inner.image_size();
+        array(py, data, &[h, w, 3])
+    }
     /// Rows `indices` (view sample indices) as an (r, n, 3) float32 array and the per-stage timings
     /// (dict of seconds: shadow_maps, evaluation, readback; batches). `progress(done, total)` is called
     /// per row batch; `shadow_map_size` = texels per cube face.
@@ -209,25 +209,31 @@ impl LightMatrix {
         let r = indices.len();
         let opts = crate::matrix::rows::RowOptions { resolution: shadow_map_size, ..Default::default() };
         let (data, t) = py.detach(move || {
-            let mut cb = |done: usize, total: usize| {
-                if let Some(p) = &progress {
-                    Python::attach(|py| {
-                        let _ = p.call1(py, (done, total));
-                    });
-                }
-            };
-            m.weighted_sum(&indices, &w, &mut cb)
-        })?;
-        let (h, w) = self.inner.image_size();
-        array(py, data, &[h, w, 3])
-    }
+            let mut cb = progress_callback(progress);
             m.rows_timed(&indices, &opts, &mut cb)
         })?;
         let n = self.inner.shape().1;
-        let timings = [("shadow_maps", t.shadow_maps), ("evaluation", t.evaluation), ("readback", t.readback), ("batches", t.batches as f64)]
-            .into_iter()
-            .collect();
+        let timings = [
+            ("shadow_maps", t.shadow_maps),
+            ("evaluation", t.evaluation),
+            ("readback", t.readback),
+            ("batches", t.batches as f64),
+        ]
+        .into_iter()
+        .collect();
         Ok((array(py, data, &[r, n, 3])?, timings))
+    }
+}
+
+/// A Rust progress callback that forwards (done, total) to an optional Python callable (its errors are
+/// ignored: progress display must not abort GPU work).
+fn progress_callback(progress: Option<Py<PyAny>>) -> impl FnMut(usize, usize) {
+    move |done: usize, total: usize| {
+        if let Some(p) = &progress {
+            Python::attach(|py| {
+                let _ = p.call1(py, (done, total));
+            });
+        }
     }
 }
 
