@@ -204,6 +204,11 @@ class LightMatrix:
         with _progress_bar(self.shape[1], "columns", progress) as callback:
             return self._m.column_sum(w, callback)
 
+    def emitted(self) -> np.ndarray:
+        """What the camera sees of emitters directly (area lights from their emitting side, the environment
+        behind background pixels), (H, W, 3) float32. Not part of the matrix; every renderer adds it."""
+        return self._m.emitted()
+
     def weighted_sum(self, indices: Sequence[int], weights, *, progress: bool = False) -> np.ndarray:
         """``sum_k weights[k] * column[indices[k]]`` with (k, 3) RGB weights, rendering only those columns
         (repeated indices add up): how clustered renderers reconstruct an image. (H, W, 3) float32."""

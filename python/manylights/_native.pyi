@@ -69,6 +69,8 @@ class LightMatrix:
     def column_sum(self, weights: Optional[npt.NDArray[np.float32]] = None,
                    progress: Optional[Callable[[int, int], None]] = None) -> npt.NDArray[np.float32]:
         """(H, W, 3) weighted sum. Raises ValueError for a wrong length or NaN/inf weights."""
+    def emitted(self) -> npt.NDArray[np.float32]:
+        """(H, W, 3): emitted radiance seen directly (area emitters, environment background)."""
     def weighted_sum(self, indices: Sequence[int], weights: npt.NDArray[np.float32],
                      progress: Optional[Callable[[int, int], None]] = None) -> npt.NDArray[np.float32]:
         """(H, W, 3): sum_k weights[k] * column[indices[k]], (k, 3) RGB weights; only those columns are rendered."""

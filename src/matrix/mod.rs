@@ -20,6 +20,7 @@
 //!
 //! Symbols: m = number of view samples (`width * height`), n = number of lights, w = weights.
 pub mod reference;
+pub mod emitted;
 pub mod rows;
 #[cfg(test)]
 mod tests;
@@ -224,6 +225,12 @@ impl LightMatrix {
     /// (m, n): view samples x lights.
     pub fn shape(&self) -> (usize, usize) {
         (self.view.len(), self.lights.len())
+    }
+
+    /// What the camera sees of emitters directly (area emitters, environment): H * W * 3 floats. Every
+    /// renderer adds it to its estimate of the column sum.
+    pub fn emitted(&self) -> Vec<f32> {
+        emitted::emitted_image(&self.scene, &self.view)
     }
 
     /// Image size (height, width) of the view samples, numpy order.

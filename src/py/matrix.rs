@@ -194,6 +194,14 @@ impl LightMatrix {
         let (h, w) = self.inner.image_size();
         array(py, data, &[h, w, 3])
     }
+    /// What the camera sees of emitters directly (area emitters from their emitting side, the environment
+    /// behind background pixels), (H, W, 3) float32; renderers add it to the column estimate.
+    fn emitted<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let m = self.inner.clone();
+        let data = py.detach(move || m.emitted());
+        let (h, w) = self.inner.image_size();
+        array(py, data, &[h, w, 3])
+    }
     /// Rows `indices` (view sample indices) as an (r, n, 3) float32 array and the per-stage timings
     /// (dict of seconds: shadow_maps, evaluation, readback; batches). `progress(done, total)` is called
     /// per row batch; `shadow_map_size` = texels per cube face.
