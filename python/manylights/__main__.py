@@ -80,7 +80,7 @@ def _write(sw, out: Path, img, png: bool):
     return written
 
 
-def demo(out_dir="out/demo", res=128, area=1024, indirect=6000, rows=300, columns=900, seed=0):
+def demo(out_dir="out/demo", res=128, area=1024, indirect=3000, rows=300, columns=900, seed=0):
     """The project's main job on the bundled scene: many lights (area + indirect + delta), Matrix Row-Column
     Sampling at a default budget next to brute force, with the error and the time of every stage."""
     import manylights as ml
