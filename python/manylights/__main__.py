@@ -34,16 +34,18 @@ class Stopwatch:
             print(f"  {name:<28s} {s * 1000:9.1f} ms")
 
 
-def render(scene_path, out, size=None, params=None, shadow_map_size=1024, png=True, quiet=False):
+def render(scene_path, out, size=None, params=None, shadow_map_size=1024, png=True, quiet=False,
+           area=4096, environment=4096, indirect=0, seed=0):
     import manylights as ml
 
     sw = Stopwatch()
     dev = sw("gpu device", ml.device_info)
     scene = sw("load scene", ml.load_scene, scene_path, size=size, **(params or {}))
     sw("g-buffer (view samples)", scene.gbuffer)
-    lights = sw("lights", ml.scene_lights, scene)
-    A = sw("light matrix setup", ml.LightMatrix, scene, lights, shadow_map_size=shadow_map_size)
-    img = sw("columns (brute force)", A.column_sum, progress=not quiet)
+    lights = sw("lights", ml.generate_lights, scene, area=area, environment=environment, indirect=indirect,
+                seed=seed)
+    img = sw("brute force (+ emitted)", ml.render_brute_force, scene, lights, shadow_map_size=shadow_map_size,
+             progress=not quiet)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     sw("write exr", ml.write_exr, out, img)
@@ -55,7 +57,8 @@ def render(scene_path, out, size=None, params=None, shadow_map_size=1024, png=Tr
     if not quiet:
         print(f"scene: {scene!r}")
         print(f"adapter: {dev['name']} ({dev['backend']}, {'software' if dev['is_software'] else 'hardware'})")
-        print(f"lights: {len(lights)}; matrix {A.shape[0]} x {A.shape[1]}; shadow maps {shadow_map_size}^2")
+        print(f"lights: {len(lights)}; matrix {img.shape[0] * img.shape[1]} x {len(lights)}; "
+              f"shadow maps {shadow_map_size}^2")
         sw.report()
         print(f"  {'total':<28s} {sum(s for _, s in sw.stages) * 1000:9.1f} ms")
         for w in written:
@@ -66,13 +69,17 @@ def render(scene_path, out, size=None, params=None, shadow_map_size=1024, png=Tr
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m manylights", description=__doc__)
     sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("render", help="render a Mitsuba XML scene's delta lights by brute force")
+    r = sub.add_parser("render", help="render a Mitsuba XML scene by brute force over generated lights")
     r.add_argument("scene")
     r.add_argument("-o", "--output", default="out.exr")
     r.add_argument("--size", type=int, nargs=2, metavar=("W", "H"))
     r.add_argument("-D", dest="params", action="append", metavar="NAME=VALUE", help="scene parameter")
     r.add_argument("--shadow-map-size", type=int, default=1024)
     r.add_argument("--no-png", action="store_true")
+    r.add_argument("--area", type=int, default=4096, help="oriented point lights over area emitters")
+    r.add_argument("--environment", type=int, default=4096, help="directional lights over the environment")
+    r.add_argument("--indirect", type=int, default=0, help="VPLs (indirect light)")
+    r.add_argument("--seed", type=int, default=0)
     d = sub.add_parser("demo", help="render the bundled demo scene")
     d.add_argument("-o", "--output", default="out/demo.exr")
     sub.add_parser("info", help="print the GPU adapter")
@@ -80,7 +87,8 @@ def main(argv=None):
     try:
         if a.cmd == "render":
             render(a.scene, a.output, size=tuple(a.size) if a.size else None, params=_params(a.params),
-                   shadow_map_size=a.shadow_map_size, png=not a.no_png)
+                   shadow_map_size=a.shadow_map_size, png=not a.no_png, area=a.area,
+                   environment=a.environment, indirect=a.indirect, seed=a.seed)
         elif a.cmd == "demo":
             print(f"manylights demo: {DEMO_SCENE}")
             render(DEMO_SCENE, a.output)

@@ -6,7 +6,9 @@
 //! and reads back only the final image. Lights are processed in batches: a batch's shadow maps (cube
 //! faces, spot and orthographic maps) are layers of one depth array texture, rendered and consumed in one
 //! command submission; a batch holds at most `max_lights_per_batch` (<= 256) lights and as many layers as
-//! `shadow_memory_budget` allows. `reference` evaluates elements on the CPU by ray casting (tests).
+//! `shadow_memory_budget` allows. `reference` evaluates elements on the CPU by ray casting (tests);
+//! `oracle` gives exact elements, rows and columns (`element`, `row_exact`, `column_exact`) with the
+//! scene BVH; `emitted` is what the camera sees directly (added to every image, not a column).
 //!
 //! Visibility (`ColumnOptions::visibility`): `ShadowMap` tests shadow maps with biases only;
 //! `RayTraced` casts an exact shadow ray per test against the scene BVH on the GPU (`gpu::bvh`, Mitsuba's
@@ -19,6 +21,8 @@
 //! iterations even if every ray takes the most steps.
 //!
 //! Symbols: m = number of view samples (`width * height`), n = number of lights, w = weights.
+pub mod emitted;
+pub mod oracle;
 pub mod reference;
 #[cfg(test)]
 mod tests;
@@ -127,6 +131,8 @@ pub struct LightMatrix {
     stats: wgpu::Buffer,
     /// Largest storage binding in bytes.
     max_binding: u64,
+    /// CPU ray tracer of the exact oracle (`oracle.rs`), built on first use.
+    oracle: std::sync::OnceLock<crate::raytrace::RayTracer>,
 }
 
 /// Lights `js[start..end]` and the first layer of each.
@@ -209,6 +215,7 @@ impl LightMatrix {
             view_buffers,
             atlas,
             max_binding,
+            oracle: std::sync::OnceLock::new(),
             ctx,
             scene,
             view,
