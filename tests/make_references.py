@@ -40,6 +40,8 @@ REFERENCES = {
     "bunny-direct": (SCENES / "bunny" / "scene.xml", {}, (128, 96), 2, 0.01, None),
     "cbox-gi": (SCENES / "cbox" / "scene.xml", {"res": 128}, (128, 128), -1, 0.02, None),
     "veach-ajar-gi": (SCENES / "veach-ajar" / "scene.xml", {"resx": 64, "resy": 36}, (64, 36), -1, 0.05, None),
+    # CI-sized full GI (tests/test_lights.py: error vs indirect light count).
+    "cbox-gi-64": (SCENES / "cbox" / "scene.xml", {"res": 64}, (64, 64), -1, 0.002, None),
 }
 
 

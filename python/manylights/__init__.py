@@ -6,7 +6,8 @@ Quick start::
     scene = ml.load_scene("scene.xml", res=128)       # like mitsuba.load_file(path, **params)
     lights = ml.scene_lights(scene)                    # point / spot / directional emitters
     A = ml.LightMatrix(scene, lights)                  # m x n: m = H*W view samples, n = len(lights)
-    img = A.column_sum()                               # (H, W, 3) float32, all lights (brute force)
+    img = A.column_sum() + A.emitted()                 # (H, W, 3) float32: all lights + visible emitters
+    img = ml.render_brute_force(scene, ml.generate_lights(scene, area=4096))  # the same in one call
     ml.write_exr("out.exr", img); ml.write_png("out.png", img)
 """
 from __future__ import annotations
@@ -53,6 +54,7 @@ __all__ = [
     "power_sampling",
     "read_exr",
     "relative_l2",
+    "render_brute_force",
     "scene_lights",
     "stratified_rows",
     "write_exr",
@@ -190,7 +192,8 @@ class LightMatrix:
         return self._m.columns([int(i) for i in idx])
 
     def column_sum(self, weights: Optional[Sequence[float]] = None, *, progress: bool = True) -> np.ndarray:
-        """Sum of all columns, each times its weight (default 1): the brute-force image, (H, W, 3) float32.
+        """Sum of all columns, each times its weight (default 1), (H, W, 3) float32: the matrix part of
+        the brute-force image (add ``emitted()`` for the image itself; ``render_brute_force`` does).
 
         Args:
             weights: optional (n,) weights.
@@ -203,11 +206,6 @@ class LightMatrix:
                 raise ValueError(f"weights must have length n = {self.shape[1]}, got {w.shape[0]}")
         with _progress_bar(self.shape[1], "columns", progress) as callback:
             return self._m.column_sum(w, callback)
-
-    def emitted(self) -> np.ndarray:
-        """What the camera sees of emitters directly (area lights from their emitting side, the environment
-        behind background pixels), (H, W, 3) float32. Not part of the matrix; every renderer adds it."""
-        return self._m.emitted()
 
     def weighted_sum(self, indices: Sequence[int], weights, *, progress: bool = False) -> np.ndarray:
         """``sum_k weights[k] * column[indices[k]]`` with (k, 3) RGB weights, rendering only those columns
@@ -259,6 +257,47 @@ class LightMatrix:
         if return_timings:
             return R, dict(timings)
         return R
+
+    def emitted(self) -> np.ndarray:
+        """What the camera sees directly, (H, W, 3) float32, as Mitsuba's ``path`` integrator at depth 0:
+        view samples on an area emitter's shape show its radiance when seen from its +normal side
+        (shading normal), background pixels the environment (envmap / constant emitters) along the
+        pixel-centre camera ray. Not part of any column: every renderer adds it
+        (``render_brute_force`` = ``column_sum() + emitted()``). NaN/inf emitter values count as 0."""
+        return self._m.emitted()
+
+    def _index(self, name: str, v, size: int, what: str) -> int:
+        if isinstance(v, (bool, np.bool_)) or int(v) != v:
+            raise ValueError(f"{name} must be an integer, got {v!r}")
+        if not 0 <= int(v) < size:
+            raise ValueError(f"{name} = {v} is out of range for {size} {what}")
+        return int(v)
+
+    def element(self, i: int, j: int) -> np.ndarray:
+        """A(i, j), (3,) float32, by exact CPU ray casting (the same shading as the GPU columns, exact
+        visibility with Mitsuba's ray offsets). ``i = y * W + x``.
+
+        Raises:
+            ValueError: i not in [0, m) or j not in [0, n).
+        """
+        m, n = self.shape
+        return self._m.element(self._index("i", i, m, "view samples"), self._index("j", j, n, "lights"))
+
+    def row_exact(self, i: int) -> np.ndarray:
+        """Row i (view sample ``i = y * W + x``) of A by exact CPU ray casting, (n, 3) float32.
+
+        Raises:
+            ValueError: i not in [0, m).
+        """
+        return self._m.row_exact(self._index("i", i, self.shape[0], "view samples"))
+
+    def column_exact(self, j: int) -> np.ndarray:
+        """Column j of A by exact CPU ray casting, as an image (H, W, 3) float32.
+
+        Raises:
+            ValueError: j not in [0, n).
+        """
+        return self._m.column_exact(self._index("j", j, self.shape[1], "lights"))
 
     def __repr__(self) -> str:
         m, n = self.shape
@@ -355,3 +394,6 @@ def _as_image(image) -> np.ndarray:
     if a.ndim != 3 or a.shape[2] != 3:
         raise ValueError(f"image must have shape (H, W, 3), got {a.shape}")
     return a
+
+
+from .render import render_brute_force  # noqa: E402  (needs LightMatrix above)

@@ -78,6 +78,14 @@ class LightMatrix:
              shadow_map_size: int = 256) -> tuple[npt.NDArray[np.float32], dict[str, float]]:
         """(r, n, 3) rows from cube depth maps at the view samples, and seconds per stage (shadow_maps,
         evaluation, readback; batches). Raises ValueError for an index >= m or a bad shadow_map_size."""
+        """(H, W, 3) radiance the camera sees directly (area emitters' front sides, the environment on
+        background pixels); not part of column_sum."""
+    def element(self, i: int, j: int) -> npt.NDArray[np.float32]:
+        """(3,) A(i, j) by exact CPU ray casting. Raises ValueError for i >= m or j >= n."""
+    def row_exact(self, i: int) -> npt.NDArray[np.float32]:
+        """(n, 3) row i by exact CPU ray casting. Raises ValueError for i >= m."""
+    def column_exact(self, j: int) -> npt.NDArray[np.float32]:
+        """(H, W, 3) column j by exact CPU ray casting. Raises ValueError for j >= n."""
 
 def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None) -> Scene:
     """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film.

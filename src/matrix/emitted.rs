@@ -1,94 +1,153 @@
-//! What the camera sees of emitters directly: not a column of the light matrix, but part of every image
-//! (as in Mitsuba, whose `path` integrator adds it at the first hit).
+//! What the camera sees directly (Mitsuba's `path` integrator at depth 0): not a column of the light
+//! matrix, but part of every image, `image = A 1 + emitted`.
 //!
-//! - A view sample on a shape with an area emitter adds its radiance when seen from the emitting side:
-//!   Mitsuba's area emitter returns its radiance where `cos_theta(si.wi) > 0` in the shading frame.
-//! - A background pixel (no hit) shows the environment (envmap lookup as Mitsuba's, plus constant
-//!   emitters) along its camera ray through the pixel centre.
+//! - A view sample on a shape with an area emitter adds the emitter's radiance L when seen from the
+//!   emitter's +normal side: Mitsuba's `AreaLight::eval` returns L where `Frame3f::cos_theta(si.wi) > 0`,
+//!   `si.wi` in the shading frame, i.e. `dot(wi, n_s) > 0` with the shading normal n_s.
+//! - A background sample (`shape_index < 0`) shows the environment (envmap / constant emitters, summed)
+//!   along the pixel-centre camera ray `Camera::ray(x + 0.5, y + 0.5)`, looked up by
+//!   `lights::generate::environment::Environment` (Mitsuba's lat-long lookup, MITSUBA_CONVENTIONS.md).
+//! - Delta lights (point, spot, directional) are invisible to the camera, as in Mitsuba.
+//!
+//! Bad input gives zero contributions, never NaN: non-finite or negative area radiance counts as 0
+//! per channel; non-finite env-map texels or scale count as 0 (as `Environment` does for the lights).
+use super::LightMatrix;
 use crate::lights::generate::environment::Environment;
 use crate::scene::{Emitter, Scene};
 use crate::view::ViewSamples;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// The emitted-radiance image, H * W * 3 floats, row 0 at the top. Non-finite radiance counts as 0.
-pub fn emitted_image(scene: &Scene, view: &ViewSamples) -> Vec<f32> {
+/// A radiance with non-finite or negative channels replaced by 0.
+fn sanitized(l: Vec3) -> Vec3 {
+    Vec3::from_array(l.to_array().map(|c| if c.is_finite() && c > 0.0 { c } else { 0.0 }))
+}
+
+/// The directly visible emission of every view sample, H * W RGB (row 0 at the top).
+pub fn emitted_radiance(scene: &Scene, view: &ViewSamples) -> Vec<Vec3> {
     let env = Environment::from_scene(scene);
+    // Area radiance per mesh (zero for meshes without an area emitter).
+    let area: Vec<Vec3> = scene
+        .meshes
+        .iter()
+        .map(|m| match m.emitter.and_then(|e| scene.emitters.get(e)) {
+            Some(Emitter::Area { radiance, .. }) => sanitized(*radiance),
+            _ => Vec3::ZERO,
+        })
+        .collect();
     let width = view.width as usize;
     (0..view.len())
         .into_par_iter()
-        .flat_map_iter(|i| {
-            let l = match view.shape_index[i] {
-                s if s < 0 => match &env {
-                    Some(env) => {
-                        let (x, y) = ((i % width) as f32 + 0.5, (i / width) as f32 + 0.5);
-                        let (_, d) = scene.camera.ray(x, y);
-                        env.radiance(d)
-                    }
-                    None => Vec3::ZERO,
-                },
-                s => match scene.meshes[s as usize].emitter.map(|e| &scene.emitters[e]) {
-                    Some(Emitter::Area { radiance, .. }) if view.wi[i].dot(view.normal[i]) > 0.0 => *radiance,
-                    _ => Vec3::ZERO,
-                },
-            };
-            let l = if l.is_finite() { l } else { Vec3::ZERO };
-            l.to_array()
+        .with_min_len(256)
+        .map(|i| {
+            let shape = view.shape_index[i];
+            if shape < 0 {
+                let Some(env) = &env else { return Vec3::ZERO };
+                let (x, y) = ((i % width) as f32 + 0.5, (i / width) as f32 + 0.5);
+                let (_, d) = scene.camera.ray(x, y);
+                return sanitized(env.radiance(d));
+            }
+            let l = area.get(shape as usize).copied().unwrap_or(Vec3::ZERO);
+            if l != Vec3::ZERO && view.wi[i].dot(view.normal[i]) > 0.0 {
+                l
+            } else {
+                Vec3::ZERO
+            }
         })
         .collect()
+}
+
+impl LightMatrix {
+    /// What the camera sees directly (module docs): H * W * 3 floats, row 0 at the top, RGB.
+    pub fn emitted(&self) -> Vec<f32> {
+        emitted_radiance(&self.scene, &self.view).iter().flat_map(|v| v.to_array()).collect()
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::GpuContext;
-    use crate::scene::{load_scene, LoadOptions};
+    use crate::error::Location;
+    use crate::scene::{Camera, EnvMap, Mesh, ShapeKind};
+    use glam::{Mat4, Vec2};
 
-    fn scene(name: &str, params: &[(&str, &str)]) -> (Scene, ViewSamples) {
-        let path = crate::testing::shared_dir().join("scenes").join(name).join("scene.xml");
-        let opts = LoadOptions {
-            params: params.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),
-            ..Default::default()
+    /// One pixel row of three samples: background, the emitter seen from the front, from the back.
+    fn setup(emitters: Vec<Emitter>) -> (Scene, ViewSamples) {
+        let camera = Camera {
+            world_from_camera: Mat4::IDENTITY,
+            fov_x: 0.7,
+            near_clip: 0.01,
+            far_clip: 1e4,
+            width: 3,
+            height: 1,
+            loc: Location::default(),
         };
-        let s = load_scene(&path, &opts).unwrap();
-        let ctx = GpuContext::shared().unwrap();
-        let v = crate::gpu::gbuffer::render_view_samples(&ctx, &s).unwrap();
-        (s, v)
+        let mut scene = Scene {
+            path: "test".into(),
+            camera,
+            meshes: Vec::new(),
+            bsdfs: Vec::new(),
+            textures: Vec::new(),
+            emitters,
+        };
+        scene.meshes.push(Mesh {
+            id: "panel".into(),
+            kind: ShapeKind::Rectangle,
+            positions: vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0)],
+            normals: vec![Vec3::Z; 3],
+            uvs: vec![],
+            indices: vec![[0, 1, 2]],
+            face_normals: true,
+            bsdf: 0,
+            emitter: scene.emitters.iter().position(|e| matches!(e, Emitter::Area { .. })),
+            loc: Location::default(),
+        });
+        let view = ViewSamples {
+            width: 3,
+            height: 1,
+            position: vec![Vec3::ZERO; 3],
+            normal: vec![Vec3::ZERO, Vec3::Z, Vec3::Z],
+            geo_normal: vec![Vec3::ZERO, Vec3::Z, Vec3::Z],
+            wi: vec![Vec3::ZERO, Vec3::new(0.0, 0.6, 0.8), Vec3::new(0.0, 0.6, -0.8)],
+            uv: vec![Vec2::ZERO; 3],
+            albedo: vec![Vec3::ZERO; 3],
+            shape_index: vec![-1, 0, 0],
+            prim_index: vec![-1, 0, 0],
+            bsdf: vec![bytemuck::Zeroable::zeroed(); 3],
+        };
+        (scene, view)
     }
 
     #[test]
-    fn area_light_pixels_show_their_radiance_and_nothing_else_emits() {
-        let (s, v) = scene("cbox", &[("res", "64")]);
-        let img = emitted_image(&s, &v);
-        let light_mesh = s.meshes.iter().position(|m| m.emitter.is_some()).unwrap() as i32;
-        let Emitter::Area { radiance, .. } = s.emitters[s.meshes[light_mesh as usize].emitter.unwrap()] else {
-            panic!("cbox's emitter is an area light")
-        };
-        let mut lit = 0;
-        for i in 0..v.len() {
-            let px = Vec3::from_slice(&img[3 * i..3 * i + 3]);
-            if v.shape_index[i] == light_mesh {
-                // The luminaire faces down, the camera looks at it from below.
-                assert_eq!(px, radiance);
-                lit += 1;
-            } else {
-                assert_eq!(px, Vec3::ZERO, "pixel {i} (shape {})", v.shape_index[i]);
-            }
-        }
-        assert!(lit > 0);
+    fn area_emitter_front_side_only_and_constant_background() {
+        let loc = Location::default();
+        let (scene, view) = setup(vec![
+            Emitter::Constant { radiance: Vec3::new(0.25, 0.5, 1.0), loc: loc.clone() },
+            Emitter::Area { mesh: 0, radiance: Vec3::new(3.0, 2.0, 1.0), loc },
+        ]);
+        let e = emitted_radiance(&scene, &view);
+        assert_eq!(e, vec![Vec3::new(0.25, 0.5, 1.0), Vec3::new(3.0, 2.0, 1.0), Vec3::ZERO]);
     }
 
     #[test]
-    fn background_shows_the_environment_along_the_camera_ray() {
-        let (s, v) = scene("cbox-lights", &[("res", "32")]);
-        let img = emitted_image(&s, &v);
-        let env = Environment::from_scene(&s).unwrap();
-        let bg: Vec<usize> = (0..v.len()).filter(|&i| v.shape_index[i] < 0).collect();
-        assert!(!bg.is_empty());
-        for &i in &bg {
-            let (_, d) = s.camera.ray((i % 32) as f32 + 0.5, (i / 32) as f32 + 0.5);
-            assert_eq!(Vec3::from_slice(&img[3 * i..3 * i + 3]), env.radiance(d));
-            assert!(env.radiance(d).max_element() > 0.0);
+    fn envmap_background_uses_the_camera_ray_and_bad_values_are_zero() {
+        let loc = Location::default();
+        // A 4 x 3 map: constant 2 except NaN / inf texels, which count as 0.
+        let mut data = vec![Vec3::splat(2.0); 12];
+        data[5] = Vec3::new(f32::NAN, 1.0, f32::INFINITY);
+        let map = EnvMap { width: 4, height: 3, data, world_from_env: Mat4::IDENTITY, scale: 1.0 };
+        let (scene, view) = setup(vec![
+            Emitter::EnvMap { map: map.clone(), loc: loc.clone() },
+            Emitter::Area { mesh: 0, radiance: Vec3::new(f32::NAN, -1.0, 4.0), loc },
+        ]);
+        let e = emitted_radiance(&scene, &view);
+        let (_, d) = scene.camera.ray(0.5, 0.5);
+        let expect = crate::lights::generate::environment::envmap_radiance(&map, d);
+        assert!(e.iter().all(|v| v.is_finite()), "{e:?}");
+        if expect.is_finite() {
+            assert_eq!(e[0], expect);
         }
+        assert_eq!(e[1], Vec3::new(0.0, 0.0, 4.0));
+        assert_eq!(e[2], Vec3::ZERO);
     }
 }

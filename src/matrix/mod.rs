@@ -6,7 +6,9 @@
 //! and reads back only the final image. Lights are processed in batches: a batch's shadow maps (cube
 //! faces, spot and orthographic maps) are layers of one depth array texture, rendered and consumed in one
 //! command submission; a batch holds at most `max_lights_per_batch` (<= 256) lights and as many layers as
-//! `shadow_memory_budget` allows. `reference` evaluates elements on the CPU by ray casting (tests).
+//! `shadow_memory_budget` allows. `reference` evaluates elements on the CPU by ray casting (tests);
+//! `oracle` gives exact elements, rows and columns (`element`, `row_exact`, `column_exact`) with the
+//! scene BVH; `emitted` is what the camera sees directly (added to every image, not a column).
 //!
 //! Visibility (`ColumnOptions::visibility`): `ShadowMap` tests shadow maps with biases only;
 //! `RayTraced` casts an exact shadow ray per test against the scene BVH on the GPU (`gpu::bvh`, Mitsuba's
@@ -19,8 +21,9 @@
 //! iterations even if every ray takes the most steps.
 //!
 //! Symbols: m = number of view samples (`width * height`), n = number of lights, w = weights.
-pub mod reference;
 pub mod emitted;
+pub mod oracle;
+pub mod reference;
 pub mod rows;
 #[cfg(test)]
 mod tests;
@@ -131,6 +134,8 @@ pub struct LightMatrix {
     max_binding: u64,
     /// The row pass (`rows.rs`), compiled on first use.
     rows_pass: std::sync::OnceLock<crate::gpu::rows::RowsPass>,
+    /// CPU ray tracer of the exact oracle (`oracle.rs`), built on first use.
+    oracle: std::sync::OnceLock<crate::raytrace::RayTracer>,
 }
 
 /// Lights `js[start..end]` and the first layer of each.
@@ -214,6 +219,7 @@ impl LightMatrix {
             atlas,
             max_binding,
             rows_pass: std::sync::OnceLock::new(),
+            oracle: std::sync::OnceLock::new(),
             ctx,
             scene,
             view,
@@ -225,12 +231,6 @@ impl LightMatrix {
     /// (m, n): view samples x lights.
     pub fn shape(&self) -> (usize, usize) {
         (self.view.len(), self.lights.len())
-    }
-
-    /// What the camera sees of emitters directly (area emitters, environment): H * W * 3 floats. Every
-    /// renderer adds it to its estimate of the column sum.
-    pub fn emitted(&self) -> Vec<f32> {
-        emitted::emitted_image(&self.scene, &self.view)
     }
 
     /// Image size (height, width) of the view samples, numpy order.

@@ -194,8 +194,8 @@ impl LightMatrix {
         let (h, w) = self.inner.image_size();
         array(py, data, &[h, w, 3])
     }
-    /// What the camera sees of emitters directly (area emitters from their emitting side, the environment
-    /// behind background pixels), (H, W, 3) float32; renderers add it to the column estimate.
+    /// What the camera sees directly (area emitters from their front side, the environment behind
+    /// background pixels), (H, W, 3) float32; not part of any column.
     fn emitted<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
         let data = py.detach(move || m.emitted());
@@ -230,6 +230,26 @@ impl LightMatrix {
         .into_iter()
         .collect();
         Ok((array(py, data, &[r, n, 3])?, timings))
+    }
+    /// A(i, j) by exact CPU ray casting, (3,) float32. ValueError for an index out of range.
+    fn element<'py>(&self, py: Python<'py>, i: usize, j: usize) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let m = self.inner.clone();
+        let v = py.detach(move || m.element(i, j))?;
+        array(py, v.to_vec(), &[3])
+    }
+    /// Row i by exact CPU ray casting, (n, 3) float32. ValueError for i out of range.
+    fn row_exact<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let m = self.inner.clone();
+        let row = py.detach(move || m.row_exact(i))?;
+        let n = row.len();
+        array(py, row.into_iter().flatten().collect(), &[n, 3])
+    }
+    /// Column j by exact CPU ray casting, (H, W, 3) float32. ValueError for j out of range.
+    fn column_exact<'py>(&self, py: Python<'py>, j: usize) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let m = self.inner.clone();
+        let col = py.detach(move || m.column_exact(j))?;
+        let (h, w) = self.inner.image_size();
+        array(py, col.into_iter().flatten().collect(), &[h, w, 3])
     }
 }
 
