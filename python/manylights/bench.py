@@ -163,8 +163,13 @@ def main(argv=None) -> int:
     p.add_argument("--visibility", choices=["ray_traced", "hybrid", "shadow_map"], default="ray_traced")
     p.add_argument("--images", action="store_true", help="also write every image as EXR")
     p.add_argument("-o", "--out", default="out/bench")
+    from . import bench_mrcs
+
+    bench_mrcs.add_parser(sub)
     a = ap.parse_args(argv)
-    if a.cmd == "lights":
+    if a.cmd == "mrcs":
+        a.run(a)
+    elif a.cmd == "lights":
         if a.lights < 2:
             raise SystemExit("--lights must be >= 2")
         runs = lights_runs(a)
