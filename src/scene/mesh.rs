@@ -5,7 +5,7 @@
 //! - positions are transformed by `world_from_local`, file normals by its inverse transpose and normalised;
 //! - missing normals are recomputed in world space as Mitsuba's `recompute_vertex_normals` does: the sum of
 //!   the unit face normals weighted by the face's angle at the vertex (Thürmer & Wüthrich, JGT 1998),
-//!   normalised; a vertex that no face touches gets Mitsuba's placeholder normal (1, 0, 0);
+//!   normalised; a vertex that no face touches gets Mitsuba's fallback normal (1, 0, 0);
 //! - `face_normals=true`: Mitsuba shades with the geometric normal `normalize(cross(p1-p0, p2-p0))`; here
 //!   the vertices are unshared (3 per triangle) and carry that normal.
 //!
@@ -406,7 +406,7 @@ mod tests {
     }
 
     #[test]
-    fn unreferenced_vertex_gets_placeholder_normal() {
+    fn unreferenced_vertex_gets_fallback_normal() {
         let mut d = quad();
         d.positions.push(Vec3::new(5., 5., 5.));
         let (_, n, _, _) = finalize(d, Mat4::IDENTITY, false, false, &loc()).unwrap();
