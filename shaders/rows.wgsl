@@ -71,20 +71,6 @@ struct ViewSample {
 @group(0) @binding(11) var<storage, read_write> stats: array<atomic<u32>, 6>;
 
 const ROW_NO_MAP: u32 = 0xffffffffu;
-// Keep in sync with `Visibility` in src/matrix/mod.rs.
-const VISIBILITY_SHADOW_MAP: u32 = 0u;
-const VISIBILITY_HYBRID: u32 = 1u;
-const VISIBILITY_RAY_TRACED: u32 = 2u;
-const SM_SHADOW: u32 = 0u;
-const SM_LIT: u32 = 1u;
-const SM_UNSURE: u32 = 2u;
-// Tolerances as in columns.wgsl (texels of the cube face's world-space texel size at the light end).
-const LIT_TOL: f32 = 0.05;
-const LIT_SLOPE_TOL: f32 = 0.01;
-const OCCLUDER_GAP: f32 = 0.25;
-const PLANAR_TOL: f32 = 0.02;
-const DEPTH_ULPS: f32 = 16.0;
-const MIN_PROJECTED_AREA: f32 = 0.02;
 
 fn bsdf_table(i: u32) -> f32 {
     return bsdf_tables[i];

@@ -64,6 +64,7 @@ pub const ROWS_WGSL: &str = concat!(
     include_str!("../../shaders/common/light.wgsl"),
     include_str!("../../shaders/common/shadow_layer.wgsl"),
     include_str!("../../shaders/common/bvh.wgsl"),
+    include_str!("../../shaders/common/visibility.wgsl"),
     include_str!("../../shaders/rows.wgsl"),
 );
 
