@@ -54,6 +54,18 @@ def _light_luminance_power(lights) -> np.ndarray:
     return np.maximum(np.asarray(lights.power, dtype=np.float64) @ LUMINANCE, 0.0)
 
 
+def _reconstruct(A, reps, weights, timings: dict, add_emitted: bool, progress: bool) -> np.ndarray:
+    """Render the weighted representative columns on the GPU (+ the emitted image), timing each stage."""
+    t = time.perf_counter()
+    image = A.weighted_sum(reps, weights, progress=progress)
+    timings["columns"] = time.perf_counter() - t
+    if add_emitted:
+        t = time.perf_counter()
+        image = image + A.emitted()
+        timings["emitted"] = time.perf_counter() - t
+    return image
+
+
 def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=None, clustering=None,
          add_emitted: bool = True, progress: bool = False, **cluster_options) -> RenderResult:
     """Render the column sum of light matrix ``A`` by Matrix Row-Column Sampling.
@@ -94,13 +106,7 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
     weights = np.asarray(clustering["weights"], dtype=np.float32).reshape(len(reps), 3)
     timings["clustering"] = time.perf_counter() - t
 
-    t = time.perf_counter()
-    image = A.weighted_sum(reps, weights, progress=progress)
-    timings["columns"] = time.perf_counter() - t
-    if add_emitted:
-        t = time.perf_counter()
-        image = image + A.emitted()
-        timings["emitted"] = time.perf_counter() - t
+    image = _reconstruct(A, reps, weights, timings, add_emitted, progress)
     return RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
                         clusters=clustering.get("assignment"), representatives=reps, weights=weights,
                         budget={"rows": int(len(row_indices)), "columns": int(len(reps)), "lights": int(n)})
@@ -124,13 +130,7 @@ def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = 
     w = (1.0 / (columns * p[reps])).astype(np.float32)
     weights = np.repeat(w[:, None], 3, axis=1)
     timings = {"sampling": time.perf_counter() - t}
-    t = time.perf_counter()
-    image = A.weighted_sum(reps, weights, progress=progress)
-    timings["columns"] = time.perf_counter() - t
-    if add_emitted:
-        t = time.perf_counter()
-        image = image + A.emitted()
-        timings["emitted"] = time.perf_counter() - t
+    image = _reconstruct(A, reps, weights, timings, add_emitted, progress)
     return RenderResult(image=image, method="power_sampling", seed=seed, timings=timings, representatives=reps,
                         weights=weights, budget={"columns": int(columns), "lights": int(n)})
 
