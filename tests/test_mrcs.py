@@ -83,7 +83,8 @@ def test_result_records_what_was_done(small_matrix):
     assert res.image.shape == (32, 32, 3) and np.isfinite(res.image).all()
     assert len(res.rows) == 16 and len(res.representatives) == 32 and res.weights.shape == (32, 3)
     assert res.clusters.shape == (len(lights),) and set(np.unique(res.clusters)) <= set(range(32))
-    assert set(res.timings) >= {"rows", "clustering", "columns"} and res.seconds > 0
+    assert set(res.timings) >= {"row_selection", "row_shadow_maps", "row_evaluation", "row_readback", "clustering", "columns"}
+    assert res.seconds > 0 and res.timings["row_evaluation"] > 0
     again = ml.mrcs(A, rows=16, columns=32, seed=5)
     np.testing.assert_array_equal(again.image, res.image)
 
@@ -127,3 +128,34 @@ def test_zero_light_matrix_is_an_error():
         ml.mrcs(A, rows=4, columns=4)
     with pytest.raises(ValueError):
         ml.power_sampling(A, columns=4)
+
+
+def test_benchmark_writes_json_and_chart(tmp_path):
+    """`python -m manylights.bench mrcs` on a tiny configuration: every method and ratio is recorded with
+    stage timings, the reference is cached for a second run, and the chart is written."""
+    import json
+
+    from manylights import bench
+
+    argv = ["mrcs", "--scene", str(SCENE_CONFIGS["cbox"][0]), "--lights", "400", "--res", "16",
+            "--columns", "8", "24", "--ratios", "1:1", "1:3", "--seeds", "2", "--out", str(tmp_path)]
+    assert bench.main(argv) == 0
+    summary = json.loads((tmp_path / "mrcs-cbox.json").read_text())
+    methods = [(r["method"], r["budget"].get("columns", r["budget"].get("lights"))) for r in summary["records"]]
+    assert methods == [(m, c) for c in (8, 24) for m in ("power_sampling", "instant_radiosity", "mrcs 1:1", "mrcs 1:3")]
+    mrcs_1_3 = [r for r in summary["records"] if r["method"] == "mrcs 1:3"]
+    assert [r["budget"]["rows"] for r in mrcs_1_3] == [2, 8]
+    for r in summary["records"]:
+        assert r["seeds"] == 2 and 0 < r["rel_l2_mean"] < 1 and r["rel_l2_std"] >= 0
+        assert abs(sum(r["stages"].values()) - r["seconds"]) < 1e-6 * max(1.0, r["seconds"])
+        if r["method"].startswith("mrcs"):
+            assert set(r["stages"]) >= {"row_shadow_maps", "row_evaluation", "row_readback", "clustering", "columns"}
+            assert 0 < r["overhead_share"] < 1
+    assert summary["brute_force_seconds"] > 0 and 0 < summary["gpu_share_mean"] < 1
+    assert len(summary["equal_time"]) == 4
+    assert (tmp_path / "mrcs-cbox.png").stat().st_size > 10_000
+    # A second run reads the brute-force reference from the cache: same reference seconds, same errors.
+    assert bench.main(argv) == 0
+    again = json.loads((tmp_path / "mrcs-cbox.json").read_text())
+    assert again["brute_force_seconds"] == summary["brute_force_seconds"]
+    assert [r["rel_l2_mean"] for r in again["records"]] == pytest.approx([r["rel_l2_mean"] for r in summary["records"]])

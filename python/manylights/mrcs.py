@@ -82,8 +82,9 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
 
     Returns:
         RenderResult with image (H, W, 3), rows, clusters (assignment per light), representatives, weights,
-        and timings per stage in seconds: rows (GPU shadow maps + evaluation + readback), clustering,
-        columns (GPU shadow maps + shading of the representatives), emitted.
+        and timings per stage in seconds: row_selection, row_shadow_maps (GPU cube maps at the rows),
+        row_evaluation (GPU: all lights against each row), row_readback (GPU -> numpy), clustering,
+        columns (GPU shadow maps + shading of the representatives, accumulated on the GPU), emitted.
     """
     from . import cluster_reduced_columns, stratified_rows
 
@@ -95,8 +96,16 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
     if row_indices is None:
         row_indices = stratified_rows(A.scene, rows, seed=seed)
     row_indices = np.asarray(row_indices, dtype=np.int64).reshape(-1)
-    R = A.rows(row_indices, progress=progress) if clustering is None else None
-    timings["rows"] = time.perf_counter() - t
+    timings["row_selection"] = time.perf_counter() - t
+    R = None
+    if clustering is None:
+        t = time.perf_counter()
+        R, stages = A.rows(row_indices, progress=progress, return_timings=True)
+        wall = time.perf_counter() - t
+        timings["row_shadow_maps"] = stages["shadow_maps"]
+        timings["row_evaluation"] = stages["evaluation"]
+        # GPU -> host copy and the numpy array (everything of the call that is not GPU work).
+        timings["row_readback"] = max(wall - stages["shadow_maps"] - stages["evaluation"], 0.0)
 
     t = time.perf_counter()
     if clustering is None:

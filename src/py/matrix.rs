@@ -66,7 +66,7 @@ impl LightSet {
     /// (n, 3) RGB emitted power (W).
     #[getter]
     fn power<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let p: Vec<glam::Vec3> = (0..self.inner.len()).map(|j| self.inner.power(j)).collect();
+        let p = py.detach(|| self.inner.powers());
         vec3_array(py, &p)
     }
     fn __repr__(&self) -> String {
