@@ -55,18 +55,9 @@ struct ViewSample {
 @group(0) @binding(12) var<storage, read_write> stats: array<atomic<u32>, 6>;
 
 
-// Per-invocation visibility counters, added to `stats` once at the end.
-var<private> count_tests: u32 = 0u;
-var<private> count_rays: u32 = 0u;
-var<private> count_gave_up: u32 = 0u;
-
-fn add_stat(k: u32, v: u32) {
-    if v != 0u {
-        let old = atomicAdd(&stats[2u * k], v);
-        if old + v < old {
-            atomicAdd(&stats[2u * k + 1u], 1u);
-        }
-    }
+// A texel of the shadow maps (for common/visibility.wgsl).
+fn depth_texel(xy: vec2<i32>, layer: u32) -> f32 {
+    return textureLoad(shadow_maps, xy, i32(layer), 0);
 }
 
 // Rough-plastic tables for `bsdf_eval` (common/bsdf.wgsl).
@@ -113,14 +104,6 @@ fn visibility_biased(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f
     return select(0.0, 1.0, ndc.z <= stored);
 }
 
-// p projected into a shadow layer: (texel x, texel y, NDC depth); w <= 0 behind the light.
-fn to_map(m: mat4x4<f32>, p: vec3<f32>) -> vec4<f32> {
-    let clip = m * vec4<f32>(p, 1.0);
-    let res = f32(params.resolution);
-    let ndc = clip.xyz / clip.w;
-    return vec4<f32>((ndc.x * 0.5 + 0.5) * res, (0.5 - ndc.y * 0.5) * res, ndc.z, clip.w);
-}
-
 // The hybrid test: decide visibility from the shadow map only where the map is certain.
 // The four texels whose centres surround p (its bilinear footprint) are compared with two models:
 // - p's own plane (geometric normal n_g): its depth at each tap centre is predicted from the plane's
@@ -146,84 +129,20 @@ fn shadow_map_decide(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> u
         return SM_UNSURE;
     }
     let texel = layers[li].texel_scale * abs(c.w);
-    let x0 = i32(floor(c.x - 0.5));
-    let y0 = i32(floor(c.y - 0.5));
-    let r = i32(params.resolution) - 1;
-    if x0 < 0 || y0 < 0 || x0 + 1 > r || y0 + 1 > r {
+    let xy0 = footprint_origin(c);
+    if xy0.x < 0 {
         return SM_UNSURE;
     }
     // Taps where p's own light ray would also land (the footprint must be in p's layer).
     if l.is_cube != 0u && light_layer(l, p + wo * texel) != li {
         return SM_UNSURE;
     }
-    // Depth scale toward the light.
-    let cn = to_map(m, p + wo * texel);
-    let k = (c.z - cn.z) / texel;
-    if !(k > 0.0) || cn.w <= 0.0 {
+    let k = depth_scale(m, c, p, wo, texel);
+    let g = plane_gradient(m, c, p, n_g, texel);
+    if !(k > 0.0) || g.z == 0.0 {
         return SM_UNSURE;
     }
-    let ulps = DEPTH_ULPS * 1.1920929e-7 / k;
-    // p's plane in map space: depth gradient from two tangent directions.
-    let s = coordinate_system_s(n_g);
-    let t = coordinate_system_t(n_g);
-    let a = to_map(m, p + s * texel) - c;
-    let b = to_map(m, p + t * texel) - c;
-    let det = a.x * b.y - b.x * a.y;
-    if !(abs(det) > MIN_PROJECTED_AREA) {
-        return SM_UNSURE;
-    }
-    let gx = (a.z * b.y - b.z * a.y) / det;
-    let gy = (a.x * b.z - b.x * a.z) / det;
-    let slope = (abs(gx) + abs(gy)) / k / texel;
-    let lit_tol = texel * (LIT_TOL + LIT_SLOPE_TOL * slope) + ulps;
-    let gap = texel * OCCLUDER_GAP + ulps;
-    var lit_taps = 0u;
-    var occluded_taps = 0u;
-    var z: array<f32, 4>;
-    for (var q = 0u; q < 4u; q = q + 1u) {
-        let tx = x0 + i32(q & 1u);
-        let ty = y0 + i32(q >> 1u);
-        z[q] = textureLoad(shadow_maps, vec2<i32>(tx, ty), i32(li), 0);
-        let plane_z = c.z + gx * (f32(tx) + 0.5 - c.x) + gy * (f32(ty) + 0.5 - c.y);
-        // How far the stored surface lies in front of p's plane on the tap's ray.
-        let in_front = (plane_z - z[q]) / k;
-        if abs(in_front) <= lit_tol {
-            lit_taps = lit_taps + 1u;
-        } else if in_front > gap {
-            occluded_taps = occluded_taps + 1u;
-        }
-    }
-    if lit_taps == 4u {
-        return SM_LIT;
-    }
-    if occluded_taps == 4u {
-        let twist = abs(z[0] + z[3] - z[1] - z[2]) / k;
-        let fx = c.x - 0.5 - f32(x0);
-        let fy = c.y - 0.5 - f32(y0);
-        let z_p = mix(mix(z[0], z[1], fx), mix(z[2], z[3], fx), fy);
-        if twist <= texel * PLANAR_TOL + ulps && (c.z - z_p) / k > gap {
-            return SM_SHADOW;
-        }
-    }
-    return SM_UNSURE;
-}
-
-// Exact visibility of light l from surface point p by a BVH ray (Mitsuba's spawn_ray_to toward point
-// and spot lights; spawn_ray along wo, unbounded, for directional lights). `fallback` is returned when
-// the ray runs out of steps (counted; must never happen).
-fn visibility_ray(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>, fallback: f32) -> f32 {
-    count_rays = count_rays + 1u;
-    var res = BVH_FREE;
-    if l.kind == LIGHT_DIRECTIONAL {
-        res = trace_direction(p, n_g, wo);
-    } else {
-        res = trace_to_point(p, n_g, l.position);
-    }
-    if res == BVH_GAVE_UP {
-        count_gave_up = count_gave_up + 1u;
-        return fallback;
-    }
-    return select(1.0, 0.0, res == BVH_BLOCKED);
+    return footprint_decide(li, xy0, c, g.xy, k, texel, false);
 }
 
 // 1 if p (geometric normal n_g) sees light l along wo, by params.visibility.

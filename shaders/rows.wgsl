@@ -76,21 +76,9 @@ fn bsdf_table(i: u32) -> f32 {
     return bsdf_tables[i];
 }
 
-fn add_stat(k: u32, v: u32) {
-    if v != 0u {
-        let old = atomicAdd(&stats[2u * k], v);
-        if old + v < old {
-            atomicAdd(&stats[2u * k + 1u], 1u);
-        }
-    }
-}
-
-// q projected into a cube face: (texel x, texel y, NDC depth, clip w).
-fn to_map(m: mat4x4<f32>, q: vec3<f32>) -> vec4<f32> {
-    let clip = m * vec4<f32>(q, 1.0);
-    let res = f32(params.resolution);
-    let ndc = clip.xyz / clip.w;
-    return vec4<f32>((ndc.x * 0.5 + 0.5) * res, (0.5 - ndc.y * 0.5) * res, ndc.z, clip.w);
+// A texel of the rows' cube maps (for common/visibility.wgsl).
+fn depth_texel(xy: vec2<i32>, layer: u32) -> f32 {
+    return textureLoad(cube_maps, xy, i32(layer), 0);
 }
 
 // Where the light is tested in the row's cube: its position, or for a directional light a point at
@@ -138,76 +126,24 @@ fn row_map_decide(row: RowInfo, s: ViewSample, l: Light, wo: vec3<f32>) -> u32 {
         return SM_UNSURE;
     }
     let texel = layers[li].texel_scale * abs(c.w);
-    let x0 = i32(floor(c.x - 0.5));
-    let y0 = i32(floor(c.y - 0.5));
-    let r = i32(params.resolution) - 1;
-    if x0 < 0 || y0 < 0 || x0 + 1 > r || y0 + 1 > r {
+    let xy0 = footprint_origin(c);
+    if xy0.x < 0 {
         return SM_UNSURE;
     }
-    // Depth scale toward the cube centre: d(NDC depth) per unit of distance from q toward the centre.
-    let toward = -normalize(v);
-    let cn = to_map(m, q + toward * texel);
-    let k = (c.z - cn.z) / texel;
-    if !(k > 0.0) || cn.w <= 0.0 {
+    let k = depth_scale(m, c, q, -normalize(v), texel);
+    if !(k > 0.0) {
         return SM_UNSURE;
     }
-    let ulps = DEPTH_ULPS * 1.1920929e-7 / k;
     let n_l = light_plane(l);
-    let on_surface = any(n_l != vec3<f32>(0.0));
-    var gx = 0.0;
-    var gy = 0.0;
-    var slope = 0.0;
-    if on_surface {
-        let a = to_map(m, q + coordinate_system_s(n_l) * texel) - c;
-        let b = to_map(m, q + coordinate_system_t(n_l) * texel) - c;
-        let det = a.x * b.y - b.x * a.y;
-        if !(abs(det) > MIN_PROJECTED_AREA) {
+    let free_end = all(n_l == vec3<f32>(0.0));
+    var g = vec3<f32>(0.0, 0.0, 1.0);
+    if !free_end {
+        g = plane_gradient(m, c, q, n_l, texel);
+        if g.z == 0.0 {
             return SM_UNSURE;
         }
-        gx = (a.z * b.y - b.z * a.y) / det;
-        gy = (a.x * b.z - b.x * a.z) / det;
-        slope = (abs(gx) + abs(gy)) / k / texel;
     }
-    let lit_tol = texel * (LIT_TOL + LIT_SLOPE_TOL * slope) + ulps;
-    let gap = texel * OCCLUDER_GAP + ulps;
-    var lit_taps = 0u;
-    var occluded_taps = 0u;
-    var z: array<f32, 4>;
-    for (var t = 0u; t < 4u; t = t + 1u) {
-        let tx = x0 + i32(t & 1u);
-        let ty = y0 + i32(t >> 1u);
-        z[t] = textureLoad(cube_maps, vec2<i32>(tx, ty), i32(li), 0);
-        // q's plane (or q's own depth for free lights) on the tap's ray.
-        let plane_z = c.z + gx * (f32(tx) + 0.5 - c.x) + gy * (f32(ty) + 0.5 - c.y);
-        // How far the stored surface lies in front of q (toward the view sample).
-        let in_front = (plane_z - z[t]) / k;
-        if on_surface {
-            if abs(in_front) <= lit_tol {
-                lit_taps = lit_taps + 1u;
-            } else if in_front > gap {
-                occluded_taps = occluded_taps + 1u;
-            }
-        } else {
-            if z[t] >= 1.0 || in_front < -lit_tol {
-                lit_taps = lit_taps + 1u;
-            } else if in_front > gap {
-                occluded_taps = occluded_taps + 1u;
-            }
-        }
-    }
-    if lit_taps == 4u {
-        return SM_LIT;
-    }
-    if occluded_taps == 4u {
-        let twist = abs(z[0] + z[3] - z[1] - z[2]) / k;
-        let fx = c.x - 0.5 - f32(x0);
-        let fy = c.y - 0.5 - f32(y0);
-        let z_q = mix(mix(z[0], z[1], fx), mix(z[2], z[3], fx), fy);
-        if twist <= texel * PLANAR_TOL + ulps && (c.z - z_q) / k > gap {
-            return SM_SHADOW;
-        }
-    }
-    return SM_UNSURE;
+    return footprint_decide(li, xy0, c, g.xy, k, texel, free_end);
 }
 
 // Shadow-map-only visibility (biases of ColumnOptions, in texels at the light end): the light end moved
@@ -240,36 +176,16 @@ fn row_visibility_biased(row: RowInfo, l: Light, wo: vec3<f32>) -> f32 {
     return select(0.0, 1.0, c.z <= stored);
 }
 
-// The exact ray of columns.wgsl's visibility_ray (Mitsuba's spawn_ray_to / spawn_ray from the view
-// sample), so that rows and columns agree wherever either casts a ray.
-fn row_visibility_ray(l: Light, s: ViewSample, wo: vec3<f32>, fallback: f32) -> f32 {
-    count_rays = count_rays + 1u;
-    var res = BVH_FREE;
-    if l.kind == LIGHT_DIRECTIONAL {
-        res = trace_direction(s.position, s.geo_normal, wo);
-    } else {
-        res = trace_to_point(s.position, s.geo_normal, l.position);
-    }
-    if res == BVH_GAVE_UP {
-        count_gave_up = count_gave_up + 1u;
-        return fallback;
-    }
-    return select(1.0, 0.0, res == BVH_BLOCKED);
-}
-
-var<private> count_tests: u32 = 0u;
-var<private> count_rays: u32 = 0u;
-var<private> count_gave_up: u32 = 0u;
-
 fn row_visibility(row: RowInfo, s: ViewSample, l: Light, wo: vec3<f32>) -> f32 {
     count_tests = count_tests + 1u;
     if params.visibility == VISIBILITY_RAY_TRACED {
-        return row_visibility_ray(l, s, wo, 1.0);
+        return visibility_ray(l, s.position, s.geo_normal, wo, 1.0);
     }
     if params.visibility == VISIBILITY_HYBRID {
         let d = row_map_decide(row, s, l, wo);
         if d == SM_UNSURE {
-            return row_visibility_ray(l, s, wo, row_visibility_biased(row, l, wo));
+            // The exact ray of the column pass, from the view sample, so rows and columns agree there.
+            return visibility_ray(l, s.position, s.geo_normal, wo, row_visibility_biased(row, l, wo));
         }
         return select(0.0, 1.0, d == SM_LIT);
     }

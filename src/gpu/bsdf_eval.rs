@@ -1,6 +1,6 @@
 //! Batch BSDF evaluation on the GPU: `bsdf_eval` of `shaders/common/bsdf.wgsl` for N (bsdf, wi, wo)
 //! triples, read back to the host. Used to check the WGSL twin against `shading::bsdf::eval` and Mitsuba.
-use crate::gpu::pipeline::{compute_pipeline, storage, uniform};
+use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::shading::GpuBsdf;
@@ -87,27 +87,17 @@ pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], tables: &[f32], wi: &
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("BsdfEvalPass::bind_group"),
-        layout: &pass.bind_group_layout,
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: params_buf.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: bsdf_buf.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 2, resource: dir_buf.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 3, resource: table_buf.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 4, resource: out_buf.as_entire_binding() },
-        ],
-    });
     let groups = (n as u32).div_ceil(WORKGROUP_SIZE);
     let gx = groups.min(ctx.limits.max_compute_workgroups_per_dimension.max(1));
     let gy = groups.div_ceil(gx);
     let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("BsdfEvalPass::encoder") });
-    {
-        let mut cpass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("BsdfEvalPass"), timestamp_writes: None });
-        cpass.set_pipeline(&pass.pipeline);
-        cpass.set_bind_group(0, &bind_group, &[]);
-        cpass.dispatch_workgroups(gx, gy, 1);
-    }
+    encode_dispatch(device, &mut enc, "BsdfEvalPass", (&pass.pipeline, &pass.bind_group_layout), &[
+        params_buf.as_entire_binding(),
+        bsdf_buf.as_entire_binding(),
+        dir_buf.as_entire_binding(),
+        table_buf.as_entire_binding(),
+        out_buf.as_entire_binding(),
+    ], (gx, gy));
     ctx.queue.submit(Some(enc.finish()));
     let out: Vec<[f32; 4]> = ctx.read_buffer(&out_buf, 0, n)?;
     Ok(out.into_iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())

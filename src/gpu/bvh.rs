@@ -18,6 +18,7 @@
 //! Storage: nodes are 32 bytes and primitives 48 bytes, each array one storage binding; scenes whose
 //! arrays exceed the device's binding limit (128 MiB on Mesa: about 2.8M primitives) are an error.
 use super::columns::{dispatch_size, storage_buffer};
+use super::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::scene::{Scene, ShapeKind};
@@ -278,40 +279,13 @@ pub struct OccludedPass {
 
 impl OccludedPass {
     pub fn new(device: &wgpu::Device) -> OccludedPass {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("OccludedPass::module"),
-            source: wgpu::ShaderSource::Wgsl(OCCLUDED_WGSL.into()),
-        });
-        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-            count: None,
-        };
-        let ro = wgpu::BufferBindingType::Storage { read_only: true };
-        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("OccludedPass::bind_group_layout"),
-            entries: &[
-                entry(0, wgpu::BufferBindingType::Uniform),
-                entry(1, ro),
-                entry(2, ro),
-                entry(3, ro),
-                entry(4, wgpu::BufferBindingType::Storage { read_only: false }),
-            ],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("OccludedPass::pipeline_layout"),
-            bind_group_layouts: &[Some(&bind_group_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("OccludedPass::pipeline"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let (pipeline, bind_group_layout) = compute_pipeline(device, "OccludedPass", OCCLUDED_WGSL, &[
+            uniform(0),
+            storage(1, true),
+            storage(2, true),
+            storage(3, true),
+            storage(4, false),
+        ]);
         OccludedPass { pipeline, bind_group_layout }
     }
 
@@ -330,28 +304,15 @@ impl OccludedPass {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("OccludedPass::bind_group"),
-                layout: &self.bind_group_layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: bvh.nodes.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: bvh.primitives.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: query_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: results.as_entire_binding() },
-                ],
-            });
             let mut encoder =
                 device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("OccludedPass::encoder") });
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("OccludedPass::dispatch"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(gx, gy, 1);
-            }
+            encode_dispatch(device, &mut encoder, "OccludedPass", (&self.pipeline, &self.bind_group_layout), &[
+                params.as_entire_binding(),
+                bvh.nodes.as_entire_binding(),
+                bvh.primitives.as_entire_binding(),
+                query_buf.as_entire_binding(),
+                results.as_entire_binding(),
+            ], (gx, gy));
             ctx.queue.submit(Some(encoder.finish()));
             let raw = ctx.read_buffer::<u32>(&results, 0, chunk.len())?;
             out.extend(raw.iter().map(|&r| OcclusionResult { occluded: r & 3 == 1, gave_up: r & 3 == 2, steps: r >> 2 }));

@@ -12,7 +12,7 @@
 //! (a) adds `sum_j w_j column_j` to a GPU-resident RGBA f32 accumulator (read back once at the end),
 //! (b) optionally writes the individual columns (`[j][i][rgb]` f32) for readback; the caller keeps that
 //!     buffer under the 128 MiB storage-binding limit by sizing batches.
-use crate::gpu::pipeline::{compute_pipeline, depth_array, storage, uniform};
+use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
 use crate::lights::{LightKind, LightSet};
 use crate::view::ViewSamples;
 use wgpu::util::DeviceExt;
@@ -215,36 +215,22 @@ impl ColumnsPass {
 
     /// Dispatch one thread per view sample.
     pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &ColumnsInputs) {
-        fn buf(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-            wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }
-        }
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("ColumnsPass::bind_group"),
-            layout: &self.bind_group_layout,
-            entries: &[
-                buf(0, inputs.params),
-                buf(1, &inputs.view.samples),
-                buf(2, &inputs.view.bsdfs),
-                buf(3, inputs.lights),
-                buf(4, inputs.layers),
-                buf(5, inputs.weights),
-                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(inputs.shadow_maps) },
-                buf(7, inputs.accum),
-                buf(8, inputs.columns),
-                buf(9, &inputs.view.bsdf_tables),
-                buf(10, inputs.bvh_nodes),
-                buf(11, inputs.bvh_prims),
-                buf(12, inputs.stats),
-            ],
-        });
         let (gx, gy, _) = dispatch_size(inputs.view.num_samples);
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("ColumnsPass::dispatch"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(gx, gy, 1);
+        encode_dispatch(device, encoder, "ColumnsPass", (&self.pipeline, &self.bind_group_layout), &[
+            inputs.params.as_entire_binding(),
+            inputs.view.samples.as_entire_binding(),
+            inputs.view.bsdfs.as_entire_binding(),
+            inputs.lights.as_entire_binding(),
+            inputs.layers.as_entire_binding(),
+            inputs.weights.as_entire_binding(),
+            wgpu::BindingResource::TextureView(inputs.shadow_maps),
+            inputs.accum.as_entire_binding(),
+            inputs.columns.as_entire_binding(),
+            inputs.view.bsdf_tables.as_entire_binding(),
+            inputs.bvh_nodes.as_entire_binding(),
+            inputs.bvh_prims.as_entire_binding(),
+            inputs.stats.as_entire_binding(),
+        ], (gx, gy));
     }
 }
 

@@ -69,3 +69,32 @@ pub fn compute_pipeline(
     });
     (pipeline, bind_group_layout)
 }
+
+/// Bind `resources` (binding k = `resources[k]`) to `layout` and record one dispatch of `pipeline` with
+/// `groups` = (x, y) workgroups into `encoder`; `owner` names the pass in the labels.
+pub fn encode_dispatch(
+    device: &wgpu::Device,
+    encoder: &mut wgpu::CommandEncoder,
+    owner: &str,
+    (pipeline, layout): (&wgpu::ComputePipeline, &wgpu::BindGroupLayout),
+    resources: &[wgpu::BindingResource],
+    groups: (u32, u32),
+) {
+    let entries: Vec<wgpu::BindGroupEntry> = resources
+        .iter()
+        .enumerate()
+        .map(|(k, resource)| wgpu::BindGroupEntry { binding: k as u32, resource: resource.clone() })
+        .collect();
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(&format!("{owner}::bind_group")),
+        layout,
+        entries: &entries,
+    });
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(&format!("{owner}::dispatch")),
+        timestamp_writes: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, &bind_group, &[]);
+    pass.dispatch_workgroups(groups.0, groups.1, 1);
+}

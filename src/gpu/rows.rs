@@ -13,7 +13,7 @@
 //! Deviation from the paper: visibility is the hybrid of `columns.wgsl` (cube map where its 2x2
 //! footprint is unambiguous, the exact BVH ray of the column pass elsewhere), so rows equal columns up
 //! to the (rare) cases where a certain-looking map disagrees with the ray; see `row_map_decide`.
-use crate::gpu::pipeline::{compute_pipeline, depth_array, storage, uniform};
+use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
 use super::columns::{storage_buffer, ViewBuffers};
 use crate::gpu::shadow::GpuShadowLayer;
 
@@ -114,36 +114,22 @@ impl RowsPass {
 
     /// Dispatch one thread per (row, light): x over `params.num_lights`, y over `params.num_rows`.
     pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &RowsInputs) {
-        fn buf(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-            wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }
-        }
         let params = storage_buffer(device, "RowsPass::params", &[inputs.params], wgpu::BufferUsages::UNIFORM);
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("RowsPass::bind_group"),
-            layout: &self.bind_group_layout,
-            entries: &[
-                buf(0, &params),
-                buf(1, &inputs.view.samples),
-                buf(2, &inputs.view.bsdfs),
-                buf(3, inputs.lights),
-                buf(4, inputs.rows),
-                buf(5, inputs.layers),
-                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(inputs.cube_maps) },
-                buf(7, inputs.out_rows),
-                buf(8, &inputs.view.bsdf_tables),
-                buf(9, inputs.bvh_nodes),
-                buf(10, inputs.bvh_prims),
-                buf(11, inputs.stats),
-            ],
-        });
         let gx = (inputs.params.num_lights).div_ceil(WORKGROUP_SIZE).max(1);
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("RowsPass::dispatch"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(gx, inputs.params.num_rows.max(1), 1);
+        encode_dispatch(device, encoder, "RowsPass", (&self.pipeline, &self.bind_group_layout), &[
+            params.as_entire_binding(),
+            inputs.view.samples.as_entire_binding(),
+            inputs.view.bsdfs.as_entire_binding(),
+            inputs.lights.as_entire_binding(),
+            inputs.rows.as_entire_binding(),
+            inputs.layers.as_entire_binding(),
+            wgpu::BindingResource::TextureView(inputs.cube_maps),
+            inputs.out_rows.as_entire_binding(),
+            inputs.view.bsdf_tables.as_entire_binding(),
+            inputs.bvh_nodes.as_entire_binding(),
+            inputs.bvh_prims.as_entire_binding(),
+            inputs.stats.as_entire_binding(),
+        ], (gx, inputs.params.num_rows.max(1)));
     }
 }
 

@@ -4,9 +4,9 @@
 use super::reference::CpuReference;
 use super::*;
 use crate::error::Location;
-use crate::scene::{Bsdf, Camera, Emitter, Mesh, Param, ShapeKind};
-use crate::shading::GpuBsdf;
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use crate::scene::{Bsdf, Emitter, Param};
+use crate::testing::scenes::{cast_view, lookat, oriented_box, quad, square_camera};
+use glam::{Mat3, Vec3};
 
 /// Per-pixel tolerance of GPU vs CPU columns: shadow maps are exact away from shadow boundaries, so
 /// only float rounding remains (relative), with an absolute floor for dark pixels.
@@ -19,60 +19,6 @@ const BOUNDARY_RADIUS: i32 = 2;
 /// Mismatching pixels tolerated at contact edges and concave corners (1-pixel slivers where the
 /// normal offset crosses the meeting surface; measured 0-2 per light with the default biases).
 const MAX_EDGE_MISMATCHES: usize = 8;
-
-fn quad(p0: Vec3, u: Vec3, v: Vec3, bsdf: usize, id: &str) -> Mesh {
-    let n = u.cross(v).normalize();
-    Mesh {
-        id: id.to_string(),
-        kind: ShapeKind::Rectangle,
-        positions: vec![p0, p0 + u, p0 + u + v, p0 + v],
-        normals: vec![n; 4],
-        uvs: vec![],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        face_normals: true,
-        bsdf,
-        emitter: None,
-        loc: Location::default(),
-    }
-}
-
-/// A box with outward faces, half sizes `h`, rotated by `rot` about its centre.
-fn oriented_box(center: Vec3, h: Vec3, rot: Mat3, bsdf: usize) -> Mesh {
-    let axes = [rot * Vec3::X, rot * Vec3::Y, rot * Vec3::Z];
-    let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
-    for a in 0..3 {
-        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-        for s in [1.0f32, -1.0] {
-            let (eb, ec) = (axes[b] * (2.0 * h[b]), axes[c] * (2.0 * h[c]));
-            let (u, v) = if s > 0.0 { (eb, ec) } else { (ec, eb) };
-            let p0 = center + axes[a] * (s * h[a]) - axes[b] * h[b] - axes[c] * h[c];
-            let base = positions.len() as u32;
-            positions.extend([p0, p0 + u, p0 + u + v, p0 + v]);
-            normals.extend([axes[a] * s; 4]);
-            indices.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
-        }
-    }
-    Mesh {
-        id: "occluder".into(),
-        kind: ShapeKind::Cube,
-        positions,
-        normals,
-        uvs: vec![],
-        indices,
-        face_normals: true,
-        bsdf,
-        emitter: None,
-        loc: Location::default(),
-    }
-}
-
-/// Mitsuba's lookat: columns (left, up', dir, origin).
-fn lookat(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
-    let dir = (target - origin).normalize();
-    let left = up.cross(dir).normalize();
-    let up2 = dir.cross(left);
-    Mat4::from_cols(left.extend(0.0), up2.extend(0.0), dir.extend(0.0), origin.extend(1.0))
-}
 
 const ALBEDO: [[f32; 3]; 3] = [[0.8, 0.8, 0.8], [0.7, 0.2, 0.2], [0.3, 0.6, 0.4]];
 
@@ -88,15 +34,7 @@ fn test_scene(size: u32, emitters: Vec<Emitter>) -> Scene {
     meshes.push(oriented_box(Vec3::new(0.2, -0.55, -0.1), Vec3::new(0.3, 0.45, 0.25), Mat3::from_rotation_y(0.52), 0));
     Scene {
         path: "test_scene.xml".into(),
-        camera: Camera {
-            world_from_camera: lookat(Vec3::new(0.0, 0.3, 3.4), Vec3::new(0.0, -0.2, 0.0), Vec3::Y),
-            fov_x: 50f32.to_radians(),
-            near_clip: 0.01,
-            far_clip: 100.0,
-            width: size,
-            height: size,
-            loc: Location::default(),
-        },
+        camera: square_camera(size, Vec3::new(0.0, 0.3, 3.4), Vec3::new(0.0, -0.2, 0.0)),
         meshes,
         bsdfs: ALBEDO.iter().map(|a| Bsdf::Diffuse { reflectance: Param::Value(Vec3::from_array(*a)) }).collect(),
         textures: vec![],
@@ -117,52 +55,6 @@ fn three_lights() -> Vec<Emitter> {
         },
         Emitter::Directional { direction: Vec3::new(0.4, -1.0, -0.3).normalize(), irradiance: Vec3::splat(1.0), loc },
     ]
-}
-
-fn diffuse_bsdf(albedo: [f32; 3]) -> GpuBsdf {
-    GpuBsdf { diffuse: albedo, kind: crate::shading::bsdf::KIND_DIFFUSE, specular: [0.0; 3], flags: 0, eta: [0.0; 3], alpha_u: 0.0, k: [0.0; 3], alpha_v: 0.0, extra: [0.0; 4] }
-}
-
-/// View samples by casting the camera's pixel-centre rays against all triangles.
-fn cast_view(scene: &Scene) -> ViewSamples {
-    let reference = CpuReference::new(scene);
-    let owners: Vec<(usize, usize)> =
-        scene.meshes.iter().enumerate().flat_map(|(s, m)| (0..m.indices.len()).map(move |p| (s, p))).collect();
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    let mut v = ViewSamples { width: w, height: h, ..Default::default() };
-    for y in 0..h {
-        for x in 0..w {
-            let (o, d) = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
-            match reference.intersect(o, d, f32::INFINITY) {
-                Some((t, k)) => {
-                    let (s, p) = owners[k];
-                    let mesh = &scene.meshes[s];
-                    let [i0, i1, i2] = mesh.indices[p].map(|i| i as usize);
-                    let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
-                    v.position.push(o + d * t);
-                    v.normal.push(mesh.normals[i0]);
-                    v.geo_normal.push((p1 - p0).cross(p2 - p0).normalize());
-                    v.wi.push(-d);
-                    v.shape_index.push(s as i32);
-                    v.prim_index.push(p as i32);
-                    v.albedo.push(Vec3::from_array(ALBEDO[mesh.bsdf]));
-                    v.bsdf.push(diffuse_bsdf(ALBEDO[mesh.bsdf]));
-                }
-                None => {
-                    v.position.push(Vec3::ZERO);
-                    v.normal.push(Vec3::ZERO);
-                    v.geo_normal.push(Vec3::ZERO);
-                    v.wi.push(-d);
-                    v.shape_index.push(-1);
-                    v.prim_index.push(-1);
-                    v.albedo.push(Vec3::ZERO);
-                    v.bsdf.push(diffuse_bsdf([0.0; 3]));
-                }
-            }
-            v.uv.push(Vec2::ZERO);
-        }
-    }
-    v
 }
 
 struct Setup {

@@ -12,18 +12,9 @@ pub fn scenes_dir() -> PathBuf {
 }
 
 fn mesh(id: &str, kind: ShapeKind, positions: Vec<Vec3>, indices: Vec<[u32; 3]>, path: &std::path::Path) -> Mesh {
-    Mesh {
-        id: id.to_string(),
-        kind,
-        positions,
-        normals: Vec::new(),
-        uvs: Vec::new(),
-        indices,
-        face_normals: true,
-        bsdf: 0,
-        emitter: None,
-        loc: Location::new(path, 0),
-    }
+    let mut m = crate::testing::scenes::mesh(id, kind, positions, indices, 0);
+    m.loc = Location::new(path, 0);
+    m
 }
 
 /// An OBJ file (positions and faces only; quads fan-triangulated by tobj) transformed by `to_world`.

@@ -1,43 +1,9 @@
 //! Hand-built scenes for G-buffer tests (no XML loader needed): a Cornell-like box at two scales, a
 //! tessellated analytic sphere, and a marker on the camera's left.
-use crate::error::Location;
 use crate::scene::{Bsdf, Camera, Mesh, Param, Scene, ShapeKind};
 use glam::{Mat4, Vec2, Vec3};
 
-/// Mitsuba's lookat: columns (left, up', dir, origin).
-pub fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
-    let dir = (target - origin).normalize();
-    let left = up.cross(dir).normalize();
-    let up2 = dir.cross(left);
-    Mat4::from_cols(left.extend(0.0), up2.extend(0.0), dir.extend(0.0), origin.extend(1.0))
-}
-
-pub fn camera(world_from_camera: Mat4, fov_x_deg: f32, near: f32, far: f32, w: u32, h: u32) -> Camera {
-    Camera {
-        world_from_camera,
-        fov_x: fov_x_deg.to_radians(),
-        near_clip: near,
-        far_clip: far,
-        width: w,
-        height: h,
-        loc: Location::default(),
-    }
-}
-
-fn mesh(id: &str, kind: ShapeKind, positions: Vec<Vec3>, indices: Vec<[u32; 3]>, bsdf: usize) -> Mesh {
-    Mesh {
-        id: id.to_string(),
-        kind,
-        positions,
-        normals: vec![],
-        uvs: vec![],
-        indices,
-        face_normals: true,
-        bsdf,
-        emitter: None,
-        loc: Location::default(),
-    }
-}
+pub use crate::testing::scenes::{camera, lookat as look_at, mesh};
 
 /// Quad p0 p1 p2 p3 (in order around it) as two triangles, with uv (0,0) (1,0) (1,1) (0,1).
 pub fn quad(id: &str, p: [Vec3; 4], bsdf: usize) -> Mesh {

@@ -7,10 +7,7 @@ use crate::gpu::GpuContext;
 use crate::lights::LightKind;
 use crate::matrix::reference::CpuReference;
 use crate::matrix::{ColumnOptions, LightMatrix};
-use crate::scene::Scene;
-use crate::shading::bsdf::resolve;
-use crate::view::ViewSamples;
-use glam::{Vec2, Vec3};
+use crate::testing::scenes::cast_view;
 use std::sync::Arc;
 
 /// Per-pixel tolerance (as `matrix::tests`): float rounding relative, with an absolute floor relative
@@ -19,42 +16,6 @@ const REL_TOL: f32 = 0.02;
 const ABS_TOL: f32 = 1e-3;
 /// Fraction of pixels of each column that must meet it (the rest: shadow-map texels at boundaries).
 const MIN_MATCH_FRACTION: f64 = 0.99;
-
-/// View samples by casting the camera's pixel-centre rays (BSDFs resolved from the scene).
-fn cast_view(scene: &Scene) -> ViewSamples {
-    let reference = CpuReference::new(scene);
-    let owners: Vec<(usize, usize)> =
-        scene.meshes.iter().enumerate().flat_map(|(s, m)| (0..m.indices.len()).map(move |p| (s, p))).collect();
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    let mut v = ViewSamples { width: w, height: h, ..Default::default() };
-    for y in 0..h {
-        for x in 0..w {
-            let (o, d) = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
-            let hit = reference.intersect(o, d, f32::INFINITY);
-            let (pos, n, ng, shape, prim, bsdf) = match hit {
-                Some((t, k)) => {
-                    let (s, p) = owners[k];
-                    let mesh = &scene.meshes[s];
-                    let [p0, p1, p2] = mesh.indices[p].map(|i| mesh.positions[i as usize]);
-                    let ng = (p1 - p0).cross(p2 - p0).normalize();
-                    (o + d * t, mesh.normals[mesh.indices[p][0] as usize], ng, s as i32, p as i32,
-                        resolve(&scene.bsdfs, &scene.textures, mesh.bsdf, Vec2::ZERO))
-                }
-                None => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, -1, -1, bytemuck::Zeroable::zeroed()),
-            };
-            v.position.push(pos);
-            v.normal.push(n);
-            v.geo_normal.push(ng);
-            v.wi.push(-d);
-            v.shape_index.push(shape);
-            v.prim_index.push(prim);
-            v.albedo.push(Vec3::from_array(bsdf.diffuse));
-            v.bsdf.push(bsdf);
-            v.uv.push(Vec2::ZERO);
-        }
-    }
-    v
-}
 
 #[test]
 fn gpu_columns_match_cpu_for_generated_lights() {

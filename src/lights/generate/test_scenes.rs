@@ -1,43 +1,9 @@
 //! Hand-made scenes for the light-generation tests (no files needed).
 use crate::error::Location;
-use crate::scene::{Bsdf, Camera, EnvMap, Emitter, MicrofacetDistribution, Mesh, Param, Scene, ShapeKind};
+use crate::scene::{Bsdf, EnvMap, Emitter, MicrofacetDistribution, Mesh, Param, Scene};
 use glam::{Mat4, Vec3};
 
-pub fn quad(p0: Vec3, u: Vec3, v: Vec3, bsdf: usize, id: &str) -> Mesh {
-    let n = u.cross(v).normalize();
-    Mesh {
-        id: id.to_string(),
-        kind: ShapeKind::Rectangle,
-        positions: vec![p0, p0 + u, p0 + u + v, p0 + v],
-        normals: vec![n; 4],
-        uvs: vec![],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        face_normals: true,
-        bsdf,
-        emitter: None,
-        loc: Location::default(),
-    }
-}
-
-/// Mitsuba's lookat: columns (left, up', dir, origin).
-pub fn lookat(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
-    let dir = (target - origin).normalize();
-    let left = up.cross(dir).normalize();
-    let up2 = dir.cross(left);
-    Mat4::from_cols(left.extend(0.0), up2.extend(0.0), dir.extend(0.0), origin.extend(1.0))
-}
-
-pub fn camera(size: u32, origin: Vec3, target: Vec3) -> Camera {
-    Camera {
-        world_from_camera: lookat(origin, target, Vec3::Y),
-        fov_x: 50f32.to_radians(),
-        near_clip: 0.01,
-        far_clip: 100.0,
-        width: size,
-        height: size,
-        loc: Location::default(),
-    }
-}
+pub use crate::testing::scenes::{lookat, quad, square_camera};
 
 /// The six inward-facing faces of [-1, 1]^3, all with BSDF `bsdf`.
 pub fn box_faces(bsdf: usize) -> Vec<Mesh> {
@@ -68,7 +34,7 @@ pub fn furnace_box(rho: f32, emitters: Vec<Emitter>, area: bool) -> Scene {
     }
     Scene {
         path: "furnace_box.xml".into(),
-        camera: camera(32, Vec3::new(0.0, 0.0, 0.9), Vec3::ZERO),
+        camera: square_camera(32, Vec3::new(0.0, 0.0, 0.9), Vec3::ZERO),
         meshes,
         bsdfs,
         textures: vec![],
@@ -118,7 +84,7 @@ pub fn open_box(size: u32) -> Scene {
     data[(w + 2) as usize] = Vec3::new(4.0, 3.0, 2.0);
     Scene {
         path: "open_box.xml".into(),
-        camera: camera(size, Vec3::new(0.0, 0.3, 3.4), Vec3::new(0.0, -0.2, 0.0)),
+        camera: square_camera(size, Vec3::new(0.0, 0.3, 3.4), Vec3::new(0.0, -0.2, 0.0)),
         meshes,
         bsdfs,
         textures: vec![],

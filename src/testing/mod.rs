@@ -1,4 +1,5 @@
-//! Test-only helpers shared by the unit tests of every module.
+//! Test-only helpers shared by the unit tests of every module: where the shared scenes are, and
+//! (`scenes`) hand-made scene builders and CPU-cast view samples.
 use std::path::{Path, PathBuf};
 
 /// Where the shared scenes are: `$MANYLIGHTS_SHARED`, then `<manifest>/../shared` (CI: `shared/` beside
@@ -15,3 +16,5 @@ pub fn shared_dir() -> PathBuf {
         .find(|d| d.join("scenes").is_dir())
         .expect("shared scenes not found: set MANYLIGHTS_SHARED to the folder holding scenes/")
 }
+
+pub mod scenes;
