@@ -44,18 +44,6 @@ struct RowInfo {
     _pad0: vec2<u32>,
 }
 
-// Keep in sync with `GpuViewSample` in src/gpu/columns.rs (64 bytes).
-struct ViewSample {
-    position: vec3<f32>,
-    shape_index: i32,
-    normal: vec3<f32>,
-    _pad0: u32,
-    geo_normal: vec3<f32>,
-    _pad1: u32,
-    wi: vec3<f32>,
-    _pad2: u32,
-}
-
 @group(0) @binding(0) var<uniform> params: RowParams;
 @group(0) @binding(1) var<storage, read> samples: array<ViewSample>;
 @group(0) @binding(2) var<storage, read> bsdfs: array<Bsdf>;

@@ -114,14 +114,7 @@ pub struct ColumnParams {
 }
 
 /// The WGSL module of the pass.
-pub const COLUMNS_WGSL: &str = concat!(
-    include_str!("../../shaders/common/bsdf.wgsl"),
-    include_str!("../../shaders/common/light.wgsl"),
-    include_str!("../../shaders/common/shadow_layer.wgsl"),
-    include_str!("../../shaders/common/bvh.wgsl"),
-    include_str!("../../shaders/common/visibility.wgsl"),
-    include_str!("../../shaders/columns.wgsl"),
-);
+pub const COLUMNS_WGSL: &str = crate::gpu::shaders::COLUMNS;
 
 /// View samples on the GPU: geometry (64 B each) and BSDFs (80 B each), separate bindings, plus the
 /// rough-plastic tables the BSDFs index (`crate::shading::bsdf::roughplastic_table_buffer`).
@@ -257,18 +250,13 @@ mod tests {
 
     #[test]
     fn columns_wgsl_validates_and_layouts_match() {
-        let module = naga::front::wgsl::parse_str(COLUMNS_WGSL).expect("columns.wgsl parses");
-        let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-            .validate(&module)
-            .expect("columns.wgsl validates");
-        let _ = info;
-        // WGSL struct sizes equal the Rust mirrors.
-        let mut layouter = naga::proc::Layouter::default();
-        layouter.update(module.to_ctx()).unwrap();
-        for (name, size) in [("Light", 192), ("ViewSample", 64), ("ColumnParams", 48), ("Bsdf", 80), ("ShadowLayer", 256)] {
-            let (h, _) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(name)).expect(name);
-            assert_eq!(layouter[h].size, size, "{name}");
-        }
+        crate::gpu::shaders::assert_struct_sizes("columns.wgsl", COLUMNS_WGSL, &[
+            ("Light", 192),
+            ("ViewSample", 64),
+            ("ColumnParams", 48),
+            ("Bsdf", 80),
+            ("ShadowLayer", 256),
+        ]);
     }
 
     #[test]

@@ -171,9 +171,16 @@ impl GpuContext {
 
     /// Copy a storage buffer back to the host (the buffer needs COPY_SRC usage).
     pub fn read_buffer<T: bytemuck::Pod>(&self, src: &wgpu::Buffer, offset: u64, count: usize) -> Result<Vec<T>> {
+        let mut out = Vec::with_capacity(count);
+        self.read_buffer_into(src, offset, count, &mut out)?;
+        Ok(out)
+    }
+
+    /// `read_buffer`, appending to `out` straight from the mapped staging buffer (one host copy).
+    pub fn read_buffer_into<T: bytemuck::Pod>(&self, src: &wgpu::Buffer, offset: u64, count: usize, out: &mut Vec<T>) -> Result<()> {
         let size = (count * std::mem::size_of::<T>()) as u64;
         if size == 0 {
-            return Ok(Vec::new());
+            return Ok(());
         }
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("GpuContext::read_buffer::staging"),
@@ -198,10 +205,10 @@ impl GpuContext {
         let data = slice
             .get_mapped_range()
             .map_err(|e| Error::Gpu(format!("reading a mapped buffer failed: {e:?}")))?;
-        let out = bytemuck::cast_slice::<u8, T>(&data).to_vec();
+        out.extend_from_slice(bytemuck::cast_slice::<u8, T>(&data));
         drop(data);
         staging.unmap();
-        Ok(out)
+        Ok(())
     }
 }
 

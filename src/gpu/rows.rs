@@ -59,14 +59,7 @@ pub struct GpuRowInfo {
 }
 
 /// The WGSL module of the pass.
-pub const ROWS_WGSL: &str = concat!(
-    include_str!("../../shaders/common/bsdf.wgsl"),
-    include_str!("../../shaders/common/light.wgsl"),
-    include_str!("../../shaders/common/shadow_layer.wgsl"),
-    include_str!("../../shaders/common/bvh.wgsl"),
-    include_str!("../../shaders/common/visibility.wgsl"),
-    include_str!("../../shaders/rows.wgsl"),
-);
+pub const ROWS_WGSL: &str = crate::gpu::shaders::ROWS;
 
 /// Per-dispatch inputs.
 pub struct RowsInputs<'a> {
@@ -156,16 +149,13 @@ mod tests {
 
     #[test]
     fn rows_wgsl_validates_and_layouts_match() {
-        let module = naga::front::wgsl::parse_str(ROWS_WGSL).expect("rows.wgsl parses");
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-            .validate(&module)
-            .expect("rows.wgsl validates");
-        let mut layouter = naga::proc::Layouter::default();
-        layouter.update(module.to_ctx()).unwrap();
-        for (name, size) in [("RowParams", 48), ("RowInfo", 32), ("Light", 192), ("ViewSample", 64), ("ShadowLayer", 256)] {
-            let (h, _) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(name)).expect(name);
-            assert_eq!(layouter[h].size, size, "{name}");
-        }
+        crate::gpu::shaders::assert_struct_sizes("rows.wgsl", ROWS_WGSL, &[
+            ("RowParams", 48),
+            ("RowInfo", 32),
+            ("Light", 192),
+            ("ViewSample", 64),
+            ("ShadowLayer", 256),
+        ]);
         // The WGSL mirrors of the Rust constants.
         assert!(ROWS_WGSL.contains(&format!("const WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;")));
         assert!(ROWS_WGSL.contains("const ROW_NO_MAP: u32 = 0xffffffffu;"));

@@ -6,6 +6,26 @@ use crate::error::{Error, Result};
 /// `shaders/gbuffer.wgsl` (no shared snippets): the G-buffer visibility pass of `gpu::gbuffer`.
 pub const GBUFFER: &str = concat!(include_str!("../../shaders/gbuffer.wgsl"));
 
+/// The column and row passes: every shared snippet they need, then the pass itself.
+macro_rules! light_pass {
+    ($pass:literal) => {
+        concat!(
+            include_str!("../../shaders/common/bsdf.wgsl"),
+            include_str!("../../shaders/common/light.wgsl"),
+            include_str!("../../shaders/common/shadow_layer.wgsl"),
+            include_str!("../../shaders/common/bvh.wgsl"),
+            include_str!("../../shaders/common/view_sample.wgsl"),
+            include_str!("../../shaders/common/visibility.wgsl"),
+            include_str!($pass),
+        )
+    };
+}
+
+/// `shaders/columns.wgsl`: light columns (`gpu::columns`).
+pub const COLUMNS: &str = light_pass!("../../shaders/columns.wgsl");
+/// `shaders/rows.wgsl`: light rows (`gpu::rows`).
+pub const ROWS: &str = light_pass!("../../shaders/rows.wgsl");
+
 /// Parse and validate a WGSL module with naga (all capabilities a downlevel device may lack are
 /// refused), so broken shaders fail in `cargo test` on machines without a GPU. `name` labels errors.
 pub fn validate_wgsl(name: &str, source: &str) -> Result<naga::Module> {
@@ -15,6 +35,19 @@ pub fn validate_wgsl(name: &str, source: &str) -> Result<naga::Module> {
         .validate(&module)
         .map_err(|e| Error::Gpu(format!("{name}: WGSL validation error: {}", e.emit_to_string(source))))?;
     Ok(module)
+}
+
+/// Validate `source` and check that each named WGSL struct has the byte size of its Rust mirror.
+#[cfg(test)]
+pub fn assert_struct_sizes(name: &str, source: &str, sizes: &[(&str, u32)]) -> naga::Module {
+    let module = validate_wgsl(name, source).unwrap_or_else(|e| panic!("{e}"));
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    for &(ty, size) in sizes {
+        let (h, _) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(ty)).unwrap_or_else(|| panic!("{name}: no struct {ty}"));
+        assert_eq!(layouter[h].size, size, "{name}: struct {ty}");
+    }
+    module
 }
 
 #[cfg(test)]

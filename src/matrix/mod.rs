@@ -134,6 +134,8 @@ pub struct LightMatrix {
     max_binding: u64,
     /// The row pass (`rows.rs`), compiled on first use.
     rows_pass: std::sync::OnceLock<crate::gpu::rows::RowsPass>,
+    /// All lights as `GpuLight`s for the row pass, in chunks (first light, buffer); uploaded once.
+    row_lights: std::sync::OnceLock<Vec<(usize, wgpu::Buffer)>>,
     /// CPU ray tracer of the exact oracle (`oracle.rs`), built on first use.
     oracle: std::sync::OnceLock<crate::raytrace::RayTracer>,
 }
@@ -219,6 +221,7 @@ impl LightMatrix {
             atlas,
             max_binding,
             rows_pass: std::sync::OnceLock::new(),
+            row_lights: std::sync::OnceLock::new(),
             oracle: std::sync::OnceLock::new(),
             ctx,
             scene,

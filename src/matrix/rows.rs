@@ -119,17 +119,19 @@ impl LightMatrix {
         let device = &self.ctx.device;
         let pass = self.rows_pass.get_or_init(|| RowsPass::new(device));
 
-        // Lights, in chunks of at most one dispatch and one binding.
+        // Lights, in chunks of at most one dispatch and one binding (uploaded on the first call).
         let light_chunk = MAX_LIGHTS_PER_DISPATCH.min((self.max_binding / LIGHT_BYTES) as usize).max(1);
-        let light_chunks: Vec<(usize, wgpu::Buffer)> = (0..n)
-            .step_by(light_chunk)
-            .map(|first| {
-                let gpu: Vec<GpuLight> = (first..(first + light_chunk).min(n))
-                    .map(|j| GpuLight::new(&self.lights, j, 0, uses_cube(&self.lights, j)))
-                    .collect();
-                (first, storage_buffer(device, "LightMatrix::row_lights", &gpu, wgpu::BufferUsages::STORAGE))
-            })
-            .collect();
+        let light_chunks = self.row_lights.get_or_init(|| {
+            (0..n)
+                .step_by(light_chunk)
+                .map(|first| {
+                    let gpu: Vec<GpuLight> = (first..(first + light_chunk).min(n))
+                        .map(|j| GpuLight::new(&self.lights, j, 0, uses_cube(&self.lights, j)))
+                        .collect();
+                    (first, storage_buffer(device, "LightMatrix::row_lights", &gpu, wgpu::BufferUsages::STORAGE))
+                })
+                .collect()
+        });
 
         // Batches of rows: cube layers of one texture within the memory budget.
         let res = opts.resolution;
@@ -202,7 +204,7 @@ impl LightMatrix {
                 let num_rows = rows_per_chunk.min(batch.len() - first_row);
                 let t1 = Instant::now();
                 let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::rows") });
-                for (first_light, lights_buf) in &light_chunks {
+                for (first_light, lights_buf) in light_chunks {
                     let params = RowParams {
                         num_rows: num_rows as u32,
                         num_lights: light_chunk.min(n - first_light) as u32,
@@ -238,7 +240,7 @@ impl LightMatrix {
                 self.wait_for(submission)?;
                 let t2 = Instant::now();
                 timings.evaluation += (t2 - t1).as_secs_f64();
-                out.extend(self.ctx.read_buffer::<f32>(&out_buf, 0, num_rows * n * 3)?);
+                self.ctx.read_buffer_into::<f32>(&out_buf, 0, num_rows * n * 3, &mut out)?;
                 timings.readback += t2.elapsed().as_secs_f64();
             }
             timings.batches += 1;

@@ -4,7 +4,6 @@ use super::scene::Scene;
 use crate::error::Error;
 use crate::lights::{generate_lights as core_generate, GenerateOptions};
 use pyo3::prelude::*;
-use std::sync::Arc;
 
 /// Delta lights of the scene plus `area` oriented points, `environment` directional lights and about
 /// `indirect` VPLs. Args as `manylights.generate_lights`; `max_depth < 0` = unlimited,
@@ -37,7 +36,7 @@ pub fn generate_lights(
     };
     let s = scene.inner.clone();
     let set = py.detach(move || core_generate(&s, &opts))?;
-    Ok(LightSet { inner: Arc::new(set) })
+    Ok(LightSet::new(set))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

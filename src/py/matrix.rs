@@ -13,6 +13,14 @@ use std::sync::Arc;
 #[pyclass(module = "manylights._native", frozen)]
 pub struct LightSet {
     pub inner: Arc<lights::LightSet>,
+    /// `power`, computed once (VPLs on glossy surfaces need a quadrature each).
+    power: std::sync::OnceLock<Vec<glam::Vec3>>,
+}
+
+impl LightSet {
+    pub fn new(set: lights::LightSet) -> LightSet {
+        LightSet { inner: Arc::new(set), power: std::sync::OnceLock::new() }
+    }
 }
 
 #[pymethods]
@@ -66,8 +74,8 @@ impl LightSet {
     /// (n, 3) RGB emitted power (W).
     #[getter]
     fn power<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let p = py.detach(|| self.inner.powers());
-        vec3_array(py, &p)
+        let p = py.detach(|| self.power.get_or_init(|| self.inner.powers()));
+        vec3_array(py, p)
     }
     fn __repr__(&self) -> String {
         format!("LightSet({} lights)", self.inner.len())
@@ -77,7 +85,7 @@ impl LightSet {
 /// The scene's point, spot and directional emitters.
 #[pyfunction]
 pub fn scene_lights(scene: &Scene) -> PyResult<LightSet> {
-    Ok(LightSet { inner: Arc::new(lights::LightSet::from_scene(&scene.inner)?) })
+    Ok(LightSet::new(lights::LightSet::from_scene(&scene.inner)?))
 }
 
 /// The light matrix of a scene and a light set (GPU columns; see `manylights.LightMatrix`).
