@@ -27,8 +27,8 @@ def test_rows_shape_dtype_and_timings(cbox):
     R, timings = A.rows(idx, progress=False, return_timings=True)
     assert R.shape == (6, n, 3) and R.dtype == np.float32
     assert np.isfinite(R).all() and (R >= 0).all() and R.max() > 0
-    assert set(timings) == {"shadow_maps", "evaluation", "readback", "batches"}
-    assert timings["batches"] >= 1 and all(timings[k] >= 0 for k in ("shadow_maps", "evaluation", "readback"))
+    assert set(timings) == {"setup", "shadow_maps", "evaluation", "readback", "batches"}
+    assert timings["batches"] >= 1 and all(timings[k] >= 0 for k in ("setup", "shadow_maps", "evaluation", "readback"))
     # Repeats and order are honoured.
     R2 = A.rows([int(idx[3]), int(idx[0]), int(idx[3])], progress=False)
     np.testing.assert_array_equal(R2[0], R[3])

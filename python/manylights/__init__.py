@@ -231,7 +231,7 @@ class LightMatrix:
             indices: (r,) view sample indices in [0, m), repeats allowed, 1 <= r <= m.
             progress: show a tqdm progress bar over row batches.
             shadow_map_size: texels per cube face (16..=8192).
-            return_timings: also return a dict of seconds per stage (shadow_maps, evaluation, readback).
+            return_timings: also return a dict of seconds per stage (setup, shadow_maps, evaluation, readback).
 
         Raises:
             ValueError: no indices, more indices than view samples, an index outside [0, m), or a bad

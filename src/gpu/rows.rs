@@ -19,6 +19,7 @@ use crate::gpu::shadow::GpuShadowLayer;
 
 /// Threads per workgroup (along lights); mirrored in `rows.wgsl`.
 pub const WORKGROUP_SIZE: u32 = 64;
+
 /// Most lights per dispatch: 65,535 workgroups along x.
 pub const MAX_LIGHTS_PER_DISPATCH: usize = 65_535 * WORKGROUP_SIZE as usize;
 /// `first_layer` of a row without a cube map (background samples); mirrored in `rows.wgsl`.

@@ -136,6 +136,8 @@ pub struct LightMatrix {
     rows_pass: std::sync::OnceLock<crate::gpu::rows::RowsPass>,
     /// All lights as `GpuLight`s for the row pass, in chunks (first light, buffer); uploaded once.
     row_lights: std::sync::OnceLock<Vec<(usize, wgpu::Buffer)>>,
+    /// The row pass's cube atlas and output buffer, reused by later calls.
+    row_scratch: std::sync::Mutex<Option<rows::RowScratch>>,
     /// CPU ray tracer of the exact oracle (`oracle.rs`), built on first use.
     oracle: std::sync::OnceLock<crate::raytrace::RayTracer>,
 }
@@ -222,6 +224,7 @@ impl LightMatrix {
             max_binding,
             rows_pass: std::sync::OnceLock::new(),
             row_lights: std::sync::OnceLock::new(),
+            row_scratch: std::sync::Mutex::new(None),
             oracle: std::sync::OnceLock::new(),
             ctx,
             scene,

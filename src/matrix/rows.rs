@@ -71,9 +71,17 @@ impl Default for RowOptions {
     }
 }
 
+/// GPU memory of the row pass kept between calls: the cube atlas and the output buffer.
+pub(crate) struct RowScratch {
+    atlas: ShadowAtlas,
+    out_buf: wgpu::Buffer,
+}
+
 /// Wall-clock seconds of `LightMatrix::rows_timed`, each stage waited for on the GPU.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RowTimings {
+    /// Allocating the cube atlas and output buffer and uploading the lights (first call, or a larger one).
+    pub setup: f64,
     /// Uploading row data and rendering the cube depth maps.
     pub shadow_maps: f64,
     /// The evaluation dispatches (all lights against each row's cube).
@@ -119,6 +127,7 @@ impl LightMatrix {
         let device = &self.ctx.device;
         let pass = self.rows_pass.get_or_init(|| RowsPass::new(device));
 
+        let t_setup = Instant::now();
         // Lights, in chunks of at most one dispatch and one binding (uploaded on the first call).
         let light_chunk = MAX_LIGHTS_PER_DISPATCH.min((self.max_binding / LIGHT_BYTES) as usize).max(1);
         let light_chunks = self.row_lights.get_or_init(|| {
@@ -144,18 +153,34 @@ impl LightMatrix {
         };
         let surface = |i: usize| self.view.shape_index[i] >= 0;
         let most_cubes = if rendered { is.chunks(per_batch).map(|c| c.iter().filter(|&&i| surface(i)).count()).max().unwrap_or(0) } else { 0 };
-        let atlas = if most_cubes > 0 {
-            ShadowAtlas::new(device, res, 6 * most_cubes as u32)
-        } else {
-            ShadowAtlas::new(device, 1, 1)
-        };
         let rows_per_chunk = ((out_limit / row_bytes) as usize).min(per_batch).max(1);
-        let out_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("LightMatrix::rows_out"),
-            size: (rows_per_chunk.min(r) as u64 * row_bytes).max(16),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        // The cube atlas and the output buffer are kept for the next call (allocating hundreds of MiB
+        // costs as much as evaluating tens of rows on a software adapter); a larger call grows them.
+        let (atlas_res, atlas_layers) = if most_cubes > 0 { (res, 6 * most_cubes as u32) } else { (1, 1) };
+        let out_size = (rows_per_chunk.min(r) as u64 * row_bytes).max(16);
+        let mut scratch_guard = self.row_scratch.lock().unwrap_or_else(|e| e.into_inner());
+        let fits = |s: &RowScratch| {
+            s.atlas.resolution == atlas_res && s.atlas.num_layers >= atlas_layers && s.out_buf.size() >= out_size
+        };
+        if !scratch_guard.as_ref().is_some_and(fits) {
+            let (layers, size) = match scratch_guard.as_ref() {
+                Some(s) if s.atlas.resolution == atlas_res => (s.atlas.num_layers.max(atlas_layers), s.out_buf.size().max(out_size)),
+                _ => (atlas_layers, out_size),
+            };
+            *scratch_guard = None;
+            *scratch_guard = Some(RowScratch {
+                atlas: ShadowAtlas::new(device, atlas_res, layers),
+                out_buf: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("LightMatrix::rows_out"),
+                    size,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+            });
+        }
+        let scratch = scratch_guard.as_ref().expect("row scratch allocated above");
+        let (atlas, out_buf) = (&scratch.atlas, &scratch.out_buf);
+        timings.setup = t_setup.elapsed().as_secs_f64();
         let (center, radius) = (self.lights.scene_center, self.lights.scene_radius.max(1e-6));
         let mut out = Vec::with_capacity(r * n * 3);
         let mut done = 0usize;
@@ -195,7 +220,7 @@ impl LightMatrix {
             let rows_buf = storage_buffer(device, "LightMatrix::row_infos", &infos, wgpu::BufferUsages::STORAGE);
             if num_layers > 0 {
                 let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::row_cubes") });
-                self.shadow_pass.encode(device, &mut encoder, &atlas, &layers_buf, num_layers, &self.geometry);
+                self.shadow_pass.encode(device, &mut encoder, atlas, &layers_buf, num_layers, &self.geometry);
                 let submission = self.ctx.queue.submit(Some(encoder.finish()));
                 self.wait_for(submission)?;
             }
@@ -229,7 +254,7 @@ impl LightMatrix {
                             rows: &rows_buf,
                             layers: &layers_buf,
                             cube_maps: &atlas.array_view,
-                            out_rows: &out_buf,
+                            out_rows: out_buf,
                             bvh_nodes: &self.bvh.nodes,
                             bvh_prims: &self.bvh.primitives,
                             stats: &self.stats,
@@ -240,7 +265,7 @@ impl LightMatrix {
                 self.wait_for(submission)?;
                 let t2 = Instant::now();
                 timings.evaluation += (t2 - t1).as_secs_f64();
-                self.ctx.read_buffer_into::<f32>(&out_buf, 0, num_rows * n * 3, &mut out)?;
+                self.ctx.read_buffer_into::<f32>(out_buf, 0, num_rows * n * 3, &mut out)?;
                 timings.readback += t2.elapsed().as_secs_f64();
             }
             timings.batches += 1;

@@ -151,6 +151,29 @@ fn rows_agree_with_columns() {
     }
 }
 
+/// Rows reuse their cube atlas and output buffer between calls: a smaller call, a larger one (the
+/// scratch grows) and one at another cube resolution must give the rows of a fresh matrix bit for bit,
+/// and only the first call (or a larger one) pays the setup.
+#[test]
+fn rows_reuse_gpu_scratch_between_calls() {
+    let s = setup(32, GenerateOptions { area: 16, indirect: 100, seed: 2, clamp: Some(0.5), ..Default::default() });
+    let is = s.surface_rows(20);
+    let opts = ColumnOptions::default();
+    let fresh = |rows: &[usize], resolution: u32| {
+        let m = s.matrix(opts.clone());
+        m.rows_timed(rows, &RowOptions { resolution, ..Default::default() }, &mut |_, _| {}).unwrap().0
+    };
+    let shared = s.matrix(opts.clone());
+    let call = |rows: &[usize], resolution: u32| {
+        shared.rows_timed(rows, &RowOptions { resolution, ..Default::default() }, &mut |_, _| {}).unwrap()
+    };
+    for (rows, res) in [(&is[..5], 256), (&is[..3], 256), (&is[..], 256), (&is[..7], 128), (&is[2..9], 256)] {
+        let (got, t) = call(rows, res);
+        assert!(got == fresh(rows, res), "{} rows at {res}: reused scratch changed the rows", rows.len());
+        assert!(t.setup >= 0.0 && t.evaluation > 0.0);
+    }
+}
+
 /// Trap 1 (Mesa 22.3 stops an invocation after 65,535 loop iterations): more lights than that in one
 /// row; the row sums must equal the column sum at those pixels (exact rays for the columns: no 400k
 /// cube maps) and the CPU sum.

@@ -233,6 +233,7 @@ impl LightMatrix {
             ("shadow_maps", t.shadow_maps),
             ("evaluation", t.evaluation),
             ("readback", t.readback),
+            ("setup", t.setup),
             ("batches", t.batches as f64),
         ]
         .into_iter()
