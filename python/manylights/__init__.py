@@ -160,7 +160,10 @@ class LightMatrix:
     Args:
         scene: a loaded Scene.
         lights: a LightSet (e.g. ``scene_lights(scene)``).
-        shadow_map_size: texels per side of each shadow map (cube face).
+        shadow_map_size: texels per side of each shadow map (cube face). Default: 512 for ``"hybrid"``
+            (the exact ray decides wherever a map is unsure, so the size only trades shadow-map texels
+            for rays: on cbox 128^2 columns at 512^2 cost 8.4 ms against 16.4 ms at 1024^2 with the
+            same image to 1e-4), 1024 for ``"shadow_map"`` (where the size sets the accuracy).
         visibility: how shadow tests are decided: ``"hybrid"`` (default: shadow maps where they are
             certain, an exact GPU ray against the scene BVH elsewhere), ``"ray_traced"`` (an exact ray for
             every test; columns equal Mitsuba's ray-traced visibility) or ``"shadow_map"`` (biased shadow
@@ -170,10 +173,12 @@ class LightMatrix:
         ValueError: an unknown ``visibility`` or a bad ``shadow_map_size``.
     """
 
-    def __init__(self, scene: Scene, lights: LightSet, *, shadow_map_size: int = 1024,
+    def __init__(self, scene: Scene, lights: LightSet, *, shadow_map_size: Optional[int] = None,
                  visibility: str = "hybrid"):
         self.scene = scene
         self.lights = lights
+        if shadow_map_size is None:
+            shadow_map_size = 1024 if visibility == "shadow_map" else 512
         self._m = _native.LightMatrix(scene, lights, int(shadow_map_size), visibility=str(visibility))
 
     def visibility_stats(self) -> dict[str, int]:

@@ -36,12 +36,14 @@ class Stopwatch:
             print(f"  {name:<28s} {s * 1000:9.1f} ms")
 
 
-def render(scene_path, out, size=None, params=None, shadow_map_size=1024, area=0, environment=0, indirect=0,
+def render(scene_path, out, size=None, params=None, shadow_map_size=None, area=0, environment=0, indirect=0,
            seed=0, visibility="hybrid", png=True, quiet=False):
     """Brute force: every column of the light matrix (the scene's delta lights, plus generated area /
     environment / indirect lights when asked) plus what the camera sees of emitters."""
     import manylights as ml
 
+    if shadow_map_size is None:
+        shadow_map_size = 1024 if visibility == "shadow_map" else 512  # LightMatrix's defaults
     sw = Stopwatch()
     dev = sw("gpu device", ml.device_info)
     scene = sw("load scene", ml.load_scene, scene_path, size=size, **(params or {}))
@@ -127,7 +129,7 @@ def main(argv=None):
     r.add_argument("-o", "--output", default="out.exr")
     r.add_argument("--size", type=int, nargs=2, metavar=("W", "H"))
     r.add_argument("-D", dest="params", action="append", metavar="NAME=VALUE", help="scene parameter")
-    r.add_argument("--shadow-map-size", type=int, default=1024)
+    r.add_argument("--shadow-map-size", type=int, default=None, help="default: 512 (hybrid), 1024 (shadow_map)")
     r.add_argument("--area", type=int, default=0, help="area emitters -> this many oriented point lights")
     r.add_argument("--environment", type=int, default=0, help="env map -> this many directional lights")
     r.add_argument("--indirect", type=int, default=0, help="this many VPLs for indirect light")

@@ -76,7 +76,7 @@ class LightMatrix:
         """(H, W, 3): sum_k weights[k] * column[indices[k]], (k, 3) RGB weights; only those columns are rendered."""
     def rows(self, indices: Sequence[int], progress: Optional[Callable[[int, int], None]] = None,
              shadow_map_size: int = 256) -> tuple[npt.NDArray[np.float32], dict[str, float]]:
-        """(r, n, 3) rows from cube depth maps at the view samples, and seconds per stage (shadow_maps,
+        """(r, n, 3) rows from cube depth maps at the view samples, and seconds per stage (setup, shadow_maps,
         evaluation, readback; batches). Raises ValueError for an index >= m or a bad shadow_map_size."""
         """(H, W, 3) radiance the camera sees directly (area emitters' front sides, the environment on
         background pixels); not part of column_sum."""
