@@ -14,6 +14,10 @@
 //! 300 rows x 100k lights x RGB f32 = 343 MiB is read back in 3+ chunks), light chunks of at most
 //! `gpu::rows::MAX_LIGHTS_PER_DISPATCH` lights (and 128 MiB of `GpuLight`s) per dispatch.
 //!
+//! The matrix keeps the row pass's GPU memory between calls (all lights as `GpuLight`s, the cube atlas
+//! and the output buffer: at most `RowOptions::memory_budget` + 128 MiB + 192 bytes per light), so that a
+//! budget sweep does not pay hundreds of MiB of allocation per call; a larger call grows it.
+//!
 //! Values equal the column pass's (`columns.wgsl`) up to visibility decisions: the same WGSL evaluates
 //! emission and BSDF; visibility follows `ColumnOptions::visibility` (hybrid by default: the row's cube
 //! map where its 2x2 footprint is certain, else the column pass's exact BVH ray from the view sample).
