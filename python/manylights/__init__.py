@@ -179,7 +179,9 @@ class LightMatrix:
         self.lights = lights
         if shadow_map_size is None:
             shadow_map_size = 1024 if visibility == "shadow_map" else 512
-        self._m = _native.LightMatrix(scene, lights, int(shadow_map_size), visibility=str(visibility))
+        #: Texels per side of each shadow map (the default resolved).
+        self.shadow_map_size = int(shadow_map_size)
+        self._m = _native.LightMatrix(scene, lights, self.shadow_map_size, visibility=str(visibility))
 
     def visibility_stats(self) -> dict[str, int]:
         """Counters since creation: ``shadow_tests``, ``ray_casts`` (tests resolved by exact rays) and

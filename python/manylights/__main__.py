@@ -42,8 +42,6 @@ def render(scene_path, out, size=None, params=None, shadow_map_size=None, area=0
     environment / indirect lights when asked) plus what the camera sees of emitters."""
     import manylights as ml
 
-    if shadow_map_size is None:
-        shadow_map_size = 1024 if visibility == "shadow_map" else 512  # LightMatrix's defaults
     sw = Stopwatch()
     dev = sw("gpu device", ml.device_info)
     scene = sw("load scene", ml.load_scene, scene_path, size=size, **(params or {}))
@@ -61,7 +59,7 @@ def render(scene_path, out, size=None, params=None, shadow_map_size=None, area=0
     if not quiet:
         print(f"scene: {scene!r}")
         print(f"adapter: {dev['name']} ({dev['backend']}, {'software' if dev['is_software'] else 'hardware'})")
-        print(f"lights: {len(lights)}; matrix {A.shape[0]} x {A.shape[1]}; shadow maps {shadow_map_size}^2, "
+        print(f"lights: {len(lights)}; matrix {A.shape[0]} x {A.shape[1]}; shadow maps {A.shadow_map_size}^2, "
               f"visibility {visibility}")
         sw.report()
         for w in written:
