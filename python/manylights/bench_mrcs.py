@@ -9,6 +9,7 @@ outside shadow maps + shading (clustering and readback).
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import time
 from pathlib import Path
@@ -74,8 +75,10 @@ def run(args) -> dict:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     stem = f"mrcs-{path.parent.name}"
-    reference, t_brute = _brute_force(A, out / f"{stem}-reference-{len(lights)}-{scene.width}x{scene.height}"
-                                      f"-{args.visibility}-{args.shadow_map_size}.npz")
+    # The cache key names everything the reference depends on, the scene file's content included.
+    xml_hash = hashlib.sha256(path.read_bytes()).hexdigest()[:12]
+    reference, t_brute = _brute_force(A, out / f"{stem}-reference-{xml_hash}-{len(lights)}-{scene.width}x"
+                                      f"{scene.height}-{args.visibility}-{args.shadow_map_size}.npz")
     print(f"brute force ({len(lights)} columns): {t_brute:.1f} s")
 
     summary = {"scene": str(path), "size": [scene.width, scene.height], "lights": len(lights),
@@ -119,7 +122,7 @@ def run(args) -> dict:
 
 def _brute_force(A, cache: Path):
     """The full column sum (+ emitted) and its seconds; reused from ``cache`` when an earlier run with the
-    same scene, light count, size and visibility stored it (the seconds are those of that run)."""
+    same scene file, light count, size and visibility stored it (the seconds are those of that run)."""
     if cache.exists():
         with np.load(cache) as z:
             print(f"brute force read from {cache}")
