@@ -1,4 +1,5 @@
-"""Every notebook in notebooks/ runs top to bottom (outputs are not stored)."""
+"""Every notebook in notebooks/ runs top to bottom (outputs are not stored), from a temporary folder with
+../shared hidden: the notebooks use the scenes bundled in scenes/ only."""
 import os
 from pathlib import Path
 
@@ -6,17 +7,18 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
-from conftest import REPO, shared_dir
+from conftest import REPO
 
 NOTEBOOKS = sorted((REPO / "notebooks").glob("*.ipynb"))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
-def test_notebook_runs(path, tmp_path):
+def test_notebook_runs(path, tmp_path, monkeypatch):
     nb = nbformat.read(path, as_version=4)
-    os.environ.setdefault("MANYLIGHTS_SHARED", str(shared_dir()))
-    os.environ.setdefault("MPLBACKEND", "Agg")
+    (tmp_path / "no-shared").mkdir()
+    monkeypatch.setenv("MANYLIGHTS_SHARED", str(tmp_path / "no-shared"))
+    monkeypatch.setenv("MPLBACKEND", "Agg")
     client = NotebookClient(nb, timeout=900, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
     client.execute()
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.output_type == "error"]

@@ -8,7 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-DEMO_SCENE = Path(__file__).resolve().parents[2] / "scenes" / "demo" / "scene.xml"
+from .scenes import SCENES_DIR, resolve
+
+DEMO_SCENE = SCENES_DIR / "demo" / "scene.xml"
 
 
 def _params(pairs):
@@ -44,7 +46,7 @@ def render(scene_path, out, size=None, params=None, shadow_map_size=None, area=0
 
     sw = Stopwatch()
     dev = sw("gpu device", ml.device_info)
-    scene = sw("load scene", ml.load_scene, scene_path, size=size, **(params or {}))
+    scene = sw("load scene", ml.load_scene, resolve(scene_path), size=size, **(params or {}))
     sw("g-buffer (view samples)", scene.gbuffer)
     if area or environment or indirect:
         lights = sw("generate lights", ml.generate_lights, scene, area=area, environment=environment,
@@ -123,7 +125,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m manylights", description=__doc__)
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("render", help="render a Mitsuba XML scene's delta lights by brute force")
-    r.add_argument("scene")
+    r.add_argument("scene", help="a Mitsuba 3 XML file, or a bundled scene's name (demo, cbox, cbox-lights, veach-ajar)")
     r.add_argument("-o", "--output", default="out.exr")
     r.add_argument("--size", type=int, nargs=2, metavar=("W", "H"))
     r.add_argument("-D", dest="params", action="append", metavar="NAME=VALUE", help="scene parameter")

@@ -27,21 +27,11 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[2]
 REFS = REPO / "tests" / "references"
 
-# scene -> (xml relative to the shared folder, loader params, reference name)
+# scene -> (bundled scene name (scenes/<name>/scene.xml), loader params, reference name)
 LIGHT_SCENES = {
-    "cbox": ("scenes/cbox/scene.xml", {"res": 128}, "cbox-gi"),
-    "veach-ajar": ("scenes/veach-ajar/scene.xml", {"resx": 64, "resy": 36}, "veach-ajar-gi"),
+    "cbox": ("cbox", {"res": 128}, "cbox-gi"),
+    "veach-ajar": ("veach-ajar", {"resx": 64, "resy": 36}, "veach-ajar-gi"),
 }
-
-
-def shared_dir() -> Path:
-    import os
-
-    env = os.environ.get("MANYLIGHTS_SHARED")
-    for cand in ([Path(env)] if env else []) + [REPO.parent / "shared", Path("/work/shared")]:
-        if (cand / "scenes").is_dir():
-            return cand
-    raise SystemExit("the shared scenes were not found: set MANYLIGHTS_SHARED to the folder holding scenes/")
 
 
 def render(scene, lights, engine: str, visibility: str) -> np.ndarray:
@@ -62,8 +52,8 @@ def render(scene, lights, engine: str, visibility: str) -> np.ndarray:
 
 def lights_runs(args) -> list[dict]:
     import manylights as ml
+    from manylights.scenes import scene_path
 
-    shared = shared_dir()
     names = list(LIGHT_SCENES) if args.scene == "all" else [args.scene]
     n_area = args.area if args.area is not None else max(1, int(round(args.lights * args.area_fraction)))
     n_indirect = args.lights - n_area
@@ -73,7 +63,7 @@ def lights_runs(args) -> list[dict]:
         xml, params, ref_name = LIGHT_SCENES[name]
         meta = json.loads((REFS / f"{ref_name}.json").read_text())
         ref = ml.read_exr(REFS / f"{ref_name}.exr")
-        scene = ml.load_scene(shared / xml, size=tuple(meta["size"]), **params)
+        scene = ml.load_scene(scene_path(xml), size=tuple(meta["size"]), **params)
         configs = [(n_i, None) for n_i in sweep] + [(n_indirect, float("inf"))]
         if not args.no_clamp_sweep:
             configs += [(n_i, float("inf")) for n_i in sweep if n_i != n_indirect]

@@ -24,7 +24,7 @@ GPU_STAGES = ("row_shadow_maps", "row_evaluation", "columns", "emitted")
 
 def add_parser(sub) -> None:
     p = sub.add_parser("mrcs", help="MRCS vs baselines: relative L2 against time (JSON + PNG chart)")
-    p.add_argument("--scene", required=True, help="scene XML (or a shared scene name: cbox, veach-ajar, ...)")
+    p.add_argument("--scene", required=True, help="scene XML, or a bundled scene's name (a folder of scenes/: cbox, veach-ajar, ...)")
     p.add_argument("--lights", type=int, default=100_000, help="total generated lights (area + indirect)")
     p.add_argument("--res", type=int, default=128, help="image width (height follows the film's aspect)")
     p.add_argument("--columns", type=int, nargs="+", default=[100, 300, 900],
@@ -38,14 +38,10 @@ def add_parser(sub) -> None:
 
 
 def _resolve_scene(name: str) -> Path:
-    p = Path(name)
-    if p.exists():
-        return p
-    for base in (Path(__file__).resolve().parents[2].parent / "shared" / "scenes", Path("/work/shared/scenes")):
-        cand = base / name / "scene.xml"
-        if cand.exists():
-            return cand
-    raise FileNotFoundError(f"scene not found: {name}")
+    """An XML path as given, else the bundled scene of that name (``scenes/<name>/scene.xml``)."""
+    from .scenes import resolve
+
+    return resolve(name)
 
 
 def _load(path: Path, res: int):
