@@ -19,6 +19,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from . import _native
+from . import _validate as _v
 from ._native import (
     GpuError,
     GpuUnavailableError,
@@ -84,9 +85,9 @@ def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = Non
             v = "true" if v else "false"
         conv.append((k, str(v)))
     if size is not None:
-        if len(size) != 2 or any(int(s) != s or s <= 0 for s in size):
+        if np.ndim(size) != 1 or len(size) != 2:
             raise ValueError(f"size must be (width, height) positive integers, got {size!r}")
-        size = (int(size[0]), int(size[1]))
+        size = (_v.integer("size[0] (width)", size[0], 1, 2**32 - 1), _v.integer("size[1] (height)", size[1], 1, 2**32 - 1))
     return _native.load_scene(str(p), conv, size)
 
 
@@ -138,10 +139,9 @@ def generate_lights(
     """
     counts = {"area": area, "environment": environment, "indirect": indirect, "max_depth": max_depth}
     for name, v in counts.items():
-        if isinstance(v, bool) or int(v) != v:
-            raise ValueError(f"{name} must be an integer, got {v!r}")
-        if name != "max_depth" and v < 0:
-            raise ValueError(f"{name} must be a count >= 0, got {v}")
+        counts[name] = _v.integer(name, v, None if name == "max_depth" else 0, 2**63 - 1)
+    area, environment, indirect, max_depth = counts["area"], counts["environment"], counts["indirect"], counts["max_depth"]
+    seed = _v.seed(seed)
     if clamp is not None:
         clamp = float(clamp)
         if not clamp > 0.0:
@@ -180,7 +180,7 @@ class LightMatrix:
         if shadow_map_size is None:
             shadow_map_size = 1024 if visibility == "shadow_map" else 512
         #: Texels per side of each shadow map (the default resolved).
-        self.shadow_map_size = int(shadow_map_size)
+        self.shadow_map_size = _v.integer("shadow_map_size", shadow_map_size, 16, 8192)
         self._m = _native.LightMatrix(scene, lights, self.shadow_map_size, visibility=str(visibility))
 
     def visibility_stats(self) -> dict[str, int]:
@@ -195,7 +195,7 @@ class LightMatrix:
 
     def columns(self, indices: Sequence[int]) -> np.ndarray:
         """Columns ``indices`` as images, (k, H, W, 3) float32."""
-        idx = np.asarray(indices, dtype=np.int64).reshape(-1)
+        idx = _v.indices("indices", indices, self.shape[1], "lights (columns)")
         return self._m.columns([int(i) for i in idx])
 
     def column_sum(self, weights: Optional[Sequence[float]] = None, *, progress: bool = True) -> np.ndarray:
@@ -208,17 +208,19 @@ class LightMatrix:
         """
         w = None
         if weights is not None:
-            w = np.ascontiguousarray(weights, dtype=np.float32).reshape(-1)
-            if w.shape[0] != self.shape[1]:
-                raise ValueError(f"weights must have length n = {self.shape[1]}, got {w.shape[0]}")
+            w = _v.numeric_array("weights", weights)
+            if w.ndim != 1 or w.shape[0] != self.shape[1]:
+                raise ValueError(f"weights must have shape (n,) = ({self.shape[1]},) (length n), got {w.shape}")
         with _progress_bar(self.shape[1], "columns", progress) as callback:
             return self._m.column_sum(w, callback)
 
     def weighted_sum(self, indices: Sequence[int], weights, *, progress: bool = False) -> np.ndarray:
         """``sum_k weights[k] * column[indices[k]]`` with (k, 3) RGB weights, rendering only those columns
         (repeated indices add up): how clustered renderers reconstruct an image. (H, W, 3) float32."""
-        idx = [int(i) for i in np.asarray(indices, dtype=np.int64).reshape(-1)]
-        w = np.ascontiguousarray(weights, dtype=np.float32)
+        idx = [int(i) for i in _v.indices("indices", indices, self.shape[1], "lights (columns)")]
+        w = _v.numeric_array("weights", weights)
+        if w.ndim not in (1, 2):
+            raise ValueError(f"weights must have shape (k,) or (k, 3), got {w.shape}")
         if w.ndim == 1:
             w = np.repeat(w[:, None], 3, axis=1)
         with _progress_bar(len(idx), "columns", progress) as callback:
@@ -245,20 +247,14 @@ class LightMatrix:
                 ``shadow_map_size``.
         """
         m, n = self.shape
-        idx = np.asarray(indices)
-        if idx.dtype == bool or (idx.size > 0 and not np.issubdtype(idx.dtype, np.integer)):
-            raise ValueError(f"row indices must be integers, got dtype {idx.dtype}")
-        idx = idx.astype(np.int64).reshape(-1)
+        if isinstance(indices, np.ndarray) and indices.dtype == bool:
+            raise ValueError("row indices must be integers, got a bool array (use np.flatnonzero(mask))")
+        idx = _v.indices("row indices", indices, m, "view samples (rows)")
         if idx.size == 0:
             raise ValueError("rows needs at least one row index, got 0")
         if idx.size > m:
             raise ValueError(f"{idx.size} rows requested but the matrix has only m = {m} view samples")
-        bad = np.flatnonzero((idx < 0) | (idx >= m))
-        if bad.size:
-            k = int(bad[0])
-            raise ValueError(f"row index {int(idx[k])} (at position {k}) is out of range for m = {m} view samples")
-        if not 16 <= int(shadow_map_size) <= 8192:
-            raise ValueError(f"shadow_map_size must be in 16..=8192, got {shadow_map_size}")
+        shadow_map_size = _v.integer("shadow_map_size", shadow_map_size, 16, 8192)
         with _progress_bar(int(idx.size), "rows", progress, unit="row") as callback:
             R, timings = self._m.rows([int(i) for i in idx], callback, int(shadow_map_size))
         if return_timings:
@@ -352,17 +348,24 @@ def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_
     Returns:
         dict with assignment (n,), representatives (c,), weights (c, 3), cost, cluster_costs (c,).
     """
-    R = np.ascontiguousarray(R, dtype=np.float32)
+    R = _v.numeric_array("R", R)
     if power is not None:
-        power = np.ascontiguousarray(power, dtype=np.float32).reshape(-1)
-    return _native.cluster_reduced_columns(R, int(c), int(seed), power, int(projection_dim),
-                                           float(sampling_fraction), bool(color_averaging))
+        power = _v.numeric_array("power", power).reshape(-1)
+    return _native.cluster_reduced_columns(R, _v.integer("c", c, 1, 2**63 - 1), _v.seed(seed), power,
+                                           _v.integer("projection_dim", projection_dim, 1, 2**63 - 1),
+                                           _v.real("sampling_fraction", sampling_fraction, 0.0, 1.0),
+                                           bool(color_averaging))
 
 
 def clustering_cost(R, assignment) -> float:
     """Sum of the paper's cluster costs of a partition (assignment (n,)) on the scalar reduced matrix."""
-    R = np.ascontiguousarray(R, dtype=np.float32)
-    return _native.clustering_cost(R, np.ascontiguousarray(assignment, dtype=np.int32))
+    R = _v.numeric_array("R", R)
+    labels = np.asarray(assignment)
+    if labels.dtype.kind not in "iu":
+        raise ValueError(f"assignment labels must be integers, got dtype {labels.dtype}")
+    if labels.size and (labels.min() < 0 or labels.max() > np.iinfo(np.int32).max):
+        raise ValueError(f"assignment labels must be in [0, 2^31), got {labels.min()} .. {labels.max()}")
+    return _native.clustering_cost(R, np.ascontiguousarray(labels, dtype=np.int32))
 def stratified_rows(scene: Scene, r: int, seed: int = 0) -> np.ndarray:
     """Stratified row selection (Hašan et al. 2007, Sec. 4): the image is cut into ``r`` blocks of nearly
     equal area (bands of about sqrt(r * H / W) rows of blocks, heights proportional to their block counts)
@@ -376,14 +379,13 @@ def stratified_rows(scene: Scene, r: int, seed: int = 0) -> np.ndarray:
     Raises:
         ValueError: r not an integer, r < 1 or r > W * H.
     """
-    if isinstance(r, bool) or int(r) != r:
-        raise ValueError(f"r must be an integer, got {r!r}")
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a manylights Scene, got {type(scene).__name__}")
+    r = _v.integer("r", r)
     m = scene.width * scene.height
-    if not 1 <= int(r) <= m:
+    if not 1 <= r <= m:
         raise ValueError(f"r must be in [1, {m}] (view samples of a {scene.width}x{scene.height} image), got {r}")
-    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
-        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-    return _native.stratified_rows(scene.width, scene.height, int(r), int(seed))
+    return _native.stratified_rows(scene.width, scene.height, r, _v.seed(seed))
 
 
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
@@ -393,13 +395,15 @@ def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
 
 def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0) -> None:
     """Write an (H, W, 3) linear image as 8-bit sRGB PNG, scaled by 2**exposure and clamped."""
-    _native.write_png(str(path), _as_image(image), float(exposure))
+    _native.write_png(str(path), _as_image(image), _v.real("exposure", exposure))
 
 
 def _as_image(image) -> np.ndarray:
-    a = np.ascontiguousarray(image, dtype=np.float32)
+    a = _v.numeric_array("image", image)
     if a.ndim != 3 or a.shape[2] != 3:
         raise ValueError(f"image must have shape (H, W, 3), got {a.shape}")
+    if a.size == 0:
+        raise ValueError(f"image is empty: shape {a.shape}")
     return a
 
 

@@ -25,6 +25,7 @@ from typing import Optional
 import numpy as np
 
 from . import _native
+from . import _validate as _v
 
 # Rec. 709 luminance, for turning RGB powers into sampling weights.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722], dtype=np.float64)
@@ -89,14 +90,18 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
     """
     from . import cluster_reduced_columns, stratified_rows
 
-    m, n = A.shape
+    m, n = _matrix_shape(A)
     if n == 0:
         raise ValueError("the light matrix has no lights (n = 0): nothing to sample")
+    seed = _v.seed(seed)
     timings = {}
     t = time.perf_counter()
-    if row_indices is None:
+    if clustering is not None:
+        row_indices = None  # a given clustering needs no rows
+    elif row_indices is None:
         row_indices = stratified_rows(A.scene, rows, seed=seed)
-    row_indices = np.asarray(row_indices, dtype=np.int64).reshape(-1)
+    else:
+        row_indices = _v.indices("row_indices", row_indices, m, "view samples (rows)")
     timings["row_selection"] = time.perf_counter() - t
     R = None
     if clustering is None:
@@ -111,16 +116,38 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
 
     t = time.perf_counter()
     if clustering is None:
-        clustering = cluster_reduced_columns(R, columns, seed=seed, power=_light_luminance_power(A.lights),
-                                             **cluster_options)
-    reps = np.asarray(clustering["representatives"], dtype=np.int64)
-    weights = np.asarray(clustering["weights"], dtype=np.float32).reshape(len(reps), 3)
+        clustering = cluster_reduced_columns(R, _v.integer("columns", columns, 1, n), seed=seed,
+                                             power=_light_luminance_power(A.lights), **cluster_options)
+    reps, weights = _clustering(clustering, n)
     timings["clustering"] = time.perf_counter() - t
 
     image = _reconstruct(A, reps, weights, timings, add_emitted, progress)
     return RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
                         clusters=clustering.get("assignment"), representatives=reps, weights=weights,
-                        budget={"rows": int(len(row_indices)), "columns": int(len(reps)), "lights": int(n)})
+                        budget={"rows": 0 if row_indices is None else int(len(row_indices)),
+                                "columns": int(len(reps)), "lights": int(n)})
+
+
+def _matrix_shape(A) -> tuple[int, int]:
+    from . import LightMatrix
+
+    if not isinstance(A, LightMatrix):
+        raise TypeError(f"A must be a manylights LightMatrix, got {type(A).__name__}")
+    return A.shape
+
+
+def _clustering(clustering, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(representatives (c,) int64, weights (c, 3) float32) of a clustering dict, checked."""
+    if not hasattr(clustering, "__getitem__") or any(k not in clustering for k in ("representatives", "weights")):
+        raise ValueError("clustering must be a dict with 'representatives' (c,) and 'weights' (c, 3) or (c,)")
+    reps = _v.indices("clustering['representatives']", clustering["representatives"], n, "lights (columns)")
+    weights = _v.numeric_array("clustering['weights']", clustering["weights"])
+    if weights.ndim == 1:
+        weights = np.repeat(weights[:, None], 3, axis=1)
+    if weights.shape != (len(reps), 3):
+        raise ValueError(f"clustering['weights'] must have shape ({len(reps)}, 3) or ({len(reps)},) for "
+                         f"{len(reps)} representatives, got {np.shape(clustering['weights'])}")
+    return reps, _v.finite("clustering['weights']", weights)
 
 
 def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = True,
@@ -128,9 +155,11 @@ def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = 
     """Baseline: draw ``columns`` lights with probability proportional to their power (with replacement)
     and weight each by 1 / (columns * p_j): an unbiased estimate of the column sum that ignores visibility
     and geometry (no rows). Lights of zero power are never drawn (they emit nothing)."""
-    m, n = A.shape
-    if n == 0 or columns <= 0:
-        raise ValueError(f"power_sampling needs lights and columns >= 1 (n = {n}, columns = {columns})")
+    m, n = _matrix_shape(A)
+    columns = _v.integer("columns", columns, 1, 2**31 - 1)
+    seed = _v.seed(seed)
+    if n == 0:
+        raise ValueError(f"power_sampling needs lights (n = {n})")
     t = time.perf_counter()
     p = _light_luminance_power(A.lights)
     if not np.isfinite(p).all() or p.sum() <= 0:
@@ -153,8 +182,16 @@ def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction
     all of them (Keller's instant radiosity with the same light generation as the large matrix)."""
     from . import LightMatrix, generate_lights
 
-    if lights <= 0:
-        raise ValueError(f"instant_radiosity needs lights >= 1, got {lights}")
+    from . import Scene
+
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a manylights Scene, got {type(scene).__name__}")
+    lights = _v.integer("lights", lights, 1, 2**63 - 1)
+    area_fraction = _v.real("area_fraction", area_fraction, 0.0, 1.0)
+    environment_fraction = _v.real("environment_fraction", environment_fraction, 0.0, 1.0)
+    if area_fraction + environment_fraction > 1.0:
+        raise ValueError(f"area_fraction + environment_fraction must be <= 1, got {area_fraction} + "
+                         f"{environment_fraction}")
     t = time.perf_counter()
     has_env = any(e["type"] in ("envmap", "constant") for e in scene.emitters)
     has_area = any(e["type"] == "area" for e in scene.emitters)

@@ -293,6 +293,13 @@ pub fn stratified_rows(width: u32, height: u32, r: usize, seed: u64) -> Result<V
             "the number of rows must be in [1, {m}] (view samples of a {width}x{height} image), got {r}"
         )));
     }
+    // r comes from the caller: refuse a count whose index vectors cannot be allocated (an allocation
+    // failure would abort the process).
+    let mut probe: Vec<(usize, usize, usize, usize)> = Vec::new();
+    if probe.try_reserve_exact(r).is_err() {
+        return Err(Error::invalid(format!("{r} rows: their block list ({} bytes) cannot be allocated", r.saturating_mul(32))));
+    }
+    drop(probe);
     let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
     Ok(stratified_blocks(width, height, r)
         .into_iter()

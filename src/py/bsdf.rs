@@ -25,15 +25,26 @@ fn rgb(spec: &Bound<'_, PyDict>, key: &str, default: f32) -> PyResult<Vec3> {
         None => Ok(Vec3::splat(default)),
         Some(v) => {
             if let Ok(x) = v.extract::<f32>() {
-                return Ok(Vec3::splat(x));
+                return Ok(Vec3::splat(finite(key, x)?));
             }
             let c: Vec<f32> = v.extract().map_err(|e| Error::invalid(format!("spec[{key:?}]: {e}")))?;
             if c.len() != 3 {
                 return Err(Error::invalid(format!("spec[{key:?}] must have 3 components, got {}", c.len())).into());
             }
+            for x in &c {
+                finite(key, *x)?;
+            }
             Ok(Vec3::new(c[0], c[1], c[2]))
         }
     }
+}
+
+/// A spec value, refused when NaN or infinite (it would evaluate to a silently wrong value).
+fn finite(key: &str, v: f32) -> PyResult<f32> {
+    if !v.is_finite() {
+        return Err(Error::invalid(format!("spec[{key:?}] must be finite, got {v}")).into());
+    }
+    Ok(v)
 }
 
 fn distribution(spec: &Bound<'_, PyDict>) -> PyResult<MicrofacetDistribution> {
@@ -47,7 +58,7 @@ fn distribution(spec: &Bound<'_, PyDict>) -> PyResult<MicrofacetDistribution> {
 /// Build the scene BSDF list for `spec` (Mitsuba's defaults; `twosided: True` wraps it) and its index.
 fn bsdf_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<(Vec<Bsdf>, usize)> {
     let ty: String = get(spec, "type")?.ok_or_else(|| Error::invalid("spec needs a \"type\""))?;
-    let f = |key: &str, default: f32| -> PyResult<f32> { Ok(get::<f32>(spec, key)?.unwrap_or(default)) };
+    let f = |key: &str, default: f32| -> PyResult<f32> { finite(key, get::<f32>(spec, key)?.unwrap_or(default)) };
     let nonlinear = get::<bool>(spec, "nonlinear")?.unwrap_or(false);
     let value = |v: Vec3| Param::Value(v);
     let conductor_ior = || -> PyResult<(Vec3, Vec3)> {
@@ -105,7 +116,11 @@ fn directions(a: &PyReadonlyArray2<'_, f32>, name: &str) -> Result<Vec<Vec3>> {
     if a.ncols() != 3 {
         return Err(Error::invalid(format!("{name} must have shape (N, 3), got {:?}", a.shape())));
     }
-    Ok(a.rows().into_iter().map(|r| Vec3::new(r[0], r[1], r[2])).collect())
+    let v: Vec<Vec3> = a.rows().into_iter().map(|r| Vec3::new(r[0], r[1], r[2])).collect();
+    if let Some(k) = v.iter().position(|d| !d.is_finite()) {
+        return Err(Error::invalid(format!("{name}[{k}] = {} is not finite (NaN or inf)", v[k])));
+    }
+    Ok(v)
 }
 
 /// Evaluate a BSDF as Mitsuba's `bsdf.eval(ctx, si, wo)` does, in the local frame (z = normal).

@@ -10,6 +10,9 @@ fn hw3(img: &PyReadonlyArrayDyn<'_, f32>) -> PyResult<(u32, u32, Vec<[f32; 3]>)>
     if shape.len() != 3 || shape[2] != 3 {
         return Err(Error::invalid(format!("image must have shape (H, W, 3), got {shape:?}")).into());
     }
+    if shape[0] == 0 || shape[1] == 0 {
+        return Err(Error::invalid(format!("image is empty: shape {shape:?}")).into());
+    }
     let a = img.as_array();
     let data: Vec<[f32; 3]> = a
         .as_standard_layout()
@@ -41,6 +44,9 @@ pub fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAr
 #[pyfunction]
 #[pyo3(signature = (path, image, exposure=0.0))]
 pub fn write_png(py: Python<'_>, path: PathBuf, image: PyReadonlyArrayDyn<'_, f32>, exposure: f32) -> PyResult<()> {
+    if !exposure.is_finite() {
+        return Err(Error::invalid(format!("exposure must be finite, got {exposure}")).into());
+    }
     let (w, h, data) = hw3(&image)?;
     py.detach(move || crate::image::write_png(&path, w, h, &data, exposure))?;
     Ok(())

@@ -257,8 +257,8 @@ impl Scene {
         Ok(d)
     }
     /// Mesh `index` as numpy arrays: positions, normals (V, 3), uvs (V, 2), indices (T, 3) uint32 (world space).
-    fn mesh<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyDict>> {
-        let m = self.inner.meshes.get(index).ok_or_else(|| {
+    fn mesh<'py>(&self, py: Python<'py>, index: i64) -> PyResult<Bound<'py, PyDict>> {
+        let m = usize::try_from(index).ok().and_then(|i| self.inner.meshes.get(i)).ok_or_else(|| {
             crate::error::Error::invalid(format!("mesh index {index} out of range (scene has {})", self.inner.meshes.len()))
         })?;
         let d = PyDict::new(py);

@@ -33,8 +33,17 @@ pub fn load_obj(path: &Path, loc: &Location) -> Result<MeshData> {
         return Err(Error::FileNotFound { loc: loc.clone(), path: path.to_path_buf() });
     }
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    // An OBJ is text: a NUL byte means a binary file (an image or mesh of another format renamed .obj),
+    // which would otherwise load as an empty mesh.
+    if let Some(at) = bytes.iter().position(|&b| b == 0) {
+        return Err(Error::scene(loc, format!("\"{}\" is not an OBJ text file (binary data at byte {at})", path.display())));
+    }
     let text = String::from_utf8_lossy(&bytes);
-    parse_obj(&text, path)
+    let data = parse_obj(&text, path)?;
+    if data.positions.is_empty() && !text.lines().any(|l| l.trim_start().strip_prefix('v').is_some_and(|r| r.starts_with([' ', '\t']))) {
+        return Err(Error::scene(loc, format!("\"{}\" holds no vertices (an empty or non-OBJ file)", path.display())));
+    }
+    Ok(data)
 }
 
 /// One face corner: 1-based (v, vt, vn), 0 = absent (Mitsuba's hash key).

@@ -1,0 +1,691 @@
+"""The bad-input corpus (issue 8, item 15): malformed arguments for every public function of manylights
+and truncated / foreign files for every file reader. Each case must raise a Python ``Exception`` of the
+listed kinds whose message names the problem; a pyo3 ``PanicException`` (a ``BaseException``), an
+abort, a hang or a return counts as a failure.
+
+Run by ``tests/test_bad_input.py`` in a child process (``python tests/bad_input_corpus.py OUT_DIR``)
+that reports one JSON line per case as it goes, so that an abort or a hang is pinned to its case and
+the remaining cases run in a fresh child.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import struct
+import sys
+import traceback
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@dataclass
+class Case:
+    id: str
+    target: str                      # the public function it covers, e.g. "load_scene", "LightMatrix.rows"
+    fn: Callable                     # fn(ctx) -> anything; must raise
+    raises: tuple = ("ValueError",)  # accepted exception class names (subclasses count)
+    match: tuple = ()                # each must appear (case-insensitively) in the message
+    subprocess: bool = False         # run alone in its own child (environment-changing cases)
+
+
+CASES: list[Case] = []
+
+
+def case(id, target, raises=("ValueError",), match=(), subprocess=False):
+    def deco(fn):
+        CASES.append(Case(id, target, fn, tuple(raises), tuple(match), subprocess))
+        return fn
+    return deco
+
+
+def cases_for(target, items, raises=("ValueError",), subprocess=False):
+    """Register one case per (id suffix, callable, match) item for ``target``."""
+    for suffix, fn, match in items:
+        CASES.append(Case(f"{target}:{suffix}", target, fn, tuple(raises), tuple(match), subprocess))
+
+
+# --------------------------------------------------------------------------------------------------
+# Context: a tiny scene, its lights and light matrix, and a folder of good and bad files.
+
+class Ctx:
+    def __init__(self, tmp: Path):
+        self.tmp = tmp
+        self._cache = {}
+
+    def _get(self, name, make):
+        if name not in self._cache:
+            self._cache[name] = make()
+        return self._cache[name]
+
+    @property
+    def ml(self):
+        import manylights
+        return manylights
+
+    @property
+    def native(self):
+        from manylights import _native
+        return _native
+
+    @property
+    def scene(self):
+        return self._get("scene", lambda: self.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=8))
+
+    @property
+    def lights(self):
+        return self._get("lights", lambda: self.ml.generate_lights(self.scene, area=4, seed=0))
+
+    @property
+    def A(self):
+        return self._get("A", lambda: self.ml.LightMatrix(self.scene, self.lights, shadow_map_size=16))
+
+    @property
+    def n(self):
+        return self.A.shape[1]
+
+    @property
+    def m(self):
+        return self.A.shape[0]
+
+    def file(self, name: str, data: bytes) -> Path:
+        p = self.tmp / name
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_bytes(data)
+        return p
+
+    # good files to truncate or rename
+    @property
+    def png_bytes(self) -> bytes:
+        def make():
+            p = self.tmp / "good.png"
+            self.ml.write_png(p, np.full((4, 4, 3), 0.5, np.float32))
+            return p.read_bytes()
+        return self._get("png", make)
+
+    @property
+    def exr_bytes(self) -> bytes:
+        def make():
+            p = self.tmp / "good.exr"
+            self.ml.write_exr(p, np.full((4, 8, 3), 0.5, np.float32))
+            return p.read_bytes()
+        return self._get("exr", make)
+
+    @property
+    def jpg_bytes(self) -> bytes:
+        return (REPO / "scenes" / "veach-ajar" / "textures" / "landscape-with-a-lake.jpg").read_bytes()
+
+    def scene_with(self, name: str, body: str, files: dict[str, bytes] | None = None) -> Path:
+        """A tiny scene XML (8x8 film, a point light) with ``body`` inside <scene>, beside ``files``."""
+        d = self.tmp / name
+        d.mkdir(parents=True, exist_ok=True)
+        for fname, data in (files or {}).items():
+            (d / fname).write_bytes(data)
+        xml = f"""<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="45"/>
+        <transform name="to_world"> <lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/> </transform>
+        <film type="hdrfilm"> <integer name="width" value="8"/> <integer name="height" value="8"/> </film>
+    </sensor>
+    <emitter type="point"> <point name="position" x="0" y="0" z="3"/> <rgb name="intensity" value="1"/> </emitter>
+    {body}
+</scene>
+"""
+        p = d / "scene.xml"
+        p.write_text(xml)
+        return p
+
+
+JUNK = bytes(range(256)) * 8 + b"\x00\xff" * 100
+OBJ = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
+
+
+def ply_binary(nv_header: int, nf_header: int, nv_data: int, nf_data: int, face_index: int = 2) -> bytes:
+    head = (f"ply\nformat binary_little_endian 1.0\nelement vertex {nv_header}\nproperty float x\nproperty float y\n"
+            f"property float z\nelement face {nf_header}\nproperty list uchar int vertex_indices\nend_header\n").encode()
+    verts = b"".join(struct.pack("<3f", float(i), float(i % 2), 0.0) for i in range(nv_data))
+    faces = b"".join(struct.pack("<B3i", 3, 0, 1, face_index) for _ in range(nf_data))
+    return head + verts + faces
+
+
+def png_header_only(width: int, height: int) -> bytes:
+    """A PNG signature + IHDR claiming width x height, and no image data."""
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    chunk = struct.pack(">I", len(ihdr)) + b"IHDR" + ihdr + struct.pack(">I", zlib.crc32(b"IHDR" + ihdr))
+    return b"\x89PNG\r\n\x1a\n" + chunk
+
+
+# --------------------------------------------------------------------------------------------------
+# Scene files: the XML itself.
+
+FILE_ERRORS = ("SceneError", "OSError", "ValueError")
+
+
+cases_for("load_scene", [
+    ("missing file", lambda c: c.ml.load_scene(c.tmp / "nope.xml"), ["nope.xml"]),
+    ("a directory", lambda c: c.ml.load_scene(c.tmp), ["tmp"]),
+    ("empty file", lambda c: c.ml.load_scene(c.file("empty/scene.xml", b"")), ["scene.xml"]),
+    ("binary junk", lambda c: c.ml.load_scene(c.file("junk/scene.xml", JUNK)), ["scene.xml"]),
+    ("PNG renamed .xml", lambda c: c.ml.load_scene(c.file("png/scene.xml", c.png_bytes)), ["scene.xml"]),
+    ("XML cut in half", lambda c: c.ml.load_scene(c.file(
+        "half/scene.xml", c.scene_with("full", "").read_bytes()[:300])), ["scene.xml"]),
+    ("not a scene root", lambda c: c.ml.load_scene(c.file("root/scene.xml", b"<shape type='obj'/>")),
+     ["scene.xml", "scene"]),
+    ("UTF-16 text", lambda c: c.ml.load_scene(c.file("u16/scene.xml", c.scene_with("u8", "").read_text()
+                                                          .encode("utf-16"))), ["scene.xml"]),
+    ("bad parameter value", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res="abc"),
+     ["abc", "scene.xml:15"]),
+    ("negative resolution", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=-8), ["-8"]),
+    ("NaN parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=float("nan")),
+     ["nan"]),
+    ("unused parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", nope=1), ["nope"]),
+    ("size of zero", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", size=(0, 8)), ["size"]),
+    ("size of three", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", size=(8, 8, 8)),
+     ["size"]),
+    ("fractional size", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", size=(8.5, 8)),
+     ["size"]),
+    ("NaN size", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", size=(float("nan"), 8)),
+     ["size"]),
+    # Mitsuba loads any film size; the G-buffer (one GPU texture) refuses sides over the device limit.
+    ("huge film", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", size=(10**6, 10**6)).gbuffer(),
+     ["1000000x1000000", "16384"]),
+    ("huge film parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=10**7).gbuffer(),
+     ["10000000", "16384"]),
+    ("film width over u32", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=2**40),
+     ["1099511627776"]),
+    ("include of a junk file", lambda c: c.ml.load_scene(c.scene_with(
+        "inc", '<include filename="part.xml"/>', {"part.xml": JUNK})), ["part.xml"]),
+    ("include of itself", lambda c: c.ml.load_scene(c.file(
+        "self/scene.xml", b'<scene version="3.0.0"><include filename="scene.xml"/></scene>')), ["scene.xml"]),
+    ("NaN in a transform", lambda c: c.ml.load_scene(c.scene_with(
+        "nant", '<shape type="sphere"><transform name="to_world"><translate x="nan"/></transform></shape>')),
+     ["nan"]),
+    ("NaN sphere radius", lambda c: c.ml.load_scene(c.scene_with(
+        "nanr", '<shape type="sphere"><float name="radius" value="nan"/></shape>')), ["nan", "scene.xml:8"]),
+], raises=FILE_ERRORS + ("FileNotFoundError",))
+
+# --------------------------------------------------------------------------------------------------
+# Mesh files (OBJ, PLY) through load_scene.
+
+
+def _mesh_scene(ctx, tag, kind, data):
+    p = ctx.scene_with(tag, f'<shape type="{kind}"><string name="filename" value="mesh.{kind}"/></shape>',
+                       {f"mesh.{kind}": data})
+    return ctx.ml.load_scene(p)
+
+
+cases_for("load_scene[obj]", [
+    ("PNG renamed .obj", lambda c: _mesh_scene(c, "obj-png", "obj", c.png_bytes), ["mesh.obj"]),
+    ("binary junk", lambda c: _mesh_scene(c, "obj-junk", "obj", JUNK), ["mesh.obj"]),
+    ("empty file", lambda c: _mesh_scene(c, "obj-empty", "obj", b""), ["mesh.obj"]),
+    ("face index out of range", lambda c: _mesh_scene(c, "obj-oob", "obj", OBJ + b"f 1 2 99\n"), ["mesh.obj", "99"]),
+    ("face index zero", lambda c: _mesh_scene(c, "obj-zero", "obj", OBJ + b"f 0 1 2\n"), ["mesh.obj"]),
+    ("huge face index", lambda c: _mesh_scene(c, "obj-huge", "obj", OBJ + b"f 1 2 99999999999999999999\n"),
+     ["mesh.obj"]),
+    ("vertex with two coordinates", lambda c: _mesh_scene(c, "obj-v2", "obj", b"v 0 0\n" + OBJ), ["mesh.obj"]),
+    ("NaN vertex", lambda c: _mesh_scene(c, "obj-nan", "obj", OBJ.replace(b"v 1 0 0", b"v nan 0 0")),
+     ["mesh.obj", "nan"]),
+    ("inf vertex", lambda c: _mesh_scene(c, "obj-inf", "obj", OBJ.replace(b"v 1 0 0", b"v inf 0 0")),
+     ["mesh.obj", "inf"]),
+], raises=FILE_ERRORS)
+
+cases_for("load_scene[ply]", [
+    ("PNG renamed .ply", lambda c: _mesh_scene(c, "ply-png", "ply", c.png_bytes), ["mesh.ply"]),
+    ("binary junk", lambda c: _mesh_scene(c, "ply-junk", "ply", JUNK), ["mesh.ply"]),
+    ("empty file", lambda c: _mesh_scene(c, "ply-empty", "ply", b""), ["mesh.ply"]),
+    ("header only", lambda c: _mesh_scene(c, "ply-head", "ply", ply_binary(3, 1, 0, 0)), ["mesh.ply"]),
+    ("truncated vertices", lambda c: _mesh_scene(c, "ply-trv", "ply", ply_binary(3, 1, 3, 1)[:-20]), ["mesh.ply"]),
+    ("truncated faces", lambda c: _mesh_scene(c, "ply-trf", "ply", ply_binary(3, 2, 3, 1)), ["mesh.ply"]),
+    ("face index out of range", lambda c: _mesh_scene(c, "ply-oob", "ply", ply_binary(3, 1, 3, 1, face_index=7)),
+     ["vertex 7", "scene.xml:8"]),
+    ("negative face index", lambda c: _mesh_scene(c, "ply-neg", "ply", ply_binary(3, 1, 3, 1, face_index=-1)),
+     ["mesh.ply"]),
+    ("huge vertex count", lambda c: _mesh_scene(c, "ply-huge", "ply", ply_binary(10**12, 1, 3, 1)), ["mesh.ply"]),
+    ("header cut", lambda c: _mesh_scene(c, "ply-hcut", "ply", ply_binary(3, 1, 3, 1)[:40]), ["mesh.ply"]),
+], raises=FILE_ERRORS)
+
+# --------------------------------------------------------------------------------------------------
+# Textures (bitmap) and environment maps through load_scene.
+
+
+def _tex_scene(ctx, tag, fname, data):
+    body = (f'<shape type="rectangle"><bsdf type="diffuse"><texture name="reflectance" type="bitmap">'
+            f'<string name="filename" value="{fname}"/></texture></bsdf></shape>')
+    return ctx.ml.load_scene(ctx.scene_with(tag, body, {fname: data}))
+
+
+def _env_scene(ctx, tag, fname, data):
+    body = f'<shape type="rectangle"/><emitter type="envmap"><string name="filename" value="{fname}"/></emitter>'
+    return ctx.ml.load_scene(ctx.scene_with(tag, body, {fname: data}))
+
+
+for _kind, _load_fn in [("bitmap", _tex_scene), ("envmap", _env_scene)]:
+    cases_for(f"load_scene[{_kind}]", [
+        ("truncated PNG", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-png", "t.png", c.png_bytes[:40]), ["t.png"]),
+        ("JPEG cut in its header", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-jpg", "t.jpg", c.jpg_bytes[:100]),
+         ["t.jpg"]),
+        ("truncated EXR", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-exr", "t.exr", c.exr_bytes[:200]), ["t.exr"]),
+        ("empty PNG", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-e", "e.png", b""), ["e.png"]),
+        ("empty EXR", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-ee", "e.exr", b""), ["e.exr"]),
+        ("junk as .exr", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-j", "j.exr", JUNK), ["j.exr"]),
+        ("text as .png", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-txt", "x.png", b"hello\n" * 20), ["x.png"]),
+        ("PNG renamed .exr", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-pe", "p.exr", c.png_bytes), ["p.exr"]),
+        ("PNG header claiming 10^5 x 10^5", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-big", "big.png", png_header_only(100000, 100000)), ["big.png"]),
+        ("junk, unknown extension", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-ext", "t.xyz", JUNK), ["t.xyz"]),
+    ], raises=FILE_ERRORS)
+
+# --------------------------------------------------------------------------------------------------
+# Image files and arrays: read_exr, write_exr, write_png.
+
+cases_for("read_exr", [
+    ("missing file", lambda c: c.ml.read_exr(c.tmp / "nope.exr"), ["nope.exr"]),
+    ("a directory", lambda c: c.ml.read_exr(c.tmp), ["tmp"]),
+    ("empty file", lambda c: c.ml.read_exr(c.file("empty.exr", b"")), ["empty.exr"]),
+    ("binary junk", lambda c: c.ml.read_exr(c.file("junk.exr", JUNK)), ["junk.exr"]),
+    ("truncated", lambda c: c.ml.read_exr(c.file("trunc.exr", c.exr_bytes[: len(c.exr_bytes) // 2])),
+     ["trunc.exr"]),
+    ("header only", lambda c: c.ml.read_exr(c.file("head.exr", c.exr_bytes[:100])), ["head.exr"]),
+    ("PNG renamed .exr", lambda c: c.ml.read_exr(c.file("png.exr", c.png_bytes)), ["png.exr"]),
+    ("not a path", lambda c: c.ml.read_exr(3), ["path"]),
+], raises=("OSError", "ValueError", "TypeError"))
+
+IMG = lambda *shape: np.zeros(shape, np.float32)  # noqa: E731
+for _w, _ext in [("write_exr", "exr"), ("write_png", "png")]:
+    cases_for(_w, [
+        ("2-D image", lambda c, w=_w, e=_ext: getattr(c.ml, w)(c.tmp / f"o.{e}", IMG(4, 4)), ["(H, W, 3)"]),
+        ("4 channels", lambda c, w=_w, e=_ext: getattr(c.ml, w)(c.tmp / f"o.{e}", IMG(4, 4, 4)), ["(H, W, 3)"]),
+        ("empty image", lambda c, w=_w, e=_ext: getattr(c.ml, w)(c.tmp / f"o.{e}", IMG(0, 4, 3)), ["empty"]),
+        ("complex dtype", lambda c, w=_w, e=_ext: getattr(c.ml, w)(c.tmp / f"o.{e}", np.zeros((2, 2, 3), complex)),
+         ["complex"]),
+        ("strings", lambda c, w=_w, e=_ext: getattr(c.ml, w)(c.tmp / f"o.{e}", np.full((2, 2, 3), "a")), ["'a'"]),
+        ("folder missing", lambda c, w=_w, e=_ext: getattr(c.ml, w)(c.tmp / "no" / "dir" / f"o.{e}", IMG(2, 2, 3)),
+         [f"o.{_ext}"]),
+        ("path is a directory", lambda c, w=_w: getattr(c.ml, w)(c.tmp, IMG(2, 2, 3)), ["tmp"]),
+    ], raises=("ValueError", "TypeError", "OSError"))
+cases_for("write_png", [
+    ("NaN exposure", lambda c: c.ml.write_png(c.tmp / "o.png", IMG(2, 2, 3), exposure=float("nan")),
+     ["exposure"]),
+    ("inf exposure", lambda c: c.ml.write_png(c.tmp / "o.png", IMG(2, 2, 3), exposure=float("inf")),
+     ["exposure"]),
+])
+
+# --------------------------------------------------------------------------------------------------
+# Metrics.
+
+cases_for("relative_l2", [
+    ("shapes differ", lambda c: c.ml.relative_l2(IMG(2, 2, 3), IMG(2, 3, 3) + 1), ["shape"]),
+    ("zero reference", lambda c: c.ml.relative_l2(IMG(2, 2, 3), IMG(2, 2, 3)), ["zero"]),
+    ("empty", lambda c: c.ml.relative_l2(IMG(0, 3), IMG(0, 3)), ["empty"]),
+    ("NaN in image", lambda c: c.ml.relative_l2(np.full((2, 2, 3), np.nan, np.float32), IMG(2, 2, 3) + 1),
+     ["nan", "image"]),
+    ("inf in reference", lambda c: c.ml.relative_l2(IMG(2, 2, 3), np.full((2, 2, 3), np.inf, np.float32)),
+     ["inf", "reference"]),
+])
+cases_for("relative_l2", [("strings", lambda c: c.ml.relative_l2(np.full((2,), "a"), np.full((2,), "b")), ["'a'"])],
+          raises=("TypeError",))
+cases_for("fraction_within", [
+    ("shapes differ", lambda c: c.ml.fraction_within(IMG(2, 2, 3), IMG(2, 3, 3)), ["shape"]),
+    ("empty", lambda c: c.ml.fraction_within(IMG(0, 3), IMG(0, 3)), ["empty"]),
+    ("negative tolerance", lambda c: c.ml.fraction_within(IMG(2, 2, 3), IMG(2, 2, 3), rel=-1), ["rel"]),
+    ("NaN tolerance", lambda c: c.ml.fraction_within(IMG(2, 2, 3), IMG(2, 2, 3), abs_=float("nan")), ["abs_"]),
+    ("NaN reference", lambda c: c.ml.fraction_within(IMG(2, 2, 3), np.full((2, 2, 3), np.nan)), ["nan"]),
+])
+cases_for("metrics.error_map", [
+    ("shapes differ (would broadcast)", lambda c: __import__("manylights.metrics").metrics.error_map(
+        IMG(4, 4, 3), IMG(1, 1, 3)), ["shape"]),
+    ("2-D image", lambda c: __import__("manylights.metrics").metrics.error_map(IMG(4, 4), IMG(4, 4)), ["(H, W"]),
+])
+
+# --------------------------------------------------------------------------------------------------
+# Scenes, lights, rows.
+
+cases_for("scene_lights", [
+    ("not a scene", lambda c: c.ml.scene_lights(None), ["Scene"]),
+], raises=("TypeError",))
+cases_for("generate_lights", [
+    ("not a scene", lambda c: c.ml.generate_lights("scene.xml"), ["Scene"]),
+], raises=("TypeError",))
+cases_for("generate_lights", [
+    ("negative count", lambda c: c.ml.generate_lights(c.scene, area=-1), ["area"]),
+    ("fractional count", lambda c: c.ml.generate_lights(c.scene, area=1.5), ["area"]),
+    ("NaN count", lambda c: c.ml.generate_lights(c.scene, area=float("nan")), ["area"]),
+    ("huge count", lambda c: c.ml.generate_lights(c.scene, area=10**12), ["area"]),
+    ("huge indirect", lambda c: c.ml.generate_lights(c.scene, area=0, indirect=10**12), ["indirect"]),
+    ("count over u64", lambda c: c.ml.generate_lights(c.scene, environment=2**70), ["environment"]),
+    ("NaN clamp", lambda c: c.ml.generate_lights(c.scene, clamp=float("nan")), ["clamp"]),
+    ("zero clamp", lambda c: c.ml.generate_lights(c.scene, clamp=0), ["clamp"]),
+    ("max_depth 2 with VPLs", lambda c: c.ml.generate_lights(c.scene, indirect=10, max_depth=2), ["max_depth"]),
+    ("negative seed", lambda c: c.ml.generate_lights(c.scene, area=4, seed=-1), ["seed"]),
+    ("fractional seed", lambda c: c.ml.generate_lights(c.scene, area=4, seed=0.5), ["seed"]),
+])
+cases_for("stratified_rows", [
+    ("zero rows", lambda c: c.ml.stratified_rows(c.scene, 0), ["r"]),
+    ("more rows than pixels", lambda c: c.ml.stratified_rows(c.scene, 65), ["64"]),
+    ("huge r", lambda c: c.ml.stratified_rows(c.scene, 10**20), ["r"]),
+    ("fractional r", lambda c: c.ml.stratified_rows(c.scene, 2.5), ["r"]),
+    ("NaN r", lambda c: c.ml.stratified_rows(c.scene, float("nan")), ["r"]),
+    ("negative seed", lambda c: c.ml.stratified_rows(c.scene, 4, seed=-3), ["seed"]),
+    ("not a scene", lambda c: c.ml.stratified_rows(None, 4), ["scene"]),
+], raises=("ValueError", "TypeError"))
+cases_for("Scene.mesh", [
+    ("index out of range", lambda c: c.scene.mesh(999), ["999"]),
+    ("negative index", lambda c: c.scene.mesh(-1), ["-1", "out of range"]),
+    ("fractional index", lambda c: c.scene.mesh(0.5), ["integer"]),
+], raises=("ValueError", "TypeError", "OverflowError"))
+cases_for("Scene", [("no constructor", lambda c: c.ml.Scene(), ["cannot create"])], raises=("TypeError",))
+cases_for("Scene.gbuffer", [
+    ("arguments", lambda c: c.scene.gbuffer(1), ["argument"]),
+], raises=("TypeError",))
+cases_for("LightSet", [
+    ("no constructor", lambda c: c.ml.LightSet(), ["cannot create"]),
+    ("len of a non-set", lambda c: c.ml.LightSet.__len__(None), ["LightSet"]),
+], raises=("TypeError",))
+
+# --------------------------------------------------------------------------------------------------
+# LightMatrix.
+
+cases_for("LightMatrix", [
+    ("not a scene", lambda c: c.ml.LightMatrix(None, c.lights), ["Scene"]),
+    ("not lights", lambda c: c.ml.LightMatrix(c.scene, [1, 2, 3]), ["LightSet"]),
+], raises=("TypeError",))
+cases_for("LightMatrix", [
+    ("unknown visibility", lambda c: c.ml.LightMatrix(c.scene, c.lights, visibility="magic"), ["magic"]),
+    ("shadow map 0", lambda c: c.ml.LightMatrix(c.scene, c.lights, shadow_map_size=0), ["shadow_map_size"]),
+    ("negative shadow map", lambda c: c.ml.LightMatrix(c.scene, c.lights, shadow_map_size=-512),
+     ["shadow_map_size"]),
+    ("huge shadow map", lambda c: c.ml.LightMatrix(c.scene, c.lights, shadow_map_size=2**40),
+     ["shadow_map_size"]),
+    ("fractional shadow map", lambda c: c.ml.LightMatrix(c.scene, c.lights, shadow_map_size=100.5),
+     ["shadow_map_size"]),
+    ("NaN shadow map", lambda c: c.ml.LightMatrix(c.scene, c.lights, shadow_map_size=float("nan")),
+     ["shadow_map_size"]),
+    ("native: NaN bias", lambda c: c.native.LightMatrix(c.scene, c.lights, 16, depth_bias=float("nan")),
+     ["depth_bias"]),
+    ("native: negative offset", lambda c: c.native.LightMatrix(c.scene, c.lights, 16, normal_offset=-1.0),
+     ["normal_offset"]),
+])
+
+_IDX_CASES = lambda call, size: [  # noqa: E731
+    ("index = size", lambda c: call(c, size(c)), ["range"]),
+    ("negative index", lambda c: call(c, -1), ["-1"]),
+    ("huge index", lambda c: call(c, 2**70), ["range"]),
+    ("fractional index", lambda c: call(c, 1.5), ["integer"]),
+    ("NaN index", lambda c: call(c, float("nan")), ["integer"]),
+    ("bool index", lambda c: call(c, True), ["integer"]),
+]
+cases_for("LightMatrix.columns", _IDX_CASES(lambda c, i: c.A.columns([0, i]), lambda c: c.n) + [
+    ("2-D indices", lambda c: c.A.columns(np.zeros((2, 2), np.int64)), ["indices"]),
+    ("strings", lambda c: c.A.columns(["a"]), ["a"]),
+])
+cases_for("LightMatrix.element", _IDX_CASES(lambda c, i: c.A.element(i, 0), lambda c: c.m)
+          + [("column out of range", lambda c: c.A.element(0, c.n), ["range"])])
+cases_for("LightMatrix.row_exact", _IDX_CASES(lambda c, i: c.A.row_exact(i), lambda c: c.m))
+cases_for("LightMatrix.column_exact", _IDX_CASES(lambda c, i: c.A.column_exact(i), lambda c: c.n))
+cases_for("LightMatrix.rows", _IDX_CASES(lambda c, i: c.A.rows([0, i], progress=False), lambda c: c.m) + [
+    ("no rows", lambda c: c.A.rows([], progress=False), ["at least one"]),
+    ("bool mask", lambda c: c.A.rows(np.ones(4, bool), progress=False), ["integer"]),
+    ("shadow map 8", lambda c: c.A.rows([0], progress=False, shadow_map_size=8), ["shadow_map_size"]),
+    ("more rows than samples", lambda c: c.A.rows(np.zeros(c.m + 1, np.int64), progress=False), ["rows"]),
+])
+cases_for("LightMatrix.column_sum", [
+    ("wrong length", lambda c: c.A.column_sum(np.ones(c.n + 1), progress=False), ["length"]),
+    ("2-D weights", lambda c: c.A.column_sum(np.ones((c.n, 3)), progress=False), ["(n,)", "(7, 3)"]),
+    ("NaN weight", lambda c: c.A.column_sum(np.r_[np.nan, np.ones(c.n - 1)], progress=False), ["nan"]),
+    ("inf weight", lambda c: c.A.column_sum(np.r_[np.inf, np.ones(c.n - 1)], progress=False), ["inf"]),
+    ("empty weights", lambda c: c.A.column_sum(np.ones(0), progress=False), ["length"]),
+    ("native: wrong length", lambda c: c.A._m.column_sum(np.ones(c.n + 1, np.float32)), ["length"]),
+])
+cases_for("LightMatrix.column_sum", [("strings", lambda c: c.A.column_sum(["a"] * c.n, progress=False), ["'a'"])],
+          raises=("TypeError",))
+cases_for("LightMatrix.weighted_sum", [
+    ("length mismatch", lambda c: c.A.weighted_sum([0, 1], np.ones((3, 3))), ["shape"]),
+    ("2 channels", lambda c: c.A.weighted_sum([0, 1], np.ones((2, 2))), ["shape"]),
+    ("3-D weights", lambda c: c.A.weighted_sum([0, 1], np.ones((2, 3, 1))), ["shape"]),
+    ("NaN weight", lambda c: c.A.weighted_sum([0, 1], np.array([[1, 1, 1], [np.nan, 1, 1]])), ["nan"]),
+    ("inf weight", lambda c: c.A.weighted_sum([0], np.array([np.inf])), ["inf"]),
+    ("index out of range", lambda c: c.A.weighted_sum([c.n], np.ones(1)), ["range"]),
+    ("negative index", lambda c: c.A.weighted_sum([-1], np.ones(1)), ["-1"]),
+    ("fractional index", lambda c: c.A.weighted_sum([0.5], np.ones(1)), ["integer"]),
+    ("native: 2 channels", lambda c: c.A._m.weighted_sum([0, 1], np.ones((2, 2), np.float32)), ["shape"]),
+])
+cases_for("LightMatrix.emitted", [("arguments", lambda c: c.A.emitted(1), ["argument"])], raises=("TypeError",))
+cases_for("LightMatrix.visibility_stats", [("arguments", lambda c: c.A.visibility_stats(1), ["argument"])],
+          raises=("TypeError",))
+cases_for("native.LightMatrix.reset_visibility_stats", [
+    ("arguments", lambda c: c.A._m.reset_visibility_stats(1), ["argument"])], raises=("TypeError",))
+
+# --------------------------------------------------------------------------------------------------
+# Clustering.
+
+R = lambda *shape: np.random.default_rng(0).random(shape, dtype=np.float32)  # noqa: E731
+
+
+def _nan_at(a, idx, v=np.nan):
+    a = a.copy()
+    a[idx] = v
+    return a
+
+
+cases_for("cluster_reduced_columns", [
+    ("4 channels", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 4), 3), ["shape"]),
+    ("1-D", lambda c: c.ml.cluster_reduced_columns(R(10), 3), ["shape"]),
+    ("no rows", lambda c: c.ml.cluster_reduced_columns(R(0, 10, 3), 3), ["r"]),
+    ("no columns", lambda c: c.ml.cluster_reduced_columns(R(4, 0, 3), 1), ["n"]),
+    ("NaN (names row and column)", lambda c: c.ml.cluster_reduced_columns(_nan_at(R(4, 10, 3), (2, 7, 1)), 3),
+     ["row 2", "column 7"]),
+    ("inf", lambda c: c.ml.cluster_reduced_columns(_nan_at(R(4, 10), (1, 3), np.inf), 3), ["row 1", "column 3"]),
+    ("c = 0", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 0), ["c"]),
+    ("c > n", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 11), ["c"]),
+    ("negative c", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), -2), ["c"]),
+    ("huge c", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 2**70), ["c"]),
+    ("fractional c", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 2.5), ["c"]),
+    ("power wrong length", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 3, power=np.ones(9)), ["power"]),
+    ("NaN power", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 3, power=_nan_at(np.ones(10), 4)),
+     ["power"]),
+    ("negative power", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 3, power=-np.ones(10)), ["power"]),
+    ("projection_dim 0", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 3, projection_dim=0),
+     ["projection_dim"]),
+    ("NaN sampling_fraction", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 3, sampling_fraction=np.nan),
+     ["sampling_fraction"]),
+    ("sampling_fraction 2", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 3, sampling_fraction=2.0),
+     ["sampling_fraction"]),
+    ("negative seed", lambda c: c.ml.cluster_reduced_columns(R(4, 10, 3), 3, seed=-1), ["seed"]),
+    ("complex dtype", lambda c: c.ml.cluster_reduced_columns(np.zeros((4, 10), complex), 3), ["complex"]),
+    ("strings", lambda c: c.ml.cluster_reduced_columns(np.full((4, 10), "x"), 3), ["x"]),
+], raises=("ValueError", "TypeError"))
+cases_for("clustering_cost", [
+    ("assignment wrong length", lambda c: c.ml.clustering_cost(R(4, 10, 3), np.zeros(9, np.int64)), ["assignment"]),
+    ("negative label", lambda c: c.ml.clustering_cost(R(4, 10, 3), -np.ones(10, np.int64)), ["label"]),
+    ("fractional labels", lambda c: c.ml.clustering_cost(R(4, 10, 3), np.full(10, 0.5)), ["integer"]),
+    ("huge label", lambda c: c.ml.clustering_cost(R(4, 10, 3), np.full(10, 2**40, np.int64)), ["label"]),
+    ("NaN in R", lambda c: c.ml.clustering_cost(_nan_at(R(4, 10), (0, 0)), np.zeros(10, np.int64)), ["row 0"]),
+    ("bad R shape", lambda c: c.ml.clustering_cost(R(4, 10, 2), np.zeros(10, np.int64)), ["shape"]),
+])
+
+# --------------------------------------------------------------------------------------------------
+# Renderers.
+
+cases_for("mrcs", [
+    ("not a matrix", lambda c: c.ml.mrcs("A"), ["LightMatrix"]),
+], raises=("TypeError",))
+cases_for("mrcs", [
+    ("zero rows", lambda c: c.ml.mrcs(c.A, rows=0, columns=2), ["r"]),
+    ("zero columns", lambda c: c.ml.mrcs(c.A, rows=4, columns=0), ["c"]),
+    ("more columns than lights", lambda c: c.ml.mrcs(c.A, rows=4, columns=c.n + 1), ["c"]),
+    ("row index out of range", lambda c: c.ml.mrcs(c.A, columns=2, row_indices=[c.m]), ["range"]),
+    ("clustering without weights", lambda c: c.ml.mrcs(c.A, clustering={"representatives": [0]}), ["weights"]),
+    ("clustering weights wrong shape", lambda c: c.ml.mrcs(
+        c.A, clustering={"representatives": [0, 1], "weights": np.ones((3, 3))}), ["weights"]),
+    ("clustering NaN weights", lambda c: c.ml.mrcs(
+        c.A, clustering={"representatives": [0], "weights": np.full((1, 3), np.nan)}), ["nan"]),
+    ("clustering representative out of range", lambda c: c.ml.mrcs(
+        c.A, clustering={"representatives": [c.n], "weights": np.ones((1, 3))}), ["range"]),
+])
+cases_for("power_sampling", [
+    ("zero columns", lambda c: c.ml.power_sampling(c.A, columns=0), ["columns"]),
+    ("fractional columns", lambda c: c.ml.power_sampling(c.A, columns=2.5), ["columns"]),
+    ("NaN columns", lambda c: c.ml.power_sampling(c.A, columns=float("nan")), ["columns"]),
+    ("huge columns", lambda c: c.ml.power_sampling(c.A, columns=10**12), ["columns"]),
+    ("negative seed", lambda c: c.ml.power_sampling(c.A, columns=2, seed=-1), ["seed"]),
+    ("not a matrix", lambda c: c.ml.power_sampling(None, columns=2), ["LightMatrix"]),
+], raises=("ValueError", "TypeError"))
+cases_for("instant_radiosity", [
+    ("zero lights", lambda c: c.ml.instant_radiosity(c.scene, lights=0), ["lights"]),
+    ("fractional lights", lambda c: c.ml.instant_radiosity(c.scene, lights=2.5), ["lights"]),
+    ("area_fraction 2", lambda c: c.ml.instant_radiosity(c.scene, lights=8, area_fraction=2.0), ["area_fraction"]),
+    ("NaN environment_fraction", lambda c: c.ml.instant_radiosity(c.scene, lights=8, environment_fraction=np.nan),
+     ["environment_fraction"]),
+    ("not a scene", lambda c: c.ml.instant_radiosity(None, lights=8), ["Scene"]),
+], raises=("ValueError", "TypeError"))
+cases_for("render_brute_force", [
+    ("weights wrong length", lambda c: c.ml.render_brute_force(c.scene, c.lights, weights=[1.0], progress=False),
+     ["length"]),
+    ("unknown visibility", lambda c: c.ml.render_brute_force(c.scene, c.lights, visibility="x", progress=False),
+     ["visibility"]),
+    ("shadow map 1", lambda c: c.ml.render_brute_force(c.scene, c.lights, shadow_map_size=1, progress=False),
+     ["shadow_map_size"]),
+])
+
+# --------------------------------------------------------------------------------------------------
+# Native-only functions (documented in _native.pyi).
+
+_D = lambda *v: np.array([v], np.float32)  # noqa: E731
+UP = _D(0, 0, 1)
+cases_for("native.bsdf_eval", [
+    ("spec not a dict", lambda c: c.native.bsdf_eval("diffuse", UP, UP, "cpu"), ["dict"]),
+    ("unknown type", lambda c: c.native.bsdf_eval({"type": "velvet"}, UP, UP, "cpu"), ["velvet"]),
+    ("no type", lambda c: c.native.bsdf_eval({"alpha": 0.1}, UP, UP, "cpu"), ["type"]),
+    ("wi (N, 2)", lambda c: c.native.bsdf_eval({"type": "diffuse"}, np.zeros((1, 2), np.float32), UP, "cpu"),
+     ["shape"]),
+    ("wi/wo lengths differ", lambda c: c.native.bsdf_eval({"type": "diffuse"}, np.repeat(UP, 2, 0), UP, "cpu"),
+     ["wi", "wo"]),
+    ("NaN direction", lambda c: c.native.bsdf_eval({"type": "diffuse"}, _D(np.nan, 0, 1), UP, "cpu"), ["nan"]),
+    ("unknown device", lambda c: c.native.bsdf_eval({"type": "diffuse"}, UP, UP, "tpu"), ["tpu"]),
+    ("NaN alpha", lambda c: c.native.bsdf_eval({"type": "roughplastic", "alpha": float("nan")}, UP, UP, "cpu"),
+     ["alpha"]),
+    ("reflectance of 2 values", lambda c: c.native.bsdf_eval(
+        {"type": "diffuse", "reflectance": [0.5, 0.5]}, UP, UP, "cpu"), ["reflectance"]),
+    ("string parameter", lambda c: c.native.bsdf_eval({"type": "roughplastic", "alpha": "x"}, UP, UP, "cpu"),
+     ["alpha"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.load_scene", [
+    ("params not pairs", lambda c: c.native.load_scene(str(REPO / "scenes" / "demo" / "scene.xml"), [("res",)]),
+     ["tuple of length 2"]),
+    ("size zero", lambda c: c.native.load_scene(str(REPO / "scenes" / "demo" / "scene.xml"), [], (0, 8)),
+     ["0x8"]),
+], raises=("ValueError", "TypeError", "SceneError"))
+cases_for("native.scene_lights", [("not a scene", lambda c: c.native.scene_lights(3), ["Scene"])],
+          raises=("TypeError",))
+cases_for("native.write_exr", [
+    ("float64 image", lambda c: c.native.write_exr(str(c.tmp / "o.exr"), np.zeros((2, 2, 3))), ["float32"]),
+    ("2-D image", lambda c: c.native.write_exr(str(c.tmp / "o.exr"), np.zeros((2, 2), np.float32)), ["(H, W, 3)"]),
+], raises=("TypeError", "ValueError"))
+cases_for("native.write_png", [
+    ("float64 image", lambda c: c.native.write_png(str(c.tmp / "o.png"), np.zeros((2, 2, 3))), ["float32"]),
+    ("NaN exposure", lambda c: c.native.write_png(str(c.tmp / "o.png"), np.zeros((2, 2, 3), np.float32), float("nan")),
+     ["exposure"]),
+], raises=("TypeError", "ValueError"))
+cases_for("scenes.scene_path", [
+    ("unknown scene", lambda c: __import__("manylights.scenes").scenes.scene_path("nope"), ["nope", "cbox"]),
+    ("path escape", lambda c: __import__("manylights.scenes").scenes.scene_path("../scenes/cbox"), ["bundled"]),
+    ("not a string", lambda c: __import__("manylights.scenes").scenes.scene_path(3), ["string"]),
+], raises=("FileNotFoundError", "TypeError"))
+cases_for("scenes.resolve", [
+    ("neither file nor scene", lambda c: __import__("manylights.scenes").scenes.resolve("x.xml"), ["x.xml"]),
+], raises=("FileNotFoundError",))
+cases_for("native.stratified_rows", [
+    ("zero width", lambda c: c.native.stratified_rows(0, 8, 1), ["0x8"]),
+    ("r > pixels", lambda c: c.native.stratified_rows(2, 2, 5), ["r"]),
+    ("huge image", lambda c: c.native.stratified_rows(2**31, 2**31, 10**12), ["r"]),
+], raises=("ValueError", "OverflowError"))
+cases_for("native.generate_lights", [
+    ("huge area count", lambda c: c.native.generate_lights(c.scene, 10**15, 0, 0, 5, None, False, 0), ["area"]),
+])
+cases_for("native.cluster_reduced_columns", [
+    ("float64 R", lambda c: c.native.cluster_reduced_columns(np.zeros((2, 4)), 2), ["float64", "float32"]),
+], raises=("TypeError", "ValueError"))
+cases_for("native.clustering_cost", [
+    ("float labels", lambda c: c.native.clustering_cost(R(2, 4), [0.5] * 4), ["integer"]),
+], raises=("TypeError",))
+
+# An adapter that does not exist: the GPU cannot start (a fresh process: the device is created once).
+cases_for("device_info", [
+    ("no such adapter", lambda c: c.ml.device_info(), ["MANYLIGHTS_ADAPTER", "no-such-gpu"]),
+], raises=("GpuUnavailableError",), subprocess=True)
+
+# Functions that are public but not entry points for data, with why they need no corpus entry.
+NOT_COVERED: dict[str, str] = {
+    "RenderResult": "a dataclass that only holds results (no validation of its own)",
+    "scenes.available": "takes no arguments",
+}
+
+# Case id -> environment of its own child process.
+SUBPROCESS_ENV = {"device_info:no such adapter": {"MANYLIGHTS_ADAPTER": "no-such-gpu"}}
+
+
+# Self-test cases of the runner (only with BAD_INPUT_SELFTEST=1): each must be reported as a failure.
+if os.environ.get("BAD_INPUT_SELFTEST"):
+    class PanicException(BaseException):  # the name pyo3 gives its panics (pyo3_runtime.PanicException)
+        pass
+
+    def _panic(c):
+        raise PanicException("called `Option::unwrap()` on a `None` value")
+
+    def _hang(c):
+        import time
+        time.sleep(3600)
+
+    CASES[:] = [Case("selftest:panic", "selftest", _panic), Case("selftest:abort", "selftest", lambda c: os.abort()),
+                Case("selftest:returns", "selftest", lambda c: 42),
+                Case("selftest:vague", "selftest", lambda c: int("x"), match=("nothing like this",)),
+                Case("selftest:hang", "selftest", _hang), Case("selftest:ok", "selftest", lambda c: int("x"))]
+
+# --------------------------------------------------------------------------------------------------
+# The runner (in the child process).
+
+def _classify(exc: BaseException, c: Case) -> dict:
+    names = [k.__name__ for k in type(exc).__mro__]
+    msg = str(exc)
+    out = {"type": type(exc).__name__, "mro": names, "msg": msg[:2000]}
+    if not isinstance(exc, Exception):
+        out["verdict"] = "panic" if "PanicException" in names else "base-exception"
+    elif not any(r in names for r in c.raises):
+        out["verdict"] = "wrong-type"
+    elif missing := [m for m in c.match if m.lower() not in msg.lower()]:
+        out["verdict"] = "unclear"
+        out["missing"] = missing
+    else:
+        out["verdict"] = "ok"
+    return out
+
+
+def run(out_dir: Path, only: list[str] | None = None) -> None:
+    """Run the cases (or those in ``only``), printing one JSON line per case: {"start": id} then the result."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    ctx = Ctx(out_dir)
+    for c in CASES:
+        if only is not None and c.id not in only:
+            continue
+        print(json.dumps({"start": c.id}), flush=True)
+        try:
+            r = c.fn(ctx)
+        except BaseException as e:  # noqa: B902  (PanicException is a BaseException: that is the point)
+            res = _classify(e, c)
+            if res["verdict"] != "ok":
+                res["traceback"] = traceback.format_exc()[-3000:]
+        else:
+            res = {"verdict": "returned", "returned": repr(r)[:300]}
+        res["id"] = c.id
+        print(json.dumps(res), flush=True)
+
+
+if __name__ == "__main__":
+    only = json.loads(os.environ["BAD_INPUT_ONLY"]) if os.environ.get("BAD_INPUT_ONLY") else None
+    run(Path(sys.argv[1]), only)
