@@ -194,7 +194,10 @@ class LightMatrix:
         return tuple(self._m.shape)
 
     def columns(self, indices: Sequence[int]) -> np.ndarray:
-        """Columns ``indices`` as images, (k, H, W, 3) float32."""
+        """Columns ``indices`` as images, (k, H, W, 3) float32.
+
+        Raises:
+            ValueError: indices that are not integers (bools, floats) or outside [0, n), or not 1-D."""
         idx = _v.indices("indices", indices, self.shape[1], "lights (columns)")
         return self._m.columns([int(i) for i in idx])
 
@@ -205,6 +208,9 @@ class LightMatrix:
         Args:
             weights: optional (n,) weights.
             progress: show a tqdm progress bar over light batches.
+
+        Raises:
+            ValueError: weights not of shape (n,), or NaN/inf. TypeError: non-numeric weights.
         """
         w = None
         if weights is not None:
@@ -216,7 +222,10 @@ class LightMatrix:
 
     def weighted_sum(self, indices: Sequence[int], weights, *, progress: bool = False) -> np.ndarray:
         """``sum_k weights[k] * column[indices[k]]`` with (k, 3) RGB weights, rendering only those columns
-        (repeated indices add up): how clustered renderers reconstruct an image. (H, W, 3) float32."""
+        (repeated indices add up): how clustered renderers reconstruct an image. (H, W, 3) float32.
+
+        Raises:
+            ValueError: indices not integers in [0, n); weights not (k,) or (k, 3), or NaN/inf."""
         idx = [int(i) for i in _v.indices("indices", indices, self.shape[1], "lights (columns)")]
         w = _v.numeric_array("weights", weights)
         if w.ndim not in (1, 2):
@@ -347,6 +356,11 @@ def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_
 
     Returns:
         dict with assignment (n,), representatives (c,), weights (c, 3), cost, cluster_costs (c,).
+
+    Raises:
+        ValueError: bad shapes, NaN/inf (row and column named), c not an integer in [1, n], a negative or
+            non-integer seed, power of the wrong length / negative / NaN, sampling_fraction outside [0, 1].
+        TypeError: a non-numeric (complex, string) R or power.
     """
     R = _v.numeric_array("R", R)
     if power is not None:
@@ -358,7 +372,10 @@ def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_
 
 
 def clustering_cost(R, assignment) -> float:
-    """Sum of the paper's cluster costs of a partition (assignment (n,)) on the scalar reduced matrix."""
+    """Sum of the paper's cluster costs of a partition (assignment (n,)) on the scalar reduced matrix.
+
+    Raises:
+        ValueError: labels that are not integers in [0, 2^31), an assignment not of length n, NaN/inf in R."""
     R = _v.numeric_array("R", R)
     labels = np.asarray(assignment)
     if labels.dtype.kind not in "iu":
@@ -389,12 +406,20 @@ def stratified_rows(scene: Scene, r: int, seed: int = 0) -> np.ndarray:
 
 
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
-    """Write an (H, W, 3) image as float32 RGB OpenEXR."""
+    """Write an (H, W, 3) image as float32 RGB OpenEXR.
+
+    Raises:
+        ValueError: a shape other than (H, W, 3) or an empty image. TypeError: a non-numeric array.
+        OSError: the file cannot be written (named)."""
     _native.write_exr(str(path), _as_image(image))
 
 
 def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0) -> None:
-    """Write an (H, W, 3) linear image as 8-bit sRGB PNG, scaled by 2**exposure and clamped."""
+    """Write an (H, W, 3) linear image as 8-bit sRGB PNG, scaled by 2**exposure and clamped.
+
+    Raises:
+        ValueError: a bad shape, an empty image or a non-finite exposure. TypeError: a non-numeric array.
+        OSError: the file cannot be written (named)."""
     _native.write_png(str(path), _as_image(image), _v.real("exposure", exposure))
 
 

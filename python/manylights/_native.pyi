@@ -37,7 +37,7 @@ class Scene:
         """World-space positions, normals (V, 3), uvs (V, 2) float32 and indices (T, 3) uint32 of a shape.
 
         Raises:
-            ValueError: index out of range."""
+            ValueError: index out of range (negative included)."""
 
 class LightSet:
     """Lights as a struct of arrays (numpy views). kind: 0 point, 1 spot, 2 directional, 3 oriented
@@ -114,11 +114,14 @@ def stratified_rows(width: int, height: int, r: int, seed: int = 0) -> npt.NDArr
     """(r,) int64 pixel indices, one drawn uniformly per block of an r-block stratification of the image.
 
     Raises:
-        ValueError: r = 0 or r > width * height."""
+        ValueError: r = 0, r > width * height, or an r whose block list cannot be allocated."""
 
-def write_exr(path: str | PathLike[str], image: npt.NDArray[np.float32]) -> None: ...
-def read_exr(path: str | PathLike[str]) -> npt.NDArray[np.float32]: ...
-def write_png(path: str | PathLike[str], image: npt.NDArray[np.float32], exposure: float = 0.0) -> None: ...
+def write_exr(path: str | PathLike[str], image: npt.NDArray[np.float32]) -> None:
+    """Raises ValueError for a shape other than (H, W, 3) or an empty image, OSError when unwritable."""
+def read_exr(path: str | PathLike[str]) -> npt.NDArray[np.float32]:
+    """(H, W, 3) float32. Raises OSError naming the file when missing, truncated or not an OpenEXR file."""
+def write_png(path: str | PathLike[str], image: npt.NDArray[np.float32], exposure: float = 0.0) -> None:
+    """Raises ValueError for a bad shape, an empty image or a non-finite exposure; OSError when unwritable."""
 
 def bsdf_eval(spec: dict[str, Any], wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32], device: str) -> npt.NDArray[np.float32]:
     """Evaluate a BSDF given as a dict ({"type": "roughplastic", "alpha": 0.1, ...; "twosided": True}) on
@@ -126,7 +129,8 @@ def bsdf_eval(spec: dict[str, Any], wi: npt.NDArray[np.float32], wo: npt.NDArray
     device "cpu" (Rust reference) or "gpu" (WGSL twin). Returns (N, 3) f(wi, wo) |cos theta_o|.
 
     Raises:
-        ValueError: bad spec or shapes. GpuUnavailableError / GpuError for device="gpu"."""
+        ValueError: bad spec or shapes, NaN/inf directions or spec values. GpuUnavailableError / GpuError for
+            device="gpu"."""
 
 def cluster_reduced_columns(R: npt.NDArray[np.float32], c: int, seed: int = 0,
                             power: Optional[npt.NDArray[np.float32]] = None, projection_dim: int = 50,

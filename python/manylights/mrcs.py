@@ -87,6 +87,11 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
         of a matrix's first rows call), row_shadow_maps (GPU cube maps at the rows),
         row_evaluation (GPU: all lights against each row), row_readback (GPU -> numpy), clustering,
         columns (GPU shadow maps + shading of the representatives, accumulated on the GPU), emitted.
+
+    Raises:
+        TypeError: A is not a LightMatrix. ValueError: rows / columns out of range, row_indices outside
+            [0, m), a clustering without representatives in [0, n) and finite (c, 3) or (c,) weights,
+            a negative seed.
     """
     from . import cluster_reduced_columns, stratified_rows
 
@@ -154,7 +159,11 @@ def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = 
                    progress: bool = False) -> RenderResult:
     """Baseline: draw ``columns`` lights with probability proportional to their power (with replacement)
     and weight each by 1 / (columns * p_j): an unbiased estimate of the column sum that ignores visibility
-    and geometry (no rows). Lights of zero power are never drawn (they emit nothing)."""
+    and geometry (no rows). Lights of zero power are never drawn (they emit nothing).
+
+    Raises:
+        TypeError: A is not a LightMatrix. ValueError: columns not an integer in [1, 2^31), a negative
+            seed, lights without finite power."""
     m, n = _matrix_shape(A)
     columns = _v.integer("columns", columns, 1, 2**31 - 1)
     seed = _v.seed(seed)
@@ -179,7 +188,11 @@ def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction
                       environment_fraction: float = 0.0, max_depth: int = 5, clamp=None,
                       progress: bool = False, **matrix_options) -> RenderResult:
     """Baseline: generate only ``lights`` lights (area / environment / indirect shares as given) and render
-    all of them (Keller's instant radiosity with the same light generation as the large matrix)."""
+    all of them (Keller's instant radiosity with the same light generation as the large matrix).
+
+    Raises:
+        TypeError: scene is not a Scene. ValueError: lights not an integer >= 1, fractions outside [0, 1]
+            or summing past 1, and whatever ``generate_lights`` / ``LightMatrix`` refuse."""
     from . import LightMatrix, generate_lights
 
     from . import Scene

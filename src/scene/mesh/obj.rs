@@ -242,6 +242,29 @@ mod tests {
         assert_eq!(d.uvs, vec![Vec2::splat(0.5); 3]);
     }
 
+    /// Binary files renamed .obj and empty files are errors naming the file (Mitsuba fails on them too),
+    /// not empty meshes; a file with vertices but no faces still loads.
+    #[test]
+    fn binary_and_empty_files_are_errors() {
+        let dir = std::env::temp_dir().join(format!("manylights-obj-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let loc = Location::new(Path::new("scene.xml"), 7);
+        for (name, bytes, want) in [
+            ("png.obj", &b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR"[..], "binary data at byte 8"),
+            ("empty.obj", &b""[..], "no vertices"),
+            ("comments.obj", &b"# nothing\n\n"[..], "no vertices"),
+        ] {
+            let p = dir.join(name);
+            std::fs::write(&p, bytes).unwrap();
+            let e = load_obj(&p, &loc).unwrap_err().to_string();
+            assert!(e.starts_with("scene.xml:7:") && e.contains(name) && e.contains(want), "{e}");
+        }
+        let p = dir.join("points.obj");
+        std::fs::write(&p, "v 0 0 0\nv\t1 0 0\n").unwrap();
+        assert!(load_obj(&p, &loc).unwrap().indices.is_empty());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     #[test]
     fn negative_indices() {
         let d = parse("v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nf -3/-1 -2/-1 -1/-1\n").unwrap();
