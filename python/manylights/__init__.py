@@ -198,7 +198,7 @@ class LightMatrix:
 
         Raises:
             ValueError: indices that are not integers (bools, floats) or outside [0, n), or not 1-D."""
-        idx = _v.indices("indices", indices, self.shape[1], "lights (columns)")
+        idx = _v.indices("column index", indices, self.shape[1], f"n = {self.shape[1]} lights")
         return self._m.columns([int(i) for i in idx])
 
     def column_sum(self, weights: Optional[Sequence[float]] = None, *, progress: bool = True) -> np.ndarray:
@@ -226,7 +226,7 @@ class LightMatrix:
 
         Raises:
             ValueError: indices not integers in [0, n); weights not (k,) or (k, 3), or NaN/inf."""
-        idx = [int(i) for i in _v.indices("indices", indices, self.shape[1], "lights (columns)")]
+        idx = [int(i) for i in _v.indices("column index", indices, self.shape[1], f"n = {self.shape[1]} lights")]
         w = _v.numeric_array("weights", weights)
         if w.ndim not in (1, 2):
             raise ValueError(f"weights must have shape (k,) or (k, 3), got {w.shape}")
@@ -258,7 +258,7 @@ class LightMatrix:
         m, n = self.shape
         if isinstance(indices, np.ndarray) and indices.dtype == bool:
             raise ValueError("row indices must be integers, got a bool array (use np.flatnonzero(mask))")
-        idx = _v.indices("row indices", indices, m, "view samples (rows)")
+        idx = _v.indices("row index", indices, m, f"m = {m} view samples")
         if idx.size == 0:
             raise ValueError("rows needs at least one row index, got 0")
         if idx.size > m:

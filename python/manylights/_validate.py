@@ -23,9 +23,8 @@ def integer(name: str, v, lo: Optional[int] = None, hi: Optional[int] = None) ->
     else:
         raise ValueError(f"{name} must be an integer, got {v!r}")
     if (lo is not None and out < lo) or (hi is not None and out > hi):
-        lo_s = "" if lo is None else f"{lo} <= "
-        hi_s = "" if hi is None else f" <= {hi}"
-        raise ValueError(f"{name} must be {lo_s}{name}{hi_s}, got {out}")
+        rng = f"in {lo}..={hi}" if lo is not None and hi is not None else f">= {lo}" if lo is not None else f"<= {hi}"
+        raise ValueError(f"{name} must be {rng}, got {out}")
     return out
 
 
@@ -66,26 +65,27 @@ def finite(name: str, a: np.ndarray) -> np.ndarray:
 
 def indices(name: str, values, size: int, what: str) -> np.ndarray:
     """``values`` as a 1-D int64 array of indices in [0, size): integers only (no bools, floats or NaN),
-    the first bad one named with its position."""
+    the first bad one named with its position. ``name`` is singular ("row index"), ``what`` names the
+    range ("m = 1024 view samples")."""
     if np.isscalar(values):
-        raise ValueError(f"{name} must be a sequence of integers, got the scalar {values!r}")
+        raise ValueError(f"{name} values must be a sequence of integers, got the scalar {values!r}")
     lst = values if isinstance(values, np.ndarray) else list(values)
     if not isinstance(lst, np.ndarray) and any(isinstance(v, (bool, np.bool_)) for v in lst):
-        raise ValueError(f"{name} must be integers, got a bool at position "
+        raise ValueError(f"{name} values must be integers, got a bool at position "
                          f"{next(k for k, v in enumerate(lst) if isinstance(v, (bool, np.bool_)))}")
     arr = np.asarray(lst)
     if arr.ndim > 1:
-        raise ValueError(f"{name} must be one-dimensional, got shape {arr.shape}")
+        raise ValueError(f"{name} values must be one-dimensional, got shape {arr.shape}")
     if arr.size == 0:
         return np.zeros(0, np.int64)
     if arr.dtype.kind == "O" and all(isinstance(v, numbers.Integral) for v in arr.tolist()):
         k = next(k for k, v in enumerate(arr.tolist()) if not -(2**63) <= int(v) < 2**63)
-        raise ValueError(f"{name}[{k}] = {arr[k]} is out of range for {size} {what}")
+        raise ValueError(f"{name} {arr[k]} (at position {k}) is out of range for {what}")
     if arr.dtype.kind not in "iu":
-        raise ValueError(f"{name} must be integers, got dtype {arr.dtype} (e.g. {arr.reshape(-1)[0]!r})")
+        raise ValueError(f"{name} values must be integers, got dtype {arr.dtype} (e.g. {arr.reshape(-1)[0]!r})")
     arr = arr.astype(np.int64, copy=False).reshape(-1)
     bad = np.flatnonzero((arr < 0) | (arr >= size))
     if bad.size:
         k = int(bad[0])
-        raise ValueError(f"{name}[{k}] = {int(arr[k])} is out of range for {size} {what}")
+        raise ValueError(f"{name} {int(arr[k])} (at position {k}) is out of range for {what}")
     return arr

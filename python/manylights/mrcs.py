@@ -106,7 +106,7 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
     elif row_indices is None:
         row_indices = stratified_rows(A.scene, rows, seed=seed)
     else:
-        row_indices = _v.indices("row_indices", row_indices, m, "view samples (rows)")
+        row_indices = _v.indices("row index", row_indices, m, f"m = {m} view samples")
     timings["row_selection"] = time.perf_counter() - t
     R = None
     if clustering is None:
@@ -145,7 +145,7 @@ def _clustering(clustering, n: int) -> tuple[np.ndarray, np.ndarray]:
     """(representatives (c,) int64, weights (c, 3) float32) of a clustering dict, checked."""
     if not hasattr(clustering, "__getitem__") or any(k not in clustering for k in ("representatives", "weights")):
         raise ValueError("clustering must be a dict with 'representatives' (c,) and 'weights' (c, 3) or (c,)")
-    reps = _v.indices("clustering['representatives']", clustering["representatives"], n, "lights (columns)")
+    reps = _v.indices("representative", clustering["representatives"], n, f"n = {n} lights")
     weights = _v.numeric_array("clustering['weights']", clustering["weights"])
     if weights.ndim == 1:
         weights = np.repeat(weights[:, None], 3, axis=1)
