@@ -154,6 +154,13 @@ def ply_binary(nv_header: int, nf_header: int, nv_data: int, nf_data: int, face_
     return head + verts + faces
 
 
+def exr_window(exr: bytes, window: tuple[int, int, int, int]) -> bytes:
+    """A valid EXR whose header's dataWindow (xmin, ymin, xmax, ymax) is replaced (the pixels stay 8x4)."""
+    attr = b"dataWindow\x00box2i\x00"
+    i = exr.index(attr) + len(attr) + 4
+    return exr[:i] + struct.pack("<4i", *window) + exr[i + 16:]
+
+
 def png_header_only(width: int, height: int) -> bytes:
     """A PNG signature + IHDR claiming width x height, and no image data."""
     ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
@@ -276,6 +283,8 @@ for _kind, _load_fn in [("bitmap", _tex_scene), ("envmap", _env_scene)]:
         ("junk as .exr", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-j", "j.exr", JUNK), ["j.exr"]),
         ("text as .png", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-txt", "x.png", b"hello\n" * 20), ["x.png"]),
         ("PNG renamed .exr", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-pe", "p.exr", c.png_bytes), ["p.exr"]),
+        ("EXR header claiming 10^5 x 10^5", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-bigexr", "big.exr", exr_window(c.exr_bytes, (0, 0, 99999, 99999))), ["big.exr"]),
         ("PNG header claiming 10^5 x 10^5", lambda c, f=_load_fn, k=_kind: f(
             c, f"{k}-big", "big.png", png_header_only(100000, 100000)), ["big.png"]),
         ("junk, unknown extension", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-ext", "t.xyz", JUNK), ["t.xyz"]),
@@ -293,6 +302,11 @@ cases_for("read_exr", [
      ["trunc.exr"]),
     ("header only", lambda c: c.ml.read_exr(c.file("head.exr", c.exr_bytes[:100])), ["head.exr"]),
     ("PNG renamed .exr", lambda c: c.ml.read_exr(c.file("png.exr", c.png_bytes)), ["png.exr"]),
+    ("header claiming 10^5 x 10^5", lambda c: c.ml.read_exr(c.file(
+        "big.exr", exr_window(c.exr_bytes, (0, 0, 99999, 99999)))), ["big.exr"]),
+    ("negative window", lambda c: c.ml.read_exr(c.file("neg.exr", exr_window(c.exr_bytes, (0, 0, -5, -5)))), ["neg.exr"]),
+    ("window over int32", lambda c: c.ml.read_exr(c.file(
+        "huge.exr", exr_window(c.exr_bytes, (-2**31, -2**31, 2**31 - 1, 2**31 - 1)))), ["huge.exr"]),
     ("not a path", lambda c: c.ml.read_exr(3), ["path"]),
 ], raises=("OSError", "ValueError", "TypeError"))
 
