@@ -87,7 +87,8 @@ def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = Non
     if size is not None:
         if np.ndim(size) != 1 or len(size) != 2:
             raise ValueError(f"size must be (width, height) positive integers, got {size!r}")
-        size = (_v.integer("size[0] (width)", size[0], 1, 2**32 - 1), _v.integer("size[1] (height)", size[1], 1, 2**32 - 1))
+        size = (_v.integer("size[0] (width)", size[0], 1, 2**32 - 1),
+                _v.integer("size[1] (height)", size[1], 1, 2**32 - 1))
     return _native.load_scene(str(p), conv, size)
 
 
@@ -140,7 +141,8 @@ def generate_lights(
     counts = {"area": area, "environment": environment, "indirect": indirect, "max_depth": max_depth}
     for name, v in counts.items():
         counts[name] = _v.integer(name, v, None if name == "max_depth" else 0, 2**63 - 1)
-    area, environment, indirect, max_depth = counts["area"], counts["environment"], counts["indirect"], counts["max_depth"]
+    area, environment, indirect = counts["area"], counts["environment"], counts["indirect"]
+    max_depth = counts["max_depth"]
     seed = _v.seed(seed)
     if clamp is not None:
         clamp = float(clamp)
