@@ -85,6 +85,9 @@ def test_point_light_max_depth_2_is_exact(mitsuba_ref, tmp_path):
     if err > 1e-4:
         save_failure_images("chains-point-d2", ours=ours, ref=ref)
     assert err <= 1e-4
+    scene = ml.load_scene(xml)
+    img = ml.render_brute_force(scene, ml.scene_lights(scene), visibility="ray_traced", max_depth=2, progress=False)
+    np.testing.assert_array_equal(img, ours)
     # At max_depth -1 the mirror and the glass show lit surfaces (Mitsuba: max_depth 3+ with the light
     # reflected once, deterministic for a conductor only, so compared below statistically).
     deep, _ = _ours(xml, ml.scene_lights, -1)
