@@ -144,7 +144,7 @@ def test_mirror_glass_box_direct_vs_mitsuba(mitsuba_ref, tmp_path):
     """The box with a point and an area light at max_depth 2: direct light, plus the area light seen in
     the mirror and through the ball (emission after delta bounces); the mirror shows no lit walls."""
     xml = _write(tmp_path, "box")
-    ours, A = _ours(xml, lambda s: ml.generate_lights(s, area=4096), 2)
+    ours, A = _ours(xml, lambda s: ml.generate_lights(s, area=1024), 2)
     ref, var = mitsuba_ref.mitsuba_render(xml, SIZE, max_depth=2, spp=1024, seed=4)
     chain = _chain_pixels(A.scene)
     noise = _rel_noise(ref, var)
