@@ -172,7 +172,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let e = light_emitted(l, s.position, n);
             if e.valid {
                 let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
-                let f = bsdf_eval(b, wi_local, wo_local) * e.radiance;
+                let f = bsdf_eval(b, wi_local, wo_local) * e.radiance * s.throughput;
                 if any(f != vec3<f32>(0.0)) {
                     contribution = f * visibility(l, s.position, s.geo_normal, e.wo);
                 }

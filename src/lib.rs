@@ -11,6 +11,7 @@ pub mod shading;
 #[cfg(test)]
 pub(crate) mod testing;
 pub mod view;
+pub mod view_chains;
 pub mod view_resolve;
 
 #[cfg(feature = "python")]

@@ -24,6 +24,7 @@ use crate::gpu::scene_buffers::{locate_triangle, triangle_offsets};
 use crate::scene::{Camera, Scene, ShapeKind};
 use crate::shading::GpuBsdf;
 use crate::view::ViewSamples;
+use crate::view_chains::ChainOptions;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -211,10 +212,17 @@ fn resolve_bsdf(scene: &Scene, m: usize, uv: Vec2) -> Result<GpuBsdf> {
     Ok(crate::shading::bsdf::resolve(&scene.bsdfs, &scene.textures, mesh.bsdf, uv))
 }
 
+/// Turn a visibility buffer into view samples, following delta BSDF chains with the default
+/// `ChainOptions` (see [`resolve_view_samples_with`]).
+pub fn resolve_view_samples(scene: &Scene, ids: &[u32]) -> Result<ViewSamples> {
+    resolve_view_samples_with(scene, ids, &ChainOptions::default())
+}
+
 /// Turn a visibility buffer into view samples. `ids[y * width + x]` = global triangle id + 1 (0 =
 /// background) over `scene.meshes` (see `gpu::scene_buffers`); `ids.len()` must be `width * height` of
-/// the camera's film.
-pub fn resolve_view_samples(scene: &Scene, ids: &[u32]) -> Result<ViewSamples> {
+/// the camera's film. Then pixels whose hit has a delta BSDF get the extra samples of their delta
+/// chains (`crate::view_chains::trace_chains` with `chains`).
+pub fn resolve_view_samples_with(scene: &Scene, ids: &[u32], chains: &ChainOptions) -> Result<ViewSamples> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let n = w as usize * h as usize;
     if ids.len() != n {
@@ -235,6 +243,7 @@ pub fn resolve_view_samples(scene: &Scene, ids: &[u32]) -> Result<ViewSamples> {
         shape_index: vec![bg.shape_index; n],
         prim_index: vec![bg.prim_index; n],
         bsdf: vec![bg.bsdf; n],
+        ..Default::default()
     };
     (
         ids.par_iter().enumerate(),
@@ -261,6 +270,7 @@ pub fn resolve_view_samples(scene: &Scene, ids: &[u32]) -> Result<ViewSamples> {
             (*albedo, *shape_index, *prim_index, *bsdf) = (s.albedo, s.shape_index, s.prim_index, s.bsdf);
             Ok::<(), Error>(())
         })?;
+    crate::view_chains::trace_chains(scene, &mut out, chains)?;
     Ok(out)
 }
 

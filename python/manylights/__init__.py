@@ -170,20 +170,27 @@ class LightMatrix:
             certain, an exact GPU ray against the scene BVH elsewhere), ``"ray_traced"`` (an exact ray for
             every test; columns equal Mitsuba's ray-traced visibility) or ``"shadow_map"`` (biased shadow
             maps only; fastest, small errors at contact edges).
+        max_depth: Mitsuba's ``path`` ``max_depth`` for what pixels see through mirrors and glass: a camera
+            ray hitting a smooth conductor, dielectric or plastic's specular layer follows every delta
+            lobe (Fresnel-weighted reflection and refraction) to the first rough surface, which becomes an
+            extra view sample of the pixel with its RGB throughput (a row of the matrix is a pixel: the sum
+            of its samples). -1 (default) = unlimited (at most 8 delta bounces, branches below 1e-3
+            throughput dropped); 2 = direct light only (mirrors show the emitters they reflect).
 
     Raises:
-        ValueError: an unknown ``visibility`` or a bad ``shadow_map_size``.
+        ValueError: an unknown ``visibility``, a bad ``shadow_map_size`` or ``max_depth`` (0, 1 or < -1).
     """
 
     def __init__(self, scene: Scene, lights: LightSet, *, shadow_map_size: Optional[int] = None,
-                 visibility: str = "hybrid"):
+                 visibility: str = "hybrid", max_depth: int = -1):
         self.scene = scene
         self.lights = lights
         if shadow_map_size is None:
             shadow_map_size = 1024 if visibility == "shadow_map" else 512
         #: Texels per side of each shadow map (the default resolved).
         self.shadow_map_size = _v.integer("shadow_map_size", shadow_map_size, 16, 8192)
-        self._m = _native.LightMatrix(scene, lights, self.shadow_map_size, visibility=str(visibility))
+        self._m = _native.LightMatrix(scene, lights, self.shadow_map_size, visibility=str(visibility),
+                                      max_depth=_v.integer("max_depth", max_depth, -1, 1 << 20))
 
     def visibility_stats(self) -> dict[str, int]:
         """Counters since creation: ``shadow_tests``, ``ray_casts`` (tests resolved by exact rays) and

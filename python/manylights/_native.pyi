@@ -58,9 +58,11 @@ class LightMatrix:
     shape: tuple[int, int]
     def __init__(self, scene: Scene, lights: LightSet, shadow_map_size: int = 1024,
                  normal_offset: Optional[float] = None, depth_bias: Optional[float] = None,
-                 slope_bias: Optional[float] = None, visibility: str = "hybrid") -> None:
+                 slope_bias: Optional[float] = None, visibility: str = "hybrid", max_depth: int = -1) -> None:
         """visibility: "hybrid" (shadow maps where certain, exact GPU rays elsewhere), "ray_traced" or
-        "shadow_map". Raises ValueError for an unknown visibility or bias < 0."""
+        "shadow_map". max_depth: Mitsuba's path depth for delta BSDF chains (mirrors, glass; -1 unlimited,
+        2 = direct light only). Raises ValueError for an unknown visibility, bias < 0 or max_depth in
+        {0, 1} or < -1."""
     def visibility_stats(self) -> dict[str, int]:
         """shadow_tests, ray_casts, gave_up since creation or reset_visibility_stats()."""
     def reset_visibility_stats(self) -> None: ...

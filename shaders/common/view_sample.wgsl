@@ -1,4 +1,5 @@
-// A view sample (a pixel's first hit); keep in sync with `GpuViewSample` in src/gpu/columns.rs (64 bytes).
+// A view sample (a pixel's first hit, or a surface seen through its delta chain with that chain's
+// RGB throughput); keep in sync with `GpuViewSample` in src/gpu/columns.rs (80 bytes).
 struct ViewSample {
     position: vec3<f32>,
     shape_index: i32,
@@ -8,4 +9,6 @@ struct ViewSample {
     _pad1: u32,
     wi: vec3<f32>,
     _pad2: u32,
+    throughput: vec3<f32>,
+    _pad3: u32,
 }

@@ -79,7 +79,7 @@ impl GpuLight {
     }
 }
 
-/// Keep in sync with `struct ViewSample` in `shaders/columns.wgsl` (64 bytes).
+/// Keep in sync with `struct ViewSample` in `shaders/common/view_sample.wgsl` (80 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuViewSample {
@@ -91,6 +91,9 @@ pub struct GpuViewSample {
     pub _pad1: u32,
     pub wi: [f32; 3],
     pub _pad2: u32,
+    /// RGB throughput of the sample's delta chain (1 for the camera's own hits).
+    pub throughput: [f32; 3],
+    pub _pad3: u32,
 }
 
 /// Keep in sync with `struct ColumnParams` in `shaders/columns.wgsl` (48 bytes).
@@ -116,7 +119,7 @@ pub struct ColumnParams {
 /// The WGSL module of the pass.
 pub const COLUMNS_WGSL: &str = crate::gpu::shaders::COLUMNS;
 
-/// View samples on the GPU: geometry (64 B each) and BSDFs (80 B each), separate bindings, plus the
+/// View samples on the GPU: geometry and throughput (80 B each) and BSDFs (80 B each), separate bindings, plus the
 /// rough-plastic tables the BSDFs index (`crate::shading::bsdf::roughplastic_table_buffer`).
 pub struct ViewBuffers {
     pub samples: wgpu::Buffer,
@@ -137,6 +140,8 @@ impl ViewBuffers {
                 _pad1: 0,
                 wi: view.wi[i].to_array(),
                 _pad2: 0,
+                throughput: view.throughput_of(i).to_array(),
+                _pad3: 0,
             })
             .collect();
         let pad = |bytes: &[u8]| if bytes.is_empty() { vec![0u8; 256] } else { bytes.to_vec() };
@@ -243,7 +248,7 @@ mod tests {
     #[test]
     fn struct_sizes() {
         assert_eq!(std::mem::size_of::<GpuLight>(), 192);
-        assert_eq!(std::mem::size_of::<GpuViewSample>(), 64);
+        assert_eq!(std::mem::size_of::<GpuViewSample>(), 80);
         assert_eq!(std::mem::size_of::<ColumnParams>(), 48);
         assert_eq!(std::mem::size_of::<crate::shading::GpuBsdf>(), 80);
     }
@@ -252,7 +257,7 @@ mod tests {
     fn columns_wgsl_validates_and_layouts_match() {
         crate::gpu::shaders::assert_struct_sizes("columns.wgsl", COLUMNS_WGSL, &[
             ("Light", 192),
-            ("ViewSample", 64),
+            ("ViewSample", 80),
             ("ColumnParams", 48),
             ("Bsdf", 80),
             ("ShadowLayer", 256),

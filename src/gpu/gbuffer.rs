@@ -404,8 +404,13 @@ impl GBufferPass {
 /// The deep framebuffer of `scene` seen from its camera: rasterised visibility at pixel centres on the
 /// GPU, resolved exactly on the CPU (see `crate::view_resolve`).
 pub fn render_view_samples(ctx: &GpuContext, scene: &Scene) -> Result<ViewSamples> {
+    render_view_samples_with(ctx, scene, &crate::view_chains::ChainOptions::default())
+}
+
+/// As [`render_view_samples`], following delta BSDF chains with `chains` (`crate::view_chains`).
+pub fn render_view_samples_with(ctx: &GpuContext, scene: &Scene, chains: &crate::view_chains::ChainOptions) -> Result<ViewSamples> {
     let ids = render_visibility(ctx, scene)?;
-    crate::view_resolve::resolve_view_samples(scene, &ids)
+    crate::view_resolve::resolve_view_samples_with(scene, &ids, chains)
 }
 
 /// As [`render_view_samples`], reusing geometry already uploaded with `SceneGeometry::upload(device,

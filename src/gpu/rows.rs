@@ -154,7 +154,7 @@ mod tests {
             ("RowParams", 48),
             ("RowInfo", 32),
             ("Light", 192),
-            ("ViewSample", 64),
+            ("ViewSample", 80),
             ("ShadowLayer", 256),
         ]);
         // The WGSL mirrors of the Rust constants.

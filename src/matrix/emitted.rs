@@ -8,6 +8,8 @@
 //!   along the pixel-centre camera ray `Camera::ray(x + 0.5, y + 0.5)`, looked up by
 //!   `lights::generate::environment::Environment` (Mitsuba's lat-long lookup, MITSUBA_CONVENTIONS.md).
 //! - Delta lights (point, spot, directional) are invisible to the camera, as in Mitsuba.
+//! - Emission seen through delta BSDF chains (mirrors, glass: `crate::view_chains`) is added per pixel
+//!   from `ViewSamples::chain_emitted`, computed when the chains were traced.
 //!
 //! Bad input gives zero contributions, never NaN: non-finite or negative area radiance counts as 0
 //! per channel; non-finite env-map texels or scale count as 0 (as `Environment` does for the lights).
@@ -19,24 +21,30 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 /// A radiance with non-finite or negative channels replaced by 0.
-fn sanitized(l: Vec3) -> Vec3 {
+pub(crate) fn sanitized(l: Vec3) -> Vec3 {
     Vec3::from_array(l.to_array().map(|c| if c.is_finite() && c > 0.0 { c } else { 0.0 }))
 }
 
-/// The directly visible emission of every view sample, H * W RGB (row 0 at the top).
-pub fn emitted_radiance(scene: &Scene, view: &ViewSamples) -> Vec<Vec3> {
-    let env = Environment::from_scene(scene);
-    // Area radiance per mesh (zero for meshes without an area emitter).
-    let area: Vec<Vec3> = scene
+/// Area radiance per mesh of the scene (sanitized; zero for meshes without an area emitter).
+pub(crate) fn area_radiance(scene: &Scene) -> Vec<Vec3> {
+    scene
         .meshes
         .iter()
         .map(|m| match m.emitter.and_then(|e| scene.emitters.get(e)) {
             Some(Emitter::Area { radiance, .. }) => sanitized(*radiance),
             _ => Vec3::ZERO,
         })
-        .collect();
+        .collect()
+}
+
+/// The directly visible emission of every pixel, H * W RGB (row 0 at the top): the camera's own hit
+/// plus what its delta chains see (`ViewSamples::chain_emitted`).
+pub fn emitted_radiance(scene: &Scene, view: &ViewSamples) -> Vec<Vec3> {
+    let env = Environment::from_scene(scene);
+    let area = area_radiance(scene);
     let width = view.width as usize;
-    (0..view.len())
+    let chain = |i: usize| view.chain_emitted.get(i).copied().unwrap_or(Vec3::ZERO);
+    (0..view.num_pixels().min(view.len()))
         .into_par_iter()
         .with_min_len(256)
         .map(|i| {
@@ -48,11 +56,8 @@ pub fn emitted_radiance(scene: &Scene, view: &ViewSamples) -> Vec<Vec3> {
                 return sanitized(env.radiance(d));
             }
             let l = area.get(shape as usize).copied().unwrap_or(Vec3::ZERO);
-            if l != Vec3::ZERO && view.wi[i].dot(view.normal[i]) > 0.0 {
-                l
-            } else {
-                Vec3::ZERO
-            }
+            let own = if l != Vec3::ZERO && view.wi[i].dot(view.normal[i]) > 0.0 { l } else { Vec3::ZERO };
+            own + chain(i)
         })
         .collect()
 }
@@ -114,6 +119,7 @@ mod tests {
             shape_index: vec![-1, 0, 0],
             prim_index: vec![-1, 0, 0],
             bsdf: vec![bytemuck::Zeroable::zeroed(); 3],
+            ..Default::default()
         };
         (scene, view)
     }

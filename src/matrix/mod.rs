@@ -20,7 +20,14 @@
 //! `gpu::bvh::RAYS_PER_INVOCATION` lights so that an invocation's loops stay below Mesa 22.3's 65,535
 //! iterations even if every ray takes the most steps.
 //!
-//! Symbols: m = number of view samples (`width * height`), n = number of lights, w = weights.
+//! Delta BSDF chains (`crate::view_chains`): a pixel may own several view samples (its camera hit plus
+//! the surfaces seen through mirrors and glass, each with its chain's RGB throughput). The matrix rows
+//! are pixels: A(i, j) = sum over pixel i's samples k of throughput_k * (light j's direct light at k).
+//! The GPU shades every sample (throughput applied in the shader) and the per-sample results are summed
+//! into their pixels on the host (`ViewSamples::fold`); without delta BSDFs each pixel has one sample
+//! of throughput 1 and nothing changes.
+//!
+//! Symbols: m = number of rows = pixels (`width * height`), n = number of lights, w = weights.
 pub mod emitted;
 pub mod oracle;
 pub mod reference;
@@ -159,12 +166,18 @@ impl LightMatrix {
         opts: ColumnOptions,
     ) -> Result<LightMatrix> {
         let m = view.len();
-        let wh = view.width as usize * view.height as usize;
-        if m != wh || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len(), view.bsdf.len()].iter().any(|&l| l != m) {
+        let wh = view.num_pixels();
+        if m != wh + view.extra_pixel.len()
+            || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len(), view.bsdf.len()].iter().any(|&l| l != m)
+            || !(view.throughput.is_empty() || view.throughput.len() == m)
+            || view.extra_pixel.windows(2).any(|p| p[1] < p[0])
+            || view.extra_pixel.last().is_some_and(|&p| p as usize >= wh)
+        {
             return Err(Error::invalid(format!(
-                "view samples are inconsistent: {}x{} = {wh} pixels, shape_index {m}, position {}, normal {}, \
-                 geo_normal {}, wi {}, bsdf {}",
-                view.width, view.height, view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len(), view.bsdf.len()
+                "view samples are inconsistent: {}x{} = {wh} pixels, {} extra samples, shape_index {m}, position {}, \
+                 normal {}, geo_normal {}, wi {}, bsdf {}, throughput {}",
+                view.width, view.height, view.extra_pixel.len(), view.position.len(), view.normal.len(),
+                view.geo_normal.len(), view.wi.len(), view.bsdf.len(), view.throughput.len()
             )));
         }
         let limits = &ctx.limits;
@@ -234,9 +247,9 @@ impl LightMatrix {
         })
     }
 
-    /// (m, n): view samples x lights.
+    /// (m, n): rows (pixels) x lights.
     pub fn shape(&self) -> (usize, usize) {
-        (self.view.len(), self.lights.len())
+        (self.view.num_pixels(), self.lights.len())
     }
 
     /// Image size (height, width) of the view samples, numpy order.
@@ -375,7 +388,7 @@ impl LightMatrix {
     }
 
     /// Columns `js` (any order, repeats allowed): k * H * W * 3 floats, column-major by light, then
-    /// row 0 at the top, then RGB.
+    /// row 0 at the top, then RGB (a pixel's delta-chain samples summed into it).
     pub fn columns(&self, js: &[usize]) -> Result<Vec<f32>> {
         self.check_indices(js)?;
         let m = self.view.len();
@@ -395,11 +408,19 @@ impl LightMatrix {
             mapped_at_creation: false,
         });
         let accum = storage_buffer::<f32>(&self.ctx.device, "LightMatrix::no_accum", &[], wgpu::BufferUsages::STORAGE);
-        let mut out = Vec::with_capacity(js.len() * m * 3);
+        let pixels = self.view.num_pixels();
+        let mut out = Vec::with_capacity(js.len() * pixels * 3);
         for batch in &batches {
             let zeros = vec![[0.0f32; 4]; batch.end - batch.start];
             self.run_batch(js, batch, &zeros, &accum, Some(&columns_buf));
-            out.extend(self.ctx.read_buffer::<f32>(&columns_buf, 0, (batch.end - batch.start) * m * 3)?);
+            let data = self.ctx.read_buffer::<f32>(&columns_buf, 0, (batch.end - batch.start) * m * 3)?;
+            if m == pixels {
+                out.extend(data);
+            } else {
+                for column in data.chunks_exact(m * 3) {
+                    out.extend(self.view.fold(column, 3));
+                }
+            }
         }
         Ok(out)
     }
@@ -455,6 +476,7 @@ impl LightMatrix {
             progress(batch.end, js.len());
         }
         let rgba = self.ctx.read_buffer::<[f32; 4]>(&accum, 0, m)?;
-        Ok(rgba.iter().flat_map(|p| [p[0], p[1], p[2]]).collect())
+        let rgb: Vec<f32> = rgba.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
+        Ok(if m == self.view.num_pixels() { rgb } else { self.view.fold(&rgb, 3) })
     }
 }

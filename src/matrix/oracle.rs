@@ -7,7 +7,9 @@
 //! and V is exact visibility by `raytrace::RayTracer` with Mitsuba's offsets: `RayTracer::occluded(p,
 //! n_g, q)` (`spawn_ray_to`) toward a light at a finite distance (point, spot, oriented point, VPL),
 //! an unbounded `spawn_ray(p, n_g, wo)` for directional lights -- the same rays the GPU's
-//! `Visibility::RayTraced` casts. Background samples (`shape_index < 0`) are 0.
+//! `Visibility::RayTraced` casts. Background samples (`shape_index < 0`) are 0. A sample's value is
+//! multiplied by its delta-chain throughput (`ViewSamples::throughput`), and a row of the matrix (a
+//! pixel) is the sum of its samples in sample order (`ViewSamples::samples_of_pixel`), as the GPU's.
 //!
 //! The ray tracer is built on the first call and kept by the `LightMatrix`. Rows and columns run in
 //! parallel with rayon.
@@ -19,8 +21,22 @@ use crate::view::ViewSamples;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Light j's contribution to view sample i with exact visibility: (A(i, j), whether the shadow ray was
-/// unblocked; false also when the unshadowed contribution is 0 and no ray was cast).
+/// Light j's contribution to pixel p (the sum over its view samples) with exact visibility: (A(p, j),
+/// whether any shadow ray was unblocked).
+pub fn exact_pixel(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, p: usize, j: usize) -> (Vec3, bool) {
+    let mut samples = view.samples_of_pixel(p);
+    let first = samples.next().unwrap_or(p);
+    let (mut sum, mut lit) = exact_element(tracer, view, lights, first, j);
+    for k in samples {
+        let (v, l) = exact_element(tracer, view, lights, k, j);
+        sum += v;
+        lit |= l;
+    }
+    (sum, lit)
+}
+
+/// Light j's contribution to view sample i (throughput applied) with exact visibility: (value, whether
+/// the shadow ray was unblocked; false also when the unshadowed contribution is 0 and no ray was cast).
 pub fn exact_element(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, i: usize, j: usize) -> (Vec3, bool) {
     if view.shape_index[i] < 0 {
         return (Vec3::ZERO, false);
@@ -32,7 +48,7 @@ pub fn exact_element(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, 
     // Mitsuba's shading frame (Frame3f(n)), as `columns.wgsl`.
     let (s, t) = coordinate_system(n);
     let local = |v: Vec3| Vec3::new(v.dot(s), v.dot(t), v.dot(n));
-    let f = crate::shading::bsdf::eval(&view.bsdf[i], local(view.wi[i]), local(wo)) * radiance;
+    let f = crate::shading::bsdf::eval(&view.bsdf[i], local(view.wi[i]), local(wo)) * radiance * view.throughput_of(i);
     if f == Vec3::ZERO {
         return (Vec3::ZERO, false);
     }
@@ -62,7 +78,7 @@ impl LightMatrix {
     }
 
     fn check_sample(&self, i: usize) -> Result<()> {
-        let m = self.view.len();
+        let m = self.view.num_pixels();
         if i >= m {
             return Err(Error::invalid(format!("view sample index {i} is out of range for {m} view samples")));
         }
@@ -75,7 +91,7 @@ impl LightMatrix {
     pub fn element(&self, i: usize, j: usize) -> Result<[f32; 3]> {
         self.check_sample(i)?;
         self.check_indices(&[j])?;
-        Ok(exact_element(self.tracer()?, &self.view, &self.lights, i, j).0.to_array())
+        Ok(exact_pixel(self.tracer()?, &self.view, &self.lights, i, j).0.to_array())
     }
 
     /// Row i, A(i, :), by exact ray casting: n RGB values in light order.
@@ -87,7 +103,7 @@ impl LightMatrix {
         Ok((0..self.lights.len())
             .into_par_iter()
             .with_min_len(64)
-            .map(|j| exact_element(tracer, &self.view, &self.lights, i, j).0.to_array())
+            .map(|j| exact_pixel(tracer, &self.view, &self.lights, i, j).0.to_array())
             .collect())
     }
 
@@ -97,10 +113,10 @@ impl LightMatrix {
     pub fn column_exact(&self, j: usize) -> Result<Vec<[f32; 3]>> {
         self.check_indices(&[j])?;
         let tracer = self.tracer()?;
-        Ok((0..self.view.len())
+        Ok((0..self.view.num_pixels())
             .into_par_iter()
             .with_min_len(64)
-            .map(|i| exact_element(tracer, &self.view, &self.lights, i, j).0.to_array())
+            .map(|i| exact_pixel(tracer, &self.view, &self.lights, i, j).0.to_array())
             .collect())
     }
 }

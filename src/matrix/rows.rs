@@ -100,8 +100,10 @@ pub struct RowTimings {
 pub type TimedRows = (Vec<f32>, RowTimings);
 
 impl LightMatrix {
-    /// Rows `is` (view sample indices, any order, repeats allowed) as r * n * 3 floats, `[row][light][rgb]`,
-    /// with the default `RowOptions`; `progress(rows_done, r)` is called after each batch.
+    /// Rows `is` (pixel indices `y * width + x`, any order, repeats allowed) as r * n * 3 floats,
+    /// `[row][light][rgb]`, with the default `RowOptions`; `progress(samples_done, samples)` is called after
+    /// each batch. A pixel with delta-chain samples (`crate::view_chains`) has one row per sample
+    /// evaluated (each with its cube map), summed into the pixel's row.
     pub fn rows(&self, is: &[usize], progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
         Ok(self.rows_timed(is, &RowOptions::default(), progress)?.0)
     }
@@ -112,6 +114,15 @@ impl LightMatrix {
         if let Some((k, &i)) = is.iter().enumerate().find(|(_, &i)| i >= m) {
             return Err(Error::invalid(format!("row index {i} (at position {k}) is out of range for {m} view samples")));
         }
+        // Pixels -> their samples (the pixel itself, then its delta-chain samples).
+        let requested = is;
+        let expanded: Vec<usize>;
+        let is: &[usize] = if self.view.extra_pixel.is_empty() {
+            requested
+        } else {
+            expanded = requested.iter().flat_map(|&p| self.view.samples_of_pixel(p)).collect();
+            &expanded
+        };
         let max_dim = self.ctx.limits.max_texture_dimension_2d;
         if opts.resolution == 0 || opts.resolution > max_dim {
             return Err(Error::invalid(format!("row cube resolution must be in [1, {max_dim}], got {}", opts.resolution)));
@@ -275,6 +286,24 @@ impl LightMatrix {
             timings.batches += 1;
             done += batch.len();
             progress(done, r);
+        }
+        if is.len() != requested.len() {
+            // Sum each pixel's sample rows, in sample order.
+            let row = n * 3;
+            let mut folded = Vec::with_capacity(requested.len() * row);
+            let mut k = 0;
+            for &p in requested {
+                let count = self.view.samples_of_pixel(p).count();
+                let mut acc = out[k * row..(k + 1) * row].to_vec();
+                for extra in 1..count {
+                    for (a, v) in acc.iter_mut().zip(&out[(k + extra) * row..(k + extra + 1) * row]) {
+                        *a += v;
+                    }
+                }
+                folded.extend(acc);
+                k += count;
+            }
+            out = folded;
         }
         Ok((out, timings))
     }

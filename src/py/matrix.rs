@@ -97,7 +97,7 @@ pub struct LightMatrix {
 #[pymethods]
 impl LightMatrix {
     #[new]
-    #[pyo3(signature = (scene, lights, shadow_map_size=1024, normal_offset=None, depth_bias=None, slope_bias=None, visibility="hybrid"))]
+    #[pyo3(signature = (scene, lights, shadow_map_size=1024, normal_offset=None, depth_bias=None, slope_bias=None, visibility="hybrid", max_depth=-1))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -108,11 +108,13 @@ impl LightMatrix {
         depth_bias: Option<f32>,
         slope_bias: Option<f32>,
         visibility: &str,
+        max_depth: i64,
     ) -> PyResult<Self> {
         if !(16..=8192).contains(&shadow_map_size) {
             return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
         }
-        let view = scene.view_samples(py)?;
+        let chains = crate::view_chains::ChainOptions::with_max_depth(max_depth)?;
+        let view = scene.view_samples_with(py, chains)?;
         let (s, l) = (scene.inner.clone(), lights.inner.clone());
         let visibility = Visibility::parse(visibility)?;
         let mut opts = ColumnOptions { visibility, shadow_resolution: shadow_map_size, ..Default::default() };

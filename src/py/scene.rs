@@ -3,6 +3,7 @@ use super::util::{array, vec3_array};
 use crate::gpu::GpuContext;
 use crate::scene::{self, Bsdf, Emitter, LoadOptions, Param, ShapeKind};
 use crate::view::ViewSamples;
+use crate::view_chains::ChainOptions;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -12,22 +13,28 @@ use std::sync::{Arc, Mutex};
 #[pyclass(module = "manylights._native", frozen)]
 pub struct Scene {
     pub inner: Arc<scene::Scene>,
-    view: Mutex<Option<Arc<ViewSamples>>>,
+    /// View samples per delta-chain options (usually one entry).
+    view: Mutex<Vec<(ChainOptions, Arc<ViewSamples>)>>,
 }
 
 impl Scene {
     /// The view samples (G-buffer), rendered once on the GPU and cached.
     pub fn view_samples(&self, py: Python<'_>) -> PyResult<Arc<ViewSamples>> {
-        if let Some(v) = self.view.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+        self.view_samples_with(py, ChainOptions::default())
+    }
+
+    /// The view samples with delta chains followed by `chains`, rendered once per options and cached.
+    pub fn view_samples_with(&self, py: Python<'_>, chains: ChainOptions) -> PyResult<Arc<ViewSamples>> {
+        if let Some((_, v)) = self.view.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(o, _)| *o == chains) {
             return Ok(v.clone());
         }
         let scene = self.inner.clone();
         let v = py.detach(move || -> crate::error::Result<ViewSamples> {
             let ctx = GpuContext::shared()?;
-            crate::gpu::gbuffer::render_view_samples(&ctx, &scene)
+            crate::gpu::gbuffer::render_view_samples_with(&ctx, &scene, &chains)
         })?;
         let v = Arc::new(v);
-        *self.view.lock().unwrap_or_else(|e| e.into_inner()) = Some(v.clone());
+        self.view.lock().unwrap_or_else(|e| e.into_inner()).push((chains, v.clone()));
         Ok(v)
     }
 }
@@ -240,6 +247,8 @@ impl Scene {
     fn gbuffer<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let v = self.view_samples(py)?;
         let (h, w) = (v.height as usize, v.width as usize);
+        // The camera's own hits (samples 0 .. H * W; delta-chain samples follow them).
+        let m = h * w;
         let d = PyDict::new(py);
         for (name, data) in [
             ("position", &v.position),
@@ -248,12 +257,12 @@ impl Scene {
             ("wi", &v.wi),
             ("albedo", &v.albedo),
         ] {
-            d.set_item(name, vec3_array(py, data)?.reshape(vec![h, w, 3])?)?;
+            d.set_item(name, vec3_array(py, &data[..m])?.reshape(vec![h, w, 3])?)?;
         }
-        let uv: Vec<f32> = v.uv.iter().flat_map(|p| p.to_array()).collect();
+        let uv: Vec<f32> = v.uv[..m].iter().flat_map(|p| p.to_array()).collect();
         d.set_item("uv", array(py, uv, &[h, w, 2])?)?;
-        d.set_item("shape_index", array(py, v.shape_index.clone(), &[h, w])?)?;
-        d.set_item("prim_index", array(py, v.prim_index.clone(), &[h, w])?)?;
+        d.set_item("shape_index", array(py, v.shape_index[..m].to_vec(), &[h, w])?)?;
+        d.set_item("prim_index", array(py, v.prim_index[..m].to_vec(), &[h, w])?)?;
         Ok(d)
     }
     /// Mesh `index` as numpy arrays: positions, normals (V, 3), uvs (V, 2), indices (T, 3) uint32 (world space).
@@ -292,7 +301,7 @@ use numpy::PyArrayMethods;
 pub fn load_scene(py: Python<'_>, path: PathBuf, params: Vec<(String, String)>, size: Option<(u32, u32)>) -> PyResult<Scene> {
     let opts = LoadOptions { params, size, ..Default::default() };
     let s = py.detach(move || scene::load_scene(&path, &opts))?;
-    Ok(Scene { inner: Arc::new(s), view: Mutex::new(None) })
+    Ok(Scene { inner: Arc::new(s), view: Mutex::new(Vec::new()) })
 }
 
 /// The GPU adapter in use: name, backend, device_type, driver, is_software.
