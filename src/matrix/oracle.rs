@@ -17,7 +17,9 @@ use crate::lights::{coordinate_system, LightSet};
 use crate::raytrace::{spawn_ray, RayTracer};
 use crate::view::ViewSamples;
 use glam::Vec3;
-use rayon::prelude::*;
+
+/// Elements per parallel chunk of `row_exact` / `column_exact` between interruption checks.
+const ORACLE_CHUNK: usize = 4096;
 
 /// Light j's contribution to view sample i with exact visibility: (A(i, j), whether the shadow ray was
 /// unblocked; false also when the unshadowed contribution is 0 and no ray was cast).
@@ -84,11 +86,10 @@ impl LightMatrix {
     pub fn row_exact(&self, i: usize) -> Result<Vec<[f32; 3]>> {
         self.check_sample(i)?;
         let tracer = self.tracer()?;
-        Ok((0..self.lights.len())
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|j| exact_element(tracer, &self.view, &self.lights, i, j).0.to_array())
-            .collect())
+        // Chunks between interruption checks (Ctrl-C; `crate::interrupt`).
+        crate::interrupt::par_map_chunked(self.lights.len(), ORACLE_CHUNK, |j| {
+            exact_element(tracer, &self.view, &self.lights, i, j).0.to_array()
+        })
     }
 
     /// Column j, A(:, j), by exact ray casting: m RGB values, row 0 of the image first.
@@ -97,11 +98,9 @@ impl LightMatrix {
     pub fn column_exact(&self, j: usize) -> Result<Vec<[f32; 3]>> {
         self.check_indices(&[j])?;
         let tracer = self.tracer()?;
-        Ok((0..self.view.len())
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|i| exact_element(tracer, &self.view, &self.lights, i, j).0.to_array())
-            .collect())
+        crate::interrupt::par_map_chunked(self.view.len(), ORACLE_CHUNK, |i| {
+            exact_element(tracer, &self.view, &self.lights, i, j).0.to_array()
+        })
     }
 }
 
