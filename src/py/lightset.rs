@@ -85,8 +85,13 @@ impl LightSet {
     /// (n, 3) RGB emitted power (W).
     #[getter]
     fn power<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let p = py.detach(|| self.power.get_or_init(|| self.inner.powers()));
-        vec3_array(py, p)
+        if let Some(p) = self.power.get() {
+            return vec3_array(py, p);
+        }
+        // In chunks between Ctrl-C checks (glossy VPLs need a 1024-point quadrature each).
+        let set = self.inner.clone();
+        let p = super::signals::detach(py, move || crate::interrupt::par_map_chunked(set.len(), 16384, |j| set.power(j)))?;
+        vec3_array(py, self.power.get_or_init(|| p))
     }
     /// (n,) spot cutoff angles in radians (0 for other kinds).
     #[getter]
