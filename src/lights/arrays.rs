@@ -184,6 +184,10 @@ impl LightSet {
         if let Some((k, &j)) = idx.iter().enumerate().find(|(_, &j)| j >= n) {
             return Err(Error::invalid(format!("light index {j} (at position {k}) is out of range for {n} lights")));
         }
+        crate::memory::check_host(
+            &format!("a LightSet of {} selected lights", idx.len()),
+            crate::memory::product(&[idx.len() as u64, crate::memory::HOST_BYTES_PER_LIGHT]),
+        )?;
         let mut out = LightSet::new(self.scene_center, self.scene_radius);
         out.vpl_clamp = self.vpl_clamp;
         out.kind = idx.iter().map(|&j| self.kind[j]).collect();
