@@ -11,8 +11,8 @@
 //!   handlers on the main thread only, and acquiring the GIL from a worker would only add contention).
 //!   CPU work therefore runs in chunks from the calling thread ([`par_map_chunked`]).
 //! - A check runs the Python handlers at most once per [`CHECK_INTERVAL`] per thread.
-//! - GPU waits poll with a timeout ([`wait_gpu`]) so that a long batch does not block the check; work
-//!   already submitted finishes on its own (later submissions queue behind it), so an interrupted
+//! - GPU waits block on a helper thread while the calling thread checks ([`wait_gpu`]), so that a
+//!   long batch does not block the check; work already submitted finishes on its own (later submissions queue behind it), so an interrupted
 //!   `LightMatrix` stays usable and its next call gives the complete result.
 use crate::error::{Error, Result};
 use std::cell::Cell;
@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 
 /// Least time between two runs of the installed checker on one thread.
 pub const CHECK_INTERVAL: Duration = Duration::from_millis(50);
-/// Longest single GPU wait between two checks.
+/// Longest wait for a GPU answer between two checks.
 pub const GPU_POLL_TIMEOUT: Duration = Duration::from_millis(100);
 
 static CHECKER: OnceLock<fn() -> bool> = OnceLock::new();
@@ -79,15 +79,45 @@ pub fn par_map_chunked<T: Send>(n: usize, chunk: usize, f: impl Fn(usize) -> T +
     Ok(out)
 }
 
+/// Whether a checker is installed (Python): only then do waits need to be interruptible.
+pub fn enabled() -> bool {
+    CHECKER.get().is_some()
+}
+
 /// Wait for `submission` (None: everything submitted so far) on `device`, checking for interruption
 /// every `GPU_POLL_TIMEOUT`. An interrupted wait leaves the work running on the GPU.
+///
+/// The blocking wait runs on a short-lived helper thread and this thread waits for its answer with a
+/// timeout: wgpu 30.0.1's own poll timeout (`PollType::Wait { timeout: Some(..) }`) can trip an
+/// assertion in `Device::maintain` when another thread's poll or submit retires the awaited
+/// submission meanwhile (gfx-rs/wgpu#9958), so it is not used. Without a checker the wait is direct.
 pub fn wait_gpu(device: &wgpu::Device, submission: Option<wgpu::SubmissionIndex>, what: &str) -> Result<()> {
+    let blocking = |device: &wgpu::Device, submission| {
+        device
+            .poll(wgpu::PollType::Wait { submission_index: submission, timeout: None })
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    };
+    if !enabled() || rayon::current_thread_index().is_some() {
+        return blocking(device, submission).map_err(|e| Error::Gpu(format!("waiting for {what} failed: {e}")));
+    }
+    check()?;
+    let (tx, rx) = std::sync::mpsc::channel();
+    let dev = device.clone();
+    std::thread::Builder::new()
+        .name("manylights-gpu-wait".into())
+        .spawn(move || {
+            let _ = tx.send(blocking(&dev, submission));
+        })
+        .map_err(|e| Error::Gpu(format!("could not start a thread to wait for {what}: {e}")))?;
     loop {
-        check()?;
-        match device.poll(wgpu::PollType::Wait { submission_index: submission.clone(), timeout: Some(GPU_POLL_TIMEOUT) }) {
-            Ok(_) => return Ok(()),
-            Err(wgpu::PollError::Timeout) => continue,
-            Err(e) => return Err(Error::Gpu(format!("waiting for {what} failed: {e}"))),
+        match rx.recv_timeout(GPU_POLL_TIMEOUT) {
+            Ok(Ok(())) => return Ok(()),
+            Ok(Err(e)) => return Err(Error::Gpu(format!("waiting for {what} failed: {e}"))),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => check()?,
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(Error::Gpu(format!("the thread waiting for {what} ended without an answer")))
+            }
         }
     }
 }

@@ -118,3 +118,25 @@ def test_ctrl_c_interrupts_long_calls_and_leaves_the_matrix_usable():
                                  "generate_lights"}, latencies
     slow = {k: v for k, v in latencies.items() if not 0 <= v < MAX_LATENCY}
     assert not slow, f"KeyboardInterrupt came later than {MAX_LATENCY} s after SIGINT: {slow}"
+
+
+def test_concurrent_calls_from_python_threads_agree():
+    """Interruptible waits from several Python threads at once (each waits on its own helper thread)
+    give the same images as one call after another."""
+    import concurrent.futures
+
+    import numpy as np
+
+    import manylights as ml
+
+    xml, params, _ = SCENE_CONFIGS["cbox"]
+    scene = ml.load_scene(xml, size=(24, 24), **params)
+    A = ml.LightMatrix(scene, ml.generate_lights(scene, area=600, seed=2))
+    jobs = [list(range(k, 600, 3)) for k in range(3)]
+    weights = [np.full((len(j), 3), 0.5 + k, np.float32) for k, j in enumerate(jobs)]
+    sequential = [A.weighted_sum(j, w) for j, w in zip(jobs, weights)]
+    with concurrent.futures.ThreadPoolExecutor(3) as pool:
+        parallel = list(pool.map(lambda jw: A.weighted_sum(*jw), zip(jobs, weights)))
+    for s, p in zip(sequential, parallel):
+        assert s.max() > 0
+        np.testing.assert_array_equal(p, s)
