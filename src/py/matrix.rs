@@ -1,4 +1,4 @@
-//! `LightSet`, `scene_lights` and `LightMatrix`.
+//! `scene_lights` and `LightMatrix` (the `LightSet` class is in `lightset.rs`, re-exported here).
 use super::scene::Scene;
 use super::signals::{self, progress_callback};
 pub use super::lightset::LightSet;
