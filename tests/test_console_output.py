@@ -32,7 +32,7 @@ SCRIPT = textwrap.dedent(r"""
     xml, params = sys.argv[1], json.loads(sys.argv[2])
     scene = ml.load_scene(xml, size=(16, 16), **params)
     lights = ml.generate_lights(scene, area=int(sys.argv[3]), seed=0)
-    A = ml.LightMatrix(scene, lights)
+    A = ml.LightMatrix(scene, lights, shadow_map_size=64)
     img = A.column_sum()                      # progress=True by default
     R = A.rows(np.arange(40))                 # progress=True by default
     np.save(sys.argv[4], img)
@@ -47,8 +47,8 @@ def _cbox():
 def test_progress_in_a_pipe_is_a_few_lines(tmp_path):
     xml, params = _cbox()
     env = {k: v for k, v in os.environ.items() if k != "MANYLIGHTS_PROGRESS"}
-    # 3000 lights = 12 column batches of 256, 40 rows; tqdm redrew once per batch before.
-    out = subprocess.run([sys.executable, "-c", SCRIPT, xml, params, "3000", str(tmp_path / "img.npy")],
+    # 1500 lights = 6 column batches of 256, 40 rows; tqdm redrew once per batch before.
+    out = subprocess.run([sys.executable, "-c", SCRIPT, xml, params, "1500", str(tmp_path / "img.npy")],
                          capture_output=True, text=True, cwd=REPO, env=env, timeout=600)
     assert out.returncode == 0, out.stderr[-3000:]
     lines = out.stderr.splitlines()
@@ -59,11 +59,12 @@ def test_progress_in_a_pipe_is_a_few_lines(tmp_path):
     cols = [line for line in progress if line.startswith("manylights: columns: ")]
     rows = [line for line in progress if line.startswith("manylights: rows: ")]
     assert 2 <= len(cols) <= 3 and 2 <= len(rows) <= 3, lines
-    assert cols[0] == "manylights: columns: 3000 lights ..." and cols[-1].startswith("manylights: columns: done, 3000 lights in")
+    assert cols[0] == "manylights: columns: 1500 lights ..." and cols[-1].startswith("manylights: columns: done, 1500 lights in")
     assert rows[-1].startswith("manylights: rows: done, 40 rows in")
     # The image is the same as without progress display.
     scene = ml.load_scene(SCENE_CONFIGS["cbox"][0], size=(16, 16), **SCENE_CONFIGS["cbox"][1])
-    ref = ml.LightMatrix(scene, ml.generate_lights(scene, area=3000, seed=0)).column_sum(progress=False)
+    ref = ml.LightMatrix(scene, ml.generate_lights(scene, area=1500, seed=0),
+                          shadow_map_size=64).column_sum(progress=False)
     np.testing.assert_array_equal(np.load(tmp_path / "img.npy"), ref)
 
 
@@ -73,7 +74,7 @@ def test_progress_in_a_terminal_is_a_bar(tmp_path):
     master, slave = pty.openpty()
     # A terminal of 80 columns (a new pty has 0, which tqdm would fill with an empty bar).
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
-    proc = subprocess.Popen([sys.executable, "-c", SCRIPT, xml, params, "1000", str(tmp_path / "img.npy")],
+    proc = subprocess.Popen([sys.executable, "-c", SCRIPT, xml, params, "600", str(tmp_path / "img.npy")],
                             stdout=subprocess.DEVNULL, stderr=slave, cwd=REPO, env=env)
     os.close(slave)
     chunks = []

@@ -131,7 +131,7 @@ def test_concurrent_calls_from_python_threads_agree():
 
     xml, params, _ = SCENE_CONFIGS["cbox"]
     scene = ml.load_scene(xml, size=(24, 24), **params)
-    A = ml.LightMatrix(scene, ml.generate_lights(scene, area=600, seed=2))
+    A = ml.LightMatrix(scene, ml.generate_lights(scene, area=600, seed=2), shadow_map_size=64)
     jobs = [list(range(k, 600, 3)) for k in range(3)]
     weights = [np.full((len(j), 3), 0.5 + k, np.float32) for k, j in enumerate(jobs)]
     sequential = [A.weighted_sum(j, w) for j, w in zip(jobs, weights)]
