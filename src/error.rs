@@ -47,6 +47,13 @@ pub enum Error {
     /// A GPU operation failed (device lost, out of memory, validation).
     #[error("GPU error: {0}")]
     Gpu(String),
+    /// The call was interrupted (Ctrl-C; `crate::interrupt`); Python raises the pending
+    /// `KeyboardInterrupt`.
+    #[error("interrupted")]
+    Interrupted,
+    /// A request would not fit in host or GPU memory; the message names the request and the limit.
+    #[error("{0}")]
+    OutOfMemory(String),
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

@@ -2,6 +2,8 @@
 pub mod error;
 pub mod gpu;
 pub mod image;
+pub mod interrupt;
+pub mod memory;
 pub mod lights;
 pub mod cluster;
 pub mod matrix;

@@ -31,6 +31,7 @@ from ._native import (
     read_exr,
 )
 from .metrics import fraction_within, relative_l2
+from .progress import progress_bar as _progress_bar
 from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
 
 __version__ = _native.__version__
@@ -216,7 +217,8 @@ class LightMatrix:
 
         Args:
             weights: optional (n,) weights.
-            progress: show a tqdm progress bar over light batches.
+            progress: show progress over light batches (a bar in terminals and notebooks, a few log
+                lines elsewhere: ``manylights.progress``).
 
         Raises:
             ValueError: weights not of shape (n,), or NaN/inf. TypeError: non-numeric weights.
@@ -256,7 +258,7 @@ class LightMatrix:
 
         Args:
             indices: (r,) view sample indices in [0, m), repeats allowed, 1 <= r <= m.
-            progress: show a tqdm progress bar over row batches.
+            progress: show progress over row batches (as ``column_sum``).
             shadow_map_size: texels per cube face (16..=8192).
             return_timings: also return a dict of seconds per stage (setup, shadow_maps, evaluation, readback).
 
@@ -323,31 +325,6 @@ class LightMatrix:
     def __repr__(self) -> str:
         m, n = self.shape
         return f"LightMatrix({m} view samples x {n} lights)"
-
-
-class _progress_bar:
-    """A tqdm bar driven by the native (done, total) callbacks; a no-op when disabled or empty."""
-
-    def __init__(self, total: int, desc: str, enabled: bool, unit: str = "light"):
-        self.total, self.desc, self.enabled, self.bar, self.unit = total, desc, enabled and total > 0, None, unit
-
-    def __enter__(self):
-        if not self.enabled:
-            return None
-        from tqdm.auto import tqdm
-
-        self.bar = tqdm(total=self.total, desc=self.desc, unit=self.unit, leave=False)
-
-        def callback(done: int, total: int) -> None:
-            self.bar.n = done
-            self.bar.refresh()
-
-        return callback
-
-    def __exit__(self, *exc):
-        if self.bar is not None:
-            self.bar.close()
-        return False
 
 
 def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_dim: int = 50,

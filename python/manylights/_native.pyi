@@ -1,6 +1,6 @@
 """Type stub of the native module ``manylights._native`` (Rust, PyO3). Keep in sync with ``src/py/``."""
 from os import PathLike
-from typing import Any, Callable, Optional, Sequence
+from typing import Any, Callable, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -51,7 +51,28 @@ class LightSet:
     intensity: npt.NDArray[np.float32]
     power: npt.NDArray[np.float32]
     vpl_clamp: float
+    cutoff_angle: npt.NDArray[np.float32]
+    beam_width: npt.NDArray[np.float32]
+    bsdf: npt.NDArray[np.uint32]
+    """(n, 20) uint32: each VPL's 80-byte BSDF record (opaque; for from_arrays of the same scene)."""
+    scene_sphere: tuple[tuple[float, float, float], float]
     def __len__(self) -> int: ...
+    def __getitem__(self, key: Union[int, slice, Sequence[int], npt.NDArray[Any]]) -> LightSet:
+        """A new LightSet of the chosen lights (int, slice, integer array, boolean mask of shape (n,)).
+        Raises IndexError (out of range, mask length) or TypeError (other keys)."""
+    @staticmethod
+    def from_arrays(scene: Scene, *, kind: Union[int, npt.ArrayLike], position: Optional[npt.ArrayLike] = None,
+                    direction: Optional[npt.ArrayLike] = None, normal: Optional[npt.ArrayLike] = None,
+                    geo_normal: Optional[npt.ArrayLike] = None, incident: Optional[npt.ArrayLike] = None,
+                    intensity: Optional[npt.ArrayLike] = None, power: Optional[npt.ArrayLike] = None,
+                    cutoff_angle: Optional[npt.ArrayLike] = None, beam_width: Optional[npt.ArrayLike] = None,
+                    bsdf: Optional[npt.ArrayLike] = None, albedo: Optional[npt.ArrayLike] = None,
+                    vpl_clamp: Optional[float] = None) -> LightSet:
+        """A LightSet from per-light arrays (see the method's docstring: shapes, units, checks).
+        Raises ValueError naming the argument, the expected and the actual shape or value."""
+    @staticmethod
+    def concat(sets: Sequence[LightSet]) -> LightSet:
+        """All lights of sets in order. Raises ValueError for [] or sets of different scenes."""
 
 class LightMatrix:
     """The m x n light matrix (GPU columns with shadow maps)."""

@@ -252,14 +252,16 @@ pub fn cluster_reduced_columns(reduced: ReducedMatrix, num_clusters: usize, opts
         let num_nonzero_clusters = num_clusters - num_zero_clusters;
         let features = columns::project(&reduced, &nonzero, opts.projection_dim, &mut phase_rng(opts.seed, 0));
         log::debug!("cluster: projection {:.3} s", t0.elapsed().as_secs_f64());
+        crate::interrupt::check_now()?;
         let num_sampled = ((opts.sampling_fraction * num_nonzero_clusters as f64).round() as usize).min(num_nonzero_clusters);
         let mut local = if num_sampled == 0 {
             vec![(0..m as u32).collect::<Vec<u32>>()]
         } else {
-            sampling::cluster_by_sampling(&features, num_sampled, &mut phase_rng(opts.seed, 1))
+            sampling::cluster_by_sampling(&features, num_sampled, &mut phase_rng(opts.seed, 1))?
         };
         log::debug!("cluster: sampling {:.3} s", t0.elapsed().as_secs_f64());
-        splitting::split_until(&features, &mut local, num_nonzero_clusters, &mut phase_rng(opts.seed, 2));
+        crate::interrupt::check_now()?;
+        splitting::split_until(&features, &mut local, num_nonzero_clusters, &mut phase_rng(opts.seed, 2))?;
         log::debug!("cluster: splitting {:.3} s", t0.elapsed().as_secs_f64());
         let mut clusters: Vec<Vec<u32>> = Vec::with_capacity(num_clusters);
         let mut reps = Vec::with_capacity(num_clusters);

@@ -17,6 +17,8 @@ use rayon::prelude::*;
 
 /// Columns per parallel block of the assignment.
 const ASSIGN_BLOCK: usize = 1024;
+/// Blocks per parallel group of `assign` (interruption checks between groups).
+const ASSIGN_GROUP: usize = 16;
 
 /// `alpha_i = sum_j d(rho_i, rho_j)` for every feature column (clamped at 0 against round-off).
 pub fn alpha(features: &Features) -> Vec<f64> {
@@ -78,20 +80,22 @@ pub fn sample_centres(alpha: &[f64], norm: &[f64], num_centres: usize, rng: &mut
 }
 
 /// Clusters (lists of feature indices) from sampled centres; each centre is in its own cluster.
-pub fn cluster_by_sampling(features: &Features, num_centres: usize, rng: &mut Pcg64) -> Vec<Vec<u32>> {
+/// Errors: only `Error::Interrupted` (Ctrl-C).
+pub fn cluster_by_sampling(features: &Features, num_centres: usize, rng: &mut Pcg64) -> crate::error::Result<Vec<Vec<u32>>> {
     let alpha = alpha(features);
     let centres = sample_centres(&alpha, &features.norm, num_centres, rng);
-    let assignment = assign(features, &centres);
+    let assignment = assign(features, &centres)?;
     let mut clusters = vec![Vec::new(); centres.len()];
     for (i, &a) in assignment.iter().enumerate() {
         clusters[a as usize].push(i as u32);
     }
-    clusters
+    Ok(clusters)
 }
 
 /// Index (into `centres`) of the centre minimising `w_k (|x||rho_k| - x . rho_k)` for every feature
-/// column, ties to the lowest index; a centre always gets itself.
-pub fn assign(features: &Features, centres: &[(u32, f64)]) -> Vec<u32> {
+/// column, ties to the lowest index; a centre always gets itself. Runs in groups of `ASSIGN_GROUP`
+/// blocks with Ctrl-C checks between them (`Error::Interrupted`, its only error).
+pub fn assign(features: &Features, centres: &[(u32, f64)]) -> crate::error::Result<Vec<u32>> {
     let (d, m, c) = (features.dim, features.len(), centres.len());
     // K: d x c, the unscaled centres (the weights scale the distances afterwards).
     let mut centre_data = Vec::with_capacity(d * c);
@@ -101,29 +105,32 @@ pub fn assign(features: &Features, centres: &[(u32, f64)]) -> Vec<u32> {
     let centre_mat = MatRef::from_column_major_slice(&centre_data, d, c);
     let centre_norm: Vec<f64> = centres.iter().map(|&(i, _)| features.norm[i as usize]).collect();
     let mut assignment = vec![0u32; m];
-    assignment.par_chunks_mut(ASSIGN_BLOCK).enumerate().for_each(|(b, out)| {
-        let j0 = b * ASSIGN_BLOCK;
-        let cols = out.len();
-        let block = MatRef::from_column_major_slice(&features.data[j0 * d..(j0 + cols) * d], d, cols);
-        // K^T R for this block: c x cols.
-        let mut dots = Mat::<f64>::zeros(c, cols);
-        matmul(dots.as_mut(), Accum::Replace, centre_mat.transpose(), block, 1.0, Par::Seq);
-        for (jj, slot) in out.iter_mut().enumerate() {
-            let x_norm = features.norm[j0 + jj];
-            let mut best = (f64::INFINITY, 0u32);
-            for k in 0..c {
-                let dist = centres[k].1 * (centre_norm[k] * x_norm - dots[(k, jj)]);
-                if dist < best.0 {
-                    best = (dist, k as u32);
+    for (g, group) in assignment.chunks_mut(ASSIGN_BLOCK * ASSIGN_GROUP).enumerate() {
+        crate::interrupt::check()?;
+        group.par_chunks_mut(ASSIGN_BLOCK).enumerate().for_each(|(b, out)| {
+            let j0 = (g * ASSIGN_GROUP + b) * ASSIGN_BLOCK;
+            let cols = out.len();
+            let block = MatRef::from_column_major_slice(&features.data[j0 * d..(j0 + cols) * d], d, cols);
+            // K^T R for this block: c x cols.
+            let mut dots = Mat::<f64>::zeros(c, cols);
+            matmul(dots.as_mut(), Accum::Replace, centre_mat.transpose(), block, 1.0, Par::Seq);
+            for (jj, slot) in out.iter_mut().enumerate() {
+                let x_norm = features.norm[j0 + jj];
+                let mut best = (f64::INFINITY, 0u32);
+                for k in 0..c {
+                    let dist = centres[k].1 * (centre_norm[k] * x_norm - dots[(k, jj)]);
+                    if dist < best.0 {
+                        best = (dist, k as u32);
+                    }
                 }
+                *slot = best.1;
             }
-            *slot = best.1;
-        }
-    });
+        });
+    }
     for (k, &(i, _)) in centres.iter().enumerate() {
         assignment[i as usize] = k as u32;
     }
-    assignment
+    Ok(assignment)
 }
 
 #[cfg(test)]
@@ -173,9 +180,9 @@ mod tests {
         // Two centres along the axes; x = (1, 1) is equally far from both unscaled, so the smaller
         // weight wins; (5, 0.1) is nearest to the x-axis centre.
         let f = features(&[&[1.0, 0.0], &[0.0, 1.0], &[1.0, 1.0], &[5.0, 0.1]]);
-        let a = assign(&f, &[(0, 2.0), (1, 1.0)]);
+        let a = assign(&f, &[(0, 2.0), (1, 1.0)]).unwrap();
         assert_eq!(a, vec![0, 1, 1, 0]);
-        let a = assign(&f, &[(0, 1.0), (1, 2.0)]);
+        let a = assign(&f, &[(0, 1.0), (1, 2.0)]).unwrap();
         assert_eq!(a, vec![0, 1, 0, 0]);
     }
 }

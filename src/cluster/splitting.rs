@@ -112,7 +112,8 @@ impl PartialOrd for Candidate {
 }
 
 /// Splits the highest-cost cluster until there are `target` clusters (or every cluster is a singleton).
-pub fn split_until(features: &Features, clusters: &mut Vec<Vec<u32>>, target: usize, rng: &mut Pcg64) {
+/// Errors: only `Error::Interrupted` (Ctrl-C, checked between splits).
+pub fn split_until(features: &Features, clusters: &mut Vec<Vec<u32>>, target: usize, rng: &mut Pcg64) -> crate::error::Result<()> {
     let mut heap: BinaryHeap<Candidate> = clusters
         .iter()
         .enumerate()
@@ -120,6 +121,7 @@ pub fn split_until(features: &Features, clusters: &mut Vec<Vec<u32>>, target: us
         .map(|(id, c)| Candidate { cost: cluster_cost(features, c), size: c.len(), id })
         .collect();
     while clusters.len() < target {
+        crate::interrupt::check()?;
         let Some(top) = heap.pop() else { break };
         let (left, right, cost_left, cost_right) = split(features, &clusters[top.id], rng);
         let new_id = clusters.len();
@@ -131,6 +133,7 @@ pub fn split_until(features: &Features, clusters: &mut Vec<Vec<u32>>, target: us
         clusters[top.id] = left;
         clusters.push(right);
     }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -182,7 +185,7 @@ mod tests {
         let norm = data.chunks(2).map(|c| (c[0] * c[0] + c[1] * c[1]).sqrt()).collect();
         let f = Features { dim: 2, data, norm };
         let mut clusters = vec![(0..10).collect::<Vec<u32>>()];
-        split_until(&f, &mut clusters, 4, &mut Pcg64::seed_from_u64(1));
+        split_until(&f, &mut clusters, 4, &mut Pcg64::seed_from_u64(1)).unwrap();
         assert_eq!(clusters.len(), 4);
         let mut all: Vec<u32> = clusters.iter().flatten().copied().collect();
         all.sort();

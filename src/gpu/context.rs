@@ -64,6 +64,7 @@ fn rank(info: &wgpu::AdapterInfo) -> i32 {
 impl GpuContext {
     /// Create a new device, choosing an adapter as described in the module docs.
     pub fn new() -> Result<GpuContext> {
+        crate::gpu::wsi_env::quiet_device_select();
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
         let instance = wgpu::Instance::new(desc);
@@ -161,12 +162,10 @@ impl GpuContext {
         Ok(CTX.get_or_init(|| ctx).clone())
     }
 
-    /// Wait for all submitted work; turn a lost device into an error.
+    /// Wait for all submitted work; turn a lost device into an error. Interruptible
+    /// (`crate::interrupt::wait_gpu`): `Error::Interrupted` leaves the work running.
     pub fn wait(&self) -> Result<()> {
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map(|_| ())
-            .map_err(|e| Error::Gpu(format!("waiting for the device failed: {e}")))
+        crate::interrupt::wait_gpu(&self.device, None, "the device")
     }
 
     /// Copy a storage buffer back to the host (the buffer needs COPY_SRC usage).

@@ -426,6 +426,7 @@ pub fn render_view_samples_with_geometry(ctx: &GpuContext, scene: &Scene, geomet
 /// Only the visibility buffer of `scene` (global triangle id + 1 per pixel, 0 = background).
 pub fn render_visibility(ctx: &GpuContext, scene: &Scene) -> Result<Vec<u32>> {
     validate_camera(&scene.camera, ctx.limits.max_texture_dimension_2d)?;
+    crate::memory::check_view_samples(ctx, scene.camera.width, scene.camera.height)?;
     let pass = GBufferPass::cached(&ctx.device)?;
     let geometry = SceneGeometry::upload(&ctx.device, scene)?;
     pass.render_visibility(ctx, scene, &geometry)

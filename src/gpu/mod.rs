@@ -10,5 +10,6 @@ pub mod rows;
 pub mod scene_buffers;
 pub mod shaders;
 pub mod shadow;
+pub mod wsi_env;
 
 pub use context::GpuContext;

@@ -39,8 +39,10 @@
 //! shear or non-uniform scale (which would distort Mitsuba's cone) is an error.
 //!
 //! Rust twin of `shaders/common/light.wgsl` (`light_emitted`), used by the CPU reference.
+pub mod arrays;
 pub mod generate;
 
+pub use arrays::LightArrays;
 pub use generate::{generate_lights, GenerateOptions};
 
 use crate::error::{Error, Result};

@@ -214,7 +214,10 @@ impl LightMatrix {
         let geometry = SceneGeometry::upload(device, &scene)?;
         let tables = crate::shading::bsdf::roughplastic_table_buffer(&scene.bsdfs);
         let view_buffers = ViewBuffers::upload(device, &view, &tables);
-        let atlas = ShadowAtlas::new(device, opts.shadow_resolution, max_layers);
+        let res = opts.shadow_resolution as u64;
+        let what = format!("shadow maps: {max_layers} layers of {res}^2 texels (shadow_map_size = {res})");
+        crate::memory::check_gpu(&ctx, &what, crate::memory::product(&[max_layers as u64, res, res, 4]), false)?;
+        let atlas = crate::memory::gpu_alloc(device, &what, || ShadowAtlas::new(device, opts.shadow_resolution, max_layers))?;
         let bvh = if opts.visibility == Visibility::ShadowMap {
             GpuBvh::empty(device)?
         } else {
@@ -368,11 +371,7 @@ impl LightMatrix {
     }
 
     fn wait_for(&self, submission: wgpu::SubmissionIndex) -> Result<()> {
-        self.ctx
-            .device
-            .poll(wgpu::PollType::Wait { submission_index: Some(submission), timeout: None })
-            .map(|_| ())
-            .map_err(|e| Error::Gpu(format!("waiting for a column batch failed: {e}")))
+        crate::interrupt::wait_gpu(&self.ctx.device, Some(submission), "a column batch")
     }
 
     /// Visibility counters since creation or the last `reset_visibility_stats` (waits for the GPU).
@@ -399,6 +398,10 @@ impl LightMatrix {
                 "one column of {m} view samples ({column_bytes} bytes) exceeds the storage binding limit"
             )));
         }
+        crate::memory::check_host(
+            &format!("columns: {} columns x {m} view samples x RGB float32", js.len()),
+            crate::memory::product(&[js.len() as u64, m as u64, 12]),
+        )?;
         let batches = self.batches(js, max_columns);
         let largest = batches.iter().map(|b| b.end - b.start).max().unwrap_or(0);
         let columns_buf = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {

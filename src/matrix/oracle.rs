@@ -19,7 +19,9 @@ use crate::lights::{coordinate_system, LightSet};
 use crate::raytrace::{spawn_ray, RayTracer};
 use crate::view::ViewSamples;
 use glam::Vec3;
-use rayon::prelude::*;
+
+/// Elements per parallel chunk of `row_exact` / `column_exact` between interruption checks.
+const ORACLE_CHUNK: usize = 4096;
 
 /// Light j's contribution to pixel p (the sum over its view samples) with exact visibility: (A(p, j),
 /// whether any shadow ray was unblocked).
@@ -100,11 +102,9 @@ impl LightMatrix {
     pub fn row_exact(&self, i: usize) -> Result<Vec<[f32; 3]>> {
         self.check_sample(i)?;
         let tracer = self.tracer()?;
-        Ok((0..self.lights.len())
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|j| exact_pixel(tracer, &self.view, &self.lights, i, j).0.to_array())
-            .collect())
+        crate::interrupt::par_map_chunked(self.lights.len(), ORACLE_CHUNK, |j| {
+            exact_pixel(tracer, &self.view, &self.lights, i, j).0.to_array()
+        })
     }
 
     /// Column j, A(:, j), by exact ray casting: m RGB values, row 0 of the image first.
@@ -113,11 +113,9 @@ impl LightMatrix {
     pub fn column_exact(&self, j: usize) -> Result<Vec<[f32; 3]>> {
         self.check_indices(&[j])?;
         let tracer = self.tracer()?;
-        Ok((0..self.view.num_pixels())
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|i| exact_pixel(tracer, &self.view, &self.lights, i, j).0.to_array())
-            .collect())
+        crate::interrupt::par_map_chunked(self.view.num_pixels(), ORACLE_CHUNK, |i| {
+            exact_pixel(tracer, &self.view, &self.lights, i, j).0.to_array()
+        })
     }
 }
 

@@ -139,6 +139,16 @@ impl LightMatrix {
                 "one row of {n} lights ({row_bytes} bytes) exceeds the {out_limit}-byte storage binding limit"
             )));
         }
+        // Refuse what cannot fit before allocating (host output, GPU lights and one batch of cubes).
+        crate::memory::check_host(
+            &format!("rows: {r} rows x {n} lights x RGB float32"),
+            crate::memory::product(&[r as u64, n as u64, 12]),
+        )?;
+        crate::memory::check_gpu(&self.ctx, &format!("rows: {n} lights (192 bytes each on the GPU)"), crate::memory::product(&[n as u64, LIGHT_BYTES]), false)?;
+        if self.opts.visibility != Visibility::RayTraced {
+            let res = opts.resolution as u64;
+            crate::memory::check_gpu(&self.ctx, &format!("rows: a {res}^2 cube depth map (shadow_map_size = {res})"), crate::memory::product(&[24, res, res]), false)?;
+        }
         let device = &self.ctx.device;
         let pass = self.rows_pass.get_or_init(|| RowsPass::new(device));
 
@@ -183,7 +193,8 @@ impl LightMatrix {
                 _ => (atlas_layers, out_size),
             };
             *scratch_guard = None;
-            *scratch_guard = Some(RowScratch {
+            let what = format!("rows: {layers} cube faces of {atlas_res}^2 texels and a {size}-byte output buffer");
+            *scratch_guard = Some(crate::memory::gpu_alloc(device, &what, || RowScratch {
                 atlas: ShadowAtlas::new(device, atlas_res, layers),
                 out_buf: device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("LightMatrix::rows_out"),
@@ -191,7 +202,7 @@ impl LightMatrix {
                     usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: false,
                 }),
-            });
+            })?);
         }
         let scratch = scratch_guard.as_ref().expect("row scratch allocated above");
         let (atlas, out_buf) = (&scratch.atlas, &scratch.out_buf);

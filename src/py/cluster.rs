@@ -58,7 +58,7 @@ pub fn cluster_reduced_columns_py<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let (data, r, n, channels) = reduced_view(&R)?;
     let power: Option<Vec<f32>> = power.map(|p| p.as_array().iter().copied().collect());
-    let result = py.detach(|| {
+    let result = super::signals::detach(py, || {
         let reduced = ReducedMatrix::new(&data, r, n, channels)?;
         let opts = ClusterOptions { seed, projection_dim, sampling_fraction, power: power.as_deref(), color_averaging };
         cluster::cluster_reduced_columns(reduced, c, &opts)

@@ -1,7 +1,7 @@
 //! Core errors -> Python exceptions.
 use crate::error::Error;
 use pyo3::create_exception;
-use pyo3::exceptions::{PyException, PyFileNotFoundError, PyOSError, PyValueError};
+use pyo3::exceptions::{PyException, PyFileNotFoundError, PyKeyboardInterrupt, PyMemoryError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 
 create_exception!(manylights, ManyLightsError, PyException, "Base class of manylights' own exceptions.");
@@ -19,6 +19,10 @@ impl From<Error> for PyErr {
             Error::InvalidParameter(_) => PyValueError::new_err(msg),
             Error::GpuUnavailable(_) => GpuUnavailableError::new_err(msg),
             Error::Gpu(_) => GpuError::new_err(msg),
+            // The exception Python's signal handler raised (normally KeyboardInterrupt), kept by
+            // `signals::checker`.
+            Error::Interrupted => super::signals::take_pending().unwrap_or_else(|| PyKeyboardInterrupt::new_err(())),
+            Error::OutOfMemory(_) => PyMemoryError::new_err(msg),
         }
     }
 }

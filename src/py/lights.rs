@@ -35,7 +35,7 @@ pub fn generate_lights(
         seed,
     };
     let s = scene.inner.clone();
-    let set = py.detach(move || core_generate(&s, &opts))?;
+    let set = super::signals::detach(py, move || core_generate(&s, &opts))?;
     Ok(LightSet::new(set))
 }
 

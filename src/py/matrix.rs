@@ -1,6 +1,8 @@
-//! `LightSet`, `scene_lights` and `LightMatrix`.
+//! `scene_lights` and `LightMatrix` (the `LightSet` class is in `lightset.rs`, re-exported here).
 use super::scene::Scene;
-use super::util::{array, vec3_array};
+use super::signals::{self, progress_callback};
+pub use super::lightset::LightSet;
+use super::util::array;
 use crate::error::Error;
 use crate::gpu::GpuContext;
 use crate::lights;
@@ -8,79 +10,6 @@ use crate::matrix::{ColumnOptions, LightMatrix as CoreMatrix, Visibility};
 use numpy::{PyArrayDyn, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use std::sync::Arc;
-
-/// A set of lights (struct of arrays); numpy views via the properties.
-#[pyclass(module = "manylights._native", frozen)]
-pub struct LightSet {
-    pub inner: Arc<lights::LightSet>,
-    /// `power`, computed once (VPLs on glossy surfaces need a quadrature each).
-    power: std::sync::OnceLock<Vec<glam::Vec3>>,
-}
-
-impl LightSet {
-    pub fn new(set: lights::LightSet) -> LightSet {
-        LightSet { inner: Arc::new(set), power: std::sync::OnceLock::new() }
-    }
-}
-
-#[pymethods]
-impl LightSet {
-    fn __len__(&self) -> usize {
-        self.inner.len()
-    }
-    /// Light kinds as int32 (0 point, 1 spot, 2 directional, 3 oriented point, 4 VPL).
-    #[getter]
-    fn kind<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<i32>>> {
-        let k: Vec<i32> = self.inner.kind.iter().map(|k| *k as i32).collect();
-        let n = k.len();
-        array(py, k, &[n])
-    }
-    /// (n, 3) world positions (0 for directional lights).
-    #[getter]
-    fn position<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        vec3_array(py, &self.inner.position)
-    }
-    /// (n, 3) unit directions: spot axis, directional travel direction, 0 for point lights.
-    #[getter]
-    fn direction<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        vec3_array(py, &self.inner.direction)
-    }
-    /// (n, 3) unit emission normal (oriented point) or shading normal (VPL); 0 for other kinds.
-    #[getter]
-    fn normal<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        vec3_array(py, &self.inner.normal)
-    }
-    /// (n, 3) VPL geometric normal (oriented point: its normal); 0 for other kinds.
-    #[getter]
-    fn geo_normal<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        vec3_array(py, &self.inner.geo_normal)
-    }
-    /// (n, 3) VPL incident direction (unit, toward where its particle came from); 0 for other kinds.
-    #[getter]
-    fn incident<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        vec3_array(py, &self.inner.incident)
-    }
-    /// VPL geometry-term clamp (1/m^2; inf = none).
-    #[getter]
-    fn vpl_clamp(&self) -> f32 {
-        self.inner.vpl_clamp
-    }
-    /// (n, 3) RGB intensity (W/sr; oriented point: along its normal), irradiance (W/m^2, directional)
-    /// or flux (W, VPL).
-    #[getter]
-    fn intensity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        vec3_array(py, &self.inner.intensity)
-    }
-    /// (n, 3) RGB emitted power (W).
-    #[getter]
-    fn power<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let p = py.detach(|| self.power.get_or_init(|| self.inner.powers()));
-        vec3_array(py, p)
-    }
-    fn __repr__(&self) -> String {
-        format!("LightSet({} lights)", self.inner.len())
-    }
-}
 
 /// The scene's point, spot and directional emitters.
 #[pyfunction]
@@ -130,7 +59,7 @@ impl LightMatrix {
                 *slot = v;
             }
         }
-        let m = py.detach(move || -> crate::error::Result<CoreMatrix> {
+        let m = signals::detach(py, move || -> crate::error::Result<CoreMatrix> {
             let ctx = GpuContext::shared()?;
             CoreMatrix::new(ctx, s, view, l, opts)
         })?;
@@ -155,7 +84,7 @@ impl LightMatrix {
     fn columns<'py>(&self, py: Python<'py>, indices: Vec<usize>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
         let k = indices.len();
-        let data = py.detach(move || m.columns(&indices))?;
+        let data = signals::detach(py, move || m.columns(&indices))?;
         let (h, w) = self.inner.image_size();
         array(py, data, &[k, h, w, 3])
     }
@@ -169,7 +98,7 @@ impl LightMatrix {
     ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let w: Option<Vec<f32>> = weights.map(|w| w.as_array().to_vec());
         let m = self.inner.clone();
-        let data = py.detach(move || {
+        let data = signals::detach(py, move || {
             let mut cb = progress_callback(progress);
             m.column_sum(w.as_deref(), &mut cb)
         })?;
@@ -197,7 +126,7 @@ impl LightMatrix {
         }
         let w: Vec<[f32; 3]> = weights.as_array().rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
         let m = self.inner.clone();
-        let data = py.detach(move || {
+        let data = signals::detach(py, move || {
             let mut cb = progress_callback(progress);
             m.weighted_sum(&indices, &w, &mut cb)
         })?;
@@ -208,7 +137,7 @@ impl LightMatrix {
     /// background pixels), (H, W, 3) float32; not part of any column.
     fn emitted<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
-        let data = py.detach(move || m.emitted());
+        let data = signals::detach(py, move || Ok(m.emitted()))?;
         let (h, w) = self.inner.image_size();
         array(py, data, &[h, w, 3])
     }
@@ -226,7 +155,7 @@ impl LightMatrix {
         let m = self.inner.clone();
         let r = indices.len();
         let opts = crate::matrix::rows::RowOptions { resolution: shadow_map_size, ..Default::default() };
-        let (data, t) = py.detach(move || {
+        let (data, t) = signals::detach(py, move || {
             let mut cb = progress_callback(progress);
             m.rows_timed(&indices, &opts, &mut cb)
         })?;
@@ -245,34 +174,22 @@ impl LightMatrix {
     /// A(i, j) by exact CPU ray casting, (3,) float32. ValueError for an index out of range.
     fn element<'py>(&self, py: Python<'py>, i: usize, j: usize) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
-        let v = py.detach(move || m.element(i, j))?;
+        let v = signals::detach(py, move || m.element(i, j))?;
         array(py, v.to_vec(), &[3])
     }
     /// Row i by exact CPU ray casting, (n, 3) float32. ValueError for i out of range.
     fn row_exact<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
-        let row = py.detach(move || m.row_exact(i))?;
+        let row = signals::detach(py, move || m.row_exact(i))?;
         let n = row.len();
         array(py, row.into_iter().flatten().collect(), &[n, 3])
     }
     /// Column j by exact CPU ray casting, (H, W, 3) float32. ValueError for j out of range.
     fn column_exact<'py>(&self, py: Python<'py>, j: usize) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
-        let col = py.detach(move || m.column_exact(j))?;
+        let col = signals::detach(py, move || m.column_exact(j))?;
         let (h, w) = self.inner.image_size();
         array(py, col.into_iter().flatten().collect(), &[h, w, 3])
-    }
-}
-
-/// A Rust progress callback that forwards (done, total) to an optional Python callable (its errors are
-/// ignored: progress display must not abort GPU work).
-fn progress_callback(progress: Option<Py<PyAny>>) -> impl FnMut(usize, usize) {
-    move |done: usize, total: usize| {
-        if let Some(p) = &progress {
-            Python::attach(|py| {
-                let _ = p.call1(py, (done, total));
-            });
-        }
     }
 }
 

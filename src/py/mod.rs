@@ -6,13 +6,17 @@ pub mod cluster;
 pub mod errors;
 pub mod image;
 pub mod lights;
+pub mod lightset;
 pub mod matrix;
 pub mod scene;
+pub mod signals;
 pub mod util;
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
+    signals::install();
+    crate::gpu::wsi_env::quiet_device_select();
     scene::register(m)?;
     matrix::register(m)?;
     image::register(m)?;

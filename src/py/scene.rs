@@ -29,7 +29,7 @@ impl Scene {
             return Ok(v.clone());
         }
         let scene = self.inner.clone();
-        let v = py.detach(move || -> crate::error::Result<ViewSamples> {
+        let v = super::signals::detach(py, move || -> crate::error::Result<ViewSamples> {
             let ctx = GpuContext::shared()?;
             crate::gpu::gbuffer::render_view_samples_with(&ctx, &scene, &chains)
         })?;

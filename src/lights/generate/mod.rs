@@ -94,6 +94,12 @@ pub fn generate_lights(scene: &Scene, opts: &GenerateOptions) -> Result<LightSet
             return Err(Error::invalid(format!("{name} must be at most {MAX_LIGHTS} lights, got {v}")));
         }
     }
+    // VPLs count twice: particle paths are collected before they become lights.
+    let requested = opts.area as u64 + opts.environment as u64 + 2 * opts.indirect as u64;
+    crate::memory::check_host(
+        &format!("generate_lights: {} area + {} environment + about {} indirect lights", opts.area, opts.environment, opts.indirect),
+        crate::memory::product(&[requested, crate::memory::HOST_BYTES_PER_LIGHT]),
+    )?;
     let clamp = match opts.clamp {
         None => default_clamp(scene),
         Some(c) if c > 0.0 => c,

@@ -43,7 +43,6 @@ use crate::shading::bsdf::{resolve, FLAG_TWOSIDED};
 use crate::shading::GpuBsdf;
 use glam::Vec3;
 use rand_pcg::Pcg32;
-use rayon::prelude::*;
 use std::f32::consts::PI;
 
 /// Bounce from which Russian roulette applies.
@@ -257,27 +256,24 @@ pub fn trace_vpls(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environment
         radius,
         max_vpl_depth: opts.max_depth.saturating_sub(2),
     };
-    let run = |family: u64, n: usize| -> Vec<Vec<Vpl>> {
-        (0..n)
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|k| {
-                let mut v = Vec::new();
-                tracer.trace(opts.seed, family, k as u64, &mut v);
-                v
-            })
-            .collect()
+    // Particles in parallel chunks with interruption checks between them (Ctrl-C; `crate::interrupt`).
+    let run = |family: u64, n: usize| -> Result<Vec<Vec<Vpl>>> {
+        crate::interrupt::par_map_chunked(n, 8192, |k| {
+            let mut v = Vec::new();
+            tracer.trace(opts.seed, family, k as u64, &mut v);
+            v
+        })
     };
     // Pilot: mean VPLs per particle fixes N independently of the main run.
     let pilot = PILOT_PARTICLES.min(opts.indirect.max(256));
-    let pilot_count: usize = run(STREAM_PILOT, pilot).iter().map(Vec::len).sum();
+    let pilot_count: usize = run(STREAM_PILOT, pilot)?.iter().map(Vec::len).sum();
     if pilot_count == 0 {
         return Ok(out);
     }
     let per_particle = pilot_count as f64 / pilot as f64;
     let n = ((opts.indirect as f64 / per_particle).ceil() as usize).max(1);
     let inv_n = 1.0 / n as f32;
-    for v in run(STREAM_PARTICLE, n).into_iter().flatten() {
+    for v in run(STREAM_PARTICLE, n)?.into_iter().flatten() {
         out.push_vpl(v.position, v.n_s, v.n_g, v.incident, v.flux * inv_n, v.bsdf)?;
     }
     Ok(out)

@@ -1,0 +1,87 @@
+"""Requests that cannot fit in memory are refused before allocating (issue 8 item 9): MemoryError naming
+the request and the limit, never an abort or an OOM kill; the same objects keep working afterwards.
+
+``MANYLIGHTS_MEMORY_LIMIT`` lowers the host memory the checks allow, which makes the requests below
+"too large" on any machine; the sizes in the messages are exact (r x n x 12 bytes for rows ...).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import manylights as ml
+from conftest import SCENE_CONFIGS
+
+
+@pytest.fixture(scope="module")
+def scene():
+    xml, params, _ = SCENE_CONFIGS["cbox"]
+    return ml.load_scene(xml, size=(32, 32), **params)
+
+
+@pytest.fixture(scope="module")
+def matrix(scene):
+    return ml.LightMatrix(scene, ml.generate_lights(scene, area=300, seed=0))
+
+
+def test_rows_too_large_for_host_memory(matrix, monkeypatch):
+    monkeypatch.setenv("MANYLIGHTS_MEMORY_LIMIT", "2M")
+    r, n = 1000, matrix.shape[1]
+    with pytest.raises(MemoryError) as e:
+        matrix.rows(np.arange(r), progress=False)
+    msg = str(e.value)
+    # 1000 x 300 x 12 bytes = 3.6 MB against the 2 MiB limit.
+    assert f"rows: {r} rows x {n} lights x RGB float32" in msg and "3.6 MB" in msg and "2.1 MB" in msg, msg
+    # Within the limit the same matrix still gives rows, equal to its columns.
+    small = matrix.rows([100, 600], progress=False)
+    assert small.shape == (2, n, 3)
+    monkeypatch.delenv("MANYLIGHTS_MEMORY_LIMIT")
+    R = matrix.rows(np.arange(r), progress=False)
+    np.testing.assert_array_equal(R[[100, 600]], small)
+
+
+def test_columns_too_large_for_host_memory(matrix, monkeypatch):
+    monkeypatch.setenv("MANYLIGHTS_MEMORY_LIMIT", "100K")
+    with pytest.raises(MemoryError, match=r"columns: 10 columns x 1024 view samples x RGB float32 needs 122880 bytes "
+                                          r".* only 102400 bytes"):
+        matrix.columns(range(10))
+    assert matrix.columns([0, 1]).shape == (2, 32, 32, 3)
+
+
+def test_generate_lights_too_many_for_host_memory(scene, monkeypatch):
+    monkeypatch.setenv("MANYLIGHTS_MEMORY_LIMIT", "64M")
+    with pytest.raises(MemoryError, match="generate_lights: 1000000 area .* needs 176.0 MB .* only 67.1 MB"):
+        ml.generate_lights(scene, area=1_000_000)
+    # Indexing with a huge repeated index array: 1e6 x 176 bytes.
+    lights = ml.generate_lights(scene, area=8, seed=0)
+    with pytest.raises(MemoryError, match="a LightSet of 1000000 selected lights needs 176.0 MB"):
+        lights[np.zeros(1_000_000, dtype=np.int64)]
+    assert len(lights[np.zeros(1000, dtype=np.int64)]) == 1000
+
+
+def test_film_too_large_for_host_memory(monkeypatch):
+    xml, params, _ = SCENE_CONFIGS["cbox"]
+    big = ml.load_scene(xml, size=(4096, 4096), **params)
+    monkeypatch.setenv("MANYLIGHTS_MEMORY_LIMIT", "256M")
+    with pytest.raises(MemoryError, match="view samples of a 4096x4096 film"):
+        ml.LightMatrix(big, ml.generate_lights(big, area=4))
+
+
+def test_shadow_maps_too_large(scene, monkeypatch):
+    if not ml.device_info()["is_software"]:
+        pytest.skip("shadow maps live in GPU memory here; the adapter reports no memory size to check against")
+    monkeypatch.setenv("MANYLIGHTS_MEMORY_LIMIT", "256M")
+    lights = ml.generate_lights(scene, area=4, seed=0)
+    # At least one cube (6 layers) of 8192^2 float32 texels = 1.61 GB.
+    with pytest.raises(MemoryError, match=r"shadow maps: \d+ layers of 8192\^2 texels \(shadow_map_size = 8192\)"):
+        ml.LightMatrix(scene, lights, shadow_map_size=8192)
+    A = ml.LightMatrix(scene, lights, shadow_map_size=64)
+    with pytest.raises(MemoryError, match=r"rows: a 8192\^2 cube depth map"):
+        A.rows([0], shadow_map_size=8192, progress=False)
+    assert A.rows([0, 500], shadow_map_size=64, progress=False).shape == (2, 4, 3)
+
+
+def test_bad_memory_limit_setting(matrix, monkeypatch):
+    monkeypatch.setenv("MANYLIGHTS_MEMORY_LIMIT", "lots")
+    with pytest.raises(ValueError, match="MANYLIGHTS_MEMORY_LIMIT must be a byte count .* got \"lots\""):
+        matrix.rows([0], progress=False)
