@@ -1,0 +1,149 @@
+//! Image formats (EXR, Radiance RGBE, PFM) for environment maps and bitmap textures, and Mitsuba's
+//! padding of tiny environment maps, against mitsuba 3.9.1 (scalar_rgb): `mi.traverse(envmap)["data"]`
+//! shapes and `envmap.eval(si)` values printed by `mi.load_dict({"type": "envmap", ...})`.
+#![allow(clippy::excessive_precision)]
+use super::*;
+use crate::error::Error;
+use crate::lights::generate::environment::envmap_radiance;
+use crate::scene::{Emitter, Texture};
+use glam::Vec3;
+use std::path::PathBuf;
+
+fn dir(test: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("manylights-formats-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Dyadic texels (exact in EXR, RGBE and PFM): texel (x, y), channel c = ((5x + 3y + 7c) mod 16 + 1) / 16.
+fn texels(w: u32, h: u32) -> Vec<[f32; 3]> {
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            std::array::from_fn(|c| ((x * 5 + y * 3 + c as u32 * 7) % 16 + 1) as f32 / 16.0)
+        })
+        .collect()
+}
+
+fn write_hdr(path: &std::path::Path, w: u32, h: u32, px: &[[f32; 3]]) {
+    let rgb: Vec<image::Rgb<f32>> = px.iter().map(|p| image::Rgb(*p)).collect();
+    let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    image::codecs::hdr::HdrEncoder::new(f).encode(&rgb, w as usize, h as usize).unwrap();
+}
+
+/// Writes the map in `ext`'s format.
+fn write_map(path: &std::path::Path, w: u32, h: u32, px: &[[f32; 3]]) {
+    match path.extension().unwrap().to_str().unwrap() {
+        "exr" => crate::image::write_exr(path, w, h, px).unwrap(),
+        "hdr" => write_hdr(path, w, h, px),
+        "pfm" => crate::image::write_pfm(path, w, h, px).unwrap(),
+        e => panic!("{e}"),
+    }
+}
+
+fn load(d: &std::path::Path, body: &str) -> Result<Scene> {
+    let xml = format!(
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" \
+         value=\"8\"/><integer name=\"height\" value=\"8\"/></film></sensor>\n<shape type=\"rectangle\"/>\n{body}\n</scene>\n"
+    );
+    let p = d.join("scene.xml");
+    std::fs::write(&p, xml).unwrap();
+    load_scene(&p, &LoadOptions::default())
+}
+
+const DIRS: [[f32; 3]; 10] = [
+    [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0],
+    [0.3, 0.5, -0.8], [-0.6, -0.2, 0.4], [0.9, 0.1, 0.2], [0.05, 0.99, 0.1],
+];
+
+/// (width, height) of the file, Mitsuba's data tensor (H, W + 2) and `eval` toward each of `DIRS`.
+#[rustfmt::skip]
+const MITSUBA_EVAL: [((u32, u32), (u32, u32), [[f32; 3]; 10]); 4] = [
+    ((1, 1), (3, 4), [[0.0625, 0.5, 0.9375]; 10]),
+    ((7, 1), (3, 9), [[0.5, 0.4375, 0.875], [0.5, 0.4375, 0.875], [0.453125, 0.640625, 0.328125], [0.546875, 0.234375, 0.421875], [1.0, 0.4375, 0.875], [0.5, 0.4375, 0.875], [0.1502619981765747, 0.48746258020401, 0.92496258020401], [0.3421609103679657, 0.6847459673881531, 0.2171609103679657], [0.5292549729347229, 0.47313910722732544, 0.4042549729347229], [0.8385804295539856, 0.2760803699493408, 0.7135803699493408]]),
+    ((7, 2), (3, 9), [[0.5, 0.4375, 0.875], [0.1875, 0.625, 0.5625], [0.640625, 0.828125, 0.515625], [0.734375, 0.421875, 0.609375], [0.1875, 0.625, 0.0625], [0.1875, 0.625, 0.5625], [0.20806975662708282, 0.6117616891860962, 0.45282435417175293], [0.5296608805656433, 0.8722460269927979, 0.4046609103679657], [0.7038582563400269, 0.6477423906326294, 0.5788582563400269], [0.8173922896385193, 0.28950387239456177, 0.6923922896385193]]),
+    ((1, 4), (4, 4), [[0.0625, 0.5, 0.9375], [0.625, 0.0625, 0.5], [0.34375, 0.78125, 0.21875], [0.34375, 0.78125, 0.21875], [0.34375, 0.78125, 0.21875], [0.34375, 0.78125, 0.21875], [0.24894869327545166, 0.6864486932754517, 0.1295555979013443], [0.39219170808792114, 0.8296917080879211, 0.26719170808792114], [0.3244050145149231, 0.7619049549102783, 0.1994050145149231], [0.08263520896434784, 0.520135223865509, 0.8502473831176758]]),
+];
+
+#[test]
+fn tiny_envmaps_in_every_format_match_mitsuba_eval() {
+    // f32 lookups (atan2/acos, bilinear weights) against Mitsuba's: a few ulp at values <= 1.
+    const TOL: f32 = 2e-6;
+    let d = dir("tiny-env");
+    for ((w, h), (mh, mw2), want) in MITSUBA_EVAL {
+        let px = texels(w, h);
+        for ext in ["exr", "hdr", "pfm"] {
+            let name = format!("env_{w}x{h}.{ext}");
+            write_map(&d.join(&name), w, h, &px);
+            let s = load(&d, &format!("<emitter type=\"envmap\"><string name=\"filename\" value=\"{name}\"/></emitter>")).unwrap();
+            let Emitter::EnvMap { map, .. } = &s.emitters[0] else { panic!("not an envmap") };
+            // Mitsuba's tensor is the padded map plus one halo column on each side.
+            assert_eq!((map.height, map.width + 2), (mh, mw2), "{name}");
+            for (k, (dir, want)) in DIRS.iter().zip(want).enumerate() {
+                if k < 2 && w > 1 {
+                    // Exactly at a pole u is undefined: atan2(+-0, +-0) picks a seam side by the signs of
+                    // zeros, which differ between Mitsuba's transform and ours.
+                    continue;
+                }
+                let got = envmap_radiance(map, Vec3::from_array(*dir).normalize());
+                let err = (got - Vec3::from_array(want)).abs().max_element();
+                assert!(err < TOL, "{name} toward {dir:?}: {got} vs Mitsuba {want:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_same_map_as_exr_hdr_and_pfm_loads_to_the_same_texels() {
+    let d = dir("same-texels");
+    let (w, h) = (5u32, 3u32);
+    // Non-dyadic values over a wide range: EXR and PFM keep them exactly, RGBE to its 8-bit mantissa
+    // (truncated by the writer, as Mitsuba's writer does: error < 2^-7 of the pixel's largest channel).
+    let px: Vec<[f32; 3]> = (0..w * h).map(|i| [0.013 * (i + 1) as f32, 3.7 * i as f32, 1000.0 / (i + 1) as f32]).collect();
+    let mut loaded = Vec::new();
+    for ext in ["exr", "hdr", "pfm"] {
+        let name = format!("tex.{ext}");
+        write_map(&d.join(&name), w, h, &px);
+        let body = format!(
+            "<bsdf type=\"diffuse\" id=\"b\"><texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"{name}\"/></texture></bsdf>\n\
+             <shape type=\"cube\"><ref id=\"b\"/></shape>"
+        );
+        let s = load(&d, &body).unwrap();
+        let Texture::Bitmap { width, height, data, .. } = &s.textures[0] else { panic!() };
+        assert_eq!((*width, *height), (w, h), "{name}");
+        loaded.push(data.clone());
+    }
+    let exact: Vec<Vec3> = px.iter().map(|p| Vec3::from_array(*p)).collect();
+    assert_eq!(loaded[0], exact, "EXR");
+    assert_eq!(loaded[2], exact, "PFM");
+    for (a, b) in loaded[1].iter().zip(&exact) {
+        assert!((*a - *b).abs().max_element() <= b.max_element() / 128.0, "RGBE {a} vs {b}");
+    }
+}
+
+#[test]
+fn formats_are_recognised_by_content_not_extension() {
+    let d = dir("magic");
+    let px = texels(3, 2);
+    write_map(&d.join("a.pfm"), 3, 2, &px);
+    std::fs::rename(d.join("a.pfm"), d.join("a.png")).unwrap(); // a PFM named .png, as Mitsuba reads it
+    let s = load(&d, "<emitter type=\"envmap\"><string name=\"filename\" value=\"a.png\"/></emitter>").unwrap();
+    let Emitter::EnvMap { map, .. } = &s.emitters[0] else { panic!() };
+    assert_eq!(map.data[..3], px[..3].iter().map(|p| Vec3::from_array(*p)).collect::<Vec<_>>()[..]);
+}
+
+#[test]
+fn truncated_maps_are_scene_errors_naming_file_and_line() {
+    let d = dir("truncated");
+    for ext in ["exr", "hdr", "pfm"] {
+        let name = format!("cut.{ext}");
+        write_map(&d.join(&name), 16, 8, &texels(16, 8));
+        let bytes = std::fs::read(d.join(&name)).unwrap();
+        std::fs::write(d.join(&name), &bytes[..bytes.len() / 2]).unwrap();
+        let e = load(&d, &format!("<emitter type=\"envmap\"><string name=\"filename\" value=\"{name}\"/></emitter>")).unwrap_err();
+        let text = e.to_string();
+        assert!(matches!(e, Error::Scene { .. }), "{text}");
+        assert!(text.contains("scene.xml:4") && text.contains(&name), "{text}");
+    }
+}
