@@ -1,6 +1,7 @@
 //! Radiance RGBE (`.hdr`, `.rgbe`) input, as Mitsuba 3.9.1's `Bitmap::read_rgbe` reads it.
 //!
-//! Decoding is the `image` crate's (feature `hdr`): header `#?...`, `FORMAT=32-bit_rle_rgbe`, a
+//! Decoding is the `image` crate's (feature `hdr`): header `#?...` (any program name: Mitsuba writes
+//! `#?RGBE`, Radiance `#?RADIANCE`), `FORMAT=32-bit_rle_rgbe`, a
 //! `-Y h +X w` resolution line, flat or run-length encoded scanlines. Each texel is
 //! `(r, g, b) * 2^(e - 136)` (0 when `e == 0`), the same conversion as Mitsuba's `rgbe_to_float`, so
 //! texels are bit-identical to Mitsuba's. Row 0 is the first scanline (the top of the picture).
@@ -15,7 +16,15 @@ use std::path::Path;
 /// Errors: `Io` naming the file when it cannot be opened, is truncated or is not an RGBE file.
 pub fn read_hdr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let decoder = image::codecs::hdr::HdrDecoder::new(std::io::BufReader::new(file))
+    let mut reader = std::io::BufReader::new(file);
+    // Mitsuba accepts any first line starting with "#?" (and writes "#?RGBE"); `image`'s strict mode
+    // wants "#?RADIANCE", so check the two bytes here and let the non-strict decoder skip the line.
+    let mut magic = [0u8; 2];
+    std::io::Read::read_exact(&mut reader, &mut magic).map_err(|e| Error::io(path, format!("not a Radiance RGBE (.hdr) file: {e}")))?;
+    if &magic != b"#?" {
+        return Err(Error::io(path, "not a Radiance RGBE (.hdr) file: it does not start with \"#?\""));
+    }
+    let decoder = image::codecs::hdr::HdrDecoder::new_nonstrict(reader)
         .map_err(|e| Error::io(path, format!("invalid Radiance RGBE (.hdr) file: {e}")))?;
     let img = image::DynamicImage::from_decoder(decoder)
         .map_err(|e| Error::io(path, format!("invalid Radiance RGBE (.hdr) file: {e}")))?
@@ -51,6 +60,13 @@ mod tests {
         let (w, h, px) = read_hdr(&p).unwrap();
         assert_eq!((w, h), (2, 1));
         assert_eq!(px, vec![[1.0, 0.5, 1.0 / 128.0], [0.0, 0.0, 0.0]]);
+    }
+
+    #[test]
+    fn reads_mitsubas_signature() {
+        // mitsuba 3.9.1 `mi.Bitmap(np.ones((1, 1, 3))).write("a.hdr")`, verbatim.
+        let p = tmp("mitsuba.hdr", b"#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 1\n\x80\x80\x80\x81");
+        assert_eq!(read_hdr(&p).unwrap(), (1, 1, vec![[1.0, 1.0, 1.0]]));
     }
 
     #[test]

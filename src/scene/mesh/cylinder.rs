@@ -89,14 +89,19 @@ mod tests {
 
     #[test]
     fn frame_matches_mitsuba() {
-        // mitsuba 3.9.1: mi.coordinate_system(mi.Vector3f(v)) for these unit vectors.
-        for n in [DVec3::Z, -DVec3::Z, DVec3::new(0.6, 0.0, 0.8), DVec3::new(0.0, -0.6, -0.8), DVec3::X] {
-            let (s, t) = coordinate_system(n);
-            assert!((s.length() - 1.0).abs() < 1e-12 && (t.length() - 1.0).abs() < 1e-12);
-            assert!(s.dot(n).abs() < 1e-12 && t.dot(n).abs() < 1e-12 && (s.cross(t) - n).length() < 1e-12, "{n}");
+        // mitsuba 3.9.1 scalar_rgb: mi.coordinate_system(mi.Vector3f(n)) -> (s, t).
+        let cases = [
+            ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+            ([0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]),
+            ([0.6, 0.0, 0.8], [0.8, 0.0, -0.6], [0.0, 1.0, 0.0]),
+            ([0.0, -0.6, -0.8], [1.0, 0.0, 0.0], [0.0, -0.8, 0.6]),
+            ([1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]),
+        ];
+        for (n, s_want, t_want) in cases {
+            let (s, t) = coordinate_system(DVec3::from_array(n));
+            assert!((s - DVec3::from_array(s_want)).length() < 1e-12, "{n:?}: s {s}");
+            assert!((t - DVec3::from_array(t_want)).length() < 1e-12, "{n:?}: t {t}");
         }
-        assert_eq!(coordinate_system(DVec3::Z), (DVec3::X, DVec3::Y));
-        assert_eq!(coordinate_system(-DVec3::Z), (DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, -1.0, 0.0)));
         assert!(cylinder_to_world(DMat4::IDENTITY, DVec3::ONE, DVec3::ONE, 1.0).is_none());
     }
 }
