@@ -173,11 +173,13 @@ def _gbuffer_errors(xml, mitsuba_ref, size=(32, 32)):
     return scene, gb, ref, dict(coverage=both.mean(), hits=int(hit.sum()), pos=pos, ndot=ndot, gdot=gdot, uv=uv)
 
 
-# Tessellation of the cylinder (512 strips): positions within 1.9e-5 radius of the surface (plus the
-# ray-direction slide), shading normals the exact radial direction, face normals within pi/512 rad.
-CYL_POS_TOL = 1e-4
+# Tessellation of the cylinder (512 strips): vertices on the surface, strips up to 1.9e-5 radius inside
+# it; at grazing rays the hit slides along the ray (measured up to 1.2e-4 here). Shading normals are the
+# exact radial direction of the hit; face normals are within pi/512 rad of the radial direction at
+# the facet, and grazing hits may land on the neighbouring strip: within 2 pi / 512 of Mitsuba's.
+CYL_POS_TOL = 2.5e-4
 CYL_NDOT = 1 - 1e-6
-CYL_GDOT = np.cos(np.pi / 512) - 1e-6
+CYL_GDOT = np.cos(2 * np.pi / 512)
 
 
 def test_cylinder_gbuffer_matches_mitsuba(tmp_path, mitsuba_ref):
@@ -187,13 +189,14 @@ def test_cylinder_gbuffer_matches_mitsuba(tmp_path, mitsuba_ref):
   <float name="radius" value="0.4"/></shape>
 <shape type="cylinder" id="b"><transform name="to_world"><scale value="0.3"/><rotate x="1" angle="-60"/>
   <translate x="0.3" y="0.8" z="0.5"/></transform><boolean name="flip_normals" value="true"/></shape>
-<shape type="cylinder" id="c"><transform name="to_world"><scale x="0.5" y="0.5" z="1.2"/><translate x="0.5" y="-1.4" z="-1"/></transform></shape>""",
+<shape type="cylinder" id="c"><transform name="to_world"><scale x="0.5" y="0.5" z="1.2"/><translate x="0.5" y="-1.4" z="-1"/></transform></shape>
+<shape type="cylinder" id="d"><transform name="to_world"><scale x="-0.3" y="0.3" z="0.6"/><rotate y="1" angle="70"/><translate x="-1.2" y="0.6" z="-0.4"/></transform></shape>""",
                           origin="0.5, 1, 5"))
     scene, gb, ref, e = _gbuffer_errors(xml, mitsuba_ref)
     print(f"cylinder: coverage {e['coverage']:.4f}, {e['hits']} hits, position max {e['pos'].max():.2e}, "
           f"normal 1-dot max {(1 - e['ndot']).max():.2e}, geo 1-dot max {(1 - e['gdot']).max():.2e}, uv max {e['uv'].max():.2e}")
     assert e["hits"] > 150 and e["coverage"] >= 0.995
-    assert [s["type"] for s in scene.shapes] == ["cylinder"] * 3
+    assert [s["type"] for s in scene.shapes] == ["cylinder"] * 4
     ok = lambda m: m.mean() >= 0.995  # noqa: E731  silhouette pixels may hit the tessellation differently
     assert ok(e["pos"] <= CYL_POS_TOL), np.sort(e["pos"])[-10:]
     assert ok(e["ndot"] >= CYL_NDOT), np.sort(e["ndot"])[:10]
@@ -227,8 +230,12 @@ def test_instances_gbuffer_matches_mitsuba(tmp_path, mitsuba_ref):
         assert (ours == theirs).mean() >= 0.995 and theirs.sum() > 50
 
 
-def test_instancing_errors(tmp_path):
+def test_new_shape_errors(tmp_path):
+    (tmp_path / "cut.serialized").write_bytes(struct.pack("<HH", 0x041C, 4) + zlib.compress(b"\0" * 40)[:9])
     cases = [
+        ('<shape type="serialized"><string name="filename" value="cut.serialized"/></shape>', "cut.serialized"),
+        ('<shape type="cylinder"><float name="radius" value="0.5"/><point name="p1" value="0, 0, 0"/></shape>',
+         "must differ"),
         ('<shape type="instance"/>', "needs a reference to a shapegroup"),
         ('<shape type="rectangle" id="r"/><shape type="instance"><ref id="r"/></shape>', "only a shapegroup"),
         ('<shape type="shapegroup" id="g"><shape type="rectangle"><emitter type="area"/></shape></shape>',

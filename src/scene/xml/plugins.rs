@@ -374,7 +374,12 @@ impl<'a> Builder<'a> {
                 let p1 = p.vector("p1")?.unwrap_or(DVec3::Z);
                 let m = mesh::cylinder_to_world(to_world, p0, p1, radius)
                     .ok_or_else(|| Error::scene(&loc, format!("cylinder: p0 {p0} and p1 {p1} must differ")))?;
-                (ShapeKind::Cylinder, mesh::cylinder(), m)
+                let mut data = mesh::cylinder();
+                if glam::DMat3::from_mat4(m).determinant() < 0.0 {
+                    // A mirroring to_world: Mitsuba flips its normals back outward (cylinder.cpp, `S[0][0] <= 0`).
+                    data.indices.iter_mut().for_each(|t| t.swap(1, 2));
+                }
+                (ShapeKind::Cylinder, data, m)
             }
             _ => return Err(unknown_plugin(&p)),
         };

@@ -147,3 +147,48 @@ fn truncated_maps_are_scene_errors_naming_file_and_line() {
         assert!(text.contains("scene.xml:4") && text.contains(&name), "{text}");
     }
 }
+
+#[test]
+fn instances_compose_transforms_and_name_meshes() {
+    let d = dir("instances");
+    let body = r#"<shape type="shapegroup" id="g">
+  <shape type="rectangle" id="r"><transform name="to_world"><translate x="1"/></transform></shape>
+</shape>
+<shape type="instance" id="a"><ref id="g"/><transform name="to_world"><scale value="2"/></transform></shape>
+<shape type="instance"><ref id="g"/><transform name="to_world"><rotate z="1" angle="90"/></transform></shape>"#;
+    let s = load(&d, body).unwrap();
+    // The top-level rectangle of `load`, then one mesh per instance; the group itself adds nothing.
+    let ids: Vec<&str> = s.meshes.iter().map(|m| m.id.as_str()).collect();
+    assert_eq!(ids, ["shape_0", "a/r", "instance_2/r"]);
+    let rect = crate::scene::mesh::rectangle().positions;
+    for (p, q) in rect.iter().zip(&s.meshes[1].positions) {
+        assert!((*q - (*p + Vec3::X) * 2.0).length() < 1e-6, "{q} vs 2 ({p} + x)"); // instance * shape
+    }
+    for (p, q) in rect.iter().zip(&s.meshes[2].positions) {
+        let want = Vec3::new(-p.y, p.x + 1.0, p.z);
+        assert!((*q - want).length() < 1e-6, "{q} vs {want}");
+    }
+}
+
+#[test]
+fn new_shapes_refuse_bad_input_with_file_and_line() {
+    let d = dir("bad-shapes");
+    let cases = [
+        (r#"<shape type="cylinder"><point name="p0" value="1, 1, 1"/><point name="p1" value="1, 1, 1"/></shape>"#, "must differ"),
+        (r#"<shape type="serialized"><string name="filename" value="none.serialized"/></shape>"#, "file not found"),
+        (r#"<shape type="serialized"><integer name="shape_index" value="0"/></shape>"#, "missing <string name=\"filename\">"),
+        (r#"<shape type="instance"><ref id="nope"/></shape>"#, "nope"),
+        (r#"<shape type="rectangle" id="q"/><shape type="instance"><ref id="q"/></shape>"#, "only a shapegroup"),
+        (r#"<shape type="shapegroup" id="g"><shape type="instance"/></shape>"#, "nested instancing"),
+        (r#"<shape type="shapegroup" id="g"><bsdf type="diffuse"/></shape>"#, "can only hold shapes"),
+    ];
+    for (body, what) in cases {
+        let e = load(&d, body).unwrap_err();
+        let text = e.to_string();
+        assert!(text.contains("scene.xml:4") && text.contains(what), "{body}: {text}");
+    }
+    // A corrupt serialized file: an error naming that file.
+    std::fs::write(d.join("bad.serialized"), b"\x1c\x04\x04\x00garbage").unwrap();
+    let e = load(&d, r#"<shape type="serialized"><string name="filename" value="bad.serialized"/></shape>"#).unwrap_err();
+    assert!(matches!(e, Error::Scene { .. }) && e.to_string().contains("bad.serialized"), "{e}");
+}
