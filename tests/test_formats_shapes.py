@@ -231,9 +231,12 @@ def test_instances_gbuffer_matches_mitsuba(tmp_path, mitsuba_ref):
 
 
 def test_new_shape_errors(tmp_path):
-    (tmp_path / "cut.serialized").write_bytes(struct.pack("<HH", 0x041C, 4) + zlib.compress(b"\0" * 40)[:9])
+    # 5 vertices announced, the stream ends after 1.
+    cut = struct.pack("<I", 0x1000) + b"x\0" + struct.pack("<QQ", 5, 1) + b"\0" * 12
+    (tmp_path / "cut.serialized").write_bytes(struct.pack("<HH", 0x041C, 4) + zlib.compress(cut))
     cases = [
-        ('<shape type="serialized"><string name="filename" value="cut.serialized"/></shape>', "cut.serialized"),
+        ('<shape type="serialized"><string name="filename" value="cut.serialized"/></shape>',
+         "cut.serialized.*vertex positions need 60 bytes"),
         ('<shape type="cylinder"><float name="radius" value="0.5"/><point name="p1" value="0, 0, 0"/></shape>',
          "must differ"),
         ('<shape type="instance"/>', "needs a reference to a shapegroup"),
