@@ -23,8 +23,9 @@
 //! uses a rational approximation of it. They differ by at most 3.6e-7 (37 ulp) on the 256 8-bit values
 //! (test `srgb_table_matches_mitsuba`). JPEGs are decoded by zune-jpeg (through `image`), Mitsuba uses
 //! libjpeg: decoded bytes differ by up to 4 codes (veach-ajar: 24% / 0.8% / 0.6% of the bytes of the
-//! three textures differ, mean 0.33 / 0.009 / 0.007 codes); PNG and EXR texels are identical. Images smaller than 2x2 are used as they are (Mitsuba pads
-//! them to 2x2).
+//! three textures differ, mean 0.33 / 0.009 / 0.007 codes); PNG and EXR texels are identical. Images smaller than 2x2 are used as they are: Mitsuba pads
+//! them to 2x2 by replicating the last column/row, which changes no lookup (test `tiny_textures_match_mitsuba_eval`;
+//! environment maps are padded, `crate::image::pad`).
 use crate::error::{Error, Location, Result};
 use crate::scene::types::{FilterType, Param, Texture, WrapMode};
 use glam::{Vec2, Vec3};

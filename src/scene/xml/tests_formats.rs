@@ -1,7 +1,7 @@
 //! Image formats (EXR, Radiance RGBE, PFM) for environment maps and bitmap textures, and Mitsuba's
 //! padding of tiny environment maps, against mitsuba 3.9.1 (scalar_rgb): `mi.traverse(envmap)["data"]`
 //! shapes and `envmap.eval(si)` values printed by `mi.load_dict({"type": "envmap", ...})`.
-#![allow(clippy::excessive_precision)]
+#![allow(clippy::excessive_precision, clippy::type_complexity)]
 use super::*;
 use crate::error::Error;
 use crate::lights::generate::environment::envmap_radiance;
@@ -191,4 +191,41 @@ fn new_shapes_refuse_bad_input_with_file_and_line() {
     std::fs::write(d.join("bad.serialized"), b"\x1c\x04\x04\x00garbage").unwrap();
     let e = load(&d, r#"<shape type="serialized"><string name="filename" value="bad.serialized"/></shape>"#).unwrap_err();
     assert!(matches!(e, Error::Scene { .. }) && e.to_string().contains("bad.serialized"), "{e}");
+}
+
+/// mitsuba 3.9.1 `bitmap` texture (`raw`, bilinear) `eval` of tiny PFM maps written by `mi.Bitmap(...).write`:
+/// Mitsuba pads maps smaller than 2 texels to 2 by replication, which changes no lookup; here they are
+/// used as they are.
+#[rustfmt::skip]
+const MITSUBA_TINY_TEXTURES: [((u32, u32), &str, [[f32; 3]; 7]); 9] = [
+    ((1, 1), "repeat", [[0.0625, 0.5, 0.9375000596046448], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9374999403953552]]),
+    ((1, 1), "mirror", [[0.0625, 0.5, 0.9375000596046448], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9374999403953552]]),
+    ((1, 1), "clamp", [[0.0625, 0.5, 0.9375000596046448], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9374999403953552]]),
+    ((7, 1), "repeat", [[0.125, 0.5624999403953552, 0.7999999523162842], [1.0, 0.4375, 0.875], [0.9287497997283936, 0.3762500286102295, 0.8137500286102295], [0.5, 0.4375, 0.875], [0.4374999403953552, 0.4750000834465027, 0.3124999403953552], [0.5061249732971191, 0.43662500381469727, 0.8741250038146973], [0.518750786781311, 0.6562497019767761, 0.39375078678131104]]),
+    ((7, 1), "mirror", [[0.125, 0.5624999403953552, 0.7999999523162842], [1.0, 0.4375, 0.875], [0.9375, 0.3750000298023224, 0.8124999403953552], [0.0625, 0.5, 0.9375], [0.5625000596046448, 0.3999998867511749, 0.4375000596046448], [0.9375, 0.375, 0.8125], [0.518750786781311, 0.6562497019767761, 0.39375078678131104]]),
+    ((7, 1), "clamp", [[0.125, 0.5624999403953552, 0.7999999523162842], [1.0, 0.4375, 0.875], [0.9375, 0.3750000298023224, 0.8124999403953552], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.9375, 0.375, 0.8125], [0.9375000596046448, 0.375, 0.8125]]),
+    ((1, 5), "repeat", [[0.15625, 0.59375, 0.53125], [0.4375, 0.875, 0.3125], [0.2874999940395355, 0.42500001192092896, 0.8624999523162842], [0.4375, 0.375, 0.8125], [0.625, 0.0625, 0.5], [0.4375, 0.875, 0.3125], [0.71875, 0.15625, 0.59375]]),
+    ((1, 5), "mirror", [[0.15625, 0.59375, 0.53125], [0.4375, 0.875, 0.3125], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.25, 0.6875, 0.125], [0.4375, 0.875, 0.3125], [0.71875, 0.15625, 0.59375]]),
+    ((1, 5), "clamp", [[0.15625, 0.59375, 0.53125], [0.4375, 0.875, 0.3125], [0.0625, 0.5, 0.9375], [0.0625, 0.5, 0.9375], [0.8125, 0.25, 0.6875], [0.4375, 0.875, 0.3125], [0.0625, 0.5, 0.9375]]),
+];
+
+#[test]
+fn tiny_textures_match_mitsuba_eval() {
+    use crate::scene::texture::eval;
+    const UVS: [[f32; 2]; 7] = [[0.1, 0.2], [0.5, 0.5], [0.93, 0.04], [0.0, 0.0], [-0.3, 1.7], [0.999, 0.5], [2.6, -1.2]];
+    let d = dir("tiny-tex");
+    for ((w, h), wrap, want) in MITSUBA_TINY_TEXTURES {
+        let name = format!("tex_{w}x{h}.pfm");
+        write_map(&d.join(&name), w, h, &texels(w, h));
+        let body = format!(
+            "<bsdf type=\"diffuse\" id=\"b\"><texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" \
+             value=\"{name}\"/><string name=\"wrap_mode\" value=\"{wrap}\"/><boolean name=\"raw\" value=\"true\"/></texture></bsdf>\n\
+             <shape type=\"cube\"><ref id=\"b\"/></shape>"
+        );
+        let s = load(&d, &body).unwrap();
+        for (uv, want) in UVS.iter().zip(want) {
+            let got = eval(&s.textures[0], glam::Vec2::from_array(*uv));
+            assert!((got - Vec3::from_array(want)).abs().max_element() < 1e-6, "{name} {wrap} uv {uv:?}: {got} vs {want:?}");
+        }
+    }
 }
