@@ -137,6 +137,7 @@ def _mitsuba_hits(xml, mitsuba_ref, size):
     out = {k: np.zeros((h * w, 3), np.float32) for k in ("position", "normal", "geo_normal")}
     out["uv"] = np.zeros((h * w, 2), np.float32)
     sid = np.full(h * w, -1, np.int32)
+    prim = np.full(h * w, -1, np.int32)
     if mi.variant().startswith("scalar"):
         for k, ray in enumerate(mitsuba_ref._pixel_centre_rays_scalar(mi, sensor, w, h)):
             si = scene.ray_intersect(ray)
@@ -145,6 +146,7 @@ def _mitsuba_hits(xml, mitsuba_ref, size):
                     out[key][k] = np.array(v)
                 target = si.instance if si.instance is not None else si.shape
                 sid[k] = next(i for i, s in enumerate(shapes) if s == target)
+                prim[k] = si.prim_index
     else:
         si = scene.ray_intersect(mitsuba_ref._pixel_centre_rays(mi, sensor, w, h))
         valid = np.array(si.is_valid())
@@ -155,8 +157,10 @@ def _mitsuba_hits(xml, mitsuba_ref, size):
         for i, s in enumerate(shapes):
             ptr = mi.ShapePtr(s)
             sid[valid & (np.array(si.shape == ptr) | np.array(si.instance == ptr))] = i
+        prim[valid] = np.array(si.prim_index, dtype=np.int64)[valid]
     res = {k: v.reshape(h, w, -1) for k, v in out.items()}
     res["shape_index"] = sid.reshape(h, w)
+    res["prim_index"] = prim.reshape(h, w)
     return res, [s.id() for s in shapes]
 
 
@@ -228,6 +232,9 @@ def test_instances_gbuffer_matches_mitsuba(tmp_path, mitsuba_ref):
         ours = np.isin(gb["shape_index"], [k for k, s in enumerate(scene.shapes) if s["id"].startswith(inst + "/")])
         theirs = ref["shape_index"] == names.index(inst)
         assert (ours == theirs).mean() >= 0.995 and theirs.sum() > 50
+        # Triangles of the instanced cube: Mitsuba's prim_index is the triangle of the group's shape, so is ours.
+        box = (gb["shape_index"] == [s["id"] for s in scene.shapes].index(inst + "/box")) & theirs
+        assert box.sum() > 20 and (gb["prim_index"][box] == ref["prim_index"][box]).mean() >= 0.99
 
 
 def test_new_shape_errors(tmp_path):
