@@ -1,8 +1,14 @@
-//! Image files and image comparisons: EXR/PNG reading and writing (`io`) and error metrics (`metrics`).
+//! Image files and image comparisons: EXR/PNG reading and writing (`io`), Radiance RGBE (`hdr`) and PFM
+//! (`pfm`) input, Mitsuba's bitmap padding (`pad`) and error metrics (`metrics`).
 //!
 //! Images are row-major `[f32; 3]` linear RGB with row 0 at the top, `width * height` pixels.
+pub mod hdr;
 pub mod io;
 pub mod metrics;
+pub mod pad;
+pub mod pfm;
 
+pub use hdr::read_hdr;
 pub use io::{read_exr, write_exr, write_png};
+pub use pfm::{read_pfm, write_pfm};
 pub use metrics::{fraction_within, mae, max_abs_error, mse, relative_l2, relative_mse, rmse};

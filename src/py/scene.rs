@@ -89,6 +89,8 @@ impl Scene {
                         "sphere"
                     }
                     ShapeKind::Disk => "disk",
+                    ShapeKind::Serialized => "serialized",
+                    ShapeKind::Cylinder => "cylinder",
                 };
                 d.set_item("type", kind)?;
                 d.set_item("triangles", m.indices.len())?;

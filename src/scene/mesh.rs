@@ -24,15 +24,19 @@
 //!   scales and axis-aligned normals (all shared scenes) agree. Recomputed normals match Mitsuba exactly.
 //! - non-finite positions or normals, indices out of range and zero-length file normals are errors naming
 //!   the vertex or triangle.
+pub mod cylinder;
 pub mod obj;
 pub mod ply;
+pub mod serialized;
 pub mod shapes;
 
 use crate::error::{Error, Location, Result};
 use glam::{Mat4, Vec2, Vec3};
 
 pub use obj::load_obj;
+pub use cylinder::{cylinder, cylinder_to_world, CYLINDER_SEGMENTS};
 pub use ply::load_ply;
+pub use serialized::load_serialized;
 pub use shapes::{cube, disk, rectangle, sphere, DISK_SEGMENTS, SPHERE_PHI_SEGMENTS, SPHERE_THETA_SEGMENTS};
 
 /// A mesh in local space, as a loader or built-in shape produced it.

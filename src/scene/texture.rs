@@ -1,7 +1,9 @@
 //! Bitmap loading and texture evaluation as Mitsuba 3.9.1 does them (`src/textures/bitmap.cpp`,
 //! `src/textures/checkerboard.cpp`, Dr.Jit 1.5 `include/drjit/texture_impl.h`).
 //!
-//! Bitmaps: PNG/JPEG through `image`, EXR through `exr` ([`crate::image::io`]). Row 0 is the first row of
+//! Bitmaps: PNG/JPEG through `image`, EXR through `exr` ([`crate::image::io`]), Radiance RGBE
+//! ([`crate::image::hdr`]) and PFM ([`crate::image::pfm`]); float formats are recognised by their first
+//! bytes (as Mitsuba's `detect_file_format`), whatever the file's extension. Row 0 is the first row of
 //! the file (the top of the picture) and is looked up at v = 0: Mitsuba's texture row is `floor(v*H - 1/2)`
 //! with no flip (the OBJ loader's `v' = 1 - v` is what makes OBJ files come out upright).
 //! Storage follows Mitsuba's `format="auto"`: 8-bit images keep their bytes and are decoded per texel
@@ -21,8 +23,9 @@
 //! uses a rational approximation of it. They differ by at most 3.6e-7 (37 ulp) on the 256 8-bit values
 //! (test `srgb_table_matches_mitsuba`). JPEGs are decoded by zune-jpeg (through `image`), Mitsuba uses
 //! libjpeg: decoded bytes differ by up to 4 codes (veach-ajar: 24% / 0.8% / 0.6% of the bytes of the
-//! three textures differ, mean 0.33 / 0.009 / 0.007 codes); PNG and EXR texels are identical. Images smaller than 2x2 are used as they are (Mitsuba pads
-//! them to 2x2).
+//! three textures differ, mean 0.33 / 0.009 / 0.007 codes); PNG and EXR texels are identical. Images smaller than 2x2 are used as they are: Mitsuba pads
+//! them to 2x2 by replicating the last column/row, which changes no lookup (test `tiny_textures_match_mitsuba_eval`;
+//! environment maps are padded, `crate::image::pad`).
 use crate::error::{Error, Location, Result};
 use crate::scene::types::{FilterType, Param, Texture, WrapMode};
 use glam::{Vec2, Vec3};
@@ -30,16 +33,22 @@ use std::path::Path;
 
 /// Loads a bitmap as linear RGB: (width, height, texels row-major, row 0 = top of the file).
 ///
-/// PNG/JPEG: sRGB decoded to linear unless `raw`; EXR: linear as stored (`raw` has no effect).
+/// PNG/JPEG: sRGB decoded to linear unless `raw`; EXR, RGBE (.hdr) and PFM: linear as stored (`raw` has
+/// no effect).
 /// Errors: `FileNotFound`; `Scene` for unreadable or unsupported images (naming the file).
 pub fn load_bitmap(path: &Path, loc: &Location, raw: bool) -> Result<(u32, u32, Vec<Vec3>)> {
     if !path.exists() {
         return Err(Error::FileNotFound { loc: loc.clone(), path: path.to_path_buf() });
     }
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    if ext == "exr" {
-        let (w, h, px) = crate::image::io::read_exr(path)
-            .map_err(|e| Error::scene(loc, format!("cannot read \"{}\": {e}", path.display())))?;
+    // Float formats, recognised by their first bytes as Mitsuba's `Bitmap::detect_file_format` does.
+    let float_reader: Option<FloatReader> = match magic(path)? {
+        [0x76, 0x2f, 0x31, 0x01, ..] => Some(crate::image::io::read_exr),
+        [b'#', b'?', ..] => Some(crate::image::hdr::read_hdr),
+        [b'P', b'F' | b'f', ..] => Some(crate::image::pfm::read_pfm),
+        _ => None,
+    };
+    if let Some(read) = float_reader {
+        let (w, h, px) = read(path).map_err(|e| Error::scene(loc, format!("cannot read image: {e}")))?;
         return Ok((w, h, px.into_iter().map(Vec3::from_array).collect()));
     }
     let img = image::ImageReader::open(path)
@@ -66,6 +75,25 @@ pub fn load_bitmap(path: &Path, loc: &Location, raw: bool) -> Result<(u32, u32, 
         }
     };
     Ok((w, h, data))
+}
+
+type FloatReader = fn(&Path) -> Result<(u32, u32, Vec<[f32; 3]>)>;
+
+/// The first 4 bytes of a file (fewer when it is shorter).
+fn magic(path: &Path) -> Result<[u8; 4]> {
+    use std::io::Read;
+    let mut head = [0u8; 4];
+    let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut n = 0;
+    while n < 4 {
+        match f.read(&mut head[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(Error::io(path, e)),
+        }
+    }
+    Ok(head)
 }
 
 /// The exact sRGB decoding curve (IEC 61966-2-1), evaluated in f64.

@@ -48,6 +48,10 @@ pub enum ShapeKind {
     /// intersections (G-buffer, ray tracing) use `center` and `radius` (world space).
     Sphere { center: Vec3, radius: f32, flip_normals: bool },
     Disk,
+    /// Mitsuba's `serialized` mesh.
+    Serialized,
+    /// Analytic in Mitsuba; here a fine tessellation (`scene::mesh::cylinder`).
+    Cylinder,
 }
 
 /// A triangle mesh in world space.

@@ -6,15 +6,17 @@
 //! camera with Mitsuba's defaults; [`props`] gives typed property access and fails on properties nobody
 //! read, as Mitsuba does (except the ones in `props::IGNORED`); [`materials`] holds Mitsuba's named IORs.
 //!
-//! Supported plugins: shapes obj, ply, rectangle, cube, sphere, disk; BSDFs diffuse, twosided, plastic,
+//! Supported plugins: shapes obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, shapegroup +
+//! instance (`instancing`); BSDFs diffuse, twosided, plastic,
 //! roughplastic, conductor, roughconductor, dielectric; textures bitmap, checkerboard; emitters point,
 //! spot, directional, area, envmap, constant; sensor perspective with film hdrfilm. Integrators, samplers
 //! and reconstruction filters are read and ignored. Anything else is an error naming plugin, file and line.
 //!
 //! Deviations from Mitsuba (all refusals, never silent differences): spectral `wavelength:value` lists and
-//! spectrum files (use `<rgb>`), `serialized` meshes (use PLY), non-similarity sphere transforms, textured
+//! spectrum files (use `<rgb>`), non-similarity sphere transforms, textured
 //! emission, a scene without shapes or without a sensor. Only the first sensor is used (others are checked).
 //! Scene-level emitters come first in document order, then the area emitters of shapes in shape order.
+mod instancing;
 mod materials;
 mod parse;
 mod plugins;
@@ -117,3 +119,6 @@ mod tests;
 #[cfg(test)]
 #[path = "xml/tests_small.rs"]
 mod tests_small;
+#[cfg(test)]
+#[path = "xml/tests_formats.rs"]
+mod tests_formats;

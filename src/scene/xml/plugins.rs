@@ -304,16 +304,27 @@ impl<'a> Builder<'a> {
 
     // ---- shapes ----
 
-    /// Builds one `<shape>` into `meshes` (and its area emitter into `area_emitters`).
+    /// Builds one top-level `<shape>` into `meshes` (and its area emitter into `area_emitters`);
+    /// `shapegroup` and `instance` are handled in `instancing.rs`.
     pub fn shape(&mut self, node: usize) -> Result<()> {
+        match self.doc.nodes[node].plugin.as_str() {
+            "shapegroup" => self.shapegroup(node),
+            "instance" => self.instance(node),
+            _ => self.shape_in(node, &DMat4::IDENTITY, None),
+        }
+    }
+
+    /// Builds a shape placed by `outer * to_world`; `instance` names the instance it belongs to (its
+    /// mesh id becomes `"<instance>/<shape id>"`).
+    pub(super) fn shape_in(&mut self, node: usize, outer: &DMat4, instance: Option<&str>) -> Result<()> {
         let mut p = Props::new(self.doc, node);
         let loc = p.loc().clone();
         let k = self.meshes.len();
-        let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let to_world = *outer * p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
         let flip_normals = p.bool("flip_normals", false)?;
         let plugin = p.node.plugin.as_str();
         // Mitsuba 3.9.1 meshes (these read face_normals); sphere and disk are analytic there.
-        let is_mesh = matches!(plugin, "obj" | "ply" | "cube" | "rectangle");
+        let is_mesh = matches!(plugin, "obj" | "ply" | "cube" | "rectangle" | "serialized");
         let face_normals = if is_mesh { p.bool("face_normals", false)? } else { false };
         let (kind, data, world_from_local) = match plugin {
             "obj" | "ply" => {
@@ -353,7 +364,22 @@ impl<'a> Builder<'a> {
                 (kind, mesh::sphere(), m)
             }
             "serialized" => {
-                return Err(Error::scene(&loc, "shape type=\"serialized\" is not supported: convert the mesh to PLY (the shared scenes' scene.xml files do)"));
+                let (path, floc) = self.filename(&mut p, "serialized shape")?;
+                let (shape_index, _) = p.int("shape_index", 0)?;
+                (ShapeKind::Serialized, mesh::load_serialized(&path, shape_index, &floc)?, to_world)
+            }
+            "cylinder" => {
+                let radius = p.float("radius", 1.0)?;
+                let p0 = p.vector("p0")?.unwrap_or(DVec3::ZERO);
+                let p1 = p.vector("p1")?.unwrap_or(DVec3::Z);
+                let m = mesh::cylinder_to_world(to_world, p0, p1, radius)
+                    .ok_or_else(|| Error::scene(&loc, format!("cylinder: p0 {p0} and p1 {p1} must differ")))?;
+                let mut data = mesh::cylinder();
+                if glam::DMat3::from_mat4(m).determinant() < 0.0 {
+                    // A mirroring to_world: Mitsuba flips its normals back outward (cylinder.cpp, `S[0][0] <= 0`).
+                    data.indices.iter_mut().for_each(|t| t.swap(1, 2));
+                }
+                (ShapeKind::Cylinder, data, m)
             }
             _ => return Err(unknown_plugin(&p)),
         };
@@ -373,6 +399,10 @@ impl<'a> Builder<'a> {
             }
         }
         let id = p.node.id.clone().unwrap_or_else(|| format!("shape_{k}"));
+        let id = match instance {
+            Some(inst) => format!("{inst}/{id}"),
+            None => id,
+        };
         p.finish()?;
         let bsdf = match bsdf {
             Some(b) => b,
@@ -467,7 +497,9 @@ impl<'a> Builder<'a> {
             "envmap" => {
                 let (path, floc) = self.filename(&mut p, "envmap")?;
                 let scale = p.float("scale", 1.0)? as f32;
-                let (width, height, data) = texture::load_bitmap(&path, &floc, false)?;
+                let (w, h, data) = texture::load_bitmap(&path, &floc, false)?;
+                // Mitsuba pads every environment map to at least 2 x 3 texels (`crate::image::pad`).
+                let (width, height, data) = crate::image::pad::pad_to(w, h, data, 2, 3);
                 let world_from_env = transform::to_f32(&to_world.unwrap_or(DMat4::IDENTITY));
                 Emitter::EnvMap { map: EnvMap { width, height, data, scale, world_from_env }, loc }
             }

@@ -254,9 +254,9 @@ fn meshes_from_search_paths() {
 fn refusals_name_file_and_line() {
     assert_err(load_str("malformed", "<shape type=\"rectangle\">\n</shap>"), 5, &["malformed XML"]);
     assert_err(load_str("hair", "<bsdf type=\"hair\"/>"), 4, &["bsdf", "\"hair\""]);
-    assert_err(load_str("instance", "<shape type=\"instance\"/>"), 4, &["shape", "\"instance\""]);
+    assert_err(load_str("curve", "<shape type=\"bsplinecurve\"/>"), 4, &["shape", "\"bsplinecurve\""]);
     assert_err(load_str("projector", &format!("{RECT}\n<emitter type=\"projector\"/>")), 5, &["emitter", "\"projector\""]);
-    assert_err(load_str("serialized", "<shape type=\"serialized\"><string name=\"filename\" value=\"a.serialized\"/></shape>"), 4, &["serialized", "PLY"]);
+    assert_err(load_str("serialized", "<shape type=\"serialized\"><string name=\"filename\" value=\"a.serialized\"/></shape>"), 4, &["a.serialized", "not found"]);
     assert_err(
         load_str("missing-mesh", "<shape type=\"ply\">\n  <string name=\"filename\" value=\"nope.ply\"/></shape>"),
         5,

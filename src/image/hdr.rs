@@ -1,0 +1,85 @@
+//! Radiance RGBE (`.hdr`, `.rgbe`) input, as Mitsuba 3.9.1's `Bitmap::read_rgbe` reads it.
+//!
+//! Decoding is the `image` crate's (feature `hdr`): header `#?...` (any program name: Mitsuba writes
+//! `#?RGBE`, Radiance `#?RADIANCE`), `FORMAT=32-bit_rle_rgbe`, a
+//! `-Y h +X w` resolution line, flat or run-length encoded scanlines. Each texel is
+//! `(r, g, b) * 2^(e - 136)` (0 when `e == 0`), the same conversion as Mitsuba's `rgbe_to_float`, so
+//! texels are bit-identical to Mitsuba's. Row 0 is the first scanline (the top of the picture).
+//!
+//! Deviation: `FORMAT=32-bit_rle_xyze` files (Mitsuba converts XYZ to RGB) are refused with an error
+//! naming the file; so are the rotated/flipped resolution lines (`+Y`, `-X` ...), as in Mitsuba.
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// Reads a Radiance RGBE file: (width, height, linear RGB pixels, row 0 = top).
+///
+/// Errors: `Io` naming the file when it cannot be opened, is truncated or is not an RGBE file.
+pub fn read_hdr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut reader = std::io::BufReader::new(file);
+    // Mitsuba accepts any first line starting with "#?" (and writes "#?RGBE"); `image`'s strict mode
+    // wants "#?RADIANCE", so check the two bytes here and let the non-strict decoder skip the line.
+    let mut magic = [0u8; 2];
+    std::io::Read::read_exact(&mut reader, &mut magic).map_err(|e| Error::io(path, format!("not a Radiance RGBE (.hdr) file: {e}")))?;
+    if &magic != b"#?" {
+        return Err(Error::io(path, "not a Radiance RGBE (.hdr) file: it does not start with \"#?\""));
+    }
+    let decoder = image::codecs::hdr::HdrDecoder::new_nonstrict(reader)
+        .map_err(|e| Error::io(path, format!("invalid Radiance RGBE (.hdr) file: {e}")))?;
+    let img = image::DynamicImage::from_decoder(decoder)
+        .map_err(|e| Error::io(path, format!("invalid Radiance RGBE (.hdr) file: {e}")))?
+        .into_rgb32f();
+    let (w, h) = img.dimensions();
+    let pixels = img.pixels().map(|p| p.0).collect();
+    Ok((w, h, pixels))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str, bytes: &[u8]) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("manylights-hdr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    }
+
+    /// A flat (not run-length encoded) RGBE file of 2x1 pixels.
+    fn flat_file(pixels: &[[u8; 4]]) -> Vec<u8> {
+        let mut b = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n".to_vec();
+        pixels.iter().for_each(|p| b.extend_from_slice(p));
+        b
+    }
+
+    #[test]
+    fn decodes_rgbe_as_mitsuba() {
+        // (r, g, b) * 2^(e - 136): e = 129 -> 2^-7; e = 0 -> black.
+        let p = tmp("flat.hdr", &flat_file(&[[128, 64, 1, 129], [200, 200, 200, 0]]));
+        let (w, h, px) = read_hdr(&p).unwrap();
+        assert_eq!((w, h), (2, 1));
+        assert_eq!(px, vec![[1.0, 0.5, 1.0 / 128.0], [0.0, 0.0, 0.0]]);
+    }
+
+    #[test]
+    fn reads_mitsubas_signature() {
+        // mitsuba 3.9.1 `mi.Bitmap(np.ones((1, 1, 3))).write("a.hdr")`, verbatim.
+        let p = tmp("mitsuba.hdr", b"#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 1\n\x80\x80\x80\x81");
+        assert_eq!(read_hdr(&p).unwrap(), (1, 1, vec![[1.0, 1.0, 1.0]]));
+    }
+
+    #[test]
+    fn truncated_and_foreign_files_name_the_file() {
+        let full = flat_file(&[[128, 64, 1, 129], [1, 2, 3, 130]]);
+        let p = tmp("cut.hdr", &full[..full.len() - 3]);
+        let e = read_hdr(&p).unwrap_err();
+        assert!(matches!(e, Error::Io { .. }) && e.to_string().contains("cut.hdr"), "{e}");
+        let p = tmp("xyz.hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n\x80\x80\x80\x81");
+        let e = read_hdr(&p).unwrap_err();
+        assert!(e.to_string().contains("xyz.hdr"), "{e}");
+        let p = tmp("png.hdr", b"\x89PNG\r\n\x1a\n");
+        assert!(read_hdr(&p).unwrap_err().to_string().contains("png.hdr"));
+        assert!(matches!(read_hdr(Path::new("/nonexistent/a.hdr")), Err(Error::Io { .. })));
+    }
+}
