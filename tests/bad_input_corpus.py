@@ -272,6 +272,11 @@ def _env_scene(ctx, tag, fname, data):
     return ctx.ml.load_scene(ctx.scene_with(tag, body, {fname: data}))
 
 
+# A 4x4 Radiance RGBE image (flat, not run-length encoded) and a 4x4 little-endian colour PFM.
+HDR_BYTES = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 4\n" + bytes([128, 64, 32, 129]) * 16
+PFM_BYTES = b"PF\n4 4\n-1.0\n" + struct.pack("<48f", *([0.5] * 48))
+
+
 for _kind, _load_fn in [("bitmap", _tex_scene), ("envmap", _env_scene)]:
     cases_for(f"load_scene[{_kind}]", [
         ("truncated PNG", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-png", "t.png", c.png_bytes[:40]), ["t.png"]),
@@ -282,7 +287,15 @@ for _kind, _load_fn in [("bitmap", _tex_scene), ("envmap", _env_scene)]:
         ("empty EXR", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-ee", "e.exr", b""), ["e.exr"]),
         ("junk as .exr", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-j", "j.exr", JUNK), ["j.exr"]),
         ("text as .png", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-txt", "x.png", b"hello\n" * 20), ["x.png"]),
-        ("PNG renamed .exr", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-pe", "p.exr", c.png_bytes), ["p.exr"]),
+        # (A PNG renamed .exr loads: images are recognised by their first bytes, as Mitsuba does.)
+        ("truncated HDR", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-hdr", "t.hdr", HDR_BYTES[:60]), ["t.hdr"]),
+        ("HDR header only", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-hdrh", "h.hdr", HDR_BYTES[:40]), ["h.hdr"]),
+        ("junk as .hdr", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-jh", "j.hdr", b"#?" + JUNK), ["j.hdr"]),
+        ("truncated PFM", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-pfm", "t.pfm", PFM_BYTES[:30]), ["t.pfm"]),
+        ("PFM with a zero scale", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-pfm0", "z.pfm", PFM_BYTES.replace(b"-1.0", b"0.0")), ["z.pfm"]),
+        ("PFM claiming 10^5 x 10^5", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-pfmbig", "b.pfm", b"PF\n100000 100000\n-1.0\n" + PFM_BYTES[13:]), ["b.pfm"]),
         ("EXR header claiming 10^5 x 10^5", lambda c, f=_load_fn, k=_kind: f(
             c, f"{k}-bigexr", "big.exr", exr_window(c.exr_bytes, (0, 0, 99999, 99999))), ["big.exr"]),
         ("PNG header claiming 10^5 x 10^5", lambda c, f=_load_fn, k=_kind: f(
@@ -400,6 +413,31 @@ cases_for("Scene.gbuffer", [
 cases_for("LightSet", [
     ("no constructor", lambda c: c.ml.LightSet(), ["cannot create"]),
     ("len of a non-set", lambda c: c.ml.LightSet.__len__(None), ["LightSet"]),
+], raises=("TypeError",))
+
+cases_for("LightSet.from_arrays", [
+    ("NaN position", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=0, position=[[0, np.nan, 0]],
+                                                          intensity=[[1, 1, 1]]), ["position[0]", "finite"]),
+    ("wrong position shape", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=[0, 0], position=np.zeros((2, 4)),
+                                                                  intensity=np.ones((2, 3))), ["position", "(2, 3)"]),
+    ("negative intensity", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=0, position=[[0, 0, 0]],
+                                                                intensity=[[1, -1, 1]]), ["intensity[0]", ">= 0"]),
+    ("inf power", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=0, position=[[0, 0, 0]],
+                                                       power=[[1, np.inf, 1]]), ["power[0]", "finite"]),
+    ("unknown kind", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=7, position=[[0, 0, 0]],
+                                                          intensity=[[1, 1, 1]]), ["kind", "7"]),
+    ("string positions", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=0, position=[["a", "b", "c"]],
+                                                              intensity=[[1, 1, 1]]), ["position", "dtype"]),
+])
+cases_for("LightSet.from_arrays", [
+    ("not a scene", lambda c: c.ml.LightSet.from_arrays(None, kind=0, position=[[0, 0, 0]], intensity=[[1, 1, 1]]),
+     ["Scene"]),
+], raises=("TypeError",))
+cases_for("LightSet.concat", [
+    ("no sets", lambda c: c.ml.LightSet.concat([]), ["at least one"]),
+])
+cases_for("LightSet.concat", [
+    ("not light sets", lambda c: c.ml.LightSet.concat([c.lights, 3]), ["LightSet"]),
 ], raises=("TypeError",))
 
 # --------------------------------------------------------------------------------------------------
