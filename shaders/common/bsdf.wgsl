@@ -1,5 +1,5 @@
 // BSDF evaluation as Mitsuba 3.9.1 (RGB) does; twin of src/shading/bsdf.rs (field use per kind documented
-// there). No entry points. The including module must define `fn bsdf_table(i: u32) -> f32` returning
+// there). No entry points. Needs common/principled.wgsl (bsdf_principled_eval) after it. The including module must define `fn bsdf_table(i: u32) -> f32` returning
 // element i of `shading::bsdf::roughplastic_table_buffer` (roughplastic transmittance tables).
 
 // Keep in sync with `GpuBsdf` in src/shading/mod.rs (80 bytes).
@@ -118,6 +118,9 @@ fn bsdf_eval(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
     if (b.flags & BSDF_FLAG_TWOSIDED) != 0u && wi.z < 0.0 {
         wi.z = -wi.z;
         wo.z = -wo.z;
+    }
+    if b.kind == BSDF_KIND_PRINCIPLED {
+        return bsdf_principled_eval(b, wi, wo);
     }
     let cos_i = wi.z;
     let cos_o = wo.z;

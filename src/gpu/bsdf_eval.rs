@@ -13,7 +13,13 @@ pub const WORKGROUP_SIZE: u32 = 64;
 
 /// The assembled module: common BSDF code, then the pass.
 pub const BSDF_EVAL_WGSL: &str =
-    concat!(include_str!("../../shaders/common/bsdf.wgsl"), "\n", include_str!("../../shaders/bsdf_eval.wgsl"));
+    concat!(
+        include_str!("../../shaders/common/bsdf.wgsl"),
+        "\n",
+        include_str!("../../shaders/common/principled.wgsl"),
+        "\n",
+        include_str!("../../shaders/bsdf_eval.wgsl")
+    );
 
 /// Uniforms. Keep in sync with `BsdfEvalParams` in `shaders/bsdf_eval.wgsl`.
 #[repr(C)]

@@ -91,6 +91,29 @@ fn bsdf_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<(Vec<Bsdf>, usize)> {
             Bsdf::Conductor { eta, k, specular_reflectance: value(rgb(spec, "specular_reflectance", 1.0)?) }
         }
         "dielectric" => Bsdf::Dielectric { int_ior: f("int_ior", 1.5046)?, ext_ior: f("ext_ior", 1.000277)? },
+        "principled" => {
+            let s = |key: &str, default: f32| -> PyResult<Param> { Ok(value(Vec3::splat(f(key, default)?))) };
+            let has_spec_trans = get::<f32>(spec, "spec_trans")?.is_some_and(|v| v != 0.0);
+            let eta = get::<f32>(spec, "eta")?;
+            let specular = get::<f32>(spec, "specular")?;
+            if eta.is_some() && specular.is_some() {
+                return Err(Error::invalid("principled: give either \"eta\" or \"specular\", not both").into());
+            }
+            Bsdf::Principled(Box::new(crate::scene::principled::Principled {
+                base_color: value(rgb(spec, "base_color", 0.5)?),
+                roughness: s("roughness", 0.5)?,
+                anisotropic: s("anisotropic", 0.0)?,
+                metallic: s("metallic", 0.0)?,
+                spec_tint: s("spec_tint", 0.0)?,
+                spec_trans: s("spec_trans", 0.0)?,
+                sheen: s("sheen", 0.0)?,
+                sheen_tint: s("sheen_tint", 0.0)?,
+                clearcoat: s("clearcoat", 0.0)?,
+                clearcoat_gloss: s("clearcoat_gloss", 0.0)?,
+                flatness: s("flatness", 0.0)?,
+                eta: crate::shading::principled::principled_eta(eta, specular, has_spec_trans),
+            }))
+        }
         t => return Err(Error::invalid(format!("unsupported BSDF type {t:?}")).into()),
     };
     if get::<bool>(spec, "twosided")?.unwrap_or(false) {
@@ -111,9 +134,11 @@ fn directions(a: &PyReadonlyArray2<'_, f32>, name: &str) -> Result<Vec<Vec3>> {
 /// Evaluate a BSDF as Mitsuba's `bsdf.eval(ctx, si, wo)` does, in the local frame (z = normal).
 ///
 /// Args:
-///     spec: {"type": "diffuse" | "plastic" | "roughplastic" | "roughconductor" | "conductor" | "dielectric",
-///         parameters by Mitsuba's names (reflectance, diffuse_reflectance, specular_reflectance, alpha,
-///         alpha_u, alpha_v, distribution, int_ior, ext_ior, nonlinear, eta, k) with Mitsuba's defaults,
+///     spec: {"type": "diffuse" | "plastic" | "roughplastic" | "roughconductor" | "conductor" | "dielectric"
+///         | "principled", parameters by Mitsuba's names (reflectance, diffuse_reflectance,
+///         specular_reflectance, alpha, alpha_u, alpha_v, distribution, int_ior, ext_ior, nonlinear, eta, k;
+///         principled: base_color, roughness, anisotropic, metallic, specular or eta, spec_tint, spec_trans,
+///         sheen, sheen_tint, clearcoat, clearcoat_gloss, flatness as floats) with Mitsuba's defaults,
 ///         "twosided": True wraps it}.
 ///     wi: (N, 3) float32 unit directions toward the viewer.
 ///     wo: (N, 3) float32 unit directions toward the light.

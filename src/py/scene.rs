@@ -206,6 +206,14 @@ impl Scene {
                         d.set_item("int_ior", *int_ior)?;
                         d.set_item("ext_ior", *ext_ior)?;
                     }
+                    Bsdf::Principled(p) => {
+                        d.set_item("type", "principled")?;
+                        d.set_item("base_color", param(py, &p.base_color)?)?;
+                        for (name, v) in p.scalars() {
+                            d.set_item(name, param(py, v)?)?;
+                        }
+                        d.set_item("eta", p.eta)?;
+                    }
                 }
                 Ok(d)
             })

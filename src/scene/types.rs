@@ -128,6 +128,8 @@ pub enum Bsdf {
     Conductor { eta: Vec3, k: Vec3, specular_reflectance: Param },
     /// Smooth dielectric: no contribution from point lights.
     Dielectric { int_ior: f32, ext_ior: f32 },
+    /// Mitsuba's `principled` (`crate::shading::principled`); `eta` resolved from `eta` / `specular`.
+    Principled(Box<crate::scene::principled::Principled>),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

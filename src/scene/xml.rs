@@ -18,6 +18,7 @@
 mod materials;
 mod parse;
 mod plugins;
+mod principled;
 mod props;
 
 use crate::error::{Error, Location, Result};

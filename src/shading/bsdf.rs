@@ -12,6 +12,8 @@
 //!   reflectance, computed in `bsdf_tables`.
 //! - `roughconductor`: D G / (4 cos_theta_i) * F_conductor(dot(wi, H), eta + i k) * specular_reflectance.
 //! - `conductor`, `dielectric` (smooth): 0 (delta lobes; no contribution from point lights).
+//! - `principled`: `shading::principled` (its own field table; reflection from both sides and
+//!   transmission, not only the upper hemisphere).
 //!
 //! `GpuBsdf` field use per kind (`eta_s` = int_ior / ext_ior):
 //! | kind | diffuse | specular | eta | k | alpha_u, alpha_v | extra |
@@ -45,6 +47,8 @@ pub const KIND_PLASTIC: u32 = 3;
 pub const KIND_ROUGHCONDUCTOR: u32 = 4;
 /// Smooth conductor or dielectric: eval = 0.
 pub const KIND_SMOOTH: u32 = 5;
+/// Mitsuba's `principled` (`shading::principled`, fields documented there).
+pub const KIND_PRINCIPLED: u32 = 6;
 
 /// Wrapped in `twosided`.
 pub const FLAG_TWOSIDED: u32 = 1;
@@ -117,6 +121,17 @@ pub fn resolve(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: Vec2) -> 
             b.kind = KIND_SMOOTH;
             b.eta = [int_ior / ext_ior, 0.0, 0.0];
         }
+        Bsdf::Principled(p) => {
+            let f = |q: &Param| eval_param_1(textures, q, uv);
+            let roughness = f(&p.roughness);
+            b.kind = KIND_PRINCIPLED;
+            b.diffuse = rgb(&p.base_color);
+            b.specular = [f(&p.metallic), f(&p.spec_tint), f(&p.spec_trans)];
+            b.eta = [p.eta, f(&p.sheen), f(&p.sheen_tint)];
+            b.k = [f(&p.clearcoat), f(&p.clearcoat_gloss), f(&p.flatness)];
+            (b.alpha_u, b.alpha_v) = super::principled::dist_params(f(&p.anisotropic), roughness);
+            b.extra = [roughness, 0.0, 0.0, 0.0];
+        }
     }
     b
 }
@@ -146,6 +161,9 @@ pub fn roughplastic_table_buffer(bsdfs: &[Bsdf]) -> Vec<f32> {
 /// Mitsuba's `eval` in the local shading frame: wi toward the viewer, wo toward the light (unit, z =
 /// shading normal). Returns f(wi, wo) |cos theta_o| (0 wherever Mitsuba gives 0).
 pub fn eval(b: &GpuBsdf, wi: Vec3, wo: Vec3) -> Vec3 {
+    if b.kind == KIND_PRINCIPLED {
+        return super::principled::eval(b, wi, wo);
+    }
     let (mut wi, mut wo) = (wi, wo);
     if b.flags & FLAG_TWOSIDED != 0 && wi.z < 0.0 {
         wi.z = -wi.z;
@@ -226,7 +244,7 @@ pub fn microfacet_d(ggx: bool, alpha_u: f32, alpha_v: f32, m: Vec3) -> f32 {
 }
 
 /// `MicrofacetDistribution::smith_g1`.
-fn smith_g1(ggx: bool, alpha_u: f32, alpha_v: f32, v: Vec3, m: Vec3) -> f32 {
+pub(crate) fn smith_g1(ggx: bool, alpha_u: f32, alpha_v: f32, v: Vec3, m: Vec3) -> f32 {
     let xy_alpha_2 = (alpha_u * v.x).powi(2) + (alpha_v * v.y).powi(2);
     let tan_theta_alpha_2 = xy_alpha_2 / (v.z * v.z);
     let mut result = if ggx {

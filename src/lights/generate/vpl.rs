@@ -11,14 +11,16 @@
 //!
 //! Tracing: at the k-th surface hit x_k (k = 1, 2, ...), with incident direction w_in (toward x_{k-1})
 //! and flux Phi, a VPL is stored when the BSDF has a non-delta lobe (diffuse, plastic, roughplastic,
-//! roughconductor) and w_in is on its reflecting side: flux Phi_vpl = Phi |w_in . n_s| / |w_in . n_g|
+//! roughconductor, principled) and w_in is on its reflecting side (a principled with spec_trans > 0
+//! reflects from both sides): flux Phi_vpl = Phi |w_in . n_s| / |w_in . n_g|
 //! (the adjoint shading-normal correction), so that its intensity Phi_vpl f(w_in, w) |w . n_g|
 //! (`LightSet::emitted`) is the particle estimate of the radiance x_k reflects. VPLs are stored for
 //! k <= max_depth - 2 (Mitsuba's max_depth). The particle continues along w sampled from the BSDF
 //! (`sampling::sample_bsdf`) with flux Phi_vpl f |w . n_g| / pdf(w) (= I(w) / pdf, the same correction)
 //! for non-delta lobes and Phi * weight for delta lobes (smooth conductor / dielectric / plastic's
-//! coating, where no VPL is stored). A reflection whose sampled direction crosses the geometric surface
-//! (shading-normal leak) ends the particle. Russian roulette from the 3rd bounce on: continue with
+//! coating, where no VPL is stored); principled's glossy transmission continues through the surface. A
+//! reflection whose sampled direction crosses the geometric surface (or a transmission that does not)
+//! ends the particle. A VPL only lights its incident side (transmission from a VPL is not modelled). Russian roulette from the 3rd bounce on: continue with
 //! probability q = min(0.95, lum(Phi_next) / lum(Phi_0)), dividing the flux by q.
 //!
 //! Unbiasedness: E[sum over VPLs at bounce k of Phi_vpl] = the flux arriving at bounce k; so the set's
@@ -165,7 +167,8 @@ impl<'a> Tracer<'a> {
             let mut phi_vpl = phi;
             if non_delta {
                 // Reflecting side: w_in on the same side of n_s and n_g, and the front unless two-sided.
-                if !(cos_s_in * cos_g_in > 0.0) || (b.flags & FLAG_TWOSIDED == 0 && cos_s_in <= 0.0) {
+                let back_ok = b.flags & FLAG_TWOSIDED != 0 || crate::shading::principled::has_back_side(&b);
+                if !(cos_s_in * cos_g_in > 0.0) || (!back_ok && cos_s_in <= 0.0) {
                     return;
                 }
                 phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
@@ -189,8 +192,10 @@ impl<'a> Tracer<'a> {
             let mut phi_next = if sample.delta {
                 phi * sample.weight
             } else {
-                // Same side as w_in for reflection lobes; f |w . n_g| / pdf = weight |w . n_g| / |w . n_s|.
-                if !(cos_g_out * cos_g_in > 0.0) || sample.wo.z == 0.0 {
+                // Reflection lobes stay on w_in's side, glossy transmission (principled) crosses, for both
+                // normals alike; f |w . n_g| / pdf = weight |w . n_g| / |w . n_s|.
+                let transmitted = sample.wo.z * cos_s_in < 0.0;
+                if !(cos_g_out * cos_g_in > 0.0) != transmitted || cos_g_out == 0.0 || sample.wo.z == 0.0 {
                     return;
                 }
                 phi_vpl * sample.weight * (cos_g_out.abs() / sample.wo.z.abs())

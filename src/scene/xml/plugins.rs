@@ -139,7 +139,7 @@ impl<'a> Builder<'a> {
 
     /// A reflectance parameter: constant, or a nested / referenced texture. Like Mitsuba's
     /// `get_texture`, an `<rgb>` value must lie in [0, 1].
-    fn param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
+    pub(super) fn param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
         let v = self.unbounded_param(p, name, default)?;
         if let (Param::Value(c), Some(prop)) = (v, p.prop(name)) {
             if matches!(prop.value, Value::Rgb(_)) && !(c.min_element() >= 0.0 && c.max_element() <= 1.0) {
@@ -153,7 +153,7 @@ impl<'a> Builder<'a> {
     }
 
     /// A parameter without range check (Mitsuba's `get_unbounded_texture`: roughness, eta, k).
-    fn unbounded_param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
+    pub(super) fn unbounded_param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
         if let Some(r) = p.named_object(name)? {
             self.expect_class(&r, "texture", &format!("\"{name}\" of {}", p.what()))?;
             return Ok(Param::Texture(self.texture(r.node)?));
@@ -293,6 +293,7 @@ impl<'a> Builder<'a> {
                 }
                 Bsdf::Dielectric { int_ior, ext_ior }
             }
+            "principled" => self.principled(&mut p)?,
             _ => return Err(unknown_plugin(&p)),
         };
         p.finish()?;

@@ -1,0 +1,82 @@
+//! Particle tracing through `principled` surfaces: the flux carried from the first to the second bounce
+//! is unbiased (reflection sampled with `shading::principled::sample`, transmission leaving the box).
+use super::test_scenes::{box_faces, square_camera};
+use super::*;
+use crate::error::Location;
+use crate::lights::LightKind;
+use crate::scene::principled::Principled;
+use crate::scene::{Bsdf, Emitter, Param, Scene};
+use crate::shading::principled::eval_mode;
+use glam::Vec3;
+
+/// A closed box of one-sided principled walls (spec_trans 0.5: half the light leaves through the walls)
+/// around a point light. First-bounce VPLs face the light; the second bounce's total flux must equal
+/// sum over first-bounce VPLs of flux * R(w_in), R = the reflected albedo by quadrature.
+#[test]
+fn principled_box_second_bounce_flux_is_unbiased() {
+    let v = |x: f32| Param::Value(Vec3::splat(x));
+    let bsdf = Bsdf::Principled(Box::new(Principled {
+        base_color: Param::Value(Vec3::new(0.8, 0.6, 0.3)),
+        roughness: v(0.6),
+        anisotropic: v(0.0),
+        metallic: v(0.2),
+        spec_tint: v(0.2),
+        spec_trans: v(0.5),
+        sheen: v(0.3),
+        sheen_tint: v(0.0),
+        clearcoat: v(0.0),
+        clearcoat_gloss: v(0.0),
+        flatness: v(0.0),
+        eta: 1.5,
+    }));
+    let light = Vec3::new(0.1, 0.2, -0.3);
+    let scene = Scene {
+        path: "principled_box.xml".into(),
+        camera: square_camera(16, Vec3::new(0.0, 0.0, 0.9), Vec3::ZERO),
+        meshes: box_faces(0),
+        bsdfs: vec![bsdf],
+        textures: vec![],
+        emitters: vec![Emitter::Point { position: light, intensity: Vec3::ONE, loc: Location::default() }],
+    };
+    let mut ratios = Vec::new();
+    for seed in 0..5 {
+        let opts = GenerateOptions { area: 0, indirect: 3000, max_depth: 4, seed, ..Default::default() };
+        let set = generate_lights(&scene, &opts).unwrap();
+        let (mut second, mut expect) = (0.0f64, 0.0f64);
+        let mut first_count = 0;
+        for j in 0..set.len() {
+            if set.kind[j] != LightKind::Vpl {
+                continue;
+            }
+            let to_light = (light - set.position[j]).normalize();
+            if set.incident[j].dot(to_light) > 1.0 - 1e-5 {
+                first_count += 1;
+                let wi = sampling::to_local(set.normal[j], set.incident[j]);
+                // R(wi): stratified quadrature over wi's hemisphere (uniform measure), 40 x 80 cells.
+                let (nz, np) = (40usize, 80usize);
+                let mut r = 0.0f64;
+                for a in 0..nz {
+                    for c in 0..np {
+                        let z = (a as f32 + 0.5) / nz as f32;
+                        let phi = 2.0 * std::f32::consts::PI * (c as f32 + 0.5) / np as f32;
+                        let s = (1.0 - z * z).sqrt();
+                        let wo = Vec3::new(s * phi.cos(), s * phi.sin(), z.copysign(wi.z));
+                        r += eval_mode(&set.bsdf[j], wi, wo, false).x as f64;
+                    }
+                }
+                r *= 2.0 * std::f64::consts::PI / (nz * np) as f64;
+                expect += set.intensity[j].x as f64 * r;
+            } else {
+                second += set.intensity[j].x as f64;
+            }
+        }
+        assert!(first_count > 500, "{first_count} first-bounce VPLs");
+        ratios.push(second / expect);
+    }
+    let n = ratios.len() as f64;
+    let mean = ratios.iter().sum::<f64>() / n;
+    let std_err = (ratios.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+    eprintln!("principled box: second-bounce flux / expectation = {mean:.4} +- {std_err:.4} ({ratios:?})");
+    assert!(std_err < 0.02, "{ratios:?}");
+    assert!((mean - 1.0).abs() < 4.0 * std_err + 3e-3, "{mean} (std err {std_err}, {ratios:?})");
+}
