@@ -63,6 +63,19 @@ SPECS = {
                                     "clearcoat": 1.0, "clearcoat_gloss": 0.9, "spec_tint": 1.0},
     "principled_rough_twosided": {"type": "principled", "base_color": [0.7, 0.3, 0.3], "roughness": 0.9,
                                   "metallic": 0.2, "sheen": 1.0, "twosided": True},
+    "blend_diffuse_roughconductor": {"type": "blendbsdf", "weight": 0.3,
+                                     "bsdf_0": {"type": "diffuse", "reflectance": [0.2, 0.6, 0.3]},
+                                     "bsdf_1": {"type": "roughconductor", "distribution": "ggx", "alpha": 0.2,
+                                                "eta": ETA, "k": K}},
+    "blend_principled_roughplastic_twosided": {
+        "type": "blendbsdf", "weight": 0.6, "twosided": True,
+        "bsdf_0": {"type": "principled", "base_color": [0.7, 0.4, 0.2], "metallic": 0.3, "clearcoat": 0.5},
+        "bsdf_1": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2, "int_ior": 1.5,
+                   "diffuse_reflectance": PLASTIC_RGB}},
+    "blend_twosided_child_and_dielectric": {"type": "blendbsdf", "weight": 0.45,
+                                            "bsdf_0": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.9],
+                                                       "twosided": True},
+                                            "bsdf_1": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0}},
     "conductor": {"type": "conductor", "eta": ETA, "k": K},
     "dielectric": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0},
 }
@@ -70,6 +83,9 @@ SPECS = {
 
 def mitsuba_dict(spec):
     d = {k: v for k, v in spec.items() if k != "twosided"}
+    for key in ("bsdf_0", "bsdf_1"):
+        if key in d:
+            d[key] = mitsuba_dict(d[key])
     for key in ("reflectance", "diffuse_reflectance", "specular_reflectance", "eta", "k", "base_color"):
         if key in d and isinstance(d[key], list):
             d[key] = {"type": "rgb", "value": d[key]}
@@ -151,3 +167,10 @@ def test_bad_input_raises():
         native.bsdf_eval({"type": "diffuse"}, wi, np.zeros((4, 2), dtype=np.float32), "cpu")
     with pytest.raises(ValueError):
         native.bsdf_eval({"type": "roughconductor"}, wi, wi, "cpu")
+    with pytest.raises(ValueError, match="weight"):
+        native.bsdf_eval({"type": "blendbsdf", "bsdf_0": {"type": "diffuse"}, "bsdf_1": {"type": "diffuse"}}, wi, wi, "cpu")
+    with pytest.raises(ValueError, match="nested blendbsdf"):
+        inner = {"type": "blendbsdf", "weight": 0.5, "bsdf_0": {"type": "diffuse"}, "bsdf_1": {"type": "diffuse"}}
+        native.bsdf_eval({"type": "blendbsdf", "weight": 0.5, "bsdf_0": inner, "bsdf_1": {"type": "diffuse"}}, wi, wi, "cpu")
+    with pytest.raises(ValueError, match="eta"):
+        native.bsdf_eval({"type": "principled", "eta": 1.5, "specular": 0.5}, wi, wi, "cpu")

@@ -110,3 +110,64 @@ def test_principled_bad_input(tmp_path):
     bad = PRINCIPLED_SHAPES.replace('<float name="roughness" value="0.4"/>', '<string name="roughness" value="rough"/>')
     with pytest.raises(ml.SceneError, match="roughness"):
         ml.load_scene(write_scene(tmp_path, "bad2", bad + POINT_LIGHTS[0]))
+
+
+BLEND_SHAPES = """
+    <bsdf type="blendbsdf" id="floor">
+        <texture type="checkerboard" name="weight">
+            <rgb name="color0" value="0.2"/><rgb name="color1" value="0.9"/>
+            <transform name="to_uv"><scale x="3" y="3"/></transform>
+        </texture>
+        <bsdf type="diffuse">
+            <texture type="checkerboard" name="reflectance">
+                <rgb name="color0" value="0.8, 0.2, 0.2"/><rgb name="color1" value="0.2, 0.8, 0.3"/>
+                <transform name="to_uv"><scale x="5" y="5"/></transform>
+            </texture>
+        </bsdf>
+        <bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="0.25"/></bsdf>
+    </bsdf>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="2"/><rotate x="1" angle="-90"/></transform>
+        <ref id="floor"/>
+    </shape>
+    <shape type="sphere">
+        <point name="center" x="0" y="0.6" z="0"/><float name="radius" value="0.6"/>
+        <bsdf type="twosided">
+            <bsdf type="blendbsdf">
+                <float name="weight" value="0.4"/>
+                <bsdf type="principled"><rgb name="base_color" value="0.3, 0.6, 0.9"/><float name="clearcoat" value="1"/></bsdf>
+                <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.9, 0.5, 0.1"/><float name="alpha" value="0.15"/></bsdf>
+            </bsdf>
+        </bsdf>
+    </shape>"""
+
+
+def test_blendbsdf_direct_light_matches_mitsuba(mitsuba_ref, tmp_path):
+    lights = POINT_LIGHTS[:1] + [
+        '<emitter type="point"><point name="position" x="-1.5" y="2" z="1"/><rgb name="intensity" value="4, 4, 3"/></emitter>']
+    ref = mitsuba_sum(mitsuba_ref, tmp_path, "blend", BLEND_SHAPES, lights)
+    scene = ml.load_scene(write_scene(tmp_path, "blend", BLEND_SHAPES + "".join(lights)))
+    types = [b["type"] for b in scene.bsdfs]
+    assert types.count("blendbsdf") == 2
+    A = ml.LightMatrix(scene, ml.scene_lights(scene), visibility="ray_traced")
+    ours = A.column_sum(progress=False)
+    check_exact("blendbsdf", ours, ref)
+    idx = np.arange(0, SIZE[0] * SIZE[1], 7)
+    np.testing.assert_allclose(A.rows(idx, progress=False).sum(axis=1), ours.reshape(-1, 3)[idx], rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize("body, match", [
+    ('<bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>', "weight"),
+    ('<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>', "exactly two"),
+    ('<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/><bsdf type="diffuse"/>'
+     '<bsdf type="diffuse"/></bsdf>', "exactly two"),
+    ('<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/>'
+     '<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>'
+     '</bsdf>', "nested blendbsdf"),
+    ('<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/>'
+     '<emitter type="area"/></bsdf>', "must be a <bsdf>"),
+])
+def test_blendbsdf_bad_input(tmp_path, body, match):
+    shape = f'<shape type="sphere">{body}</shape>' + POINT_LIGHTS[0]
+    with pytest.raises(ml.SceneError, match=match):
+        ml.load_scene(write_scene(tmp_path, "bad", shape))

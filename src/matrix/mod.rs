@@ -160,7 +160,10 @@ impl LightMatrix {
     ) -> Result<LightMatrix> {
         let m = view.len();
         let wh = view.width as usize * view.height as usize;
-        if m != wh || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len(), view.bsdf.len()].iter().any(|&l| l != m) {
+        if m != wh
+            || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len()].iter().any(|&l| l != m)
+            || !(m..=2 * m).contains(&view.bsdf.len())
+        {
             return Err(Error::invalid(format!(
                 "view samples are inconsistent: {}x{} = {wh} pixels, shape_index {m}, position {}, normal {}, \
                  geo_normal {}, wi {}, bsdf {}",
@@ -186,10 +189,10 @@ impl LightMatrix {
             }
         }
         let max_binding = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
-        if m as u64 * 80 > max_binding {
+        if view.bsdf.len() as u64 * 80 > max_binding {
             return Err(Error::invalid(format!(
                 "{m} view samples need {} bytes of BSDFs, above the {max_binding}-byte storage binding limit",
-                m as u64 * 80
+                view.bsdf.len() as u64 * 80
             )));
         }
         let layer_bytes = 4 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64;

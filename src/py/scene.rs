@@ -214,6 +214,12 @@ impl Scene {
                         }
                         d.set_item("eta", p.eta)?;
                     }
+                    Bsdf::Blend { weight, first, second } => {
+                        d.set_item("type", "blendbsdf")?;
+                        d.set_item("weight", param(py, weight)?)?;
+                        d.set_item("bsdf_0", *first)?;
+                        d.set_item("bsdf_1", *second)?;
+                    }
                 }
                 Ok(d)
             })

@@ -130,6 +130,9 @@ pub enum Bsdf {
     Dielectric { int_ior: f32, ext_ior: f32 },
     /// Mitsuba's `principled` (`crate::shading::principled`); `eta` resolved from `eta` / `specular`.
     Principled(Box<crate::scene::principled::Principled>),
+    /// Mitsuba's `blendbsdf`: `(1 - w) f_first + w f_second`, w = clip(weight, 0, 1) (`eval_1` of a
+    /// texture); indices into `Scene::bsdfs`, neither a blend (nested blends are refused on load).
+    Blend { weight: ScalarParam, first: usize, second: usize },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -17,6 +17,7 @@
 //! Scene-level emitters come first in document order, then the area emitters of shapes in shape order.
 mod materials;
 mod parse;
+mod blend;
 mod plugins;
 mod principled;
 mod props;

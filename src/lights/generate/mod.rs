@@ -37,7 +37,7 @@ pub(crate) mod test_scenes;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
-mod principled_tests;
+mod material_tests;
 
 use super::{scene_sphere, LightSet};
 use crate::error::{Error, Result};

@@ -18,7 +18,8 @@
 //! k <= max_depth - 2 (Mitsuba's max_depth). The particle continues along w sampled from the BSDF
 //! (`sampling::sample_bsdf`) with flux Phi_vpl f |w . n_g| / pdf(w) (= I(w) / pdf, the same correction)
 //! for non-delta lobes and Phi * weight for delta lobes (smooth conductor / dielectric / plastic's
-//! coating, where no VPL is stored); principled's glossy transmission continues through the surface. A
+//! coating, where no VPL is stored); a blendbsdf acts as one of its two BSDFs, picked with its weight;
+//! principled's glossy transmission continues through the surface. A
 //! reflection whose sampled direction crosses the geometric surface (or a transmission that does not)
 //! ends the particle. A VPL only lights its incident side (transmission from a VPL is not modelled). Russian roulette from the 3rd bounce on: continue with
 //! probability q = min(0.95, lum(Phi_next) / lum(Phi_0)), dividing the flux by q.
@@ -41,7 +42,7 @@ use crate::error::Result;
 use crate::lights::{scene_sphere, spot_falloff, spot_solid_angle, LightKind, LightSet};
 use crate::raytrace::{offset_p, spawn_ray, RayTracer};
 use crate::scene::Scene;
-use crate::shading::bsdf::{resolve, FLAG_TWOSIDED};
+use crate::shading::bsdf::{resolve_records, FLAG_BLEND, FLAG_TWOSIDED};
 use crate::shading::GpuBsdf;
 use glam::Vec3;
 use rand_pcg::Pcg32;
@@ -160,7 +161,17 @@ impl<'a> Tracer<'a> {
             let Some(hit) = self.rt.intersect(o, d, 0.0, f32::INFINITY) else { return };
             depth += 1;
             let mesh = &self.scene.meshes[hit.mesh];
-            let b = resolve(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, hit.uv);
+            // A blendbsdf: one of its two records, the second with probability w (unbiased: the expected
+            // VPL BSDF and continuation weight are (1 - w) f_0 + w f_1).
+            let b = match resolve_records(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, hit.uv) {
+                (first, Some(second)) => {
+                    let mut b = if uniform(&mut rng) < first.extra[2] { second } else { first };
+                    b.flags &= !FLAG_BLEND;
+                    (b.extra[2], b.extra[3]) = (0.0, 0.0);
+                    b
+                }
+                (b, None) => b,
+            };
             let (n_s, n_g, w_in) = (hit.n_s, hit.n_g, hit.wi);
             let (cos_s_in, cos_g_in) = (w_in.dot(n_s), w_in.dot(n_g));
             let non_delta = !has_smooth_lobe_only(&b);

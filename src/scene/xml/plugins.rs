@@ -83,7 +83,7 @@ impl<'a> Builder<'a> {
         Ok((self.resolve_file(name, loc)?, loc.clone()))
     }
 
-    fn expect_class(&self, r: &ObjectRef, class: &str, role: &str) -> Result<()> {
+    pub(super) fn expect_class(&self, r: &ObjectRef, class: &str, role: &str) -> Result<()> {
         let n = &self.doc.nodes[r.node];
         if n.class != class {
             return Err(Error::scene(&r.loc, format!("{role} must be a <{class}>, got <{} type=\"{}\">", n.class, n.plugin)));
@@ -294,6 +294,7 @@ impl<'a> Builder<'a> {
                 Bsdf::Dielectric { int_ior, ext_ior }
             }
             "principled" => self.principled(&mut p)?,
+            "blendbsdf" => self.blendbsdf(&mut p)?,
             _ => return Err(unknown_plugin(&p)),
         };
         p.finish()?;

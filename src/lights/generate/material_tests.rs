@@ -1,6 +1,7 @@
-//! Particle tracing through `principled` surfaces: the flux carried from the first to the second bounce
-//! is unbiased (reflection sampled with `shading::principled::sample`, transmission leaving the box).
-use super::test_scenes::{box_faces, square_camera};
+//! Particle tracing through `principled` and `blendbsdf` surfaces: the flux carried from bounce to
+//! bounce is unbiased (principled reflection sampled with `shading::principled::sample`, transmission
+//! leaving the box; a blend's BSDF picked with its weight).
+use super::test_scenes::{box_faces, furnace_box, square_camera};
 use super::*;
 use crate::error::Location;
 use crate::lights::LightKind;
@@ -79,4 +80,39 @@ fn principled_box_second_bounce_flux_is_unbiased() {
     eprintln!("principled box: second-bounce flux / expectation = {mean:.4} +- {std_err:.4} ({ratios:?})");
     assert!(std_err < 0.02, "{ratios:?}");
     assert!((mean - 1.0).abs() < 4.0 * std_err + 3e-3, "{mean} (std err {std_err}, {ratios:?})");
+}
+
+/// Furnace box whose two-sided walls blend diffuse 0.8 and diffuse 0.4 with weight 0.25: as diffuse
+/// rho = 0.7, the VPLs' reflected power must be Phi (rho + rho^2 + rho^3) in expectation (max_depth 5),
+/// within 4 standard errors over seeds (the blend's random pick is the only noise source besides the
+/// particle count).
+#[test]
+fn blend_furnace_power_is_unbiased() {
+    let mut scene = furnace_box(0.8, vec![Emitter::Point { position: Vec3::new(0.1, 0.2, -0.3), intensity: Vec3::ONE, loc: Location::default() }], false);
+    scene.bsdfs = vec![
+        Bsdf::Diffuse { reflectance: Param::Value(Vec3::splat(0.8)) },
+        Bsdf::Diffuse { reflectance: Param::Value(Vec3::splat(0.4)) },
+        Bsdf::Blend { weight: Param::Value(Vec3::splat(0.25)), first: 0, second: 1 },
+        Bsdf::TwoSided { front: 2, back: 2 },
+    ];
+    for m in &mut scene.meshes {
+        m.bsdf = 3;
+    }
+    let rho = 0.7f64;
+    let expect = 4.0 * std::f64::consts::PI * (rho + rho * rho + rho.powi(3));
+    let runs: Vec<f64> = (0..6)
+        .map(|seed| {
+            let set = generate_lights(&scene, &GenerateOptions { area: 0, indirect: 3000, seed, ..Default::default() }).unwrap();
+            (0..set.len()).filter(|&j| set.kind[j] == LightKind::Vpl).map(|j| set.power(j)[0] as f64).sum::<f64>()
+        })
+        .collect();
+    let n = runs.len() as f64;
+    let mean = runs.iter().sum::<f64>() / n;
+    let std_err = (runs.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+    eprintln!("blend furnace: VPL power {mean:.4} +- {std_err:.4} vs {expect:.4}");
+    assert!(std_err > 0.0 && std_err < 0.01 * expect, "{runs:?}");
+    assert!((mean - expect).abs() < 4.0 * std_err, "{mean} vs {expect} (std err {std_err})");
+    // A wrong pick probability (e.g. 1 - w) gives rho = 0.5: far outside.
+    let wrong = 4.0 * std::f64::consts::PI * (0.5 + 0.25 + 0.125);
+    assert!((mean - wrong).abs() > 20.0 * std_err);
 }
