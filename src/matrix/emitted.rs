@@ -1,7 +1,8 @@
 //! What the camera sees directly (Mitsuba's `path` integrator at depth 0): not a column of the light
 //! matrix, but part of every image, `image = A 1 + emitted`.
 //!
-//! - A view sample on a shape with an area emitter adds the emitter's radiance L when seen from the
+//! - A view sample on a shape with an area emitter adds the emitter's radiance L (a textured one at the
+//!   sample's uv) when seen from the
 //!   emitter's +normal side: Mitsuba's `AreaLight::eval` returns L where `Frame3f::cos_theta(si.wi) > 0`,
 //!   `si.wi` in the shading frame, i.e. `dot(wi, n_s) > 0` with the shading normal n_s.
 //! - A background sample (`shape_index < 0`) shows the environment (envmap / constant emitters, summed)
@@ -13,7 +14,7 @@
 //! per channel; non-finite env-map texels or scale count as 0 (as `Environment` does for the lights).
 use super::LightMatrix;
 use crate::lights::generate::environment::Environment;
-use crate::scene::{Emitter, Scene};
+use crate::scene::{Emitter, Scene, Texture};
 use crate::view::ViewSamples;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -27,12 +28,14 @@ fn sanitized(l: Vec3) -> Vec3 {
 pub fn emitted_radiance(scene: &Scene, view: &ViewSamples) -> Vec<Vec3> {
     let env = Environment::from_scene(scene);
     // Area radiance per mesh (zero for meshes without an area emitter).
-    let area: Vec<Vec3> = scene
+    // A textured one is evaluated at the sample's uv (`Some(texture)`).
+    let area: Vec<(Vec3, Option<&Texture>)> = scene
         .meshes
         .iter()
         .map(|m| match m.emitter.and_then(|e| scene.emitters.get(e)) {
-            Some(Emitter::Area { radiance, .. }) => sanitized(*radiance),
-            _ => Vec3::ZERO,
+            Some(Emitter::Area { radiance, texture: Some(t), .. }) => (*radiance, scene.textures.get(*t)),
+            Some(Emitter::Area { radiance, .. }) => (sanitized(*radiance), None),
+            _ => (Vec3::ZERO, None),
         })
         .collect();
     let width = view.width as usize;
@@ -47,7 +50,11 @@ pub fn emitted_radiance(scene: &Scene, view: &ViewSamples) -> Vec<Vec3> {
                 let (_, d) = scene.camera.ray(x, y);
                 return sanitized(env.radiance(d));
             }
-            let l = area.get(shape as usize).copied().unwrap_or(Vec3::ZERO);
+            let l = match area.get(shape as usize) {
+                Some((_, Some(t))) => sanitized(crate::scene::texture::eval(t, view.uv[i])),
+                Some((l, None)) => *l,
+                None => Vec3::ZERO,
+            };
             if l != Vec3::ZERO && view.wi[i].dot(view.normal[i]) > 0.0 {
                 l
             } else {
@@ -123,7 +130,7 @@ mod tests {
         let loc = Location::default();
         let (scene, view) = setup(vec![
             Emitter::Constant { radiance: Vec3::new(0.25, 0.5, 1.0), loc: loc.clone() },
-            Emitter::Area { mesh: 0, radiance: Vec3::new(3.0, 2.0, 1.0), loc },
+            Emitter::Area { mesh: 0, radiance: Vec3::new(3.0, 2.0, 1.0), texture: None, loc },
         ]);
         let e = emitted_radiance(&scene, &view);
         assert_eq!(e, vec![Vec3::new(0.25, 0.5, 1.0), Vec3::new(3.0, 2.0, 1.0), Vec3::ZERO]);
@@ -138,7 +145,7 @@ mod tests {
         let map = EnvMap { width: 4, height: 3, data, world_from_env: Mat4::IDENTITY, scale: 1.0 };
         let (scene, view) = setup(vec![
             Emitter::EnvMap { map: map.clone(), loc: loc.clone() },
-            Emitter::Area { mesh: 0, radiance: Vec3::new(f32::NAN, -1.0, 4.0), loc },
+            Emitter::Area { mesh: 0, radiance: Vec3::new(f32::NAN, -1.0, 4.0), texture: None, loc },
         ]);
         let e = emitted_radiance(&scene, &view);
         let (_, d) = scene.camera.ray(0.5, 0.5);

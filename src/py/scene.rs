@@ -130,10 +130,13 @@ impl Scene {
                         d.set_item("direction", rgb(*direction))?;
                         d.set_item("irradiance", rgb(*irradiance))?;
                     }
-                    Emitter::Area { mesh, radiance, .. } => {
+                    Emitter::Area { mesh, radiance, texture, .. } => {
                         d.set_item("type", "area")?;
                         d.set_item("shape", *mesh)?;
-                        d.set_item("radiance", rgb(*radiance))?;
+                        match texture {
+                            Some(t) => d.set_item("radiance", param(py, &Param::Texture(*t))?)?,
+                            None => d.set_item("radiance", rgb(*radiance))?,
+                        }
                     }
                     Emitter::EnvMap { map, .. } => {
                         d.set_item("type", "envmap")?;

@@ -184,8 +184,9 @@ pub enum Emitter {
     Spot { world_from_light: Mat4, intensity: Vec3, cutoff_angle: f32, beam_width: f32, loc: Location },
     /// `direction`: unit vector the light travels along (world). `irradiance` in W/m^2.
     Directional { direction: Vec3, irradiance: Vec3, loc: Location },
-    /// Emits `radiance` from the +normal side of `Scene::meshes[mesh]`.
-    Area { mesh: usize, radiance: Vec3, loc: Location },
+    /// Emits `radiance` from the +normal side of `Scene::meshes[mesh]`; with `texture` (index into
+    /// `Scene::textures`) the radiance is that texture at the surface uv instead (`radiance` unused).
+    Area { mesh: usize, radiance: Vec3, texture: Option<usize>, loc: Location },
     EnvMap { map: EnvMap, loc: Location },
     Constant { radiance: Vec3, loc: Location },
 }

@@ -107,9 +107,11 @@ impl<'a> Tracer<'a> {
         };
         match source {
             Source::Area(e) => {
-                let (p, n) = e.sample_point(u0, u1);
+                let (p, n, uv) = e.sample_point_uv(u0, u1);
                 let w = to_world(n, cosine_hemisphere(u2, u3));
-                Some((offset_p(p, n, w), w, *power / p_select))
+                // pi A L(uv) / p_select (= power / p_select for a constant radiance).
+                let phi = if e.texture.is_some() { e.radiance_at(uv) * (PI * e.area) } else { *power };
+                Some((offset_p(p, n, w), w, phi / p_select))
             }
             Source::Env(sampler) => {
                 let (d, pdf) = sampler.sample(u0, u1, u2);

@@ -6,7 +6,8 @@
 //! one `Scene::bsdfs` entry. Deviations from Mitsuba:
 //! - a sphere whose `to_world` has a non-uniform scale or shear is an error (Mitsuba only warns);
 //! - shapes without a BSDF share one default `diffuse` (reflectance 0.5) entry;
-//! - emissive parameters (`radiance`, `intensity`, `irradiance`) must be constant (no textures).
+//! - emissive parameters (`intensity`, `irradiance`) must be constant (no textures); an area emitter's
+//!   `radiance` may be a texture.
 use super::materials;
 use super::parse::{Document, Value};
 use super::props::{ObjectRef, Props};
@@ -408,10 +409,13 @@ impl<'a> Builder<'a> {
         if p.has("to_world") {
             return Err(Error::scene(p.loc(), "area emitter: a to_world transform is not allowed (the shape's applies)"));
         }
-        let radiance = self.constant_color(&mut p, "radiance", 1.0)?;
+        let (radiance, texture) = match self.unbounded_param(&mut p, "radiance", 1.0)? {
+            Param::Value(v) => (v, None),
+            Param::Texture(t) => (Vec3::ONE, Some(t)),
+        };
         let loc = p.loc().clone();
         p.finish()?;
-        Ok(Emitter::Area { mesh, radiance, loc })
+        Ok(Emitter::Area { mesh, radiance, texture, loc })
     }
 
     /// True if this top-level emitter node was attached to a shape.
