@@ -19,6 +19,10 @@ struct BsdfEvalParams {
 
 const WORKGROUP_SIZE: u32 = 64u;
 
+fn bsdf_record(i: u32) -> Bsdf {
+    return bsdfs[i];
+}
+
 fn bsdf_table(i: u32) -> f32 {
     return tables[i];
 }

@@ -49,6 +49,10 @@ fn depth_texel(xy: vec2<i32>, layer: u32) -> f32 {
 }
 
 // Rough-plastic tables for `bsdf_eval` (common/bsdf.wgsl).
+fn bsdf_record(i: u32) -> Bsdf {
+    return bsdfs[i];
+}
+
 fn bsdf_table(i: u32) -> f32 {
     return bsdf_tables[i];
 }

@@ -60,6 +60,10 @@ struct RowInfo {
 
 const ROW_NO_MAP: u32 = 0xffffffffu;
 
+fn bsdf_record(i: u32) -> Bsdf {
+    return bsdfs[i];
+}
+
 fn bsdf_table(i: u32) -> f32 {
     return bsdf_tables[i];
 }

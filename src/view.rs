@@ -31,7 +31,9 @@ pub struct ViewSamples {
     pub shape_index: Vec<i32>,
     /// Triangle index within the mesh, -1 for background.
     pub prim_index: Vec<i32>,
-    /// The BSDF resolved at the point (`crate::shading::bsdf::resolve`).
+    /// The BSDF resolved at the point (`crate::shading::bsdf::resolve`): record i for sample i; past
+    /// `len()`, the second records of blended samples (`blendbsdf`, linked from their first record; see
+    /// `crate::view_resolve::append_blend_records`). Evaluate with `shading::bsdf::eval_records`.
     pub bsdf: Vec<GpuBsdf>,
     /// RGB throughput of each sample: the product of the delta BSDF weights of its chain (Fresnel,
     /// specular reflectance / transmittance, eta^2 radiance scaling). Empty = 1 for every sample.

@@ -192,7 +192,7 @@ struct Tracer<'a> {
     scene: &'a Scene,
     rt: &'a RayTracer,
     env: Option<Environment>,
-    area: Vec<Vec3>,
+    area: crate::matrix::emitted::AreaRadiance<'a>,
     opts: ChainOptions,
 }
 
@@ -229,7 +229,7 @@ impl Tracer<'_> {
                 }
                 continue;
             };
-            let l = self.area.get(si.mesh).copied().unwrap_or(Vec3::ZERO);
+            let l = self.area.at(si.mesh, si.uv);
             if l != Vec3::ZERO && si.wi.dot(si.n_s) > 0.0 {
                 out.emitted += tp * l;
             }
@@ -299,7 +299,7 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
         return Ok(ChainStats::default());
     }
     let rt = RayTracer::new(scene)?;
-    let tracer = Tracer { scene, rt: &rt, env: Environment::from_scene(scene), area: crate::matrix::emitted::area_radiance(scene), opts: *opts };
+    let tracer = Tracer { scene, rt: &rt, env: Environment::from_scene(scene), area: crate::matrix::emitted::AreaRadiance::new(scene), opts: *opts };
     let results: Vec<(usize, PixelChains)> = starts
         .par_iter()
         .with_min_len(16)

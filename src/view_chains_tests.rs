@@ -87,7 +87,7 @@ fn mirror_glass_scene() -> Scene {
     let loc = Location::default();
     scene.emitters.push(Emitter::Point { position: Vec3::new(0.2, 0.7, 0.3), intensity: Vec3::splat(1.0), loc: loc.clone() });
     let poster = scene.meshes.iter().position(|m| m.id == "poster").unwrap();
-    scene.emitters.push(Emitter::Area { mesh: poster, radiance: Vec3::new(4.0, 3.0, 2.0), loc });
+    scene.emitters.push(Emitter::Area { mesh: poster, radiance: Vec3::new(4.0, 3.0, 2.0), texture: None, loc });
     scene.meshes[poster].emitter = Some(scene.emitters.len() - 1);
     scene
 }

@@ -271,7 +271,28 @@ pub fn resolve_view_samples_with(scene: &Scene, ids: &[u32], chains: &ChainOptio
             Ok::<(), Error>(())
         })?;
     crate::view_chains::trace_chains(scene, &mut out, chains)?;
+    // After the chains: the blend records of every sample (extra ones too) go after all samples.
+    append_blend_records(scene, &mut out);
     Ok(out)
+}
+
+/// Appends the second record of every blended view sample (`blendbsdf`) after the `len()` per-sample
+/// records of `view.bsdf` and links it (`shading::bsdf::link_blend`); the GPU passes upload the whole
+/// array, so `bsdf_record` finds it there.
+pub fn append_blend_records(scene: &Scene, view: &mut ViewSamples) {
+    use crate::shading::bsdf::{link_blend, resolve_records, FLAG_BLEND};
+    for i in 0..view.len() {
+        if view.bsdf[i].flags & FLAG_BLEND == 0 || view.shape_index[i] < 0 {
+            continue;
+        }
+        let mesh = &scene.meshes[view.shape_index[i] as usize];
+        let (_, second) = resolve_records(&scene.bsdfs, &scene.textures, mesh.bsdf, view.uv[i]);
+        if let Some(s) = second {
+            let k = view.bsdf.len();
+            view.bsdf.push(s);
+            link_blend(&mut view.bsdf[i], k);
+        }
+    }
 }
 
 /// Brute-force CPU visibility at every pixel centre (for tests on small scenes: O(pixels x triangles)):

@@ -18,6 +18,10 @@ RTOL = 1e-3
 # anything visible) are compared absolutely; f32 rounding of tiny lobe tails stays under it.
 FLOOR = 1e-4
 N_PAIRS = 2000
+# Principled's glossy transmission at grazing refraction is ill-conditioned in f32 (wi.h + eta wo.h cancels):
+# there the GPU's sqrt/normalize rounding alone moves values by up to ~1.4e-3 (Rust, with Mitsuba's operation
+# order, stays within 4.2e-4 of Mitsuba).
+RTOL_BY_NAME = {"principled_spec_trans": 3e-3}
 
 ETA = [1.65746, 0.880369, 0.521229]
 K = [9.22387, 6.26952, 4.837]
@@ -47,6 +51,31 @@ SPECS = {
     "roughplastic_beckmann_nonlinear_twosided": {"type": "roughplastic", "distribution": "beckmann", "alpha": 0.3,
                                                  "int_ior": 1.9, "diffuse_reflectance": PLASTIC_RGB,
                                                  "nonlinear": True, "twosided": True},
+    "principled_default": {"type": "principled"},
+    "principled_metallic_aniso": {"type": "principled", "base_color": [0.9, 0.6, 0.2], "metallic": 0.7,
+                                  "roughness": 0.3, "anisotropic": 0.5, "spec_tint": 0.3, "specular": 0.7},
+    "principled_clearcoat_sheen": {"type": "principled", "base_color": [0.2, 0.5, 0.8], "roughness": 0.6,
+                                   "clearcoat": 0.8, "clearcoat_gloss": 0.4, "sheen": 0.7, "sheen_tint": 0.5,
+                                   "flatness": 0.3},
+    "principled_spec_trans": {"type": "principled", "base_color": [0.5, 0.7, 0.9], "roughness": 0.35,
+                              "spec_trans": 0.8, "eta": 1.45, "metallic": 0.1, "clearcoat": 0.5},
+    "principled_clearcoat_glossy": {"type": "principled", "base_color": [0.1, 0.1, 0.1], "roughness": 0.25,
+                                    "clearcoat": 1.0, "clearcoat_gloss": 0.9, "spec_tint": 1.0},
+    "principled_rough_twosided": {"type": "principled", "base_color": [0.7, 0.3, 0.3], "roughness": 0.9,
+                                  "metallic": 0.2, "sheen": 1.0, "twosided": True},
+    "blend_diffuse_roughconductor": {"type": "blendbsdf", "weight": 0.3,
+                                     "bsdf_0": {"type": "diffuse", "reflectance": [0.2, 0.6, 0.3]},
+                                     "bsdf_1": {"type": "roughconductor", "distribution": "ggx", "alpha": 0.2,
+                                                "eta": ETA, "k": K}},
+    "blend_principled_roughplastic_twosided": {
+        "type": "blendbsdf", "weight": 0.6, "twosided": True,
+        "bsdf_0": {"type": "principled", "base_color": [0.7, 0.4, 0.2], "metallic": 0.3, "clearcoat": 0.5},
+        "bsdf_1": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2, "int_ior": 1.5,
+                   "diffuse_reflectance": PLASTIC_RGB}},
+    "blend_twosided_child_and_dielectric": {"type": "blendbsdf", "weight": 0.45,
+                                            "bsdf_0": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.9],
+                                                       "twosided": True},
+                                            "bsdf_1": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0}},
     "conductor": {"type": "conductor", "eta": ETA, "k": K},
     "dielectric": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0},
 }
@@ -54,8 +83,11 @@ SPECS = {
 
 def mitsuba_dict(spec):
     d = {k: v for k, v in spec.items() if k != "twosided"}
-    for key in ("reflectance", "diffuse_reflectance", "specular_reflectance", "eta", "k"):
+    for key in ("bsdf_0", "bsdf_1"):
         if key in d:
+            d[key] = mitsuba_dict(d[key])
+    for key in ("reflectance", "diffuse_reflectance", "specular_reflectance", "eta", "k", "base_color"):
+        if key in d and isinstance(d[key], list):
             d[key] = {"type": "rgb", "value": d[key]}
     if spec.get("twosided"):
         d = {"type": "twosided", "inner": d}
@@ -101,12 +133,14 @@ def test_bsdf_matches_mitsuba(name):
         assert np.all(ref == 0) and np.all(cpu == 0) and np.all(gpu == 0)
         return
     assert np.sum(ref.max(axis=1) > 0) > N_PAIRS // 5, "too few non-zero reference values"
+    rtol = RTOL_BY_NAME.get(name, RTOL)
     assert max_rel(cpu, ref) < RTOL
-    assert max_rel(gpu, ref) < RTOL
-    assert max_rel(gpu, cpu) < RTOL
+    assert max_rel(gpu, ref) < rtol
+    assert max_rel(gpu, cpu) < rtol
 
 
-@pytest.mark.parametrize("name", ["twosided_roughconductor_ggx_01", "roughplastic_ggx", "roughplastic_beckmann"])
+@pytest.mark.parametrize("name", ["twosided_roughconductor_ggx_01", "roughplastic_ggx", "roughplastic_beckmann",
+                                  "principled_metallic_aniso", "principled_clearcoat_glossy"])
 def test_glossy_peaks_match_mitsuba(name):
     """Directions concentrated around the mirror direction, where the specular lobes peak."""
     spec = SPECS[name]
@@ -133,3 +167,10 @@ def test_bad_input_raises():
         native.bsdf_eval({"type": "diffuse"}, wi, np.zeros((4, 2), dtype=np.float32), "cpu")
     with pytest.raises(ValueError):
         native.bsdf_eval({"type": "roughconductor"}, wi, wi, "cpu")
+    with pytest.raises(ValueError, match="weight"):
+        native.bsdf_eval({"type": "blendbsdf", "bsdf_0": {"type": "diffuse"}, "bsdf_1": {"type": "diffuse"}}, wi, wi, "cpu")
+    with pytest.raises(ValueError, match="nested blendbsdf"):
+        inner = {"type": "blendbsdf", "weight": 0.5, "bsdf_0": {"type": "diffuse"}, "bsdf_1": {"type": "diffuse"}}
+        native.bsdf_eval({"type": "blendbsdf", "weight": 0.5, "bsdf_0": inner, "bsdf_1": {"type": "diffuse"}}, wi, wi, "cpu")
+    with pytest.raises(ValueError, match="eta"):
+        native.bsdf_eval({"type": "principled", "eta": 1.5, "specular": 0.5}, wi, wi, "cpu")

@@ -30,9 +30,13 @@ from conftest import REPO, SCENE_CONFIGS
 MAX_LATENCY = 5.0
 # A call that finishes before the signal could not have been interrupted: the child then says so.
 CHILD = textwrap.dedent(r"""
-    import json, sys, time
+    import json, signal, sys, time
     import numpy as np
     import manylights as ml
+
+    # A shell that starts pytest in the background (`cmd &` without job control) hands it SIGINT ignored,
+    # and Python keeps an inherited SIG_IGN: restore Python's own handler, as a terminal user has it.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
     xml, params = sys.argv[1], json.loads(sys.argv[2])
     scene = ml.load_scene(xml, size=(48, 48), **params)

@@ -151,6 +151,11 @@ def bsdf_eval(spec: dict[str, Any], wi: npt.NDArray[np.float32], wo: npt.NDArray
     (N, 3) unit directions in the local shading frame (wi toward the viewer, wo toward the light), on
     device "cpu" (Rust reference) or "gpu" (WGSL twin). Returns (N, 3) f(wi, wo) |cos theta_o|.
 
+    Types: diffuse, plastic, roughplastic, roughconductor, conductor, dielectric, principled (base_color,
+    roughness, anisotropic, metallic, specular or eta, spec_tint, spec_trans, sheen, sheen_tint, clearcoat,
+    clearcoat_gloss, flatness; floats), blendbsdf (weight: float, bsdf_0 / bsdf_1: nested spec dicts, not
+    blends), with Mitsuba 3.9.1's defaults.
+
     Raises:
         ValueError: bad spec or shapes, NaN/inf directions or spec values. GpuUnavailableError / GpuError for
             device="gpu"."""

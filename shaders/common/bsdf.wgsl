@@ -1,5 +1,7 @@
 // BSDF evaluation as Mitsuba 3.9.1 (RGB) does; twin of src/shading/bsdf.rs (field use per kind documented
-// there). No entry points. The including module must define `fn bsdf_table(i: u32) -> f32` returning
+// there). No entry points. Needs common/principled.wgsl (bsdf_principled_eval) after it, and the including
+// module must define `fn bsdf_record(i: u32) -> Bsdf` (record i of the array the evaluated BSDFs come from:
+// a blendbsdf's second record). The including module must define `fn bsdf_table(i: u32) -> f32` returning
 // element i of `shading::bsdf::roughplastic_table_buffer` (roughplastic transmittance tables).
 
 // Keep in sync with `GpuBsdf` in src/shading/mod.rs (80 bytes).
@@ -22,6 +24,7 @@ const BSDF_KIND_ROUGHCONDUCTOR: u32 = 4u;
 const BSDF_FLAG_TWOSIDED: u32 = 1u;
 const BSDF_FLAG_NONLINEAR: u32 = 2u;
 const BSDF_FLAG_GGX: u32 = 4u;
+const BSDF_FLAG_BLEND: u32 = 8u;
 const BSDF_TABLE_RES: u32 = 64u;
 const BSDF_PI: f32 = 3.14159265358979;
 const BSDF_INV_PI: f32 = 0.318309886183791;
@@ -111,13 +114,28 @@ fn bsdf_lerp_gather(offset: u32, x_in: f32) -> f32 {
     return fma(v1, t, fma(-v0, t, v0));
 }
 
-// f(wi, wo) |cos theta_o| in the local shading frame (wi toward the viewer, wo toward the light).
-fn bsdf_eval(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
+// f(wi, wo) |cos theta_o| in the local shading frame (wi toward the viewer, wo toward the light); a
+// blendbsdf's first record adds its second, bsdf_record(bits of extra.w), with weight extra.z.
+fn bsdf_eval(b: Bsdf, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let v0 = bsdf_eval_lobe(b, wi, wo);
+    if (b.flags & BSDF_FLAG_BLEND) == 0u {
+        return v0;
+    }
+    let w = b.extra.z;
+    let v1 = bsdf_eval_lobe(bsdf_record(bitcast<u32>(b.extra.w)), wi, wo);
+    return v0 * (1.0 - w) + v1 * w;
+}
+
+// One record's lobe.
+fn bsdf_eval_lobe(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
     var wi = wi_in;
     var wo = wo_in;
     if (b.flags & BSDF_FLAG_TWOSIDED) != 0u && wi.z < 0.0 {
         wi.z = -wi.z;
         wo.z = -wo.z;
+    }
+    if b.kind == BSDF_KIND_PRINCIPLED {
+        return bsdf_principled_eval(b, wi, wo);
     }
     let cos_i = wi.z;
     let cos_o = wo.z;

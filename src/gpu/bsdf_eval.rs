@@ -13,7 +13,13 @@ pub const WORKGROUP_SIZE: u32 = 64;
 
 /// The assembled module: common BSDF code, then the pass.
 pub const BSDF_EVAL_WGSL: &str =
-    concat!(include_str!("../../shaders/common/bsdf.wgsl"), "\n", include_str!("../../shaders/bsdf_eval.wgsl"));
+    concat!(
+        include_str!("../../shaders/common/bsdf.wgsl"),
+        "\n",
+        include_str!("../../shaders/common/principled.wgsl"),
+        "\n",
+        include_str!("../../shaders/bsdf_eval.wgsl")
+    );
 
 /// Uniforms. Keep in sync with `BsdfEvalParams` in `shaders/bsdf_eval.wgsl`.
 #[repr(C)]
@@ -54,13 +60,15 @@ impl BsdfEvalPass {
     }
 }
 
-/// Evaluate `bsdf_eval(bsdfs[i], wi[i], wo[i])` on the GPU (or `bsdfs[0]` for every i when `bsdfs` has one
-/// element). `tables` is `shading::bsdf::roughplastic_table_buffer` of the scene the BSDFs came from.
-pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], tables: &[f32], wi: &[Vec3], wo: &[Vec3]) -> Result<Vec<Vec3>> {
+/// Evaluate `bsdf_eval(bsdfs[i], wi[i], wo[i])` on the GPU, or `bsdfs[0]` for every i when `broadcast`.
+/// `bsdfs` is a record array (`shading::bsdf::resolve_records`: a blend's second record lies in it, past
+/// the evaluated ones). `tables` is `shading::bsdf::roughplastic_table_buffer` of the scene the BSDFs came
+/// from.
+pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], broadcast: bool, tables: &[f32], wi: &[Vec3], wo: &[Vec3]) -> Result<Vec<Vec3>> {
     let n = wi.len();
-    if wo.len() != n || !(bsdfs.len() == 1 || bsdfs.len() == n) {
+    if wo.len() != n || bsdfs.is_empty() || !(broadcast || bsdfs.len() >= n) {
         return Err(Error::invalid(format!(
-            "eval_batch_gpu: wi and wo must have equal lengths and bsdfs length 1 or N (got wi {n}, wo {}, bsdfs {})",
+            "eval_batch_gpu: wi and wo must have equal lengths and bsdfs at least 1 (broadcast) or N records (got wi {n}, wo {}, bsdfs {})",
             wo.len(),
             bsdfs.len()
         )));
@@ -70,7 +78,7 @@ pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], tables: &[f32], wi: &
     }
     let pass = BsdfEvalPass::shared(ctx);
     let device = &ctx.device;
-    let params = BsdfEvalParams { count: n as u32, broadcast: (bsdfs.len() == 1 && n > 1) as u32, _pad: [0; 2] };
+    let params = BsdfEvalParams { count: n as u32, broadcast: broadcast as u32, _pad: [0; 2] };
     let directions: Vec<[f32; 4]> =
         wi.iter().zip(wo).flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
     let tables: &[f32] = if tables.is_empty() { &[0.0] } else { tables };
@@ -106,7 +114,7 @@ pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], tables: &[f32], wi: &
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shading::bsdf::{eval, random_directions, resolve, roughplastic_table_buffer, test_sets};
+    use crate::shading::bsdf::{eval_records, link_blend, random_directions, resolve_records, roughplastic_table_buffer, test_sets};
 
     /// WGSL vs Rust: relative difference with an absolute floor of 1e-6 (values below it are
     /// rounding noise of zero-or-tiny lobes).
@@ -119,13 +127,18 @@ mod tests {
         let dirs = random_directions(4000, 11);
         let (wi, wo): (Vec<Vec3>, Vec<Vec3>) = dirs.chunks(2).map(|p| (p[0], p[1])).unzip();
         for (name, bsdfs, i) in test_sets() {
-            let b = resolve(&bsdfs, &[], i, glam::Vec2::ZERO);
+            let (mut b, second) = resolve_records(&bsdfs, &[], i, glam::Vec2::ZERO);
+            let mut records = vec![b];
+            if let Some(s) = second {
+                link_blend(&mut b, 1);
+                records = vec![b, s];
+            }
             let tables = roughplastic_table_buffer(&bsdfs);
-            let gpu = eval_batch_gpu(&ctx, &[b], &tables, &wi, &wo).unwrap();
+            let gpu = eval_batch_gpu(&ctx, &records, true, &tables, &wi, &wo).unwrap();
             let mut worst = 0.0f32;
             let mut nonzero = 0;
             for j in 0..wi.len() {
-                let cpu = eval(&b, wi[j], wo[j]);
+                let cpu = eval_records(&records, 0, wi[j], wo[j]);
                 nonzero += (cpu.max_element() > 0.0) as usize;
                 let rel = ((gpu[j] - cpu).abs() / (cpu.abs().max(Vec3::splat(ATOL)))).max_element();
                 let rel = if (gpu[j] - cpu).abs().max_element() <= ATOL { 0.0 } else { rel };

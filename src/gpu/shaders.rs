@@ -11,6 +11,7 @@ macro_rules! light_pass {
     ($pass:literal) => {
         concat!(
             include_str!("../../shaders/common/bsdf.wgsl"),
+            include_str!("../../shaders/common/principled.wgsl"),
             include_str!("../../shaders/common/light.wgsl"),
             include_str!("../../shaders/common/shadow_layer.wgsl"),
             include_str!("../../shaders/common/bvh.wgsl"),

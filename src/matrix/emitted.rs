@@ -1,7 +1,8 @@
 //! What the camera sees directly (Mitsuba's `path` integrator at depth 0): not a column of the light
 //! matrix, but part of every image, `image = A 1 + emitted`.
 //!
-//! - A view sample on a shape with an area emitter adds the emitter's radiance L when seen from the
+//! - A view sample on a shape with an area emitter adds the emitter's radiance L (a textured one at the
+//!   sample's uv) when seen from the
 //!   emitter's +normal side: Mitsuba's `AreaLight::eval` returns L where `Frame3f::cos_theta(si.wi) > 0`,
 //!   `si.wi` in the shading frame, i.e. `dot(wi, n_s) > 0` with the shading normal n_s.
 //! - A background sample (`shape_index < 0`) shows the environment (envmap / constant emitters, summed)
@@ -15,9 +16,9 @@
 //! per channel; non-finite env-map texels or scale count as 0 (as `Environment` does for the lights).
 use super::LightMatrix;
 use crate::lights::generate::environment::Environment;
-use crate::scene::{Emitter, Scene};
+use crate::scene::{Emitter, Scene, Texture};
 use crate::view::ViewSamples;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 /// A radiance with non-finite or negative channels replaced by 0.
@@ -25,23 +26,41 @@ pub(crate) fn sanitized(l: Vec3) -> Vec3 {
     Vec3::from_array(l.to_array().map(|c| if c.is_finite() && c > 0.0 { c } else { 0.0 }))
 }
 
-/// Area radiance per mesh of the scene (sanitized; zero for meshes without an area emitter).
-pub(crate) fn area_radiance(scene: &Scene) -> Vec<Vec3> {
-    scene
-        .meshes
-        .iter()
-        .map(|m| match m.emitter.and_then(|e| scene.emitters.get(e)) {
-            Some(Emitter::Area { radiance, .. }) => sanitized(*radiance),
-            _ => Vec3::ZERO,
-        })
-        .collect()
+/// Area radiance of every mesh of a scene: a constant (sanitized) or a texture evaluated at the hit's uv;
+/// zero for meshes without an area emitter. Used for the camera's own hits and for delta chains.
+pub(crate) struct AreaRadiance<'a> {
+    per_mesh: Vec<(Vec3, Option<&'a Texture>)>,
+}
+
+impl<'a> AreaRadiance<'a> {
+    pub(crate) fn new(scene: &'a Scene) -> Self {
+        let per_mesh = scene
+            .meshes
+            .iter()
+            .map(|m| match m.emitter.and_then(|e| scene.emitters.get(e)) {
+                Some(Emitter::Area { radiance, texture: Some(t), .. }) => (*radiance, scene.textures.get(*t)),
+                Some(Emitter::Area { radiance, .. }) => (sanitized(*radiance), None),
+                _ => (Vec3::ZERO, None),
+            })
+            .collect();
+        AreaRadiance { per_mesh }
+    }
+
+    /// The radiance L leaving mesh `mesh` at `uv` on its emitting side (zero for other meshes).
+    pub(crate) fn at(&self, mesh: usize, uv: Vec2) -> Vec3 {
+        match self.per_mesh.get(mesh) {
+            Some((_, Some(t))) => sanitized(crate::scene::texture::eval(t, uv)),
+            Some((l, None)) => *l,
+            None => Vec3::ZERO,
+        }
+    }
 }
 
 /// The directly visible emission of every pixel, H * W RGB (row 0 at the top): the camera's own hit
 /// plus what its delta chains see (`ViewSamples::chain_emitted`).
 pub fn emitted_radiance(scene: &Scene, view: &ViewSamples) -> Vec<Vec3> {
     let env = Environment::from_scene(scene);
-    let area = area_radiance(scene);
+    let area = AreaRadiance::new(scene);
     let width = view.width as usize;
     let chain = |i: usize| view.chain_emitted.get(i).copied().unwrap_or(Vec3::ZERO);
     (0..view.num_pixels().min(view.len()))
@@ -55,7 +74,7 @@ pub fn emitted_radiance(scene: &Scene, view: &ViewSamples) -> Vec<Vec3> {
                 let (_, d) = scene.camera.ray(x, y);
                 return sanitized(env.radiance(d));
             }
-            let l = area.get(shape as usize).copied().unwrap_or(Vec3::ZERO);
+            let l = area.at(shape as usize, view.uv[i]);
             let own = if l != Vec3::ZERO && view.wi[i].dot(view.normal[i]) > 0.0 { l } else { Vec3::ZERO };
             own + chain(i)
         })
@@ -129,7 +148,7 @@ mod tests {
         let loc = Location::default();
         let (scene, view) = setup(vec![
             Emitter::Constant { radiance: Vec3::new(0.25, 0.5, 1.0), loc: loc.clone() },
-            Emitter::Area { mesh: 0, radiance: Vec3::new(3.0, 2.0, 1.0), loc },
+            Emitter::Area { mesh: 0, radiance: Vec3::new(3.0, 2.0, 1.0), texture: None, loc },
         ]);
         let e = emitted_radiance(&scene, &view);
         assert_eq!(e, vec![Vec3::new(0.25, 0.5, 1.0), Vec3::new(3.0, 2.0, 1.0), Vec3::ZERO]);
@@ -144,7 +163,7 @@ mod tests {
         let map = EnvMap { width: 4, height: 3, data, world_from_env: Mat4::IDENTITY, scale: 1.0 };
         let (scene, view) = setup(vec![
             Emitter::EnvMap { map: map.clone(), loc: loc.clone() },
-            Emitter::Area { mesh: 0, radiance: Vec3::new(f32::NAN, -1.0, 4.0), loc },
+            Emitter::Area { mesh: 0, radiance: Vec3::new(f32::NAN, -1.0, 4.0), texture: None, loc },
         ]);
         let e = emitted_radiance(&scene, &view);
         let (_, d) = scene.camera.ray(0.5, 0.5);

@@ -168,7 +168,8 @@ impl LightMatrix {
         let m = view.len();
         let wh = view.num_pixels();
         if m != wh + view.extra_pixel.len()
-            || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len(), view.bsdf.len()].iter().any(|&l| l != m)
+            || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len()].iter().any(|&l| l != m)
+            || !(m..=2 * m).contains(&view.bsdf.len())
             || !(view.throughput.is_empty() || view.throughput.len() == m)
             || view.extra_pixel.windows(2).any(|p| p[1] < p[0])
             || view.extra_pixel.last().is_some_and(|&p| p as usize >= wh)
@@ -199,10 +200,10 @@ impl LightMatrix {
             }
         }
         let max_binding = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
-        if m as u64 * 80 > max_binding {
+        if view.bsdf.len() as u64 * 80 > max_binding {
             return Err(Error::invalid(format!(
                 "{m} view samples need {} bytes of BSDFs, above the {max_binding}-byte storage binding limit",
-                m as u64 * 80
+                view.bsdf.len() as u64 * 80
             )));
         }
         let layer_bytes = 4 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64;

@@ -50,7 +50,7 @@ pub fn exact_element(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, 
     // Mitsuba's shading frame (Frame3f(n)), as `columns.wgsl`.
     let (s, t) = coordinate_system(n);
     let local = |v: Vec3| Vec3::new(v.dot(s), v.dot(t), v.dot(n));
-    let f = crate::shading::bsdf::eval(&view.bsdf[i], local(view.wi[i]), local(wo)) * radiance * view.throughput_of(i);
+    let f = crate::shading::bsdf::eval_records(&view.bsdf, i, local(view.wi[i]), local(wo)) * radiance * view.throughput_of(i);
     if f == Vec3::ZERO {
         return (Vec3::ZERO, false);
     }

@@ -3,7 +3,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::{bsdf_eval::eval_batch_gpu, GpuContext};
 use crate::scene::{Bsdf, MicrofacetDistribution, Param};
-use crate::shading::bsdf::{eval, resolve, roughplastic_table_buffer};
+use crate::shading::bsdf::{eval_records, link_blend, resolve_records, roughplastic_table_buffer};
 use glam::{Vec2, Vec3};
 use numpy::{ndarray::Array2, IntoPyArray, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -57,7 +57,43 @@ fn distribution(spec: &Bound<'_, PyDict>) -> PyResult<MicrofacetDistribution> {
 
 /// Build the scene BSDF list for `spec` (Mitsuba's defaults; `twosided: True` wraps it) and its index.
 fn bsdf_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<(Vec<Bsdf>, usize)> {
+    let mut list = Vec::new();
+    let index = build(spec, &mut list, 0)?;
+    Ok((list, index))
+}
+
+/// Appends `spec`'s BSDF (after its nested ones) to `list`; returns its index. `depth`: blend nesting.
+fn build(spec: &Bound<'_, PyDict>, list: &mut Vec<Bsdf>, depth: usize) -> PyResult<usize> {
     let ty: String = get(spec, "type")?.ok_or_else(|| Error::invalid("spec needs a \"type\""))?;
+    let bsdf = if ty == "blendbsdf" {
+        if depth > 0 {
+            return Err(Error::invalid("a nested blendbsdf is not supported").into());
+        }
+        let weight = finite("weight", get::<f32>(spec, "weight")?.ok_or_else(|| Error::invalid("blendbsdf: spec needs a \"weight\""))?)?;
+        let mut child = |key: &str| -> PyResult<usize> {
+            let d = spec
+                .get_item(key)?
+                .ok_or_else(|| Error::invalid(format!("blendbsdf: spec needs {key:?}")))?
+                .cast_into::<PyDict>()
+                .map_err(|_| Error::invalid(format!("blendbsdf: spec[{key:?}] must be a dict")))?;
+            build(&d, list, depth + 1)
+        };
+        let first = child("bsdf_0")?;
+        let second = child("bsdf_1")?;
+        Bsdf::Blend { weight: Param::Value(Vec3::splat(weight)), first, second }
+    } else {
+        leaf_from_spec(spec, &ty)?
+    };
+    list.push(bsdf);
+    if get::<bool>(spec, "twosided")?.unwrap_or(false) {
+        list.push(Bsdf::TwoSided { front: list.len() - 1, back: list.len() - 1 });
+    }
+    Ok(list.len() - 1)
+}
+
+/// A BSDF other than a blend.
+fn leaf_from_spec(spec: &Bound<'_, PyDict>, ty: &str) -> PyResult<Bsdf> {
+    let ty = ty.to_string();
     let f = |key: &str, default: f32| -> PyResult<f32> { finite(key, get::<f32>(spec, key)?.unwrap_or(default)) };
     let nonlinear = get::<bool>(spec, "nonlinear")?.unwrap_or(false);
     let value = |v: Vec3| Param::Value(v);
@@ -102,13 +138,32 @@ fn bsdf_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<(Vec<Bsdf>, usize)> {
             Bsdf::Conductor { eta, k, specular_reflectance: value(rgb(spec, "specular_reflectance", 1.0)?) }
         }
         "dielectric" => Bsdf::Dielectric { int_ior: f("int_ior", 1.5046)?, ext_ior: f("ext_ior", 1.000277)? },
+        "principled" => {
+            let s = |key: &str, default: f32| -> PyResult<Param> { Ok(value(Vec3::splat(f(key, default)?))) };
+            let has_spec_trans = get::<f32>(spec, "spec_trans")?.is_some_and(|v| v != 0.0);
+            let eta = get::<f32>(spec, "eta")?;
+            let specular = get::<f32>(spec, "specular")?;
+            if eta.is_some() && specular.is_some() {
+                return Err(Error::invalid("principled: give either \"eta\" or \"specular\", not both").into());
+            }
+            Bsdf::Principled(Box::new(crate::scene::principled::Principled {
+                base_color: value(rgb(spec, "base_color", 0.5)?),
+                roughness: s("roughness", 0.5)?,
+                anisotropic: s("anisotropic", 0.0)?,
+                metallic: s("metallic", 0.0)?,
+                spec_tint: s("spec_tint", 0.0)?,
+                spec_trans: s("spec_trans", 0.0)?,
+                sheen: s("sheen", 0.0)?,
+                sheen_tint: s("sheen_tint", 0.0)?,
+                clearcoat: s("clearcoat", 0.0)?,
+                clearcoat_gloss: s("clearcoat_gloss", 0.0)?,
+                flatness: s("flatness", 0.0)?,
+                eta: crate::shading::principled::principled_eta(eta, specular, has_spec_trans),
+            }))
+        }
         t => return Err(Error::invalid(format!("unsupported BSDF type {t:?}")).into()),
     };
-    if get::<bool>(spec, "twosided")?.unwrap_or(false) {
-        Ok((vec![bsdf, Bsdf::TwoSided { front: 0, back: 0 }], 1))
-    } else {
-        Ok((vec![bsdf], 0))
-    }
+    Ok(bsdf)
 }
 
 fn directions(a: &PyReadonlyArray2<'_, f32>, name: &str) -> Result<Vec<Vec3>> {
@@ -126,10 +181,13 @@ fn directions(a: &PyReadonlyArray2<'_, f32>, name: &str) -> Result<Vec<Vec3>> {
 /// Evaluate a BSDF as Mitsuba's `bsdf.eval(ctx, si, wo)` does, in the local frame (z = normal).
 ///
 /// Args:
-///     spec: {"type": "diffuse" | "plastic" | "roughplastic" | "roughconductor" | "conductor" | "dielectric",
-///         parameters by Mitsuba's names (reflectance, diffuse_reflectance, specular_reflectance, alpha,
-///         alpha_u, alpha_v, distribution, int_ior, ext_ior, nonlinear, eta, k) with Mitsuba's defaults,
-///         "twosided": True wraps it}.
+///     spec: {"type": "diffuse" | "plastic" | "roughplastic" | "roughconductor" | "conductor" | "dielectric"
+///         | "principled", parameters by Mitsuba's names (reflectance, diffuse_reflectance,
+///         specular_reflectance, alpha, alpha_u, alpha_v, distribution, int_ior, ext_ior, nonlinear, eta, k;
+///         principled: base_color, roughness, anisotropic, metallic, specular or eta, spec_tint, spec_trans,
+///         sheen, sheen_tint, clearcoat, clearcoat_gloss, flatness as floats; "blendbsdf": weight (float),
+///         bsdf_0 and bsdf_1 (nested spec dicts, not blends)) with Mitsuba's defaults, "twosided": True
+///         wraps it}.
 ///     wi: (N, 3) float32 unit directions toward the viewer.
 ///     wo: (N, 3) float32 unit directions toward the light.
 ///     device: "cpu" (Rust reference) or "gpu" (the WGSL twin).
@@ -152,12 +210,19 @@ fn bsdf_eval<'py>(
     }
     let device = device.to_string();
     let out: Vec<Vec3> = py.detach(|| -> Result<Vec<Vec3>> {
-        let b = resolve(&bsdfs, &[], index, Vec2::ZERO);
+        let (mut b, second) = resolve_records(&bsdfs, &[], index, Vec2::ZERO);
+        let records = match second {
+            Some(s) => {
+                link_blend(&mut b, 1);
+                vec![b, s]
+            }
+            None => vec![b],
+        };
         match device.as_str() {
-            "cpu" => Ok(wi.iter().zip(&wo).map(|(a, c)| eval(&b, *a, *c)).collect()),
+            "cpu" => Ok(wi.iter().zip(&wo).map(|(a, c)| eval_records(&records, 0, *a, *c)).collect()),
             "gpu" => {
                 let ctx = GpuContext::shared()?;
-                eval_batch_gpu(&ctx, &[b], &roughplastic_table_buffer(&bsdfs), &wi, &wo)
+                eval_batch_gpu(&ctx, &records, true, &roughplastic_table_buffer(&bsdfs), &wi, &wo)
             }
             d => Err(Error::invalid(format!("device must be \"cpu\" or \"gpu\", got {d:?}"))),
         }

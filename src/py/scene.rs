@@ -139,10 +139,13 @@ impl Scene {
                         d.set_item("direction", rgb(*direction))?;
                         d.set_item("irradiance", rgb(*irradiance))?;
                     }
-                    Emitter::Area { mesh, radiance, .. } => {
+                    Emitter::Area { mesh, radiance, texture, .. } => {
                         d.set_item("type", "area")?;
                         d.set_item("shape", *mesh)?;
-                        d.set_item("radiance", rgb(*radiance))?;
+                        match texture {
+                            Some(t) => d.set_item("radiance", param(py, &Param::Texture(*t))?)?,
+                            None => d.set_item("radiance", rgb(*radiance))?,
+                        }
                     }
                     Emitter::EnvMap { map, .. } => {
                         d.set_item("type", "envmap")?;
@@ -214,6 +217,20 @@ impl Scene {
                         d.set_item("type", "dielectric")?;
                         d.set_item("int_ior", *int_ior)?;
                         d.set_item("ext_ior", *ext_ior)?;
+                    }
+                    Bsdf::Principled(p) => {
+                        d.set_item("type", "principled")?;
+                        d.set_item("base_color", param(py, &p.base_color)?)?;
+                        for (name, v) in p.scalars() {
+                            d.set_item(name, param(py, v)?)?;
+                        }
+                        d.set_item("eta", p.eta)?;
+                    }
+                    Bsdf::Blend { weight, first, second } => {
+                        d.set_item("type", "blendbsdf")?;
+                        d.set_item("weight", param(py, weight)?)?;
+                        d.set_item("bsdf_0", *first)?;
+                        d.set_item("bsdf_1", *second)?;
                     }
                 }
                 Ok(d)

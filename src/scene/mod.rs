@@ -4,6 +4,7 @@
 //! and builds the built-in shapes; `texture` loads bitmaps and evaluates textures as Mitsuba does;
 //! `transform` parses `<transform>` children. Conventions: `../shared/docs/MITSUBA_CONVENTIONS.md`.
 pub mod mesh;
+pub mod principled;
 pub mod texture;
 pub mod transform;
 pub mod types;

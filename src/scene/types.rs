@@ -132,6 +132,11 @@ pub enum Bsdf {
     Conductor { eta: Vec3, k: Vec3, specular_reflectance: Param },
     /// Smooth dielectric: no contribution from point lights.
     Dielectric { int_ior: f32, ext_ior: f32 },
+    /// Mitsuba's `principled` (`crate::shading::principled`); `eta` resolved from `eta` / `specular`.
+    Principled(Box<crate::scene::principled::Principled>),
+    /// Mitsuba's `blendbsdf`: `(1 - w) f_first + w f_second`, w = clip(weight, 0, 1) (`eval_1` of a
+    /// texture); indices into `Scene::bsdfs`, neither a blend (nested blends are refused on load).
+    Blend { weight: ScalarParam, first: usize, second: usize },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -183,8 +188,9 @@ pub enum Emitter {
     Spot { world_from_light: Mat4, intensity: Vec3, cutoff_angle: f32, beam_width: f32, loc: Location },
     /// `direction`: unit vector the light travels along (world). `irradiance` in W/m^2.
     Directional { direction: Vec3, irradiance: Vec3, loc: Location },
-    /// Emits `radiance` from the +normal side of `Scene::meshes[mesh]`.
-    Area { mesh: usize, radiance: Vec3, loc: Location },
+    /// Emits `radiance` from the +normal side of `Scene::meshes[mesh]`; with `texture` (index into
+    /// `Scene::textures`) the radiance is that texture at the surface uv instead (`radiance` unused).
+    Area { mesh: usize, radiance: Vec3, texture: Option<usize>, loc: Location },
     EnvMap { map: EnvMap, loc: Location },
     Constant { radiance: Vec3, loc: Location },
 }

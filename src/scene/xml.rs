@@ -19,7 +19,9 @@
 mod instancing;
 mod materials;
 mod parse;
+mod blend;
 mod plugins;
+mod principled;
 mod props;
 
 use crate::error::{Error, Location, Result};

@@ -12,6 +12,9 @@
 //!   reflectance, computed in `bsdf_tables`.
 //! - `roughconductor`: D G / (4 cos_theta_i) * F_conductor(dot(wi, H), eta + i k) * specular_reflectance.
 //! - `conductor`, `dielectric` (smooth): 0 (delta lobes; no contribution from point lights).
+//! - `blendbsdf`: two records (`resolve_records`, `eval_records`): (1 - w) f_0 + w f_1.
+//! - `principled`: `shading::principled` (its own field table; reflection from both sides and
+//!   transmission, not only the upper hemisphere).
 //!
 //! `GpuBsdf` field use per kind (`eta_s` = int_ior / ext_ior):
 //! | kind | diffuse | specular | eta | k | alpha_u, alpha_v | extra |
@@ -45,6 +48,8 @@ pub const KIND_PLASTIC: u32 = 3;
 pub const KIND_ROUGHCONDUCTOR: u32 = 4;
 /// Smooth conductor or dielectric: eval = 0.
 pub const KIND_SMOOTH: u32 = 5;
+/// Mitsuba's `principled` (`shading::principled`, fields documented there).
+pub const KIND_PRINCIPLED: u32 = 6;
 
 /// Wrapped in `twosided`.
 pub const FLAG_TWOSIDED: u32 = 1;
@@ -52,6 +57,9 @@ pub const FLAG_TWOSIDED: u32 = 1;
 pub const FLAG_NONLINEAR: u32 = 2;
 /// GGX (else Beckmann).
 pub const FLAG_GGX: u32 = 4;
+/// First record of a `blendbsdf`: `extra[2]` = weight w of the second record, `extra[3]` = its index
+/// (bits) in the same record array; eval = (1 - w) f_this + w f_second (`eval_records`).
+pub const FLAG_BLEND: u32 = 8;
 
 const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 
@@ -117,8 +125,67 @@ pub fn resolve(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: Vec2) -> 
             b.kind = KIND_SMOOTH;
             b.eta = [int_ior / ext_ior, 0.0, 0.0];
         }
+        Bsdf::Blend { .. } => {
+            b = resolve_records(bsdfs, textures, index, uv).0;
+        }
+        Bsdf::Principled(p) => {
+            let f = |q: &Param| eval_param_1(textures, q, uv);
+            let roughness = f(&p.roughness);
+            b.kind = KIND_PRINCIPLED;
+            b.diffuse = rgb(&p.base_color);
+            b.specular = [f(&p.metallic), f(&p.spec_tint), f(&p.spec_trans)];
+            b.eta = [p.eta, f(&p.sheen), f(&p.sheen_tint)];
+            b.k = [f(&p.clearcoat), f(&p.clearcoat_gloss), f(&p.flatness)];
+            (b.alpha_u, b.alpha_v) = super::principled::dist_params(f(&p.anisotropic), roughness);
+            b.extra = [roughness, 0.0, 0.0, 0.0];
+        }
     }
     b
+}
+
+/// Resolve scene BSDF `index` at `uv` into its records: one, or two for a `blendbsdf` (also inside a
+/// `twosided`, whose flag both get). The first then has `FLAG_BLEND` and the weight in `extra[2]`; the
+/// caller stores the second in the same record array and its index as bits in `extra[3]` (`link_blend`).
+/// `resolve` alone returns only the first record.
+pub fn resolve_records(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: Vec2) -> (GpuBsdf, Option<GpuBsdf>) {
+    match bsdfs.get(index) {
+        Some(Bsdf::Blend { weight, first, second }) => {
+            let w = eval_param_1(textures, weight, uv).max(0.0).min(1.0);
+            let mut a = resolve(bsdfs, textures, *first, uv);
+            let b = resolve(bsdfs, textures, *second, uv);
+            a.flags |= FLAG_BLEND;
+            a.extra[2] = w;
+            a.extra[3] = f32::from_bits(u32::MAX);
+            (a, Some(b))
+        }
+        Some(Bsdf::TwoSided { front, .. }) if *front != index && matches!(bsdfs.get(*front), Some(Bsdf::Blend { .. })) => {
+            let (mut a, b) = resolve_records(bsdfs, textures, *front, uv);
+            a.flags |= FLAG_TWOSIDED;
+            (a, b.map(|mut b| {
+                b.flags |= FLAG_TWOSIDED;
+                b
+            }))
+        }
+        _ => (resolve(bsdfs, textures, index, uv), None),
+    }
+}
+
+/// Points a blend's first record at its second record, stored at `second_index` of the same array.
+pub fn link_blend(first: &mut GpuBsdf, second_index: usize) {
+    first.extra[3] = f32::from_bits(second_index as u32);
+}
+
+/// `eval` of record `i` of a record array, following a blend to its second record (Mitsuba's
+/// `blendbsdf`: val_0 (1 - w) + val_1 w).
+pub fn eval_records(records: &[GpuBsdf], i: usize, wi: Vec3, wo: Vec3) -> Vec3 {
+    let b = &records[i];
+    let v0 = eval(b, wi, wo);
+    if b.flags & FLAG_BLEND == 0 {
+        return v0;
+    }
+    let w = b.extra[2];
+    let v1 = records.get(b.extra[3].to_bits() as usize).map_or(Vec3::ZERO, |s| eval(s, wi, wo));
+    v0 * (1.0 - w) + v1 * w
 }
 
 /// Position of roughplastic `index` among the scene's roughplastics (its table's slot).
@@ -144,8 +211,12 @@ pub fn roughplastic_table_buffer(bsdfs: &[Bsdf]) -> Vec<f32> {
 }
 
 /// Mitsuba's `eval` in the local shading frame: wi toward the viewer, wo toward the light (unit, z =
-/// shading normal). Returns f(wi, wo) |cos theta_o| (0 wherever Mitsuba gives 0).
+/// shading normal). Returns f(wi, wo) |cos theta_o| (0 wherever Mitsuba gives 0). One record only: a
+/// blend's first record evaluates its own lobe (`eval_records` adds the second).
 pub fn eval(b: &GpuBsdf, wi: Vec3, wo: Vec3) -> Vec3 {
+    if b.kind == KIND_PRINCIPLED {
+        return super::principled::eval(b, wi, wo);
+    }
     let (mut wi, mut wo) = (wi, wo);
     if b.flags & FLAG_TWOSIDED != 0 && wi.z < 0.0 {
         wi.z = -wi.z;
@@ -226,7 +297,7 @@ pub fn microfacet_d(ggx: bool, alpha_u: f32, alpha_v: f32, m: Vec3) -> f32 {
 }
 
 /// `MicrofacetDistribution::smith_g1`.
-fn smith_g1(ggx: bool, alpha_u: f32, alpha_v: f32, v: Vec3, m: Vec3) -> f32 {
+pub(crate) fn smith_g1(ggx: bool, alpha_u: f32, alpha_v: f32, v: Vec3, m: Vec3) -> f32 {
     let xy_alpha_2 = (alpha_u * v.x).powi(2) + (alpha_v * v.y).powi(2);
     let tan_theta_alpha_2 = xy_alpha_2 / (v.z * v.z);
     let mut result = if ggx {
@@ -322,6 +393,36 @@ pub(crate) fn test_sets() -> Vec<(&'static str, Vec<Bsdf>, usize)> {
     sets.push(("twosided_roughconductor_ggx_015", b, i));
     // Two roughplastics in one scene: the second one's table sits at offset 64.
     sets.push(("roughplastic_second_table", vec![rp(Ggx, 0.3, false), rp(Beckmann, 0.1, false)], 1));
+    let s = |x: f32| Param::Value(Vec3::splat(x));
+    let principled = |metallic: f32, spec_trans: f32, clearcoat: f32, sheen: f32| {
+        Bsdf::Principled(Box::new(crate::scene::principled::Principled {
+            base_color: v(0.8, 0.5, 0.2),
+            roughness: s(0.4),
+            anisotropic: s(0.3),
+            metallic: s(metallic),
+            spec_tint: s(0.2),
+            spec_trans: s(spec_trans),
+            sheen: s(sheen),
+            sheen_tint: s(0.5),
+            clearcoat: s(clearcoat),
+            clearcoat_gloss: s(0.3),
+            flatness: s(0.2),
+            eta: 1.5,
+        }))
+    };
+    sets.push(("principled_metallic_sheen", vec![principled(0.6, 0.0, 0.0, 0.8)], 0));
+    sets.push(("principled_clearcoat", vec![principled(0.0, 0.0, 0.9, 0.0)], 0));
+    sets.push(("principled_spec_trans", vec![principled(0.1, 0.7, 0.3, 0.0)], 0));
+    // blendbsdf: diffuse + rough conductor with weight 0.3; twosided(blend(principled, roughplastic)).
+    sets.push(("blend_diffuse_roughconductor", vec![
+        Bsdf::Diffuse { reflectance: v(0.2, 0.6, 0.3) }, rc(Ggx, 0.2),
+        Bsdf::Blend { weight: s(0.3), first: 0, second: 1 },
+    ], 2));
+    sets.push(("twosided_blend_principled_roughplastic", vec![
+        principled(0.3, 0.0, 0.5, 0.5), rp(Ggx, 0.2, false),
+        Bsdf::Blend { weight: s(0.6), first: 0, second: 1 },
+        Bsdf::TwoSided { front: 2, back: 2 },
+    ], 3));
     sets
 }
 

@@ -14,12 +14,20 @@
 //! normal, flipped to agree with the mesh's vertex normals when it has any (sphere: outward, inward with
 //! `flip_normals`). The light sits at Mitsuba's `offset_p` above the surface, so its own surface never
 //! shadows it. Zero-area or zero-radiance emitters get no lights (zero contribution).
+//!
+//! Textured radiance (`Emitter::Area::texture`): each light takes L at its own uv (mesh uvs
+//! interpolated, or (b1, b2) without uvs; spheres (phi / 2pi, theta / pi) of the world direction from the
+//! centre, as `view_resolve`), I0 = L(uv) A_e / n_e, which keeps each emitter's lights an unbiased
+//! stratified estimate of its emission. The emitter's `radiance` used to split the counts (and to pick
+//! emitters for particles) is then the mean of L over 4096 stratified surface points; particles carry
+//! L at their own uv.
 use super::sampling::{equal_area_cells, stream, uniform, uniform_triangle, STREAM_AREA};
 use crate::error::Result;
 use crate::lights::LightSet;
 use crate::raytrace::offset_p;
-use crate::scene::{Emitter, Scene, ShapeKind};
-use glam::Vec3;
+use crate::scene::texture::eval as eval_texture;
+use crate::scene::{Emitter, Scene, ShapeKind, Texture};
+use glam::{Vec2, Vec3};
 use rand_pcg::Pcg32;
 
 /// An area emitter ready for sampling.
@@ -27,7 +35,10 @@ use rand_pcg::Pcg32;
 pub struct AreaEmitter {
     /// Index into `Scene::emitters`.
     pub emitter: usize,
+    /// Constant radiance, or the mean of the texture's (module docs).
     pub radiance: Vec3,
+    /// Textured radiance (a copy of the scene's texture), evaluated at each point's uv.
+    pub texture: Option<Texture>,
     /// Total area (m^2).
     pub area: f32,
     pub shape: AreaShape,
@@ -35,8 +46,8 @@ pub struct AreaEmitter {
 
 #[derive(Debug, Clone)]
 pub enum AreaShape {
-    /// Triangles (p0, p1, p2, emitting normal) and the cumulative area after each.
-    Triangles { triangles: Vec<([Vec3; 3], Vec3)>, cdf: Vec<f64> },
+    /// Triangles (p0, p1, p2, emitting normal), their vertex uvs, and the cumulative area after each.
+    Triangles { triangles: Vec<([Vec3; 3], Vec3)>, uvs: Vec<[Vec2; 3]>, cdf: Vec<f64> },
     Sphere { center: Vec3, radius: f32, flip: bool },
 }
 
@@ -48,8 +59,22 @@ impl AreaEmitter {
 
     /// A point and its emitting normal, uniform by area, for (u0, u1) in [0,1)^2 (u0 selects the triangle).
     pub fn sample_point(&self, u0: f32, u1: f32) -> (Vec3, Vec3) {
+        let (p, n, _) = self.sample_point_uv(u0, u1);
+        (p, n)
+    }
+
+    /// The radiance at surface coordinate `uv` (non-finite or negative channels count as 0).
+    pub fn radiance_at(&self, uv: Vec2) -> Vec3 {
+        match &self.texture {
+            None => self.radiance,
+            Some(t) => sanitized(eval_texture(t, uv)),
+        }
+    }
+
+    /// `sample_point` with the point's uv.
+    pub fn sample_point_uv(&self, u0: f32, u1: f32) -> (Vec3, Vec3, Vec2) {
         match &self.shape {
-            AreaShape::Triangles { triangles, cdf } => {
+            AreaShape::Triangles { triangles, uvs, cdf } => {
                 let total = *cdf.last().unwrap_or(&0.0);
                 let target = u0 as f64 * total;
                 let k = cdf.partition_point(|&c| c <= target).min(triangles.len() - 1);
@@ -57,28 +82,50 @@ impl AreaEmitter {
                 let a = cdf[k] - before;
                 let v = if a > 0.0 { (((target - before) / a) as f32).clamp(0.0, 1.0 - f32::EPSILON) } else { 0.5 };
                 let ([p0, p1, p2], n) = triangles[k];
+                let [t0, t1, t2] = uvs[k];
                 let b = uniform_triangle(v, u1);
-                (p0 * (1.0 - b.x - b.y) + p1 * b.x + p2 * b.y, n)
+                let b0 = 1.0 - b.x - b.y;
+                (p0 * b0 + p1 * b.x + p2 * b.y, n, t0 * b0 + t1 * b.x + t2 * b.y)
             }
             AreaShape::Sphere { center, radius, flip } => {
                 let d = super::sampling::uniform_sphere(u0, u1);
-                (*center + d * *radius, if *flip { -d } else { d })
+                (*center + d * *radius, if *flip { -d } else { d }, sphere_uv(d))
             }
         }
     }
 }
 
+/// Mitsuba's sphere uv of a unit direction from the centre: (phi / 2pi, theta / pi).
+fn sphere_uv(d: Vec3) -> Vec2 {
+    let theta = d.z.clamp(-1.0, 1.0).acos();
+    let mut phi = d.y.atan2(d.x);
+    if phi < 0.0 {
+        phi += 2.0 * std::f32::consts::PI;
+    }
+    Vec2::new(phi / (2.0 * std::f32::consts::PI), theta / std::f32::consts::PI)
+}
+
+/// Non-finite or negative channels -> 0.
+fn sanitized(l: Vec3) -> Vec3 {
+    Vec3::from_array(l.to_array().map(|c| if c.is_finite() && c > 0.0 { c } else { 0.0 }))
+}
+
+/// Points for the mean radiance of a textured emitter.
+const MEAN_POINTS: usize = 4096;
+
 /// The scene's area emitters (in `Scene::emitters` order) with their sampling tables.
 pub fn area_emitters(scene: &Scene) -> Vec<AreaEmitter> {
     let mut out = Vec::new();
     for (e, emitter) in scene.emitters.iter().enumerate() {
-        let Emitter::Area { mesh, radiance, .. } = emitter else { continue };
+        let Emitter::Area { mesh, radiance, texture, .. } = emitter else { continue };
         let Some(m) = scene.meshes.get(*mesh) else { continue };
         let radiance = radiance.max(Vec3::ZERO);
+        let texture = texture.and_then(|t| scene.textures.get(t)).cloned();
         let shape = if let ShapeKind::Sphere { center, radius, flip_normals } = m.kind {
             AreaShape::Sphere { center, radius, flip: flip_normals }
         } else {
             let mut triangles = Vec::with_capacity(m.indices.len());
+            let mut uvs = Vec::with_capacity(m.indices.len());
             let mut cdf = Vec::with_capacity(m.indices.len());
             let mut acc = 0.0f64;
             for idx in &m.indices {
@@ -101,17 +148,43 @@ pub fn area_emitters(scene: &Scene) -> Vec<AreaEmitter> {
                 }
                 acc += 0.5 * area2 as f64;
                 triangles.push((p, n));
+                uvs.push(if m.uvs.len() == m.positions.len() {
+                    [m.uvs[i0], m.uvs[i1], m.uvs[i2]]
+                } else {
+                    [Vec2::ZERO, Vec2::X, Vec2::Y]
+                });
                 cdf.push(acc);
             }
-            AreaShape::Triangles { triangles, cdf }
+            AreaShape::Triangles { triangles, uvs, cdf }
         };
         let area = match &shape {
             AreaShape::Triangles { cdf, .. } => *cdf.last().unwrap_or(&0.0) as f32,
             AreaShape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
         };
-        out.push(AreaEmitter { emitter: e, radiance, area: if area.is_finite() { area } else { 0.0 }, shape });
+        let mut a = AreaEmitter { emitter: e, radiance, texture, area: if area.is_finite() { area } else { 0.0 }, shape };
+        if a.texture.is_some() {
+            a.radiance = mean_radiance(&a);
+        }
+        out.push(a);
     }
     out
+}
+
+/// Mean of a textured emitter's radiance over its surface: 64 x 64 stratified points (cell centres).
+fn mean_radiance(e: &AreaEmitter) -> Vec3 {
+    if e.area <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let k = (MEAN_POINTS as f64).sqrt() as usize;
+    let mut sum = glam::DVec3::ZERO;
+    for a in 0..k {
+        for b in 0..k {
+            let (u0, u1) = ((a as f32 + 0.5) / k as f32, (b as f32 + 0.5) / k as f32);
+            let (_, _, uv) = e.sample_point_uv(u0, u1);
+            sum += e.radiance_at(uv).as_dvec3();
+        }
+    }
+    (sum / (k * k) as f64).as_vec3()
 }
 
 /// Split `n` among weights (largest remainder; all zero weights -> all zero counts).
@@ -145,13 +218,13 @@ pub fn area_lights(emitters: &[AreaEmitter], n: usize, seed: u64, center: Vec3, 
             continue;
         }
         let mut rng: Pcg32 = stream(seed, STREAM_AREA, e as u64);
-        let i0 = emitter.radiance * (emitter.area / n_e as f32);
+        let scale = emitter.area / n_e as f32;
         match &emitter.shape {
             AreaShape::Triangles { .. } => {
                 for k in 0..n_e {
                     let u0 = ((k as f64 + uniform(&mut rng) as f64) / n_e as f64) as f32;
-                    let (p, normal) = emitter.sample_point(u0.min(1.0 - f32::EPSILON), uniform(&mut rng));
-                    set.push_oriented_point(offset_p(p, normal, normal), normal, i0)?;
+                    let (p, normal, uv) = emitter.sample_point_uv(u0.min(1.0 - f32::EPSILON), uniform(&mut rng));
+                    set.push_oriented_point(offset_p(p, normal, normal), normal, emitter.radiance_at(uv) * scale)?;
                 }
             }
             AreaShape::Sphere { center, radius, flip } => {
@@ -159,7 +232,7 @@ pub fn area_lights(emitters: &[AreaEmitter], n: usize, seed: u64, center: Vec3, 
                     let d = cell.sample(uniform(&mut rng), uniform(&mut rng));
                     let normal = if *flip { -d } else { d };
                     let p = *center + d * *radius;
-                    set.push_oriented_point(offset_p(p, normal, normal), normal, i0)?;
+                    set.push_oriented_point(offset_p(p, normal, normal), normal, emitter.radiance_at(sphere_uv(d)) * scale)?;
                 }
             }
         }

@@ -36,6 +36,8 @@ mod gpu_tests;
 pub(crate) mod test_scenes;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod material_tests;
 
 use super::{scene_sphere, LightSet};
 use crate::error::{Error, Result};

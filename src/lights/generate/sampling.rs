@@ -13,9 +13,11 @@
 //! - smooth conductor: delta reflection, weight = Fresnel(eta + i k) * specular_reflectance.
 //! - smooth dielectric: reflect with probability F, else refract; weight 1 (importance transport: no
 //!   1/eta^2 radiance scaling for particles).
+//! - principled: `shading::principled::sample` (a mixture with an exact pdf; reflection from both
+//!   sides and glossy transmission, importance-mode weights).
 use crate::shading::bsdf::{
     eval, fresnel, fresnel_conductor, microfacet_d, FLAG_GGX, FLAG_TWOSIDED, KIND_DIFFUSE, KIND_PLASTIC,
-    KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC, KIND_SMOOTH,
+    KIND_PRINCIPLED, KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC, KIND_SMOOTH,
 };
 use crate::shading::GpuBsdf;
 use glam::{Vec2, Vec3};
@@ -144,7 +146,7 @@ pub fn to_local(n: Vec3, v: Vec3) -> Vec3 {
 
 /// BSDF kinds with a non-delta lobe (a VPL can sit there).
 pub fn has_smooth_lobe_only(b: &GpuBsdf) -> bool {
-    !matches!(b.kind, KIND_DIFFUSE | KIND_PLASTIC | KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR)
+    !matches!(b.kind, KIND_DIFFUSE | KIND_PLASTIC | KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR | KIND_PRINCIPLED)
 }
 
 /// A sampled continuation: local direction, weight (eval / pdf or the delta weight), delta lobe?
@@ -175,6 +177,10 @@ fn reflect(wi: Vec3, h: Vec3) -> Vec3 {
 /// the particle is absorbed (black BSDF, back side of a one-sided BSDF, zero weight).
 pub fn sample_bsdf(b: &GpuBsdf, wi_in: Vec3, rng: &mut Pcg32) -> Option<BsdfSample> {
     let (u0, u1, u2) = (uniform(rng), uniform(rng), uniform(rng));
+    if b.kind == KIND_PRINCIPLED {
+        let (wo, weight) = crate::shading::principled::sample(b, wi_in, u0, u1, u2)?;
+        return Some(BsdfSample { wo, weight, delta: false });
+    }
     if b.kind == KIND_SMOOTH && is_dielectric(b) {
         let eta = b.eta[0];
         let f = fresnel(wi_in.z, eta);
@@ -299,8 +305,8 @@ mod tests {
         let wi = Vec3::new(0.6, 0.1, 0.79).normalize();
         for (name, bsdfs, i) in test_sets() {
             let b = resolve(&bsdfs, &[], i, Vec2::ZERO);
-            if b.kind == KIND_PLASTIC {
-                continue; // has a delta lobe; checked by the furnace tests
+            if b.kind == KIND_PLASTIC || b.kind == KIND_PRINCIPLED {
+                continue; // plastic has a delta lobe (furnace tests); principled: its own module's test
             }
             // Reference albedo: 512^2 stratified cosine quadrature.
             let n = 512;

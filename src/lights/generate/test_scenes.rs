@@ -29,7 +29,7 @@ pub fn furnace_box(rho: f32, emitters: Vec<Emitter>, area: bool) -> Scene {
     if area {
         let mut q = quad(Vec3::new(-0.3, 0.8, -0.3), Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.6), 1, "light");
         q.emitter = Some(emitters.len());
-        emitters.push(Emitter::Area { mesh: meshes.len(), radiance: Vec3::new(1.0, 2.0, 3.0), loc: Location::default() });
+        emitters.push(Emitter::Area { mesh: meshes.len(), radiance: Vec3::new(1.0, 2.0, 3.0), texture: None, loc: Location::default() });
         meshes.push(q);
     }
     Scene {
@@ -89,7 +89,7 @@ pub fn open_box(size: u32) -> Scene {
         bsdfs,
         textures: vec![],
         emitters: vec![
-            Emitter::Area { mesh: light_mesh, radiance: Vec3::new(3.0, 3.0, 2.5), loc: Location::default() },
+            Emitter::Area { mesh: light_mesh, radiance: Vec3::new(3.0, 3.0, 2.5), texture: None, loc: Location::default() },
             Emitter::EnvMap {
                 map: EnvMap { width: w, height: h, data, scale: 1.0, world_from_env: Mat4::IDENTITY },
                 loc: Location::default(),

@@ -49,7 +49,7 @@ fn two_area_scene() -> Scene {
         emitter: Some(1),
         loc: Location::default(),
     };
-    scene.emitters.push(Emitter::Area { mesh: scene.meshes.len(), radiance: Vec3::new(5.0, 4.0, 0.5), loc: Location::default() });
+    scene.emitters.push(Emitter::Area { mesh: scene.meshes.len(), radiance: Vec3::new(5.0, 4.0, 0.5), texture: None, loc: Location::default() });
     scene.meshes.push(sphere);
     scene
 }
@@ -319,11 +319,11 @@ fn degenerate_emitters_contribute_nothing() {
     let mut scene = furnace_box(0.5, vec![], true);
     let mut flat = quad(Vec3::ZERO, Vec3::X, Vec3::X * 2.0, 0, "flat");
     flat.emitter = Some(1);
-    scene.emitters.push(Emitter::Area { mesh: scene.meshes.len(), radiance: Vec3::ONE, loc: Location::default() });
+    scene.emitters.push(Emitter::Area { mesh: scene.meshes.len(), radiance: Vec3::ONE, texture: None, loc: Location::default() });
     scene.meshes.push(flat);
     let mut black = quad(Vec3::new(0.0, -0.5, 0.0), Vec3::X * 0.2, Vec3::Z * 0.2, 0, "black");
     black.emitter = Some(2);
-    scene.emitters.push(Emitter::Area { mesh: scene.meshes.len(), radiance: Vec3::ZERO, loc: Location::default() });
+    scene.emitters.push(Emitter::Area { mesh: scene.meshes.len(), radiance: Vec3::ZERO, texture: None, loc: Location::default() });
     scene.meshes.push(black);
     let set = generate_lights(&scene, &GenerateOptions { area: 100, indirect: 200, ..Default::default() }).unwrap();
     assert_eq!(count(&set, LightKind::OrientedPoint), 100);

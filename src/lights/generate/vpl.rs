@@ -11,14 +11,17 @@
 //!
 //! Tracing: at the k-th surface hit x_k (k = 1, 2, ...), with incident direction w_in (toward x_{k-1})
 //! and flux Phi, a VPL is stored when the BSDF has a non-delta lobe (diffuse, plastic, roughplastic,
-//! roughconductor) and w_in is on its reflecting side: flux Phi_vpl = Phi |w_in . n_s| / |w_in . n_g|
+//! roughconductor, principled) and w_in is on its reflecting side (a principled with spec_trans > 0
+//! reflects from both sides): flux Phi_vpl = Phi |w_in . n_s| / |w_in . n_g|
 //! (the adjoint shading-normal correction), so that its intensity Phi_vpl f(w_in, w) |w . n_g|
 //! (`LightSet::emitted`) is the particle estimate of the radiance x_k reflects. VPLs are stored for
 //! k <= max_depth - 2 (Mitsuba's max_depth). The particle continues along w sampled from the BSDF
 //! (`sampling::sample_bsdf`) with flux Phi_vpl f |w . n_g| / pdf(w) (= I(w) / pdf, the same correction)
 //! for non-delta lobes and Phi * weight for delta lobes (smooth conductor / dielectric / plastic's
-//! coating, where no VPL is stored). A reflection whose sampled direction crosses the geometric surface
-//! (shading-normal leak) ends the particle. Russian roulette from the 3rd bounce on: continue with
+//! coating, where no VPL is stored); a blendbsdf acts as one of its two BSDFs, picked with its weight;
+//! principled's glossy transmission continues through the surface. A
+//! reflection whose sampled direction crosses the geometric surface (or a transmission that does not)
+//! ends the particle. A VPL only lights its incident side (transmission from a VPL is not modelled). Russian roulette from the 3rd bounce on: continue with
 //! probability q = min(0.95, lum(Phi_next) / lum(Phi_0)), dividing the flux by q.
 //!
 //! Unbiasedness: E[sum over VPLs at bounce k of Phi_vpl] = the flux arriving at bounce k; so the set's
@@ -39,7 +42,7 @@ use crate::error::Result;
 use crate::lights::{scene_sphere, spot_falloff, spot_solid_angle, LightKind, LightSet};
 use crate::raytrace::{offset_p, spawn_ray, RayTracer};
 use crate::scene::Scene;
-use crate::shading::bsdf::{resolve, FLAG_TWOSIDED};
+use crate::shading::bsdf::{resolve_records, FLAG_BLEND, FLAG_TWOSIDED};
 use crate::shading::GpuBsdf;
 use glam::Vec3;
 use rand_pcg::Pcg32;
@@ -103,9 +106,11 @@ impl<'a> Tracer<'a> {
         };
         match source {
             Source::Area(e) => {
-                let (p, n) = e.sample_point(u0, u1);
+                let (p, n, uv) = e.sample_point_uv(u0, u1);
                 let w = to_world(n, cosine_hemisphere(u2, u3));
-                Some((offset_p(p, n, w), w, *power / p_select))
+                // pi A L(uv) / p_select (= power / p_select for a constant radiance).
+                let phi = if e.texture.is_some() { e.radiance_at(uv) * (PI * e.area) } else { *power };
+                Some((offset_p(p, n, w), w, phi / p_select))
             }
             Source::Env(sampler) => {
                 let (d, pdf) = sampler.sample(u0, u1, u2);
@@ -157,14 +162,25 @@ impl<'a> Tracer<'a> {
             let Some(hit) = self.rt.intersect(o, d, 0.0, f32::INFINITY) else { return };
             depth += 1;
             let mesh = &self.scene.meshes[hit.mesh];
-            let b = resolve(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, hit.uv);
+            // A blendbsdf: one of its two records, the second with probability w (unbiased: the expected
+            // VPL BSDF and continuation weight are (1 - w) f_0 + w f_1).
+            let b = match resolve_records(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, hit.uv) {
+                (first, Some(second)) => {
+                    let mut b = if uniform(&mut rng) < first.extra[2] { second } else { first };
+                    b.flags &= !FLAG_BLEND;
+                    (b.extra[2], b.extra[3]) = (0.0, 0.0);
+                    b
+                }
+                (b, None) => b,
+            };
             let (n_s, n_g, w_in) = (hit.n_s, hit.n_g, hit.wi);
             let (cos_s_in, cos_g_in) = (w_in.dot(n_s), w_in.dot(n_g));
             let non_delta = !has_smooth_lobe_only(&b);
             let mut phi_vpl = phi;
             if non_delta {
                 // Reflecting side: w_in on the same side of n_s and n_g, and the front unless two-sided.
-                if !(cos_s_in * cos_g_in > 0.0) || (b.flags & FLAG_TWOSIDED == 0 && cos_s_in <= 0.0) {
+                let back_ok = b.flags & FLAG_TWOSIDED != 0 || crate::shading::principled::has_back_side(&b);
+                if !(cos_s_in * cos_g_in > 0.0) || (!back_ok && cos_s_in <= 0.0) {
                     return;
                 }
                 phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
@@ -188,8 +204,10 @@ impl<'a> Tracer<'a> {
             let mut phi_next = if sample.delta {
                 phi * sample.weight
             } else {
-                // Same side as w_in for reflection lobes; f |w . n_g| / pdf = weight |w . n_g| / |w . n_s|.
-                if !(cos_g_out * cos_g_in > 0.0) || sample.wo.z == 0.0 {
+                // Reflection lobes stay on w_in's side, glossy transmission (principled) crosses, for both
+                // normals alike; f |w . n_g| / pdf = weight |w . n_g| / |w . n_s|.
+                let transmitted = sample.wo.z * cos_s_in < 0.0;
+                if !(cos_g_out * cos_g_in > 0.0) != transmitted || cos_g_out == 0.0 || sample.wo.z == 0.0 {
                     return;
                 }
                 phi_vpl * sample.weight * (cos_g_out.abs() / sample.wo.z.abs())

@@ -6,7 +6,8 @@
 //! one `Scene::bsdfs` entry. Deviations from Mitsuba:
 //! - a sphere whose `to_world` has a non-uniform scale or shear is an error (Mitsuba only warns);
 //! - shapes without a BSDF share one default `diffuse` (reflectance 0.5) entry;
-//! - emissive parameters (`radiance`, `intensity`, `irradiance`) must be constant (no textures).
+//! - emissive parameters (`intensity`, `irradiance`) must be constant (no textures); an area emitter's
+//!   `radiance` may be a texture.
 use super::materials;
 use super::parse::{Document, Value};
 use super::props::{ObjectRef, Props};
@@ -83,7 +84,7 @@ impl<'a> Builder<'a> {
         Ok((self.resolve_file(name, loc)?, loc.clone()))
     }
 
-    fn expect_class(&self, r: &ObjectRef, class: &str, role: &str) -> Result<()> {
+    pub(super) fn expect_class(&self, r: &ObjectRef, class: &str, role: &str) -> Result<()> {
         let n = &self.doc.nodes[r.node];
         if n.class != class {
             return Err(Error::scene(&r.loc, format!("{role} must be a <{class}>, got <{} type=\"{}\">", n.class, n.plugin)));
@@ -139,7 +140,7 @@ impl<'a> Builder<'a> {
 
     /// A reflectance parameter: constant, or a nested / referenced texture. Like Mitsuba's
     /// `get_texture`, an `<rgb>` value must lie in [0, 1].
-    fn param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
+    pub(super) fn param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
         let v = self.unbounded_param(p, name, default)?;
         if let (Param::Value(c), Some(prop)) = (v, p.prop(name)) {
             if matches!(prop.value, Value::Rgb(_)) && !(c.min_element() >= 0.0 && c.max_element() <= 1.0) {
@@ -153,7 +154,7 @@ impl<'a> Builder<'a> {
     }
 
     /// A parameter without range check (Mitsuba's `get_unbounded_texture`: roughness, eta, k).
-    fn unbounded_param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
+    pub(super) fn unbounded_param(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Param> {
         if let Some(r) = p.named_object(name)? {
             self.expect_class(&r, "texture", &format!("\"{name}\" of {}", p.what()))?;
             return Ok(Param::Texture(self.texture(r.node)?));
@@ -293,6 +294,8 @@ impl<'a> Builder<'a> {
                 }
                 Bsdf::Dielectric { int_ior, ext_ior }
             }
+            "principled" => self.principled(&mut p)?,
+            "blendbsdf" => self.blendbsdf(&mut p)?,
             _ => return Err(unknown_plugin(&p)),
         };
         p.finish()?;
@@ -436,10 +439,13 @@ impl<'a> Builder<'a> {
         if p.has("to_world") {
             return Err(Error::scene(p.loc(), "area emitter: a to_world transform is not allowed (the shape's applies)"));
         }
-        let radiance = self.constant_color(&mut p, "radiance", 1.0)?;
+        let (radiance, texture) = match self.unbounded_param(&mut p, "radiance", 1.0)? {
+            Param::Value(v) => (v, None),
+            Param::Texture(t) => (Vec3::ONE, Some(t)),
+        };
         let loc = p.loc().clone();
         p.finish()?;
-        Ok(Emitter::Area { mesh, radiance, loc })
+        Ok(Emitter::Area { mesh, radiance, texture, loc })
     }
 
     /// True if this top-level emitter node was attached to a shape.

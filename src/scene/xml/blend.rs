@@ -1,0 +1,37 @@
+//! `<bsdf type="blendbsdf">` (Mitsuba 3.9.1 `src/bsdfs/blendbsdf.cpp`): a weight (float or texture, no
+//! default) and exactly two nested BSDFs, in document order.
+use super::plugins::Builder;
+use super::props::Props;
+use crate::error::{Error, Result};
+use crate::scene::types::Bsdf;
+
+impl Builder<'_> {
+    /// A `blendbsdf`. A nested `blendbsdf` (also inside a `twosided`) is refused: each surface point
+    /// carries at most two BSDF lobes.
+    pub(super) fn blendbsdf(&mut self, p: &mut Props) -> Result<Bsdf> {
+        if !p.has("weight") {
+            return Err(Error::scene(p.loc(), format!("{}: the \"weight\" (float or texture) is required", p.what())));
+        }
+        let weight = self.unbounded_param(p, "weight", 0.5)?;
+        let mut children = Vec::new();
+        for r in p.objects()? {
+            if r.name.as_deref() == Some("weight") {
+                continue;
+            }
+            self.expect_class(&r, "bsdf", &format!("a child of {}", p.what()))?;
+            let i = self.bsdf(r.node)?;
+            let inner = match &self.bsdfs[i] {
+                Bsdf::TwoSided { front, .. } => *front,
+                _ => i,
+            };
+            if matches!(self.bsdfs[inner], Bsdf::Blend { .. }) {
+                return Err(Error::scene(&r.loc, format!("{}: a nested blendbsdf is not supported", p.what())));
+            }
+            children.push(i);
+        }
+        match children[..] {
+            [first, second] => Ok(Bsdf::Blend { weight, first, second }),
+            _ => Err(Error::scene(p.loc(), format!("{}: exactly two nested BSDFs are required, got {}", p.what(), children.len()))),
+        }
+    }
+}
