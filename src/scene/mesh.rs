@@ -17,11 +17,11 @@
 //! - `flip_normals=true` negates the normals *and* reverses the winding (`[i0, i2, i1]`), so that
 //!   `cross(p1-p0, p2-p0)` is Mitsuba's flipped geometric normal; Mitsuba keeps the winding and negates
 //!   `si.n` at intersection time.
-//! - normals given by the file or shape are transformed by the inverse transpose of `world_from_local`.
-//!   Mitsuba 3.9.1 transforms OBJ, `cube` and `rectangle` normals as directions (`normalize(M n)`,
-//!   verified to 6e-8), and PLY normals by something within 0.014 of the inverse transpose, so under a
-//!   *non-uniform* scale shading normals differ (0.0126 for scale (1, 2, 0.5)); rotations, uniform
-//!   scales and axis-aligned normals (all shared scenes) agree. Recomputed normals match Mitsuba exactly.
+//! - normals given by the file or shape are transformed by the normal matrix Mitsuba's transform carries
+//!   (`transform::Affine::inverse_transpose`, [`finalize_with_normal_matrix`]), then normalised. It is
+//!   the inverse transpose of `world_from_local` except after a `rotate` about a non-unit axis, where
+//!   Mitsuba 3.9.1 uses the rotation matrix itself (checked against its OBJ, PLY, cube and rectangle
+//!   normals). [`finalize`] uses the true inverse transpose. Recomputed normals match Mitsuba exactly.
 //! - non-finite positions or normals, indices out of range and zero-length file normals are errors naming
 //!   the vertex or triangle.
 pub mod obj;
@@ -29,7 +29,7 @@ pub mod ply;
 pub mod shapes;
 
 use crate::error::{Error, Location, Result};
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 
 pub use obj::load_obj;
 pub use ply::load_ply;
@@ -60,6 +60,21 @@ pub type WorldMesh = (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>);
 pub fn finalize(
     data: MeshData,
     world_from_local: Mat4,
+    face_normals: bool,
+    flip_normals: bool,
+    loc: &Location,
+) -> Result<WorldMesh> {
+    let normal_from_local = Mat3::from_mat4(world_from_local).inverse().transpose();
+    finalize_with_normal_matrix(data, world_from_local, normal_from_local, face_normals, flip_normals, loc)
+}
+
+/// [`finalize`] with the matrix that transforms the given normals (Mitsuba's tracked
+/// `inverse_transpose`, `transform::Affine`, which differs from the true inverse transpose after a
+/// `rotate` about a non-unit axis). Same arguments, results and errors otherwise.
+pub fn finalize_with_normal_matrix(
+    data: MeshData,
+    world_from_local: Mat4,
+    normal_from_local: Mat3,
     face_normals: bool,
     flip_normals: bool,
     loc: &Location,
@@ -123,10 +138,9 @@ pub fn finalize(
     let (mut world, mut normals, mut uvs, mut indices) = if face_normals {
         unshare_with_face_normals(&world, &uvs, &indices)
     } else if !normals.is_empty() {
-        let normal_from_local = world_from_local.inverse().transpose();
         let mut out = Vec::with_capacity(n);
         for (i, nl) in normals.iter().enumerate() {
-            let nw = normal_from_local.transform_vector3(*nl).normalize();
+            let nw = (normal_from_local * *nl).normalize();
             if !nw.is_finite() {
                 return Err(Error::scene(loc, format!("vertex {i} has an invalid normal {nl}")));
             }
@@ -350,18 +364,24 @@ mod tests {
              [[0.44721361994743347, -0.44721361994743347, 0.7745966911315918]; 2],
              [4.472136199474335, -4.472136199474335, 7.745966911315918]),
         ];
+        // The same transform built as the XML loader does: Mitsuba's normal matrix for a rotation about the
+        // non-unit axis (1, 1, 0) is the rotation matrix itself, not the inverse transpose.
+        let attrs = |v: &[(&str, &str)]| v.iter().map(|(k, x)| (k.to_string(), x.to_string())).collect::<Vec<_>>();
+        let mut t = crate::scene::transform::Affine::IDENTITY;
+        for (tag, a) in [
+            ("scale", attrs(&[("x", "1"), ("y", "2"), ("z", "0.5")])),
+            ("rotate", attrs(&[("x", "1"), ("y", "1"), ("angle", "30")])),
+            ("translate", attrs(&[("value", "1 2 3")])),
+        ] {
+            t = crate::scene::transform::apply_op(t, tag, &a, &loc()).unwrap();
+        }
+        assert!((t.matrix.as_mat4() - m).abs().to_cols_array().iter().all(|d| *d < 1e-6), "{}", t.matrix);
+        let nm = glam::DMat3::from_mat4(t.inverse_transpose).as_mat3();
         for (name, data, p_ends, n_ends, n_sum) in cases {
-            let (p, n, _, _) = finalize(data, m, false, false, &loc()).unwrap();
+            let (p, n, _, _) = finalize_with_normal_matrix(data, m, nm, false, false, &loc()).unwrap();
             let last = p.len() - 1;
             for (got, want) in [(p[0], p_ends[0]), (p[last], p_ends[1])] {
                 assert!((got - Vec3::from_array(want)).abs().max_element() < 1e-6, "{name}: {got} vs {want:?}");
-            }
-            if name != "obj" {
-                // Mitsuba transforms given normals as directions (M n) under this non-uniform scale; we use
-                // the inverse transpose (see the module doc): 0.0126 apart here.
-                let mn = m.transform_vector3(Vec3::from_array(if name == "cube" { [0., -1., 0.] } else { [0., 0., 1.] }));
-                assert!((mn.normalize() - Vec3::from_array(n_ends[0])).abs().max_element() < 1e-6, "{name}");
-                continue;
             }
             for (got, want) in [(n[0], n_ends[0]), (n[last], n_ends[1])] {
                 assert!((got - Vec3::from_array(want)).abs().max_element() < 2e-6, "{name}: {got} vs {want:?}");

@@ -16,7 +16,7 @@
 //! Deviation: `<spectrum>` with `wavelength:value` pairs or a file is refused (RGB only): use `<rgb>`.
 use crate::error::{Error, Location, Result};
 use crate::scene::transform;
-use glam::{DMat4, DVec3};
+use glam::DVec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -35,7 +35,8 @@ pub enum Value {
     Rgb(DVec3),
     /// `<spectrum value="v">`: a constant (grey) spectrum.
     Spectrum(f64),
-    Transform(DMat4),
+    /// Matrix and normal matrix, as Mitsuba keeps them (see `transform::Affine`).
+    Transform(transform::Affine),
 }
 
 impl Value {
@@ -346,7 +347,7 @@ impl Parser {
             }
             "transform" => {
                 check(&["name"], &["name"])?;
-                let mut m = DMat4::IDENTITY;
+                let mut m = transform::Affine::IDENTITY;
                 for op in node.children().filter(|c| c.is_element()) {
                     let op_loc = Location::new(path, line_of(doc, op));
                     let op_attrs = self.substitute(doc, op, path)?;

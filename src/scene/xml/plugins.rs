@@ -309,7 +309,8 @@ impl<'a> Builder<'a> {
         let mut p = Props::new(self.doc, node);
         let loc = p.loc().clone();
         let k = self.meshes.len();
-        let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let to_world_affine = p.affine("to_world")?.unwrap_or(transform::Affine::IDENTITY);
+        let to_world = to_world_affine.matrix;
         let flip_normals = p.bool("flip_normals", false)?;
         let plugin = p.node.plugin.as_str();
         // Mitsuba 3.9.1 meshes (these read face_normals); sphere and disk are analytic there.
@@ -381,8 +382,20 @@ impl<'a> Builder<'a> {
                 self.bsdfs.len() - 1
             }),
         };
+        // Normals as Mitsuba transforms them (`transform::Affine`); the sphere's tessellation is ours.
+        let normal_from_local = match kind {
+            ShapeKind::Sphere { .. } => glam::DMat3::from_mat4(world_from_local).inverse().transpose(),
+            _ => glam::DMat3::from_mat4(to_world_affine.inverse_transpose),
+        };
         let world_from_local: Mat4 = transform::to_f32(&world_from_local);
-        let (positions, normals, uvs, indices) = mesh::finalize(data, world_from_local, face_normals, flip_normals, &loc)?;
+        let (positions, normals, uvs, indices) = mesh::finalize_with_normal_matrix(
+            data,
+            world_from_local,
+            normal_from_local.as_mat3(),
+            face_normals,
+            flip_normals,
+            &loc,
+        )?;
         let emitter = match emitter_node {
             Some(r) => {
                 let e = self.area_emitter(&r, k)?;

@@ -5,6 +5,7 @@
 //! not what we render.
 use super::parse::{Child, Document, Node, Prop, Value};
 use crate::error::{Error, Location, Result};
+use crate::scene::transform::Affine;
 use glam::{DMat4, DVec3, Vec3};
 
 /// Properties accepted and ignored on every plugin: they do not change the rendered expectation.
@@ -137,7 +138,13 @@ impl<'a> Props<'a> {
         }
     }
 
+    /// A transform's matrix (points and vectors).
     pub fn transform(&mut self, name: &str) -> Result<Option<DMat4>> {
+        Ok(self.affine(name)?.map(|t| t.matrix))
+    }
+
+    /// A transform with the matrix Mitsuba applies to normals (see `transform::Affine`).
+    pub fn affine(&mut self, name: &str) -> Result<Option<Affine>> {
         match self.prop(name) {
             None => Ok(None),
             Some(p) => match &p.value {
