@@ -146,12 +146,6 @@ def test_camera_with_scale(tmp_path):
     _raises(tmp_path, _scene('<shape type="rectangle"/>', camera=cam), ml.SceneError, "scene.xml:", "scale")
 
 
-def test_spectral_list_is_refused_clearly():
-    with pytest.raises(ml.SceneError) as e:
-        ml.load_scene(SCENES / "cbox" / "cbox.xml")
-    assert "cbox.xml:" in str(e.value) and "rgb" in str(e.value)
-
-
 def test_scene_file_missing(tmp_path):
     with pytest.raises(FileNotFoundError):
         ml.load_scene(tmp_path / "absent.xml")

@@ -122,3 +122,200 @@ def test_gbuffer_under_non_unit_rotation_matches_mitsuba(tmp_path, mitsuba_ref):
     assert (g_dot > 0.9999).mean() >= 0.998
     pos_err = np.linalg.norm(gb["position"] - ref["position"], axis=-1)[hit]
     assert np.quantile(pos_err, 0.998) < 1e-4
+
+
+# ---- item 3: spectral values ----
+
+CBOX_WHITE = ("400:0.343, 404:0.445, 408:0.551, 412:0.624, 416:0.665, 420:0.687, 424:0.708, 428:0.723, "
+              "432:0.715, 436:0.71, 440:0.745, 500:0.747, 560:0.733, 600:0.74, 650:0.72, 700:0.737")
+SPECTRA = {
+    "uniform": "0.5",
+    "uniform_bright": "3",
+    "irregular_list": CBOX_WHITE,
+    "red_irregular": "400:0.04, 500:0.058, 560:0.067, 580:0.099, 600:0.287, 620:0.513, 660:0.638, 700:0.642",
+    "narrow_band": "520:0, 530:1, 540:0",
+    "beyond_cie_range": "300:0.2, 900:0.9",
+    "out_of_gamut": "440:0, 450:1.5, 460:0",
+}
+
+
+def _area_scene(spectrum_value):
+    return f"""
+  <shape type="rectangle" id="lamp"><bsdf type="diffuse" id="mat">
+      <spectrum name="reflectance" value="{spectrum_value}"/></bsdf>
+    <emitter type="area"><spectrum name="radiance" value="{spectrum_value}"/></emitter></shape>
+  <emitter type="point" id="pt"><point name="position" value="0, 0, 2"/>
+    <spectrum name="intensity" value="{spectrum_value}"/></emitter>
+  <emitter type="directional" id="sun"><vector name="direction" value="0, 0, -1"/>
+    <spectrum name="irradiance" value="{spectrum_value}"/></emitter>
+  <emitter type="constant" id="sky"><spectrum name="radiance" value="{spectrum_value}"/></emitter>
+  <shape type="rectangle"><bsdf type="roughconductor" id="metal">
+      <spectrum name="eta" value="{spectrum_value}"/><spectrum name="k" value="{spectrum_value}"/>
+      <spectrum name="specular_reflectance" value="{spectrum_value}"/></bsdf></shape>"""
+
+
+@pytest.mark.parametrize("case", list(SPECTRA))
+def test_spectrum_to_rgb_matches_mitsuba(case, tmp_path):
+    """Reflectance (D65-weighted, clamped to [0, 1]), unbounded (eta, k) and emission (no D65: radiance,
+    intensity, irradiance) conversions against Mitsuba's scalar_rgb values (mi.traverse)."""
+    mi = _mi()
+    xml = _scene(tmp_path, _area_scene(SPECTRA[case]))
+    p = mi.traverse(mi.load_file(str(xml), optimize=False))
+    def mi_val(suffix):
+        (key,) = [k for k in p.keys() if k.endswith(suffix + ".value")]
+        return np.array(p[key], dtype=np.float64).ravel()
+
+    s = ml.load_scene(xml)
+    diffuse = next(b for b in s.bsdfs if b["type"] == "diffuse")
+    metal = next(b for b in s.bsdfs if b["type"] == "roughconductor")
+    em = {e["type"]: e for e in s.emitters}
+    pairs = [
+        (diffuse["reflectance"], mi_val("lamp.bsdf.reflectance")),
+        (metal["specular_reflectance"], mi_val(".specular_reflectance")),
+        (metal["eta"], mi_val(".eta")),
+        (metal["k"], mi_val(".k")),
+        (em["area"]["radiance"], mi_val("lamp.emitter.radiance")),
+        (em["point"]["intensity"], mi_val("pt.intensity")),
+        (em["directional"]["irradiance"], mi_val("sun.irradiance")),
+        (em["constant"]["radiance"], mi_val("sky.radiance")),
+    ]
+    for k, (ours, theirs) in enumerate(pairs):
+        theirs = np.broadcast_to(theirs, (3,))
+        np.testing.assert_allclose(np.asarray(ours, np.float64), theirs, rtol=2e-6, atol=1e-7, err_msg=f"pair {k}")
+
+
+def test_official_cbox_spectral_loads_as_mitsuba(mitsuba_ref):
+    """The official spectral Cornell box (shared/scenes/cbox/cbox.xml) loads; reflectances and the light's
+    radiance equal Mitsuba's."""
+    from conftest import SCENES
+
+    xml = SCENES / "cbox" / "cbox.xml"
+    p = mitsuba_ref.mitsuba().traverse(mitsuba_ref.load(xml))
+    s = ml.load_scene(xml)
+    ours = {tuple(np.round(b["reflectance"], 5)) for b in s.bsdfs if b["type"] == "diffuse"}
+    for k in ("white", "red", "green", "light"):
+        v = tuple(np.round(np.array(p[f"{k}.reflectance.value"], np.float64).ravel(), 5))
+        assert v in ours, (k, v, ours)
+    lamp = next(e for e in s.emitters if e["type"] == "area")
+    theirs = next(np.array(p[k]).ravel() for k in p.keys() if k.endswith("emitter.radiance.value"))
+    np.testing.assert_allclose(lamp["radiance"], theirs, rtol=2e-6)
+
+
+@pytest.mark.parametrize("value, words", [
+    ("700:1, 400:2", ["strictly increasing", "700:1, 400:2"]),
+    ("400:1", ["at least two"]),
+    ("400:1, 500", ["wavelength:value"]),
+    ("400:1, 5x0:2", ["\"5x0\""]),
+])
+def test_bad_spectrum_names_file_line_and_value(value, words, tmp_path):
+    xml = _scene(tmp_path, f"""<shape type="rectangle"><bsdf type="diffuse">
+      <spectrum name="reflectance" value="{value}"/></bsdf></shape>""")
+    with pytest.raises(ml.SceneError) as e:
+        ml.load_scene(xml)
+    msg = str(e.value)
+    assert "scene.xml:" in msg and all(w in msg for w in words), msg
+
+
+def test_blackbody_is_refused_as_in_mitsuba_rgb(tmp_path):
+    """Mitsuba's RGB variants load a blackbody but cannot evaluate it ("Not implemented for non-spectral
+    modes"): a clear error here."""
+    xml = _scene(tmp_path, """<shape type="rectangle"><emitter type="area">
+      <spectrum type="blackbody" name="radiance"><float name="temperature" value="3000"/></spectrum>
+      </emitter></shape>""")
+    with pytest.raises(ml.SceneError) as e:
+        ml.load_scene(xml)
+    assert "scene.xml:2" in str(e.value) and 'type="blackbody"' in str(e.value) and "non-spectral" in str(e.value)
+
+
+# ---- item 4: scenes of version < 2.0 ----
+
+LEGACY = """<scene version="{version}">
+  <sensor type="perspective"><float name="fov" value="40"/><string name="{fovAxis}" value="y"/>
+    <float name="{nearClip}" value="0.05"/>
+    <transform name="{toWorld}"><lookat origin="0, 1, 8" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/></film></sensor>
+  <bsdf type="diffuse" id="d"><rgb name="{diffuseReflectance}" value="0.2, 0.4, 0.6"/></bsdf>
+  <bsdf type="roughplastic" id="p"><float name="{intIOR}" value="1.6"/><float name="{extIOR}" value="1.1"/>
+    <rgb name="{diffuseReflectance}" value="0.3, 0.3, 0.1"/><rgb name="{specularReflectance}" value="0.9"/></bsdf>
+  <shape type="rectangle" id="r"><transform name="{toWorld}"><rotate x="1" angle="30"/></transform>
+    <ref id="d"/></shape>
+  <shape type="cube" id="c"><transform name="{toWorld}"><scale value="0.3"/><translate x="1"/></transform>
+    <ref name="bsdf" id="p"/><emitter type="area"><rgb name="radiance" value="1, 2, 3"/></emitter></shape>
+  <shape type="sphere" id="s"><point name="center" x="-1" y="0" z="0"/><float name="radius" value="0.5"/>
+    <bsdf type="diffuse"><texture type="checkerboard" name="{diffuseReflectance}">
+      <rgb name="color0" value="0.1"/><rgb name="color1" value="0.7"/>{uvopts}</texture></bsdf></shape>
+  <emitter type="spot" id="spot"><float name="{cutoffAngle}" value="30"/><float name="{beamWidth}" value="20"/>
+    <rgb name="intensity" value="5"/>
+    <transform name="{toWorld}"><lookat origin="0, 3, 3" target="0, 0, 0"/></transform></emitter>
+</scene>
+"""
+OLD_NAMES = {k: k for k in ("fovAxis", "nearClip", "toWorld", "diffuseReflectance", "intIOR", "extIOR",
+                            "specularReflectance", "cutoffAngle", "beamWidth")}
+NEW_NAMES = {"fovAxis": "fov_axis", "nearClip": "near_clip", "toWorld": "to_world", "diffuseReflectance":
+             "diffuse_reflectance", "intIOR": "int_ior", "extIOR": "ext_ior", "specularReflectance":
+             "specular_reflectance", "cutoffAngle": "cutoff_angle", "beamWidth": "beam_width"}
+OLD_UV = '<float name="uoffset" value="0.25"/><float name="vscale" value="3"/><float name="uscale" value="2"/>'
+NEW_UV = '<transform name="to_uv"><translate x="0.25"/><scale x="2" y="3"/></transform>'
+
+
+def _summary(s):
+    meshes = [s.mesh(k) for k in range(len(s.shapes))]
+    return s.camera, s.bsdfs, s.emitters, [(m["positions"], m["normals"]) for m in meshes]
+
+
+@pytest.mark.parametrize("version", ["0.6.0", "0.5.0"])
+def test_legacy_scene_loads_like_its_v3_twin_and_mitsuba(version, tmp_path):
+    mi = _mi()
+    old = tmp_path / "old.xml"
+    old.write_text(LEGACY.format(version=version, uvopts=OLD_UV, **OLD_NAMES))
+    new = tmp_path / "new.xml"
+    # The 3.0 twin: snake_case names, `reflectance` for diffuse, to_uv for the uv options.
+    names = dict(NEW_NAMES)
+    new.write_text(LEGACY.format(version="3.0.0", uvopts=NEW_UV, **names)
+                   .replace('type="diffuse" id="d"><rgb name="diffuse_reflectance"',
+                            'type="diffuse" id="d"><rgb name="reflectance"')
+                   .replace('name="diffuse_reflectance">\n      <rgb name="color0"',
+                            'name="reflectance">\n      <rgb name="color0"'))
+    a, b = ml.load_scene(old), ml.load_scene(new)
+    ca, ba, ea, ma = _summary(a)
+    cb, bb, eb, mb = _summary(b)
+    assert ca.keys() == cb.keys() and all(np.allclose(ca[k], cb[k]) for k in ca)
+    assert ca["near_clip"] == pytest.approx(0.05)
+    assert repr(ba) == repr(bb) and repr(ea) == repr(eb)
+    for (pa, na), (pb, nb) in zip(ma, mb):
+        np.testing.assert_array_equal(pa, pb)
+        np.testing.assert_array_equal(na, nb)
+    # Mitsuba upgrades the old file to the same values.
+    mi_scene = mi.load_file(str(old), optimize=False)
+    p = mi.traverse(mi_scene)
+    mi_pos = {sh.id(): np.array(sh.vertex_positions_buffer()).reshape(-1, 3) for sh in mi_scene.shapes() if sh.id() in "rc"}
+    diffuse = next(x for x in ba if x["type"] == "diffuse" and not isinstance(x["reflectance"], dict))
+    np.testing.assert_allclose(diffuse["reflectance"], np.array(p["d.reflectance.value"]).ravel(), rtol=1e-6)
+    plastic = next(x for x in ba if x["type"] == "roughplastic")
+    np.testing.assert_allclose(plastic["diffuse_reflectance"], np.array(p["p.diffuse_reflectance.value"]).ravel())
+    assert float(np.array(p["p.eta"]).ravel()[0]) == pytest.approx(1.6 / 1.1, rel=1e-6)
+    np.testing.assert_allclose(ma[1][0], mi_pos["c"], atol=1e-6)
+    np.testing.assert_allclose(ma[0][0], mi_pos["r"], atol=1e-6)
+    spot = next(e for e in ea if e["type"] == "spot")
+    assert spot["cutoff_angle"] == pytest.approx(np.radians(30)) and spot["beam_width"] == pytest.approx(np.radians(20))
+    tex_key = next(k for k in p.keys() if k.endswith("reflectance.to_uv"))
+    np.testing.assert_allclose(np.array(p[tex_key].matrix).reshape(3, 3),
+                               [[2, 0, 0.5], [0, 3, 0], [0, 0, 1]], atol=1e-6)
+
+
+def test_legacy_upgrade_is_per_file_and_bad_version_is_an_error(tmp_path):
+    """An included 0.6 file is upgraded by its own version, the 3.0 main file is not; a malformed
+    version names file and value."""
+    (tmp_path / "part.xml").write_text('<scene version="0.6.0"><shape type="rectangle">'
+                                       '<transform name="toWorld"><translate z="2"/></transform></shape></scene>')
+    main = _scene(tmp_path, '<include filename="part.xml"/>')
+    s = ml.load_scene(main)
+    assert s.shapes[0]["bbox_min"][2] == pytest.approx(2.0)
+    bad = _scene(tmp_path, '<shape type="rectangle"><transform name="toWorld"><translate z="2"/></transform></shape>',
+                 name="new.xml")
+    with pytest.raises(ml.SceneError) as e:
+        ml.load_scene(bad)
+    assert "toWorld" in str(e.value)
+    with pytest.raises(ml.SceneError) as e:
+        ml.load_scene(_scene(tmp_path, '<shape type="cube"/>', version="0.6", name="v.xml"))
+    assert "v.xml:" in str(e.value) and '"0.6"' in str(e.value)

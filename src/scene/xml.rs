@@ -11,14 +11,21 @@
 //! spot, directional, area, envmap, constant; sensor perspective with film hdrfilm. Integrators, samplers
 //! and reconstruction filters are read and ignored. Anything else is an error naming plugin, file and line.
 //!
-//! Deviations from Mitsuba (all refusals, never silent differences): spectral `wavelength:value` lists and
-//! spectrum files (use `<rgb>`), `serialized` meshes (use PLY), non-similarity sphere transforms, textured
-//! emission, a scene without shapes or without a sensor. Only the first sensor is used (others are checked).
+//! Spectra (`<spectrum value="0.5">`, `value="400:0.3, 500:0.6, ..."`) become RGB as in Mitsuba's RGB
+//! variants (`spectrum.rs`); files of version < 2.0 are upgraded as Mitsuba 3 does (`upgrade.rs`).
+//!
+//! Deviations from Mitsuba (all refusals, never silent differences): spectrum files (use `value=`),
+//! `<spectrum type="blackbody">` (Mitsuba's RGB variants cannot evaluate it either), `serialized` meshes
+//! (use PLY), non-similarity sphere transforms, textured emission, a scene without shapes or without a
+//! sensor. Only the first sensor is used (others are checked).
 //! Scene-level emitters come first in document order, then the area emitters of shapes in shape order.
+mod cie;
 mod materials;
 mod parse;
 mod plugins;
 mod props;
+mod spectrum;
+mod upgrade;
 
 use crate::error::{Error, Location, Result};
 use crate::scene::Scene;

@@ -13,7 +13,12 @@
 //! - Property elements become [`Prop`]s (transforms are evaluated here); nested objects and `<ref>`s
 //!   become [`Child`]ren; ids are collected so references may come before their declaration.
 //!
-//! Deviation: `<spectrum>` with `wavelength:value` pairs or a file is refused (RGB only): use `<rgb>`.
+//! - Files with `version` < 2.0.0 (Mitsuba 0.x) have their nodes upgraded as Mitsuba 3 does
+//!   (`upgrade.rs`: camelCase names -> snake_case, ...).
+//! - `<spectrum value>` keeps the spectrum (uniform or `wavelength:value` pairs); it becomes RGB where a
+//!   plugin reads it (`spectrum.rs`), as in Mitsuba's RGB variants. A spectrum file is refused.
+use super::spectrum::Spectrum;
+use super::upgrade;
 use crate::error::{Error, Location, Result};
 use crate::scene::transform;
 use glam::DVec3;
@@ -33,8 +38,8 @@ pub enum Value {
     /// `<point>` or `<vector>`.
     Vector(DVec3),
     Rgb(DVec3),
-    /// `<spectrum value="v">`: a constant (grey) spectrum.
-    Spectrum(f64),
+    /// `<spectrum value="v">` or `value="w1:v1, w2:v2, ..."` (RGB by use: `spectrum::Spectrum::to_rgb`).
+    Spectrum(Spectrum),
     /// Matrix and normal matrix, as Mitsuba keeps them (see `transform::Affine`).
     Transform(transform::Affine),
 }
@@ -102,6 +107,8 @@ struct Parser {
     ids: HashMap<String, usize>,
     /// `<path>` directories, newest last.
     path_dirs: Vec<PathBuf>,
+    /// Per file being parsed (innermost last): its version is < 2.0 (nodes get `upgrade::upgrade_node`).
+    legacy: Vec<bool>,
 }
 
 const OBJECT_CLASSES: &[&str] = &[
@@ -119,6 +126,7 @@ pub fn parse_document(path: &Path, params: &[(String, String)]) -> Result<Docume
         nodes: Vec::new(),
         ids: HashMap::new(),
         path_dirs: Vec::new(),
+        legacy: Vec::new(),
     };
     parser.sort_params();
     parser.parse_file(path, &Location::new(path, 0), None, 0)?;
@@ -164,9 +172,10 @@ impl Parser {
             return Err(Error::scene(&loc, format!("root element must be <scene>, got <{}>", root.tag_name().name())));
         }
         let attrs = self.substitute(&doc, root, path)?;
-        if !attrs.iter().any(|(k, _)| k == "version") {
+        let Some((_, version)) = attrs.iter().find(|(k, _)| k == "version") else {
             return Err(Error::scene(&loc, "missing version attribute in root element <scene>"));
-        }
+        };
+        let legacy = upgrade::needs_upgrade(upgrade::parse_version(version, &loc)?);
         let target = match parent {
             Some(p) => p,
             None => {
@@ -181,8 +190,13 @@ impl Parser {
                 0
             }
         };
+        self.legacy.push(legacy);
         for child in root.children().filter(|c| c.is_element()) {
             self.parse_element(&doc, child, path, target, target == 0, depth)?;
+        }
+        self.legacy.pop();
+        if parent.is_none() && legacy {
+            upgrade::upgrade_node(&mut self.nodes[0])?;
         }
         Ok(())
     }
@@ -267,6 +281,13 @@ impl Parser {
         }
         if is_object {
             check(&["type", "id", "name"], &["type"])?;
+            if tag == "spectrum" && get("type").as_deref() == Some("blackbody") {
+                // Mitsuba's RGB variants load it but throw when it is evaluated.
+                return Err(Error::scene(
+                    &loc,
+                    "<spectrum type=\"blackbody\"> is not supported: Mitsuba's RGB variants cannot evaluate it either (\"Not implemented for non-spectral modes\"); give an <rgb> value",
+                ));
+            }
             let idx = self.nodes.len();
             let id = get("id");
             if let Some(id) = &id {
@@ -288,6 +309,9 @@ impl Parser {
             self.nodes[parent].children.push(Child::Object { name: get("name"), node: idx });
             for child in node.children().filter(|c| c.is_element()) {
                 self.parse_element(doc, child, path, idx, false, depth)?;
+            }
+            if self.legacy.last() == Some(&true) {
+                upgrade::upgrade_node(&mut self.nodes[idx])?;
             }
             return Ok(());
         }
@@ -426,24 +450,13 @@ impl Parser {
                 if let Some(f) = get("filename") {
                     return Err(Error::scene(
                         &loc,
-                        format!("<spectrum name=\"{name}\" filename=\"{f}\">: spectral data is not supported (RGB renderer); use <rgb name=\"{name}\" value=\"r, g, b\"/>"),
+                        format!("<spectrum name=\"{name}\" filename=\"{f}\">: spectrum files are not supported; give the data inline as value=\"wavelength:value, ...\" or use <rgb name=\"{name}\" value=\"r, g, b\"/>"),
                     ));
                 }
                 let v = value("spectrum")?;
-                if v.contains(':') {
-                    return Err(Error::scene(
-                        &loc,
-                        format!("<spectrum name=\"{name}\"> with wavelength:value pairs (\"{}\") is not supported (RGB renderer); use <rgb name=\"{name}\" value=\"r, g, b\"/>", shorten(&v)),
-                    ));
-                }
-                let l = transform::parse_list(&v, &format!("<spectrum name=\"{name}\">"), &loc)?;
-                if l.len() != 1 {
-                    return Err(Error::scene(
-                        &loc,
-                        format!("<spectrum name=\"{name}\" value=\"{v}\">: expected a single value or wavelength:value pairs"),
-                    ));
-                }
-                Value::Spectrum(l[0])
+                let spectrum = Spectrum::parse(&v)
+                    .map_err(|e| Error::scene(&loc, format!("<spectrum name=\"{name}\" value=\"{}\">: {e}", shorten(&v))))?;
+                Value::Spectrum(spectrum)
             }
             "translate" | "rotate" | "scale" | "matrix" | "lookat" => {
                 return Err(Error::scene(&loc, format!("<{tag}> can only appear inside a <transform> element")));
