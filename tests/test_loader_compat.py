@@ -224,7 +224,7 @@ def test_blackbody_is_refused_as_in_mitsuba_rgb(tmp_path):
       </emitter></shape>""")
     with pytest.raises(ml.SceneError) as e:
         ml.load_scene(xml)
-    assert "scene.xml:2" in str(e.value) and 'type="blackbody"' in str(e.value) and "non-spectral" in str(e.value)
+    assert "scene.xml:9" in str(e.value) and 'type="blackbody"' in str(e.value) and "non-spectral" in str(e.value)
 
 
 # ---- item 4: scenes of version < 2.0 ----
@@ -319,3 +319,115 @@ def test_legacy_upgrade_is_per_file_and_bad_version_is_an_error(tmp_path):
     with pytest.raises(ml.SceneError) as e:
         ml.load_scene(_scene(tmp_path, '<shape type="cube"/>', version="0.6", name="v.xml"))
     assert "v.xml:" in str(e.value) and '"0.6"' in str(e.value)
+
+
+# ---- item 7: where Mitsuba goes on ----
+
+def test_path_resolved_as_mitsuba(tmp_path, monkeypatch):
+    """`<path>` naming a folder that is not beside the scene: Mitsuba 3.9.1 looks for it in its search
+    path (earlier <path>s, the working directory) and goes on when found there; a folder that exists
+    nowhere fails in Mitsuba too (FileNotFoundError here, naming file and line)."""
+    mi = _mi()
+    (tmp_path / "assets" / "meshes").mkdir(parents=True)
+    (tmp_path / "cwd" / "objs").mkdir(parents=True)
+    (tmp_path / "assets" / "meshes" / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "cwd" / "objs" / "b.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    monkeypatch.chdir(tmp_path / "cwd")
+    body = ('<path value="assets"/><path value="meshes"/><path value="objs"/>'
+            '<shape type="obj"><string name="filename" value="a.obj"/></shape>'
+            '<shape type="obj"><string name="filename" value="b.obj"/></shape>')
+    xml = _scene(tmp_path, body)
+    assert sorted(len(np.array(s.faces_buffer())) for s in mi.load_file(str(xml)).shapes()) == [3, 6]
+    assert [s["triangles"] for s in ml.load_scene(xml).shapes] == [1, 2]
+    missing = _scene(tmp_path, body.replace('value="objs"', 'value="no/such/dir"'), name="m.xml")
+    with pytest.raises(RuntimeError, match="not found"):
+        mi.load_file(str(missing))
+    with pytest.raises(FileNotFoundError) as e:
+        ml.load_scene(missing)
+    assert "m.xml:" in str(e.value) and "no/such/dir" in str(e.value)
+
+
+DEGENERATE_OBJ = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 1 4\n"
+
+
+def test_all_degenerate_mesh_warns_and_keeps_shape_indices(tmp_path, mitsuba_ref):
+    """A mesh whose triangles all have zero area: Mitsuba loads the scene and the mesh adds nothing. Here:
+    a UserWarning, an empty shape at the same index, and G-buffer, lights and the light matrix work."""
+    (tmp_path / "deg.obj").write_text(DEGENERATE_OBJ)
+    body = """
+  <shape type="rectangle" id="floor"><transform name="to_world"><scale value="3"/></transform></shape>
+  <shape type="obj" id="deg"><string name="filename" value="deg.obj"/></shape>
+  <shape type="cube" id="box"><transform name="to_world"><scale value="0.5"/><translate z="0.5"/></transform>
+  </shape>
+  <shape type="rectangle" id="lamp"><transform name="to_world"><scale value="0.3"/><rotate x="1" angle="180"/>
+    <translate x="1.5" y="1.5" z="3"/></transform><emitter type="area"><rgb name="radiance" value="4"/></emitter></shape>
+  <emitter type="point"><point name="position" value="1, 1, 3"/><rgb name="intensity" value="5"/></emitter>"""
+    xml = _scene(tmp_path, body)
+    with pytest.warns(UserWarning, match="zero area"):
+        scene = ml.load_scene(xml)
+    assert [s["id"] for s in scene.shapes] == ["floor", "deg", "box", "lamp"]
+    assert scene.shapes[1]["triangles"] == 0 and scene.mesh(1)["positions"].shape == (0, 3)
+    gb = scene.gbuffer()
+    ref = mitsuba_ref.mitsuba_gbuffer(xml, (32, 32))
+    assert [s.id() for s in mitsuba_ref.load(xml).shapes()] == ["floor", "deg", "box", "lamp"]
+    assert (gb["shape_index"] == ref["shape_index"]).mean() >= 0.998
+    assert (gb["shape_index"] == 2).sum() > 20 and not (gb["shape_index"] == 1).any()
+    lights = ml.generate_lights(scene, area=64, seed=1)
+    img = ml.LightMatrix(scene, lights).column_sum()
+    assert img.shape == (32, 32, 3) and np.isfinite(img).all() and img.max() > 0
+
+
+def test_area_emitter_on_degenerate_mesh_is_an_error(tmp_path):
+    """Mitsuba fails on this too ("DiscreteDistribution: no probability mass found")."""
+    (tmp_path / "deg.obj").write_text(DEGENERATE_OBJ)
+    xml = _scene(tmp_path, '<shape type="rectangle"/><shape type="obj"><string name="filename" value="deg.obj"/>\n'
+                           '<emitter type="area"/></shape>')
+    with pytest.raises(ml.SceneError) as e:
+        ml.load_scene(xml)
+    assert "scene.xml:" in str(e.value) and "zero area" in str(e.value)
+
+
+PPO_SENSOR = """
+  <sensor type="perspective"><float name="fov" value="45"/><string name="fov_axis" value="{axis}"/>
+    <float name="principal_point_offset_x" value="{ox}"/><float name="principal_point_offset_y" value="{oy}"/>
+    <transform name="to_world"><lookat origin="0.5, 1, 7" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="{w}"/><integer name="height" value="{h}"/></film>
+  </sensor>"""
+PPO_BODY = """
+  <shape type="cube" id="box"><transform name="to_world"><rotate y="1" angle="30"/></transform></shape>
+  <shape type="sphere" id="ball"><point name="center" value="-0.4, 1.3, 1.4"/><float name="radius" value="0.7"/></shape>
+  <shape type="rectangle" id="floor"><transform name="to_world"><scale value="6"/><rotate x="1" angle="-90"/>
+    <translate y="-1"/></transform></shape>"""
+
+
+@pytest.mark.parametrize("ox, oy, axis, w, h", [
+    (0.2, -0.15, "x", 48, 32),
+    (-0.3, 0.25, "y", 32, 48),
+    (0.0, 0.0, "x", 32, 32),
+])
+def test_principal_point_offset_matches_mitsuba(ox, oy, axis, w, h, tmp_path, mitsuba_ref):
+    """Off-axis projection (the Blender exporter writes principal_point_offset_x/y): the pixel-centre
+    G-buffer (GPU rasteriser's projection, incl. the analytic sphere's per-pixel rays, and the CPU resolve)
+    agrees with Mitsuba's camera rays."""
+    xml = tmp_path / "ppo.xml"
+    xml.write_text(f'<scene version="3.0.0">{PPO_SENSOR.format(ox=ox, oy=oy, axis=axis, w=w, h=h)}{PPO_BODY}</scene>')
+    scene = ml.load_scene(xml)
+    assert scene.camera["principal_point_offset"] == pytest.approx((ox, oy))
+    gb = scene.gbuffer()
+    ref = mitsuba_ref.mitsuba_gbuffer(xml, (w, h))
+    same = gb["shape_index"] == ref["shape_index"]
+    hit = same & (ref["shape_index"] >= 0)
+    assert same.mean() >= 0.998, f"shape index agrees on {same.mean():.4%}"
+    pos_err = np.linalg.norm(gb["position"] - ref["position"], axis=-1)[hit]
+    assert np.quantile(pos_err, 0.998) < 1e-4, np.quantile(pos_err, 0.998)
+    assert ((gb["normal"] * ref["normal"]).sum(-1)[hit] > 0.9999).mean() >= 0.998
+    assert set(np.unique(ref["shape_index"])) == {-1, 0, 1, 2}
+
+
+def test_principal_point_offset_must_be_a_number(tmp_path):
+    xml = tmp_path / "ppo.xml"
+    xml.write_text('<scene version="3.0.0">' + PPO_SENSOR.format(ox="abc", oy=0, axis="x", w=8, h=8) + PPO_BODY
+                   + "</scene>")
+    with pytest.raises(ml.SceneError) as e:
+        ml.load_scene(xml)
+    assert "ppo.xml:3" in str(e.value) and '"abc"' in str(e.value)

@@ -13,7 +13,8 @@
 //! - zero-area triangles (world space, `cross == 0` in f32, the test Mitsuba's normal computation uses) are
 //!   dropped with a `log::warn`: the shared scene veach-ajar (`models/Mesh015.obj`) has 62 of them. Mitsuba
 //!   keeps them (rays never hit them), so primitive indices after the first dropped face shift. A mesh
-//!   whose triangles are *all* zero-area is an error naming the file.
+//!   whose triangles are *all* zero-area becomes an empty mesh (no vertices, no triangles), as it adds
+//!   nothing in Mitsuba either; it keeps its place so that shape indices stay Mitsuba's.
 //! - `flip_normals=true` negates the normals *and* reverses the winding (`[i0, i2, i1]`), so that
 //!   `cross(p1-p0, p2-p0)` is Mitsuba's flipped geometric normal; Mitsuba keeps the winding and negates
 //!   `si.n` at intersection time.
@@ -123,14 +124,14 @@ pub fn finalize_with_normal_matrix(
         .collect();
     if let Some((t, corners)) = first_dropped {
         if indices.is_empty() {
-            // Nothing left to render: a degenerate mesh is an input error, not something to drop silently.
-            return Err(Error::scene(
-                loc,
-                format!(
-                    "degenerate mesh: all {total} triangles have zero area (e.g. triangle {t} with corners {} {} {})",
-                    corners[0], corners[1], corners[2]
-                ),
-            ));
+            // Mitsuba loads such a mesh (it adds nothing); the caller reports it (`Scene::warnings`).
+            log::warn!(
+                "{loc}: all {total} triangles have zero area (e.g. triangle {t} with corners {} {} {}); the mesh adds nothing",
+                corners[0],
+                corners[1],
+                corners[2]
+            );
+            return Ok((Vec::new(), Vec::new(), Vec::new(), Vec::new()));
         }
         log::warn!("{loc}: dropped {} zero-area triangles of {total} (first: triangle {t})", total - indices.len());
     }
@@ -484,6 +485,18 @@ mod tests {
         let (_, n, _, idx) = finalize(d, Mat4::IDENTITY, false, false, &loc()).unwrap();
         assert_eq!(idx, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(n[4], Vec3::X); // now unreferenced
+    }
+
+    #[test]
+    fn all_zero_area_gives_an_empty_mesh() {
+        let d = MeshData {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0, Vec3::Y],
+            normals: vec![],
+            uvs: vec![],
+            indices: vec![[0, 1, 2], [0, 0, 3]],
+        };
+        let (p, n, uv, idx) = finalize(d, Mat4::IDENTITY, false, false, &loc()).unwrap();
+        assert!(p.is_empty() && n.is_empty() && uv.is_empty() && idx.is_empty());
     }
 
     #[test]

@@ -48,6 +48,16 @@ pub struct LoadOptions {
 /// unsupported content; `Error::FileNotFound` (with the location of the element naming it) for a
 /// missing scene, include, mesh or texture file.
 pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let (scene, warnings) = load_scene_with_warnings(path, opts)?;
+    for w in warnings {
+        log::warn!("{w}");
+    }
+    Ok(scene)
+}
+
+/// [`load_scene`], also returning what was accepted with a warning as Mitsuba does (e.g. a shape whose
+/// triangles all have zero area: it stays, empty, so that shape indices remain Mitsuba's).
+pub fn load_scene_with_warnings(path: &Path, opts: &LoadOptions) -> Result<(Scene, Vec<String>)> {
     let doc = parse::parse_document(path, &opts.params)?;
     let mut b = plugins::Builder::new(&doc, opts.size);
     let root = &doc.nodes[0];
@@ -108,14 +118,15 @@ pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     }
     let mut emitters = b.emitters;
     emitters.extend(b.area_emitters);
-    Ok(Scene {
+    let scene = Scene {
         path: path.to_path_buf(),
         camera,
         meshes: b.meshes,
         bsdfs: b.bsdfs,
         textures: b.textures,
         emitters,
-    })
+    };
+    Ok((scene, b.warnings))
 }
 
 #[cfg(test)]

@@ -8,8 +8,10 @@
 //! - `<include filename>` is resolved relative to the including file; the included `<scene>`'s children
 //!   join the including element; defaults declared in it stay visible afterwards (one parameter list).
 //! - `<path value>` (root only) adds a search directory for the files plugins name (newest first, then the
-//!   main scene's directory). As in Mitsuba, a mesh or texture named in an included file is looked up
-//!   there too, not relative to the included file.
+//!   main scene's directory). The directory itself is found as Mitsuba finds it: beside the declaring
+//!   file, else in earlier `<path>`s, the scene's folder or the working directory (`FileResolver`);
+//!   one that exists nowhere is an error, as in Mitsuba 3.9.1. As in Mitsuba, a mesh or texture named
+//!   in an included file is looked up there too, not relative to the included file.
 //! - Property elements become [`Prop`]s (transforms are evaluated here); nested objects and `<ref>`s
 //!   become [`Child`]ren; ids are collected so references may come before their declaration.
 //!
@@ -109,6 +111,8 @@ struct Parser {
     path_dirs: Vec<PathBuf>,
     /// Per file being parsed (innermost last): its version is < 2.0 (nodes get `upgrade::upgrade_node`).
     legacy: Vec<bool>,
+    /// Folder of the main scene file.
+    main_dir: Option<PathBuf>,
 }
 
 const OBJECT_CLASSES: &[&str] = &[
@@ -127,6 +131,7 @@ pub fn parse_document(path: &Path, params: &[(String, String)]) -> Result<Docume
         ids: HashMap::new(),
         path_dirs: Vec::new(),
         legacy: Vec::new(),
+        main_dir: path.parent().map(Path::to_path_buf),
     };
     parser.sort_params();
     parser.parse_file(path, &Location::new(path, 0), None, 0)?;
@@ -149,6 +154,28 @@ fn line_of(doc: &roxmltree::Document, node: roxmltree::Node) -> u32 {
 }
 
 impl Parser {
+    /// Where `<path value>` points, as Mitsuba 3.9.1 resolves it: an absolute path as is; a relative one
+    /// beside the file declaring it, else in the search path (earlier `<path>`s newest first, the main
+    /// scene's folder, the working directory). None if it exists nowhere (Mitsuba fails then too).
+    fn resolve_path_element(&self, value: &str, file: &Path) -> Option<PathBuf> {
+        let v = Path::new(value);
+        if v.is_absolute() {
+            return v.exists().then(|| v.to_path_buf());
+        }
+        let beside = file.parent().unwrap_or(Path::new("")).join(v);
+        if beside.exists() {
+            return Some(beside);
+        }
+        self.path_dirs
+            .iter()
+            .rev()
+            .cloned()
+            .chain(self.main_dir.clone())
+            .chain(std::env::current_dir().ok())
+            .map(|d| d.join(v))
+            .find(|c| c.exists())
+    }
+
     fn sort_params(&mut self) {
         // Longest first so that `$ab` is not replaced as `$a` + "b" (stable: keeps insertion order).
         self.params.sort_by_key(|p| std::cmp::Reverse(p.key.len()));
@@ -345,10 +372,11 @@ impl Parser {
                     return Err(Error::scene(&loc, "<path> can only be a child of the root <scene>"));
                 }
                 let v = value("path")?;
-                let dir = path.parent().unwrap_or(Path::new("")).join(&v);
-                if !dir.is_dir() {
-                    return Err(Error::FileNotFound { loc, path: dir });
-                }
+                // Not found anywhere: Mitsuba fails too ("<path>: folder ... not found").
+                let dir = self.resolve_path_element(&v, path).ok_or_else(|| Error::FileNotFound {
+                    loc: loc.clone(),
+                    path: path.parent().unwrap_or(Path::new("")).join(&v),
+                })?;
                 self.path_dirs.push(dir);
                 return Ok(());
             }

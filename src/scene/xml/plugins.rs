@@ -37,6 +37,8 @@ pub struct Builder<'a> {
     default_bsdf: Option<usize>,
     /// Area emitter nodes already attached to a shape (node -> where).
     attached: HashMap<usize, Location>,
+    /// Things Mitsuba only warns about (`Scene::warnings`).
+    pub warnings: Vec<String>,
 }
 
 fn unknown_plugin(p: &Props) -> Error {
@@ -57,6 +59,7 @@ impl<'a> Builder<'a> {
             texture_memo: HashMap::new(),
             default_bsdf: None,
             attached: HashMap::new(),
+            warnings: Vec::new(),
         }
     }
 
@@ -396,6 +399,13 @@ impl<'a> Builder<'a> {
             flip_normals,
             &loc,
         )?;
+        if indices.is_empty() {
+            if let Some(r) = &emitter_node {
+                // Mitsuba fails too ("DiscreteDistribution: no probability mass found").
+                return Err(Error::scene(&r.loc, format!("area emitter on shape \"{id}\" ({loc}) whose triangles all have zero area")));
+            }
+            self.warnings.push(format!("{loc}: shape \"{id}\": all triangles have zero area; the shape adds nothing (as in Mitsuba)"));
+        }
         let emitter = match emitter_node {
             Some(r) => {
                 let e = self.area_emitter(&r, k)?;
@@ -519,6 +529,13 @@ impl<'a> Builder<'a> {
         if near_clip <= 0.0 || near_clip >= far_clip {
             return Err(Error::scene(&loc, format!("near_clip ({near_clip}) must be > 0 and < far_clip ({far_clip})")));
         }
+        let principal_point_offset = glam::Vec2::new(
+            p.float("principal_point_offset_x", 0.0)? as f32,
+            p.float("principal_point_offset_y", 0.0)? as f32,
+        );
+        if !principal_point_offset.is_finite() {
+            return Err(Error::scene(&loc, format!("principal_point_offset {principal_point_offset} must be finite")));
+        }
         let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
         if transform::has_scale(&to_world) {
             return Err(Error::scene(&loc, "scale factors in the camera to_world transformation are not allowed"));
@@ -531,6 +548,7 @@ impl<'a> Builder<'a> {
             far_clip: far_clip as f32,
             width,
             height,
+            principal_point_offset,
             loc,
         })
     }
