@@ -45,6 +45,12 @@ impl Affine {
         Affine { matrix, inverse_transpose: it }
     }
 
+    /// The 3x3 block Mitsuba's `Transform::inverse()` applies to vectors: the transpose of the normal
+    /// matrix (the true inverse except after a `rotate` about a non-unit axis, where it is R^T).
+    pub fn inverse_linear(&self) -> DMat3 {
+        DMat3::from_mat4(self.inverse_transpose).transpose()
+    }
+
     /// A normal (local) to world: the normal transform's 3x3 block applied, not normalised.
     pub fn transform_normal(&self, n: DVec3) -> DVec3 {
         DMat3::from_mat4(self.inverse_transpose) * n

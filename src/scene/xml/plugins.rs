@@ -491,7 +491,9 @@ impl<'a> Builder<'a> {
                 let (path, floc) = self.filename(&mut p, "envmap")?;
                 let scale = p.float("scale", 1.0)? as f32;
                 let (width, height, data) = texture::load_bitmap(&path, &floc, false)?;
-                let world_from_env = transform::to_f32(&to_world.unwrap_or(DMat4::IDENTITY));
+                // Mitsuba looks up `to_world.inverse() * d`; keep the matrix whose inverse that is.
+                let env_t = p.affine("to_world")?.unwrap_or(transform::Affine::IDENTITY);
+                let world_from_env = DMat4::from_mat3(env_t.inverse_linear().inverse()).as_mat4();
                 Emitter::EnvMap { map: EnvMap { width, height, data, scale, world_from_env }, loc }
             }
             "constant" => Emitter::Constant { radiance: self.constant_color(&mut p, "radiance", 1.0)?, loc },
