@@ -402,7 +402,7 @@ impl<'a> Builder<'a> {
         if indices.is_empty() {
             if let Some(r) = &emitter_node {
                 // Mitsuba fails too ("DiscreteDistribution: no probability mass found").
-                return Err(Error::scene(&r.loc, format!("area emitter on shape \"{id}\" ({loc}) whose triangles all have zero area")));
+                return Err(Error::scene(&r.loc, format!("area emitter on a degenerate shape \"{id}\" ({loc}): all its triangles have zero area")));
             }
             self.warnings.push(format!("{loc}: shape \"{id}\": all triangles have zero area; the shape adds nothing (as in Mitsuba)"));
         }

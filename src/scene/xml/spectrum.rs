@@ -18,6 +18,7 @@ use super::cie::{CIE1931_X, CIE1931_Y, CIE1931_Z, CIE_MAX, CIE_MIN, CIE_SAMPLES,
 use glam::DVec3;
 
 /// `MI_CIE_Y_NORMALIZATION`: a unit spectrum integrates to luminance 1.
+#[allow(clippy::excessive_precision)]
 const CIE_Y_NORMALIZATION: f64 = 1.0 / 106.7502593994140625;
 /// `MI_CIE_D65_NORMALIZATION`: D65 integrates to luminance 1.
 const CIE_D65_NORMALIZATION: f64 = 1.0 / 98.99741751876255;
@@ -78,15 +79,15 @@ impl Spectrum {
         if wavelengths.len() < 2 {
             return Err("a spectrum needs a single value or at least two wavelength:value pairs".into());
         }
-        if let Some(i) = (1..wavelengths.len()).find(|&i| !(wavelengths[i] > wavelengths[i - 1])) {
+        if let Some(v) = wavelengths.iter().chain(&values).find(|v| !v.is_finite()) {
+            return Err(format!("non-finite number {v} in a spectrum"));
+        }
+        if let Some(i) = (1..wavelengths.len()).find(|&i| wavelengths[i] <= wavelengths[i - 1]) {
             return Err(format!(
                 "wavelengths must be strictly increasing ({} nm follows {} nm)",
                 wavelengths[i],
                 wavelengths[i - 1]
             ));
-        }
-        if let Some(v) = wavelengths.iter().chain(&values).find(|v| !v.is_finite()) {
-            return Err(format!("non-finite number {v} in a spectrum"));
         }
         Ok(Spectrum { wavelengths, values })
     }
@@ -146,6 +147,7 @@ fn table(t: &[f32; CIE_SAMPLES], x: f64) -> f64 {
 
 /// CIE XYZ to linear sRGB (Rec. 709 primaries, D65 white), with Mitsuba's f32 coefficients.
 pub fn xyz_to_srgb(xyz: DVec3) -> DVec3 {
+    #[allow(clippy::excessive_precision)]
     const M: [[f32; 3]; 3] = [
         [3.240479, -1.537150, -0.498535],
         [-0.969256, 1.875991, 0.041556],

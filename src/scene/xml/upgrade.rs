@@ -17,7 +17,7 @@ use glam::{DMat4, DVec3};
 
 /// A `version` attribute: three numbers separated by periods (Mitsuba's `util::Version`).
 pub fn parse_version(value: &str, loc: &Location) -> Result<(u32, u32, u32)> {
-    let parts: Vec<&str> = value.split(|c: char| c == '.' || c == ' ').filter(|s| !s.is_empty()).collect();
+    let parts: Vec<&str> = value.split(['.', ' ']).filter(|s| !s.is_empty()).collect();
     let bad = || Error::scene(loc, format!("invalid version number \"{value}\" (expected three period-separated numbers, e.g. \"3.0.0\")"));
     if parts.len() != 3 {
         return Err(bad());
