@@ -2,7 +2,7 @@
 // Driven by `src/gpu/gbuffer.rs` (GBufferPass). Camera model: Mitsuba's perspective sensor, reverse-Z
 // depth d = A + B / z_camera (1 at near_clip, 0 at far_clip), compare "greater".
 
-// Keep in sync with `GBufferUniforms` in src/gpu/gbuffer.rs (144 bytes).
+// Keep in sync with `GBufferUniforms` in src/gpu/gbuffer.rs (160 bytes).
 struct GBufferUniforms {
     clip_from_world: mat4x4<f32>,
     // xyz: camera left axis, w: tan(fov_x / 2).
@@ -15,6 +15,8 @@ struct GBufferUniforms {
     origin_far: vec4<f32>,
     // x: film width, y: film height (pixels), z: depth A, w: depth B.
     film_depth: vec4<f32>,
+    // xy: principal point offset (film units, as Mitsuba's principal_point_offset_x/y); zw: 0.
+    principal_point: vec4<f32>,
 }
 
 // Keep in sync with `SphereUniforms` in src/gpu/gbuffer.rs (one per analytic sphere, 256-byte stride).
@@ -62,7 +64,7 @@ fn vs_sphere(@builtin(vertex_index) vertex_index: u32, @location(0) position: ve
 // Mitsuba's primary ray direction through film position `pixel` (pixels, row 0 at the top).
 fn camera_ray_dir(pixel: vec2<f32>) -> vec3<f32> {
     let film = camera.film_depth.xy;
-    let ndc = vec2<f32>(1.0) - 2.0 * pixel / film;
+    let ndc = vec2<f32>(1.0) - 2.0 * (pixel / film + camera.principal_point.xy);
     let local = vec3<f32>(ndc.x * camera.left_tan_x.w, ndc.y * camera.up_tan_y.w, 1.0);
     let d = local.x * camera.left_tan_x.xyz + local.y * camera.up_tan_y.xyz + camera.forward_near.xyz;
     return normalize(d);

@@ -128,7 +128,11 @@ def test_nan_vertex(tmp_path):
 def test_degenerate_triangle(tmp_path):
     (tmp_path / "flat.obj").write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")
     text = _scene('<shape type="obj"><string name="filename" value="flat.obj"/></shape>')
-    _raises(tmp_path, text, ml.SceneError, "scene.xml:4", "degenerate", "[2, 0, 0]")
+    (tmp_path / "scene.xml").write_text(text)
+    # Mitsuba loads it (the mesh adds nothing): a warning naming file and line, an empty shape.
+    with pytest.warns(UserWarning, match="scene.xml:4.*zero area"):
+        s = ml.load_scene(tmp_path / "scene.xml")
+    assert s.shapes[0]["triangles"] == 0
 
 
 def test_no_shapes(tmp_path):
@@ -144,12 +148,6 @@ def test_film_of_zero_pixels(tmp_path):
 def test_camera_with_scale(tmp_path):
     cam = CAMERA.replace('<film', '<transform name="to_world"><scale value="2"/></transform><film')
     _raises(tmp_path, _scene('<shape type="rectangle"/>', camera=cam), ml.SceneError, "scene.xml:", "scale")
-
-
-def test_spectral_list_is_refused_clearly():
-    with pytest.raises(ml.SceneError) as e:
-        ml.load_scene(SCENES / "cbox" / "cbox.xml")
-    assert "cbox.xml:" in str(e.value) and "rgb" in str(e.value)
 
 
 def test_scene_file_missing(tmp_path):

@@ -76,6 +76,10 @@ def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = Non
     Raises:
         FileNotFoundError: the scene or a file it names is missing.
         SceneError: malformed XML or an unsupported plugin (the message names file, line and value).
+
+    Warns:
+        UserWarning: for input Mitsuba accepts with a warning (e.g. a mesh whose triangles all have zero
+            area: it stays as an empty shape, so shape indices match Mitsuba's).
     """
     p = Path(path)
     if not p.exists():

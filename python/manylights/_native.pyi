@@ -29,6 +29,8 @@ class Scene:
     emitters: list[dict[str, Any]]
     bsdfs: list[dict[str, Any]]
     camera: dict[str, Any]
+    """origin, left, up, forward, fov_x, fov_y (degrees), near_clip, far_clip, width, height,
+    principal_point_offset (x, y) in film units."""
     bounds: tuple[tuple[float, float, float], tuple[float, float, float]]
     def gbuffer(self) -> dict[str, np.ndarray]:
         """View samples at pixel centres: position, normal, geo_normal, wi, albedo (H, W, 3) float32,
@@ -114,7 +116,10 @@ def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[in
     """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film.
 
     Raises:
-        FileNotFoundError, SceneError, OSError."""
+        FileNotFoundError, SceneError, OSError.
+
+    Warns:
+        UserWarning: input Mitsuba accepts with a warning (a mesh whose triangles all have zero area)."""
 
 def device_info() -> dict[str, Any]:
     """The GPU adapter: name, backend, device_type, driver, driver_info, is_software.

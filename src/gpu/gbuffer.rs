@@ -5,7 +5,8 @@
 //! Implementation details:
 //! - Camera: Mitsuba's perspective sensor. In its frame (left, up, forward) a point (x, y, z) lands at
 //!   film position px = W (1 - x / (z tan_x)) / 2, py = H (1 - y / (z tan_y)) / 2, so clip space is
-//!   (-x / tan_x, y / tan_y, A z + B, z): column 0 looks toward +left, row 0 toward +up. The rasteriser
+//!   (-x / tan_x, y / tan_y, A z + B, z): column 0 looks toward +left, row 0 toward +up. A principal point
+//!   offset (ox, oy) (film units, as Mitsuba's) shifts the film: clip x -= 2 ox z, clip y += 2 oy z. The rasteriser
 //!   samples pixel (i, j) at (i + 0.5, j + 0.5), the centre Mitsuba's pixel-centre rays go through.
 //! - Depth: reverse-Z in Depth32Float, d = A + B / z = 1 at `near_clip`, 0 at `far_clip` (A = 0 when
 //!   far is infinite), compare "greater". 1/z is affine in screen space, so the interpolated depth is
@@ -31,7 +32,7 @@ use wgpu::util::DeviceExt;
 pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// Keep in sync with `struct GBufferUniforms` in `shaders/gbuffer.wgsl` (144 bytes).
+/// Keep in sync with `struct GBufferUniforms` in `shaders/gbuffer.wgsl` (160 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GBufferUniforms {
@@ -46,6 +47,8 @@ pub struct GBufferUniforms {
     pub origin_far: [f32; 4],
     /// Film width, height (pixels), depth A, depth B.
     pub film_depth: [f32; 4],
+    /// xy: the camera's principal point offset (film units, `Camera::principal_point_offset`); zw: 0.
+    pub principal_point: [f32; 4],
 }
 
 /// Keep in sync with `struct SphereUniforms` in `shaders/gbuffer.wgsl` (32 bytes, bound at a
@@ -100,11 +103,13 @@ impl GBufferUniforms {
         let tan_y = tan_x * camera.height as f64 / camera.width as f64;
         let (near, far) = (camera.near_clip as f64, camera.far_clip as f64);
         let (a, b) = reverse_z(near, far);
-        // clip = (-x / tan_x, y / tan_y, A z + B, z) in the camera frame (x = left).
+        // clip = (-x / tan_x - 2 ox z, y / tan_y + 2 oy z, A z + B, z) in the camera frame (x = left),
+        // (ox, oy) the principal point offset: film position px / W = (1 - x / (z tan_x)) / 2 - ox.
+        let o = camera.principal_point_offset.as_dvec2();
         let proj = DMat4::from_cols(
             DVec4::new(-1.0 / tan_x, 0.0, 0.0, 0.0),
             DVec4::new(0.0, 1.0 / tan_y, 0.0, 0.0),
-            DVec4::new(0.0, 0.0, a, 1.0),
+            DVec4::new(-2.0 * o.x, 2.0 * o.y, a, 1.0),
             DVec4::new(0.0, 0.0, b, 0.0),
         );
         let clip_from_world = (proj * camera_from_world).as_mat4();
@@ -117,6 +122,7 @@ impl GBufferUniforms {
             forward_near: axis(m.z_axis, near),
             origin_far: axis(m.w_axis, far),
             film_depth: [camera.width as f32, camera.height as f32, a as f32, b as f32],
+            principal_point: [o.x as f32, o.y as f32, 0.0, 0.0],
         }
     }
 }

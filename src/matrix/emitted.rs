@@ -104,6 +104,7 @@ mod tests {
             far_clip: 1e4,
             width: 3,
             height: 1,
+            principal_point_offset: glam::Vec2::ZERO,
             loc: Location::default(),
         };
         let mut scene = Scene {

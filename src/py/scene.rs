@@ -237,7 +237,8 @@ impl Scene {
             })
             .collect()
     }
-    /// Camera: origin, forward, up, left (world), fov_x / fov_y (degrees), near_clip, width, height.
+    /// Camera: origin, forward, up, left (world), fov_x / fov_y (degrees), near_clip, width, height,
+    /// principal_point_offset (x, y) in film units.
     #[getter]
     fn camera<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = &self.inner.camera;
@@ -253,6 +254,7 @@ impl Scene {
         d.set_item("far_clip", c.far_clip)?;
         d.set_item("width", c.width)?;
         d.set_item("height", c.height)?;
+        d.set_item("principal_point_offset", (c.principal_point_offset.x, c.principal_point_offset.y))?;
         Ok(d)
     }
     /// Scene bounds ((min xyz), (max xyz)).
@@ -319,7 +321,13 @@ use numpy::PyArrayMethods;
 #[pyo3(signature = (path, params, size=None))]
 pub fn load_scene(py: Python<'_>, path: PathBuf, params: Vec<(String, String)>, size: Option<(u32, u32)>) -> PyResult<Scene> {
     let opts = LoadOptions { params, size, ..Default::default() };
-    let s = py.detach(move || scene::load_scene(&path, &opts))?;
+    let (s, warnings) = py.detach(move || scene::xml::load_scene_with_warnings(&path, &opts))?;
+    for w in &warnings {
+        // Accepted input that Mitsuba only warns about (e.g. a shape whose triangles all have zero area).
+        let msg = std::ffi::CString::new(w.replace('\0', " ")).unwrap_or_default();
+        // stacklevel 2: reported at the caller of `manylights.load_scene`.
+        PyErr::warn(py, &py.get_type::<pyo3::exceptions::PyUserWarning>(), &msg, 2)?;
+    }
     Ok(Scene { inner: Arc::new(s), view: Mutex::new(Vec::new()) })
 }
 

@@ -86,6 +86,7 @@ pub fn scene(meshes: Vec<Mesh>) -> Scene {
         far_clip: 1e4,
         width: 64,
         height: 64,
+        principal_point_offset: glam::Vec2::ZERO,
         loc: Location::default(),
     };
     Scene { path: PathBuf::from("test"), camera, meshes, bsdfs: Vec::new(), textures: Vec::new(), emitters: Vec::new() }

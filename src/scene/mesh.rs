@@ -13,15 +13,16 @@
 //! - zero-area triangles (world space, `cross == 0` in f32, the test Mitsuba's normal computation uses) are
 //!   dropped with a `log::warn`: the shared scene veach-ajar (`models/Mesh015.obj`) has 62 of them. Mitsuba
 //!   keeps them (rays never hit them), so primitive indices after the first dropped face shift. A mesh
-//!   whose triangles are *all* zero-area is an error naming the file.
+//!   whose triangles are *all* zero-area becomes an empty mesh (no vertices, no triangles), as it adds
+//!   nothing in Mitsuba either; it keeps its place so that shape indices stay Mitsuba's.
 //! - `flip_normals=true` negates the normals *and* reverses the winding (`[i0, i2, i1]`), so that
 //!   `cross(p1-p0, p2-p0)` is Mitsuba's flipped geometric normal; Mitsuba keeps the winding and negates
 //!   `si.n` at intersection time.
-//! - normals given by the file or shape are transformed by the inverse transpose of `world_from_local`.
-//!   Mitsuba 3.9.1 transforms OBJ, `cube` and `rectangle` normals as directions (`normalize(M n)`,
-//!   verified to 6e-8), and PLY normals by something within 0.014 of the inverse transpose, so under a
-//!   *non-uniform* scale shading normals differ (0.0126 for scale (1, 2, 0.5)); rotations, uniform
-//!   scales and axis-aligned normals (all shared scenes) agree. Recomputed normals match Mitsuba exactly.
+//! - normals given by the file or shape are transformed by the normal matrix Mitsuba's transform carries
+//!   (`transform::Affine::inverse_transpose`, [`finalize_with_normal_matrix`]), then normalised. It is
+//!   the inverse transpose of `world_from_local` except after a `rotate` about a non-unit axis, where
+//!   Mitsuba 3.9.1 uses the rotation matrix itself (checked against its OBJ, PLY, cube and rectangle
+//!   normals). [`finalize`] uses the true inverse transpose. Recomputed normals match Mitsuba exactly.
 //! - non-finite positions or normals, indices out of range and zero-length file normals are errors naming
 //!   the vertex or triangle.
 pub mod cylinder;
@@ -31,7 +32,7 @@ pub mod serialized;
 pub mod shapes;
 
 use crate::error::{Error, Location, Result};
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 
 pub use obj::load_obj;
 pub use cylinder::{cylinder, cylinder_to_world, CYLINDER_SEGMENTS};
@@ -64,6 +65,21 @@ pub type WorldMesh = (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>);
 pub fn finalize(
     data: MeshData,
     world_from_local: Mat4,
+    face_normals: bool,
+    flip_normals: bool,
+    loc: &Location,
+) -> Result<WorldMesh> {
+    let normal_from_local = Mat3::from_mat4(world_from_local).inverse().transpose();
+    finalize_with_normal_matrix(data, world_from_local, normal_from_local, face_normals, flip_normals, loc)
+}
+
+/// [`finalize`] with the matrix that transforms the given normals (Mitsuba's tracked
+/// `inverse_transpose`, `transform::Affine`, which differs from the true inverse transpose after a
+/// `rotate` about a non-unit axis). Same arguments, results and errors otherwise.
+pub fn finalize_with_normal_matrix(
+    data: MeshData,
+    world_from_local: Mat4,
+    normal_from_local: Mat3,
     face_normals: bool,
     flip_normals: bool,
     loc: &Location,
@@ -112,14 +128,14 @@ pub fn finalize(
         .collect();
     if let Some((t, corners)) = first_dropped {
         if indices.is_empty() {
-            // Nothing left to render: a degenerate mesh is an input error, not something to drop silently.
-            return Err(Error::scene(
-                loc,
-                format!(
-                    "degenerate mesh: all {total} triangles have zero area (e.g. triangle {t} with corners {} {} {})",
-                    corners[0], corners[1], corners[2]
-                ),
-            ));
+            // Mitsuba loads such a mesh (it adds nothing); the caller reports it (`Scene::warnings`).
+            log::warn!(
+                "{loc}: all {total} triangles have zero area (e.g. triangle {t} with corners {} {} {}); the mesh adds nothing",
+                corners[0],
+                corners[1],
+                corners[2]
+            );
+            return Ok((Vec::new(), Vec::new(), Vec::new(), Vec::new()));
         }
         log::warn!("{loc}: dropped {} zero-area triangles of {total} (first: triangle {t})", total - indices.len());
     }
@@ -127,10 +143,9 @@ pub fn finalize(
     let (mut world, mut normals, mut uvs, mut indices) = if face_normals {
         unshare_with_face_normals(&world, &uvs, &indices)
     } else if !normals.is_empty() {
-        let normal_from_local = world_from_local.inverse().transpose();
         let mut out = Vec::with_capacity(n);
         for (i, nl) in normals.iter().enumerate() {
-            let nw = normal_from_local.transform_vector3(*nl).normalize();
+            let nw = (normal_from_local * *nl).normalize();
             if !nw.is_finite() {
                 return Err(Error::scene(loc, format!("vertex {i} has an invalid normal {nl}")));
             }
@@ -354,18 +369,24 @@ mod tests {
              [[0.44721361994743347, -0.44721361994743347, 0.7745966911315918]; 2],
              [4.472136199474335, -4.472136199474335, 7.745966911315918]),
         ];
+        // The same transform built as the XML loader does: Mitsuba's normal matrix for a rotation about the
+        // non-unit axis (1, 1, 0) is the rotation matrix itself, not the inverse transpose.
+        let attrs = |v: &[(&str, &str)]| v.iter().map(|(k, x)| (k.to_string(), x.to_string())).collect::<Vec<_>>();
+        let mut t = crate::scene::transform::Affine::IDENTITY;
+        for (tag, a) in [
+            ("scale", attrs(&[("x", "1"), ("y", "2"), ("z", "0.5")])),
+            ("rotate", attrs(&[("x", "1"), ("y", "1"), ("angle", "30")])),
+            ("translate", attrs(&[("value", "1 2 3")])),
+        ] {
+            t = crate::scene::transform::apply_op(t, tag, &a, &loc()).unwrap();
+        }
+        assert!((t.matrix.as_mat4() - m).abs().to_cols_array().iter().all(|d| *d < 1e-6), "{}", t.matrix);
+        let nm = glam::DMat3::from_mat4(t.inverse_transpose).as_mat3();
         for (name, data, p_ends, n_ends, n_sum) in cases {
-            let (p, n, _, _) = finalize(data, m, false, false, &loc()).unwrap();
+            let (p, n, _, _) = finalize_with_normal_matrix(data, m, nm, false, false, &loc()).unwrap();
             let last = p.len() - 1;
             for (got, want) in [(p[0], p_ends[0]), (p[last], p_ends[1])] {
                 assert!((got - Vec3::from_array(want)).abs().max_element() < 1e-6, "{name}: {got} vs {want:?}");
-            }
-            if name != "obj" {
-                // Mitsuba transforms given normals as directions (M n) under this non-uniform scale; we use
-                // the inverse transpose (see the module doc): 0.0126 apart here.
-                let mn = m.transform_vector3(Vec3::from_array(if name == "cube" { [0., -1., 0.] } else { [0., 0., 1.] }));
-                assert!((mn.normalize() - Vec3::from_array(n_ends[0])).abs().max_element() < 1e-6, "{name}");
-                continue;
             }
             for (got, want) in [(n[0], n_ends[0]), (n[last], n_ends[1])] {
                 assert!((got - Vec3::from_array(want)).abs().max_element() < 2e-6, "{name}: {got} vs {want:?}");
@@ -468,6 +489,18 @@ mod tests {
         let (_, n, _, idx) = finalize(d, Mat4::IDENTITY, false, false, &loc()).unwrap();
         assert_eq!(idx, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(n[4], Vec3::X); // now unreferenced
+    }
+
+    #[test]
+    fn all_zero_area_gives_an_empty_mesh() {
+        let d = MeshData {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0, Vec3::Y],
+            normals: vec![],
+            uvs: vec![],
+            indices: vec![[0, 1, 2], [0, 0, 3]],
+        };
+        let (p, n, uv, idx) = finalize(d, Mat4::IDENTITY, false, false, &loc()).unwrap();
+        assert!(p.is_empty() && n.is_empty() && uv.is_empty() && idx.is_empty());
     }
 
     #[test]

@@ -2,17 +2,67 @@
 //!
 //! Operations (`translate`, `rotate`, `scale`, `matrix`, `lookat`) apply in document order:
 //! M = last * ... * first. Arithmetic is in f64 like Mitsuba's parser; callers cast to f32 at the end.
+//!
+//! Like Mitsuba's `AffineTransform4d`, an [`Affine`] carries its matrix *and* the matrix that transforms
+//! normals (`inverse_transpose`), each operation supplying its own and products multiplying both. They
+//! are inverse transposes of each other except after a `rotate` about an axis that is not unit length:
+//! - `rotate`: Rodrigues' matrix built from the axis *as given* (Mitsuba 3.9.1 does not normalise it:
+//!   `rotate x="0" y="1" z="1"` scales and shears), with the same matrix as its normal transform.
 //! - `translate`: `x`/`y`/`z` (missing = 0) or `value="x, y, z"` (1 value = all three).
-//! - `rotate`: axis from `x`/`y`/`z` or `value`, `angle` in degrees, right-handed; a zero axis is an error.
-//! - `scale`: `x`/`y`/`z` (missing = 1) or `value` (1 or 3 numbers).
-//! - `matrix`: 16 (or 9, for the upper-left 3x3) numbers, row-major.
+//! - `scale`: `x`/`y`/`z` (missing = 1) or `value` (1 or 3 numbers); normal transform scale(1 / v).
+//! - `matrix`: 16 (or 9, for the upper-left 3x3) numbers, row-major; normal transform from Mitsuba's
+//!   `update()`: inverse transpose of the 3x3 block, last row `-(invT)^T t`.
 //! - `lookat`: `origin`, `target`, optional `up` (zero or missing: any vector perpendicular to the view
 //!   direction); columns (left, up', dir, origin) with left = normalize(up x dir), up' = dir x left.
 //!
 //! `to_uv` transforms of textures become 2D affine maps the way Mitsuba's `Transform::extract` does:
 //! the upper-left 2x2 block plus the x/y translation (the z row and column are dropped).
 use crate::error::{Error, Location, Result};
-use glam::{DMat4, DVec3, DVec4, Mat3, Vec3};
+use glam::{DMat3, DMat4, DVec3, DVec4, Mat3, Vec3};
+
+/// A transform as Mitsuba's parser keeps it: the matrix and the matrix applied to normals.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Affine {
+    /// Applied to points and vectors (column-major, f64).
+    pub matrix: DMat4,
+    /// Applied to normals (its upper-left 3x3 block; then normalised by the caller).
+    pub inverse_transpose: DMat4,
+}
+
+impl Affine {
+    pub const IDENTITY: Affine = Affine { matrix: DMat4::IDENTITY, inverse_transpose: DMat4::IDENTITY };
+
+    /// From a matrix, its normal transform computed as Mitsuba's `Transform::update()` does (NaN for a
+    /// singular 3x3 block, as there).
+    pub fn from_matrix(matrix: DMat4) -> Affine {
+        let invt_rot = DMat3::from_mat4(matrix).inverse().transpose();
+        let inv_trans = -(invt_rot.transpose() * matrix.w_axis.truncate());
+        let mut it = DMat4::from_mat3(invt_rot);
+        // Mitsuba's entry (3, i) = row 3, column i.
+        it.x_axis.w = inv_trans.x;
+        it.y_axis.w = inv_trans.y;
+        it.z_axis.w = inv_trans.z;
+        Affine { matrix, inverse_transpose: it }
+    }
+
+    /// The 3x3 block Mitsuba's `Transform::inverse()` applies to vectors: the transpose of the normal
+    /// matrix (the true inverse except after a `rotate` about a non-unit axis, where it is R^T).
+    pub fn inverse_linear(&self) -> DMat3 {
+        DMat3::from_mat4(self.inverse_transpose).transpose()
+    }
+
+    /// A normal (local) to world: the normal transform's 3x3 block applied, not normalised.
+    pub fn transform_normal(&self, n: DVec3) -> DVec3 {
+        DMat3::from_mat4(self.inverse_transpose) * n
+    }
+}
+
+impl std::ops::Mul for Affine {
+    type Output = Affine;
+    fn mul(self, o: Affine) -> Affine {
+        Affine { matrix: self.matrix * o.matrix, inverse_transpose: self.inverse_transpose * o.inverse_transpose }
+    }
+}
 
 /// Numbers of a list attribute: separated by commas and/or whitespace, as Mitsuba's `string::tokenize`.
 pub fn tokenize(value: &str) -> Vec<&str> {
@@ -81,9 +131,20 @@ fn vec3_attr(tag: &str, attrs: &[(String, String)], name: &str, loc: &Location) 
     Ok(Some(DVec3::new(v[0], v[1], v[2])))
 }
 
-/// Right-handed rotation by `angle_deg` degrees about `axis` (normalised here).
+/// Right-handed rotation by `angle_deg` degrees about `axis`, as Dr.Jit's `rotate<Matrix4>` builds it:
+/// Rodrigues' formula with the axis *as given* (not normalised; a non-unit axis gives a matrix that also
+/// scales and shears, exactly as in Mitsuba 3.9.1).
 pub fn rotate(axis: DVec3, angle_deg: f64) -> DMat4 {
-    DMat4::from_axis_angle(axis.normalize(), angle_deg.to_radians())
+    let (s, c) = angle_deg.to_radians().sin_cos();
+    let t = 1.0 - c;
+    let DVec3 { x, y, z } = axis;
+    // Rows of the 3x3 block, written as columns for glam.
+    DMat4::from_cols(
+        DVec4::new(c + x * x * t, x * y * t + z * s, x * z * t - y * s, 0.0),
+        DVec4::new(x * y * t - z * s, c + y * y * t, y * z * t + x * s, 0.0),
+        DVec4::new(x * z * t + y * s, y * z * t - x * s, c + z * z * t, 0.0),
+        DVec4::W,
+    )
 }
 
 /// Mitsuba's `look_at`: columns (left, up', dir, origin). NaN (e.g. up parallel to dir) is an error.
@@ -111,15 +172,17 @@ fn any_orthogonal(n: DVec3) -> DVec3 {
 }
 
 /// Applies one `<transform>` child (`tag` with substituted attributes) after `m`: returns op * m.
-pub fn apply_op(m: DMat4, tag: &str, attrs: &[(String, String)], loc: &Location) -> Result<DMat4> {
+pub fn apply_op(m: Affine, tag: &str, attrs: &[(String, String)], loc: &Location) -> Result<Affine> {
     let op = match tag {
         "translate" => {
             check_attrs(tag, attrs, &["x", "y", "z", "value"], loc)?;
-            DMat4::from_translation(xyz(tag, attrs, 0.0, loc)?)
+            let v = xyz(tag, attrs, 0.0, loc)?;
+            Affine { matrix: DMat4::from_translation(v), inverse_transpose: DMat4::from_translation(-v).transpose() }
         }
         "scale" => {
             check_attrs(tag, attrs, &["x", "y", "z", "value"], loc)?;
-            DMat4::from_scale(xyz(tag, attrs, 1.0, loc)?)
+            let v = xyz(tag, attrs, 1.0, loc)?;
+            Affine { matrix: DMat4::from_scale(v), inverse_transpose: DMat4::from_scale(v.recip()) }
         }
         "rotate" => {
             check_attrs(tag, attrs, &["x", "y", "z", "value", "angle"], loc)?;
@@ -129,7 +192,8 @@ pub fn apply_op(m: DMat4, tag: &str, attrs: &[(String, String)], loc: &Location)
             }
             let angle = attr(attrs, "angle")
                 .ok_or_else(|| Error::scene(loc, "<rotate>: missing attribute \"angle\""))?;
-            rotate(axis, parse_f64(angle, "<rotate> angle", loc)?)
+            let r = rotate(axis, parse_f64(angle, "<rotate> angle", loc)?);
+            Affine { matrix: r, inverse_transpose: r }
         }
         "matrix" => {
             check_attrs(tag, attrs, &["value"], loc)?;
@@ -150,7 +214,7 @@ pub fn apply_op(m: DMat4, tag: &str, attrs: &[(String, String)], loc: &Location)
                     cols[j][i] = *x;
                 }
             }
-            DMat4::from_cols(cols[0], cols[1], cols[2], cols[3])
+            Affine::from_matrix(DMat4::from_cols(cols[0], cols[1], cols[2], cols[3]))
         }
         "lookat" => {
             check_attrs(tag, attrs, &["origin", "target", "up"], loc)?;
@@ -159,7 +223,7 @@ pub fn apply_op(m: DMat4, tag: &str, attrs: &[(String, String)], loc: &Location)
             let target = vec3_attr(tag, attrs, "target", loc)?
                 .ok_or_else(|| Error::scene(loc, "<lookat>: missing attribute \"target\""))?;
             let up = vec3_attr(tag, attrs, "up", loc)?.unwrap_or(DVec3::ZERO);
-            look_at(origin, target, up, loc)?
+            Affine::from_matrix(look_at(origin, target, up, loc)?)
         }
         other => {
             return Err(Error::scene(loc, format!("unexpected <{other}> element inside <transform>")));
@@ -205,51 +269,99 @@ mod tests {
         pairs.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
     }
 
+    fn mat(tag: &str, attrs: &[(String, String)], loc: &Location) -> Result<DMat4> {
+        apply_op(Affine::IDENTITY, tag, attrs, loc).map(|t| t.matrix)
+    }
+
     fn loc() -> Location {
         Location::new("t.xml", 3)
     }
 
     #[test]
     fn document_order_last_times_first() {
-        let m = apply_op(DMat4::IDENTITY, "scale", &a(&[("value", "2")]), &loc()).unwrap();
-        let m = apply_op(m, "translate", &a(&[("value", "1, 0, 0")]), &loc()).unwrap();
+        let m = apply_op(Affine::IDENTITY, "scale", &a(&[("value", "2")]), &loc()).unwrap();
+        let m = apply_op(m, "translate", &a(&[("value", "1, 0, 0")]), &loc()).unwrap().matrix;
         // Scale first, then translate.
         assert_eq!(m.transform_point3(DVec3::new(1.0, 1.0, 1.0)), DVec3::new(3.0, 2.0, 2.0));
-        let s = apply_op(DMat4::IDENTITY, "scale", &a(&[("value", "1 2 3")]), &loc()).unwrap();
+        let s = mat( "scale", &a(&[("value", "1 2 3")]), &loc()).unwrap();
         assert_eq!(s.transform_point3(DVec3::ONE), DVec3::new(1.0, 2.0, 3.0));
-        let s = apply_op(DMat4::IDENTITY, "scale", &a(&[("x", "0.3"), ("z", "2")]), &loc()).unwrap();
+        let s = mat( "scale", &a(&[("x", "0.3"), ("z", "2")]), &loc()).unwrap();
         assert_eq!(s.transform_point3(DVec3::ONE), DVec3::new(0.3, 1.0, 2.0));
     }
 
     #[test]
     fn rotate_is_right_handed_degrees() {
-        let m = apply_op(DMat4::IDENTITY, "rotate", &a(&[("y", "1"), ("angle", "90")]), &loc()).unwrap();
+        let m = mat( "rotate", &a(&[("y", "1"), ("angle", "90")]), &loc()).unwrap();
         let p = m.transform_point3(DVec3::X);
         assert!((p - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-12, "{p}");
-        let m = apply_op(DMat4::IDENTITY, "rotate", &a(&[("value", "0 0 1"), ("angle", "90")]), &loc()).unwrap();
+        let m = mat( "rotate", &a(&[("value", "0 0 1"), ("angle", "90")]), &loc()).unwrap();
         assert!((m.transform_point3(DVec3::X) - DVec3::Y).length() < 1e-12);
+    }
+
+    /// Row-major 3x4 of `m` (rows 0..3, columns 0..4).
+    fn rows(m: &DMat4) -> [[f64; 4]; 3] {
+        std::array::from_fn(|i| std::array::from_fn(|j| m.col(j)[i]))
+    }
+
+    fn assert_rows(got: &DMat4, want: [[f64; 4]; 3], what: &str) {
+        let g = rows(got);
+        for i in 0..3 {
+            for j in 0..4 {
+                assert!((g[i][j] - want[i][j]).abs() < 1e-12, "{what}: [{i}][{j}] {} vs {}", g[i][j], want[i][j]);
+            }
+        }
+    }
+
+    #[test]
+    fn rotate_keeps_a_non_unit_axis_as_mitsuba() {
+        // mi.ScalarTransform4d().rotate([-1, 2, 0.5], -33) in mitsuba 3.9.1: matrix == inverse_transpose.
+        let want = [
+            [1.0, -0.05033934660163836, -1.1699427860573421, 0.0],
+            [-0.5949783816166654, 1.4839882961637278, -0.38330960296045113, 0.0],
+            [1.0086133540027662, 0.705968467069603, 0.879002925959068, 0.0],
+        ];
+        let t = apply_op(Affine::IDENTITY, "rotate", &a(&[("value", "-1, 2, 0.5"), ("angle", "-33")]), &loc()).unwrap();
+        assert_rows(&t.matrix, want, "matrix");
+        assert_rows(&t.inverse_transpose, want, "normal matrix");
+        // lookat with a non-orthogonal up: mi.ScalarTransform4d().look_at([1,2,3], [0,0,0], [0,0.5,1]).
+        let t = apply_op(Affine::IDENTITY, "lookat", &a(&[("origin", "1 2 3"), ("target", "0 0 0"), ("up", "0 0.5 1")]), &loc())
+            .unwrap();
+        assert_rows(
+            &t.matrix,
+            [
+                [0.408248290463863, -0.8728715609439696, -0.2672612419124244, 1.0],
+                [-0.816496580927726, -0.2182178902359924, -0.5345224838248488, 2.0],
+                [0.408248290463863, 0.4364357804719848, -0.8017837257372732, 3.0],
+            ],
+            "lookat",
+        );
+        let last_row = [t.inverse_transpose.x_axis.w, t.inverse_transpose.y_axis.w, t.inverse_transpose.z_axis.w];
+        assert!((last_row[2] - 3.7416573867739413).abs() < 1e-12 && last_row[0].abs() < 1e-12, "{last_row:?}");
+        // Products multiply both matrices: scale then translate.
+        let t = apply_op(Affine::IDENTITY, "scale", &a(&[("value", "2 4 -8")]), &loc()).unwrap();
+        let t = apply_op(t, "translate", &a(&[("x", "1")]), &loc()).unwrap();
+        assert_eq!(t.transform_normal(DVec3::ONE), DVec3::new(0.5, 0.25, -0.125));
+        assert_eq!(t.inverse_transpose, t.matrix.inverse().transpose());
     }
 
     #[test]
     fn matrix_row_major_and_3x3() {
-        let m = apply_op(
-            DMat4::IDENTITY,
+        let m = mat(
             "matrix",
             &a(&[("value", "1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1")]),
             &loc(),
         )
         .unwrap();
         assert_eq!(m.transform_point3(DVec3::ZERO), DVec3::new(5.0, 6.0, 7.0));
-        let m = apply_op(DMat4::IDENTITY, "matrix", &a(&[("value", "0 -1 0 1 0 0 0 0 1")]), &loc()).unwrap();
+        let m = mat( "matrix", &a(&[("value", "0 -1 0 1 0 0 0 0 1")]), &loc()).unwrap();
         assert_eq!(m.transform_point3(DVec3::X), DVec3::Y);
-        let e = apply_op(DMat4::IDENTITY, "matrix", &a(&[("value", "1 2 3")]), &loc()).unwrap_err();
+        let e = mat( "matrix", &a(&[("value", "1 2 3")]), &loc()).unwrap_err();
         assert!(e.to_string().contains("t.xml:3") && e.to_string().contains("got 3"), "{e}");
     }
 
     #[test]
     fn lookat_columns() {
-        let m = apply_op(
-            DMat4::IDENTITY,
+        let m = mat(
             "lookat",
             &a(&[("origin", "0, 0, 3.9"), ("target", "0, 0, 0"), ("up", "0, 1, 0")]),
             &loc(),
@@ -267,11 +379,11 @@ mod tests {
 
     #[test]
     fn bad_values_name_the_value() {
-        let e = apply_op(DMat4::IDENTITY, "translate", &a(&[("x", "1O")]), &loc()).unwrap_err();
+        let e = mat( "translate", &a(&[("x", "1O")]), &loc()).unwrap_err();
         assert!(e.to_string().contains("\"1O\""), "{e}");
-        let e = apply_op(DMat4::IDENTITY, "rotate", &a(&[("angle", "3")]), &loc()).unwrap_err();
+        let e = mat( "rotate", &a(&[("angle", "3")]), &loc()).unwrap_err();
         assert!(e.to_string().contains("axis cannot be zero"), "{e}");
-        let e = apply_op(DMat4::IDENTITY, "skew", &a(&[]), &loc()).unwrap_err();
+        let e = mat( "skew", &a(&[]), &loc()).unwrap_err();
         assert!(e.to_string().contains("<skew>"), "{e}");
     }
 

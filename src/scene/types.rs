@@ -34,6 +34,10 @@ pub struct Camera {
     /// Film size in pixels.
     pub width: u32,
     pub height: u32,
+    /// Mitsuba's `principal_point_offset_x/y` (off-axis projection, e.g. from the Blender exporter), in
+    /// film units: the ray through film position (px, py) is the centred camera's ray through
+    /// (px + x W, py + y H). (0, 0) = centred.
+    pub principal_point_offset: Vec2,
     pub loc: Location,
 }
 
@@ -226,14 +230,16 @@ impl Camera {
         self.world_from_camera.w_axis.truncate()
     }
 
-    /// Primary ray through film position (px, py) in pixels ([0,W]x[0,H], row 0 at the top):
+    /// Primary ray through film position (px, py) in pixels ([0,W]x[0,H], row 0 at the top; shifted by
+    /// `principal_point_offset` as in Mitsuba's `PerspectiveCamera::sample_ray`):
     /// (origin, unit direction), origin moved by `near_clip` along the ray as Mitsuba does.
     pub fn ray(&self, px: f32, py: f32) -> (Vec3, Vec3) {
         let tx = (self.fov_x * 0.5).tan();
         let ty = tx * self.height as f32 / self.width as f32;
+        let o = self.principal_point_offset;
         let d_local = Vec3::new(
-            (1.0 - 2.0 * px / self.width as f32) * tx,
-            (1.0 - 2.0 * py / self.height as f32) * ty,
+            (1.0 - 2.0 * (px / self.width as f32 + o.x)) * tx,
+            (1.0 - 2.0 * (py / self.height as f32 + o.y)) * ty,
             1.0,
         )
         .normalize();

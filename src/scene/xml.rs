@@ -8,14 +8,20 @@
 //!
 //! Supported plugins: shapes obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, shapegroup +
 //! instance (`instancing`); BSDFs diffuse, twosided, plastic,
-//! roughplastic, conductor, roughconductor, dielectric; textures bitmap, checkerboard; emitters point,
+//! roughplastic, conductor, roughconductor, dielectric, principled, blendbsdf; textures bitmap (PNG, JPEG,
+//! EXR, HDR, PFM), checkerboard; emitters point,
 //! spot, directional, area, envmap, constant; sensor perspective with film hdrfilm. Integrators, samplers
 //! and reconstruction filters are read and ignored. Anything else is an error naming plugin, file and line.
 //!
-//! Deviations from Mitsuba (all refusals, never silent differences): spectral `wavelength:value` lists and
-//! spectrum files (use `<rgb>`), non-similarity sphere transforms, textured
-//! emission, a scene without shapes or without a sensor. Only the first sensor is used (others are checked).
+//! Spectra (`<spectrum value="0.5">`, `value="400:0.3, 500:0.6, ..."`) become RGB as in Mitsuba's RGB
+//! variants (`spectrum.rs`); files of version < 2.0 are upgraded as Mitsuba 3 does (`upgrade.rs`).
+//!
+//! Deviations from Mitsuba (all refusals, never silent differences): spectrum files (use `value=`),
+//! `<spectrum type="blackbody">` (Mitsuba's RGB variants cannot evaluate it either), non-similarity
+//! sphere transforms, a scene without shapes or without a sensor. Only the first sensor is used (others
+//! are checked).
 //! Scene-level emitters come first in document order, then the area emitters of shapes in shape order.
+mod cie;
 mod instancing;
 mod materials;
 mod parse;
@@ -23,6 +29,8 @@ mod blend;
 mod plugins;
 mod principled;
 mod props;
+mod spectrum;
+mod upgrade;
 
 use crate::error::{Error, Location, Result};
 use crate::scene::Scene;
@@ -45,6 +53,16 @@ pub struct LoadOptions {
 /// unsupported content; `Error::FileNotFound` (with the location of the element naming it) for a
 /// missing scene, include, mesh or texture file.
 pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let (scene, warnings) = load_scene_with_warnings(path, opts)?;
+    for w in warnings {
+        log::warn!("{w}");
+    }
+    Ok(scene)
+}
+
+/// [`load_scene`], also returning what was accepted with a warning as Mitsuba does (e.g. a shape whose
+/// triangles all have zero area: it stays, empty, so that shape indices remain Mitsuba's).
+pub fn load_scene_with_warnings(path: &Path, opts: &LoadOptions) -> Result<(Scene, Vec<String>)> {
     let doc = parse::parse_document(path, &opts.params)?;
     let mut b = plugins::Builder::new(&doc, opts.size);
     let root = &doc.nodes[0];
@@ -105,14 +123,15 @@ pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     }
     let mut emitters = b.emitters;
     emitters.extend(b.area_emitters);
-    Ok(Scene {
+    let scene = Scene {
         path: path.to_path_buf(),
         camera,
         meshes: b.meshes,
         bsdfs: b.bsdfs,
         textures: b.textures,
         emitters,
-    })
+    };
+    Ok((scene, b.warnings))
 }
 
 #[cfg(test)]

@@ -24,6 +24,7 @@ pub fn camera(world_from_camera: Mat4, fov_x_deg: f32, near: f32, far: f32, w: u
         far_clip: far,
         width: w,
         height: h,
+        principal_point_offset: glam::Vec2::ZERO,
         loc: Location::default(),
     }
 }

@@ -132,7 +132,7 @@ fn check_scene(name: &str, scene: &Scene) -> Comparison {
 
 #[test]
 fn uniform_sizes() {
-    assert_eq!(std::mem::size_of::<GBufferUniforms>(), 144);
+    assert_eq!(std::mem::size_of::<GBufferUniforms>(), 160);
     assert_eq!(std::mem::size_of::<SphereUniforms>(), 32);
 }
 

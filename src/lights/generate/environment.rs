@@ -67,7 +67,8 @@ pub fn envmap_radiance(map: &EnvMap, d: Vec3) -> Vec3 {
 }
 
 fn lookup(env_from_world: &Mat3, w: usize, h: usize, data: &[Vec3], scale: f32, d: Vec3) -> Vec3 {
-    let v = (*env_from_world * d).normalize_or_zero();
+    // Not renormalised, as Mitsuba's `direction_to_uv(to_world.inverse() * d)` (same for a rotation).
+    let v = *env_from_world * d;
     let u = (v.x.atan2(-v.z) / (2.0 * PI)).rem_euclid(1.0);
     let t = v.y.clamp(-1.0, 1.0).acos() / PI;
     let x = u * w as f32 - 0.5;

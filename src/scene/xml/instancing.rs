@@ -15,7 +15,6 @@
 use super::plugins::Builder;
 use super::props::Props;
 use crate::error::{Error, Result};
-use glam::DMat4;
 
 impl Builder<'_> {
     /// Checks a `<shape type="shapegroup">`: only plain shapes without emitters (built per instance).
@@ -45,7 +44,7 @@ impl Builder<'_> {
     pub(super) fn instance(&mut self, node: usize) -> Result<()> {
         let mut p = Props::new(self.doc, node);
         let loc = p.loc().clone();
-        let outer = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let outer = p.affine("to_world")?.unwrap_or(crate::scene::transform::Affine::IDENTITY);
         let children = p.objects()?;
         let id = p.node.id.clone().unwrap_or_else(|| format!("instance_{}", self.meshes.len()));
         p.finish()?;

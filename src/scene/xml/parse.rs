@@ -8,15 +8,22 @@
 //! - `<include filename>` is resolved relative to the including file; the included `<scene>`'s children
 //!   join the including element; defaults declared in it stay visible afterwards (one parameter list).
 //! - `<path value>` (root only) adds a search directory for the files plugins name (newest first, then the
-//!   main scene's directory). As in Mitsuba, a mesh or texture named in an included file is looked up
-//!   there too, not relative to the included file.
+//!   main scene's directory). The directory itself is found as Mitsuba finds it: beside the declaring
+//!   file, else in earlier `<path>`s, the scene's folder or the working directory (`FileResolver`);
+//!   one that exists nowhere is an error, as in Mitsuba 3.9.1. As in Mitsuba, a mesh or texture named
+//!   in an included file is looked up there too, not relative to the included file.
 //! - Property elements become [`Prop`]s (transforms are evaluated here); nested objects and `<ref>`s
 //!   become [`Child`]ren; ids are collected so references may come before their declaration.
 //!
-//! Deviation: `<spectrum>` with `wavelength:value` pairs or a file is refused (RGB only): use `<rgb>`.
+//! - Files with `version` < 2.0.0 (Mitsuba 0.x) have their nodes upgraded as Mitsuba 3 does
+//!   (`upgrade.rs`: camelCase names -> snake_case, ...).
+//! - `<spectrum value>` keeps the spectrum (uniform or `wavelength:value` pairs); it becomes RGB where a
+//!   plugin reads it (`spectrum.rs`), as in Mitsuba's RGB variants. A spectrum file is refused.
+use super::spectrum::Spectrum;
+use super::upgrade;
 use crate::error::{Error, Location, Result};
 use crate::scene::transform;
-use glam::{DMat4, DVec3};
+use glam::DVec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -33,9 +40,10 @@ pub enum Value {
     /// `<point>` or `<vector>`.
     Vector(DVec3),
     Rgb(DVec3),
-    /// `<spectrum value="v">`: a constant (grey) spectrum.
-    Spectrum(f64),
-    Transform(DMat4),
+    /// `<spectrum value="v">` or `value="w1:v1, w2:v2, ..."` (RGB by use: `spectrum::Spectrum::to_rgb`).
+    Spectrum(Spectrum),
+    /// Matrix and normal matrix, as Mitsuba keeps them (see `transform::Affine`).
+    Transform(transform::Affine),
 }
 
 impl Value {
@@ -101,6 +109,10 @@ struct Parser {
     ids: HashMap<String, usize>,
     /// `<path>` directories, newest last.
     path_dirs: Vec<PathBuf>,
+    /// Per file being parsed (innermost last): its version is < 2.0 (nodes get `upgrade::upgrade_node`).
+    legacy: Vec<bool>,
+    /// Folder of the main scene file.
+    main_dir: Option<PathBuf>,
 }
 
 const OBJECT_CLASSES: &[&str] = &[
@@ -118,6 +130,8 @@ pub fn parse_document(path: &Path, params: &[(String, String)]) -> Result<Docume
         nodes: Vec::new(),
         ids: HashMap::new(),
         path_dirs: Vec::new(),
+        legacy: Vec::new(),
+        main_dir: path.parent().map(Path::to_path_buf),
     };
     parser.sort_params();
     parser.parse_file(path, &Location::new(path, 0), None, 0)?;
@@ -140,6 +154,28 @@ fn line_of(doc: &roxmltree::Document, node: roxmltree::Node) -> u32 {
 }
 
 impl Parser {
+    /// Where `<path value>` points, as Mitsuba 3.9.1 resolves it: an absolute path as is; a relative one
+    /// beside the file declaring it, else in the search path (earlier `<path>`s newest first, the main
+    /// scene's folder, the working directory). None if it exists nowhere (Mitsuba fails then too).
+    fn resolve_path_element(&self, value: &str, file: &Path) -> Option<PathBuf> {
+        let v = Path::new(value);
+        if v.is_absolute() {
+            return v.exists().then(|| v.to_path_buf());
+        }
+        let beside = file.parent().unwrap_or(Path::new("")).join(v);
+        if beside.exists() {
+            return Some(beside);
+        }
+        self.path_dirs
+            .iter()
+            .rev()
+            .cloned()
+            .chain(self.main_dir.clone())
+            .chain(std::env::current_dir().ok())
+            .map(|d| d.join(v))
+            .find(|c| c.exists())
+    }
+
     fn sort_params(&mut self) {
         // Longest first so that `$ab` is not replaced as `$a` + "b" (stable: keeps insertion order).
         self.params.sort_by_key(|p| std::cmp::Reverse(p.key.len()));
@@ -163,9 +199,10 @@ impl Parser {
             return Err(Error::scene(&loc, format!("root element must be <scene>, got <{}>", root.tag_name().name())));
         }
         let attrs = self.substitute(&doc, root, path)?;
-        if !attrs.iter().any(|(k, _)| k == "version") {
+        let Some((_, version)) = attrs.iter().find(|(k, _)| k == "version") else {
             return Err(Error::scene(&loc, "missing version attribute in root element <scene>"));
-        }
+        };
+        let legacy = upgrade::needs_upgrade(upgrade::parse_version(version, &loc)?);
         let target = match parent {
             Some(p) => p,
             None => {
@@ -180,8 +217,13 @@ impl Parser {
                 0
             }
         };
+        self.legacy.push(legacy);
         for child in root.children().filter(|c| c.is_element()) {
             self.parse_element(&doc, child, path, target, target == 0, depth)?;
+        }
+        self.legacy.pop();
+        if parent.is_none() && legacy {
+            upgrade::upgrade_node(&mut self.nodes[0])?;
         }
         Ok(())
     }
@@ -266,6 +308,13 @@ impl Parser {
         }
         if is_object {
             check(&["type", "id", "name"], &["type"])?;
+            if tag == "spectrum" && get("type").as_deref() == Some("blackbody") {
+                // Mitsuba's RGB variants load it but throw when it is evaluated.
+                return Err(Error::scene(
+                    &loc,
+                    "<spectrum type=\"blackbody\"> is not supported: Mitsuba's RGB variants cannot evaluate it either (\"Not implemented for non-spectral modes\"); give an <rgb> value",
+                ));
+            }
             let idx = self.nodes.len();
             let id = get("id");
             if let Some(id) = &id {
@@ -287,6 +336,9 @@ impl Parser {
             self.nodes[parent].children.push(Child::Object { name: get("name"), node: idx });
             for child in node.children().filter(|c| c.is_element()) {
                 self.parse_element(doc, child, path, idx, false, depth)?;
+            }
+            if self.legacy.last() == Some(&true) {
+                upgrade::upgrade_node(&mut self.nodes[idx])?;
             }
             return Ok(());
         }
@@ -320,10 +372,11 @@ impl Parser {
                     return Err(Error::scene(&loc, "<path> can only be a child of the root <scene>"));
                 }
                 let v = value("path")?;
-                let dir = path.parent().unwrap_or(Path::new("")).join(&v);
-                if !dir.is_dir() {
-                    return Err(Error::FileNotFound { loc, path: dir });
-                }
+                // Not found anywhere: Mitsuba fails too ("<path>: folder ... not found").
+                let dir = self.resolve_path_element(&v, path).ok_or_else(|| Error::FileNotFound {
+                    loc: loc.clone(),
+                    path: path.parent().unwrap_or(Path::new("")).join(&v),
+                })?;
                 self.path_dirs.push(dir);
                 return Ok(());
             }
@@ -346,7 +399,7 @@ impl Parser {
             }
             "transform" => {
                 check(&["name"], &["name"])?;
-                let mut m = DMat4::IDENTITY;
+                let mut m = transform::Affine::IDENTITY;
                 for op in node.children().filter(|c| c.is_element()) {
                     let op_loc = Location::new(path, line_of(doc, op));
                     let op_attrs = self.substitute(doc, op, path)?;
@@ -425,24 +478,13 @@ impl Parser {
                 if let Some(f) = get("filename") {
                     return Err(Error::scene(
                         &loc,
-                        format!("<spectrum name=\"{name}\" filename=\"{f}\">: spectral data is not supported (RGB renderer); use <rgb name=\"{name}\" value=\"r, g, b\"/>"),
+                        format!("<spectrum name=\"{name}\" filename=\"{f}\">: spectrum files are not supported; give the data inline as value=\"wavelength:value, ...\" or use <rgb name=\"{name}\" value=\"r, g, b\"/>"),
                     ));
                 }
                 let v = value("spectrum")?;
-                if v.contains(':') {
-                    return Err(Error::scene(
-                        &loc,
-                        format!("<spectrum name=\"{name}\"> with wavelength:value pairs (\"{}\") is not supported (RGB renderer); use <rgb name=\"{name}\" value=\"r, g, b\"/>", shorten(&v)),
-                    ));
-                }
-                let l = transform::parse_list(&v, &format!("<spectrum name=\"{name}\">"), &loc)?;
-                if l.len() != 1 {
-                    return Err(Error::scene(
-                        &loc,
-                        format!("<spectrum name=\"{name}\" value=\"{v}\">: expected a single value or wavelength:value pairs"),
-                    ));
-                }
-                Value::Spectrum(l[0])
+                let spectrum = Spectrum::parse(&v)
+                    .map_err(|e| Error::scene(&loc, format!("<spectrum name=\"{name}\" value=\"{}\">: {e}", shorten(&v))))?;
+                Value::Spectrum(spectrum)
             }
             "translate" | "rotate" | "scale" | "matrix" | "lookat" => {
                 return Err(Error::scene(&loc, format!("<{tag}> can only appear inside a <transform> element")));

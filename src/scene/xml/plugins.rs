@@ -38,6 +38,8 @@ pub struct Builder<'a> {
     default_bsdf: Option<usize>,
     /// Area emitter nodes already attached to a shape (node -> where).
     attached: HashMap<usize, Location>,
+    /// Things Mitsuba only warns about (`Scene::warnings`).
+    pub warnings: Vec<String>,
 }
 
 fn unknown_plugin(p: &Props) -> Error {
@@ -58,6 +60,7 @@ impl<'a> Builder<'a> {
             texture_memo: HashMap::new(),
             default_bsdf: None,
             attached: HashMap::new(),
+            warnings: Vec::new(),
         }
     }
 
@@ -313,17 +316,18 @@ impl<'a> Builder<'a> {
         match self.doc.nodes[node].plugin.as_str() {
             "shapegroup" => self.shapegroup(node),
             "instance" => self.instance(node),
-            _ => self.shape_in(node, &DMat4::IDENTITY, None),
+            _ => self.shape_in(node, &transform::Affine::IDENTITY, None),
         }
     }
 
     /// Builds a shape placed by `outer * to_world`; `instance` names the instance it belongs to (its
     /// mesh id becomes `"<instance>/<shape id>"`).
-    pub(super) fn shape_in(&mut self, node: usize, outer: &DMat4, instance: Option<&str>) -> Result<()> {
+    pub(super) fn shape_in(&mut self, node: usize, outer: &transform::Affine, instance: Option<&str>) -> Result<()> {
         let mut p = Props::new(self.doc, node);
         let loc = p.loc().clone();
         let k = self.meshes.len();
-        let to_world = *outer * p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let to_world_affine = *outer * p.affine("to_world")?.unwrap_or(transform::Affine::IDENTITY);
+        let to_world = to_world_affine.matrix;
         let flip_normals = p.bool("flip_normals", false)?;
         let plugin = p.node.plugin.as_str();
         // Mitsuba 3.9.1 meshes (these read face_normals); sphere and disk are analytic there.
@@ -414,8 +418,27 @@ impl<'a> Builder<'a> {
                 self.bsdfs.len() - 1
             }),
         };
+        // Normals as Mitsuba transforms them (`transform::Affine`); the sphere's tessellation is ours.
+        let normal_from_local = match kind {
+            ShapeKind::Sphere { .. } => glam::DMat3::from_mat4(world_from_local).inverse().transpose(),
+            _ => glam::DMat3::from_mat4(to_world_affine.inverse_transpose),
+        };
         let world_from_local: Mat4 = transform::to_f32(&world_from_local);
-        let (positions, normals, uvs, indices) = mesh::finalize(data, world_from_local, face_normals, flip_normals, &loc)?;
+        let (positions, normals, uvs, indices) = mesh::finalize_with_normal_matrix(
+            data,
+            world_from_local,
+            normal_from_local.as_mat3(),
+            face_normals,
+            flip_normals,
+            &loc,
+        )?;
+        if indices.is_empty() {
+            if let Some(r) = &emitter_node {
+                // Mitsuba fails too ("DiscreteDistribution: no probability mass found").
+                return Err(Error::scene(&r.loc, format!("area emitter on a degenerate shape \"{id}\" ({loc}): all its triangles have zero area")));
+            }
+            self.warnings.push(format!("{loc}: shape \"{id}\": all triangles have zero area; the shape adds nothing (as in Mitsuba)"));
+        }
         let emitter = match emitter_node {
             Some(r) => {
                 let e = self.area_emitter(&r, k)?;
@@ -506,7 +529,9 @@ impl<'a> Builder<'a> {
                 let (w, h, data) = texture::load_bitmap(&path, &floc, false)?;
                 // Mitsuba pads every environment map to at least 2 x 3 texels (`crate::image::pad`).
                 let (width, height, data) = crate::image::pad::pad_to(w, h, data, 2, 3);
-                let world_from_env = transform::to_f32(&to_world.unwrap_or(DMat4::IDENTITY));
+                // Mitsuba looks up `to_world.inverse() * d`; keep the matrix whose inverse that is.
+                let env_t = p.affine("to_world")?.unwrap_or(transform::Affine::IDENTITY);
+                let world_from_env = DMat4::from_mat3(env_t.inverse_linear().inverse()).as_mat4();
                 Emitter::EnvMap { map: EnvMap { width, height, data, scale, world_from_env }, loc }
             }
             "constant" => Emitter::Constant { radiance: self.constant_color(&mut p, "radiance", 1.0)?, loc },
@@ -544,6 +569,13 @@ impl<'a> Builder<'a> {
         if near_clip <= 0.0 || near_clip >= far_clip {
             return Err(Error::scene(&loc, format!("near_clip ({near_clip}) must be > 0 and < far_clip ({far_clip})")));
         }
+        let principal_point_offset = glam::Vec2::new(
+            p.float("principal_point_offset_x", 0.0)? as f32,
+            p.float("principal_point_offset_y", 0.0)? as f32,
+        );
+        if !principal_point_offset.is_finite() {
+            return Err(Error::scene(&loc, format!("principal_point_offset {principal_point_offset} must be finite")));
+        }
         let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
         if transform::has_scale(&to_world) {
             return Err(Error::scene(&loc, "scale factors in the camera to_world transformation are not allowed"));
@@ -556,6 +588,7 @@ impl<'a> Builder<'a> {
             far_clip: far_clip as f32,
             width,
             height,
+            principal_point_offset,
             loc,
         })
     }

@@ -4,7 +4,9 @@
 //! except for the properties in [`IGNORED`], which only change how Mitsuba samples or stores the image,
 //! not what we render.
 use super::parse::{Child, Document, Node, Prop, Value};
+use super::spectrum::SpectrumUse;
 use crate::error::{Error, Location, Result};
+use crate::scene::transform::Affine;
 use glam::{DMat4, DVec3, Vec3};
 
 /// Properties accepted and ignored on every plugin: they do not change the rendered expectation.
@@ -137,7 +139,13 @@ impl<'a> Props<'a> {
         }
     }
 
+    /// A transform's matrix (points and vectors).
     pub fn transform(&mut self, name: &str) -> Result<Option<DMat4>> {
+        Ok(self.affine(name)?.map(|t| t.matrix))
+    }
+
+    /// A transform with the matrix Mitsuba applies to normals (see `transform::Affine`).
+    pub fn affine(&mut self, name: &str) -> Result<Option<Affine>> {
         match self.prop(name) {
             None => Ok(None),
             Some(p) => match &p.value {
@@ -147,13 +155,15 @@ impl<'a> Props<'a> {
         }
     }
 
-    /// A constant colour given as `<rgb>`, `<spectrum value="v">` or `<float>`.
+    /// A constant colour given as `<rgb>`, `<spectrum>` (converted as Mitsuba's RGB variants do for this
+    /// property, `spectrum::SpectrumUse::of`) or `<float>`.
     pub fn color_prop(&mut self, name: &str) -> Result<Option<Vec3>> {
         match self.prop(name) {
             None => Ok(None),
             Some(p) => match &p.value {
                 Value::Rgb(v) => Ok(Some(v.as_vec3())),
-                Value::Spectrum(v) | Value::Float(v) => Ok(Some(Vec3::splat(*v as f32))),
+                Value::Spectrum(s) => Ok(Some(s.to_rgb(SpectrumUse::of(&self.node.class, name)).as_vec3())),
+                Value::Float(v) => Ok(Some(Vec3::splat(*v as f32))),
                 Value::Int(v) => Ok(Some(Vec3::splat(*v as f32))),
                 _ => Err(self.type_error(p, "an <rgb>, <spectrum>, <float> or a texture")),
             },
