@@ -68,14 +68,15 @@ fuzz-tools:
 
 fuzz: fuzz-tools
 	nice -n 10 $(FUZZ_CARGO) fuzz build $(FUZZ_BUILD_FLAGS)
-	@set -e; for t in $(FUZZ_TARGETS); do \
+	@failed=""; for t in $(FUZZ_TARGETS); do \
 		mkdir -p fuzz/corpus-raw/$$t fuzz/corpus/$$t; \
 		dict=$$(test -f fuzz/dict/$$t.dict && echo -dict=fuzz/dict/$$t.dict || true); \
 		echo "== fuzz target $$t: $(FUZZ_SECONDS) s"; \
 		TMPDIR=$(FUZZ_TMPDIR) nice -n 10 $(FUZZ_CARGO) fuzz run $(FUZZ_BUILD_FLAGS) $$t fuzz/corpus-raw/$$t fuzz/corpus/$$t -- \
-			-max_total_time=$(FUZZ_SECONDS) $(FUZZ_ARGS) $$dict 2>&1 | tail -n 12; \
-		test $${PIPESTATUS[0]} -eq 0 || { echo "fuzz target $$t failed: see fuzz/artifacts/$$t"; exit 1; }; \
-	done
+			-max_total_time=$(FUZZ_SECONDS) $(FUZZ_ARGS) $$dict > fuzz/corpus-raw/$$t.log 2>&1 || failed="$$failed $$t"; \
+		grep -E '^(Done|stat::number_of_executed_units|stat::average_exec_per_sec|SUMMARY)' fuzz/corpus-raw/$$t.log || tail -n 5 fuzz/corpus-raw/$$t.log; \
+	done; \
+	if [ -n "$$failed" ]; then echo "fuzz findings in:$$failed (inputs in fuzz/artifacts/<target>/, logs in fuzz/corpus-raw/<target>.log)"; exit 1; fi
 
 fuzz-cmin: fuzz-tools
 	@set -e; for t in $(FUZZ_TARGETS); do \

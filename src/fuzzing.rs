@@ -185,6 +185,28 @@ mod tests {
         cleanup();
     }
 
+    /// A bundle whose 7 files each include the next 10 times would parse 10^8 files (a hang, before the
+    /// include count was capped): now a clear error naming the include.
+    #[test]
+    fn include_fan_out_is_refused_quickly() {
+        let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/xml/finding-include-fanout")).unwrap();
+        let t0 = std::time::Instant::now();
+        let e = xml(&data).unwrap_err().to_string();
+        assert!(e.contains("more than 10000 <include>s in one scene") && e.contains(".xml:1:"), "{e}");
+        assert!(t0.elapsed().as_secs() < 20, "took {:?}", t0.elapsed());
+        cleanup();
+    }
+
+    /// A 300-byte EXR whose header asks for a layer of 10^15 bytes made the `exr` crate abort the
+    /// process on allocation failure: now an `Io` error naming the file and the layer size.
+    #[test]
+    fn exr_with_huge_layer_is_refused() {
+        let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/exr/finding-huge-layer")).unwrap();
+        let e = image(&data, "exr").unwrap_err().to_string();
+        assert!(e.contains("t.exr: EXR layer of 16777217x16777215 pixels and 3 channels is larger than supported"), "{e}");
+        cleanup();
+    }
+
     /// Replays every committed corpus file (`fuzz/corpus/<target>/*`: seeds, minimised fuzzing finds and
     /// the inputs that once crashed) through the fuzz targets' entry points: an `Err` is fine, a panic is
     /// a failure. Every target must have a corpus, and some of its files must load.
@@ -197,22 +219,37 @@ mod tests {
         for want in ["xml", "obj", "ply", "exr", "png", "jpg"] {
             assert!(names.iter().any(|n| n == want), "no corpus for target {want} in {}", root.display());
         }
+        // One thread per target (each has its own scratch directory).
+        let results: Vec<(usize, usize, Vec<String>)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = targets
+                .iter()
+                .zip(&names)
+                .map(|(dir, target)| {
+                    scope.spawn(move || {
+                        let (mut ok, mut total, mut panics, t0) = (0, 0, Vec::new(), std::time::Instant::now());
+                        for file in std::fs::read_dir(dir).unwrap() {
+                            let file = file.unwrap().path();
+                            let data = std::fs::read(&file).unwrap();
+                            total += 1;
+                            match std::panic::catch_unwind(|| run(target, &data)) {
+                                Ok(Ok(())) => ok += 1,
+                                Ok(Err(_)) => {}
+                                Err(_) => panics.push(file.display().to_string()),
+                            }
+                        }
+                        cleanup();
+                        eprintln!("fuzz corpus {target}: {total} files, {ok} load, {:.2} s", t0.elapsed().as_secs_f64());
+                        (ok, total, panics)
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
         let mut panics = Vec::new();
-        for (dir, target) in targets.iter().zip(&names) {
-            let (mut ok, mut total) = (0, 0);
-            for file in std::fs::read_dir(dir).unwrap() {
-                let file = file.unwrap().path();
-                let data = std::fs::read(&file).unwrap();
-                total += 1;
-                match std::panic::catch_unwind(|| run(target, &data)) {
-                    Ok(Ok(())) => ok += 1,
-                    Ok(Err(_)) => {}
-                    Err(_) => panics.push(file.display().to_string()),
-                }
-            }
+        for (target, (ok, total, p)) in names.iter().zip(results) {
             assert!(ok > 0, "{target}: none of its {total} corpus files loads");
+            panics.extend(p);
         }
-        cleanup();
         assert!(panics.is_empty(), "these corpus inputs panic: {panics:#?}");
     }
 }
