@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 export XDG_RUNTIME_DIR ?= /tmp/manylights-runtime
 export HOME ?= /root
 
-.PHONY: all setup system venv build demo test test-rust test-python bench clean
+.PHONY: all setup system venv build demo test test-rust test-python bench clean fuzz fuzz-tools fuzz-cmin fuzz-add-image
 
 all: build
 
@@ -45,4 +45,47 @@ bench: build
 	$(PY) -m manylights.bench --help
 
 clean:
-	rm -rf target $(VENV)
+	rm -rf target $(VENV) fuzz/target
+
+# Fuzzing (cargo-fuzz + libFuzzer, fuzz/README.md): `make fuzz` runs every target for FUZZ_SECONDS, reading the
+# committed corpus fuzz/corpus/T and adding new inputs to fuzz/corpus-raw/T (not committed); findings go to
+# fuzz/artifacts/T. Not part of `make test` (which replays the committed corpus: src/fuzzing.rs). Needs a
+# nightly toolchain (else RUSTC_BOOTSTRAP=1 on stable). `make fuzz-cmin` merges corpus-raw into the
+# minimised committed corpus. `make fuzz-add-image EXT=hdr` adds a target for another image format.
+CARGO_FUZZ_VERSION := 0.13.2
+FUZZ_SECONDS ?= 60
+FUZZ_TARGETS ?= $(shell sed -n 's/^name = "\(.*\)"$$/\1/p' fuzz/Cargo.toml | grep -v '^manylights-fuzz$$')
+FUZZ_CARGO ?= $(shell rustup toolchain list 2>/dev/null | grep -q '^nightly' && echo 'cargo +nightly' || echo 'RUSTC_BOOTSTRAP=1 cargo')
+# -s none: no sanitizer (safe Rust; builds and runs faster); -a: debug assertions and overflow checks.
+FUZZ_BUILD_FLAGS ?= -s none -a
+# Scratch files of the entry points go to a RAM disk when there is one (20x faster than a disk's /tmp).
+FUZZ_TMPDIR ?= $(shell test -d /dev/shm && echo /dev/shm || echo /tmp)
+FUZZ_ARGS ?= -timeout=10 -rss_limit_mb=2048 -max_len=16384 -print_final_stats=1
+
+fuzz-tools:
+	@cargo fuzz --version 2>/dev/null | grep -q ' $(CARGO_FUZZ_VERSION)$$' || \
+		cargo install cargo-fuzz --version =$(CARGO_FUZZ_VERSION) --locked
+
+fuzz: fuzz-tools
+	nice -n 10 $(FUZZ_CARGO) fuzz build $(FUZZ_BUILD_FLAGS)
+	@failed=""; for t in $(FUZZ_TARGETS); do \
+		mkdir -p fuzz/corpus-raw/$$t fuzz/corpus/$$t; \
+		dict=$$(test -f fuzz/dict/$$t.dict && echo -dict=fuzz/dict/$$t.dict || true); \
+		echo "== fuzz target $$t: $(FUZZ_SECONDS) s"; \
+		TMPDIR=$(FUZZ_TMPDIR) nice -n 10 $(FUZZ_CARGO) fuzz run $(FUZZ_BUILD_FLAGS) $$t fuzz/corpus-raw/$$t fuzz/corpus/$$t -- \
+			-max_total_time=$(FUZZ_SECONDS) $(FUZZ_ARGS) $$dict > fuzz/corpus-raw/$$t.log 2>&1 || failed="$$failed $$t"; \
+		grep -E '^(Done|stat::number_of_executed_units|stat::average_exec_per_sec|SUMMARY)' fuzz/corpus-raw/$$t.log || tail -n 5 fuzz/corpus-raw/$$t.log; \
+	done; \
+	if [ -n "$$failed" ]; then echo "fuzz findings in:$$failed (inputs in fuzz/artifacts/<target>/, logs in fuzz/corpus-raw/<target>.log)"; exit 1; fi
+
+fuzz-cmin: fuzz-tools
+	@set -e; for t in $(FUZZ_TARGETS); do \
+		mkdir -p fuzz/corpus/$$t; cp -n fuzz/corpus-raw/$$t/* fuzz/corpus/$$t/ 2>/dev/null || true; \
+		TMPDIR=$(FUZZ_TMPDIR) nice -n 10 $(FUZZ_CARGO) fuzz cmin $(FUZZ_BUILD_FLAGS) $$t fuzz/corpus/$$t -- $(FUZZ_ARGS); \
+	done
+
+fuzz-add-image:
+	@test -n "$(EXT)" || { echo "usage: make fuzz-add-image EXT=hdr"; exit 1; }
+	cp fuzz/fuzz_targets/png.rs fuzz/fuzz_targets/$(EXT).rs
+	printf '\n[[bin]]\nname = "%s"\npath = "fuzz_targets/%s.rs"\ntest = false\ndoc = false\nbench = false\n' $(EXT) $(EXT) >> fuzz/Cargo.toml
+	@echo "added fuzz target $(EXT); put seed files in fuzz/corpus/$(EXT)/ (the corpus replay test picks them up)"

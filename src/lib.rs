@@ -1,5 +1,7 @@
 //! manylights: many-light rendering research core (Rust), with Python bindings behind the `python` feature.
 pub mod error;
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod gpu;
 pub mod image;
 pub mod interrupt;

@@ -10,10 +10,28 @@ use crate::error::{Error, Result};
 use exr::prelude::*;
 use std::path::Path;
 
+/// The largest EXR layer read (16384 x 16384 pixels, up to 2^30 channel samples): the `exr` crate
+/// allocates a layer's samples from its header before reading them, and aborts the process when that
+/// fails (found by fuzzing: a 300-byte file asking for 10^15 bytes).
+const MAX_EXR_PIXELS: usize = 1 << 28;
+const MAX_EXR_SAMPLES: usize = 1 << 30;
+
 /// Reads an EXR file: (width, height, linear RGB pixels, row 0 = top).
 ///
-/// Errors: `Io` naming the file when it cannot be read or has neither R, G, B nor Y channels.
+/// Errors: `Io` naming the file when it cannot be read, has neither R, G, B nor Y channels, or has a
+/// layer of more than 16384^2 pixels or 2^30 samples.
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| Error::io(path, e))?;
+    for h in &meta.headers {
+        let (w, ht, c) = (h.layer_size.width(), h.layer_size.height(), h.channels.list.len());
+        let pixels = w.checked_mul(ht).filter(|&n| n <= MAX_EXR_PIXELS);
+        if pixels.and_then(|n| n.checked_mul(c)).is_none_or(|n| n > MAX_EXR_SAMPLES) {
+            return Err(Error::io(
+                path,
+                format!("EXR layer of {w}x{ht} pixels and {c} channels is larger than supported (16384x16384, 2^30 samples)"),
+            ));
+        }
+    }
     let image = read_first_flat_layer_from_file(path).map_err(|e| Error::io(path, e))?;
     let layer = &image.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());

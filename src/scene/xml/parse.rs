@@ -29,6 +29,9 @@ use std::path::{Path, PathBuf};
 
 /// How deep `<include>` may nest (Mitsuba's `max_include_depth`).
 const MAX_INCLUDE_DEPTH: usize = 15;
+/// How many `<include>`s one scene may process in all: a few files that each include the next ten times
+/// would otherwise parse 10^depth files (a 2 KB scene that never finishes loading; found by fuzzing).
+const MAX_INCLUDES: usize = 10_000;
 
 /// A typed property value.
 #[derive(Debug, Clone, PartialEq)]
@@ -113,6 +116,8 @@ struct Parser {
     legacy: Vec<bool>,
     /// Folder of the main scene file.
     main_dir: Option<PathBuf>,
+    /// `<include>`s processed so far (see [`MAX_INCLUDES`]).
+    includes: usize,
 }
 
 const OBJECT_CLASSES: &[&str] = &[
@@ -132,6 +137,7 @@ pub fn parse_document(path: &Path, params: &[(String, String)]) -> Result<Docume
         path_dirs: Vec::new(),
         legacy: Vec::new(),
         main_dir: path.parent().map(Path::to_path_buf),
+        includes: 0,
     };
     parser.sort_params();
     parser.parse_file(path, &Location::new(path, 0), None, 0)?;
@@ -364,6 +370,10 @@ impl Parser {
                 let file = get("filename").unwrap_or_default();
                 let dir = path.parent().unwrap_or(Path::new(""));
                 let inc = dir.join(&file);
+                self.includes += 1;
+                if self.includes > MAX_INCLUDES {
+                    return Err(Error::scene(&loc, format!("more than {MAX_INCLUDES} <include>s in one scene (an include loop?)")));
+                }
                 return self.parse_file(&inc, &loc, Some(parent), depth + 1);
             }
             "path" => {

@@ -1,0 +1,205 @@
+"""Writes the seed inputs of the fuzz targets into fuzz/corpus-raw/<target>/ (small valid files).
+
+Run: .venv/bin/python fuzz/seeds.py [SHARED_DIR]. Needs numpy, Pillow and OpenEXR (requirements-dev.txt).
+The committed corpus (fuzz/corpus/) is these seeds plus what fuzzing found, minimised with `cargo fuzz cmin`
+(`make fuzz-cmin`). SHARED_DIR (default ../shared) adds the shared scenes' small XML and OBJ files.
+"""
+import io
+import struct
+import sys
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+from PIL import Image
+
+FUZZ = Path(__file__).resolve().parent
+OUT = FUZZ / "corpus-raw"
+MARK = "\n--8<-- "
+
+
+def put(target, name, data):
+    d = OUT / target
+    d.mkdir(parents=True, exist_ok=True)
+    (d / name).write_bytes(data.encode() if isinstance(data, str) else data)
+
+
+# ---------------------------------------------------------------- images
+rng = np.random.default_rng(1)
+
+
+def pil_bytes(img, fmt, **kw):
+    b = io.BytesIO()
+    img.save(b, fmt, **kw)
+    return b.getvalue()
+
+
+rgb = Image.fromarray(rng.integers(0, 256, (3, 2, 3), dtype=np.uint8), "RGB")
+grey = Image.fromarray(rng.integers(0, 256, (2, 5), dtype=np.uint8), "L")
+rgba = Image.fromarray(rng.integers(0, 256, (2, 2, 4), dtype=np.uint8), "RGBA")
+put("png", "rgb_2x3.png", pil_bytes(rgb, "PNG"))
+put("png", "grey_5x2.png", pil_bytes(grey, "PNG"))
+put("png", "rgba_2x2.png", pil_bytes(rgba, "PNG"))
+put("png", "la_1x1.png", pil_bytes(Image.new("LA", (1, 1), (7, 9)), "PNG"))
+put("png", "palette_3x1.png", pil_bytes(rgb.convert("P"), "PNG"))
+put("png", "grey16_2x2.png", pil_bytes(Image.fromarray(np.array([[0, 300], [40000, 65535]], np.uint16)), "PNG"))
+put("png", "bilevel_4x2.png", pil_bytes(Image.new("1", (4, 2), 1), "PNG"))
+put("jpg", "rgb_8x8.jpg", pil_bytes(rgb.resize((8, 8)), "JPEG", quality=90))
+put("jpg", "grey_3x2.jpg", pil_bytes(grey.resize((3, 2)), "JPEG"))
+put("jpg", "progressive_9x7.jpg", pil_bytes(rgb.resize((9, 7)), "JPEG", progressive=True))
+put("jpg", "sub420_17x3.jpg", pil_bytes(rgb.resize((17, 3)), "JPEG", subsampling=2, quality=50))
+put("jpg", "cmyk_2x2.jpg", pil_bytes(rgb.resize((2, 2)).convert("CMYK"), "JPEG"))
+
+
+def exr_bytes(name, channels, compression, tiled=False):
+    hdr = {"compression": compression, "type": OpenEXR.tiledimage if tiled else OpenEXR.scanlineimage}
+    if tiled:
+        hdr["tiles"] = OpenEXR.TileDescription()
+    p = OUT / "exr" / name
+    p.parent.mkdir(parents=True, exist_ok=True)
+    OpenEXR.File(hdr, channels).write(str(p))
+
+
+exr_bytes("half_rgb_piz.exr", {"RGB": rng.random((3, 2, 3)).astype("float16")}, OpenEXR.PIZ_COMPRESSION)
+exr_bytes("float_rgba_zip.exr", {"RGBA": rng.random((2, 2, 4)).astype("float32")}, OpenEXR.ZIP_COMPRESSION)
+exr_bytes("y_none.exr", {"Y": rng.random((2, 3)).astype("float32")}, OpenEXR.NO_COMPRESSION)
+exr_bytes("rgb_rle.exr", {"RGB": rng.random((1, 4, 3)).astype("float16")}, OpenEXR.RLE_COMPRESSION)
+exr_bytes("rgb_zips.exr", {"RGB": rng.random((2, 1, 3)).astype("float32")}, OpenEXR.ZIPS_COMPRESSION)
+exr_bytes("rgb_pxr24.exr", {"RGB": rng.random((2, 2, 3)).astype("float32")}, OpenEXR.PXR24_COMPRESSION)
+exr_bytes("rgb_b44.exr", {"RGB": rng.random((4, 4, 3)).astype("float16")}, OpenEXR.B44_COMPRESSION)
+exr_bytes("y_tiled_zip.exr", {"Y": rng.random((3, 5)).astype("float32")}, OpenEXR.ZIP_COMPRESSION, tiled=True)
+exr_bytes("uint_rgb.exr", {"R": np.arange(4, dtype=np.uint32).reshape(2, 2), "G": np.ones((2, 2), np.uint32),
+                            "B": np.zeros((2, 2), np.uint32)}, OpenEXR.NO_COMPRESSION)
+
+# ---------------------------------------------------------------- meshes
+put("obj", "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+put("obj", "quad_vt_vn.obj", "# c\no a\ng b\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0.25\nvn 0 0 1\n"
+    "usemtl m\ns 1\nf 1/1/1 2/2/1 3/2/1\nf 1/1/1 3/2/1 4/1/1\n")
+put("obj", "forms.obj", "v 0 0 0 1\r\nv\t1 0 0\r\nv 1 1 0\nv 0 1 0\nv -1 0 0\nvt 0.5 0.5 0\nvn 0 1 0\n"
+    "f 1//1 2//1 3//1 4//1 5//1\nf 2/1 3/1 4/1 # c\nf -3 -2 -1\nf 1 2\n")
+put("obj", "missing_vt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2 3//1\n")
+put("obj", "degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\nv 5 5 5\n")
+
+
+def ply_ascii(extra=""):
+    return ("ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty float x\nproperty float y\n"
+            "property float z\nproperty float s\nproperty float t\nproperty uchar red\n" + extra +
+            "element face 1\nproperty list uchar int vertex_index\nend_header\n"
+            "0 0 0 0 0 255\n1 0 0 1 0 0\n1 1 0 1 1 0\n0 1 0 0 0.25 7\n4 0 1 2 3\n")
+
+
+def ply_binary(big):
+    enc = "binary_big_endian" if big else "binary_little_endian"
+    e = ">" if big else "<"
+    b = (f"ply\nformat {enc} 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "property float nx\nproperty float ny\nproperty float nz\nproperty float texture_u\n"
+         "property float texture_v\nproperty double quality\nelement face 1\n"
+         "property list uchar uint vertex_indices\nelement extra 1\nproperty int k\nend_header\n").encode()
+    for i, p in enumerate([(0, 0, 0), (2, 0, 0), (0, 3, 0)]):
+        b += struct.pack(e + "8fd", *p, 0, 0, 1, i * 0.5, 0.125, 9.0)
+    b += struct.pack(e + "B3I", 3, 0, 1, 2) + struct.pack(e + "i", 5)
+    return b
+
+
+put("ply", "ascii_quad.ply", ply_ascii())
+put("ply", "le.ply", ply_binary(False))
+put("ply", "be.ply", ply_binary(True))
+put("ply", "uv_double.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+    "property double z\nproperty double u\nproperty double v\nproperty short nx\nproperty short ny\n"
+    "property short nz\nelement face 1\nproperty list uint8 uint32 vertex_indices\nend_header\n"
+    "0 0 0 0 0 0 0 1\n1 0 0 1 0 0 0 1\n0 1 0 0 1 0 0 1\n3 0 1 2\n")
+
+# ---------------------------------------------------------------- scenes
+SENSOR = """<sensor type="perspective">
+    <string name="fov_axis" value="$axis"/><float name="fov" value="45"/><float name="near_clip" value="0.01"/>
+    <float name="far_clip" value="100"/>
+    <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" value="$res"/>
+        <rfilter type="box"/></film>
+</sensor>"""
+
+ALL = f"""@params res=8
+<scene version="3.0.0">
+    <default name="res" value="16"/>
+    <default name="axis" value="x"/>
+    <path value="meshes"/>
+    <include filename="inc.xml"/>
+    {SENSOR}
+    <integrator type="path"><integer name="max_depth" value="3"/></integrator>
+    <bsdf type="twosided" id="two"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">
+        <string name="filename" value="t.png"/><string name="filter_type" value="nearest"/>
+        <string name="wrap_mode" value="mirror"/><boolean name="raw" value="false"/>
+        <transform name="to_uv"><scale x="2" y="3"/></transform></texture></bsdf></bsdf>
+    <bsdf type="plastic" id="pl"><rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/>
+        <float name="int_ior" value="1.9"/></bsdf>
+    <bsdf type="roughplastic" id="rp"><string name="distribution" value="beckmann"/><float name="alpha" value="0.2"/></bsdf>
+    <bsdf type="conductor" id="co"><string name="material" value="Au"/></bsdf>
+    <bsdf type="roughconductor" id="rc"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/>
+        <rgb name="eta" value="0.2, 0.9, 1.1"/><rgb name="k" value="3, 2.9, 2.8"/></bsdf>
+    <bsdf type="dielectric" id="de"><string name="int_ior" value="bk7"/><string name="ext_ior" value="air"/></bsdf>
+    <texture type="checkerboard" id="ch"><rgb name="color0" value="0.2"/><rgb name="color1" value="0.8"/></texture>
+    <bsdf type="diffuse" id="dch"><ref name="reflectance" id="ch"/></bsdf>
+    <alias id="dch" as="dch2"/>
+    <shape type="obj"><string name="filename" value="m.obj"/><boolean name="face_normals" value="true"/>
+        <transform name="to_world"><rotate x="0" y="1" z="1" angle="15"/><scale value="2"/>
+        <translate x="1" y="0" z="-1"/></transform><ref id="two"/></shape>
+    <shape type="ply"><string name="filename" value="m.ply"/><boolean name="flip_normals" value="true"/>
+        <transform name="to_world"><matrix value="1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1"/></transform><ref id="pl"/></shape>
+    <shape type="rectangle"><ref id="rp"/><emitter type="area"><rgb name="radiance" value="1, 2, 3"/></emitter></shape>
+    <shape type="cube"><ref id="co"/><transform name="to_world"><scale x="1" y="2" z="-1"/></transform></shape>
+    <shape type="sphere"><point name="center" x="0" y="1" z="0"/><float name="radius" value="0.5"/><ref id="de"/></shape>
+    <shape type="disk"><ref id="dch2"/></shape>
+    <shape type="rectangle"><ref id="rc"/></shape>
+    <emitter type="point"><point name="position" value="0, 3, 0"/><rgb name="intensity" value="5"/></emitter>
+    <emitter type="spot"><transform name="to_world"><lookat origin="1, 1, 1" target="0, 0, 0"/></transform>
+        <float name="cutoff_angle" value="30"/><float name="beam_width" value="20"/><spectrum name="intensity" value="4"/></emitter>
+    <emitter type="directional"><vector name="direction" value="0, -1, 0"/><rgb name="irradiance" value="1"/></emitter>
+    <emitter type="envmap"><string name="filename" value="e.exr"/><float name="scale" value="2"/></emitter>
+    <emitter type="constant"><rgb name="radiance" value="0.1"/></emitter>
+</scene>{MARK}inc.xml
+<scene version="3.0.0"><default name="axis" value="smaller"/>
+    <bsdf type="diffuse" id="unused"><rgb name="reflectance" value="\\$"/></bsdf></scene>{MARK}meshes/m.obj
+v 0 0 0
+v 1 0 0
+v 0 1 0
+vt 0 0
+vt 1 0
+vt 0 1
+f 1/1 2/2 3/3
+{MARK}m.ply
+{ply_ascii()}"""
+# Binary files go last in a bundle (their bytes may not contain the mark).
+png = pil_bytes(rgb, "PNG")
+exr = (OUT / "exr" / "half_rgb_piz.exr").read_bytes()
+assert MARK.encode() not in png + exr
+put("xml", "all_plugins.xml", ALL.encode() + MARK.encode() + b"t.png\n" + png + MARK.encode() + b"e.exr\n" + exr)
+
+put("xml", "minimal.xml", f"""<scene version="3.0.0"><default name="res" value="4"/><default name="axis" value="y"/>
+{SENSOR}<shape type="sphere"/></scene>""")
+put("xml", "include_chain.xml", f"""<scene version="3.0.0"><include filename="a.xml"/></scene>{MARK}a.xml
+<scene version="3.0.0"><default name="res" value="3"/><include filename="sub/b.xml"/></scene>{MARK}sub/b.xml
+<scene version="3.0.0"><default name="axis" value="x"/>{SENSOR}<shape type="cube" id="c"/></scene>""")
+put("xml", "errors.xml", """@params unused=1
+<scene version="3.0.0"><shape type="obj"><string name="filename" value="nope.obj"/></shape>
+<float name="x" value="1e400"/><transform name="to_world"><lookat origin="0,0,0" target="0,0,0"/></transform>
+<spectrum name="s" value="400:1, 500:2"/><rgb name="c" value="1, 2"/><ref id="missing"/></scene>""")
+
+shared = Path(sys.argv[1]) if len(sys.argv) > 1 else FUZZ.parent.parent / "shared"
+if not (shared / "scenes").is_dir():
+    shared = Path("/work/shared")
+scenes = shared / "scenes"
+if scenes.is_dir():
+    for xml in sorted(scenes.rglob("*.xml")):
+        if xml.stat().st_size < 16000:
+            put("xml", "shared_" + "_".join(xml.relative_to(scenes).parts), xml.read_bytes())
+    for obj in sorted(scenes.rglob("*.obj")):
+        if obj.stat().st_size < 8000:
+            put("obj", "shared_" + obj.name, obj.read_bytes())
+    cbox = scenes / "cbox" / "scene.xml"
+    if cbox.is_file():
+        text = cbox.read_text()
+        for name in ["luminaire", "floor", "smallbox"]:
+            text += f"{MARK}meshes/cbox_{name}.obj\n" + (scenes / "cbox" / "meshes" / f"cbox_{name}.obj").read_text()
+        put("xml", "shared_cbox_with_meshes.xml", text)
+print("seeds in", OUT)
