@@ -180,7 +180,8 @@ mod tests {
         assert_eq!((scene.camera.width, scene.camera.height), (8, 2));
         assert_eq!(scene.meshes[0].indices, vec![[0, 1, 2]]);
         assert!(xml(b"<scene version=\"3.0.0\"/>").unwrap_err().to_string().contains("no shapes"));
-        assert!(run("obj", b"v 0 0 0\nf 1 1 1\n").unwrap_err().contains("degenerate"));
+        // A mesh of only zero-area triangles loads empty, as Mitsuba goes on (the scene loader warns).
+        assert!(run("obj", b"v 0 0 0\nf 1 1 1\n").is_ok());
         assert!(run("png", b"\x89PNG").is_err());
         cleanup();
     }

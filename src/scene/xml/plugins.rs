@@ -418,9 +418,10 @@ impl<'a> Builder<'a> {
                 self.bsdfs.len() - 1
             }),
         };
-        // Normals as Mitsuba transforms them (`transform::Affine`); the sphere's tessellation is ours.
+        // Normals as Mitsuba transforms them (`transform::Affine`); the sphere's and the cylinder's
+        // tessellations are ours, placed by their own matrix (radius, p0/p1 folded in): its inverse transpose.
         let normal_from_local = match kind {
-            ShapeKind::Sphere { .. } => glam::DMat3::from_mat4(world_from_local).inverse().transpose(),
+            ShapeKind::Sphere { .. } | ShapeKind::Cylinder => glam::DMat3::from_mat4(world_from_local).inverse().transpose(),
             _ => glam::DMat3::from_mat4(to_world_affine.inverse_transpose),
         };
         let world_from_local: Mat4 = transform::to_f32(&world_from_local);
