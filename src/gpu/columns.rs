@@ -24,7 +24,8 @@ pub const MAX_LIGHTS_PER_DISPATCH: usize = 256;
 
 /// Keep in sync with `struct Light` in `shaders/common/light.wgsl` (192 bytes: 64 for every kind, then
 /// oriented-point / VPL fields and the VPL's 80-byte BSDF, stored in the light itself so the column
-/// pass needs no extra binding; its roughplastic table offset indexes the scene's table buffer).
+/// pass needs no extra binding; its roughplastic table offset indexes the scene's table buffer). A
+/// textured spot's texture is in the separate `spot_textures` binding (`crate::lights::spot_texture`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuLight {
