@@ -57,6 +57,8 @@ struct RowInfo {
 @group(0) @binding(10) var<storage, read> bvh_prims: array<BvhPrim>;
 // 64-bit counters as (lo, hi) u32 pairs: shadow tests, ray casts, rays that gave up (shared with columns).
 @group(0) @binding(11) var<storage, read_write> stats: array<atomic<u32>, 6>;
+// Projected textures of spot lights (common/light.wgsl `spot_texture_eval`).
+@group(0) @binding(12) var<storage, read> spot_textures: array<f32>;
 
 const ROW_NO_MAP: u32 = 0xffffffffu;
 

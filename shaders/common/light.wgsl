@@ -1,6 +1,6 @@
 // Point-like lights: point, spot, directional (as Mitsuba 3.9.1 evaluates them), oriented points (area
 // light samples) and VPLs; twin of `LightSet::emitted` in src/lights/mod.rs (formulas documented there).
-// Needs common/bsdf.wgsl (a VPL's BSDF is evaluated with bsdf_eval); used by shaders/columns.wgsl.
+// Needs common/bsdf.wgsl and a `spot_textures: array<f32>` binding (a VPL's BSDF is evaluated with bsdf_eval); used by shaders/columns.wgsl.
 
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;
@@ -31,12 +31,82 @@ struct Light {
     clamp: f32,
     // VPL: geometric normal n_g.
     geo_normal: vec3<f32>,
-    _pad0: u32,
+    // Spot: offset of its projected texture's record in `spot_textures` (SPOT_NO_TEXTURE: none); a
+    // textured spot's local x and y axes are in `normal` and `geo_normal`.
+    tex_offset: u32,
     // VPL: unit direction toward where its particle came from.
     incident: vec3<f32>,
-    _pad1: u32,
+    // Textured spot: tan(cutoff_angle).
+    tan_cutoff: f32,
     // VPL: the BSDF at its hit (zero for other kinds).
     bsdf: Bsdf,
+}
+
+const SPOT_NO_TEXTURE: u32 = 0xffffffffu;
+
+// Dr.Jit's tex_wrap (twin of `wrap` in src/scene/texture.rs): 0 repeat, 1 mirror, 2 clamp.
+fn spot_tex_wrap(i: i32, res: i32, mode: u32) -> i32 {
+    if mode == 2u {
+        return clamp(i, 0, res - 1);
+    }
+    if mode == 1u {
+        let m = ((i % (2 * res)) + 2 * res) % (2 * res);
+        return select(2 * res - 1 - m, m, m < res);
+    }
+    return ((i % res) + res) % res;
+}
+
+fn spot_texel(o: u32, w: i32, x: i32, y: i32) -> vec3<f32> {
+    let k = o + 16u + 3u * u32(y * w + x);
+    return vec3<f32>(spot_textures[k], spot_textures[k + 1u], spot_textures[k + 2u]);
+}
+
+// A spot's projected texture (src/lights/spot_texture.rs, record layout there) toward the world
+// direction v leaving the light: Mitsuba's direction_to_uv, then the bitmap / checkerboard lookup of
+// `crate::scene::texture::eval`.
+fn spot_texture_eval(l: Light, v: vec3<f32>) -> vec3<f32> {
+    let o = l.tex_offset;
+    let z = dot(v, l.direction) * l.tan_cutoff;
+    let uv0 = vec2<f32>(0.5 + 0.5 * dot(v, l.normal) / z, 0.5 + 0.5 * dot(v, l.geo_normal) / z);
+    let c0 = vec2<f32>(spot_textures[o + 4u], spot_textures[o + 5u]);
+    let c1 = vec2<f32>(spot_textures[o + 7u], spot_textures[o + 8u]);
+    let c2 = vec2<f32>(spot_textures[o + 10u], spot_textures[o + 11u]);
+    let uv = c0 * uv0.x + c1 * uv0.y + c2;
+    let wf = spot_textures[o];
+    if wf == 0.0 {
+        // Checkerboard: color0 where both fractional parts agree on > 1/2.
+        let a = (uv.x - floor(uv.x)) > 0.5;
+        let b = (uv.y - floor(uv.y)) > 0.5;
+        return spot_texel(o, 1, select(1, 0, a == b), 0);
+    }
+    let hf = spot_textures[o + 1u];
+    let w = i32(wf);
+    let h = i32(hf);
+    let mode = u32(spot_textures[o + 2u]);
+    if spot_textures[o + 3u] != 0.0 {
+        let x = i32(floor(uv.x * wf));
+        let y = i32(floor(uv.y * hf));
+        return spot_texel(o, w, spot_tex_wrap(x, w, mode), spot_tex_wrap(y, h, mode));
+    }
+    let px = uv.x * wf - 0.5;
+    let py = uv.y * hf - 0.5;
+    let fx = floor(px);
+    let fy = floor(py);
+    let wx1 = px - fx;
+    let wy1 = py - fy;
+    let wx0 = 1.0 - wx1;
+    let wy0 = 1.0 - wy1;
+    let ix = i32(fx);
+    let iy = i32(fy);
+    let x0 = spot_tex_wrap(ix, w, mode);
+    let x1 = spot_tex_wrap(ix + 1, w, mode);
+    let y0 = spot_tex_wrap(iy, h, mode);
+    let y1 = spot_tex_wrap(iy + 1, h, mode);
+    var out = spot_texel(o, w, x0, y0) * (wx0 * wy0);
+    out += spot_texel(o, w, x1, y0) * (wx1 * wy0);
+    out += spot_texel(o, w, x0, y1) * (wx0 * wy1);
+    out += spot_texel(o, w, x1, y1) * (wx1 * wy1);
+    return out;
 }
 
 // What a light sends to p: wo (unit, toward the light), radiance factor, distance (1e30 for directional).
@@ -82,7 +152,11 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
         if falloff <= 0.0 {
             return e;
         }
-        e.radiance = l.intensity * (falloff * inv_d2);
+        var intensity = l.intensity;
+        if l.tex_offset != SPOT_NO_TEXTURE {
+            intensity = intensity * spot_texture_eval(l, -e.wo);
+        }
+        e.radiance = intensity * (falloff * inv_d2);
     } else if l.kind == LIGHT_ORIENTED_POINT {
         let cos_theta = -dot(e.wo, l.normal);
         if !(cos_theta > 0.0) {

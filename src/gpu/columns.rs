@@ -24,7 +24,8 @@ pub const MAX_LIGHTS_PER_DISPATCH: usize = 256;
 
 /// Keep in sync with `struct Light` in `shaders/common/light.wgsl` (192 bytes: 64 for every kind, then
 /// oriented-point / VPL fields and the VPL's 80-byte BSDF, stored in the light itself so the column
-/// pass needs no extra binding; its roughplastic table offset indexes the scene's table buffer).
+/// pass needs no extra binding; its roughplastic table offset indexes the scene's table buffer). A
+/// textured spot's texture is in the separate `spot_textures` binding (`crate::lights::spot_texture`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuLight {
@@ -44,17 +45,23 @@ pub struct GpuLight {
     pub clamp: f32,
     /// VPL geometric normal.
     pub geo_normal: [f32; 3],
-    pub _pad0: u32,
+    /// Spot: offset (f32s) of its projected texture's record in the spot-texture buffer
+    /// (`crate::lights::spot_texture`), `NO_TEXTURE` when it has none; 0 for other kinds.
+    pub texture: u32,
     /// VPL incident direction (toward where its particle came from).
     pub incident: [f32; 3],
-    pub _pad1: u32,
+    /// Textured spot: tan(cutoff_angle).
+    pub tan_cutoff: f32,
     /// VPL BSDF (zero for other kinds).
     pub bsdf: crate::shading::GpuBsdf,
 }
 
 impl GpuLight {
     /// Light j of `lights`, its shadow map starting at `first_layer` of the batch's atlas.
-    pub fn new(lights: &LightSet, j: usize, first_layer: u32, is_cube: bool) -> GpuLight {
+    /// `texture`: its record offset from `crate::lights::spot_texture::gpu_table`. A textured spot's
+    /// local x and y axes travel in `normal` and `geo_normal`.
+    pub fn new(lights: &LightSet, j: usize, first_layer: u32, is_cube: bool, texture: u32) -> GpuLight {
+        let frame = lights.spot_texture[j].as_ref();
         let (cutoff, beam) = (lights.cutoff_angle[j], lights.beam_width[j]);
         let spot = lights.kind[j] == LightKind::Spot;
         GpuLight {
@@ -68,12 +75,12 @@ impl GpuLight {
             cos_beam: if spot { beam.cos() } else { -2.0 },
             inv_transition: if cutoff > beam { 1.0 / (cutoff - beam) } else { 0.0 },
             is_cube: is_cube as u32,
-            normal: lights.normal[j].to_array(),
+            normal: frame.map_or(lights.normal[j], |t| t.x_axis).to_array(),
             clamp: lights.vpl_clamp.min(f32::MAX),
-            geo_normal: lights.geo_normal[j].to_array(),
-            _pad0: 0,
+            geo_normal: frame.map_or(lights.geo_normal[j], |t| t.y_axis).to_array(),
+            texture: if spot { texture } else { 0 },
             incident: lights.incident[j].to_array(),
-            _pad1: 0,
+            tan_cutoff: frame.map_or(0.0, |t| t.tan_cutoff),
             bsdf: lights.bsdf[j],
         }
     }
@@ -173,6 +180,8 @@ pub struct ColumnsInputs<'a> {
     /// The scene BVH (`gpu::bvh::GpuBvh`) for exact shadow rays.
     pub bvh_nodes: &'a wgpu::Buffer,
     pub bvh_prims: &'a wgpu::Buffer,
+    /// The spot-texture records (`crate::lights::spot_texture::gpu_table`).
+    pub spot_textures: &'a wgpu::Buffer,
     /// Six u32 (64-bit counters as lo, hi): shadow tests, ray casts, rays that gave up.
     pub stats: &'a wgpu::Buffer,
 }
@@ -207,6 +216,7 @@ impl ColumnsPass {
             storage(10, true),
             storage(11, true),
             storage(12, false),
+            storage(13, true),
         ]);
         ColumnsPass { pipeline, bind_group_layout }
     }
@@ -228,6 +238,7 @@ impl ColumnsPass {
             inputs.bvh_nodes.as_entire_binding(),
             inputs.bvh_prims.as_entire_binding(),
             inputs.stats.as_entire_binding(),
+            inputs.spot_textures.as_entire_binding(),
         ], (gx, gy));
     }
 }

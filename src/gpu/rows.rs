@@ -78,6 +78,8 @@ pub struct RowsInputs<'a> {
     pub bvh_nodes: &'a wgpu::Buffer,
     pub bvh_prims: &'a wgpu::Buffer,
     pub stats: &'a wgpu::Buffer,
+    /// The spot-texture records (`crate::lights::spot_texture::gpu_table`).
+    pub spot_textures: &'a wgpu::Buffer,
 }
 
 /// The row evaluation pass: pipeline and bind group layout, compiled once.
@@ -102,6 +104,7 @@ impl RowsPass {
             storage(9, true),
             storage(10, true),
             storage(11, false),
+            storage(12, true),
         ]);
         RowsPass { pipeline, bind_group_layout }
     }
@@ -123,6 +126,7 @@ impl RowsPass {
             inputs.bvh_nodes.as_entire_binding(),
             inputs.bvh_prims.as_entire_binding(),
             inputs.stats.as_entire_binding(),
+            inputs.spot_textures.as_entire_binding(),
         ], (gx, inputs.params.num_rows.max(1)));
     }
 }

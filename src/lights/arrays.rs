@@ -6,6 +6,8 @@
 //! - point (0): position, intensity (W/sr)
 //! - spot (1): position, direction (unit axis), intensity (W/sr), cutoff_angle in (0, pi],
 //!   beam_width in [0, cutoff_angle] (radians)
+//!   (the arrays hold no projected texture: such spots are untextured, so a scene's textured spot
+//!   comes back from its arrays without its texture; subsets and `concat` keep it)
 //! - directional (2): direction (unit, the direction light travels), intensity = irradiance (W/m^2)
 //! - oriented point (3): position, normal (unit), intensity I0 along the normal (W/sr)
 //! - VPL (4): position, normal n_s (unit), geo_normal n_g (unit), incident (unit), intensity = flux
@@ -200,6 +202,7 @@ impl LightSet {
         out.bsdf = idx.iter().map(|&j| self.bsdf[j]).collect();
         out.cutoff_angle = idx.iter().map(|&j| self.cutoff_angle[j]).collect();
         out.beam_width = idx.iter().map(|&j| self.beam_width[j]).collect();
+        out.spot_texture = idx.iter().map(|&j| self.spot_texture[j].clone()).collect();
         Ok(out)
     }
 

@@ -12,6 +12,7 @@
 //! - spot: I * falloff(theta) / d^2, theta = angle between the light's +z axis and (p - position):
 //!   falloff = 1 if cos(theta) >= cos(beam_width), (cutoff_angle - theta) / (cutoff_angle - beam_width)
 //!   otherwise, and 0 unless cos(theta) > cos(cutoff_angle) (Mitsuba's `falloff_curve`).
+//!   A projected `texture` (`spot_texture`) multiplies I by its value at Mitsuba's `direction_to_uv`.
 //! - directional: F = E (irradiance at normal incidence), wo = -direction.
 //! - oriented point (a piece of area A_k of an emitter of radiance L, `intensity` I0 = L A_k in W/sr):
 //!   I(w) = I0 max(0, cos theta), theta between `normal` and w = (p - position) / d; F = I(w) / d^2.
@@ -29,7 +30,8 @@
 //!
 //! `power()` (W): point 4 pi I; spot I * 2 pi (1 - (sin c - sin b) / (c - b)) with c = cutoff_angle,
 //! b = beam_width (the exact integral of Mitsuba's falloff over the sphere, i.e. the mean weight of its
-//! `sample_ray`; 2 pi (1 - cos c) when b = c); directional E * pi r^2 with r the radius of the scene's
+//! `sample_ray`; 2 pi (1 - cos c) when b = c; with a projected texture, the integral of falloff times
+//! texture by quadrature, `spot_texture::spot_power_textured`); directional E * pi r^2 with r the radius of the scene's
 //! bounding sphere (half the bounding-box diagonal): the power crossing the scene's bounding disk;
 //! oriented point pi I0; VPL the reflected flux Phi * rho(incident), rho = integral of f |w . n_g| over
 //! the sphere, by a fixed 32 x 32 stratified cosine-weighted quadrature (exact for diffuse).
@@ -41,6 +43,7 @@
 //! Rust twin of `shaders/common/light.wgsl` (`light_emitted`), used by the CPU reference.
 pub mod arrays;
 pub mod generate;
+pub mod spot_texture;
 
 pub use arrays::LightArrays;
 pub use generate::{generate_lights, GenerateOptions};
@@ -86,6 +89,8 @@ pub struct LightSet {
     pub cutoff_angle: Vec<f32>,
     /// Spot beam width (radians); 0 for other kinds.
     pub beam_width: Vec<f32>,
+    /// Spot: its projected texture (`spot_texture` module), multiplying the intensity; None otherwise.
+    pub spot_texture: Vec<Option<std::sync::Arc<spot_texture::SpotTexture>>>,
     /// Centre and radius of the scene's bounding sphere (directional power and shadow-map fitting).
     pub scene_center: Vec3,
     pub scene_radius: f32,
@@ -118,7 +123,7 @@ impl LightSet {
                 Emitter::Point { position, intensity, loc } => {
                     set.push_point(*position, *intensity).map_err(|err| Error::scene(loc, err.to_string()))
                 }
-                Emitter::Spot { world_from_light, intensity, cutoff_angle, beam_width, loc } => {
+                Emitter::Spot { world_from_light, intensity, cutoff_angle, beam_width, texture, loc } => {
                     let m = glam::Mat3::from_mat4(*world_from_light);
                     let (x, y, z) = (m.x_axis, m.y_axis, m.z_axis);
                     let s = z.length();
@@ -136,8 +141,17 @@ impl LightSet {
                         ));
                     }
                     let position = world_from_light.w_axis.truncate();
-                    set.push_spot(position, z / s, *intensity, *cutoff_angle, *beam_width)
-                        .map_err(|err| Error::scene(loc, err.to_string()))
+                    let r = set.push_spot(position, z / s, *intensity, *cutoff_angle, *beam_width);
+                    if let (Ok(()), Some(t)) = (&r, texture) {
+                        let tex = spot_texture::SpotTexture {
+                            x_axis: x / s,
+                            y_axis: y / s,
+                            tan_cutoff: cutoff_angle.tan(),
+                            texture: std::sync::Arc::new(scene.textures[*t].clone()),
+                        };
+                        *set.spot_texture.last_mut().unwrap() = Some(std::sync::Arc::new(tex));
+                    }
+                    r.map_err(|err| Error::scene(loc, err.to_string()))
                 }
                 Emitter::Directional { direction, irradiance, loc } => {
                     set.push_directional(*direction, *irradiance).map_err(|err| Error::scene(loc, err.to_string()))
@@ -164,6 +178,7 @@ impl LightSet {
         self.intensity.push(intensity);
         self.cutoff_angle.push(cutoff);
         self.beam_width.push(beam);
+        self.spot_texture.push(None);
         self.normal.push(Vec3::ZERO);
         self.geo_normal.push(Vec3::ZERO);
         self.incident.push(Vec3::ZERO);
@@ -205,6 +220,7 @@ impl LightSet {
         self.intensity.extend_from_slice(&other.intensity);
         self.cutoff_angle.extend_from_slice(&other.cutoff_angle);
         self.beam_width.extend_from_slice(&other.beam_width);
+        self.spot_texture.extend_from_slice(&other.spot_texture);
         self.normal.extend_from_slice(&other.normal);
         self.geo_normal.extend_from_slice(&other.geo_normal);
         self.incident.extend_from_slice(&other.incident);
@@ -259,7 +275,10 @@ impl LightSet {
         let i = self.intensity[j];
         match self.kind[j] {
             LightKind::Point => i * (4.0 * std::f32::consts::PI),
-            LightKind::Spot => i * spot_solid_angle(self.cutoff_angle[j], self.beam_width[j]),
+            LightKind::Spot => match &self.spot_texture[j] {
+                Some(t) => i * spot_texture::spot_power_textured(t, self.cutoff_angle[j], self.beam_width[j]),
+                None => i * spot_solid_angle(self.cutoff_angle[j], self.beam_width[j]),
+            },
             LightKind::Directional => i * (std::f32::consts::PI * self.scene_radius * self.scene_radius),
             LightKind::OrientedPoint => i * std::f32::consts::PI,
             LightKind::Vpl => i * vpl_reflectance(&self.bsdf[j], self.normal[j], self.geo_normal[j], self.incident[j]),
@@ -301,7 +320,10 @@ impl LightSet {
                 if falloff <= 0.0 {
                     return None;
                 }
-                self.intensity[j] * (falloff * inv_d2)
+                match &self.spot_texture[j] {
+                    Some(t) => self.intensity[j] * t.eval_world(-wo, self.direction[j]) * (falloff * inv_d2),
+                    None => self.intensity[j] * (falloff * inv_d2),
+                }
             }
             LightKind::OrientedPoint => {
                 let cos = -wo.dot(self.normal[j]);

@@ -139,6 +139,10 @@ pub struct LightMatrix {
     stats: wgpu::Buffer,
     /// Largest storage binding in bytes.
     max_binding: u64,
+    /// Projected textures of spot lights (`crate::lights::spot_texture::gpu_table`) and each light's
+    /// record offset in them.
+    spot_textures: wgpu::Buffer,
+    spot_texture_offsets: Vec<u32>,
     /// The row pass (`rows.rs`), compiled on first use.
     rows_pass: std::sync::OnceLock<crate::gpu::rows::RowsPass>,
     /// All lights as `GpuLight`s for the row pass, in chunks (first light, buffer); uploaded once.
@@ -230,7 +234,17 @@ impl LightMatrix {
             &[0; 6],
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         );
+        let (texels, spot_texture_offsets) = crate::lights::spot_texture::gpu_table(&lights);
+        if texels.len() as u64 * 4 > max_binding {
+            return Err(Error::invalid(format!(
+                "the spot lights' projected textures need {} bytes, above the {max_binding}-byte storage binding limit",
+                texels.len() as u64 * 4
+            )));
+        }
+        let spot_textures = storage_buffer(device, "LightMatrix::spot_textures", &texels, wgpu::BufferUsages::STORAGE);
         Ok(LightMatrix {
+            spot_textures,
+            spot_texture_offsets,
             bvh,
             stats,
             shadow_pass: ShadowMapPass::new(device),
@@ -304,7 +318,7 @@ impl LightMatrix {
         let mut gpu_lights = Vec::with_capacity(batch.end - batch.start);
         let mut layers = Vec::with_capacity(batch.num_layers as usize);
         for (k, &j) in js[batch.start..batch.end].iter().enumerate() {
-            gpu_lights.push(GpuLight::new(&self.lights, j, batch.layers[k], uses_cube(&self.lights, j)));
+            gpu_lights.push(GpuLight::new(&self.lights, j, batch.layers[k], uses_cube(&self.lights, j), self.spot_texture_offsets[j]));
             layers.extend(light_layers(&self.lights, j, res));
         }
         let layers_buf = storage_buffer(
@@ -365,6 +379,7 @@ impl LightMatrix {
                     bvh_nodes: &self.bvh.nodes,
                     bvh_prims: &self.bvh.primitives,
                     stats: &self.stats,
+                    spot_textures: &self.spot_textures,
                 },
             );
         }

@@ -160,7 +160,7 @@ impl LightMatrix {
                 .step_by(light_chunk)
                 .map(|first| {
                     let gpu: Vec<GpuLight> = (first..(first + light_chunk).min(n))
-                        .map(|j| GpuLight::new(&self.lights, j, 0, uses_cube(&self.lights, j)))
+                        .map(|j| GpuLight::new(&self.lights, j, 0, uses_cube(&self.lights, j), self.spot_texture_offsets[j]))
                         .collect();
                     (first, storage_buffer(device, "LightMatrix::row_lights", &gpu, wgpu::BufferUsages::STORAGE))
                 })
@@ -284,6 +284,7 @@ impl LightMatrix {
                             bvh_nodes: &self.bvh.nodes,
                             bvh_prims: &self.bvh.primitives,
                             stats: &self.stats,
+                            spot_textures: &self.spot_textures,
                         },
                     );
                 }

@@ -30,6 +30,7 @@ fn lit_box(size: u32) -> Scene {
         intensity: Vec3::splat(2.0),
         cutoff_angle: 40f32.to_radians(),
         beam_width: 25f32.to_radians(),
+        texture: None,
         loc: loc.clone(),
     });
     scene.emitters.push(Emitter::Directional { direction: Vec3::new(0.4, -1.0, -0.3).normalize(), irradiance: Vec3::ONE, loc });

@@ -51,6 +51,7 @@ fn three_lights() -> Vec<Emitter> {
             intensity: Vec3::splat(2.0),
             cutoff_angle: 35f32.to_radians(),
             beam_width: 25f32.to_radians(),
+            texture: None,
             loc: loc.clone(),
         },
         Emitter::Directional { direction: Vec3::new(0.4, -1.0, -0.3).normalize(), irradiance: Vec3::splat(1.0), loc },
@@ -231,6 +232,7 @@ fn many_lights_sum_matches_cpu_across_batches() {
                 intensity: i * 2.0,
                 cutoff_angle: 40f32.to_radians(),
                 beam_width: 20f32.to_radians(),
+                texture: None,
                 loc: loc.clone(),
             },
             1 => Emitter::Directional {
@@ -290,6 +292,7 @@ fn bench_time_per_column() {
                         intensity: Vec3::ONE,
                         cutoff_angle: 0.6,
                         beam_width: 0.4,
+                        texture: None,
                         loc: loc.clone(),
                     },
                     _ => Emitter::Directional { direction: Vec3::new(0.05 * k as f32, -1.0, -0.3).normalize(), irradiance: Vec3::ONE, loc: loc.clone() },

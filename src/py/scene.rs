@@ -126,13 +126,16 @@ impl Scene {
                         d.set_item("position", rgb(*position))?;
                         d.set_item("intensity", rgb(*intensity))?;
                     }
-                    Emitter::Spot { world_from_light, intensity, cutoff_angle, beam_width, .. } => {
+                    Emitter::Spot { world_from_light, intensity, cutoff_angle, beam_width, texture, .. } => {
                         d.set_item("type", "spot")?;
                         d.set_item("position", rgb(world_from_light.w_axis.truncate()))?;
                         d.set_item("direction", rgb(world_from_light.z_axis.truncate().normalize()))?;
                         d.set_item("intensity", rgb(*intensity))?;
                         d.set_item("cutoff_angle", *cutoff_angle)?;
                         d.set_item("beam_width", *beam_width)?;
+                        if let Some(t) = texture {
+                            d.set_item("texture", format!("texture[{t}]"))?;
+                        }
                     }
                     Emitter::Directional { direction, irradiance, .. } => {
                         d.set_item("type", "directional")?;

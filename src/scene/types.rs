@@ -189,7 +189,8 @@ pub enum Emitter {
     /// `intensity` in W/sr.
     Point { position: Vec3, intensity: Vec3, loc: Location },
     /// Emits along local +z of `world_from_light`. Angles in radians.
-    Spot { world_from_light: Mat4, intensity: Vec3, cutoff_angle: f32, beam_width: f32, loc: Location },
+    /// `texture`: index into `Scene::textures` of a projected texture (`crate::lights::spot_texture`).
+    Spot { world_from_light: Mat4, intensity: Vec3, cutoff_angle: f32, beam_width: f32, texture: Option<usize>, loc: Location },
     /// `direction`: unit vector the light travels along (world). `irradiance` in W/m^2.
     Directional { direction: Vec3, irradiance: Vec3, loc: Location },
     /// Emits `radiance` from the +normal side of `Scene::meshes[mesh]`; with `texture` (index into

@@ -133,6 +133,11 @@ impl<'a> Tracer<'a> {
                         let falloff = spot_falloff(local.z, c, b);
                         let w = to_world(self.delta.direction[j], local);
                         let solid = 2.0 * PI * (1.0 - cos_c);
+                        // A projected texture multiplies the particle's flux (Mitsuba's sample_ray weight).
+                        let i = match &self.delta.spot_texture[j] {
+                            Some(t) => i * t.eval_world(w, self.delta.direction[j]),
+                            None => i,
+                        };
                         Some((self.delta.position[j], w, i * (falloff * solid / p_select)))
                     }
                     _ => {
@@ -249,7 +254,9 @@ pub fn trace_vpls(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environment
     }
     for j in 0..delta.len() {
         let power = match delta.kind[j] {
-            LightKind::Spot => delta.intensity[j] * spot_solid_angle(delta.cutoff_angle[j], delta.beam_width[j]),
+            LightKind::Spot if delta.spot_texture[j].is_none() => {
+                delta.intensity[j] * spot_solid_angle(delta.cutoff_angle[j], delta.beam_width[j])
+            }
             _ => delta.power(j),
         };
         sources.push((Source::Delta(j), power));

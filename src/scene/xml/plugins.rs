@@ -496,9 +496,14 @@ impl<'a> Builder<'a> {
                 Emitter::Point { position, intensity: self.constant_color(&mut p, "intensity", 1.0)?, loc }
             }
             "spot" => {
-                if p.has("texture") {
-                    return Err(Error::scene(&loc, "spot: a projected texture is not supported"));
-                }
+                // Mitsuba requires a spatially varying projected texture (a bitmap or checkerboard).
+                let texture = match self.unbounded_param(&mut p, "texture", 1.0)? {
+                    Param::Texture(t) => Some(t),
+                    Param::Value(_) if p.has("texture") => {
+                        return Err(Error::scene(&loc, "spot: \"texture\" must be spatially varying (a bitmap or checkerboard texture)"));
+                    }
+                    Param::Value(_) => None,
+                };
                 let intensity = self.constant_color(&mut p, "intensity", 1.0)?;
                 let cutoff = p.float("cutoff_angle", 20.0)?;
                 let beam = p.float("beam_width", cutoff * 0.75)?;
@@ -507,6 +512,7 @@ impl<'a> Builder<'a> {
                     intensity,
                     cutoff_angle: (cutoff as f32).to_radians(),
                     beam_width: (beam as f32).to_radians(),
+                    texture,
                     loc,
                 }
             }
