@@ -51,6 +51,82 @@ put("jpg", "sub420_17x3.jpg", pil_bytes(rgb.resize((17, 3)), "JPEG", subsampling
 put("jpg", "cmyk_2x2.jpg", pil_bytes(rgb.resize((2, 2)).convert("CMYK"), "JPEG"))
 
 
+# Radiance RGBE (.hdr): flat and run-length encoded scanlines, Mitsuba's and Radiance's signatures.
+def rgbe(rgb):
+    """float RGB (h, w, 3) -> RGBE bytes (h, w, 4), Radiance's float2rgbe."""
+    m = rgb.max(axis=2)
+    mant, e = np.frexp(m)
+    scale = np.where(m > 1e-32, mant * 256.0 / np.where(m > 0, m, 1), 0)
+    out = np.zeros(rgb.shape[:2] + (4,), np.uint8)
+    out[..., :3] = (rgb * scale[..., None]).astype(np.uint8)
+    out[..., 3] = np.where(m > 1e-32, e + 128, 0)
+    return out
+
+
+def hdr_rle_row(row):
+    """One new-style RLE scanline: 2 2 w_hi w_lo, then each channel as runs/literals."""
+    w = len(row)
+    out = bytearray([2, 2, w >> 8, w & 255])
+    for c in range(4):
+        ch = row[:, c]
+        i = 0
+        while i < w:
+            j = i
+            while j < w and j - i < 127 and ch[j] == ch[i]:
+                j += 1
+            if j - i >= 3:
+                out += bytes([128 + j - i, ch[i]])
+                i = j
+            else:
+                k = min(w, i + 128)
+                j = i + 1
+                while j < k and not (j + 2 < w and ch[j] == ch[j + 1] == ch[j + 2]):
+                    j += 1
+                out += bytes([j - i]) + bytes(ch[i:j])
+                i = j
+    return bytes(out)
+
+
+def hdr_bytes(img, sig=b"#?RADIANCE", rle=False, extra=b""):
+    h, w = img.shape[:2]
+    px = rgbe(img)
+    head = sig + b"\nFORMAT=32-bit_rle_rgbe\n" + extra + b"\n-Y %d +X %d\n" % (h, w)
+    body = b"".join(hdr_rle_row(r) for r in px) if rle else px.tobytes()
+    return head + body
+
+
+hdr_img = rng.random((3, 2, 3)) * 4
+put("hdr", "flat_2x3.hdr", hdr_bytes(hdr_img))
+put("hdr", "mitsuba_sig_1x1.hdr", b"#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 1\n\x80\x80\x80\x81")
+ramp = np.repeat(np.linspace(0, 8, 20)[None, :, None], 3, axis=2) * np.ones((2, 20, 3))
+ramp[:, 10:] = 5.0  # a run
+put("hdr", "rle_20x2.hdr", hdr_bytes(ramp, rle=True))
+put("hdr", "exposure_2x3.hdr", hdr_bytes(hdr_img, extra=b"EXPOSURE=2.0\n# comment\nGAMMA=1\n"))
+put("hdr", "truncated_rle.hdr", hdr_bytes(ramp, rle=True)[:-7])
+put("hdr", "xyze.hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n\x80\x80\x80\x81")
+put("hdr", "flipped.hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n+Y 1 -X 2\n\x80\x80\x80\x81\x80\x80\x80\x81")
+put("hdr", "header_only.hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 40000 +X 40000\n")
+
+# PFM: colour/grey, little/big-endian, scaled; bottom row first in the file.
+
+
+def pfm_bytes(img, little=True, scale=1.0, sep=b"\n"):
+    grey = img.ndim == 2
+    h, w = img.shape[:2]
+    data = np.ascontiguousarray(img[::-1], dtype="<f4" if little else ">f4").tobytes()
+    return (b"Pf" if grey else b"PF") + sep + b"%d %d" % (w, h) + sep + b"%g" % (-scale if little else scale) + b"\n" + data
+
+
+pfm_img = (rng.random((3, 2, 3)) * 10 - 2).astype(np.float32)
+put("pfm", "rgb_le_2x3.pfm", pfm_bytes(pfm_img))
+put("pfm", "rgb_be_2x3.pfm", pfm_bytes(pfm_img, little=False))
+put("pfm", "grey_le_5x2.pfm", pfm_bytes(pfm_img[:2, :, 0].repeat(3, axis=1)[:, :5]))
+put("pfm", "grey_be_scaled_1x1.pfm", pfm_bytes(np.array([[0.25]]), little=False, scale=2.5, sep=b" "))
+put("pfm", "special_values.pfm", pfm_bytes(np.array([[[np.inf, -np.inf, np.nan], [0.0, -0.0, 1e-45]]])))
+put("pfm", "truncated.pfm", pfm_bytes(pfm_img)[:-5])
+put("pfm", "header_only.pfm", b"PF\n65536 65536\n-1\n")
+
+
 def exr_bytes(name, channels, compression, tiled=False):
     hdr = {"compression": compression, "type": OpenEXR.tiledimage if tiled else OpenEXR.scanlineimage}
     if tiled:

@@ -1,5 +1,5 @@
 //! Byte-slice entry points for the fuzz targets (`fuzz/`, `make fuzz`) and the corpus replay test
-//! (`tests/fuzz_corpus.rs`). Not part of the public API.
+//! (`fuzzing::tests::fuzz_corpus_replays_without_panics`). Not part of the public API.
 //!
 //! The readers take file paths, so each entry point writes its input to a private temporary directory
 //! (one per thread; emptied before each scene bundle, single files are overwritten) and calls the public loader on it: the fuzzed code is
@@ -180,8 +180,10 @@ mod tests {
         assert_eq!((scene.camera.width, scene.camera.height), (8, 2));
         assert_eq!(scene.meshes[0].indices, vec![[0, 1, 2]]);
         assert!(xml(b"<scene version=\"3.0.0\"/>").unwrap_err().to_string().contains("no shapes"));
-        // A mesh of only zero-area triangles loads empty, as Mitsuba goes on (the scene loader warns).
+        // A mesh of only zero-area triangles loads empty, as Mitsuba goes on (the scene loader warns);
+        // index 0 (OBJ indices start at 1) is still an error.
         assert!(run("obj", b"v 0 0 0\nf 1 1 1\n").is_ok());
+        assert!(run("obj", b"v 0 0 0\nf 0 1 1\n").unwrap_err().contains("out of range"));
         assert!(run("png", b"\x89PNG").is_err());
         cleanup();
     }

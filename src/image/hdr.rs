@@ -11,9 +11,13 @@
 use crate::error::{Error, Result};
 use std::path::Path;
 
+/// The largest RGBE image read, 16384 x 16384 pixels (3 GiB of f32 RGB), as for EXR layers.
+const MAX_HDR_PIXELS: usize = 1 << 28;
+
 /// Reads a Radiance RGBE file: (width, height, linear RGB pixels, row 0 = top).
 ///
-/// Errors: `Io` naming the file when it cannot be opened, is truncated or is not an RGBE file.
+/// Errors: `Io` naming the file when it cannot be opened, is truncated, is not an RGBE file or
+/// declares more than 16384^2 pixels.
 pub fn read_hdr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let mut reader = std::io::BufReader::new(file);
@@ -26,11 +30,21 @@ pub fn read_hdr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     }
     let decoder = image::codecs::hdr::HdrDecoder::new_nonstrict(reader)
         .map_err(|e| Error::io(path, format!("invalid Radiance RGBE (.hdr) file: {e}")))?;
-    let img = image::DynamicImage::from_decoder(decoder)
-        .map_err(|e| Error::io(path, format!("invalid Radiance RGBE (.hdr) file: {e}")))?
-        .into_rgb32f();
-    let (w, h) = img.dimensions();
-    let pixels = img.pixels().map(|p| p.0).collect();
+    // The header's size is checked before anything is allocated: the decoder allocates
+    // width * height * 12 bytes from it, and a 61-byte file declaring 10^6 x 10^6 pixels made the
+    // allocation fail, which aborts the process (fuzzing finding, fuzz/corpus/hdr/finding-huge-size).
+    let (w, h) = image::ImageDecoder::dimensions(&decoder);
+    let n = (w as usize).checked_mul(h as usize).filter(|&n| n <= MAX_HDR_PIXELS);
+    let Some(n) = n else {
+        return Err(Error::io(
+            path,
+            format!("Radiance RGBE (.hdr) image of {w}x{h} pixels is larger than supported (16384x16384 pixels)"),
+        ));
+    };
+    // Decoded straight into the returned pixels (no second full-size copy).
+    let mut pixels = vec![[0.0f32; 3]; n];
+    image::ImageDecoder::read_image(decoder, bytemuck::cast_slice_mut(&mut pixels))
+        .map_err(|e| Error::io(path, format!("invalid Radiance RGBE (.hdr) file: {e}")))?;
     Ok((w, h, pixels))
 }
 
@@ -81,5 +95,17 @@ mod tests {
         let p = tmp("png.hdr", b"\x89PNG\r\n\x1a\n");
         assert!(read_hdr(&p).unwrap_err().to_string().contains("png.hdr"));
         assert!(matches!(read_hdr(Path::new("/nonexistent/a.hdr")), Err(Error::Io { .. })));
+    }
+
+    #[test]
+    fn huge_declared_size_is_refused_before_allocating() {
+        // Fuzzing finding: the decoder allocated width * height * 12 bytes from the header, and
+        // 10^6 x 10^6 pixels (12 TB) aborted the process. Sizes over the cap (2^28 pixels) are now
+        // errors naming the file and the size, before the decoder allocates.
+        for (w, h) in [(1_000_000u64, 1_000_000u64), ((1 << 28) + 1, 1), (16385, 16384)] {
+            let p = tmp("huge.hdr", format!("#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n\x7f\x7f\x7f\x01").as_bytes());
+            let e = read_hdr(&p).unwrap_err().to_string();
+            assert!(e.contains("huge.hdr") && e.contains(&format!("{w}x{h}")) && e.contains("larger than supported"), "{e}");
+        }
     }
 }
