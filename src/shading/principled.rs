@@ -455,18 +455,10 @@ mod tests {
                 reference *= 4.0 * std::f64::consts::PI / (nz * np) as f64;
                 let mut rng = crate::lights::generate::sampling::stream(3, 77, si as u64);
                 let u = |r: &mut rand_pcg::Pcg32| crate::lights::generate::sampling::uniform(r);
-                let m = 400_000;
-                let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-                for _ in 0..m {
+                let (mean, err) = crate::testing::mean_and_std_err(400_000, || {
                     let (u0, u1, u2) = (u(&mut rng), u(&mut rng), u(&mut rng));
-                    if let Some((_, w)) = sample(b, wi, u0, u1, u2) {
-                        let w = w.as_dvec3();
-                        sum += w;
-                        sum2 += w * w;
-                    }
-                }
-                let mean = sum / m as f64;
-                let err = ((sum2 / m as f64 - mean * mean) / m as f64).max(glam::DVec3::ZERO).powf(0.5);
+                    sample(b, wi, u0, u1, u2).map(|(_, w)| w.as_dvec3())
+                });
                 for c in 0..3 {
                     assert!(
                         (mean[c] - reference[c]).abs() <= 4.0 * err[c] + 3e-3 * reference[c],

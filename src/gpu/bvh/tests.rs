@@ -10,19 +10,8 @@ const MIN_AGREEMENT: f64 = 0.9999;
 /// Queries per scene.
 const NUM_QUERIES: usize = 120_000;
 
-fn shared_dir() -> std::path::PathBuf {
-    if let Ok(dir) = std::env::var("MANYLIGHTS_SHARED") {
-        return dir.into();
-    }
-    let sibling = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared"));
-    if sibling.join("scenes").is_dir() {
-        return sibling;
-    }
-    "/work/shared".into()
-}
-
 pub(crate) fn load_shared(name: &str) -> Scene {
-    let path = shared_dir().join("scenes").join(name).join("scene.xml");
+    let path = crate::testing::shared_dir().join("scenes").join(name).join("scene.xml");
     load_scene(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 

@@ -319,18 +319,11 @@ mod tests {
             }
             reference /= (n * n) as f64;
             let mut rng = stream(1, 99, 0);
-            let m = 400_000;
-            let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-            for _ in 0..m {
-                if let Some(s) = sample_bsdf(&b, wi, &mut rng) {
-                    assert!(s.wo.z > 0.0, "{name}");
-                    let w = s.weight.as_dvec3();
-                    sum += w;
-                    sum2 += w * w;
-                }
-            }
-            let mean = sum / m as f64;
-            let err = ((sum2 / m as f64 - mean * mean) / m as f64).max(glam::DVec3::ZERO).powf(0.5);
+            let (mean, err) = crate::testing::mean_and_std_err(400_000, || {
+                let s = sample_bsdf(&b, wi, &mut rng)?;
+                assert!(s.wo.z > 0.0, "{name}");
+                Some(s.weight.as_dvec3())
+            });
             for c in 0..3 {
                 assert!(
                     (mean[c] - reference[c]).abs() <= 4.0 * err[c] + 2e-3 * reference[c],
