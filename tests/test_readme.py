@@ -95,7 +95,21 @@ def _check_python_block(ns):
     assert err < 1e-4, f"README says ~1e-5, got {err:.2e}"
 
 
-CHECKS = {"Matrix Row-Column Sampling in ten lines": _check_mrcs_block, "Python in ten lines": _check_python_block}
+def _check_own_lights_block(ns):
+    """Own light sets: two point lights from arrays, the VPLs by a boolean mask, concatenated; the image
+    equals the sum of the two sets' images (columns add up)."""
+    import manylights as ml
+
+    pts, vpls, lights = ns["pts"], ns["vpls"], ns["lights"]
+    assert len(pts) == 2 and list(pts.kind) == [0, 0]
+    assert len(vpls) == int((lights.kind == 4).sum()) > 0 and set(vpls.kind) == {4}
+    assert ns["img"].shape == (32, 32, 3) and ns["img"].max() > 0
+    parts = sum(ml.LightMatrix(ns["scene"], s).column_sum(progress=False) for s in (pts, vpls))
+    assert ml.relative_l2(ns["img"], parts) < 1e-5
+
+
+CHECKS = {"Matrix Row-Column Sampling in ten lines": _check_mrcs_block, "Python in ten lines": _check_python_block,
+          "Interactive use and robustness": _check_own_lights_block}
 
 
 def _heading_before(line: int) -> str:
