@@ -261,9 +261,10 @@ put("xml", "errors.xml", """@params unused=1
 <float name="x" value="1e400"/><transform name="to_world"><lookat origin="0,0,0" target="0,0,0"/></transform>
 <spectrum name="s" value="400:1, 500:2"/><rgb name="c" value="1, 2"/><ref id="missing"/></scene>""")
 
+# Extra seeds from the shared scenes beside the checkout (or a folder given), else the bundled ones.
 shared = Path(sys.argv[1]) if len(sys.argv) > 1 else FUZZ.parent.parent / "shared"
 if not (shared / "scenes").is_dir():
-    shared = Path("/work/shared")
+    shared = FUZZ.parent
 scenes = shared / "scenes"
 if scenes.is_dir():
     for xml in sorted(scenes.rglob("*.xml")):

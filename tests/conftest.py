@@ -13,7 +13,7 @@ REPO = Path(__file__).resolve().parents[1]
 def shared_dir() -> Path:
     """../shared beside the checkout (CI and developers), or $MANYLIGHTS_SHARED."""
     env = os.environ.get("MANYLIGHTS_SHARED")
-    for cand in ([Path(env)] if env else []) + [REPO.parent / "shared", Path("/work/shared")]:
+    for cand in ([Path(env)] if env else []) + [REPO.parent / "shared"]:
         if (cand / "scenes").is_dir():
             return cand
     raise RuntimeError("the shared scenes were not found: put shared/ beside the checkout or set MANYLIGHTS_SHARED")

@@ -5,6 +5,7 @@ then: python tests/mitsuba_check_gbuffer.py /tmp/gbuffer_dump
 """
 import os
 import sys
+import tempfile
 import numpy as np
 import mitsuba as mi
 
@@ -55,6 +56,6 @@ def check(folder):
           f"max |g - g_ref| {np.abs(g - ref_g)[same].max():.2e}, max |uv - uv_ref| {du[same].max():.2e}")
 
 
-root = sys.argv[1] if len(sys.argv) > 1 else "/tmp/gbuffer_dump"
+root = sys.argv[1] if len(sys.argv) > 1 else os.path.join(tempfile.gettempdir(), "gbuffer_dump")
 for name in sorted(os.listdir(root)):
     check(os.path.join(root, name))
