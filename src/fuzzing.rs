@@ -13,6 +13,11 @@
 //!   `to_world`, smooth and flat shading).
 //! - [`image`]: `texture::load_bitmap` on a file with the given extension (`png`, `jpg`, `exr`, ...): the
 //!   path textures and environment maps take.
+//!
+//! Every entry point runs its loader with the host-memory checks bounded by [`MEMORY_LIMIT`] on its thread
+//! (`memory::with_thread_limit`, as if `MANYLIGHTS_MEMORY_LIMIT` were that): an input declaring more (e.g. an
+//! image that decodes to gigabytes) must be refused by the memory policy, so a process growing past the
+//! fuzzer's `-rss_limit_mb=2048` is a finding.
 use crate::error::{Location, Result};
 use crate::scene::{mesh, texture, LoadOptions, Scene};
 use glam::{Mat4, Vec3};
@@ -22,6 +27,8 @@ use std::path::{Path, PathBuf};
 pub const FILE_MARK: &[u8] = b"\n--8<-- ";
 /// The line prefix giving `LoadOptions::params` in an [`xml`] bundle.
 pub const PARAMS_MARK: &[u8] = b"@params ";
+/// Host memory the entry points' loaders may use (512 MiB; `crate::memory::with_thread_limit`).
+pub const MEMORY_LIMIT: u64 = 512 << 20;
 /// At most this many extra files are written per bundle (the rest are ignored).
 const MAX_FILES: usize = 8;
 
@@ -113,7 +120,7 @@ pub fn xml(data: &[u8]) -> Result<Scene> {
         let _ = p.parent().map(std::fs::create_dir_all).unwrap_or(Ok(())).and_then(|_| std::fs::write(&p, bytes));
     }
     let path = write(&dir, "scene.xml", main);
-    crate::scene::load_scene(&path, &LoadOptions { params, size: None })
+    crate::memory::with_thread_limit(MEMORY_LIMIT, || crate::scene::load_scene(&path, &LoadOptions { params, size: None }))
 }
 
 fn finalize_both(data: mesh::MeshData, path: &Path) -> Result<mesh::WorldMesh> {
@@ -126,19 +133,20 @@ fn finalize_both(data: mesh::MeshData, path: &Path) -> Result<mesh::WorldMesh> {
 /// Reads bytes as an OBJ file (`load_obj`), then finalizes the mesh.
 pub fn obj(data: &[u8]) -> Result<mesh::WorldMesh> {
     let path = write(&scratch(false), "m.obj", data);
-    finalize_both(mesh::load_obj(&path, &Location::new("fuzz.xml", 1))?, &path)
+    crate::memory::with_thread_limit(MEMORY_LIMIT, || finalize_both(mesh::load_obj(&path, &Location::new("fuzz.xml", 1))?, &path))
 }
 
 /// Reads bytes as a PLY file (`load_ply`), then finalizes the mesh.
 pub fn ply(data: &[u8]) -> Result<mesh::WorldMesh> {
     let path = write(&scratch(false), "m.ply", data);
-    finalize_both(mesh::load_ply(&path, &Location::new("fuzz.xml", 1))?, &path)
+    crate::memory::with_thread_limit(MEMORY_LIMIT, || finalize_both(mesh::load_ply(&path, &Location::new("fuzz.xml", 1))?, &path))
 }
 
 /// Reads bytes as a bitmap file with extension `ext` (`texture::load_bitmap`, sRGB decoding on).
 pub fn image(data: &[u8], ext: &str) -> Result<(u32, u32, Vec<Vec3>)> {
     let path = write(&scratch(false), &format!("t.{ext}"), data);
-    let (w, h, px) = texture::load_bitmap(&path, &Location::new("fuzz.xml", 1), false)?;
+    let (w, h, px) =
+        crate::memory::with_thread_limit(MEMORY_LIMIT, || texture::load_bitmap(&path, &Location::new("fuzz.xml", 1), false))?;
     assert_eq!(px.len(), w as usize * h as usize, "load_bitmap returned {} texels for {w}x{h}", px.len());
     Ok((w, h, px))
 }
@@ -206,7 +214,28 @@ mod tests {
     fn exr_with_huge_layer_is_refused() {
         let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/exr/finding-huge-layer")).unwrap();
         let e = image(&data, "exr").unwrap_err().to_string();
-        assert!(e.contains("t.exr: EXR layer of 16777217x16777215 pixels and 3 channels is larger than supported"), "{e}");
+        assert!(e.contains("t.exr: EXR layer of 16777217x16777215 pixels is larger than supported"), "{e}");
+        cleanup();
+    }
+
+    /// JPEG findings: a 556-byte progressive JPEG declaring 2039x65016 pixels decoded to 2.2 GB (5 s), a
+    /// 412-byte one declaring 65526x505 took 600 MB (1 s). Under the texture size policy they need more
+    /// than the entry points' 512 MiB bound and are refused before decoding, naming the size.
+    #[test]
+    fn jpegs_declaring_large_images_are_refused_by_the_memory_policy() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/jpg");
+        for (file, want) in [
+            // 2039 * 65016 * (3 + 12) + 2048 * 65024 * 8 + 16 MiB
+            ("finding-oom-decoded-size", "(JPEG image of 2039x65016 pixels) needs 3.07 GB of host memory but only 536.9 MB"),
+            // 65526 * 505 * (3 + 12) + 65536 * 512 * 8 + 16 MiB
+            ("finding-slow-progressive", "(JPEG image of 65526x505 pixels) needs 781.6 MB of host memory but only 536.9 MB"),
+        ] {
+            let data = std::fs::read(root.join(file)).unwrap();
+            let e = image(&data, "jpg").unwrap_err();
+            let msg = e.to_string();
+            assert!(matches!(e, crate::error::Error::OutOfMemory(_)), "{file}: {e:?}");
+            assert!(msg.starts_with("fuzz.xml:1: decoding \"") && msg.contains("t.jpg") && msg.contains(want), "{file}: {msg}");
+        }
         cleanup();
     }
 

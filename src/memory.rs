@@ -49,7 +49,32 @@ pub fn available_host_bytes() -> Result<Option<u64>> {
         })?;
         avail = Some(avail.map_or(limit, |a| a.min(limit)));
     }
+    if let Some(limit) = THREAD_LIMIT.with(|l| l.get()) {
+        avail = Some(avail.map_or(limit, |a| a.min(limit)));
+    }
     Ok(avail)
+}
+
+thread_local! {
+    static THREAD_LIMIT: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
+}
+
+/// Runs `f` with this thread's host-memory checks bounded by `bytes` as well (as if
+/// `MANYLIGHTS_MEMORY_LIMIT` were at most `bytes`, for this thread only; nested calls keep the smaller
+/// bound; the previous bound is restored afterwards, also when `f` panics). The fuzz entry points
+/// (`crate::fuzzing`) use it to hold the loaders to the fuzzer's memory limit; work that `f` hands to
+/// other threads is not bounded by it.
+pub fn with_thread_limit<T>(bytes: u64, f: impl FnOnce() -> T) -> T {
+    struct Restore(Option<u64>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            THREAD_LIMIT.with(|l| l.set(self.0));
+        }
+    }
+    let previous = THREAD_LIMIT.with(|l| l.get());
+    let _restore = Restore(previous);
+    THREAD_LIMIT.with(|l| l.set(Some(previous.map_or(bytes, |p| p.min(bytes)))));
+    f()
 }
 
 /// "123", "64K", "2M", "8G", "1T" (powers of 1024; a trailing "B"/"iB" is allowed).
@@ -192,6 +217,23 @@ mod tests {
         assert_eq!(parse_bytes("2GiB"), Some(2 << 30));
         assert_eq!(parse_bytes("1000"), Some(1000));
         assert_eq!(parse_bytes("abc"), None);
+    }
+
+    #[test]
+    fn thread_limit_bounds_this_thread_only() {
+        let outer = available_host_bytes().unwrap();
+        let inner = with_thread_limit(1 << 20, || {
+            let here = available_host_bytes().unwrap();
+            let nested = with_thread_limit(1 << 30, || available_host_bytes().unwrap());
+            let other = std::thread::spawn(|| available_host_bytes().unwrap()).join().unwrap();
+            let e = check_host("a 2 MiB test buffer", 2 << 20).unwrap_err();
+            assert!(matches!(e, Error::OutOfMemory(_)) && e.to_string().contains("1.0 MB is available"), "{e}");
+            (here, nested, other.is_none_or(|o| o > 1 << 20))
+        });
+        assert_eq!(inner, (Some(1 << 20), Some(1 << 20), true));
+        let after = available_host_bytes().unwrap();
+        assert_eq!(after.is_some(), outer.is_some());
+        assert!(after.is_none_or(|a| a > 1 << 20), "{after:?}");
     }
 
     #[test]

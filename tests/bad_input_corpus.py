@@ -168,6 +168,15 @@ def png_header_only(width: int, height: int) -> bytes:
     return b"\x89PNG\r\n\x1a\n" + chunk
 
 
+def jpeg_declaring(jpeg: bytes, width: int, height: int) -> bytes:
+    """A JPEG whose frame header (the first SOFn segment) is changed to declare width x height."""
+    i = 2
+    while jpeg[i] == 0xFF and jpeg[i + 1] not in (0xC0, 0xC1, 0xC2):
+        i += 2 + struct.unpack(">H", jpeg[i + 2:i + 4])[0]
+    assert jpeg[i] == 0xFF, "no frame header"
+    return jpeg[:i + 5] + struct.pack(">HH", height, width) + jpeg[i + 9:]
+
+
 # --------------------------------------------------------------------------------------------------
 # Scene files: the XML itself.
 
@@ -301,8 +310,21 @@ for _kind, _load_fn in [("bitmap", _tex_scene), ("envmap", _env_scene)]:
             c, f"{k}-bigexr", "big.exr", exr_window(c.exr_bytes, (0, 0, 99999, 99999))), ["big.exr"]),
         ("PNG header claiming 10^5 x 10^5", lambda c, f=_load_fn, k=_kind: f(
             c, f"{k}-big", "big.png", png_header_only(100000, 100000)), ["big.png"]),
+        # Texture size policy: at most 16384^2 pixels, declared in any format's header.
+        ("JPEG header claiming 60000 x 60000", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-bigjpg", "big.jpg", jpeg_declaring(c.jpg_bytes, 60000, 60000)),
+         ["big.jpg", "JPEG image of 60000x60000 pixels is larger than supported", "16384x16384"]),
+        ("HDR header claiming 60000 x 60000", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-bighdr", "big.hdr", HDR_BYTES.replace(b"-Y 4 +X 4", b"-Y 60000 +X 60000")),
+         ["big.hdr", "60000x60000 pixels is larger than supported", "16384x16384"]),
         ("junk, unknown extension", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-ext", "t.xyz", JUNK), ["t.xyz"]),
     ], raises=FILE_ERRORS)
+    # A JPEG declaring 4000 x 4000 pixels (400 MB to decode) while MANYLIGHTS_MEMORY_LIMIT=64M: MemoryError.
+    cases_for(f"load_scene[{_kind}]", [
+        ("JPEG larger than MANYLIGHTS_MEMORY_LIMIT", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-memjpg", "mem.jpg", jpeg_declaring(c.jpg_bytes, 4000, 4000)),
+         ["mem.jpg", "JPEG image of 4000x4000 pixels", "MANYLIGHTS_MEMORY_LIMIT", "67.1 MB is available"]),
+    ], raises=("MemoryError",), subprocess=True)
 
 # --------------------------------------------------------------------------------------------------
 # Image files and arrays: read_exr, write_exr, write_png.
@@ -703,7 +725,9 @@ SUBPROCESS_ENV = {"device_info:no such adapter": {"MANYLIGHTS_ADAPTER": "no-such
                   "LightMatrix:bad MANYLIGHTS_DEVICE": {"MANYLIGHTS_DEVICE": "quantum"},
                   "LightMatrix:gpu without any adapter": {"WGPU_BACKEND": "vulkan",
                                                           "VK_ICD_FILENAMES": "/nonexistent/icd.json",
-                                                          "VK_DRIVER_FILES": "/nonexistent/icd.json"}}
+                                                          "VK_DRIVER_FILES": "/nonexistent/icd.json"},
+                  **{f"load_scene[{k}]:JPEG larger than MANYLIGHTS_MEMORY_LIMIT": {"MANYLIGHTS_MEMORY_LIMIT": "64M"}
+                     for k in ("bitmap", "envmap")}}
 
 
 # Self-test cases of the runner (only with BAD_INPUT_SELFTEST=1): each must be reported as a failure.

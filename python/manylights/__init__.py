@@ -75,7 +75,10 @@ def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = Non
 
     Raises:
         FileNotFoundError: the scene or a file it names is missing.
-        SceneError: malformed XML or an unsupported plugin (the message names file, line and value).
+        SceneError: malformed XML or an unsupported plugin (the message names file, line and value); an
+            image (texture, environment map) declaring more than 16384^2 pixels.
+        MemoryError: an image whose decoding needs more host memory than is available or allowed by
+            ``MANYLIGHTS_MEMORY_LIMIT`` (the message names the file, its size and the limit).
 
     Warns:
         UserWarning: for input Mitsuba accepts with a warning (e.g. a mesh whose triangles all have zero

@@ -123,7 +123,7 @@ def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[in
     """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film.
 
     Raises:
-        FileNotFoundError, SceneError, OSError.
+        FileNotFoundError, SceneError, OSError; MemoryError for an image larger than host memory allows.
 
     Warns:
         UserWarning: input Mitsuba accepts with a warning (a mesh whose triangles all have zero area)."""

@@ -11,13 +11,11 @@
 use crate::error::{Error, Result};
 use std::path::Path;
 
-/// The largest RGBE image read, 16384 x 16384 pixels (3 GiB of f32 RGB), as for EXR layers.
-const MAX_HDR_PIXELS: usize = 1 << 28;
-
 /// Reads a Radiance RGBE file: (width, height, linear RGB pixels, row 0 = top).
 ///
 /// Errors: `Io` naming the file when it cannot be opened, is truncated, is not an RGBE file or
-/// declares more than 16384^2 pixels.
+/// declares more than 16384^2 pixels; `OutOfMemory` naming the file and its size when its pixels need
+/// more host memory than the memory policy allows (`crate::image::size_policy`).
 pub fn read_hdr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let mut reader = std::io::BufReader::new(file);
@@ -30,17 +28,12 @@ pub fn read_hdr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     }
     let decoder = image::codecs::hdr::HdrDecoder::new_nonstrict(reader)
         .map_err(|e| Error::io(path, format!("invalid Radiance RGBE (.hdr) file: {e}")))?;
-    // The header's size is checked before anything is allocated: the decoder allocates
-    // width * height * 12 bytes from it, and a 61-byte file declaring 10^6 x 10^6 pixels made the
-    // allocation fail, which aborts the process (fuzzing finding, fuzz/corpus/hdr/finding-huge-size).
+    // The header's size is checked before anything is allocated (texture size policy): the decoder
+    // allocates width * height * 12 bytes from it, and a 61-byte file declaring 10^6 x 10^6 pixels made
+    // the allocation fail, which aborts the process (fuzzing finding, fuzz/corpus/hdr/finding-huge-size).
     let (w, h) = image::ImageDecoder::dimensions(&decoder);
-    let n = (w as usize).checked_mul(h as usize).filter(|&n| n <= MAX_HDR_PIXELS);
-    let Some(n) = n else {
-        return Err(Error::io(
-            path,
-            format!("Radiance RGBE (.hdr) image of {w}x{h} pixels is larger than supported (16384x16384 pixels)"),
-        ));
-    };
+    crate::image::size_policy::check(path, "Radiance RGBE (.hdr) image", w as u64, h as u64, 12, 0)?;
+    let n = w as usize * h as usize;
     // Decoded straight into the returned pixels (no second full-size copy).
     let mut pixels = vec![[0.0f32; 3]; n];
     image::ImageDecoder::read_image(decoder, bytemuck::cast_slice_mut(&mut pixels))
@@ -101,11 +94,18 @@ mod tests {
     fn huge_declared_size_is_refused_before_allocating() {
         // Fuzzing finding: the decoder allocated width * height * 12 bytes from the header, and
         // 10^6 x 10^6 pixels (12 TB) aborted the process. Sizes over the cap (2^28 pixels) are now
-        // errors naming the file and the size, before the decoder allocates.
+        // errors naming the file and the size, before the decoder allocates; so are sizes under the cap
+        // whose pixels need more memory than the memory policy allows.
         for (w, h) in [(1_000_000u64, 1_000_000u64), ((1 << 28) + 1, 1), (16385, 16384)] {
             let p = tmp("huge.hdr", format!("#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n\x7f\x7f\x7f\x01").as_bytes());
             let e = read_hdr(&p).unwrap_err().to_string();
             assert!(e.contains("huge.hdr") && e.contains(&format!("{w}x{h}")) && e.contains("larger than supported"), "{e}");
         }
+        // 1000 x 1000 pixels (12 MB of f32 RGB) under a 10 MiB memory bound.
+        let p = tmp("big.hdr", b"#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1000 +X 1000\n\x7f\x7f\x7f\x01");
+        let e = crate::memory::with_thread_limit(10 << 20, || read_hdr(&p)).unwrap_err();
+        assert!(matches!(e, Error::OutOfMemory(_)), "{e:?}");
+        let msg = e.to_string();
+        assert!(msg.contains("big.hdr\" (Radiance RGBE (.hdr) image of 1000x1000 pixels) needs 12.0 MB") && msg.contains("10.5 MB is available"), "{msg}");
     }
 }

@@ -10,27 +10,32 @@ use crate::error::{Error, Result};
 use exr::prelude::*;
 use std::path::Path;
 
-/// The largest EXR layer read (16384 x 16384 pixels, up to 2^30 channel samples): the `exr` crate
+/// The most channel samples of an EXR layer read (2^30), besides the texture size policy
+/// (`crate::image::size_policy`: at most 16384^2 pixels and what host memory allows). The `exr` crate
 /// allocates a layer's samples from its header before reading them, and aborts the process when that
 /// fails (found by fuzzing: a 300-byte file asking for 10^15 bytes).
-const MAX_EXR_PIXELS: usize = 1 << 28;
-const MAX_EXR_SAMPLES: usize = 1 << 30;
+const MAX_EXR_SAMPLES: u64 = 1 << 30;
 
 /// Reads an EXR file: (width, height, linear RGB pixels, row 0 = top).
 ///
 /// Errors: `Io` naming the file when it cannot be read, has neither R, G, B nor Y channels, or has a
-/// layer of more than 16384^2 pixels or 2^30 samples.
+/// layer of more than 16384^2 pixels or 2^30 samples; `OutOfMemory` naming the file and the layer size
+/// when decoding a layer needs more host memory than the memory policy allows (`size_policy::check`).
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| Error::io(path, e))?;
+    // Every layer is checked (the one read is the first valid one): its stored samples, three f32
+    // channel copies and the returned pixels are held at once.
     for h in &meta.headers {
-        let (w, ht, c) = (h.layer_size.width(), h.layer_size.height(), h.channels.list.len());
-        let pixels = w.checked_mul(ht).filter(|&n| n <= MAX_EXR_PIXELS);
-        if pixels.and_then(|n| n.checked_mul(c)).is_none_or(|n| n > MAX_EXR_SAMPLES) {
+        let (w, ht, c) = (h.layer_size.width() as u64, h.layer_size.height() as u64, h.channels.list.len() as u64);
+        crate::image::size_policy::check(path, "EXR layer", w, ht, 0, 0)?;
+        if (w * ht).saturating_mul(c) > MAX_EXR_SAMPLES {
             return Err(Error::io(
                 path,
-                format!("EXR layer of {w}x{ht} pixels and {c} channels is larger than supported (16384x16384, 2^30 samples)"),
+                format!("EXR layer of {w}x{ht} pixels and {c} channels is larger than supported (2^30 samples)"),
             ));
         }
+        let stored: u64 = h.channels.list.iter().map(|ch| ch.sample_type.bytes_per_sample() as u64).sum();
+        crate::image::size_policy::check(path, "EXR layer", w, ht, stored + 2 * crate::image::size_policy::TEXEL_BYTES, 0)?;
     }
     let image = read_first_flat_layer_from_file(path).map_err(|e| Error::io(path, e))?;
     let layer = &image.layer_data;
@@ -44,10 +49,12 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
             .map(|c| c.sample_data.values_as_f32().collect())
     };
     let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
-    let pixels: Vec<[f32; 3]> = match (channel("R"), channel("G"), channel("B"), channel("Y")) {
-        (Some(r), Some(g), Some(b), _) => r.iter().zip(&g).zip(&b).map(|((r, g), b)| [*r, *g, *b]).collect(),
-        (_, _, _, Some(y)) => y.iter().map(|&y| [y, y, y]).collect(),
-        _ => return Err(Error::io(path, format!("EXR has channels {names:?}; expected R, G, B or Y"))),
+    let pixels: Vec<[f32; 3]> = if let (Some(r), Some(g), Some(b)) = (channel("R"), channel("G"), channel("B")) {
+        r.iter().zip(&g).zip(&b).map(|((r, g), b)| [*r, *g, *b]).collect()
+    } else if let Some(y) = channel("Y") {
+        y.iter().map(|&y| [y, y, y]).collect()
+    } else {
+        return Err(Error::io(path, format!("EXR has channels {names:?}; expected R, G, B or Y")));
     };
     if pixels.len() != w * h {
         return Err(Error::io(path, format!("EXR has {} samples for {w}x{h} pixels", pixels.len())));

@@ -1,5 +1,6 @@
 //! Image files and image comparisons: EXR/PNG reading and writing (`io`), Radiance RGBE (`hdr`) and PFM
-//! (`pfm`) input, Mitsuba's bitmap padding (`pad`) and error metrics (`metrics`).
+//! (`pfm`) input, the texture size policy all readers apply before decoding (`size_policy`), Mitsuba's
+//! bitmap padding (`pad`) and error metrics (`metrics`).
 //!
 //! Images are row-major `[f32; 3]` linear RGB with row 0 at the top, `width * height` pixels.
 pub mod hdr;
@@ -7,6 +8,7 @@ pub mod io;
 pub mod metrics;
 pub mod pad;
 pub mod pfm;
+pub mod size_policy;
 
 pub use hdr::read_hdr;
 pub use io::{read_exr, write_exr, write_png};

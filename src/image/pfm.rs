@@ -11,13 +11,27 @@ use std::path::Path;
 /// Reads a PFM file: (width, height, linear RGB pixels, row 0 = top).
 ///
 /// Errors: `Io` naming the file for a missing file, a bad header, non-positive or overflowing size, a
-/// zero or non-finite scale, or fewer data bytes than the header announces.
+/// zero or non-finite scale, fewer data bytes than the header announces, or more than 16384^2 pixels;
+/// `OutOfMemory` naming the file and its size when the file and its pixels need more host memory than
+/// the memory policy allows (`crate::image::size_policy`).
 pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    parse_pfm(&bytes).map_err(|msg| Error::io(path, format!("invalid PFM file: {msg}")))
+    let header = parse_header(&bytes).map_err(|msg| Error::io(path, format!("invalid PFM file: {msg}")))?;
+    // The header's size is known to be backed by data; the file stays in memory while the pixels fill.
+    crate::image::size_policy::check(path, "PFM image", header.width as u64, header.height as u64, 12, bytes.len() as u64)?;
+    Ok(decode(&bytes, &header))
 }
 
-fn parse_pfm(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), String> {
+/// A PFM header whose size the data covers.
+struct Header {
+    channels: usize,
+    width: u32,
+    height: u32,
+    scale: f32,
+    data_start: usize,
+}
+
+fn parse_header(bytes: &[u8]) -> std::result::Result<Header, String> {
     let channels = match bytes.get(..2) {
         Some(b"PF") => 3usize,
         Some(b"Pf") => 1usize,
@@ -56,6 +70,13 @@ fn parse_pfm(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), Str
     if data.len() < need {
         return Err(format!("{w}x{h}x{channels} floats need {need} bytes of data, the file has {}", data.len()));
     }
+    Ok(Header { channels, width: w, height: h, scale, data_start: pos + 1 })
+}
+
+/// The pixels of a file whose header [`parse_header`] accepted (row 0 = top).
+fn decode(bytes: &[u8], header: &Header) -> (u32, u32, Vec<[f32; 3]>) {
+    let Header { channels, width: w, height: h, scale, data_start } = *header;
+    let data = &bytes[data_start..];
     let little = scale < 0.0;
     let k = scale.abs();
     let value = |i: usize| {
@@ -76,7 +97,7 @@ fn parse_pfm(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), Str
             pixels.push(if channels == 3 { [value(i), value(i + 1), value(i + 2)] } else { [value(i); 3] });
         }
     }
-    Ok((w, h, pixels))
+    (w, h, pixels)
 }
 
 /// Writes float32 RGB pixels (row 0 = top) as a little-endian PFM file, as Mitsuba writes them.

@@ -34,12 +34,19 @@ use std::path::Path;
 /// Loads a bitmap as linear RGB: (width, height, texels row-major, row 0 = top of the file).
 ///
 /// PNG/JPEG: sRGB decoded to linear unless `raw`; EXR, RGBE (.hdr) and PFM: linear as stored (`raw` has
-/// no effect).
-/// Errors: `FileNotFound`; `Scene` for unreadable or unsupported images (naming the file).
+/// no effect). Every format's declared size is checked before decoding (texture size policy,
+/// [`crate::image::size_policy`]).
+/// Errors: `FileNotFound`; `Scene` for unreadable or unsupported images and images of more than
+/// 16384^2 pixels (naming the file and the size); `OutOfMemory` (naming the scene location, the file,
+/// its size and the memory limit) when decoding it needs more host memory than the memory policy allows.
 pub fn load_bitmap(path: &Path, loc: &Location, raw: bool) -> Result<(u32, u32, Vec<Vec3>)> {
     if !path.exists() {
         return Err(Error::FileNotFound { loc: loc.clone(), path: path.to_path_buf() });
     }
+    let at_loc = |e: Error| match e {
+        Error::OutOfMemory(msg) => Error::OutOfMemory(format!("{loc}: {msg}")),
+        e => Error::scene(loc, format!("cannot read image: {e}")),
+    };
     // Float formats, recognised by their first bytes as Mitsuba's `Bitmap::detect_file_format` does.
     let float_reader: Option<FloatReader> = match magic(path)? {
         [0x76, 0x2f, 0x31, 0x01, ..] => Some(crate::image::io::read_exr),
@@ -48,33 +55,78 @@ pub fn load_bitmap(path: &Path, loc: &Location, raw: bool) -> Result<(u32, u32, 
         _ => None,
     };
     if let Some(read) = float_reader {
-        let (w, h, px) = read(path).map_err(|e| Error::scene(loc, format!("cannot read image: {e}")))?;
+        let (w, h, px) = read(path).map_err(at_loc)?;
         return Ok((w, h, px.into_iter().map(Vec3::from_array).collect()));
     }
-    let img = image::ImageReader::open(path)
-        .map_err(|e| Error::io(path, e))?
-        .with_guessed_format()
-        .map_err(|e| Error::io(path, e))?
-        .decode()
-        .map_err(|e| Error::scene(loc, format!("cannot decode image \"{}\": {e}", path.display())))?;
+    let img = decode_with_policy(path, loc, at_loc)?;
     let (w, h) = (img.width(), img.height());
     use image::DynamicImage as D;
-    let data = match img {
-        D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => {
-            let table = byte_table(raw);
-            img.to_rgb8().pixels().map(|p| Vec3::new(table[p[0] as usize], table[p[1] as usize], table[p[2] as usize])).collect()
-        }
-        D::ImageRgb32F(_) | D::ImageRgba32F(_) => img.to_rgb32f().pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
-        _ => {
-            // 16-bit: Mitsuba stores these as half floats after linearisation.
-            let decode = |c: u16| {
-                let x = c as f32 / 65535.0;
-                round_to_half(if raw { x } else { srgb_to_linear(x) })
-            };
-            img.to_rgb16().pixels().map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2]))).collect()
-        }
+    let table = byte_table(raw);
+    let byte = |c: u8| table[c as usize];
+    // 16-bit: Mitsuba stores these as half floats after linearisation.
+    let short = |c: u16| {
+        let x = c as f32 / 65535.0;
+        round_to_half(if raw { x } else { srgb_to_linear(x) })
+    };
+    // Straight from the decoded buffer (no converted copy); grey (+ alpha) is replicated to RGB and
+    // alpha dropped, as `to_rgb8` / `to_rgb16` do.
+    let data = match &img {
+        D::ImageLuma8(b) => texels(b.as_raw(), 1, byte),
+        D::ImageLumaA8(b) => texels(b.as_raw(), 2, byte),
+        D::ImageRgb8(b) => texels(b.as_raw(), 3, byte),
+        D::ImageRgba8(b) => texels(b.as_raw(), 4, byte),
+        D::ImageLuma16(b) => texels(b.as_raw(), 1, short),
+        D::ImageLumaA16(b) => texels(b.as_raw(), 2, short),
+        D::ImageRgb16(b) => texels(b.as_raw(), 3, short),
+        D::ImageRgba16(b) => texels(b.as_raw(), 4, short),
+        D::ImageRgb32F(b) => texels(b.as_raw(), 3, |c| c),
+        D::ImageRgba32F(b) => texels(b.as_raw(), 4, |c| c),
+        _ => texels(img.to_rgb16().as_raw(), 3, short),
     };
     Ok((w, h, data))
+}
+
+/// RGB texels of interleaved samples with `channels` per pixel (1 or 2: grey replicated).
+fn texels<T: Copy>(samples: &[T], channels: usize, f: impl Fn(T) -> f32) -> Vec<Vec3> {
+    samples
+        .chunks_exact(channels)
+        .map(|p| if channels < 3 { Vec3::splat(f(p[0])) } else { Vec3::new(f(p[0]), f(p[1]), f(p[2])) })
+        .collect()
+}
+
+/// Decodes a PNG or JPEG (`image` crate) after checking its declared size against the texture size
+/// policy: the decoder's output, its working memory and the returned texels must fit; the decoder is
+/// limited (`max_alloc`) to its share. Errors: `Io` when the file cannot be opened, the policy's errors
+/// through `at_loc`, `Scene` for decoding errors.
+fn decode_with_policy(path: &Path, loc: &Location, at_loc: impl Fn(Error) -> Error) -> Result<image::DynamicImage> {
+    use crate::image::size_policy as policy;
+    use image::{ImageDecoder, ImageFormat};
+    let open = |limits: image::Limits| -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>> {
+        let mut reader =
+            image::ImageReader::open(path).map_err(|e| Error::io(path, e))?.with_guessed_format().map_err(|e| Error::io(path, e))?;
+        reader.limits(limits);
+        Ok(reader)
+    };
+    let bad = |e: image::ImageError| Error::scene(loc, format!("cannot decode image \"{}\": {e}", path.display()));
+    // The header only (the JPEG decoder reads the file's bytes, not the image).
+    let reader = open(policy::decoder_limits(policy::DECODER_OVERHEAD_BYTES))?;
+    let format = reader.format();
+    let header = reader.into_decoder().map_err(bad)?;
+    let ((w, h), output) = (header.dimensions(), header.color_type().bytes_per_pixel() as u64);
+    drop(header);
+    let (w, h) = (w as u64, h as u64);
+    let working = match format {
+        Some(ImageFormat::Jpeg) => policy::jpeg_working_bytes(w, h),
+        _ => 0,
+    } + policy::DECODER_OVERHEAD_BYTES;
+    let what = match format {
+        Some(ImageFormat::Png) => "PNG image".to_string(),
+        Some(ImageFormat::Jpeg) => "JPEG image".to_string(),
+        Some(f) => format!("{f:?} image"),
+        None => "image".to_string(),
+    };
+    policy::check(path, &what, w, h, output + policy::TEXEL_BYTES, working).map_err(at_loc)?;
+    open(policy::decoder_limits(w * h * output + working))?.decode().map_err(bad)
 }
 
 type FloatReader = fn(&Path) -> Result<(u32, u32, Vec<[f32; 3]>)>;
