@@ -43,6 +43,7 @@ pub(crate) struct TriangleHit {
 
 impl WatertightRay {
     /// `d` must be finite and non-zero (the caller checks).
+    #[inline]
     pub fn new(o: Vec3, d: Vec3) -> Self {
         let a = d.abs();
         let kz = if a.x >= a.y && a.x >= a.z {
@@ -58,7 +59,8 @@ impl WatertightRay {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let unit = |k: usize| Vec3::from_array(std::array::from_fn(|i| (i == k) as u8 as f32));
+        const UNIT: [Vec3; 3] = [Vec3::X, Vec3::Y, Vec3::Z];
+        let unit = |k: usize| UNIT[k];
         WatertightRay { o, ex: unit(kx), ey: unit(ky), ez: unit(kz), sx: d[kx] / d[kz], sy: d[ky] / d[kz], sz: 1.0 / d[kz] }
     }
 
