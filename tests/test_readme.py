@@ -108,8 +108,19 @@ def _check_own_lights_block(ns):
     assert ml.relative_l2(ns["img"], parts) < 1e-5
 
 
+def _check_backends_block(ns):
+    """Two backends: the same MRCS image on the CPU and the GPU to float noise, each reporting itself."""
+    import manylights as ml
+
+    a, b = ns["a"], ns["b"]
+    assert ns["A"].device["kind"] == a.device["kind"] == "cpu" and b.device["kind"] == "gpu"
+    np.testing.assert_array_equal(a.representatives, b.representatives)
+    err = ml.relative_l2(a.image, b.image)
+    assert a.image.max() > 0 and err < 1e-6, f"README says ~3e-8, got {err:.2e}"
+
+
 CHECKS = {"Matrix Row-Column Sampling in ten lines": _check_mrcs_block, "Python in ten lines": _check_python_block,
-          "Interactive use and robustness": _check_own_lights_block}
+          "Interactive use and robustness": _check_own_lights_block, "Two backends: CPU and GPU": _check_backends_block}
 
 
 def _heading_before(line: int) -> str:

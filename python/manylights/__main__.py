@@ -39,30 +39,31 @@ class Stopwatch:
 
 
 def render(scene_path, out, size=None, params=None, shadow_map_size=None, area=0, environment=0, indirect=0,
-           seed=0, visibility="hybrid", png=True, quiet=False):
+           seed=0, visibility=None, png=True, quiet=False, device="auto"):
     """Brute force: every column of the light matrix (the scene's delta lights, plus generated area /
     environment / indirect lights when asked) plus what the camera sees of emitters."""
     import manylights as ml
 
     sw = Stopwatch()
-    dev = sw("gpu device", ml.device_info)
+    sw("device", ml.device_info, device)
     scene = sw("load scene", ml.load_scene, resolve(scene_path), size=size, **(params or {}))
-    sw("g-buffer (view samples)", scene.gbuffer)
     if area or environment or indirect:
         lights = sw("generate lights", ml.generate_lights, scene, area=area, environment=environment,
                     indirect=indirect, seed=seed)
     else:
         lights = sw("lights", ml.scene_lights, scene)
-    A = sw("light matrix setup", ml.LightMatrix, scene, lights, shadow_map_size=shadow_map_size,
-           visibility=visibility)
+    A = sw("g-buffer + light matrix setup", ml.LightMatrix, scene, lights, shadow_map_size=shadow_map_size,
+           visibility=visibility, device=device)
+    dev = A.device
     img = sw("columns (brute force)", A.column_sum, progress=not quiet)
     img = img + sw("emitted", A.emitted)
     written = _write(sw, Path(out), img, png)
     if not quiet:
         print(f"scene: {scene!r}")
-        print(f"adapter: {dev['name']} ({dev['backend']}, {'software' if dev['is_software'] else 'hardware'})")
-        print(f"lights: {len(lights)}; matrix {A.shape[0]} x {A.shape[1]}; shadow maps {A.shadow_map_size}^2, "
-              f"visibility {visibility}")
+        print(f"device: {dev['kind']}, {dev['name']} ({dev['backend']}"
+              + (f", {'software' if dev['is_software'] else 'hardware'})" if dev["kind"] == "gpu" else f", {dev['threads']} threads)"))
+        print(f"lights: {len(lights)}; matrix {A.shape[0]} x {A.shape[1]}; visibility {A.visibility}"
+              + (f", shadow maps {A.shadow_map_size}^2" if dev["kind"] == "gpu" else ""))
         sw.report()
         for w in written:
             print(f"wrote {w}")
@@ -82,7 +83,7 @@ def _write(sw, out: Path, img, png: bool):
     return written
 
 
-def demo(out_dir="out/demo", res=128, area=1024, indirect=3000, rows=300, columns=900, seed=0):
+def demo(out_dir="out/demo", res=128, area=1024, indirect=3000, rows=300, columns=900, seed=0, device="auto"):
     """The project's main job on the bundled scene: many lights (area + indirect + delta), Matrix Row-Column
     Sampling at a default budget next to brute force, with the error and the time of every stage."""
     import manylights as ml
@@ -91,13 +92,14 @@ def demo(out_dir="out/demo", res=128, area=1024, indirect=3000, rows=300, column
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     sw = Stopwatch()
-    dev = sw("gpu device", ml.device_info)
+    sw("device", ml.device_info, device)
     scene = sw("load scene", ml.load_scene, DEMO_SCENE, res=res)
-    sw("g-buffer (view samples)", scene.gbuffer)
     lights = sw("generate lights", ml.generate_lights, scene, area=area, indirect=indirect, seed=seed)
-    A = sw("light matrix setup", ml.LightMatrix, scene, lights, shadow_map_size=512)
+    A = sw("g-buffer + light matrix setup", ml.LightMatrix, scene, lights, shadow_map_size=512, device=device)
+    dev = A.device
     print(f"manylights demo: {DEMO_SCENE}")
-    print(f"adapter: {dev['name']} ({dev['backend']}, {'software' if dev['is_software'] else 'hardware'})")
+    print(f"device: {dev['kind']}, {dev['name']} ({dev['backend']}"
+          + (f", {'software' if dev['is_software'] else 'hardware'})" if dev["kind"] == "gpu" else f", {dev['threads']} threads)"))
     print(f"{scene!r}; {len(lights)} lights (area {area}, indirect ~{indirect}, + delta); matrix {A.shape[0]} x {A.shape[1]}")
     t = time.perf_counter()
     brute = A.column_sum(progress=True) + A.emitted()
@@ -134,22 +136,26 @@ def main(argv=None):
     r.add_argument("--environment", type=int, default=0, help="env map -> this many directional lights")
     r.add_argument("--indirect", type=int, default=0, help="this many VPLs for indirect light")
     r.add_argument("--seed", type=int, default=0)
-    r.add_argument("--visibility", default="hybrid", choices=["hybrid", "shadow_map", "ray_traced"])
+    r.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"],
+                   help="auto (default): MANYLIGHTS_DEVICE, else a hardware GPU, else the CPU backend")
+    r.add_argument("--visibility", default=None, choices=["hybrid", "shadow_map", "ray_traced"],
+                   help="GPU shadow tests (default: the device's own; the CPU always casts exact rays)")
     r.add_argument("--no-png", action="store_true")
     d = sub.add_parser("demo", help="MRCS vs brute force on the bundled demo scene")
     d.add_argument("-o", "--output", default="out/demo", help="output folder")
     d.add_argument("--res", type=int, default=128)
     d.add_argument("--rows", type=int, default=300)
     d.add_argument("--columns", type=int, default=900)
-    sub.add_parser("info", help="print the GPU adapter")
+    d.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"])
+    sub.add_parser("info", help="print the device that runs (and the GPU adapter wgpu would use)")
     a = ap.parse_args(argv)
     try:
         if a.cmd == "render":
             render(a.scene, a.output, size=tuple(a.size) if a.size else None, params=_params(a.params),
                    shadow_map_size=a.shadow_map_size, area=a.area, environment=a.environment, indirect=a.indirect,
-                   seed=a.seed, visibility=a.visibility, png=not a.no_png)
+                   seed=a.seed, visibility=a.visibility, png=not a.no_png, device=a.device)
         elif a.cmd == "demo":
-            demo(a.output, res=a.res, rows=a.rows, columns=a.columns)
+            demo(a.output, res=a.res, rows=a.rows, columns=a.columns, device=a.device)
         elif a.cmd == "info":
             import manylights as ml
 
