@@ -6,6 +6,9 @@ Subcommands:
              (tests/references/*-gi.exr), the VPL clamp on and off, and a sweep over the number of VPLs N_i.
              Prints a table, writes ``<out>/lights.json`` and ``<out>/lights.png`` (error vs N_i).
 
+    mrcs        MRCS against its baselines (bench_mrcs.py); vs-mitsuba: time to 5/2/1% relative L2, MRCS on
+                the CPU and GPU backends against Mitsuba's path tracer (bench_vs_mitsuba.py).
+
     python -m manylights.bench lights --scene cbox --lights 100000
     python -m manylights.bench lights --scene all --lights 100000 --engine oracle
 
@@ -153,11 +156,12 @@ def main(argv=None) -> int:
     p.add_argument("--visibility", choices=["ray_traced", "hybrid", "shadow_map"], default="ray_traced")
     p.add_argument("--images", action="store_true", help="also write every image as EXR")
     p.add_argument("-o", "--out", default="out/bench")
-    from . import bench_mrcs
+    from . import bench_mrcs, bench_vs_mitsuba
 
     bench_mrcs.add_parser(sub)
+    bench_vs_mitsuba.add_parser(sub)
     a = ap.parse_args(argv)
-    if a.cmd == "mrcs":
+    if a.cmd in ("mrcs", "vs-mitsuba"):
         a.run(a)
     elif a.cmd == "lights":
         if a.lights < 2:
