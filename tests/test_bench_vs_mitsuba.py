@@ -146,17 +146,22 @@ def test_time_to_error_exact():
 
 def test_interrupt_keeps_measurements(runs, monkeypatch):
     tmp = runs[0]
+    real, calls = bvm.run_mrcs, []
 
-    def stop(*a, **k):
-        raise KeyboardInterrupt
+    def stop_third(*a, **k):  # warm-up, first budget, then Ctrl-C
+        calls.append(a[1])
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*a, **k)
 
-    monkeypatch.setattr(bvm, "run_mrcs", stop)
+    monkeypatch.setattr(bvm, "run_mrcs", stop_third)
     with pytest.raises(SystemExit) as e:
-        bvm.run(_args(*_base(tmp, "c"), "--spp", 1, 2, "--devices", "gpu", "--no-early-stop"))
+        bvm.run(_args(*_base(tmp, "c"), "--spp", 1, 2, "--budgets", "100:8:20", "200:8:20", "--devices", "gpu",
+                      "--no-early-stop"))
     assert e.value.code == 130
     saved = json.loads((tmp / "c" / "vs-mitsuba-cbox-lights.json").read_text())
     assert saved["interrupted"] is True and saved["reference_cached"] is True
-    assert [r["spp"] for r in saved["records"]] == [1, 2]
+    assert [(r["method"], r["lights_budget"]) for r in saved["records"]] == [("mrcs", 100)]
     assert (tmp / "c" / "vs-mitsuba-cbox-lights.png").is_file()
 
 
