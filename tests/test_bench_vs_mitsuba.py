@@ -133,6 +133,15 @@ def test_outputs_written(runs):
     assert matplotlib.image.imread(png).shape[0] > 100
 
 
+def test_scene_defaults_name_bundled_scenes():
+    from manylights.scenes import available
+
+    assert set(bvm.DEFAULTS) == {"cbox", "cbox-lights", "veach-ajar", "demo"} and set(bvm.DEFAULTS) <= set(available())
+    # full GI where the issue asks for it, direct light for cbox-lights (and the demo's own integrator)
+    assert {k: d.max_depth for k, d in bvm.DEFAULTS.items()} == {"cbox": -1, "cbox-lights": 2, "veach-ajar": -1,
+                                                                "demo": 2}
+
+
 def test_time_to_error_exact():
     # log t is linear in log e between (1 s, 10%) and (4 s, 2.5%): 5% is reached at 2 s.
     assert bvm.time_to_error([(4.0, 0.025), (1.0, 0.1)], 0.05) == (pytest.approx(2.0, rel=1e-12), "interpolated")
