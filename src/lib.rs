@@ -8,6 +8,7 @@ pub mod interrupt;
 pub mod memory;
 pub mod lights;
 pub mod cluster;
+pub mod cpu;
 pub mod matrix;
 pub mod raytrace;
 pub mod scene;

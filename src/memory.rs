@@ -20,11 +20,18 @@ pub const HOST_BYTES_PER_LIGHT: u64 = 4 + 6 * 12 + 8 + 80 + 12;
 /// uv, albedo, indices, an 80-byte BSDF) and the GPU upload's staging copy (64 + 80 bytes).
 pub const HOST_BYTES_PER_VIEW_SAMPLE: u64 = 8 + 4 * 12 + 8 + 12 + 8 + 80 + 144;
 
+/// Refuse the host memory of the view samples of a `width` x `height` film when it does not fit (the CPU
+/// backend's G-buffer).
+pub fn check_view_samples_host(width: u32, height: u32) -> Result<()> {
+    let m = width as u64 * height as u64;
+    check_host(&format!("view samples of a {width}x{height} film"), product(&[m, HOST_BYTES_PER_VIEW_SAMPLE]))
+}
+
 /// Refuse a film of `width x height` view samples that cannot fit in host memory (software adapters:
 /// with its G-buffer textures).
 pub fn check_view_samples(ctx: &crate::gpu::GpuContext, width: u32, height: u32) -> Result<()> {
     let m = width as u64 * height as u64;
-    check_host(&format!("view samples of a {width}x{height} film"), product(&[m, HOST_BYTES_PER_VIEW_SAMPLE]))?;
+    check_view_samples_host(width, height)?;
     check_gpu(ctx, &format!("the G-buffer of a {width}x{height} film"), product(&[m, 16]), false)
 }
 

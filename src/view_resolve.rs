@@ -348,6 +348,34 @@ pub fn cast_visibility_cpu(scene: &Scene) -> Result<Vec<u32>> {
         .collect())
 }
 
+/// Visibility at every pixel centre by ray casting through the scene BVH (the CPU backend's G-buffer,
+/// for machines without a hardware GPU): the global id + 1 of the closest primitive along Mitsuba's
+/// camera ray (`Camera::ray(x + 0.5, y + 0.5)`) within the clip range, 0 for background; a
+/// `ShapeKind::Sphere` hit reports the first triangle of its mesh (the resolve intersects the analytic
+/// sphere). Equal to the GPU raster's ids wherever a pixel centre is not on a shared edge (there the
+/// watertight ray test and the raster's fill rule may pick different neighbours, both at the centre).
+///
+/// Errors: the camera checks of `gpu::gbuffer::validate_camera` (sides up to 65,536); host memory.
+pub fn cast_visibility_traced(scene: &Scene, tracer: &crate::raytrace::RayTracer) -> Result<Vec<u32>> {
+    let cam = &scene.camera;
+    crate::gpu::gbuffer::validate_camera_for(cam, 1 << 16, "the CPU backend's G-buffer limit")?;
+    crate::memory::check_view_samples_host(cam.width, cam.height)?;
+    let offsets = triangle_offsets(&scene.meshes)?;
+    let n = cam.width as usize * cam.height as usize;
+    crate::interrupt::par_map_chunked(n, 1 << 16, |i| {
+        let (x, y) = (i as u32 % cam.width, i as u32 / cam.width);
+        let (o, d) = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
+        let t_max = ray_t_max(cam, d) as f32;
+        match tracer.intersect(o, d, 0.0, t_max) {
+            Some(si) => {
+                let prim = if matches!(scene.meshes[si.mesh].kind, ShapeKind::Sphere { .. }) { 0 } else { si.prim as u32 };
+                offsets[si.mesh] + prim + 1
+            }
+            None => 0,
+        }
+    })
+}
+
 /// CPU reference view samples: [`cast_visibility_cpu`] then [`resolve_view_samples`].
 pub fn view_samples_cpu_reference(scene: &Scene) -> Result<ViewSamples> {
     resolve_view_samples(scene, &cast_visibility_cpu(scene)?)

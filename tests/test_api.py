@@ -1,5 +1,6 @@
 """Python API surface: image I/O, device info, LightMatrix arguments, CLI, stub agreement."""
 import ast
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -26,8 +27,17 @@ def test_exr_round_trip_and_png(tmp_path):
 
 def test_device_info():
     info = ml.device_info()
-    assert info["name"] and info["backend"] in {"vulkan", "gl", "metal", "dx12"}
+    assert info["kind"] in {"cpu", "gpu"} and info["name"]
     assert isinstance(info["is_software"], bool)
+    gpu = info["gpu"]
+    assert gpu["name"] and gpu["backend"] in {"vulkan", "gl", "metal", "dx12"}
+    # "auto" takes a hardware GPU, else the CPU (this machine's only adapter may be software).
+    if "MANYLIGHTS_DEVICE" not in os.environ:
+        assert info["kind"] == ("cpu" if gpu["is_software"] else "gpu"), info
+    cpu = ml.device_info("cpu")
+    assert cpu["kind"] == "cpu" and cpu["backend"] == "rayon" and cpu["threads"] >= 1 and not cpu["is_software"]
+    g = ml.device_info("gpu")
+    assert g["kind"] == "gpu" and g["name"] == gpu["name"] and g["threads"] == 0
 
 
 @pytest.fixture(scope="module")

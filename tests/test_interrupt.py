@@ -6,7 +6,8 @@ the child reports how long the KeyboardInterrupt took to arrive (the bound asser
 is a behaviour check, not a timing benchmark). Each call is sized to take far longer than the bound:
 ``weighted_sum`` repeats columns and ``column_sum`` runs over a set of repeated lights (k scaled from a
 measured small call so that they would run >= 10 s), ``rows`` asks for every view sample with large
-cube maps, ``cluster_reduced_columns`` and ``generate_lights`` (VPL tracing, CPU) are sized the same way
+cube maps on the GPU backend and for rows of the repeated-lights matrix on the CPU backend (sized from a
+measured call to >= 2.5 s: its output, r x n x 12 bytes, bounds the size), ``cluster_reduced_columns`` and ``generate_lights`` (VPL tracing, CPU) are sized the same way
 from measured small calls. (The exact CPU oracle runs in the same interruptible chunks, but at about
 0.5 us per element it takes no long call at sizes that fit in a test.)
 """
@@ -38,10 +39,10 @@ CHILD = textwrap.dedent(r"""
     # and Python keeps an inherited SIG_IGN: restore Python's own handler, as a terminal user has it.
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
-    xml, params = sys.argv[1], json.loads(sys.argv[2])
+    xml, params, device = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3]
     scene = ml.load_scene(xml, size=(48, 48), **params)
     lights = ml.generate_lights(scene, area=512, seed=1)
-    A = ml.LightMatrix(scene, lights)
+    A = ml.LightMatrix(scene, lights, device=device)
     J = list(range(0, 512, 37))
     W = np.linspace(0.5, 1.5, 3 * len(J), dtype=np.float32).reshape(-1, 3)
     before = A.weighted_sum(J, W)
@@ -68,9 +69,19 @@ CHILD = textwrap.dedent(r"""
     # Each call sized from the measured small calls to run for >= ~10 s (the signal comes after 1 s).
     k = int(min(max(10.0 / max(per_column, 1e-7), 5000), 2000000))
     run("weighted_sum", lambda: A.weighted_sum(np.arange(k) % 512, np.ones((k, 3), np.float32)))
-    C = ml.LightMatrix(scene, lights[np.arange(k) % 512])
+    C = ml.LightMatrix(scene, lights[np.arange(k) % 512], device=device)
     run("column_sum", lambda: C.column_sum(progress=False))
-    run("rows", lambda: A.rows(np.arange(48 * 48), shadow_map_size=2048, progress=False))
+    if device == "gpu":
+        run("rows", lambda: A.rows(np.arange(48 * 48), shadow_map_size=2048, progress=False))
+    else:
+        # Rows of the k-light matrix C: r rows x k lights, sized to >= 2.5 s (output r * k * 12 bytes).
+        t = time.perf_counter(); C.rows(np.arange(20), progress=False)
+        per_row = (time.perf_counter() - t) / 20
+        r = int(min(max(2.5 / max(per_row, 1e-8), 20), 48 * 48))
+        run("rows", lambda: C.rows(np.arange(r), progress=False))
+    if device == "gpu":
+        print("END", flush=True)
+        sys.exit(0)
     # Clustering: cost ~ n * c; scale both from a measured call to >= ~10 s.
     rng = np.random.default_rng(0)
     t = time.perf_counter(); ml.cluster_reduced_columns(rng.random((50, 20000), dtype=np.float32) ** 4, 800)
@@ -83,10 +94,11 @@ CHILD = textwrap.dedent(r"""
 """)
 
 
-def test_ctrl_c_interrupts_long_calls_and_leaves_the_matrix_usable():
+@pytest.mark.parametrize("device", ["cpu", "gpu"])
+def test_ctrl_c_interrupts_long_calls_and_leaves_the_matrix_usable(device):
     xml, params, _ = SCENE_CONFIGS["cbox"]
     env = dict(os.environ, MANYLIGHTS_PROGRESS="off")
-    child = subprocess.Popen([sys.executable, "-c", CHILD, str(xml), json.dumps(params)], stdout=subprocess.PIPE,
+    child = subprocess.Popen([sys.executable, "-c", CHILD, str(xml), json.dumps(params), device], stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
     latencies, done, log = {}, {}, []
     # A hang (the bug this test is about) must fail the test, not block it.
@@ -118,8 +130,10 @@ def test_ctrl_c_interrupts_long_calls_and_leaves_the_matrix_usable():
     print("child:", log)
     print("latency (s) from SIGINT to KeyboardInterrupt:", {k: round(v, 3) for k, v in latencies.items()})
     assert not done, f"calls finished before the signal could interrupt them: {done}"
-    assert set(latencies) == {"weighted_sum", "column_sum", "rows", "cluster_reduced_columns",
-                                 "generate_lights"}, latencies
+    expected = {"weighted_sum", "column_sum", "rows"}
+    if device == "cpu":  # the device-independent calls once
+        expected |= {"cluster_reduced_columns", "generate_lights"}
+    assert set(latencies) == expected, latencies
     slow = {k: v for k, v in latencies.items() if not 0 <= v < MAX_LATENCY}
     assert not slow, f"KeyboardInterrupt came later than {MAX_LATENCY} s after SIGINT: {slow}"
 

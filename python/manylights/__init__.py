@@ -161,20 +161,34 @@ def generate_lights(
 class LightMatrix:
     """The m x n light matrix of a scene: A[i, j] = light j's contribution to view sample i (pixel centre).
 
-    Columns are evaluated on the GPU with shadow maps (cube maps for point lights, perspective maps for
-    spots, orthographic maps for directional lights) and accumulated there; nothing is read back per column.
+    Computed by one of two backends with the same shading (``device``):
+
+    - ``"cpu"``: Rust on every core (rayon), an exact shadow ray per light-sample pair through the scene's
+      BVH (Mitsuba's ray offsets). On machines without a hardware GPU it is 5-20x faster than the
+      software GPU adapter (README: measured figures).
+    - ``"gpu"``: wgpu compute passes; shadow maps (cube maps for point lights, perspective maps for spots,
+      orthographic maps for directional lights) decide where they are certain and exact GPU rays elsewhere
+      (``visibility``); columns are accumulated on the GPU, nothing is read back per column.
+    - ``"auto"`` (default): the ``MANYLIGHTS_DEVICE`` environment variable when it is set, else a hardware
+      GPU if there is one, else the CPU (a software adapter such as lavapipe only when asked for, by
+      ``device="gpu"``, ``MANYLIGHTS_ADAPTER`` or a shadow-map ``visibility``). ``A.device`` says which ran.
+
+    Both backends give the same exact matrix (columns and rows equal to 1e-5 relative with
+    ``visibility="ray_traced"``, tested), so every renderer runs on either unchanged.
 
     Args:
         scene: a loaded Scene.
         lights: a LightSet (e.g. ``scene_lights(scene)``).
-        shadow_map_size: texels per side of each shadow map (cube face). Default: 512 for ``"hybrid"``
-            (the exact ray decides wherever a map is unsure, so the size only trades shadow-map texels
-            for rays: on cbox 128^2 columns at 512^2 cost 8.4 ms against 16.4 ms at 1024^2 with the
+        device: ``"auto"``, ``"cpu"`` or ``"gpu"`` (above).
+        shadow_map_size: GPU only: texels per side of each shadow map (cube face). Default: 512 for
+            ``"hybrid"`` (the exact ray decides wherever a map is unsure, so the size only trades shadow-map
+            texels for rays: on cbox 128^2 columns at 512^2 cost 8.4 ms against 16.4 ms at 1024^2 with the
             same image to 1e-4), 1024 for ``"shadow_map"`` (where the size sets the accuracy).
-        visibility: how shadow tests are decided: ``"hybrid"`` (default: shadow maps where they are
-            certain, an exact GPU ray against the scene BVH elsewhere), ``"ray_traced"`` (an exact ray for
-            every test; columns equal Mitsuba's ray-traced visibility) or ``"shadow_map"`` (biased shadow
-            maps only; fastest, small errors at contact edges).
+        visibility: how shadow tests are decided: ``"ray_traced"`` (an exact ray for every test; the only
+            mode of the CPU backend and its default), ``"hybrid"`` (the GPU's default: shadow maps where they
+            are certain, an exact GPU ray elsewhere) or ``"shadow_map"`` (biased shadow maps only; fastest on
+            a GPU, small errors at contact edges). ``"hybrid"`` and ``"shadow_map"`` need the GPU: with
+            ``device="auto"`` they choose it.
         max_depth: Mitsuba's ``path`` ``max_depth`` for what pixels see through mirrors and glass: a camera
             ray hitting a smooth conductor, dielectric or plastic's specular layer follows every delta
             lobe (Fresnel-weighted reflection and refraction) to the first rough surface, which becomes an
@@ -183,19 +197,37 @@ class LightMatrix:
             throughput dropped); 2 = direct light only (mirrors show the emitters they reflect).
 
     Raises:
-        ValueError: an unknown ``visibility``, a bad ``shadow_map_size`` or ``max_depth`` (0, 1 or < -1).
+        ValueError: an unknown ``device`` or ``visibility`` (or an invalid ``MANYLIGHTS_DEVICE``), shadow-map
+            visibility with ``device="cpu"``, a bad ``shadow_map_size`` or ``max_depth`` (0, 1 or < -1).
+        GpuUnavailableError: ``device="gpu"`` on a machine without any GPU adapter (the message says what
+            to install).
     """
 
-    def __init__(self, scene: Scene, lights: LightSet, *, shadow_map_size: Optional[int] = None,
-                 visibility: str = "hybrid", max_depth: int = -1):
+    def __init__(self, scene: Scene, lights: LightSet, *, device: str = "auto", shadow_map_size: Optional[int] = None,
+                 visibility: Optional[str] = None, max_depth: int = -1):
         self.scene = scene
         self.lights = lights
+        if not isinstance(device, str):
+            raise ValueError(f"device must be 'auto', 'gpu' or 'cpu', got {device!r}")
+        if visibility is not None and not isinstance(visibility, str):
+            raise ValueError(f"visibility must be 'hybrid', 'ray_traced' or 'shadow_map', got {visibility!r}")
         if shadow_map_size is None:
             shadow_map_size = 1024 if visibility == "shadow_map" else 512
-        #: Texels per side of each shadow map (the default resolved).
+        #: Texels per side of each shadow map (the default resolved; GPU only).
         self.shadow_map_size = _v.integer("shadow_map_size", shadow_map_size, 16, 8192)
-        self._m = _native.LightMatrix(scene, lights, self.shadow_map_size, visibility=str(visibility),
-                                      max_depth=_v.integer("max_depth", max_depth, -1, 1 << 20))
+        self._m = _native.LightMatrix(scene, lights, self.shadow_map_size, visibility=visibility,
+                                      max_depth=_v.integer("max_depth", max_depth, -1, 1 << 20), device=device)
+
+    @property
+    def device(self) -> dict:
+        """The device computing this matrix: ``kind`` ("cpu" or "gpu"), ``name`` (CPU model or GPU
+        adapter), ``backend`` ("rayon", "vulkan", ...), ``is_software``, ``threads`` (CPU workers)."""
+        return dict(self._m.device)
+
+    @property
+    def visibility(self) -> str:
+        """How shadow tests are decided: "ray_traced" (always on the CPU), "hybrid" or "shadow_map"."""
+        return self._m.visibility
 
     def visibility_stats(self) -> dict[str, int]:
         """Counters since creation: ``shadow_tests``, ``ray_casts`` (tests resolved by exact rays) and
@@ -255,16 +287,18 @@ class LightMatrix:
         """Rows ``indices`` of the matrix (the reduced matrix R of matrix row-column sampling), (r, n, 3)
         float32: R[k, j] = light j's contribution to view sample ``indices[k]`` (pixel ``y * W + x``).
 
-        Each row is shaded from a cube depth map centred at its view sample (``shadow_map_size`` texels per
-        face), with the same emission, BSDF and hybrid visibility as ``columns``, so
+        On the CPU every element casts its exact shadow ray (parallel over lights). On the GPU each row is
+        shaded from a cube depth map centred at its view sample (``shadow_map_size`` texels per face), with
+        the same emission, BSDF and visibility mode as ``columns``. Either way
         ``A.rows(I)[:, J]`` equals ``A.columns(J).reshape(len(J), -1, 3)[:, I].transpose(1, 0, 2)`` up to
         ambiguous visibility. Background samples give zero rows.
 
         Args:
             indices: (r,) view sample indices in [0, m), repeats allowed, 1 <= r <= m.
             progress: show progress over row batches (as ``column_sum``).
-            shadow_map_size: texels per cube face (16..=8192).
-            return_timings: also return a dict of seconds per stage (setup, shadow_maps, evaluation, readback).
+            shadow_map_size: GPU only: texels per cube face (16..=8192).
+            return_timings: also return a dict of seconds per stage (setup, shadow_maps, evaluation, readback;
+                the CPU backend spends everything in evaluation).
 
         Raises:
             ValueError: no indices, more indices than view samples, an index outside [0, m), or a bad
@@ -328,7 +362,7 @@ class LightMatrix:
 
     def __repr__(self) -> str:
         m, n = self.shape
-        return f"LightMatrix({m} view samples x {n} lights)"
+        return f"LightMatrix({m} view samples x {n} lights, {self.device['kind']}: {self.device['name']})"
 
 
 def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_dim: int = 50,

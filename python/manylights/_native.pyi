@@ -32,9 +32,10 @@ class Scene:
     """origin, left, up, forward, fov_x, fov_y (degrees), near_clip, far_clip, width, height,
     principal_point_offset (x, y) in film units."""
     bounds: tuple[tuple[float, float, float], tuple[float, float, float]]
-    def gbuffer(self) -> dict[str, np.ndarray]:
+    def gbuffer(self, device: str = "auto") -> dict[str, np.ndarray]:
         """View samples at pixel centres: position, normal, geo_normal, wi, albedo (H, W, 3) float32,
-        uv (H, W, 2) float32, shape_index, prim_index (H, W) int32 (-1 = background)."""
+        uv (H, W, 2) float32, shape_index, prim_index (H, W) int32 (-1 = background). Computed on
+        ``device`` (GPU raster or CPU ray casting) by the first call that needs them, then cached."""
     def mesh(self, index: int) -> dict[str, np.ndarray]:
         """World-space positions, normals (V, 3), uvs (V, 2) float32 and indices (T, 3) uint32 of a shape.
 
@@ -77,15 +78,21 @@ class LightSet:
         """All lights of sets in order. Raises ValueError for [] or sets of different scenes."""
 
 class LightMatrix:
-    """The m x n light matrix (GPU columns with shadow maps)."""
+    """The m x n light matrix on the CPU backend (exact rays, rayon) or the GPU backend (wgpu)."""
     shape: tuple[int, int]
+    device: dict[str, Any]
+    visibility: str
     def __init__(self, scene: Scene, lights: LightSet, shadow_map_size: int = 1024,
                  normal_offset: Optional[float] = None, depth_bias: Optional[float] = None,
-                 slope_bias: Optional[float] = None, visibility: str = "hybrid", max_depth: int = -1) -> None:
-        """visibility: "hybrid" (shadow maps where certain, exact GPU rays elsewhere), "ray_traced" or
-        "shadow_map". max_depth: Mitsuba's path depth for delta BSDF chains (mirrors, glass; -1 unlimited,
-        2 = direct light only). Raises ValueError for an unknown visibility, bias < 0 or max_depth in
-        {0, 1} or < -1."""
+                 slope_bias: Optional[float] = None, visibility: Optional[str] = None, max_depth: int = -1,
+                 device: str = "auto") -> None:
+        """device: "auto" (MANYLIGHTS_DEVICE, else a hardware GPU, else the CPU), "gpu" or "cpu".
+        visibility: None (the device's default: "ray_traced" on the CPU, "hybrid" on a GPU), "hybrid"
+        (shadow maps where certain, exact GPU rays elsewhere), "ray_traced" or "shadow_map" (shadow-map
+        modes choose the GPU under "auto"). max_depth: Mitsuba's path depth for delta BSDF chains
+        (mirrors, glass; -1 unlimited, 2 = direct light only). Raises ValueError for an unknown device or
+        visibility, shadow maps on the CPU, bias < 0 or max_depth in {0, 1} or < -1;
+        GpuUnavailableError for device="gpu" without an adapter."""
     def visibility_stats(self) -> dict[str, int]:
         """shadow_tests, ray_casts, gave_up since creation or reset_visibility_stats()."""
     def reset_visibility_stats(self) -> None: ...
@@ -121,11 +128,14 @@ def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[in
     Warns:
         UserWarning: input Mitsuba accepts with a warning (a mesh whose triangles all have zero area)."""
 
-def device_info() -> dict[str, Any]:
-    """The GPU adapter: name, backend, device_type, driver, driver_info, is_software.
+def device_info(device: str = "auto") -> dict[str, Any]:
+    """The device ``device`` resolves to: kind ("cpu"/"gpu"), name, backend, is_software, threads, and
+    "gpu": the adapter wgpu would use (name, backend, device_type, driver, driver_info, is_software) or None.
 
     Raises:
-        GpuUnavailableError: no adapter; the message names the package to install."""
+        ValueError: an unknown device name or MANYLIGHTS_DEVICE.
+        GpuUnavailableError: device="gpu" without an adapter, or MANYLIGHTS_ADAPTER naming none; the
+            message names the package to install."""
 
 def scene_lights(scene: Scene) -> LightSet:
     """The scene's point, spot and directional emitters."""

@@ -6,13 +6,16 @@ Subcommands:
              (tests/references/*-gi.exr), the VPL clamp on and off, and a sweep over the number of VPLs N_i.
              Prints a table, writes ``<out>/lights.json`` and ``<out>/lights.png`` (error vs N_i).
 
-    mrcs        MRCS against its baselines (bench_mrcs.py); vs-mitsuba: time to 5/2/1% relative L2, MRCS on
-                the CPU and GPU backends against Mitsuba's path tracer (bench_vs_mitsuba.py).
-
     python -m manylights.bench lights --scene cbox --lights 100000
     python -m manylights.bench lights --scene all --lights 100000 --engine oracle
 
-Engines: ``gpu`` renders ``column_sum() + emitted()`` (``ray_traced`` visibility by default: on a software
+    mrcs     error against time for MRCS and its baselines (``bench_mrcs``).
+    backends the CPU backend against the GPU backend: ms per column, weighted column and row (``bench_backends``).
+    vs-mitsuba time to 5/2/1% relative L2 of a converged Mitsuba reference: MRCS on the CPU and GPU backends
+             against Mitsuba's path tracer (``bench_vs_mitsuba``).
+
+Engines: ``cpu`` (default) renders ``column_sum() + emitted()`` on the CPU backend (exact rays); ``gpu``
+renders the same on the GPU backend (``ray_traced`` visibility by default: on a software
 GPU it is faster than shadow maps for these small images); ``oracle`` sums rows of the exact CPU oracle
 (``row_exact``) plus ``emitted()`` -- the same matrix (tests/test_lights.py checks GPU = oracle to 1e-7),
 ~50x faster on a machine without a hardware GPU.
@@ -41,8 +44,9 @@ def render(scene, lights, engine: str, visibility: str) -> np.ndarray:
     """The brute-force image of ``lights`` (matrix + emitted) by the chosen engine."""
     import manylights as ml
 
-    if engine == "gpu":
-        return ml.render_brute_force(scene, lights, visibility=visibility, progress=True)
+    if engine in ("gpu", "cpu"):
+        return ml.render_brute_force(scene, lights, device=engine, visibility=visibility if engine == "gpu" else None,
+                                     progress=True)
     # The GPU is not used by the oracle; the smallest shadow maps keep the matrix set-up cheap.
     A = ml.LightMatrix(scene, lights, visibility="shadow_map", shadow_map_size=16)
     m = A.shape[0]
@@ -152,16 +156,17 @@ def main(argv=None) -> int:
     p.add_argument("--no-clamp-sweep", action="store_true", help="clamp off only at the full N_i")
     p.add_argument("--seeds", type=int, default=1)
     p.add_argument("--max-depth", type=int, default=-1)
-    p.add_argument("--engine", choices=["gpu", "oracle"], default="gpu")
+    p.add_argument("--engine", choices=["cpu", "gpu", "oracle"], default="cpu")
     p.add_argument("--visibility", choices=["ray_traced", "hybrid", "shadow_map"], default="ray_traced")
     p.add_argument("--images", action="store_true", help="also write every image as EXR")
     p.add_argument("-o", "--out", default="out/bench")
-    from . import bench_mrcs, bench_vs_mitsuba
+    from . import bench_backends, bench_mrcs, bench_vs_mitsuba
 
     bench_mrcs.add_parser(sub)
+    bench_backends.add_parser(sub)
     bench_vs_mitsuba.add_parser(sub)
     a = ap.parse_args(argv)
-    if a.cmd in ("mrcs", "vs-mitsuba"):
+    if a.cmd in ("mrcs", "backends", "vs-mitsuba"):
         a.run(a)
     elif a.cmd == "lights":
         if a.lights < 2:

@@ -31,7 +31,10 @@ def add_parser(sub) -> None:
                    help="MRCS column budgets (rows = columns / ratio)")
     p.add_argument("--ratios", nargs="+", default=list(RATIOS), choices=list(RATIOS))
     p.add_argument("--seeds", type=int, default=8)
-    p.add_argument("--visibility", default="hybrid", choices=["hybrid", "shadow_map", "ray_traced"])
+    p.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"],
+                   help="the light matrix's backend (auto: a hardware GPU, else the CPU)")
+    p.add_argument("--visibility", default=None, choices=["hybrid", "shadow_map", "ray_traced"],
+                   help="GPU visibility (default: the device's own: ray_traced on the CPU, hybrid on a GPU)")
     p.add_argument("--shadow-map-size", type=int, default=512)
     p.add_argument("--out", default="out/bench")
     p.set_defaults(run=run)
@@ -64,9 +67,11 @@ def run(args) -> dict:
     t = time.perf_counter()
     lights = ml.generate_lights(scene, area=n_area, environment=n_env, indirect=args.lights - n_area - n_env, seed=0)
     t_gen = time.perf_counter() - t
-    A = ml.LightMatrix(scene, lights, visibility=args.visibility, shadow_map_size=args.shadow_map_size)
+    A = ml.LightMatrix(scene, lights, device=args.device, visibility=args.visibility,
+                       shadow_map_size=args.shadow_map_size)
     print(f"{path}: {scene.width}x{scene.height}, {len(lights)} lights (generated in {t_gen:.2f} s), "
-          f"visibility {args.visibility}, shadow maps {args.shadow_map_size}^2")
+          f"{A.device['kind']} backend ({A.device['name']}), visibility {A.visibility}"
+          + (f", shadow maps {args.shadow_map_size}^2" if A.device["kind"] == "gpu" else ""))
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -74,11 +79,11 @@ def run(args) -> dict:
     # The cache key names everything the reference depends on, the scene file's content included.
     xml_hash = hashlib.sha256(path.read_bytes()).hexdigest()[:12]
     reference, t_brute = _brute_force(A, out / f"{stem}-reference-{xml_hash}-{len(lights)}-{scene.width}x"
-                                      f"{scene.height}-{args.visibility}-{args.shadow_map_size}.npz")
+                                      f"{scene.height}-{A.visibility}-{args.shadow_map_size}.npz")
     print(f"brute force ({len(lights)} columns): {t_brute:.1f} s")
 
     summary = {"scene": str(path), "size": [scene.width, scene.height], "lights": len(lights),
-               "visibility": args.visibility, "shadow_map_size": args.shadow_map_size,
+               "visibility": A.visibility, "shadow_map_size": args.shadow_map_size, "device": A.device,
                "brute_force_seconds": t_brute, "seeds": args.seeds, "records": [], "adapter": ml.device_info()}
     records = summary["records"]
 
@@ -102,7 +107,7 @@ def run(args) -> dict:
     for c in args.columns:
         record("power_sampling", {"columns": c}, [ml.power_sampling(A, columns=c, seed=s) for s in seeds])
         record("instant_radiosity", {"lights": c},
-               [ml.instant_radiosity(scene, lights=c, seed=s, visibility=args.visibility,
+               [ml.instant_radiosity(scene, lights=c, seed=s, device=args.device, visibility=args.visibility,
                                      shadow_map_size=args.shadow_map_size) for s in seeds])
         for name in args.ratios:
             r = max(1, c // RATIOS[name])

@@ -39,7 +39,6 @@ thresholds as horizontal lines).
 from __future__ import annotations
 
 import hashlib
-import inspect
 import json
 import os
 import time
@@ -113,8 +112,8 @@ def add_parser(sub) -> None:
                    help="MRCS budgets, e.g. 1000:30:100 16000:200:600 (default per scene)")
     p.add_argument("--devices", nargs="+", default=["cpu", "gpu"], choices=["cpu", "gpu", "auto"],
                    help="MRCS backends (ml.LightMatrix device=)")
-    p.add_argument("--visibility", default="hybrid", choices=["hybrid", "shadow_map", "ray_traced"],
-                   help="GPU backend visibility (the CPU backend casts exact rays)")
+    p.add_argument("--gpu-visibility", default="hybrid", choices=["hybrid", "shadow_map", "ray_traced"],
+                   help="visibility of the GPU backend (the CPU backend always casts exact rays)")
     p.add_argument("--thresholds", type=float, nargs="+", default=None,
                    help="relative L2 thresholds as fractions (default 0.05 0.02 0.01; cbox-lights adds 0.025)")
     p.add_argument("--seed", type=int, default=1, help="seed of MRCS (lights and sampling) and of Mitsuba's renders")
@@ -367,28 +366,6 @@ def chart(summary: dict, png: Path) -> None:
 
 
 # ------------------------------------------------------------------------------------------- measuring
-def _device_kw(device: str) -> dict:
-    """``device=`` for ml.LightMatrix, or {} for a build without backend choice (GPU only), where asking
-    for the CPU raises."""
-    import manylights as ml
-
-    if "device" in inspect.signature(ml.LightMatrix.__init__).parameters:
-        return {"device": device}
-    if device == "cpu":
-        raise RuntimeError("this manylights build has no CPU backend (ml.LightMatrix takes no device=)")
-    return {}
-
-
-def _device_info(A) -> dict:
-    import manylights as ml
-
-    dev = getattr(A, "device", None)
-    if isinstance(dev, dict):
-        return dict(dev)
-    info = ml.device_info()
-    return {"kind": "gpu", "name": info.get("name"), **info}
-
-
 def _light_counts(scene, lights: int, max_depth: int) -> dict:
     """Split a light budget: a quarter each to area and environment emitters (where the scene has them) and
     the rest to indirect VPLs for full GI; for direct light (max_depth 2) area and environment share it."""
@@ -417,20 +394,22 @@ def timed(fn):
     return first, float(np.median(times)), len(times)
 
 
-def run_mrcs(scene, budget, max_depth: int, device: str, visibility: str, seed: int):
-    """One MRCS image, all of it timed: (image, stages in seconds, A's device info, number of lights)."""
+def run_mrcs(scene, budget, max_depth: int, device: str, gpu_visibility: str, seed: int):
+    """One MRCS image, all of it timed: (image, stages in seconds, ``A.device``, number of lights).
+    ``gpu_visibility`` applies to ``device="gpu"``; the CPU backend (and "auto") take their own default."""
     import manylights as ml
 
     lights_n, rows, columns = budget
     t0 = time.perf_counter()
     lights = ml.generate_lights(scene, **_light_counts(scene, lights_n, max_depth), max_depth=max_depth, seed=seed)
     t1 = time.perf_counter()
-    A = ml.LightMatrix(scene, lights, visibility=visibility, max_depth=max_depth, **_device_kw(device))
+    A = ml.LightMatrix(scene, lights, device=device, visibility=gpu_visibility if device == "gpu" else None,
+                       max_depth=max_depth)
     t2 = time.perf_counter()
     n = len(lights)
     res = ml.mrcs(A, rows=min(rows, A.shape[0]), columns=min(columns, n), seed=seed)
     stages = {"generate_lights": t1 - t0, "light_matrix": t2 - t1, **res.timings}
-    return res.image, stages, _device_info(A), n
+    return res.image, stages, A.device, n
 
 
 def run(args) -> dict:
@@ -509,8 +488,8 @@ def run(args) -> dict:
 
             for device in args.devices:
                 try:
-                    run_mrcs(scene, s["budgets"][0], s["max_depth"], device, args.visibility, args.seed + 1)
-                except Exception as e:  # a missing backend: say so, measure the others
+                    run_mrcs(scene, s["budgets"][0], s["max_depth"], device, args.gpu_visibility, args.seed + 1)
+                except Exception as e:  # a missing backend (GpuUnavailableError): say so, measure the others
                     print(f"  mrcs {device}: not measured: {type(e).__name__}: {e}")
                     summary["devices"][device] = {"error": f"{type(e).__name__}: {e}"}
                     for _ in s["budgets"]:
@@ -518,9 +497,10 @@ def run(args) -> dict:
                     continue
                 for j, budget in enumerate(s["budgets"]):
                     (img, stages, info, n), seconds, runs = timed(
-                        lambda: run_mrcs(scene, budget, s["max_depth"], device, args.visibility, args.seed))
+                        lambda: run_mrcs(scene, budget, s["max_depth"], device, args.gpu_visibility, args.seed))
                     summary["devices"][device] = info
-                    rec = record({"method": "mrcs", "curve": f"mrcs {device}", "device": info.get("kind", device),
+                    curve = f"mrcs {device}" if device != "auto" else f"mrcs auto={info.get('kind')}"
+                    rec = record({"method": "mrcs", "curve": curve, "device": info.get("kind", device),
                                   "device_name": info.get("name"), "lights_budget": budget[0], "lights": n,
                                   "rows": budget[1], "columns": budget[2], "seconds": seconds, "timed_runs": runs,
                                   "stages": stages, **errors(img)})

@@ -3,12 +3,16 @@
 ``mrcs(A, rows, columns)`` follows the paper's four steps, each replaceable from Python:
 
 1. rows: ``stratified_rows`` picks one view sample per image block (section 4); ``A.rows`` renders them on
-   the GPU (a cube shadow map at each sample, all lights evaluated against it) -> the reduced matrix R (r x n);
+   the matrix's device (CPU: exact rays; GPU: a cube shadow map at each sample, all lights evaluated
+   against it) -> the reduced matrix R (r x n);
 2. clustering: ``cluster_reduced_columns(R, columns)`` (sampling by cluster cost, then splitting);
 3. representatives: one light per cluster, chosen by reduced-column norm, weighted so that the estimate of
    the full column sum is unbiased (``weights``);
 4. reconstruction: ``A.weighted_sum(representatives, weights)`` renders only the c representative columns
-   on the GPU and accumulates them there.
+   and accumulates them (on the GPU without readback; on the CPU in registers per pixel).
+
+Every step runs on either backend of the matrix (``LightMatrix(..., device=)``); ``RenderResult.device``
+says which ran.
 
 A researcher substitutes a step by passing ``row_indices=`` or ``clustering=`` (any dict with
 ``representatives`` and ``weights``), or by calling the pieces directly.
@@ -44,6 +48,8 @@ class RenderResult:
     representatives: Optional[np.ndarray] = None
     weights: Optional[np.ndarray] = None
     budget: dict = field(default_factory=dict)
+    #: The device that computed the image (``LightMatrix.device``: kind "cpu"/"gpu", name, backend, ...).
+    device: dict = field(default_factory=dict)
 
     @property
     def seconds(self) -> float:
@@ -130,7 +136,7 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
     return RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
                         clusters=clustering.get("assignment"), representatives=reps, weights=weights,
                         budget={"rows": 0 if row_indices is None else int(len(row_indices)),
-                                "columns": int(len(reps)), "lights": int(n)})
+                                "columns": int(len(reps)), "lights": int(n)}, device=A.device)
 
 
 def _matrix_shape(A) -> tuple[int, int]:
@@ -181,7 +187,7 @@ def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = 
     timings = {"sampling": time.perf_counter() - t}
     image = _reconstruct(A, reps, weights, timings, add_emitted, progress)
     return RenderResult(image=image, method="power_sampling", seed=seed, timings=timings, representatives=reps,
-                        weights=weights, budget={"columns": int(columns), "lights": int(n)})
+                        weights=weights, budget={"columns": int(columns), "lights": int(n)}, device=A.device)
 
 
 def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction: float = 0.5,
@@ -222,4 +228,5 @@ def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction
     image = image + A.emitted()
     timings["emitted"] = time.perf_counter() - t
     return RenderResult(image=image, method="instant_radiosity", seed=seed, timings=timings,
-                        budget={"lights": int(len(L)), "area": n_area, "environment": n_env, "indirect": n_ind})
+                        budget={"lights": int(len(L)), "area": n_area, "environment": n_env, "indirect": n_ind},
+                        device=A.device)

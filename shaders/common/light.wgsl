@@ -117,6 +117,32 @@ struct Emitted {
     valid: bool,
 }
 
+// acos to ~2 ulp (the Cephes single-precision algorithm, as Dr.Jit's `acos`): drivers' built-in acos may
+// be far coarser (Mesa lavapipe: ~1e-5 rad), which near a spot's cutoff, where the falloff is a
+// difference of two close angles, made GPU columns differ from the CPU backend's (libm) by up to 7e-4
+// relative. Arguments in [-1, 1].
+fn acos_precise(x: f32) -> f32 {
+    let a = abs(x);
+    var asin_arg: f32;
+    var z: f32;
+    if a > 0.5 {
+        z = 0.5 * (1.0 - a);
+        asin_arg = sqrt(z);
+    } else {
+        z = a * a;
+        asin_arg = a;
+    }
+    // asin(asin_arg) for asin_arg in [0, 0.5] (z = asin_arg^2).
+    let p = (((4.2163199048e-2 * z + 2.4181311049e-2) * z + 4.5470025998e-2) * z + 7.4953002686e-2) * z + 1.6666752422e-1;
+    let s = asin_arg + asin_arg * z * p;
+    if a > 0.5 {
+        // acos(|x|) = 2 asin(sqrt((1 - |x|) / 2)).
+        let r = 2.0 * s;
+        return select(r, 3.14159265358979 - r, x < 0.0);
+    }
+    return 1.57079632679490 - select(s, -s, x < 0.0);
+}
+
 // Mitsuba's spot falloff_curve for cos(theta).
 fn spot_falloff(l: Light, cos_theta: f32) -> f32 {
     if !(cos_theta > l.cos_cutoff) {
@@ -125,7 +151,7 @@ fn spot_falloff(l: Light, cos_theta: f32) -> f32 {
     if cos_theta >= l.cos_beam {
         return 1.0;
     }
-    return (l.cutoff_angle - acos(clamp(cos_theta, -1.0, 1.0))) * l.inv_transition;
+    return (l.cutoff_angle - acos_precise(clamp(cos_theta, -1.0, 1.0))) * l.inv_transition;
 }
 
 // What light l sends to p (receiver shading normal n, used by the VPL clamp).

@@ -71,12 +71,17 @@ pub fn reverse_z(near: f64, far: f64) -> (f64, f64) {
     }
 }
 
-/// Check what the projection needs of a camera.
+/// Check what the projection needs of a camera (sides up to the GPU's texture limit `max_dim`).
 pub fn validate_camera(camera: &Camera, max_dim: u32) -> Result<()> {
+    validate_camera_for(camera, max_dim, "the device's texture limit")
+}
+
+/// `validate_camera` with the reason for the side limit named in the error.
+pub fn validate_camera_for(camera: &Camera, max_dim: u32, limit: &str) -> Result<()> {
     let bad = |what: String| Err(Error::scene(&camera.loc, what));
     if camera.width == 0 || camera.height == 0 || camera.width > max_dim || camera.height > max_dim {
         return bad(format!(
-            "film size {}x{} unsupported: each side must be in 1..={max_dim} (the device's texture limit)",
+            "film size {}x{} unsupported: each side must be in 1..={max_dim} ({limit})",
             camera.width, camera.height
         ));
     }

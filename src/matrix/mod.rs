@@ -28,7 +28,9 @@
 //! of throughput 1 and nothing changes.
 //!
 //! Symbols: m = number of rows = pixels (`width * height`), n = number of lights, w = weights.
+pub mod backend;
 pub mod emitted;
+pub mod gpu;
 pub mod oracle;
 pub mod reference;
 pub mod rows;
@@ -36,17 +38,13 @@ pub mod rows;
 mod tests;
 
 use crate::error::{Error, Result};
-use crate::gpu::columns::{
-    dispatch_size, storage_buffer, ColumnParams, ColumnsInputs, ColumnsPass, GpuLight, ViewBuffers,
-    MAX_LIGHTS_PER_DISPATCH,
-};
-use crate::gpu::bvh::{GpuBvh, RAYS_PER_INVOCATION};
-use crate::gpu::scene_buffers::SceneGeometry;
-use crate::gpu::shadow::{layer_count, light_layers, uses_cube, ShadowAtlas, ShadowMapPass};
 use crate::gpu::GpuContext;
 use crate::lights::LightSet;
+use crate::raytrace::RayTracer;
 use crate::scene::Scene;
 use crate::view::ViewSamples;
+use backend::{Backend, Chosen, Device, DeviceInfo};
+use rows::{RowOptions, TimedRows};
 use std::sync::Arc;
 
 /// How shadow tests are decided. Keep in sync with `VISIBILITY_*` in `shaders/columns.wgsl`.
@@ -110,7 +108,7 @@ impl Default for ColumnOptions {
         ColumnOptions {
             visibility: Visibility::Hybrid,
             shadow_resolution: 1024,
-            max_lights_per_batch: MAX_LIGHTS_PER_DISPATCH,
+            max_lights_per_batch: crate::gpu::columns::MAX_LIGHTS_PER_DISPATCH,
             shadow_memory_budget: 256 << 20,
             // Chosen by `tests::bias_sweep` (0 acne/leak pixels away from edges at 256-1024 texels).
             normal_offset: 1.0,
@@ -120,48 +118,21 @@ impl Default for ColumnOptions {
     }
 }
 
-/// The light matrix of a scene, its view samples and a light set.
+
+/// The light matrix of a scene, its view samples and a light set, computed by one backend
+/// (`backend::Backend`: the GPU's `gpu::GpuBackend` or the CPU's `crate::cpu::CpuBackend`). Validates
+/// every index and weight, then dispatches.
 pub struct LightMatrix {
-    ctx: Arc<GpuContext>,
     pub scene: Arc<Scene>,
     pub view: Arc<ViewSamples>,
     pub lights: Arc<LightSet>,
+    /// Column options (visibility and shadow maps: used by the GPU backend; the CPU always casts rays).
     pub opts: ColumnOptions,
-    shadow_pass: ShadowMapPass,
-    columns_pass: ColumnsPass,
-    /// The scene's triangles (unshared vertices), drawn into every shadow map.
-    geometry: SceneGeometry,
-    view_buffers: ViewBuffers,
-    atlas: ShadowAtlas,
-    /// The scene BVH for exact shadow rays (a one-leaf empty BVH in `ShadowMap` mode).
-    bvh: GpuBvh,
-    /// `VisibilityStats` as six u32 (lo, hi pairs), added to by every column dispatch.
-    stats: wgpu::Buffer,
-    /// Largest storage binding in bytes.
-    max_binding: u64,
-    /// Projected textures of spot lights (`crate::lights::spot_texture::gpu_table`) and each light's
-    /// record offset in them.
-    spot_textures: wgpu::Buffer,
-    spot_texture_offsets: Vec<u32>,
-    /// The row pass (`rows.rs`), compiled on first use.
-    rows_pass: std::sync::OnceLock<crate::gpu::rows::RowsPass>,
-    /// All lights as `GpuLight`s for the row pass, in chunks (first light, buffer); uploaded once.
-    row_lights: std::sync::OnceLock<Vec<(usize, wgpu::Buffer)>>,
-    /// The row pass's cube atlas and output buffer, reused by later calls.
-    row_scratch: std::sync::Mutex<Option<rows::RowScratch>>,
-    /// CPU ray tracer of the exact oracle (`oracle.rs`), built on first use.
-    oracle: std::sync::OnceLock<crate::raytrace::RayTracer>,
-}
-
-/// Lights `js[start..end]` and the first layer of each.
-struct Batch {
-    start: usize,
-    end: usize,
-    layers: Vec<u32>,
-    num_layers: u32,
+    backend: Box<dyn Backend>,
 }
 
 impl LightMatrix {
+    /// The matrix on the GPU backend of `ctx`.
     pub fn new(
         ctx: Arc<GpuContext>,
         scene: Arc<Scene>,
@@ -169,100 +140,64 @@ impl LightMatrix {
         lights: Arc<LightSet>,
         opts: ColumnOptions,
     ) -> Result<LightMatrix> {
-        let m = view.len();
-        let wh = view.num_pixels();
-        if m != wh + view.extra_pixel.len()
-            || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len()].iter().any(|&l| l != m)
-            || !(m..=2 * m).contains(&view.bsdf.len())
-            || !(view.throughput.is_empty() || view.throughput.len() == m)
-            || view.extra_pixel.windows(2).any(|p| p[1] < p[0])
-            || view.extra_pixel.last().is_some_and(|&p| p as usize >= wh)
-        {
-            return Err(Error::invalid(format!(
-                "view samples are inconsistent: {}x{} = {wh} pixels, {} extra samples, shape_index {m}, position {}, \
-                 normal {}, geo_normal {}, wi {}, bsdf {}, throughput {}",
-                view.width, view.height, view.extra_pixel.len(), view.position.len(), view.normal.len(),
-                view.geo_normal.len(), view.wi.len(), view.bsdf.len(), view.throughput.len()
-            )));
-        }
-        let limits = &ctx.limits;
-        if opts.shadow_resolution == 0 || opts.shadow_resolution > limits.max_texture_dimension_2d {
-            return Err(Error::invalid(format!(
-                "shadow_resolution must be in [1, {}], got {}",
-                limits.max_texture_dimension_2d, opts.shadow_resolution
-            )));
-        }
-        if opts.max_lights_per_batch == 0 || opts.max_lights_per_batch > MAX_LIGHTS_PER_DISPATCH {
-            return Err(Error::invalid(format!(
-                "max_lights_per_batch must be in [1, {MAX_LIGHTS_PER_DISPATCH}], got {}",
-                opts.max_lights_per_batch
-            )));
-        }
-        for (name, v) in [("normal_offset", opts.normal_offset), ("depth_bias", opts.depth_bias), ("slope_bias", opts.slope_bias)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(Error::invalid(format!("{name} must be finite and >= 0, got {v}")));
+        let gpu = gpu::GpuBackend::new(ctx, scene.clone(), view.clone(), lights.clone(), opts.clone())?;
+        Ok(LightMatrix { scene, view, lights, opts, backend: Box::new(gpu) })
+    }
+
+    /// The matrix on the CPU backend with the scene's ray tracer (`RayTracer::new(&scene)`).
+    pub fn new_cpu(tracer: Arc<RayTracer>, scene: Arc<Scene>, view: Arc<ViewSamples>, lights: Arc<LightSet>) -> Result<LightMatrix> {
+        check_view(&view)?;
+        let opts = ColumnOptions { visibility: Visibility::RayTraced, ..Default::default() };
+        let cpu = crate::cpu::CpuBackend::new(tracer, view.clone(), lights.clone())?;
+        Ok(LightMatrix { scene, view, lights, opts, backend: Box::new(cpu) })
+    }
+
+    /// The matrix on a chosen device (`Device::choose`). The CPU backend casts exact rays only:
+    /// `opts.visibility` other than `RayTraced` is refused there. `tracer` gives the scene's ray tracer
+    /// when one exists (else it is built here for the CPU, on first use for the GPU's oracle).
+    ///
+    /// Errors: `InvalidParameter` for shadow-map visibility on the CPU; what the backend's `new` raises.
+    pub fn with_device(
+        chosen: &Chosen,
+        scene: Arc<Scene>,
+        view: Arc<ViewSamples>,
+        lights: Arc<LightSet>,
+        opts: ColumnOptions,
+        tracer: Option<Arc<RayTracer>>,
+    ) -> Result<LightMatrix> {
+        match chosen {
+            Chosen::Gpu(ctx) => {
+                let gpu = gpu::GpuBackend::new(ctx.clone(), scene.clone(), view.clone(), lights.clone(), opts.clone())?;
+                if let Some(t) = tracer {
+                    let _ = gpu.oracle.set(t);
+                }
+                Ok(LightMatrix { scene, view, lights, opts, backend: Box::new(gpu) })
+            }
+            Chosen::Cpu => {
+                if opts.visibility != Visibility::RayTraced {
+                    return Err(Error::invalid(format!(
+                        "visibility {:?} uses shadow maps, which only the GPU backend renders; the CPU backend \
+                         casts an exact ray for every shadow test (visibility 'ray_traced')",
+                        opts.visibility
+                    )));
+                }
+                let tracer = match tracer {
+                    Some(t) => t,
+                    None => Arc::new(RayTracer::new(&scene)?),
+                };
+                LightMatrix::new_cpu(tracer, scene, view, lights)
             }
         }
-        let max_binding = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
-        if view.bsdf.len() as u64 * 80 > max_binding {
-            return Err(Error::invalid(format!(
-                "{m} view samples need {} bytes of BSDFs, above the {max_binding}-byte storage binding limit",
-                view.bsdf.len() as u64 * 80
-            )));
-        }
-        let layer_bytes = 4 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64;
-        let max_layers = (opts.shadow_memory_budget / layer_bytes)
-            .min(limits.max_texture_array_layers as u64)
-            .min(6 * opts.max_lights_per_batch as u64)
-            .max(6) as u32;
-        let device = &ctx.device;
-        let geometry = SceneGeometry::upload(device, &scene)?;
-        let tables = crate::shading::bsdf::roughplastic_table_buffer(&scene.bsdfs);
-        let view_buffers = ViewBuffers::upload(device, &view, &tables);
-        let res = opts.shadow_resolution as u64;
-        let what = format!("shadow maps: {max_layers} layers of {res}^2 texels (shadow_map_size = {res})");
-        crate::memory::check_gpu(&ctx, &what, crate::memory::product(&[max_layers as u64, res, res, 4]), false)?;
-        let atlas = crate::memory::gpu_alloc(device, &what, || ShadowAtlas::new(device, opts.shadow_resolution, max_layers))?;
-        let bvh = if opts.visibility == Visibility::ShadowMap {
-            GpuBvh::empty(device)?
-        } else {
-            GpuBvh::upload(device, &scene, max_binding)?
-        };
-        let stats = storage_buffer::<u32>(
-            device,
-            "LightMatrix::stats",
-            &[0; 6],
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        );
-        let (texels, spot_texture_offsets) = crate::lights::spot_texture::gpu_table(&lights);
-        if texels.len() as u64 * 4 > max_binding {
-            return Err(Error::invalid(format!(
-                "the spot lights' projected textures need {} bytes, above the {max_binding}-byte storage binding limit",
-                texels.len() as u64 * 4
-            )));
-        }
-        let spot_textures = storage_buffer(device, "LightMatrix::spot_textures", &texels, wgpu::BufferUsages::STORAGE);
-        Ok(LightMatrix {
-            spot_textures,
-            spot_texture_offsets,
-            bvh,
-            stats,
-            shadow_pass: ShadowMapPass::new(device),
-            columns_pass: ColumnsPass::new(device),
-            geometry,
-            view_buffers,
-            atlas,
-            max_binding,
-            rows_pass: std::sync::OnceLock::new(),
-            row_lights: std::sync::OnceLock::new(),
-            row_scratch: std::sync::Mutex::new(None),
-            oracle: std::sync::OnceLock::new(),
-            ctx,
-            scene,
-            view,
-            lights,
-            opts,
-        })
+    }
+
+    /// `with_device` for a device name ("auto", "gpu", "cpu"; `MANYLIGHTS_DEVICE` replaces "auto").
+    pub fn on_device(device: Device, scene: Arc<Scene>, view: Arc<ViewSamples>, lights: Arc<LightSet>, opts: ColumnOptions) -> Result<LightMatrix> {
+        LightMatrix::with_device(&device.choose()?, scene, view, lights, opts, None)
+    }
+
+    /// Which device computes this matrix.
+    pub fn device(&self) -> DeviceInfo {
+        self.backend.info()
     }
 
     /// (m, n): rows (pixels) x lights.
@@ -283,169 +218,25 @@ impl LightMatrix {
         Ok(())
     }
 
-    /// Split `js` into batches by lights per dispatch, shadow-map layers and (if given) columns per batch.
-    fn batches(&self, js: &[usize], max_columns: usize) -> Vec<Batch> {
-        let cap = self.opts.max_lights_per_batch.min(max_columns).max(1);
-        let mut out: Vec<Batch> = Vec::new();
-        let mut cur = Batch { start: 0, end: 0, layers: Vec::new(), num_layers: 0 };
-        for (k, &j) in js.iter().enumerate() {
-            let need = layer_count(&self.lights, j);
-            if cur.end > cur.start && (cur.end - cur.start >= cap || cur.num_layers + need > self.atlas.num_layers) {
-                let start = cur.end;
-                out.push(std::mem::replace(&mut cur, Batch { start, end: start, layers: Vec::new(), num_layers: 0 }));
-            }
-            cur.layers.push(cur.num_layers);
-            cur.num_layers += need;
-            cur.end = k + 1;
-        }
-        if cur.end > cur.start {
-            out.push(cur);
-        }
-        out
-    }
-
-    /// Encode and submit one batch: shadow maps, then the column pass. Returns the submission.
-    fn run_batch(
-        &self,
-        js: &[usize],
-        batch: &Batch,
-        weights: &[[f32; 4]],
-        accum: &wgpu::Buffer,
-        columns: Option<&wgpu::Buffer>,
-    ) -> wgpu::SubmissionIndex {
-        let device = &self.ctx.device;
-        let res = self.opts.shadow_resolution;
-        let mut gpu_lights = Vec::with_capacity(batch.end - batch.start);
-        let mut layers = Vec::with_capacity(batch.num_layers as usize);
-        for (k, &j) in js[batch.start..batch.end].iter().enumerate() {
-            gpu_lights.push(GpuLight::new(&self.lights, j, batch.layers[k], uses_cube(&self.lights, j), self.spot_texture_offsets[j]));
-            layers.extend(light_layers(&self.lights, j, res));
-        }
-        let layers_buf = storage_buffer(
-            device,
-            "LightMatrix::layers",
-            &layers,
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
-        );
-        let lights_buf = storage_buffer(device, "LightMatrix::lights", &gpu_lights, wgpu::BufferUsages::STORAGE);
-        let weights_buf = storage_buffer(device, "LightMatrix::weights", weights, wgpu::BufferUsages::STORAGE);
-        let (_, _, dispatch_width) = dispatch_size(self.view_buffers.num_samples);
-        let dummy;
-        let columns_buf = match columns {
-            Some(b) => b,
-            None => {
-                dummy = storage_buffer::<f32>(device, "LightMatrix::no_columns", &[], wgpu::BufferUsages::STORAGE);
-                &dummy
-            }
-        };
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::batch") });
-        if self.opts.visibility != Visibility::RayTraced {
-            self.shadow_pass.encode(device, &mut encoder, &self.atlas, &layers_buf, batch.num_layers, &self.geometry);
-        }
-        // With rays, few enough lights per dispatch that an invocation's loops stay bounded (module doc).
-        let per_dispatch = match self.opts.visibility {
-            Visibility::ShadowMap => gpu_lights.len(),
-            Visibility::Hybrid | Visibility::RayTraced => RAYS_PER_INVOCATION as usize,
-        };
-        for first in (0..gpu_lights.len()).step_by(per_dispatch.max(1)) {
-            let params = ColumnParams {
-                num_samples: self.view_buffers.num_samples,
-                num_lights: per_dispatch.min(gpu_lights.len() - first) as u32,
-                write_columns: columns.is_some() as u32,
-                accumulate: columns.is_none() as u32,
-                resolution: res,
-                dispatch_width,
-                first_light: first as u32,
-                visibility: self.opts.visibility as u32,
-                normal_offset: self.opts.normal_offset,
-                depth_bias: self.opts.depth_bias,
-                slope_bias: self.opts.slope_bias,
-                _pad1: 0.0,
-            };
-            let params_buf = storage_buffer(device, "LightMatrix::params", &[params], wgpu::BufferUsages::UNIFORM);
-            self.columns_pass.encode(
-                device,
-                &mut encoder,
-                &ColumnsInputs {
-                    params: &params_buf,
-                    view: &self.view_buffers,
-                    lights: &lights_buf,
-                    layers: &layers_buf,
-                    weights: &weights_buf,
-                    shadow_maps: &self.atlas.array_view,
-                    accum,
-                    columns: columns_buf,
-                    bvh_nodes: &self.bvh.nodes,
-                    bvh_prims: &self.bvh.primitives,
-                    stats: &self.stats,
-                    spot_textures: &self.spot_textures,
-                },
-            );
-        }
-        self.ctx.queue.submit(Some(encoder.finish()))
-    }
-
-    fn wait_for(&self, submission: wgpu::SubmissionIndex) -> Result<()> {
-        crate::interrupt::wait_gpu(&self.ctx.device, Some(submission), "a column batch")
-    }
-
     /// Visibility counters since creation or the last `reset_visibility_stats` (waits for the GPU).
     pub fn visibility_stats(&self) -> Result<VisibilityStats> {
-        let w = self.ctx.read_buffer::<u32>(&self.stats, 0, 6)?;
-        let c = |k: usize| w[2 * k] as u64 | (w[2 * k + 1] as u64) << 32;
-        Ok(VisibilityStats { shadow_tests: c(0), ray_casts: c(1), gave_up: c(2) })
+        self.backend.visibility_stats()
     }
 
     /// Sets the visibility counters to 0.
     pub fn reset_visibility_stats(&self) {
-        self.ctx.queue.write_buffer(&self.stats, 0, bytemuck::cast_slice(&[0u32; 6]));
+        self.backend.reset_visibility_stats()
     }
 
     /// Columns `js` (any order, repeats allowed): k * H * W * 3 floats, column-major by light, then
     /// row 0 at the top, then RGB (a pixel's delta-chain samples summed into it).
     pub fn columns(&self, js: &[usize]) -> Result<Vec<f32>> {
         self.check_indices(js)?;
-        let m = self.view.len();
-        let column_bytes = (m as u64 * 12).max(4);
-        let max_columns = (self.max_binding.min(128 << 20) / column_bytes) as usize;
-        if max_columns == 0 {
-            return Err(Error::invalid(format!(
-                "one column of {m} view samples ({column_bytes} bytes) exceeds the storage binding limit"
-            )));
-        }
-        crate::memory::check_host(
-            &format!("columns: {} columns x {m} view samples x RGB float32", js.len()),
-            crate::memory::product(&[js.len() as u64, m as u64, 12]),
-        )?;
-        let batches = self.batches(js, max_columns);
-        let largest = batches.iter().map(|b| b.end - b.start).max().unwrap_or(0);
-        let columns_buf = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("LightMatrix::columns"),
-            size: (largest as u64 * column_bytes).max(16),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let accum = storage_buffer::<f32>(&self.ctx.device, "LightMatrix::no_accum", &[], wgpu::BufferUsages::STORAGE);
-        let pixels = self.view.num_pixels();
-        let mut out = Vec::with_capacity(js.len() * pixels * 3);
-        for batch in &batches {
-            let zeros = vec![[0.0f32; 4]; batch.end - batch.start];
-            self.run_batch(js, batch, &zeros, &accum, Some(&columns_buf));
-            let data = self.ctx.read_buffer::<f32>(&columns_buf, 0, (batch.end - batch.start) * m * 3)?;
-            if m == pixels {
-                out.extend(data);
-            } else {
-                for column in data.chunks_exact(m * 3) {
-                    out.extend(self.view.fold(column, 3));
-                }
-            }
-        }
-        Ok(out)
+        self.backend.columns(js)
     }
 
-    /// `sum_j w_j A(:, j)` over all lights (weights `None` = all 1) as H * W * 3 floats, accumulated on
-    /// the GPU; `progress(done, n)` after each batch.
+    /// `sum_j w_j A(:, j)` over all lights (weights `None` = all 1) as H * W * 3 floats;
+    /// `progress(done, n)` as it goes.
     pub fn column_sum(&self, weights: Option<&[f32]>, progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
         let n = self.lights.len();
         let w: Vec<[f32; 3]> = match weights {
@@ -463,13 +254,8 @@ impl LightMatrix {
 
     /// `sum_k weights[k] * A(:, js[k])` with RGB weights, rendering only the listed columns (repeats add
     /// up): the reconstruction of clustered renderers (representatives and their weights). H * W * 3
-    /// floats; `progress(done, k)` after each batch.
-    pub fn weighted_sum(
-        &self,
-        js: &[usize],
-        weights: &[[f32; 3]],
-        progress: &mut dyn FnMut(usize, usize),
-    ) -> Result<Vec<f32>> {
+    /// floats; `progress(done, k)` as it goes.
+    pub fn weighted_sum(&self, js: &[usize], weights: &[[f32; 3]], progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
         self.check_indices(js)?;
         if weights.len() != js.len() {
             return Err(Error::invalid(format!(
@@ -481,21 +267,46 @@ impl LightMatrix {
         if let Some((k, v)) = weights.iter().enumerate().find(|(_, v)| !v.iter().all(|c| c.is_finite())) {
             return Err(Error::invalid(format!("weights must be finite, got {v:?} for light {}", js[k])));
         }
-        let w4: Vec<[f32; 4]> = weights.iter().map(|v| [v[0], v[1], v[2], 0.0]).collect();
-        let m = self.view.len();
-        let accum = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("LightMatrix::accum"),
-            size: (m as u64 * 16).max(16),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        for batch in self.batches(js, usize::MAX) {
-            let submission = self.run_batch(js, &batch, &w4[batch.start..batch.end], &accum, None);
-            self.wait_for(submission)?;
-            progress(batch.end, js.len());
-        }
-        let rgba = self.ctx.read_buffer::<[f32; 4]>(&accum, 0, m)?;
-        let rgb: Vec<f32> = rgba.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
-        Ok(if m == self.view.num_pixels() { rgb } else { self.view.fold(&rgb, 3) })
+        self.backend.weighted_sum(js, weights, progress)
     }
+
+    /// Rows `is` (pixel indices `y * width + x`, any order, repeats allowed) as r * n * 3 floats,
+    /// `[row][light][rgb]`, with the default `RowOptions`; `progress(rows_done, r)` as it goes. A pixel
+    /// with delta-chain samples (`crate::view_chains`) has the sum of its samples' rows.
+    pub fn rows(&self, is: &[usize], progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
+        Ok(self.rows_timed(is, &RowOptions::default(), progress)?.0)
+    }
+
+    /// `rows` with explicit options (the GPU's cube maps), also returning per-stage timings.
+    pub fn rows_timed(&self, is: &[usize], opts: &RowOptions, progress: &mut dyn FnMut(usize, usize)) -> Result<TimedRows> {
+        let m = self.view.num_pixels();
+        if let Some((k, &i)) = is.iter().enumerate().find(|(_, &i)| i >= m) {
+            return Err(Error::invalid(format!("row index {i} (at position {k}) is out of range for {m} view samples")));
+        }
+        if is.is_empty() || self.lights.is_empty() {
+            return Ok((Vec::new(), rows::RowTimings::default()));
+        }
+        self.backend.rows(is, opts, progress)
+    }
+}
+
+/// View samples whose arrays agree with each other (the GPU backend checks the same and more).
+fn check_view(view: &ViewSamples) -> Result<()> {
+    let m = view.len();
+    let wh = view.num_pixels();
+    if m != wh + view.extra_pixel.len()
+        || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len()].iter().any(|&l| l != m)
+        || !(m..=2 * m).contains(&view.bsdf.len())
+        || !(view.throughput.is_empty() || view.throughput.len() == m)
+        || view.extra_pixel.windows(2).any(|p| p[1] < p[0])
+        || view.extra_pixel.last().is_some_and(|&p| p as usize >= wh)
+    {
+        return Err(Error::invalid(format!(
+            "view samples are inconsistent: {}x{} = {wh} pixels, {} extra samples, shape_index {m}, position {}, \
+             normal {}, geo_normal {}, wi {}, bsdf {}, throughput {}",
+            view.width, view.height, view.extra_pixel.len(), view.position.len(), view.normal.len(),
+            view.geo_normal.len(), view.wi.len(), view.bsdf.len(), view.throughput.len()
+        )));
+    }
+    Ok(())
 }

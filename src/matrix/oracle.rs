@@ -11,14 +11,16 @@
 //! multiplied by its delta-chain throughput (`ViewSamples::throughput`), and a row of the matrix (a
 //! pixel) is the sum of its samples in sample order (`ViewSamples::samples_of_pixel`), as the GPU's.
 //!
-//! The ray tracer is built on the first call and kept by the `LightMatrix`. Rows and columns run in
-//! parallel with rayon.
+//! The shading is one function, `crate::cpu::shade`, which the CPU backend runs for every element; the
+//! oracle is that backend's arithmetic element by element. The ray tracer is the backend's (the CPU
+//! backend's own; the GPU backend builds one on first use). Rows and columns run in parallel with rayon.
 use super::LightMatrix;
 use crate::error::{Error, Result};
-use crate::lights::{coordinate_system, LightSet};
-use crate::raytrace::{spawn_ray, RayTracer};
+use crate::lights::LightSet;
+use crate::raytrace::RayTracer;
 use crate::view::ViewSamples;
 use glam::Vec3;
+use std::sync::Arc;
 
 /// Elements per parallel chunk of `row_exact` / `column_exact` between interruption checks.
 const ORACLE_CHUNK: usize = 4096;
@@ -40,43 +42,14 @@ pub fn exact_pixel(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, p:
 /// Light j's contribution to view sample i (throughput applied) with exact visibility: (value, whether
 /// the shadow ray was unblocked; false also when the unshadowed contribution is 0 and no ray was cast).
 pub fn exact_element(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, i: usize, j: usize) -> (Vec3, bool) {
-    if view.shape_index[i] < 0 {
-        return (Vec3::ZERO, false);
-    }
-    let (p, n) = (view.position[i], view.normal[i]);
-    let Some((wo, radiance, dist)) = lights.emitted(j, p, n) else {
-        return (Vec3::ZERO, false);
-    };
-    // Mitsuba's shading frame (Frame3f(n)), as `columns.wgsl`.
-    let (s, t) = coordinate_system(n);
-    let local = |v: Vec3| Vec3::new(v.dot(s), v.dot(t), v.dot(n));
-    let f = crate::shading::bsdf::eval_records(&view.bsdf, i, local(view.wi[i]), local(wo)) * radiance * view.throughput_of(i);
-    if f == Vec3::ZERO {
-        return (Vec3::ZERO, false);
-    }
-    let n_g = view.geo_normal[i];
-    let blocked = if dist.is_finite() {
-        tracer.occluded(p, n_g, lights.position[j])
-    } else {
-        tracer.occluded_ray(spawn_ray(p, n_g, wo), wo, f32::INFINITY)
-    };
-    if blocked {
-        (Vec3::ZERO, false)
-    } else {
-        (f, true)
-    }
+    let s = crate::cpu::shade(tracer, view, lights, &crate::cpu::ShadingPoint::new(view, i), i, j);
+    (s.value, s.lit)
 }
 
 impl LightMatrix {
-    /// The CPU ray tracer of the scene, built on first use.
-    fn tracer(&self) -> Result<&RayTracer> {
-        if let Some(t) = self.oracle.get() {
-            return Ok(t);
-        }
-        let t = RayTracer::new(&self.scene)?;
-        // Another thread may have won the race; either tracer is the same.
-        let _ = self.oracle.set(t);
-        self.oracle.get().ok_or_else(|| Error::invalid("the oracle's ray tracer could not be stored".to_string()))
+    /// The ray tracer of the exact oracle (the CPU backend's own, or the GPU backend's built on first use).
+    fn tracer(&self) -> Result<Arc<RayTracer>> {
+        self.backend.tracer()
     }
 
     fn check_sample(&self, i: usize) -> Result<()> {
@@ -93,7 +66,7 @@ impl LightMatrix {
     pub fn element(&self, i: usize, j: usize) -> Result<[f32; 3]> {
         self.check_sample(i)?;
         self.check_indices(&[j])?;
-        Ok(exact_pixel(self.tracer()?, &self.view, &self.lights, i, j).0.to_array())
+        Ok(exact_pixel(&*self.tracer()?, &self.view, &self.lights, i, j).0.to_array())
     }
 
     /// Row i, A(i, :), by exact ray casting: n RGB values in light order.
@@ -103,7 +76,7 @@ impl LightMatrix {
         self.check_sample(i)?;
         let tracer = self.tracer()?;
         crate::interrupt::par_map_chunked(self.lights.len(), ORACLE_CHUNK, |j| {
-            exact_pixel(tracer, &self.view, &self.lights, i, j).0.to_array()
+            exact_pixel(&tracer, &self.view, &self.lights, i, j).0.to_array()
         })
     }
 
@@ -114,7 +87,7 @@ impl LightMatrix {
         self.check_indices(&[j])?;
         let tracer = self.tracer()?;
         crate::interrupt::par_map_chunked(self.view.num_pixels(), ORACLE_CHUNK, |i| {
-            exact_pixel(tracer, &self.view, &self.lights, i, j).0.to_array()
+            exact_pixel(&tracer, &self.view, &self.lights, i, j).0.to_array()
         })
     }
 }
@@ -129,9 +102,8 @@ mod tests {
     use std::sync::Arc;
 
     /// GPU `RayTraced` columns cast the same rays as the oracle: only f32 rounding of the shading
-    /// separates them (largest in a spot's falloff ramp, where the GPU's acos differs from libm's by
-    /// up to 2e-4 relative).
-    const REL_TOL: f32 = 1e-3;
+    /// separates them (the spot falloff's acos is `acos_precise` on the GPU, within ~2 ulp of libm's).
+    const REL_TOL: f32 = 1e-5;
     /// Absolute floor relative to the column maximum (rounding near zero).
     const ABS_TOL: f32 = 1e-6;
     /// Pixels allowed to differ: rays grazing an edge may be decided differently by the GPU's and the

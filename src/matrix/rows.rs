@@ -43,7 +43,8 @@
 //! block (`rand_pcg::Pcg32` seeded by `seed`). Background pixels are allowed (their rows are zero): the
 //! choice keeps the row distribution uniform over the image, so estimators built on R stay simple;
 //! callers wanting surface samples only can redraw.
-use super::{LightMatrix, Visibility};
+use super::gpu::GpuBackend;
+use super::Visibility;
 use crate::error::{Error, Result};
 use crate::gpu::columns::{storage_buffer, GpuLight};
 use crate::gpu::rows::{row_cube_layers, GpuRowInfo, RowParams, RowsInputs, RowsPass, MAX_LIGHTS_PER_DISPATCH, ROW_NO_MAP};
@@ -99,16 +100,8 @@ pub struct RowTimings {
 /// The r x n x 3 rows and how long they took.
 pub type TimedRows = (Vec<f32>, RowTimings);
 
-impl LightMatrix {
-    /// Rows `is` (pixel indices `y * width + x`, any order, repeats allowed) as r * n * 3 floats,
-    /// `[row][light][rgb]`, with the default `RowOptions`; `progress(samples_done, samples)` is called after
-    /// each batch. A pixel with delta-chain samples (`crate::view_chains`) has one row per sample
-    /// evaluated (each with its cube map), summed into the pixel's row.
-    pub fn rows(&self, is: &[usize], progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
-        Ok(self.rows_timed(is, &RowOptions::default(), progress)?.0)
-    }
-
-    /// `rows` with explicit options, also returning per-stage timings.
+impl GpuBackend {
+    /// Rows on the GPU (module docs), with per-stage timings (`LightMatrix::rows_timed` validates first).
     pub fn rows_timed(&self, is: &[usize], opts: &RowOptions, progress: &mut dyn FnMut(usize, usize)) -> Result<TimedRows> {
         let (m, n) = self.shape();
         if let Some((k, &i)) = is.iter().enumerate().find(|(_, &i)| i >= m) {

@@ -7,7 +7,7 @@ use crate::gpu::GpuContext;
 use crate::lights::generate::{generate_lights, test_scenes, GenerateOptions};
 use crate::lights::{LightKind, LightSet};
 use crate::matrix::reference::CpuReference;
-use crate::matrix::ColumnOptions;
+use crate::matrix::{ColumnOptions, LightMatrix};
 use crate::scene::{Emitter, Scene};
 use glam::Vec3;
 use std::sync::Arc;

@@ -301,7 +301,7 @@ fn bench_time_per_column() {
             .collect();
         let res = std::env::var("ML_BENCH_RES").ok().and_then(|v| v.parse().ok()).unwrap_or(1024);
         let s = setup(128, emitters, ColumnOptions { shadow_resolution: res, ..Default::default() });
-        eprintln!("shadow maps {res}^2; adapter: {} ({})", s.matrix.ctx.summary.name, s.matrix.ctx.summary.backend);
+        eprintln!("shadow maps {res}^2; adapter: {} ({})", s.matrix.device().name, s.matrix.device().backend);
         s.matrix.column_sum(None, &mut |_, _| {}).unwrap();
         let t = std::time::Instant::now();
         let sum = s.matrix.column_sum(None, &mut |_, _| {}).unwrap();

@@ -4,7 +4,7 @@ use super::signals::{self, progress_callback};
 pub use super::lightset::LightSet;
 use super::util::array;
 use crate::error::Error;
-use crate::gpu::GpuContext;
+use crate::matrix::backend::Device;
 use crate::lights;
 use crate::matrix::{ColumnOptions, LightMatrix as CoreMatrix, Visibility};
 use numpy::{PyArrayDyn, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -26,7 +26,7 @@ pub struct LightMatrix {
 #[pymethods]
 impl LightMatrix {
     #[new]
-    #[pyo3(signature = (scene, lights, shadow_map_size=1024, normal_offset=None, depth_bias=None, slope_bias=None, visibility="hybrid", max_depth=-1))]
+    #[pyo3(signature = (scene, lights, shadow_map_size=1024, normal_offset=None, depth_bias=None, slope_bias=None, visibility=None, max_depth=-1, device="auto"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -36,16 +36,25 @@ impl LightMatrix {
         normal_offset: Option<f32>,
         depth_bias: Option<f32>,
         slope_bias: Option<f32>,
-        visibility: &str,
+        visibility: Option<&str>,
         max_depth: i64,
+        device: &str,
     ) -> PyResult<Self> {
         if !(16..=8192).contains(&shadow_map_size) {
             return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
         }
         let chains = crate::view_chains::ChainOptions::with_max_depth(max_depth)?;
-        let view = scene.view_samples_with(py, chains)?;
+        let visibility = visibility.map(Visibility::parse).transpose()?;
+        let mut device = Device::parse(device)?.with_env()?;
+        if device == Device::Auto && visibility.is_some_and(|v| v != Visibility::RayTraced) {
+            // Shadow maps were asked for: only the GPU renders them.
+            device = Device::Gpu;
+        }
+        let chosen = py.detach(move || device.choose())?;
+        let visibility = visibility.unwrap_or(if chosen.is_cpu() { Visibility::RayTraced } else { Visibility::Hybrid });
+        let view = scene.view_samples_on(py, chains, &chosen)?;
+        let tracer = if chosen.is_cpu() { Some(scene.tracer(py)?) } else { None };
         let (s, l) = (scene.inner.clone(), lights.inner.clone());
-        let visibility = Visibility::parse(visibility)?;
         let mut opts = ColumnOptions { visibility, shadow_resolution: shadow_map_size, ..Default::default() };
         for (name, v, slot) in [
             ("normal_offset", normal_offset, &mut opts.normal_offset),
@@ -59,15 +68,26 @@ impl LightMatrix {
                 *slot = v;
             }
         }
-        let m = signals::detach(py, move || -> crate::error::Result<CoreMatrix> {
-            let ctx = GpuContext::shared()?;
-            CoreMatrix::new(ctx, s, view, l, opts)
-        })?;
+        let m = signals::detach(py, move || CoreMatrix::with_device(&chosen, s, view, l, opts, tracer))?;
         Ok(LightMatrix { inner: Arc::new(m) })
     }
     #[getter]
     fn shape(&self) -> (usize, usize) {
         self.inner.shape()
+    }
+    /// The device computing this matrix: dict with kind ("cpu" / "gpu"), name, backend, is_software, threads.
+    #[getter]
+    fn device<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        super::scene::device_dict(py, &self.inner.device())
+    }
+    /// The visibility in use: "hybrid", "ray_traced" or "shadow_map".
+    #[getter]
+    fn visibility(&self) -> &'static str {
+        match self.inner.opts.visibility {
+            Visibility::Hybrid => "hybrid",
+            Visibility::RayTraced => "ray_traced",
+            Visibility::ShadowMap => "shadow_map",
+        }
     }
     /// Visibility counters since creation or `reset_visibility_stats()`: dict with shadow_tests,
     /// ray_casts, gave_up (ints).

@@ -1,6 +1,8 @@
 //! `load_scene`, `Scene` (introspection + G-buffer) and `device_info`.
 use super::util::{array, vec3_array};
 use crate::gpu::GpuContext;
+use crate::matrix::backend::{Chosen, Device, DeviceInfo};
+use crate::raytrace::RayTracer;
 use crate::scene::{self, Bsdf, Emitter, LoadOptions, Param, ShapeKind};
 use crate::view::ViewSamples;
 use crate::view_chains::ChainOptions;
@@ -15,24 +17,50 @@ pub struct Scene {
     pub inner: Arc<scene::Scene>,
     /// View samples per delta-chain options (usually one entry).
     view: Mutex<Vec<(ChainOptions, Arc<ViewSamples>)>>,
+    /// The scene's CPU ray tracer (BVH), built on first use: the CPU backend's G-buffer and shadow rays,
+    /// and the exact oracle of every light matrix of this scene.
+    tracer: std::sync::OnceLock<Arc<RayTracer>>,
 }
 
 impl Scene {
-    /// The view samples (G-buffer), rendered once on the GPU and cached.
-    pub fn view_samples(&self, py: Python<'_>) -> PyResult<Arc<ViewSamples>> {
-        self.view_samples_with(py, ChainOptions::default())
+    /// The view samples (G-buffer) on `device` (once per Scene: later calls return the cached samples).
+    pub fn view_samples(&self, py: Python<'_>, device: Device) -> PyResult<Arc<ViewSamples>> {
+        let chosen = py.detach(move || device.choose())?;
+        self.view_samples_on(py, ChainOptions::default(), &chosen)
     }
 
-    /// The view samples with delta chains followed by `chains`, rendered once per options and cached.
-    pub fn view_samples_with(&self, py: Python<'_>, chains: ChainOptions) -> PyResult<Arc<ViewSamples>> {
+    /// The scene's ray tracer, built once (released GIL).
+    pub fn tracer(&self, py: Python<'_>) -> PyResult<Arc<RayTracer>> {
+        if let Some(t) = self.tracer.get() {
+            return Ok(t.clone());
+        }
+        let scene = self.inner.clone();
+        let t = Arc::new(super::signals::detach(py, move || RayTracer::new(&scene))?);
+        Ok(self.tracer.get_or_init(|| t).clone())
+    }
+
+    /// The view samples with delta chains followed by `chains`, computed once per options and cached:
+    /// visibility at pixel centres rasterised on the GPU, or ray cast through the BVH for the CPU
+    /// backend (`view_resolve::cast_visibility_traced`), then resolved exactly on the CPU. A cached
+    /// entry serves both devices (so matrices of one Scene on either backend share their rows).
+    pub fn view_samples_on(&self, py: Python<'_>, chains: ChainOptions, chosen: &Chosen) -> PyResult<Arc<ViewSamples>> {
         if let Some((_, v)) = self.view.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(o, _)| *o == chains) {
             return Ok(v.clone());
         }
         let scene = self.inner.clone();
-        let v = super::signals::detach(py, move || -> crate::error::Result<ViewSamples> {
-            let ctx = GpuContext::shared()?;
-            crate::gpu::gbuffer::render_view_samples_with(&ctx, &scene, &chains)
-        })?;
+        let v = match chosen {
+            Chosen::Gpu(ctx) => {
+                let ctx = ctx.clone();
+                super::signals::detach(py, move || crate::gpu::gbuffer::render_view_samples_with(&ctx, &scene, &chains))?
+            }
+            Chosen::Cpu => {
+                let tracer = self.tracer(py)?;
+                super::signals::detach(py, move || -> crate::error::Result<ViewSamples> {
+                    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer)?;
+                    crate::view_resolve::resolve_view_samples_with(&scene, &ids, &chains)
+                })?
+            }
+        };
         let v = Arc::new(v);
         self.view.lock().unwrap_or_else(|e| e.into_inner()).push((chains, v.clone()));
         Ok(v)
@@ -268,8 +296,22 @@ impl Scene {
     }
     /// The deep framebuffer at pixel centres as numpy arrays: position, normal, geo_normal, wi, albedo
     /// (H, W, 3) float32, uv (H, W, 2) float32, shape_index and prim_index (H, W) int32 (-1 = background).
-    fn gbuffer<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let v = self.view_samples(py)?;
+    /// Computed on `device` (GPU raster or CPU ray casting) by the first call that needs it, then cached.
+    #[pyo3(signature = (device=None))]
+    fn gbuffer<'py>(&self, py: Python<'py>, device: Option<Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+        let device = match device {
+            None => Device::Auto,
+            Some(d) => match d.extract::<String>() {
+                Ok(name) => Device::parse(&name)?,
+                Err(_) => {
+                    return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                        "gbuffer: argument device must be 'auto', 'gpu' or 'cpu' (a str), got {}",
+                        d.repr().map(|r| r.to_string()).unwrap_or_default()
+                    )))
+                }
+            },
+        };
+        let v = self.view_samples(py, device)?;
         let (h, w) = (v.height as usize, v.width as usize);
         // The camera's own hits (samples 0 .. H * W; delta-chain samples follow them).
         let m = h * w;
@@ -331,21 +373,55 @@ pub fn load_scene(py: Python<'_>, path: PathBuf, params: Vec<(String, String)>, 
         // stacklevel 2: reported at the caller of `manylights.load_scene`.
         PyErr::warn(py, &py.get_type::<pyo3::exceptions::PyUserWarning>(), &msg, 2)?;
     }
-    Ok(Scene { inner: Arc::new(s), view: Mutex::new(Vec::new()) })
+    Ok(Scene { inner: Arc::new(s), view: Mutex::new(Vec::new()), tracer: std::sync::OnceLock::new() })
 }
 
-/// The GPU adapter in use: name, backend, device_type, driver, is_software.
-#[pyfunction]
-pub fn device_info<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-    let ctx = py.detach(GpuContext::shared)?;
-    let s = &ctx.summary;
+fn info_dict<'py>(py: Python<'py>, i: &DeviceInfo) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item("name", &s.name)?;
-    d.set_item("backend", &s.backend)?;
-    d.set_item("device_type", &s.device_type)?;
-    d.set_item("driver", &s.driver)?;
-    d.set_item("driver_info", &s.driver_info)?;
-    d.set_item("is_software", s.is_software)?;
+    d.set_item("kind", i.kind)?;
+    d.set_item("name", &i.name)?;
+    d.set_item("backend", &i.backend)?;
+    d.set_item("is_software", i.is_software)?;
+    d.set_item("threads", i.threads)?;
+    Ok(d)
+}
+
+/// A `DeviceInfo` as a dict: kind ("cpu" / "gpu"), name, backend, is_software, threads.
+pub fn device_dict<'py>(py: Python<'py>, i: &DeviceInfo) -> PyResult<Bound<'py, PyDict>> {
+    info_dict(py, i)
+}
+
+/// The device `device` resolves to (`"auto"`: `MANYLIGHTS_DEVICE`, else a hardware GPU, else the CPU) as a
+/// dict (kind, name, backend, is_software, threads), plus "gpu": the adapter wgpu would use (name,
+/// backend, device_type, driver, driver_info, is_software) or None when there is none.
+#[pyfunction]
+#[pyo3(signature = (device="auto"))]
+pub fn device_info<'py>(py: Python<'py>, device: &str) -> PyResult<Bound<'py, PyDict>> {
+    let dev = Device::parse(device)?;
+    let chosen = py.detach(move || dev.choose())?;
+    let info = match &chosen {
+        Chosen::Gpu(ctx) => DeviceInfo::gpu(ctx),
+        Chosen::Cpu => DeviceInfo::cpu(),
+    };
+    let d = info_dict(py, &info)?;
+    let ctx = match chosen {
+        Chosen::Gpu(ctx) => Some(ctx),
+        Chosen::Cpu => py.detach(GpuContext::shared).ok(),
+    };
+    match ctx {
+        Some(ctx) => {
+            let s = &ctx.summary;
+            let g = PyDict::new(py);
+            g.set_item("name", &s.name)?;
+            g.set_item("backend", &s.backend)?;
+            g.set_item("device_type", &s.device_type)?;
+            g.set_item("driver", &s.driver)?;
+            g.set_item("driver_info", &s.driver_info)?;
+            g.set_item("is_software", s.is_software)?;
+            d.set_item("gpu", g)?;
+        }
+        None => d.set_item("gpu", py.None())?,
+    }
     Ok(d)
 }
 

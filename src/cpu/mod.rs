@@ -1,0 +1,306 @@
+//! The CPU backend of the light matrix: columns, weighted column sums, rows and elements computed in Rust,
+//! in parallel with rayon, with an exact shadow ray per test through the scene BVH (Hašan, Pellacini,
+//! Bala, "Matrix Row-Column Sampling for the Many-Light Problem", SIGGRAPH 2007, Sec. 3: A(i, j) is light
+//! j's unoccluded contribution to view sample i times its visibility).
+//!
+//! Shading is the same as the GPU's `shaders/columns.wgsl` and the exact oracle (`matrix::oracle`), which
+//! calls `shade` here: for a surface view sample i with shading normal n (Mitsuba's frame
+//! `coordinate_system(n)`), `(wo, L, dist) = LightSet::emitted(j, p, n)`,
+//! `A(i, j) = bsdf_i(wi_local, wo_local) * L * throughput_i * V(i, j)`, where the BSDF includes the cosine
+//! and V is one exact ray with Mitsuba's offsets: `RayTracer::occluded(p, n_g, q)` (`spawn_ray_to`) toward
+//! a light at a finite distance, `spawn_ray(p, n_g, wo)` unbounded toward a directional one. Elements
+//! whose unshadowed value is 0 (lights behind the surface, outside a spot's cone, a zero BSDF) cast no
+//! ray. A pixel's row is the sum of its samples (its camera hit, then its delta-chain samples in order).
+//!
+//! Traversal is obvhs's compressed 8-wide BVH (`raytrace::bvh`): each ray tests 8 child boxes per node,
+//! the "wide traversal" that pays on a CPU without packets (shadow rays of a column scatter over the
+//! whole scene, so packets would rarely stay coherent).
+//!
+//! Work layout (measured in `tests::bench_cpu_backend`):
+//! - `weighted_sum(J, w)` (the reconstruction of clustered renderers): lights in blocks, each block
+//!   parallel over pixel chunks; a pixel loops over the block's lights and accumulates in registers
+//!   (no atomics, no per-column buffers), in light order, so the result does not depend on threads.
+//! - `columns(J)`: parallel over (column, pixel chunk).
+//! - `rows(I)`: parallel over (row, light chunk); a row's samples share one shading point.
+//! Interruption (`crate::interrupt`) is checked between blocks; progress after each block.
+//!
+//! Symbols: m = view samples (pixels + delta-chain samples), n = lights, i a view sample, j a light,
+//! p position, n shading normal, n_g geometric normal, wi direction to the viewer, wo direction to the
+//! light, L the light's emitted radiance (or irradiance factor) at p, V visibility.
+use crate::error::Result;
+use crate::lights::{coordinate_system, LightSet};
+use crate::matrix::backend::{Backend, DeviceInfo};
+use crate::matrix::rows::{RowOptions, RowTimings, TimedRows};
+use crate::matrix::VisibilityStats;
+use crate::raytrace::{spawn_ray, RayTracer};
+use crate::view::ViewSamples;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Elements (sample-light pairs) per block between interruption checks and progress reports.
+const ELEMENTS_PER_BLOCK: usize = 1 << 20;
+/// Pixels per parallel task of `weighted_sum` and `columns`.
+const PIXEL_CHUNK: usize = 256;
+/// Lights per parallel task of `rows`.
+const LIGHT_CHUNK: usize = 1024;
+
+/// A view sample prepared for shading: its frame and the direction to the viewer in it.
+#[derive(Debug, Clone, Copy)]
+pub struct ShadingPoint {
+    pub p: Vec3,
+    pub n: Vec3,
+    pub n_g: Vec3,
+    /// Tangents of Mitsuba's `Frame3f(n)`.
+    pub s: Vec3,
+    pub t: Vec3,
+    /// `wi` in the local frame.
+    pub wi_local: Vec3,
+    /// RGB throughput of the sample's delta chain (1 for a camera hit).
+    pub throughput: Vec3,
+    /// False for background samples (no surface): every element is 0.
+    pub surface: bool,
+}
+
+impl ShadingPoint {
+    /// View sample `i` of `view`.
+    pub fn new(view: &ViewSamples, i: usize) -> ShadingPoint {
+        let n = view.normal[i];
+        let (s, t) = coordinate_system(n);
+        let wi = view.wi[i];
+        ShadingPoint {
+            p: view.position[i],
+            n,
+            n_g: view.geo_normal[i],
+            s,
+            t,
+            wi_local: Vec3::new(wi.dot(s), wi.dot(t), wi.dot(n)),
+            throughput: view.throughput_of(i),
+            surface: view.shape_index[i] >= 0,
+        }
+    }
+
+    fn local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+}
+
+/// What shading one element found: its value and whether a shadow ray was cast / was unblocked.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Shaded {
+    pub value: Vec3,
+    /// A shadow ray was cast (the unshadowed value was not 0).
+    pub tested: bool,
+    /// The ray was unblocked (then `value` is the unshadowed value).
+    pub lit: bool,
+}
+
+/// Light j's contribution to view sample i (prepared as `sp`) with exact visibility (module docs).
+#[inline]
+pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &ShadingPoint, i: usize, j: usize) -> Shaded {
+    if !sp.surface {
+        return Shaded::default();
+    }
+    let Some((wo, radiance, dist)) = lights.emitted(j, sp.p, sp.n) else {
+        return Shaded::default();
+    };
+    let f = crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, sp.local(wo)) * radiance * sp.throughput;
+    if f == Vec3::ZERO {
+        return Shaded::default();
+    }
+    let blocked = if dist.is_finite() {
+        tracer.occluded(sp.p, sp.n_g, lights.position[j])
+    } else {
+        tracer.occluded_ray(spawn_ray(sp.p, sp.n_g, wo), wo, f32::INFINITY)
+    };
+    if blocked {
+        Shaded { value: Vec3::ZERO, tested: true, lit: false }
+    } else {
+        Shaded { value: f, tested: true, lit: true }
+    }
+}
+
+/// The CPU backend of one light matrix (module docs).
+pub struct CpuBackend {
+    tracer: Arc<RayTracer>,
+    view: Arc<ViewSamples>,
+    lights: Arc<LightSet>,
+    /// Every view sample prepared (`ShadingPoint::new`).
+    points: Vec<ShadingPoint>,
+    shadow_tests: AtomicU64,
+}
+
+impl CpuBackend {
+    /// The backend over `view` and `lights` with the scene's ray tracer.
+    pub fn new(tracer: Arc<RayTracer>, view: Arc<ViewSamples>, lights: Arc<LightSet>) -> Result<CpuBackend> {
+        let m = view.len();
+        crate::memory::check_host(
+            &format!("the CPU backend's shading points: {m} view samples x 112 bytes"),
+            crate::memory::product(&[m as u64, std::mem::size_of::<ShadingPoint>() as u64]),
+        )?;
+        let points = (0..m).into_par_iter().with_min_len(1024).map(|i| ShadingPoint::new(&view, i)).collect();
+        Ok(CpuBackend { tracer, view, lights, points, shadow_tests: AtomicU64::new(0) })
+    }
+
+    /// Element (sample i, light j), counting its shadow test.
+    #[inline]
+    fn element_counted(&self, i: usize, j: usize, tests: &mut u64) -> Vec3 {
+        let s = shade(&self.tracer, &self.view, &self.lights, &self.points[i], i, j);
+        *tests += s.tested as u64;
+        s.value
+    }
+
+    /// Per-sample values `m * 3` folded into pixels (`width * height * 3`).
+    fn fold(&self, per_sample: Vec<f32>) -> Vec<f32> {
+        if self.view.len() == self.view.num_pixels() {
+            per_sample
+        } else {
+            self.view.fold(&per_sample, 3)
+        }
+    }
+}
+
+impl Backend for CpuBackend {
+    fn info(&self) -> DeviceInfo {
+        DeviceInfo::cpu()
+    }
+
+    fn columns(&self, js: &[usize]) -> Result<Vec<f32>> {
+        let m = self.view.len();
+        let pixels = self.view.num_pixels();
+        crate::memory::check_host(
+            &format!("columns: {} columns x {m} view samples x RGB float32", js.len()),
+            crate::memory::product(&[js.len() as u64, m as u64, 12]),
+        )?;
+        let mut out = Vec::with_capacity(js.len() * pixels * 3);
+        // Columns per block so that a block holds about ELEMENTS_PER_BLOCK elements.
+        let per_block = (ELEMENTS_PER_BLOCK / m.max(1)).max(1);
+        for block in js.chunks(per_block) {
+            crate::interrupt::check()?;
+            let mut data = vec![0f32; block.len() * m * 3];
+            // Fill column by column (a column's pixel chunks in parallel).
+            let mut total = 0u64;
+            for (k, &j) in block.iter().enumerate() {
+                let col = &mut data[k * m * 3..(k + 1) * m * 3];
+                total += col
+                    .par_chunks_mut(PIXEL_CHUNK * 3)
+                    .enumerate()
+                    .map(|(c, dst)| {
+                        let mut t = 0u64;
+                        for (e, px) in dst.chunks_exact_mut(3).enumerate() {
+                            let v = self.element_counted(c * PIXEL_CHUNK + e, j, &mut t);
+                            px.copy_from_slice(&v.to_array());
+                        }
+                        t
+                    })
+                    .sum::<u64>();
+            }
+            self.shadow_tests.fetch_add(total, Ordering::Relaxed);
+            if m == pixels {
+                out.extend_from_slice(&data);
+            } else {
+                for column in data.chunks_exact(m * 3) {
+                    out.extend(self.view.fold(column, 3));
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    fn weighted_sum(&self, js: &[usize], weights: &[[f32; 3]], progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
+        let m = self.view.len();
+        let mut acc = vec![0f32; m * 3];
+        let per_block = (ELEMENTS_PER_BLOCK / m.max(1)).max(1);
+        let mut done = 0;
+        for (block, w) in js.chunks(per_block).zip(weights.chunks(per_block)) {
+            crate::interrupt::check()?;
+            let tests: u64 = acc
+                .par_chunks_mut(PIXEL_CHUNK * 3)
+                .enumerate()
+                .map(|(c, dst)| {
+                    let mut t = 0u64;
+                    for (e, px) in dst.chunks_exact_mut(3).enumerate() {
+                        let i = c * PIXEL_CHUNK + e;
+                        if !self.points[i].surface {
+                            continue;
+                        }
+                        let mut sum = Vec3::from_array([px[0], px[1], px[2]]);
+                        for (&j, wk) in block.iter().zip(w) {
+                            let v = self.element_counted(i, j, &mut t);
+                            sum += v * Vec3::from_array(*wk);
+                        }
+                        px.copy_from_slice(&sum.to_array());
+                    }
+                    t
+                })
+                .sum();
+            self.shadow_tests.fetch_add(tests, Ordering::Relaxed);
+            done += block.len();
+            progress(done, js.len());
+        }
+        Ok(self.fold(acc))
+    }
+
+    fn rows(&self, is: &[usize], _opts: &RowOptions, progress: &mut dyn FnMut(usize, usize)) -> Result<TimedRows> {
+        let n = self.lights.len();
+        let r = is.len();
+        let mut timings = RowTimings::default();
+        crate::memory::check_host(
+            &format!("rows: {r} rows x {n} lights x RGB float32"),
+            crate::memory::product(&[r as u64, n as u64, 12]),
+        )?;
+        let t0 = Instant::now();
+        let mut out = vec![0f32; r * n * 3];
+        if n == 0 {
+            return Ok((out, timings));
+        }
+        let rows_per_block = (ELEMENTS_PER_BLOCK / n).max(1);
+        let mut done = 0;
+        for (b, block) in out.chunks_mut(rows_per_block * n * 3).enumerate() {
+            crate::interrupt::check()?;
+            let first = b * rows_per_block;
+            let tests: u64 = block
+                .par_chunks_mut(n * 3)
+                .enumerate()
+                .flat_map_iter(|(k, row)| row.chunks_mut(LIGHT_CHUNK * 3).enumerate().map(move |(c, dst)| (k, c, dst)))
+                .map(|(k, c, dst)| {
+                    let pixel = is[first + k];
+                    let mut t = 0u64;
+                    for i in self.view.samples_of_pixel(pixel) {
+                        for (e, px) in dst.chunks_exact_mut(3).enumerate() {
+                            let v = self.element_counted(i, c * LIGHT_CHUNK + e, &mut t);
+                            px[0] += v.x;
+                            px[1] += v.y;
+                            px[2] += v.z;
+                        }
+                    }
+                    t
+                })
+                .sum();
+            self.shadow_tests.fetch_add(tests, Ordering::Relaxed);
+            done += block.len() / (n * 3);
+            progress(done, r);
+        }
+        timings.evaluation = t0.elapsed().as_secs_f64();
+        timings.batches = r.div_ceil(rows_per_block);
+        Ok((out, timings))
+    }
+
+    fn tracer(&self) -> Result<Arc<RayTracer>> {
+        Ok(self.tracer.clone())
+    }
+
+    fn visibility_stats(&self) -> Result<VisibilityStats> {
+        let t = self.shadow_tests.load(Ordering::Relaxed);
+        Ok(VisibilityStats { shadow_tests: t, ray_casts: t, gave_up: 0 })
+    }
+
+    fn reset_visibility_stats(&self) {
+        self.shadow_tests.store(0, Ordering::Relaxed);
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,136 @@
+//! The CPU backend against the exact oracle (the same arithmetic: bit-equal) and against the GPU backend
+//! with exact rays (`Visibility::RayTraced`: the same rays, f32 rounding of the GPU's shading apart).
+use crate::gpu::GpuContext;
+use crate::lights::{generate_lights, GenerateOptions, LightKind};
+use crate::matrix::backend::{Chosen, Device};
+use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
+use crate::raytrace::RayTracer;
+use crate::scene::{load_scene, LoadOptions};
+use std::sync::Arc;
+
+/// Relative tolerance of "equal" between the backends.
+const REL: f32 = 1e-5;
+
+struct Pair {
+    cpu: LightMatrix,
+    gpu: LightMatrix,
+}
+
+fn pair(res: u32) -> Pair {
+    let xml = crate::testing::shared_dir().join("scenes/cbox-lights/scene.xml");
+    let opts = LoadOptions { params: vec![("res".into(), res.to_string())], size: None };
+    let scene = Arc::new(load_scene(&xml, &opts).unwrap());
+    let gen = GenerateOptions { area: 24, environment: 24, indirect: 300, seed: 5, ..Default::default() };
+    let lights = Arc::new(generate_lights(&scene, &gen).unwrap());
+    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let view = Arc::new(crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap());
+    let tracer = Arc::new(RayTracer::new(&scene).unwrap());
+    let copts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 256, ..Default::default() };
+    let gpu = LightMatrix::new(ctx, scene.clone(), view.clone(), lights.clone(), copts.clone()).unwrap();
+    let cpu = LightMatrix::with_device(&Chosen::Cpu, scene, view, lights, copts, Some(tracer)).unwrap();
+    Pair { cpu, gpu }
+}
+
+/// Lights of every kind (3 each).
+fn every_kind(a: &LightMatrix) -> Vec<usize> {
+    let l = &a.lights;
+    let mut js = Vec::new();
+    for kind in [LightKind::Point, LightKind::Spot, LightKind::Directional, LightKind::OrientedPoint, LightKind::Vpl] {
+        let of_kind: Vec<usize> = (0..l.len()).filter(|&j| l.kind[j] == kind).collect();
+        assert!(!of_kind.is_empty(), "cbox-lights must give {kind:?} lights");
+        js.extend(of_kind.iter().step_by((of_kind.len() / 3).max(1)).take(3));
+    }
+    js
+}
+
+/// (elements differing by more than REL relative (+ 1e-6 of the largest value), elements, lit elements).
+fn compare(a: &[f32], b: &[f32]) -> (usize, usize, usize) {
+    assert_eq!(a.len(), b.len());
+    let scale = a.iter().fold(0f32, |s, &v| s.max(v.abs()));
+    let bad = a.iter().zip(b).filter(|(x, y)| (*x - *y).abs() > REL * x.abs().max(y.abs()) + 1e-6 * scale).count();
+    (bad, a.len(), a.iter().filter(|&&v| v > 0.0).count())
+}
+
+#[test]
+fn cpu_columns_rows_and_sums_are_the_oracle_exactly() {
+    let p = pair(24);
+    let a = &p.cpu;
+    assert_eq!(a.device().kind, "cpu");
+    let (m, n) = a.shape();
+    let js = every_kind(a);
+    let cols = a.columns(&js).unwrap();
+    for (k, &j) in js.iter().enumerate() {
+        let exact: Vec<f32> = a.column_exact(j).unwrap().into_iter().flatten().collect();
+        assert_eq!(&cols[k * m * 3..(k + 1) * m * 3], &exact[..], "column {j}");
+    }
+    let is = [0, m / 3, m / 2 + 5, m - 1];
+    let rows = a.rows(&is, &mut |_, _| {}).unwrap();
+    for (k, &i) in is.iter().enumerate() {
+        let exact: Vec<f32> = a.row_exact(i).unwrap().into_iter().flatten().collect();
+        assert_eq!(&rows[k * n * 3..(k + 1) * n * 3], &exact[..], "row {i}");
+    }
+    // weighted_sum = the weighted columns summed in light order.
+    let w: Vec<[f32; 3]> = js.iter().enumerate().map(|(k, _)| [0.5 + k as f32, 1.0, 2.0 - 0.1 * k as f32]).collect();
+    let sum = a.weighted_sum(&js, &w, &mut |_, _| {}).unwrap();
+    let mut expect = vec![0f32; m * 3];
+    for (k, wk) in w.iter().enumerate() {
+        for i in 0..m {
+            for c in 0..3 {
+                expect[i * 3 + c] += wk[c] * cols[(k * m + i) * 3 + c];
+            }
+        }
+    }
+    let (bad, _, lit) = compare(&sum, &expect);
+    assert_eq!(bad, 0);
+    assert!(lit > m, "too few lit pixels: {lit}");
+    let stats = a.visibility_stats().unwrap();
+    assert!(stats.shadow_tests > 0 && stats.ray_casts == stats.shadow_tests && stats.gave_up == 0, "{stats:?}");
+}
+
+#[test]
+fn cpu_and_gpu_backends_agree_on_columns_rows_and_sums() {
+    let p = pair(32);
+    let (m, n) = p.cpu.shape();
+    let js = every_kind(&p.cpu);
+    let (bad, total, lit) = compare(&p.cpu.columns(&js).unwrap(), &p.gpu.columns(&js).unwrap());
+    eprintln!("columns: {bad} of {total} elements differ by > {REL} relative ({lit} lit)");
+    assert!(lit > total / 10, "too few lit elements: {lit}");
+    // Measured: 0 elements differ (the GPU's spot falloff uses `acos_precise`; before, its driver acos
+    // put 0.25% of the elements up to 7e-4 apart). A ray grazing an edge could still be decided
+    // differently by the two watertight tests: allow 1e-4 of the elements.
+    assert!(bad as f64 <= 1e-4 * total as f64, "{bad} of {total} column elements differ");
+
+    let is = crate::matrix::rows::stratified_rows(p.cpu.view.width, p.cpu.view.height, 40, 1).unwrap();
+    let (bad, total, lit) = compare(&p.cpu.rows(&is, &mut |_, _| {}).unwrap(), &p.gpu.rows(&is, &mut |_, _| {}).unwrap());
+    eprintln!("rows: {bad} of {total} elements differ by > {REL} relative ({lit} lit)");
+    assert!(lit > total / 10 && bad as f64 <= 1e-4 * total as f64, "{bad} of {total} row elements differ");
+
+    let all: Vec<usize> = (0..n).collect();
+    let w: Vec<[f32; 3]> = (0..n).map(|j| [1.0 + (j % 7) as f32 * 0.1; 3]).collect();
+    let cpu = p.cpu.weighted_sum(&all, &w, &mut |_, _| {}).unwrap();
+    let gpu = p.gpu.weighted_sum(&all, &w, &mut |_, _| {}).unwrap();
+    let num: f64 = cpu.iter().zip(&gpu).map(|(a, b)| ((a - b) as f64).powi(2)).sum();
+    let den: f64 = gpu.iter().map(|b| (*b as f64).powi(2)).sum();
+    let rel_l2 = (num / den).sqrt();
+    eprintln!("weighted sum of all {n} columns: relative L2 {rel_l2:.2e} over {m} pixels");
+    assert!(rel_l2 < 1e-4, "weighted sums differ: relative L2 {rel_l2}");
+}
+
+#[test]
+fn choosing_devices() {
+    // An explicit CPU never touches the GPU; "auto" on a machine whose only adapter is software is the CPU.
+    assert!(Device::Cpu.choose().unwrap().is_cpu());
+    let ctx = GpuContext::shared().unwrap();
+    if std::env::var(crate::matrix::backend::DEVICE_ENV).is_err() {
+        assert_eq!(Device::Auto.choose().unwrap().is_cpu(), ctx.summary.is_software);
+    }
+    assert!(!Device::Gpu.choose().unwrap().is_cpu());
+    // Shadow maps exist only on the GPU.
+    let p = pair(16);
+    let e = LightMatrix::with_device(&Chosen::Cpu, p.cpu.scene.clone(), p.cpu.view.clone(), p.cpu.lights.clone(), ColumnOptions::default(), None)
+        .err()
+        .expect("hybrid visibility on the CPU must be refused")
+        .to_string();
+    assert!(e.contains("only the GPU backend") && e.contains("ray_traced"), "{e}");
+}
+

@@ -1,0 +1,131 @@
+"""The light matrix's two backends (issue 9): the CPU backend (exact rays, rayon) and the GPU backend
+(wgpu) give the same matrix, every renderer runs on either, and ``device="auto"`` chooses as documented.
+
+Values are compared with ``visibility="ray_traced"`` on the GPU (the same rays as the CPU): equal to
+1e-5 relative. The GPU's default hybrid visibility decides a few grazing tests from shadow maps, so
+its images are compared by relative L2 instead.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import manylights as ml
+from conftest import SCENE_CONFIGS
+
+REL = 1e-5
+
+
+def _differing(a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of values differing by more than REL relative (+ 1e-6 of the largest value)."""
+    scale = float(np.abs(a).max())
+    bad = np.abs(a - b) > REL * np.maximum(np.abs(a), np.abs(b)) + 1e-6 * scale
+    return float(bad.mean())
+
+
+@pytest.fixture(scope="module")
+def pair():
+    xml, params, _ = SCENE_CONFIGS["cbox-lights"]
+    scene = ml.load_scene(xml, size=(40, 40), **params)
+    lights = ml.generate_lights(scene, area=200, environment=100, indirect=400, seed=4)
+    cpu = ml.LightMatrix(scene, lights, device="cpu")
+    gpu = ml.LightMatrix(scene, lights, device="gpu", visibility="ray_traced")
+    return scene, lights, cpu, gpu
+
+
+def test_backends_report_themselves(pair):
+    _, _, cpu, gpu = pair
+    assert cpu.device["kind"] == "cpu" and cpu.device["backend"] == "rayon" and cpu.visibility == "ray_traced"
+    assert gpu.device["kind"] == "gpu" and gpu.device["name"] == ml.device_info("gpu")["name"]
+    assert "cpu" in repr(cpu) and "gpu" in repr(gpu)
+
+
+def test_columns_rows_and_elements_agree(pair):
+    scene, lights, cpu, gpu = pair
+    m, n = cpu.shape
+    js = list(range(0, n, 23))
+    c, g = cpu.columns(js), gpu.columns(js)
+    assert (c > 0).mean() > 0.2, "too few lit elements"
+    assert _differing(c, g) <= 1e-4, f"{_differing(c, g):.2e} of the column values differ"
+    rows = ml.stratified_rows(scene, 30, seed=2)
+    rc, rg = cpu.rows(rows, progress=False), gpu.rows(rows, progress=False)
+    assert rc.shape == (30, n, 3) and (rc > 0).mean() > 0.2
+    assert _differing(rc, rg) <= 1e-4, f"{_differing(rc, rg):.2e} of the row values differ"
+    # Rows and columns of the CPU backend are one matrix: R[k, j] = A[rows[k], j] exactly.
+    np.testing.assert_array_equal(rc[:, js], c.reshape(len(js), m, 3)[:, rows].transpose(1, 0, 2))
+    for i, j in [(int(rows[3]), js[2]), (int(rows[7]), js[5])]:
+        np.testing.assert_array_equal(cpu.element(i, j), c[js.index(j)].reshape(m, 3)[i])
+
+
+@pytest.mark.parametrize("method", ["mrcs", "power_sampling", "brute_force"])
+def test_renderers_give_the_same_image_on_both_backends(pair, method):
+    scene, lights, cpu, gpu = pair
+    if method == "mrcs":
+        a, b = ml.mrcs(cpu, rows=60, columns=120, seed=3), ml.mrcs(gpu, rows=60, columns=120, seed=3)
+        # The same rows, clusters and representatives: the reduced matrices agreed.
+        np.testing.assert_array_equal(a.representatives, b.representatives)
+    elif method == "power_sampling":
+        a, b = ml.power_sampling(cpu, columns=150, seed=3), ml.power_sampling(gpu, columns=150, seed=3)
+    else:
+        a = ml.RenderResult(image=cpu.column_sum(progress=False) + cpu.emitted(), method="bf", seed=0, device=cpu.device)
+        b = ml.RenderResult(image=gpu.column_sum(progress=False) + gpu.emitted(), method="bf", seed=0, device=gpu.device)
+    assert a.device["kind"] == "cpu" and b.device["kind"] == "gpu"
+    err = ml.relative_l2(a.image, b.image)
+    assert a.image.max() > 0 and err < 1e-5, f"{method}: CPU and GPU images differ by {err:.2e}"
+
+
+def test_gpu_hybrid_visibility_is_close_to_the_cpu(pair):
+    scene, lights, cpu, _ = pair
+    hybrid = ml.LightMatrix(scene, lights, device="gpu")
+    assert hybrid.visibility == "hybrid"
+    err = ml.relative_l2(hybrid.column_sum(progress=False), cpu.column_sum(progress=False))
+    assert err < 2e-3, f"hybrid GPU visibility is {err:.2e} from exact rays"
+
+
+def test_delta_chains_on_both_backends(tmp_path):
+    """Mirrors and glass: a pixel's row sums its delta-chain samples on either backend."""
+    from test_delta_chains import _write  # the delta-chain tests' box with a mirror and a glass ball
+
+    scene = ml.load_scene(_write(tmp_path, "box"), size=(32, 32))
+    lights = ml.generate_lights(scene, area=64, seed=1)
+    cpu = ml.LightMatrix(scene, lights, device="cpu", max_depth=-1)
+    gpu = ml.LightMatrix(scene, lights, device="gpu", visibility="ray_traced", max_depth=-1)
+    a, b = cpu.column_sum(progress=False), gpu.column_sum(progress=False)
+    assert a.max() > 0 and ml.relative_l2(a, b) < 1e-5
+    r = ml.stratified_rows(scene, 20, seed=0)
+    assert _differing(cpu.rows(r, progress=False), gpu.rows(r, progress=False)) <= 1e-4
+
+
+@pytest.mark.parametrize("device", ["cpu", "gpu"])
+def test_zero_lights(pair, device):
+    """A matrix of 0 lights is an empty matrix on either backend: its sums are 0, renderers that sample
+    lights refuse it with a clear ValueError."""
+    scene, lights, _, _ = pair
+    empty = lights[np.array([], dtype=np.int64)]
+    A = ml.LightMatrix(scene, empty, device=device)
+    assert A.shape == (scene.width * scene.height, 0)
+    assert not A.column_sum(progress=False).any()
+    assert A.columns([]).shape == (0, scene.height, scene.width, 3)
+    assert A.rows([0, 5], progress=False).shape == (2, 0, 3)
+    with pytest.raises(ValueError, match=r"no lights \(n = 0\)"):
+        ml.mrcs(A)
+    with pytest.raises(ValueError, match=r"needs lights \(n = 0\)"):
+        ml.power_sampling(A)
+    with pytest.raises(ValueError, match="out of range for 0 lights"):
+        A.element(0, 0)
+
+
+def test_auto_follows_manylights_device(pair, monkeypatch):
+    scene, lights, _, _ = pair
+    software_only = ml.device_info("gpu")["is_software"]
+    monkeypatch.delenv("MANYLIGHTS_DEVICE", raising=False)
+    assert ml.LightMatrix(scene, lights).device["kind"] == ("cpu" if software_only else "gpu")
+    # Shadow maps are a GPU feature: asking for them under "auto" chooses the GPU.
+    assert ml.LightMatrix(scene, lights, visibility="shadow_map").device["kind"] == "gpu"
+    monkeypatch.setenv("MANYLIGHTS_DEVICE", "gpu")
+    assert ml.LightMatrix(scene, lights).device["kind"] == "gpu"
+    assert ml.device_info()["kind"] == "gpu"
+    # An explicit device wins over the variable.
+    assert ml.LightMatrix(scene, lights, device="cpu").device["kind"] == "cpu"
+    monkeypatch.setenv("MANYLIGHTS_DEVICE", "cpu")
+    assert ml.LightMatrix(scene, lights).device["kind"] == "cpu"
