@@ -38,6 +38,7 @@ thresholds as horizontal lines).
 """
 from __future__ import annotations
 
+import argparse
 import hashlib
 import json
 import os
@@ -95,7 +96,7 @@ GENERIC = SceneDefaults(width=128, size_params=())
 
 def add_parser(sub) -> None:
     p = sub.add_parser("vs-mitsuba", help="time to 5/2/1%% relative L2: MRCS (CPU/GPU) against Mitsuba's path tracer",
-                       description=__doc__.split("\n\n")[0])
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", required=True,
                    help=f"bundled scene ({', '.join(DEFAULTS)}) or a scene XML path")
     p.add_argument("--res", type=int, default=None, help="image width (height from the film's aspect); "
@@ -426,7 +427,7 @@ def run(args) -> dict:
     stem = f"vs-mitsuba-{s['name']}"
     json_path, png_path = out / f"{stem}.json", out / f"{stem}.png"
 
-    ref, ref_var, meta, cached = cached_reference(s, Path(args.cache), args.ref_seed)
+    ref, _var, meta, cached = cached_reference(s, Path(args.cache), args.ref_seed)
     noise = meta["relative_noise"]
     print(f"{s['path']}: {W}x{H}, max_depth {s['max_depth']}; reference {s['ref_spp']} spp "
           f"({'cached' if cached else 'rendered in %.1f s' % meta['seconds']}), estimated noise {noise:.3%} "
