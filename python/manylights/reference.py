@@ -8,6 +8,7 @@ dependency, not a runtime one.
 Functions:
     mitsuba_gbuffer(path, (W, H), **params)    -> dict of (H, W, ...) arrays (position, normal, ...)
     mitsuba_render(path, (W, H), max_depth=2, spp=1, seed=0, **params) -> (mean, variance), (H, W, 3) float32
+    render_loaded(load(path, **params), (W, H), ...)  -> the same for a scene loaded once (benchmarks)
 
 ``size`` is separate from ``**params`` because scenes name their own parameters ``width``/``height``.
     scene_variant(path, out_dir, keep_emitters=..., add_emitters=...) -> path of an edited copy of the XML
@@ -167,11 +168,19 @@ def mitsuba_render(path, size: tuple[int, int], *, max_depth: int = 2, spp: int 
 
     With a single delta light and ``max_depth=2`` the result is deterministic (spp=1 suffices).
     """
+    return render_loaded(load(path, **params), size, max_depth=max_depth, spp=spp, seed=seed, batch=batch,
+                         progress=progress)
+
+
+def render_loaded(scene, size: tuple[int, int], *, max_depth: int = 2, spp: int = 1, seed: int = 0,
+                  batch: int = 16, progress=None) -> tuple[np.ndarray, np.ndarray]:
+    """``mitsuba_render`` of a scene already loaded by ``load`` (so that timing a render leaves the XML
+    parsing out): ``batch`` spp per wavefront of W*H*batch lanes, ``progress(done, spp)`` after each.
+    Returns (mean, variance of the mean), both (H, W, 3) float32."""
     mi = mitsuba()
     import drjit as dr
 
     width, height = size
-    scene = load(path, **params)
     sensor = scene.sensors()[0]
     integrator = mi.load_dict({"type": "path", "max_depth": int(max_depth)})
     n = width * height
