@@ -14,11 +14,12 @@ CBOX_LIGHTS = SCENE_CONFIGS["cbox-lights"]
 DELTA_LIGHTS = {"point": 0, "spot": 1, "directional": 2}  # top-level emitters in document order
 
 
-def _render_ours(xml, params, size):
+def _render_ours(xml, params, size, device="auto"):
     scene = ml.load_scene(xml, size=size, **params)
     lights = ml.scene_lights(scene)
     # The references are Mitsuba's max_depth 2 (veach-ajar's glass teapot shows no lit surfaces there).
-    return ml.LightMatrix(scene, lights, max_depth=2).column_sum(progress=False), scene, lights
+    A = ml.LightMatrix(scene, lights, max_depth=2, device=device)
+    return A.column_sum(progress=False), scene, lights
 
 
 def _render_ref(ref, xml, params, size):
@@ -69,14 +70,16 @@ def single_light_refs(mitsuba_ref, tmp_path_factory):
     return out
 
 
+@pytest.mark.parametrize("device", ["cpu", "gpu"])
 @pytest.mark.parametrize("light", list(DELTA_LIGHTS))
-def test_cbox_lights_single_delta_light(light, single_light_refs, cbox_lights_edges):
+def test_cbox_lights_single_delta_light(light, device, single_light_refs, cbox_lights_edges):
+    """Each delta light against Mitsuba on both backends (the GPU with its default hybrid visibility)."""
     _, params, size = CBOX_LIGHTS
     variant, ref = single_light_refs[light]
-    ours, scene, lights = _render_ours(variant, params, size)
+    ours, scene, lights = _render_ours(variant, params, size, device)
     assert len(lights) == 1
     assert float(ref.max()) > 0.01, "reference must not be black"
-    _check(f"cbox-lights-{light}", ours, ref, cbox_lights_edges)
+    _check(f"cbox-lights-{light}-{device}", ours, ref, cbox_lights_edges)
 
 
 def test_cbox_lights_all_delta_lights_sum(mitsuba_ref, single_light_refs, cbox_lights_edges, tmp_path):
@@ -102,6 +105,8 @@ def test_point_light_inside_scene(name, emitter, mitsuba_ref, tmp_path):
     variant = mitsuba_ref.scene_variant(xml, tmp_path, keep_emitters=[], add_emitters=[emitter])
     ref = _render_ref(mitsuba_ref, variant, params, size)
     assert float((ref > 0).mean()) > 0.3, "the light must reach a good part of the image"
-    ours, _, lights = _render_ours(variant, params, size)
-    assert len(lights) == 1
-    _check(f"{name}-point", ours, ref, _edge_mask(mitsuba_ref, variant, params, size))
+    edges = _edge_mask(mitsuba_ref, variant, params, size)
+    for device in ("cpu", "gpu"):
+        ours, _, lights = _render_ours(variant, params, size, device)
+        assert len(lights) == 1
+        _check(f"{name}-point-{device}", ours, ref, edges)

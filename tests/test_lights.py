@@ -58,7 +58,8 @@ def _near_boundary(lit: np.ndarray, r: int) -> np.ndarray:
 def test_gpu_columns_match_exact(name, size):
     scene = _load(name, size)
     lights = ml.generate_lights(scene, area=512, environment=512, indirect=4000, max_depth=-1, seed=5)
-    A = ml.LightMatrix(scene, lights)  # default: hybrid visibility, 1024^2 shadow maps
+    # The GPU backend's default hybrid visibility against the exact oracle (the CPU backend IS the oracle).
+    A = ml.LightMatrix(scene, lights, device="gpu")
     rng = np.random.default_rng(1)
     js = []
     for k in range(5):
@@ -175,13 +176,14 @@ def test_direct_light_vs_mitsuba(name, tmp_path):
 GPU_IMAGE_TOL = 0.03
 
 
-def test_brute_force_gpu_image_cbox_lights():
+@pytest.mark.parametrize("device", ["cpu", "gpu"])
+def test_brute_force_image_cbox_lights(device):
     ref, _, meta = _reference("cbox-lights-direct")
     scene = _load("cbox-lights", tuple(meta["size"]))
     lights = ml.generate_lights(scene, area=1024, environment=1024)
-    img = ml.render_brute_force(scene, lights, visibility="ray_traced", progress=False)
+    img = ml.render_brute_force(scene, lights, visibility="ray_traced", progress=False, device=device)
     err = ml.relative_l2(img, ref)
-    print(f"\ncbox-lights GPU brute force, {len(lights)} lights: relative L2 {err:.4%}")
+    print(f"\ncbox-lights {device} brute force, {len(lights)} lights: relative L2 {err:.4%}")
     if err > GPU_IMAGE_TOL:
         save_failure_images("brute-force-cbox-lights", ours=img, ref=ref)
     assert np.isfinite(img).all()
@@ -261,14 +263,15 @@ def test_gi_error_decreases_with_indirect_lights(gi_scene):
     assert bias_on > bias_off
 
 
-def test_gi_gpu_brute_force(gi_scene):
+@pytest.mark.parametrize("device", ["cpu", "gpu"])
+def test_gi_brute_force(gi_scene, device):
     scene, ref, _ = gi_scene
     lights = ml.generate_lights(scene, area=GI_AREA, indirect=4000, max_depth=-1, seed=0)
-    A = ml.LightMatrix(scene, lights, visibility="ray_traced")
+    A = ml.LightMatrix(scene, lights, visibility="ray_traced", device=device)
     img = A.column_sum(progress=False) + A.emitted()
     err = ml.relative_l2(img, ref)
     exact = oracle_image(A, np.arange(A.shape[0])).reshape(ref.shape)
-    print(f"\ncbox-gi-64 GPU brute force ({len(lights)} lights): relative L2 {err:.4%}; "
+    print(f"\ncbox-gi-64 {device} brute force ({len(lights)} lights): relative L2 {err:.4%}; "
           f"vs oracle {ml.relative_l2(img, exact):.2e}")
     assert err <= GI_GPU_TOL
     assert ml.relative_l2(img, exact) <= GI_GPU_VS_ORACLE

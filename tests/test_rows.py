@@ -12,12 +12,13 @@ MIN_AGREE = 0.99
 SIZE = (32, 32)
 
 
-@pytest.fixture(scope="module")
-def cbox():
+@pytest.fixture(scope="module", params=["cpu", "gpu"])
+def cbox(request):
+    """The same matrix on each backend (the GPU's rows from cube maps with hybrid visibility)."""
     xml, params, _ = SCENE_CONFIGS["cbox"]
     scene = ml.load_scene(xml, size=SIZE, **params)
     lights = ml.generate_lights(scene, area=256, indirect=512, seed=2)
-    return scene, lights, ml.LightMatrix(scene, lights, shadow_map_size=256)
+    return scene, lights, ml.LightMatrix(scene, lights, shadow_map_size=256, device=request.param)
 
 
 def test_rows_shape_dtype_and_timings(cbox):

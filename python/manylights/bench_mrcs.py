@@ -47,6 +47,16 @@ def _resolve_scene(name: str) -> Path:
     return resolve(name)
 
 
+def _display_path(path: Path) -> str:
+    """The scene path as written into results: relative to the repository for bundled scenes (results are
+    committed and must not carry a machine's paths), else as given."""
+    repo = Path(__file__).resolve().parents[2]
+    try:
+        return str(Path(path).resolve().relative_to(repo))
+    except ValueError:
+        return str(path)
+
+
 def _load(path: Path, res: int):
     """The scene at width ``res``, height from the film's own aspect ratio."""
     import manylights as ml
@@ -82,7 +92,7 @@ def run(args) -> dict:
                                       f"{scene.height}-{A.visibility}-{args.shadow_map_size}.npz")
     print(f"brute force ({len(lights)} columns): {t_brute:.1f} s")
 
-    summary = {"scene": str(path), "size": [scene.width, scene.height], "lights": len(lights),
+    summary = {"scene": _display_path(path), "size": [scene.width, scene.height], "lights": len(lights),
                "visibility": A.visibility, "shadow_map_size": args.shadow_map_size, "device": A.device,
                "brute_force_seconds": t_brute, "seeds": args.seeds, "records": [], "adapter": ml.device_info()}
     records = summary["records"]

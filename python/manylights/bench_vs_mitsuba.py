@@ -215,7 +215,10 @@ def cached_reference(s: dict, cache: Path, seed: int) -> tuple[np.ndarray, np.nd
 
     mi = reference.mitsuba()
     W, H = s["size"]
-    key_fields = {"scene": str(s["path"].resolve()), "scene_sha256": scene_hash(s["path"]), "params": s["params"],
+    from .bench_mrcs import _display_path
+
+    # The path as results show it (repository-relative for bundled scenes): the content hash tells scenes apart.
+    key_fields = {"scene": _display_path(s["path"]), "scene_sha256": scene_hash(s["path"]), "params": s["params"],
                   "size": [W, H], "max_depth": s["max_depth"], "spp": s["ref_spp"], "seed": seed,
                   "footprint": "pixel centre", "mitsuba": mi.__version__, "variant": mi.variant()}
     key = hashlib.sha256(json.dumps(key_fields, sort_keys=True).encode()).hexdigest()[:16]
@@ -439,7 +442,9 @@ def run(args) -> dict:
     edges = None
     if not mi.variant().startswith("scalar"):
         edges = reference.mitsuba_edge_pixels(s["path"], (W, H), **s["params"])
-    summary = {"scene": str(s["path"]), "scene_name": s["name"], "size": [W, H], "params": s["params"],
+    from .bench_mrcs import _display_path
+
+    summary = {"scene": _display_path(s["path"]), "scene_name": s["name"], "size": [W, H], "params": s["params"],
                "max_depth": s["max_depth"], "thresholds": list(s["thresholds"]), "report_edges": s["report_edges"],
                "reference": {**meta, "cached": cached}, "reference_cached": cached,
                "edge_pixels": None if edges is None else int(edges.sum()),
