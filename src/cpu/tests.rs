@@ -1,7 +1,7 @@
 //! The CPU backend against the exact oracle (the same arithmetic: bit-equal) and against the GPU backend
 //! with exact rays (`Visibility::RayTraced`: the same rays, f32 rounding of the GPU's shading apart).
 use crate::gpu::GpuContext;
-use crate::lights::{generate_lights, GenerateOptions, LightKind};
+use crate::lights::{generate_lights, GenerateOptions};
 use crate::matrix::backend::{Chosen, Device};
 use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
 use crate::raytrace::RayTracer;
@@ -33,14 +33,7 @@ fn pair(res: u32) -> Pair {
 
 /// Lights of every kind (3 each).
 fn every_kind(a: &LightMatrix) -> Vec<usize> {
-    let l = &a.lights;
-    let mut js = Vec::new();
-    for kind in [LightKind::Point, LightKind::Spot, LightKind::Directional, LightKind::OrientedPoint, LightKind::Vpl] {
-        let of_kind: Vec<usize> = (0..l.len()).filter(|&j| l.kind[j] == kind).collect();
-        assert!(!of_kind.is_empty(), "cbox-lights must give {kind:?} lights");
-        js.extend(of_kind.iter().step_by((of_kind.len() / 3).max(1)).take(3));
-    }
-    js
+    crate::testing::lights_of_every_kind(&a.lights, 3)
 }
 
 /// (elements differing by more than REL relative (+ 1e-6 of the largest value), elements, lit elements).

@@ -71,22 +71,8 @@ impl GpuBackend {
         lights: Arc<LightSet>,
         opts: ColumnOptions,
     ) -> Result<GpuBackend> {
+        super::check_view(&view)?;
         let m = view.len();
-        let wh = view.num_pixels();
-        if m != wh + view.extra_pixel.len()
-            || [view.position.len(), view.normal.len(), view.geo_normal.len(), view.wi.len()].iter().any(|&l| l != m)
-            || !(m..=2 * m).contains(&view.bsdf.len())
-            || !(view.throughput.is_empty() || view.throughput.len() == m)
-            || view.extra_pixel.windows(2).any(|p| p[1] < p[0])
-            || view.extra_pixel.last().is_some_and(|&p| p as usize >= wh)
-        {
-            return Err(Error::invalid(format!(
-                "view samples are inconsistent: {}x{} = {wh} pixels, {} extra samples, shape_index {m}, position {}, \
-                 normal {}, geo_normal {}, wi {}, bsdf {}, throughput {}",
-                view.width, view.height, view.extra_pixel.len(), view.position.len(), view.normal.len(),
-                view.geo_normal.len(), view.wi.len(), view.bsdf.len(), view.throughput.len()
-            )));
-        }
         let limits = &ctx.limits;
         if opts.shadow_resolution == 0 || opts.shadow_resolution > limits.max_texture_dimension_2d {
             return Err(Error::invalid(format!(
@@ -165,24 +151,6 @@ impl GpuBackend {
             lights,
             opts,
         })
-    }
-
-    /// (m, n): rows (pixels) x lights.
-    pub fn shape(&self) -> (usize, usize) {
-        (self.view.num_pixels(), self.lights.len())
-    }
-
-    /// Image size (height, width) of the view samples, numpy order.
-    pub fn image_size(&self) -> (usize, usize) {
-        (self.view.height as usize, self.view.width as usize)
-    }
-
-    fn check_indices(&self, js: &[usize]) -> Result<()> {
-        let n = self.lights.len();
-        if let Some((k, &j)) = js.iter().enumerate().find(|(_, &j)| j >= n) {
-            return Err(Error::invalid(format!("light index {j} (at position {k}) is out of range for {n} lights")));
-        }
-        Ok(())
     }
 
     /// Split `js` into batches by lights per dispatch, shadow-map layers and (if given) columns per batch.
@@ -304,10 +272,9 @@ impl GpuBackend {
         self.ctx.queue.write_buffer(&self.stats, 0, bytemuck::cast_slice(&[0u32; 6]));
     }
 
-    /// Columns `js` (any order, repeats allowed): k * H * W * 3 floats, column-major by light, then
-    /// row 0 at the top, then RGB (a pixel's delta-chain samples summed into it).
-    pub fn columns(&self, js: &[usize]) -> Result<Vec<f32>> {
-        self.check_indices(js)?;
+    /// Columns `js` (any order, repeats allowed; validated by `LightMatrix`): k * H * W * 3 floats,
+    /// column-major by light, then row 0 at the top, then RGB (a pixel's delta-chain samples summed into it).
+    pub(crate) fn columns(&self, js: &[usize]) -> Result<Vec<f32>> {
         let m = self.view.len();
         let column_bytes = (m as u64 * 12).max(4);
         let max_columns = (self.max_binding.min(128 << 20) / column_bytes) as usize;
@@ -348,24 +315,13 @@ impl GpuBackend {
 
     /// `sum_k weights[k] * A(:, js[k])` with RGB weights, rendering only the listed columns (repeats add
     /// up): the reconstruction of clustered renderers (representatives and their weights). H * W * 3
-    /// floats; `progress(done, k)` after each batch.
-    pub fn weighted_sum(
+    /// floats; `progress(done, k)` after each batch. Indices and weights are validated by `LightMatrix`.
+    pub(crate) fn weighted_sum(
         &self,
         js: &[usize],
         weights: &[[f32; 3]],
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Vec<f32>> {
-        self.check_indices(js)?;
-        if weights.len() != js.len() {
-            return Err(Error::invalid(format!(
-                "weights must have one RGB triple per column: {} columns, {} weights",
-                js.len(),
-                weights.len()
-            )));
-        }
-        if let Some((k, v)) = weights.iter().enumerate().find(|(_, v)| !v.iter().all(|c| c.is_finite())) {
-            return Err(Error::invalid(format!("weights must be finite, got {v:?} for light {}", js[k])));
-        }
         let w4: Vec<[f32; 4]> = weights.iter().map(|v| [v[0], v[1], v[2], 0.0]).collect();
         let m = self.view.len();
         let accum = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {

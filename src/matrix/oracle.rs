@@ -96,7 +96,7 @@ impl LightMatrix {
 mod tests {
     use super::*;
     use crate::gpu::GpuContext;
-    use crate::lights::{generate_lights, GenerateOptions, LightKind};
+    use crate::lights::{generate_lights, GenerateOptions};
     use crate::matrix::{ColumnOptions, Visibility};
     use crate::scene::{load_scene, LoadOptions};
     use std::sync::Arc;
@@ -125,13 +125,7 @@ mod tests {
     #[test]
     fn oracle_matches_gpu_ray_traced_columns_for_every_kind() {
         let a = matrix(Visibility::RayTraced);
-        let l = &a.lights;
-        let mut js = Vec::new();
-        for kind in [LightKind::Point, LightKind::Spot, LightKind::Directional, LightKind::OrientedPoint, LightKind::Vpl] {
-            let of_kind: Vec<usize> = (0..l.len()).filter(|&j| l.kind[j] == kind).collect();
-            assert!(!of_kind.is_empty(), "cbox-lights must give {kind:?} lights");
-            js.extend(of_kind.iter().step_by((of_kind.len() / 3).max(1)).take(3));
-        }
+        let js = crate::testing::lights_of_every_kind(&a.lights, 3);
         let gpu = a.columns(&js).unwrap();
         let m = a.view.len();
         let (mut bad, mut lit) = (0usize, 0usize);

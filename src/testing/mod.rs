@@ -31,3 +31,16 @@ pub fn mean_and_std_err(m: usize, mut weight: impl FnMut() -> Option<glam::DVec3
     let err = ((sum2 / m as f64 - mean * mean) / m as f64).max(glam::DVec3::ZERO).powf(0.5);
     (mean, err)
 }
+
+/// Up to `per_kind` lights of each kind of `lights` (point, spot, directional, oriented point, VPL),
+/// spread over each kind's index range; panics when a kind is missing (the test scenes must have all).
+pub fn lights_of_every_kind(lights: &crate::lights::LightSet, per_kind: usize) -> Vec<usize> {
+    use crate::lights::LightKind;
+    let mut js = Vec::new();
+    for kind in [LightKind::Point, LightKind::Spot, LightKind::Directional, LightKind::OrientedPoint, LightKind::Vpl] {
+        let of_kind: Vec<usize> = (0..lights.len()).filter(|&j| lights.kind[j] == kind).collect();
+        assert!(!of_kind.is_empty(), "the test scene must give {kind:?} lights");
+        js.extend(of_kind.iter().step_by((of_kind.len() / per_kind).max(1)).take(per_kind));
+    }
+    js
+}
