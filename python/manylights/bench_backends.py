@@ -29,6 +29,7 @@ SCENES = {
 def add_parser(sub) -> None:
     p = sub.add_parser("backends", help="CPU vs GPU backend: ms per column, weighted column and row")
     p.add_argument("--scene", nargs="+", default=["cbox", "veach-ajar"], choices=list(SCENES))
+    p.add_argument("--res", type=int, default=None, help="image width (default per scene: 128; height keeps the aspect)")
     p.add_argument("--lights", type=int, default=1000, help="lights for the column timings (area + indirect)")
     p.add_argument("--row-lights", type=int, default=100_000, help="lights for the row timings")
     p.add_argument("--columns", type=int, default=60, help="columns timed")
@@ -69,6 +70,11 @@ def run(args) -> dict:
           f"{(report['device'].get('gpu') or {}).get('name', 'none')}")
     for name in args.scene:
         scene = ml.load_scene(resolve(name), **SCENES[name])
+        if args.res is not None:
+            if args.res < 1:
+                raise ValueError(f"--res must be >= 1, got {args.res}")
+            scene = ml.load_scene(resolve(name), size=(args.res, max(1, round(args.res * scene.height / scene.width))),
+                                  **SCENES[name])
         lights = _lights(ml, scene, args.lights)
         row_lights = _lights(ml, scene, args.row_lights, seed=1)
         m = scene.width * scene.height
@@ -76,6 +82,8 @@ def run(args) -> dict:
         js = [int(j) for j in rng.choice(len(lights), size=min(args.columns, len(lights)), replace=False)]
         reps = [int(j) for j in rng.choice(len(lights), size=300, replace=True)]
         w = np.full((300, 3), 1.0 / 300, np.float32)
+        if args.rows < 1 or args.columns < 1 or args.repeats < 1:
+            raise ValueError(f"--rows, --columns and --repeats must be >= 1, got {args.rows}, {args.columns}, {args.repeats}")
         rows = [int(i) for i in ml.stratified_rows(scene, args.rows, seed=0)]
         configs = [("cpu", None)] + [("gpu", v) for v in args.gpu_visibility]
         res = {}

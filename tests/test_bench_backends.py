@@ -1,0 +1,29 @@
+"""``python -m manylights.bench backends`` at a tiny size: both backends timed side by side, the JSON holds
+every figure and the GPU / CPU ratios are the quotients of the measured times."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from manylights import bench
+
+
+def test_backends_benchmark_writes_both_devices(tmp_path):
+    bench.main(["backends", "--scene", "cbox", "--res", "24", "--lights", "80", "--row-lights", "300",
+                "--columns", "4", "--rows", "3", "--repeats", "1", "--gpu-visibility", "ray_traced",
+                "--out", str(tmp_path)])
+    report = json.loads((tmp_path / "backends.json").read_text())
+    res = report["scenes"]["cbox"]["results"]
+    assert set(res) == {"cpu", "gpu ray_traced"}
+    assert res["cpu"]["device"]["kind"] == "cpu" and res["gpu ray_traced"]["device"]["kind"] == "gpu"
+    assert report["scenes"]["cbox"]["size"] == [24, 24]
+    keys = ("column_ms", "column_batch_ms", "weighted_column_ms", "row_ms")
+    for k in keys:
+        assert res["cpu"][k] > 0 and res["gpu ray_traced"][k] > 0
+        assert res["gpu ray_traced"]["ratio_to_cpu"][k] == pytest.approx(res["gpu ray_traced"][k] / res["cpu"][k])
+
+
+def test_backends_benchmark_refuses_bad_sizes(tmp_path):
+    with pytest.raises(ValueError, match="--res"):
+        bench.main(["backends", "--scene", "cbox", "--res", "0", "--out", str(tmp_path)])
