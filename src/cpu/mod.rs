@@ -16,12 +16,12 @@
 //! the "wide traversal" that pays on a CPU without packets (shadow rays of a column scatter over the
 //! whole scene, so packets would rarely stay coherent).
 //!
-//! Work layout (measured in `tests::bench_cpu_backend`):
+//! Work layout (timed side by side with the GPU by `python -m manylights.bench backends`; README):
 //! - `weighted_sum(J, w)` (the reconstruction of clustered renderers): lights in blocks, each block
 //!   parallel over pixel chunks; a pixel loops over the block's lights and accumulates in registers
 //!   (no atomics, no per-column buffers), in light order, so the result does not depend on threads.
-//! - `columns(J)`: parallel over (column, pixel chunk).
-//! - `rows(I)`: parallel over (row, light chunk); a row's samples share one shading point.
+//! - `columns(J)`: column by column, each parallel over pixel chunks.
+//! - `rows(I)`: parallel over (row, light chunk); a pixel's delta-chain samples add into its row.
 //! Interruption (`crate::interrupt`) is checked between blocks; progress after each block.
 //!
 //! Symbols: m = view samples (pixels + delta-chain samples), n = lights, i a view sample, j a light,
@@ -137,7 +137,7 @@ impl CpuBackend {
     pub fn new(tracer: Arc<RayTracer>, view: Arc<ViewSamples>, lights: Arc<LightSet>) -> Result<CpuBackend> {
         let m = view.len();
         crate::memory::check_host(
-            &format!("the CPU backend's shading points: {m} view samples x 112 bytes"),
+            &format!("the CPU backend's shading points: {m} view samples x {} bytes", std::mem::size_of::<ShadingPoint>()),
             crate::memory::product(&[m as u64, std::mem::size_of::<ShadingPoint>() as u64]),
         )?;
         let points = (0..m).into_par_iter().with_min_len(1024).map(|i| ShadingPoint::new(&view, i)).collect();
