@@ -1,4 +1,4 @@
-"""manylights: many-light rendering research on the GPU (Rust core, wgpu), checked against Mitsuba 3.
+"""manylights: many-light rendering research on the CPU (rayon, exact rays) or the GPU (wgpu), checked against Mitsuba 3.
 
 Quick start::
 
