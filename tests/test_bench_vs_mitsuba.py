@@ -36,7 +36,8 @@ def _base(tmp, out):
 def runs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("vs-mitsuba")
     first = bvm.run(_args(*_base(tmp, "a"), "--spp", 1, 4, 16, "--budgets", "100:8:20", "4000:100:400",
-                          "--devices", *DEVICES, "--thresholds", *THRESHOLDS, "--no-early-stop"))
+                          "--devices", *DEVICES, "--thresholds", *THRESHOLDS, "--no-early-stop",
+                          "--seeds", 2))
     cache = sorted((tmp / "cache").iterdir())
     mtimes = {p.name: p.stat().st_mtime_ns for p in cache}
     second = bvm.run(_args(*_base(tmp, "b"), "--spp", 1, "--budgets", "100:8:20", "--devices", DEVICES[0]))
@@ -78,6 +79,19 @@ def test_errors_fall_with_budget(runs):
     # cbox-lights: errors with the shape-edge pixel centres left out are reported too.
     assert first["edge_pixels"] > 0
     assert all(r["relative_l2_no_edges"] is not None for r in recs)
+
+
+def test_errors_are_rms_over_seeds(runs):
+    _, first, second, _ = runs
+    for r in first["records"]:
+        for key in ("relative_l2", "relative_l2_no_edges"):
+            per_seed = r[key + "_per_seed"]
+            # Two seeds, two different images (different light sets / samples), and the RMS of their errors.
+            assert r["seeds"] == 2 and len(per_seed) == 2 and per_seed[0] != per_seed[1]
+            assert r[key] == pytest.approx(math.sqrt((per_seed[0] ** 2 + per_seed[1] ** 2) / 2), rel=1e-12)
+        assert r["seconds"] == pytest.approx(float(np.median(r["seconds_per_seed"])))
+    # The default is 3 seeds; the second run left it.
+    assert all(r["seeds"] == 3 for r in second["records"])
 
 
 def _check_table(records, table, key):
@@ -181,6 +195,7 @@ def test_interrupt_keeps_measurements(runs, monkeypatch):
     (["--scene", "cbox", "--spp", "0"], ValueError, "spp"),
     (["--scene", "cbox", "--thresholds", "0"], ValueError, "thresholds"),
     (["--scene", "cbox", "--res", "0"], ValueError, "res"),
+    (["--scene", "cbox", "--seeds", "0"], ValueError, "seeds"),
 ])
 def test_bad_input(tmp_path, argv, exc, match):
     # Through the registered subcommand; everything is checked before anything renders.

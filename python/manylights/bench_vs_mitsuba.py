@@ -19,6 +19,10 @@ Mitsuba 3's ``path`` integrator faster, on this machine? One run answers it side
    ``ml.mrcs``. One untimed warm-up render per backend first (GPU adapter and pipeline creation). Scene
    loading is left out of both methods' times.
 
+Every budget and every spp level is rendered with ``--seeds`` seeds (default 3): its error is the root mean
+square of the per-seed errors, its time the median (a single seed's MRCS error scatters by ~10% around it,
+enough to move a threshold crossing by a ladder step).
+
 MRCS runs first; its ladder stops once an error at or below the smallest threshold is measured, and
 Mitsuba's once it is below both the smallest threshold and the lowest MRCS error (``--no-early-stop``: run
 them all). For each threshold (default 5%, 2%, 1%; cbox-lights also 2.5%) the time each method needs is
@@ -59,6 +63,12 @@ MAX_REPEATS = 5
 
 GI_BUDGETS = [(1000, 30, 100), (4000, 100, 300), (16000, 200, 600), (50000, 300, 900), (100000, 600, 1800)]
 DIRECT_BUDGETS = [(1000, 30, 100), (4000, 100, 300), (16000, 200, 600), (64000, 300, 900)]
+#: cbox crosses 1% between 1,000 and 4,000 lights, so its ladder is dense there, and its rows are many: on the
+#: CPU backend a row of 2,000 lights costs ~1/8 of a 128x128 column, and rows buy accuracy cheaply. Measured
+#: (4 seeds, RMS error against the reference, CPU seconds): 2,000 lights with 150 rows and 110 columns 0.97% in
+#: 0.26 CPU-s; with 50 rows it needs ~160 columns (1.1%, 0.35 CPU-s).
+CBOX_BUDGETS = [(1000, 100, 80), (1500, 150, 110), (2000, 150, 150), (3000, 200, 200), (4000, 300, 300),
+                (16000, 300, 600), (50000, 300, 900)]
 
 
 @dataclass
@@ -83,7 +93,8 @@ class SceneDefaults:
 # affordable spp gets it below 1%; MRCS's own floor there is ~19%, see the README), demo direct 1.16% at
 # 4096 spp (four emitters, one picked per sample). Reference cost on 2 cores: ~2.4-5 M samples/s (llvm).
 DEFAULTS = {
-    "cbox": SceneDefaults(width=128, max_depth=-1, ref_spp=2048, max_spp=1024),  # noise ~0.13%
+    "cbox": SceneDefaults(width=128, max_depth=-1, ref_spp=2048, max_spp=1024,
+                          budgets=list(CBOX_BUDGETS)),  # noise ~0.13%
     "cbox-lights": SceneDefaults(width=128, max_depth=2, ref_spp=131072, max_spp=8192, budgets=list(DIRECT_BUDGETS),
                                  thresholds=(0.05, 0.025, 0.02, 0.01), report_edges=True),  # noise ~0.25%
     "veach-ajar": SceneDefaults(width=64, size_params=("resx", "resy"), max_depth=-1, ref_spp=65536,
@@ -117,7 +128,9 @@ def add_parser(sub) -> None:
                    help="visibility of the GPU backend (the CPU backend always casts exact rays)")
     p.add_argument("--thresholds", type=float, nargs="+", default=None,
                    help="relative L2 thresholds as fractions (default 0.05 0.02 0.01; cbox-lights adds 0.025)")
-    p.add_argument("--seed", type=int, default=1, help="seed of MRCS (lights and sampling) and of Mitsuba's renders")
+    p.add_argument("--seed", type=int, default=1, help="first seed of MRCS (lights and sampling) and of Mitsuba's renders")
+    p.add_argument("--seeds", type=int, default=3,
+                   help="seeds per budget and per spp level: errors are the RMS over them, times the median")
     p.add_argument("--no-early-stop", action="store_true",
                    help="run every level even after the smallest threshold is reached")
     p.add_argument("--out", default="out/bench")
@@ -170,6 +183,8 @@ def _settings(args) -> dict:
     for t in thresholds:
         if not 0.0 < t < 1e3 or t != t:
             raise ValueError(f"--thresholds must be positive fractions (0.01 = 1%), got {t}")
+    if args.seeds < 1:
+        raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
     if args.ref_seed < 0 or args.seed < 0:
         raise ValueError(f"seeds must be >= 0, got --ref-seed {args.ref_seed}, --seed {args.seed}")
     import manylights as ml
@@ -466,6 +481,19 @@ def run(args) -> dict:
             e["relative_l2_no_edges"] = ml.relative_l2(img[keep], ref[keep]) if keep.any() else None
         return e
 
+    def over_seeds(per_seed: list, image_of) -> dict:
+        """One budget's measurement over ``--seeds`` seeds: each error is the root mean square of the
+        per-seed errors (the expected squared error, which a single seed's error scatters around by
+        ~10% for MRCS), the time the median of the per-seed medians; per-seed values are kept too."""
+        errs = [errors(image_of(r)) for r, _, _ in per_seed]
+        out = {"seconds": float(np.median([t for _, t, _ in per_seed])), "timed_runs": sum(n for _, _, n in per_seed),
+               "seeds": len(per_seed), "seconds_per_seed": [t for _, t, _ in per_seed]}
+        for key in errs[0]:
+            vals = [e[key] for e in errs]
+            out[key] = None if None in vals else float(np.sqrt(np.mean(np.square(vals))))
+            out[key + "_per_seed"] = vals
+        return out
+
     def record(rec: dict) -> dict:
         records.append(rec)
         extra = (f", {rec['relative_l2_no_edges']:.3%} without edge pixels"
@@ -502,14 +530,15 @@ def run(args) -> dict:
                         step()
                     continue
                 for j, budget in enumerate(s["budgets"]):
-                    (img, stages, info, n), seconds, runs = timed(
-                        lambda: run_mrcs(scene, budget, s["max_depth"], device, args.gpu_visibility, args.seed))
+                    per_seed = [timed(lambda: run_mrcs(scene, budget, s["max_depth"], device, args.gpu_visibility,
+                                                       args.seed + k)) for k in range(args.seeds)]
+                    (img, stages, info, n), _, _ = per_seed[0]
                     summary["devices"][device] = info
                     curve = f"mrcs {device}" if device != "auto" else f"mrcs auto={info.get('kind')}"
                     rec = record({"method": "mrcs", "curve": curve, "device": info.get("kind", device),
                                   "device_name": info.get("name"), "lights_budget": budget[0], "lights": n,
-                                  "rows": budget[1], "columns": budget[2], "seconds": seconds, "timed_runs": runs,
-                                  "stages": stages, **errors(img)})
+                                  "rows": budget[1], "columns": budget[2], **over_seeds(per_seed, lambda r: r[0]),
+                                  "stages": stages})
                     step()
                     if rec["relative_l2"] <= min_thr and not args.no_early_stop:
                         for _ in s["budgets"][j + 1:]:
@@ -522,10 +551,11 @@ def run(args) -> dict:
                 # Warm-up: the same wavefront shapes with another seed compile (or load) the kernels.
                 reference.render_loaded(mscene, (W, H), max_depth=s["max_depth"], spp=spp,
                                         seed=args.seed * 7919 + 1000 + k, batch=batch)
-                (img, _), seconds, runs = timed(lambda: reference.render_loaded(
-                    mscene, (W, H), max_depth=s["max_depth"], spp=spp, seed=args.seed * 7919 + k, batch=batch))
+                per_seed = [timed(lambda: reference.render_loaded(
+                    mscene, (W, H), max_depth=s["max_depth"], spp=spp, seed=(args.seed + q) * 7919 + k, batch=batch))
+                    for q in range(args.seeds)]
                 rec = record({"method": "mitsuba", "curve": "mitsuba", "device": "cpu", "spp": spp,
-                              "seconds": seconds, "timed_runs": runs, **errors(img)})
+                              **over_seeds(per_seed, lambda r: r[0])})
                 step()
                 if rec["relative_l2"] <= target and not args.no_early_stop:
                     break
