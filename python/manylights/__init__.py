@@ -60,7 +60,10 @@ __all__ = [
     "scene_lights",
     "stratified_rows",
     "write_exr",
+    "write_exr_sequence",
     "write_png",
+    "write_video",
+    "side_by_side",
 ]
 
 
@@ -460,3 +463,4 @@ def _as_image(image) -> np.ndarray:
 
 
 from .render import render_brute_force  # noqa: E402  (needs LightMatrix above)
+from .video import side_by_side, write_exr_sequence, write_video  # noqa: E402  (needs write_exr above)

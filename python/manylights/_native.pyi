@@ -158,6 +158,8 @@ def write_exr(path: str | PathLike[str], image: npt.NDArray[np.float32]) -> None
     """Raises ValueError for a shape other than (H, W, 3) or an empty image, OSError when unwritable."""
 def read_exr(path: str | PathLike[str]) -> npt.NDArray[np.float32]:
     """(H, W, 3) float32. Raises OSError naming the file when missing, truncated or not an OpenEXR file."""
+def encode_srgb8(image: npt.NDArray[np.float32], exposure: float = 0.0) -> npt.NDArray[np.uint8]:
+    """(H, W, 3) uint8 sRGB of a linear image times 2**exposure, clamped (as write_png). Raises ValueError."""
 def write_png(path: str | PathLike[str], image: npt.NDArray[np.float32], exposure: float = 0.0) -> None:
     """Raises ValueError for a bad shape, an empty image or a non-finite exposure; OSError when unwritable."""
 

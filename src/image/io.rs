@@ -89,11 +89,16 @@ pub fn encode_srgb8(linear: f32) -> u8 {
     (v * 255.0).round() as u8 // NaN maps to 0
 }
 
+/// Linear RGB pixels as 8-bit sRGB bytes (RGBRGB...) after scaling by `2^exposure` (PNG and video frames).
+pub fn encode_srgb8_image(pixels: &[[f32; 3]], exposure: f32) -> Vec<u8> {
+    let scale = exposure.exp2();
+    pixels.iter().flat_map(|p| p.map(|c| encode_srgb8(c * scale))).collect()
+}
+
 /// Writes linear RGB pixels as an 8-bit sRGB PNG after scaling by `2^exposure`.
 pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure: f32) -> Result<()> {
     check_len(path, width, height, pixels.len())?;
-    let scale = exposure.exp2();
-    let bytes: Vec<u8> = pixels.iter().flat_map(|p| p.map(|c| encode_srgb8(c * scale))).collect();
+    let bytes = encode_srgb8_image(pixels, exposure);
     image::save_buffer(path, &bytes, width, height, image::ColorType::Rgb8).map_err(|e| Error::io(path, e))
 }
 

@@ -52,7 +52,20 @@ pub fn write_png(py: Python<'_>, path: PathBuf, image: PyReadonlyArrayDyn<'_, f3
     Ok(())
 }
 
+/// A linear image as 8-bit sRGB, scaled by 2^exposure and clamped, exactly as `write_png` encodes it.
+#[pyfunction]
+#[pyo3(signature = (image, exposure=0.0))]
+pub fn encode_srgb8<'py>(py: Python<'py>, image: PyReadonlyArrayDyn<'py, f32>, exposure: f32) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
+    if !exposure.is_finite() {
+        return Err(Error::invalid(format!("exposure must be finite, got {exposure}")).into());
+    }
+    let (w, h, data) = hw3(&image)?;
+    let bytes = py.detach(move || crate::image::encode_srgb8_image(&data, exposure));
+    array(py, bytes, &[h as usize, w as usize, 3])
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(encode_srgb8, m)?)?;
     m.add_function(wrap_pyfunction!(write_exr, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(write_png, m)?)?;
