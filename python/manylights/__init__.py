@@ -41,6 +41,8 @@ __all__ = [
     "GpuUnavailableError",
     "LightMatrix",
     "LightSet",
+    "LightTensor",
+    "AnimationResult",
     "ManyLightsError",
     "RenderResult",
     "Scene",
@@ -53,6 +55,7 @@ __all__ = [
     "instant_radiosity",
     "load_scene",
     "mrcs",
+    "mrcs_per_frame",
     "power_sampling",
     "read_exr",
     "relative_l2",
@@ -463,4 +466,5 @@ def _as_image(image) -> np.ndarray:
 
 
 from .render import render_brute_force  # noqa: E402  (needs LightMatrix above)
+from .light_tensor import AnimationResult, LightTensor, mrcs_per_frame  # noqa: E402
 from .video import side_by_side, write_exr_sequence, write_video  # noqa: E402  (needs write_exr above)

@@ -154,6 +154,9 @@ def stratified_rows(width: int, height: int, r: int, seed: int = 0) -> npt.NDArr
     Raises:
         ValueError: r = 0, r > width * height, or an r whose block list cannot be allocated."""
 
+def check_host_memory(what: str, bytes: int) -> None:
+    """Raises MemoryError naming ``what`` when ``bytes`` of host memory break the policy (MANYLIGHTS_MEMORY_LIMIT)."""
+
 def write_exr(path: str | PathLike[str], image: npt.NDArray[np.float32]) -> None:
     """Raises ValueError for a shape other than (H, W, 3) or an empty image, OSError when unwritable."""
 def read_exr(path: str | PathLike[str]) -> npt.NDArray[np.float32]:

@@ -222,7 +222,15 @@ pub fn stratified_rows<'py>(py: Python<'py>, width: u32, height: u32, r: usize, 
     array(py, rows, &[r])
 }
 
+/// Raises MemoryError (naming `what`) when `bytes` of host memory would break the policy
+/// (`crate::memory::check_host`: available memory, `MANYLIGHTS_MEMORY_LIMIT`).
+#[pyfunction]
+pub fn check_host_memory(what: &str, bytes: u128) -> PyResult<()> {
+    Ok(crate::memory::check_host(what, bytes)?)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(check_host_memory, m)?)?;
     m.add_function(wrap_pyfunction!(stratified_rows, m)?)?;
     m.add_class::<LightSet>()?;
     m.add_class::<LightMatrix>()?;
