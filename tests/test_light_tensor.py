@@ -112,3 +112,27 @@ def test_bad_input(tensor):
                 del os.environ["MANYLIGHTS_MEMORY_LIMIT"]
             else:
                 os.environ["MANYLIGHTS_MEMORY_LIMIT"] = old
+
+
+def test_tensor_accumulate_binding():
+    # Frame k+1 is frame k shifted one pixel to the right: the representative of frame 1 lands shifted in
+    # frame 2, unshifted (scaled) in frame 1 and shifted left in frame 0; pixels without a source get 0.
+    from manylights import _native
+
+    f, H, W = 3, 2, 4
+    m = H * W
+    x = np.arange(m, dtype=np.uint32)
+    col = x % W
+    NO = np.uint32(2**32 - 1)
+    fw = np.where(col == 0, NO, x - 1).astype(np.uint32)
+    bw = np.where(col == W - 1, NO, x + 1).astype(np.uint32)
+    columns = (np.arange(m, dtype=np.float32) + 1).reshape(1, H, W, 1).repeat(3, -1)
+    rec = np.array([[[1, 1, 1], [2, 2, 2], [0.5, 0.5, 0.5]]], np.float32)
+    acc = np.zeros((f, H, W, 3), np.float32)
+    _native.tensor_accumulate(acc, columns, np.array([1], np.uint32), rec, np.stack([fw, fw]), np.stack([bw, bw]))
+    img = columns[0, :, :, 0]
+    assert np.array_equal(acc[1, :, :, 0], 2 * img)
+    assert np.array_equal(acc[2, :, 1:, 0], 0.5 * img[:, :-1]) and np.all(acc[2, :, 0] == 0)
+    assert np.array_equal(acc[0, :, :-1, 0], img[:, 1:]) and np.all(acc[0, :, -1] == 0)
+    with pytest.raises(ValueError, match="representative 0 is in frame 3"):
+        _native.tensor_accumulate(acc, columns, np.array([3], np.uint32), rec, np.stack([fw, fw]), np.stack([bw, bw]))

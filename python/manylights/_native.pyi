@@ -154,6 +154,12 @@ def stratified_rows(width: int, height: int, r: int, seed: int = 0) -> npt.NDArr
     Raises:
         ValueError: r = 0, r > width * height, or an r whose block list cannot be allocated."""
 
+def tensor_accumulate(acc: npt.NDArray[np.float32], columns: npt.NDArray[np.float32], source: npt.NDArray[np.uint32],
+                      rec: npt.NDArray[np.float32], forward: npt.NDArray[np.uint32], backward: npt.NDArray[np.uint32]) -> None:
+    """Adds representative columns (c, H, W, 3) from frames source (c,), scaled by rec (c, f, 3) and carried
+    through pixel mappings (f - 1, H * W; 2**32 - 1 = no source), into acc (f, H, W, 3) in place (tensor
+    clustering, Sec. 4.5). Raises ValueError naming the bad shape or index."""
+
 def check_host_memory(what: str, bytes: int) -> None:
     """Raises MemoryError naming ``what`` when ``bytes`` of host memory break the policy (MANYLIGHTS_MEMORY_LIMIT)."""
 

@@ -32,6 +32,7 @@ pub mod backend;
 pub mod emitted;
 pub mod gpu;
 pub mod oracle;
+pub mod reconstruction;
 pub mod reference;
 pub mod rows;
 #[cfg(test)]

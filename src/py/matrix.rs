@@ -222,6 +222,39 @@ pub fn stratified_rows<'py>(py: Python<'py>, width: u32, height: u32, r: usize, 
     array(py, rows, &[r])
 }
 
+/// Tensor clustering's reconstruction (`crate::matrix::reconstruction`): adds a batch of representative
+/// columns (c, H, W, 3), rendered in frames `source` (c,), scaled by `rec` (c, f, 3) and carried through the
+/// pixel mappings `forward` / `backward` (f - 1, H * W) uint32, into `acc` (f, H, W, 3) in place.
+#[pyfunction]
+pub fn tensor_accumulate(
+    py: Python<'_>,
+    mut acc: numpy::PyReadwriteArrayDyn<'_, f32>,
+    columns: numpy::PyReadonlyArrayDyn<'_, f32>,
+    source: PyReadonlyArray1<'_, u32>,
+    rec: numpy::PyReadonlyArrayDyn<'_, f32>,
+    forward: PyReadonlyArray2<'_, u32>,
+    backward: PyReadonlyArray2<'_, u32>,
+) -> PyResult<()> {
+    let shape = acc.shape().to_vec();
+    if shape.len() != 4 || shape[3] != 3 {
+        return Err(Error::invalid(format!("acc must have shape (f, H, W, 3), got {shape:?}")).into());
+    }
+    let (f, m) = (shape[0], shape[1] * shape[2]);
+    let contiguous = |what: &str| Error::invalid(format!("{what} must be C-contiguous"));
+    let cols = columns.as_slice().map_err(|_| contiguous("columns"))?;
+    let src = source.as_slice().map_err(|_| contiguous("source"))?;
+    let rc = rec.as_slice().map_err(|_| contiguous("rec"))?;
+    let fw = forward.as_array();
+    let bw = backward.as_array();
+    let rows = |a: &numpy::ndarray::ArrayView2<'_, u32>| -> Vec<Vec<u32>> { a.outer_iter().map(|r| r.to_vec()).collect() };
+    let (fw, bw) = (rows(&fw), rows(&bw));
+    let out = acc.as_slice_mut().map_err(|_| contiguous("acc"))?;
+    let fr: Vec<&[u32]> = fw.iter().map(|v| v.as_slice()).collect();
+    let br: Vec<&[u32]> = bw.iter().map(|v| v.as_slice()).collect();
+    py.detach(|| crate::matrix::reconstruction::accumulate(out, f, m, &cols, &src, &rc, &fr, &br))?;
+    Ok(())
+}
+
 /// Raises MemoryError (naming `what`) when `bytes` of host memory would break the policy
 /// (`crate::memory::check_host`: available memory, `MANYLIGHTS_MEMORY_LIMIT`).
 #[pyfunction]
@@ -231,6 +264,7 @@ pub fn check_host_memory(what: &str, bytes: u128) -> PyResult<()> {
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(check_host_memory, m)?)?;
+    m.add_function(wrap_pyfunction!(tensor_accumulate, m)?)?;
     m.add_function(wrap_pyfunction!(stratified_rows, m)?)?;
     m.add_class::<LightSet>()?;
     m.add_class::<LightMatrix>()?;
