@@ -11,6 +11,7 @@ pub mod cluster;
 pub mod cpu;
 pub mod matrix;
 pub mod raytrace;
+pub mod relight;
 pub mod scene;
 pub mod shading;
 #[cfg(test)]

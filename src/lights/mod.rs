@@ -42,6 +42,7 @@
 //!
 //! Rust twin of `shaders/common/light.wgsl` (`light_emitted`), used by the CPU reference.
 pub mod arrays;
+pub mod gather;
 pub mod generate;
 pub mod spot_texture;
 
