@@ -35,6 +35,8 @@ use rand_pcg::Pcg32;
 pub struct AreaEmitter {
     /// Index into `Scene::emitters`.
     pub emitter: usize,
+    /// Index into `Scene::meshes` of the emitting shape.
+    pub mesh: usize,
     /// Constant radiance, or the mean of the texture's (module docs).
     pub radiance: Vec3,
     /// Textured radiance (a copy of the scene's texture), evaluated at each point's uv.
@@ -46,8 +48,9 @@ pub struct AreaEmitter {
 
 #[derive(Debug, Clone)]
 pub enum AreaShape {
-    /// Triangles (p0, p1, p2, emitting normal), their vertex uvs, and the cumulative area after each.
-    Triangles { triangles: Vec<([Vec3; 3], Vec3)>, uvs: Vec<[Vec2; 3]>, cdf: Vec<f64> },
+    /// Triangles (p0, p1, p2, emitting normal), their vertex uvs, the cumulative area after each, and
+    /// each one's triangle index in the mesh (degenerate triangles are left out).
+    Triangles { triangles: Vec<([Vec3; 3], Vec3)>, uvs: Vec<[Vec2; 3]>, cdf: Vec<f64>, tri: Vec<u32> },
     Sphere { center: Vec3, radius: f32, flip: bool },
 }
 
@@ -73,8 +76,15 @@ impl AreaEmitter {
 
     /// `sample_point` with the point's uv.
     pub fn sample_point_uv(&self, u0: f32, u1: f32) -> (Vec3, Vec3, Vec2) {
+        let (p, n, uv, _) = self.sample_point_tied(u0, u1);
+        (p, n, uv)
+    }
+
+    /// `sample_point_uv` with where the point sits on its shape (`SurfaceTie`), to re-evaluate it on
+    /// another frame of an animation.
+    pub fn sample_point_tied(&self, u0: f32, u1: f32) -> (Vec3, Vec3, Vec2, SurfaceTie) {
         match &self.shape {
-            AreaShape::Triangles { triangles, uvs, cdf } => {
+            AreaShape::Triangles { triangles, uvs, cdf, tri } => {
                 let total = *cdf.last().unwrap_or(&0.0);
                 let target = u0 as f64 * total;
                 let k = cdf.partition_point(|&c| c <= target).min(triangles.len() - 1);
@@ -85,18 +95,27 @@ impl AreaEmitter {
                 let [t0, t1, t2] = uvs[k];
                 let b = uniform_triangle(v, u1);
                 let b0 = 1.0 - b.x - b.y;
-                (p0 * b0 + p1 * b.x + p2 * b.y, n, t0 * b0 + t1 * b.x + t2 * b.y)
+                let tie = SurfaceTie::Triangle { mesh: self.mesh, triangle: tri[k], b };
+                (p0 * b0 + p1 * b.x + p2 * b.y, n, t0 * b0 + t1 * b.x + t2 * b.y, tie)
             }
             AreaShape::Sphere { center, radius, flip } => {
                 let d = super::sampling::uniform_sphere(u0, u1);
-                (*center + d * *radius, if *flip { -d } else { d }, sphere_uv(d))
+                (*center + d * *radius, if *flip { -d } else { d }, sphere_uv(d), SurfaceTie::Sphere { mesh: self.mesh, direction: d })
             }
         }
     }
 }
 
+/// Where a point sits on its shape, independent of the shape's placement: a triangle of a mesh and the
+/// barycentrics (b1, b2) of its vertices 1 and 2, or a sphere and the world direction from its centre.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SurfaceTie {
+    Triangle { mesh: usize, triangle: u32, b: Vec2 },
+    Sphere { mesh: usize, direction: Vec3 },
+}
+
 /// Mitsuba's sphere uv of a unit direction from the centre: (phi / 2pi, theta / pi).
-fn sphere_uv(d: Vec3) -> Vec2 {
+pub(crate) fn sphere_uv(d: Vec3) -> Vec2 {
     let theta = d.z.clamp(-1.0, 1.0).acos();
     let mut phi = d.y.atan2(d.x);
     if phi < 0.0 {
@@ -127,8 +146,9 @@ pub fn area_emitters(scene: &Scene) -> Vec<AreaEmitter> {
             let mut triangles = Vec::with_capacity(m.indices.len());
             let mut uvs = Vec::with_capacity(m.indices.len());
             let mut cdf = Vec::with_capacity(m.indices.len());
+            let mut tri = Vec::with_capacity(m.indices.len());
             let mut acc = 0.0f64;
-            for idx in &m.indices {
+            for (t, idx) in m.indices.iter().enumerate() {
                 let [i0, i1, i2] = idx.map(|i| i as usize);
                 if [i0, i1, i2].iter().any(|&i| i >= m.positions.len()) {
                     continue;
@@ -139,14 +159,9 @@ pub fn area_emitters(scene: &Scene) -> Vec<AreaEmitter> {
                 if !(area2 > 0.0 && area2.is_finite()) {
                     continue;
                 }
-                let mut n = c / area2;
-                if m.normals.len() == m.positions.len() {
-                    let ns = m.normals[i0] + m.normals[i1] + m.normals[i2];
-                    if ns.dot(n) < 0.0 {
-                        n = -n;
-                    }
-                }
+                let n = emitting_normal(m, [i0, i1, i2], c / area2);
                 acc += 0.5 * area2 as f64;
+                tri.push(t as u32);
                 triangles.push((p, n));
                 uvs.push(if m.uvs.len() == m.positions.len() {
                     [m.uvs[i0], m.uvs[i1], m.uvs[i2]]
@@ -155,19 +170,29 @@ pub fn area_emitters(scene: &Scene) -> Vec<AreaEmitter> {
                 });
                 cdf.push(acc);
             }
-            AreaShape::Triangles { triangles, uvs, cdf }
+            AreaShape::Triangles { triangles, uvs, cdf, tri }
         };
         let area = match &shape {
             AreaShape::Triangles { cdf, .. } => *cdf.last().unwrap_or(&0.0) as f32,
             AreaShape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
         };
-        let mut a = AreaEmitter { emitter: e, radiance, texture, area: if area.is_finite() { area } else { 0.0 }, shape };
+        let mut a = AreaEmitter { emitter: e, mesh: *mesh, radiance, texture, area: if area.is_finite() { area } else { 0.0 }, shape };
         if a.texture.is_some() {
             a.radiance = mean_radiance(&a);
         }
         out.push(a);
     }
     out
+}
+
+/// The emitting side of a mesh triangle with unit face normal `n`: flipped to agree with the sum of its
+/// vertex normals when the mesh has them (module docs).
+pub(crate) fn emitting_normal(m: &crate::scene::Mesh, [i0, i1, i2]: [usize; 3], n: Vec3) -> Vec3 {
+    if m.normals.len() == m.positions.len() && (m.normals[i0] + m.normals[i1] + m.normals[i2]).dot(n) < 0.0 {
+        -n
+    } else {
+        n
+    }
 }
 
 /// Mean of a textured emitter's radiance over its surface: 64 x 64 stratified points (cell centres).
@@ -210,7 +235,20 @@ pub fn split_counts(weights: &[f64], n: usize) -> Vec<usize> {
 
 /// `n` oriented point lights over `emitters` (module docs).
 pub fn area_lights(emitters: &[AreaEmitter], n: usize, seed: u64, center: Vec3, radius: f32) -> Result<LightSet> {
+    Ok(area_lights_tied(emitters, n, seed, center, radius)?.0)
+}
+
+/// `area_lights` and, per light, its emitter (index into `emitters`) and where it sits on the emitter's
+/// shape (to move it with the shape in other frames of an animation).
+pub fn area_lights_tied(
+    emitters: &[AreaEmitter],
+    n: usize,
+    seed: u64,
+    center: Vec3,
+    radius: f32,
+) -> Result<(LightSet, Vec<(usize, SurfaceTie)>)> {
     let mut set = LightSet::new(center, radius);
+    let mut ties = Vec::new();
     let weights: Vec<f64> = emitters.iter().map(|e| e.power().element_sum() as f64).collect();
     let counts = split_counts(&weights, n);
     for (e, (emitter, &n_e)) in emitters.iter().zip(&counts).enumerate() {
@@ -223,8 +261,9 @@ pub fn area_lights(emitters: &[AreaEmitter], n: usize, seed: u64, center: Vec3, 
             AreaShape::Triangles { .. } => {
                 for k in 0..n_e {
                     let u0 = ((k as f64 + uniform(&mut rng) as f64) / n_e as f64) as f32;
-                    let (p, normal, uv) = emitter.sample_point_uv(u0.min(1.0 - f32::EPSILON), uniform(&mut rng));
+                    let (p, normal, uv, tie) = emitter.sample_point_tied(u0.min(1.0 - f32::EPSILON), uniform(&mut rng));
                     set.push_oriented_point(offset_p(p, normal, normal), normal, emitter.radiance_at(uv) * scale)?;
+                    ties.push((e, tie));
                 }
             }
             AreaShape::Sphere { center, radius, flip } => {
@@ -233,9 +272,10 @@ pub fn area_lights(emitters: &[AreaEmitter], n: usize, seed: u64, center: Vec3, 
                     let normal = if *flip { -d } else { d };
                     let p = *center + d * *radius;
                     set.push_oriented_point(offset_p(p, normal, normal), normal, emitter.radiance_at(sphere_uv(d)) * scale)?;
+                    ties.push((e, SurfaceTie::Sphere { mesh: emitter.mesh, direction: d }));
                 }
             }
         }
     }
-    Ok(set)
+    Ok((set, ties))
 }
