@@ -37,6 +37,7 @@ from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
 __version__ = _native.__version__
 
 __all__ = [
+    "Animation",
     "GpuError",
     "GpuUnavailableError",
     "LightMatrix",
@@ -45,12 +46,15 @@ __all__ = [
     "RenderResult",
     "Scene",
     "SceneError",
+    "antialias",
+    "apply_mapping",
     "cluster_reduced_columns",
     "clustering_cost",
     "device_info",
     "fraction_within",
     "generate_lights",
     "instant_radiosity",
+    "load_animation",
     "load_scene",
     "mrcs",
     "power_sampling",
@@ -460,3 +464,5 @@ def _as_image(image) -> np.ndarray:
 
 
 from .render import render_brute_force  # noqa: E402  (needs LightMatrix above)
+from .animation import Animation, apply_mapping, load_animation  # noqa: E402  (needs load_scene above)
+from .antialias import antialias  # noqa: E402
