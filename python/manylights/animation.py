@@ -75,6 +75,8 @@ def load_animation(path: Union[PathLike, Sequence[PathLike]], frames: Optional[S
     """
     from . import load_scene
 
+    if not isinstance(device, str) or device.strip().lower() not in ("auto", "cpu", "gpu"):
+        raise ValueError(f"device must be 'auto', 'gpu' or 'cpu', got {device!r}")
     if isinstance(path, (str, os.PathLike)):
         if frames is None:
             raise ValueError("load_animation: frames is required with a single scene file (a list of parameter "
@@ -121,7 +123,17 @@ class Animation:
     """
 
     def __init__(self, frames: Sequence[Scene], paths: Sequence[Path], params: Sequence[dict], *, device: str = "auto"):
-        self.frames = list(frames)
+        frames = list(frames)
+        if not frames:
+            raise ValueError("Animation needs at least one frame, got 0")
+        bad = next((k for k, s in enumerate(frames) if not isinstance(s, Scene)), None)
+        if bad is not None:
+            raise TypeError(f"Animation: frame {bad} must be a manylights Scene, got {type(frames[bad]).__name__}")
+        if len(paths) != len(frames) or len(params) != len(frames):
+            raise ValueError(f"Animation: {len(frames)} frames but {len(paths)} paths and {len(params)} parameter dicts")
+        if not isinstance(device, str) or device.strip().lower() not in ("auto", "cpu", "gpu"):
+            raise ValueError(f"device must be 'auto', 'gpu' or 'cpu', got {device!r}")
+        self.frames = frames
         self.paths = list(paths)
         self.params = [dict(p) for p in params]
         self.device = device

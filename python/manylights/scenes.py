@@ -95,6 +95,11 @@ def _bounce_frames(count: int) -> list[dict]:
 _ANIMATIONS = {"bounce": _bounce_frames}
 
 
+def animated() -> list[str]:
+    """Names of the bundled animated scenes (those ``animation_frames`` knows), sorted."""
+    return sorted(_ANIMATIONS)
+
+
 def animation_frames(name: str, count: int = 40) -> list[dict]:
     """Per-frame ``<default>`` parameters of a bundled animated scene, one dict per frame, for
     ``manylights.load_animation(scene_path(name), frames=...)`` or ``mitsuba.load_file(path, **frame)``.
