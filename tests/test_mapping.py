@@ -113,7 +113,9 @@ def test_camera_move_carries_a_single_light_column(rig):
     assert 70 <= ((sid >= 0) & ~seen).sum() <= 90
     rel_mapped = np.linalg.norm((mapped - col1)[seen]) / np.linalg.norm(col1[seen])
     rel_unmapped = np.linalg.norm((col0 - col1)[seen]) / np.linalg.norm(col1[seen])
-    assert rel_mapped < 0.25 * rel_unmapped
+    print(f"relative L2 outside disocclusions: mapped {rel_mapped:.4f}, unmapped {rel_unmapped:.4f}")
+    # Measured: 0.0103 mapped, 0.239 unmapped (ratio 0.043).
+    assert rel_mapped < 0.1 * rel_unmapped
 
 
 @pytest.fixture(scope="module")
