@@ -18,6 +18,7 @@ pub mod shading;
 pub(crate) mod testing;
 pub mod view;
 pub mod view_chains;
+pub mod view_features;
 pub mod view_resolve;
 
 #[cfg(feature = "python")]

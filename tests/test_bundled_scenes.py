@@ -22,7 +22,7 @@ from conftest import REPO, SCENES as SHARED_SCENES
 
 import manylights as ml
 from manylights import bench
-from manylights.scenes import SCENES_DIR, available, resolve, scene_path
+from manylights.scenes import SCENES_DIR, animated, available, resolve, scene_path
 
 PRODUCT_FILES = sorted(
     [*(REPO / "python" / "manylights").glob("*.py"), *(REPO / "notebooks").glob("*.ipynb"), REPO / "Makefile",
@@ -52,6 +52,8 @@ def named_scenes() -> dict[str, set[str]]:
     for name, (bundled, _, _) in bench.LIGHT_SCENES.items():
         add(bundled, "bench lights")
     add("demo", "CLI demo")
+    for name in animated():
+        add(name, "animation_frames")
     return names
 
 

@@ -37,6 +37,7 @@ from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
 __version__ = _native.__version__
 
 __all__ = [
+    "Animation",
     "GpuError",
     "GpuUnavailableError",
     "LightMatrix",
@@ -47,12 +48,15 @@ __all__ = [
     "RenderResult",
     "Scene",
     "SceneError",
+    "antialias",
+    "apply_mapping",
     "cluster_reduced_columns",
     "clustering_cost",
     "device_info",
     "fraction_within",
     "generate_lights",
     "instant_radiosity",
+    "load_animation",
     "load_scene",
     "mrcs",
     "mrcs_per_frame",
@@ -466,5 +470,7 @@ def _as_image(image) -> np.ndarray:
 
 
 from .render import render_brute_force  # noqa: E402  (needs LightMatrix above)
+from .animation import Animation, apply_mapping, load_animation  # noqa: E402  (needs load_scene above)
+from .antialias import antialias  # noqa: E402
 from .light_tensor import AnimationResult, LightTensor, mrcs_per_frame  # noqa: E402
 from .video import side_by_side, write_exr_sequence, write_video  # noqa: E402  (needs write_exr above)

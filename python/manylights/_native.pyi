@@ -199,3 +199,31 @@ def cluster_reduced_columns(R: npt.NDArray[np.float32], c: int, seed: int = 0,
 
 def clustering_cost(R: npt.NDArray[np.float32], assignment: npt.NDArray[np.int32]) -> float:
     """Sum of the paper's cluster costs of a partition on the (unprojected, scalar) reduced matrix."""
+
+def check_animation_topology(frames: Sequence[Scene]) -> None:
+    """Check that every frame has frame 0's topology: film size, shapes (ids, kinds, triangle and vertex
+    counts, connectivity) and emitters (count and types).
+
+    Raises:
+        ValueError: no frames or a different film size (names the frame).
+        SceneError: a different shape or emitter structure (names frame, shape or emitter, file and line)."""
+
+def pixel_mapping(src: Scene, dst: Scene, reference: Scene, device: str = "auto") -> npt.NDArray[np.int64]:
+    """The nearest-neighbour pixel mapping M(src -> dst) in the 9-D deep framebuffer (positions scaled by
+    30 / the diagonal of ``reference``): (H, W) int64, per pixel of ``dst`` a pixel ``y * W + x`` of ``src``,
+    -1 where ``dst`` sees no surface. Raises ValueError for frames of different sizes or a bad device."""
+
+def compose_mappings(mappings: Sequence[npt.NDArray[np.int64]]) -> npt.NDArray[np.int64]:
+    """The chain mappings[0], then mappings[1], ... as one (H, W) int64 mapping.
+    Raises ValueError for none, different sizes or an entry outside [0, H*W) other than -1."""
+
+def apply_mapping(images: npt.NDArray[np.float32], mappings: Sequence[npt.NDArray[np.int64]],
+                  device: str = "auto") -> npt.NDArray[np.float32]:
+    """(K, H, W, 3) float32 images gathered through the chain ``mappings`` (applied in order) on the CPU
+    (composed, rayon) or the GPU (one WGSL gather per mapping). Raises ValueError for bad shapes or indices."""
+
+def antialias(image: npt.NDArray[np.float32], scene: Scene, factor: int = 3,
+              device: str = "auto") -> npt.NDArray[np.float32]:
+    """(H, W, C) float32 image of ``scene`` anti-aliased from a deep framebuffer at ``factor`` x the
+    resolution (3x3 nearest-neighbour upsampling in the 9-D metric, box filter).
+    Raises ValueError for an image of another size or a factor outside [1, 16]."""

@@ -2,7 +2,10 @@
 //! (`pfm`) input, the texture size policy all readers apply before decoding (`size_policy`), Mitsuba's
 //! bitmap padding (`pad`) and error metrics (`metrics`).
 //!
+//! Anti-aliasing from a 3x deep framebuffer (`antialias`).
+//!
 //! Images are row-major `[f32; 3]` linear RGB with row 0 at the top, `width * height` pixels.
+pub mod antialias;
 pub mod hdr;
 pub mod io;
 pub mod metrics;

@@ -31,6 +31,7 @@
 pub mod backend;
 pub mod emitted;
 pub mod gpu;
+pub mod mapping;
 pub mod oracle;
 pub mod reconstruction;
 pub mod reference;

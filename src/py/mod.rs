@@ -1,6 +1,7 @@
 //! PyO3 bindings (feature `python`): thin wrappers that check arguments, release the GIL and call core.
 use pyo3::prelude::*;
 
+pub mod animation;
 pub mod bsdf;
 pub mod cluster;
 pub mod errors;
@@ -23,6 +24,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     bsdf::register(m)?;
     lights::register(m)?;
     cluster::register(m)?;
+    animation::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
