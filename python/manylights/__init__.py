@@ -54,6 +54,7 @@ __all__ = [
     "clustering_cost",
     "device_info",
     "fraction_within",
+    "generate_animation_lights",
     "generate_lights",
     "instant_radiosity",
     "load_animation",
@@ -472,5 +473,6 @@ def _as_image(image) -> np.ndarray:
 from .render import render_brute_force  # noqa: E402  (needs LightMatrix above)
 from .animation import Animation, apply_mapping, load_animation  # noqa: E402  (needs load_scene above)
 from .antialias import antialias  # noqa: E402
+from .animated import AnimationLights, generate_animation_lights  # noqa: E402
 from .light_tensor import AnimationResult, LightTensor, mrcs_per_frame  # noqa: E402
 from .video import side_by_side, write_exr_sequence, write_video  # noqa: E402  (needs write_exr above)

@@ -160,6 +160,12 @@ def tensor_accumulate(acc: npt.NDArray[np.float32], columns: npt.NDArray[np.floa
     through pixel mappings (f - 1, H * W; 2**32 - 1 = no source), into acc (f, H, W, 3) in place (tensor
     clustering, Sec. 4.5). Raises ValueError naming the bad shape or index."""
 
+def generate_animation_lights(frames: Sequence[Scene], area: int = 1024, environment: int = 0, indirect: int = 0,
+                              photons: int = 0, max_depth: int = -1, clamp: Optional[float] = None,
+                              seed: int = 0) -> tuple[list[LightSet], dict[str, int]]:
+    """One LightSet per frame, light j the same light in every frame, and the counts per kind
+    (delta, area, environment, indirect). Raises ValueError naming the frame for mismatched frames."""
+
 def check_host_memory(what: str, bytes: int) -> None:
     """Raises MemoryError naming ``what`` when ``bytes`` of host memory break the policy (MANYLIGHTS_MEMORY_LIMIT)."""
 

@@ -42,7 +42,9 @@
 //!
 //! Rust twin of `shaders/common/light.wgsl` (`light_emitted`), used by the CPU reference.
 pub mod arrays;
+pub mod animated;
 pub mod gather;
+pub mod photon_map;
 pub mod generate;
 pub mod spot_texture;
 

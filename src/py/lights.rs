@@ -39,7 +39,48 @@ pub fn generate_lights(
     Ok(LightSet::new(set))
 }
 
+/// One light set per frame, light j the same light in every frame (`lights::animated`). Args as
+/// `manylights.generate_animation_lights`. Returns (light sets, counts {delta, area, environment, indirect}).
+#[pyfunction]
+#[pyo3(signature = (frames, area=1024, environment=0, indirect=0, photons=0, max_depth=-1, clamp=None, seed=0))]
+#[allow(clippy::too_many_arguments)]
+pub fn generate_animation_lights(
+    py: Python<'_>,
+    frames: Vec<PyRef<'_, Scene>>,
+    area: i64,
+    environment: i64,
+    indirect: i64,
+    photons: i64,
+    max_depth: i64,
+    clamp: Option<f32>,
+    seed: u64,
+) -> PyResult<(Vec<LightSet>, std::collections::BTreeMap<String, usize>)> {
+    let count = |name: &str, v: i64| -> PyResult<usize> {
+        usize::try_from(v).map_err(|_| Error::invalid(format!("{name} must be a count >= 0, got {v}")).into())
+    };
+    let opts = crate::lights::animated::AnimationLightOptions {
+        area: count("area", area)?,
+        environment: count("environment", environment)?,
+        indirect: count("indirect", indirect)?,
+        photons: count("photons", photons)?,
+        max_depth: if max_depth < 0 { u32::MAX } else { u32::try_from(max_depth).unwrap_or(u32::MAX) },
+        clamp,
+        seed,
+    };
+    let scenes: Vec<_> = frames.iter().map(|s| s.inner.clone()).collect();
+    let out = super::signals::detach(py, move || {
+        let refs: Vec<&crate::scene::Scene> = scenes.iter().map(|s| s.as_ref()).collect();
+        crate::lights::animated::generate_animation_lights(&refs, &opts)
+    })?;
+    let counts = [("delta", out.delta), ("area", out.area), ("environment", out.environment), ("indirect", out.indirect)]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+    Ok((out.frames.into_iter().map(LightSet::new).collect(), counts))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(generate_animation_lights, m)?)?;
     m.add_function(wrap_pyfunction!(generate_lights, m)?)?;
     Ok(())
 }

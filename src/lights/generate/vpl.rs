@@ -83,6 +83,8 @@ struct Tracer<'a> {
     center: Vec3,
     radius: f32,
     max_vpl_depth: u32,
+    /// First bounce that stores a record (1: VPLs; 2: photons without the first hit).
+    min_vpl_depth: u32,
 }
 
 fn luminance(v: Vec3) -> f32 {
@@ -189,7 +191,7 @@ impl<'a> Tracer<'a> {
                     return;
                 }
                 phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
-                if depth <= self.max_vpl_depth {
+                if depth <= self.max_vpl_depth && depth >= self.min_vpl_depth {
                     out.push(Vpl {
                         position: offset_p(hit.p, n_g, w_in),
                         n_s,
@@ -237,6 +239,18 @@ impl<'a> Tracer<'a> {
 /// About `opts.indirect` VPLs (module docs); `areas` and `env` are the scene's area emitters and
 /// environment. Returns an empty set when no particle deposits a VPL.
 pub fn trace_vpls(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environment>, opts: &GenerateOptions) -> Result<LightSet> {
+    trace_particles(scene, areas, env, opts, 1)
+}
+
+/// Photons for density estimation of multiple-bounce light (`lights::animated`): `trace_vpls` without the
+/// first hit, i.e. about `opts.indirect` records of the flux arriving at bounces 2 ..= max_depth - 2 (each a
+/// VPL record: position, normals, incident direction, flux in `intensity`).
+pub fn trace_photons(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environment>, opts: &GenerateOptions) -> Result<LightSet> {
+    trace_particles(scene, areas, env, opts, 2)
+}
+
+/// Particle tracing storing a record at every hit with bounce index in [min_depth, max_depth - 2].
+fn trace_particles(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environment>, opts: &GenerateOptions, min_depth: u32) -> Result<LightSet> {
     let (center, radius) = scene_sphere(scene);
     let mut out = LightSet::new(center, radius);
     if opts.indirect == 0 || opts.max_depth < 3 {
@@ -280,6 +294,7 @@ pub fn trace_vpls(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environment
         center,
         radius,
         max_vpl_depth: opts.max_depth.saturating_sub(2),
+        min_vpl_depth: min_depth,
     };
     // Particles in parallel chunks with interruption checks between them (Ctrl-C; `crate::interrupt`).
     let run = |family: u64, n: usize| -> Result<Vec<Vec<Vpl>>> {
