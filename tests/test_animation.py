@@ -67,6 +67,22 @@ def test_one_file_per_frame(tmp_path):
     assert [s.emitters[0]["position"][0] for s in anim] == [1.0, 2.0] and anim[0].width == 4
 
 
+def test_deforming_mesh_per_frame(tmp_path):
+    """Mesh vertices may move between frames (one OBJ per frame); connectivity may not."""
+    quad = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+    xmls = []
+    for k, (lift, faces) in enumerate([(0.0, "f 1 2 3\nf 1 3 4"), (0.4, "f 1 2 3\nf 1 3 4"), (0.4, "f 1 2 4\nf 2 3 4")]):
+        obj = tmp_path / f"sheet{k}.obj"
+        verts = "\n".join(f"v {x} {y} {z + (lift if x > 0 else 0.0)}" for x, y, z in quad)
+        obj.write_text(verts + "\n" + faces + "\n")
+        xmls.append(_tiny_xml(tmp_path, f"f{k}.xml", f'<shape type="obj" id="sheet"><string name="filename" value="{obj.name}"/></shape>'))
+    anim = ml.load_animation(xmls[:2])
+    z = [a.mesh(0)["positions"][:, 2] for a in anim]
+    assert z[0].max() == 0.0 and z[1].max() == pytest.approx(0.4)
+    with pytest.raises(ml.SceneError, match=r"f2.xml:\d+: frame 2: shape 0 'sheet': triangle \d+ has vertices .* different connectivity"):
+        ml.load_animation(xmls)
+
+
 @pytest.mark.parametrize("k", [0, 5])
 def test_bounce_frames_match_mitsuba(mitsuba_ref, k):
     """Frame k of the bundled animation as Mitsuba loads it (mi.load_file(path, **params), mi.traverse)
