@@ -136,3 +136,13 @@ def test_tensor_accumulate_binding():
     assert np.array_equal(acc[0, :, :-1, 0], img[:, 1:]) and np.all(acc[0, :, -1] == 0)
     with pytest.raises(ValueError, match="representative 0 is in frame 3"):
         _native.tensor_accumulate(acc, columns, np.array([3], np.uint32), rec, np.stack([fw, fw]), np.stack([bw, bw]))
+
+
+def test_mapping_of_static_frames_is_identity(tensor):
+    T, scene, lights = tensor
+    M = T.mapping(0, 2)
+    g = scene.gbuffer("cpu")
+    surface = g["shape_index"] >= 0
+    assert M.shape == (32, 32)
+    assert np.array_equal(M[surface], np.flatnonzero(surface.reshape(-1)))
+    assert np.all(M[~surface] == -1)

@@ -94,6 +94,7 @@ class LightTensor:
         self.lights = lights
         self._options = dict(device=device, visibility=visibility, max_depth=max_depth, shadow_map_size=shadow_map_size)
         self._frames: dict[int, object] = {}
+        self._animation = None
         self.frame(0)  # checks the options once, up front
 
     @property
@@ -126,6 +127,24 @@ class LightTensor:
     def device(self) -> dict:
         """The device of the frames' light matrices (``LightMatrix.device``)."""
         return self.frame(0).device
+
+    def mapping(self, k: int, l: int) -> np.ndarray:
+        """The pixel mapping M(k -> l) between frames (the paper's Sec. 4.4; ``Animation.mapping``): (H, W)
+        int64, for each pixel of frame l the pixel ``y * W + x`` of frame k nearest to it in the 9-D deep
+        framebuffer, -1 where frame l sees no surface. Computed once per adjacent pair and cached.
+
+        Raises:
+            IndexError: k or l out of range."""
+        from .animation import Animation
+
+        if self._animation is None:
+            anim = self.animation
+            if not isinstance(anim, Animation):
+                dev = self._options["device"]
+                anim = Animation(self.scenes, [s.path for s in self.scenes], [{}] * len(self.scenes),
+                                 device=dev if dev in ("auto", "cpu", "gpu") else "auto")
+            self._animation = anim
+        return self._animation.mapping(k, l)
 
     def slices(self, rows: Sequence[int], *, progress: bool = False) -> np.ndarray:
         """The reduced tensor R = A(I, :, :) (the paper's r slices), (r, n, f, 3) float32: R[a, j, k] is
