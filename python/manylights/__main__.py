@@ -1,4 +1,4 @@
-"""Command line: ``python -m manylights {render,demo,info}``."""
+"""Command line: ``python -m manylights {render,demo,animate,info}``."""
 from __future__ import annotations
 
 import argparse
@@ -148,9 +148,14 @@ def main(argv=None):
     d.add_argument("--columns", type=int, default=900)
     d.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"])
     sub.add_parser("info", help="print the device that runs (and the GPU adapter wgpu would use)")
+    from . import animate
+
+    animate.add_parser(sub)
     a = ap.parse_args(argv)
     try:
-        if a.cmd == "render":
+        if a.cmd == "animate":
+            a.run(a)
+        elif a.cmd == "render":
             render(a.scene, a.output, size=tuple(a.size) if a.size else None, params=_params(a.params),
                    shadow_map_size=a.shadow_map_size, area=a.area, environment=a.environment, indirect=a.indirect,
                    seed=a.seed, visibility=a.visibility, png=not a.no_png, device=a.device)

@@ -11,6 +11,8 @@ Subcommands:
 
     mrcs     error against time for MRCS and its baselines (``bench_mrcs``).
     backends the CPU backend against the GPU backend: ms per column, weighted column and row (``bench_backends``).
+    tensor   tensor clustering against per-frame MRCS on an animation: error and flicker against shadow maps
+             per frame, speed-up over brute force (``bench_tensor``).
     vs-mitsuba time to 5/2/1% relative L2 of a converged Mitsuba reference: MRCS on the CPU and GPU backends
              against Mitsuba's path tracer (``bench_vs_mitsuba``).
 
@@ -160,10 +162,11 @@ def main(argv=None) -> int:
     p.add_argument("--visibility", choices=["ray_traced", "hybrid", "shadow_map"], default="ray_traced")
     p.add_argument("--images", action="store_true", help="also write every image as EXR")
     p.add_argument("-o", "--out", default="out/bench")
-    from . import bench_backends, bench_mrcs, bench_vs_mitsuba
+    from . import bench_backends, bench_mrcs, bench_tensor, bench_vs_mitsuba
 
     bench_mrcs.add_parser(sub)
     bench_backends.add_parser(sub)
+    bench_tensor.add_parser(sub)
     bench_vs_mitsuba.add_parser(sub)
     a = ap.parse_args(argv)
     if a.cmd in ("mrcs", "backends", "vs-mitsuba"):
