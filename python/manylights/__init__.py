@@ -30,9 +30,10 @@ from ._native import (
     device_info,
     read_exr,
 )
-from .metrics import fraction_within, relative_l2
+from .metrics import flicker, fraction_within, relative_l2, relative_l2_per_frame
 from .progress import progress_bar as _progress_bar
 from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
+from .tensor import TensorClustering, cluster_tensor
 
 __version__ = _native.__version__
 
@@ -45,9 +46,12 @@ __all__ = [
     "RenderResult",
     "Scene",
     "SceneError",
+    "TensorClustering",
     "cluster_reduced_columns",
+    "cluster_tensor",
     "clustering_cost",
     "device_info",
+    "flicker",
     "fraction_within",
     "generate_lights",
     "instant_radiosity",
@@ -56,6 +60,7 @@ __all__ = [
     "power_sampling",
     "read_exr",
     "relative_l2",
+    "relative_l2_per_frame",
     "render_brute_force",
     "scene_lights",
     "stratified_rows",

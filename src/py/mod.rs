@@ -10,6 +10,7 @@ pub mod lightset;
 pub mod matrix;
 pub mod scene;
 pub mod signals;
+pub mod tensor;
 pub mod util;
 
 #[pymodule]
@@ -23,6 +24,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     bsdf::register(m)?;
     lights::register(m)?;
     cluster::register(m)?;
+    tensor::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
