@@ -72,7 +72,9 @@ class TensorClustering:
 
         Raises:
             ValueError: a shape whose n or f differ from the clustering's. TypeError: a non-numeric array."""
-        S = _v.numeric_array("slices", slices, np.float64)
+        S = np.asarray(slices)
+        if S.dtype.kind not in "fiub":
+            S = _v.numeric_array("slices", S)  # raises the TypeError naming the dtype
         n, f = self.assignment.shape
         if S.ndim not in (3, 4) or S.shape[1:3] != (n, f) or (S.ndim == 4 and S.shape[3] != 3):
             raise ValueError(f"slices must have shape (r, {n}, {f}, 3) or (r, {n}, {f}) like the clustered tensor, "
@@ -80,9 +82,10 @@ class TensorClustering:
         scalar = S.ndim == 3
         if scalar:
             S = S[..., None]
-        cols = S[:, self.representatives[:, 0], self.representatives[:, 1], :]  # (r, c, ch)
-        rec = self.rec.astype(np.float64)[..., : S.shape[3]]
-        out = np.einsum("ict,ckt->ikt", cols, rec)
+        cols = S[:, self.representatives[:, 0], self.representatives[:, 1], :].astype(np.float64)  # (r, c, ch)
+        _v.finite("slices (representative columns)", cols)
+        rec = self.rec.astype(np.float64)
+        out = np.stack([cols[:, :, ch] @ rec[:, :, ch] for ch in range(S.shape[3])], axis=-1)  # (r, f, ch)
         return (out[..., 0] if scalar else out).astype(np.float32)
 
 

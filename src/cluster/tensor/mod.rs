@@ -64,13 +64,13 @@ mod store;
 #[cfg(test)]
 mod tests;
 
+use super::splitting::Candidate;
 use crate::error::{Error, Result};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use split::{Cluster, SplitKind};
-use store::ChunkStore;
-use super::splitting::Candidate;
 use std::collections::BinaryHeap;
+use store::ChunkStore;
 
 /// The reduced tensor R: r x n x f elements of `channels` (1 or 3) float32 values, row-major, i.e.
 /// element (i, j, k, ch) at `((i * n + j) * f + k) * channels + ch` (numpy shape (r, n, f, 3)).
