@@ -202,4 +202,4 @@ def cluster_tensor(slices: npt.NDArray[np.float32], columns: int, seed: int = 0,
 
     Raises:
         ValueError: bad shapes, NaN/inf (row, light, frame, channel named), columns outside [f, n f],
-            chunk / init_clusters / projection_dim of 0, representative not "max" / "sampled"."""
+            chunk / init_clusters / projection_dim of 0, representative not "max" / "sampled" / "centroid"."""

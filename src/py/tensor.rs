@@ -36,7 +36,10 @@ pub fn cluster_tensor_py<'py>(
     let representative = match representative {
         "max" => Representative::MaxWeight,
         "sampled" => Representative::Sampled,
-        other => return Err(Error::invalid(format!("representative must be 'max' or 'sampled', got {other:?}")).into()),
+        "centroid" => Representative::Centroid,
+        other => {
+            return Err(Error::invalid(format!("representative must be 'max', 'sampled' or 'centroid', got {other:?}")).into())
+        }
     };
     let data = match slices.as_slice() {
         Ok(s) if slices.is_c_contiguous() => Cow::Borrowed(s),

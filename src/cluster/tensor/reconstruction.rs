@@ -7,7 +7,8 @@ use rand::RngExt;
 use rand_pcg::Pcg64;
 
 /// (light, local frame) of the cluster's representative: the pair of largest weight (ties: lowest light,
-/// then earliest frame), or drawn with probability `w_p / s` (uniformly when all weights are 0).
+/// then earliest frame), the pair whose information vector is most aligned with the cluster's summed
+/// reduced column, or drawn with probability `w_p / s` (uniformly when all weights are 0).
 pub(crate) fn representative(store: &ChunkStore, cl: &Cluster, mode: Representative, rng: &mut Pcg64) -> (u32, usize) {
     let pairs = || cl.lights.iter().flat_map(|&j| (cl.k0..cl.k1).map(move |kk| (j, kk)));
     match mode {
@@ -19,6 +20,30 @@ pub(crate) fn representative(store: &ChunkStore, cl: &Cluster, mode: Representat
                 if w > best_w {
                     best = (j, kk);
                     best_w = w;
+                }
+            }
+            best
+        }
+        Representative::Centroid => {
+            // P = sum of the cluster's reduced columns; the pair maximising P . x_p minimises
+            // |P - (s / w_p) R(:, p)|^2 = |P|^2 - 2 s P . x_p + s^2 among pairs of non-zero weight.
+            let r = store.num_rows;
+            let mut total = vec![0.0f64; r];
+            for (j, kk) in pairs() {
+                for (t, &v) in total.iter_mut().zip(store.column(j as usize, kk)) {
+                    *t += v as f64;
+                }
+            }
+            let mut best = (cl.lights[0], cl.k0);
+            let mut best_dot = f64::NEG_INFINITY;
+            for (j, kk) in pairs() {
+                let w = store.weight(j as usize, kk);
+                if w > 0.0 {
+                    let dot = store.column(j as usize, kk).iter().zip(&total).map(|(&v, t)| v as f64 * t).sum::<f64>() / w;
+                    if dot > best_dot {
+                        best = (j, kk);
+                        best_dot = dot;
+                    }
                 }
             }
             best

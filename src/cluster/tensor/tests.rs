@@ -261,3 +261,30 @@ fn bad_input_is_refused_with_a_message() {
     assert!(e.contains("row 1, light 2, frame 3, channel 1"), "{e}");
     assert!(ReducedTensor::new(&[], 0, 3, 4, 3).is_err());
 }
+
+#[test]
+fn centroid_representative_is_the_best_aligned_pair_not_the_heaviest() {
+    // Scalar, one frame, 2 rows: a heavy outlier (10, 0) and four lights along (3, 3). Sum P = (22, 12):
+    // P . x = 22 for the outlier, 34 / sqrt(2) = 24.04 for the others.
+    let data = [10.0f32, 3.0, 3.0, 3.0, 3.0, /* row 1 */ 0.0, 3.0, 3.0, 3.0, 3.0];
+    let t = ReducedTensor::new(&data, 2, 5, 1, 1).unwrap();
+    let max = cluster_tensor(t, 1, &TensorOptions::default()).unwrap();
+    let centroid = cluster_tensor(t, 1, &TensorOptions { representative: Representative::Centroid, ..Default::default() }).unwrap();
+    assert_eq!(max.representatives, vec![(0, 0)]);
+    assert_eq!(centroid.representatives, vec![(1, 0)]);
+    // Rec = s / w_rep: (10 + 4 * 3 sqrt 2) / (3 sqrt 2).
+    let s = 10.0 + 12.0 * 2f64.sqrt();
+    assert!((centroid.rec[0][0] as f64 - s / (3.0 * 2f64.sqrt())).abs() < 1e-5, "{:?}", centroid.rec[0]);
+    let err = |c: &TensorClustering| {
+        let e = c.rec[0][0] as f64;
+        let (j, _) = c.representatives[0];
+        let est = [e * data[j as usize] as f64, e * data[5 + j as usize] as f64];
+        ((est[0] - 22.0).powi(2) + (est[1] - 12.0).powi(2)).sqrt()
+    };
+    // Centroid: (s / sqrt 2)(1, 1); max: (s, 0). Errors against the row sums (22, 12):
+    let h = s / 2f64.sqrt();
+    let want_centroid = ((h - 22.0).powi(2) + (h - 12.0).powi(2)).sqrt();
+    let want_max = ((s - 22.0).powi(2) + 144.0).sqrt();
+    assert!((err(&centroid) - want_centroid).abs() < 1e-4 && (err(&max) - want_max).abs() < 1e-4);
+    assert!(err(&centroid) < 0.6 * err(&max), "{} vs {}", err(&centroid), err(&max));
+}
