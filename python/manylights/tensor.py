@@ -112,7 +112,7 @@ def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init
             frame's row sums is then unbiased when lights do not change over a cluster's frames, and the
             sum over frames is unbiased in general; the paper's "max" is biased, Sec. 4.5) or "centroid"
             (not in the paper, deterministic: the pair whose scaled reduced column is closest to the sum
-            of the cluster's reduced columns; measured 4-6x lower error than "max" on a moving scene).
+            of the cluster's reduced columns; about 10x lower error than "max" on the test animation).
         color_averaging: Rec per channel from the per-channel column norms (the paper, Sec. 5); False: the
             scalar weight ratio in every channel.
 

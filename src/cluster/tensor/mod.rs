@@ -42,8 +42,10 @@
 //! - [`Representative::Centroid`] (not in the paper) is a deterministic alternative to the largest
 //!   weight: the pair whose scaled column best matches the cluster's summed reduced column. The largest
 //!   weight tends to pick the most peaked column (a light closest to some sampled view sample) and
-//!   scales it up, which biases every frame the same way; measured on a moving cbox-lights tensor the
-//!   paper's choice has 4-6x the relative L2 of sampled or centroid representatives (tests print it).
+//!   scales it up, which biases every frame the same way. Measured on a moving cbox-lights animation
+//!   (403 lights, 8 frames, 48 rows, 20 columns per frame): on the reduced tensor the paper's choice has
+//!   6x the relative L2 of sampled and 11x that of centroid representatives; on all 32x32 pixels 0.0102
+//!   vs 0.0017 (sampled) and 0.00095 (centroid), at the same low flicker (tests/test_tensor_clustering.py).
 //! - A cluster whose reduced columns are all zero gets `Rec = 0` (nothing to scale by); its
 //!   representative need not be rendered and is not counted in [`TensorClustering::shadow_maps_per_frame`].
 //!   Lights whose slab is zero in all frames of the chunk join the first initial cluster (they add
