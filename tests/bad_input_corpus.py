@@ -603,6 +603,65 @@ cases_for("clustering_cost", [
     ("bad R shape", lambda c: c.ml.clustering_cost(R(4, 10, 2), np.zeros(10, np.int64)), ["shape"]),
 ])
 
+# Tensor clustering (issue 10, item 5) and the animation metrics (item 6).
+T4 = lambda *shape: np.random.default_rng(1).random(shape, dtype=np.float32)  # noqa: E731
+cases_for("cluster_tensor", [
+    ("columns below f", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 2), ["columns", "[3, 15]"]),
+    ("columns above n f", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 16), ["columns", "[3, 15]"]),
+    ("huge columns", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 2**70), ["columns"]),
+    ("fractional columns", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 4.5), ["columns"]),
+    ("chunk 0", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5, chunk=0), ["chunk"]),
+    ("init_clusters 0", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5, init_clusters=0), ["init_clusters"]),
+    ("projection_dim 0", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5, projection_dim=0), ["projection_dim"]),
+    ("2 channels", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 2), 5), ["shape"]),
+    ("2-D", lambda c: c.ml.cluster_tensor(T4(4, 5), 5), ["shape"]),
+    ("no frames", lambda c: c.ml.cluster_tensor(T4(4, 5, 0, 3), 5), ["frame"]),
+    ("NaN (names row, light, frame)", lambda c: c.ml.cluster_tensor(_nan_at(T4(4, 5, 3, 3), (3, 2, 1, 0)), 5),
+     ["row 3", "light 2", "frame 1"]),
+    ("unknown representative", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5, representative="min"),
+     ["representative"]),
+    ("negative seed", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5, seed=-1), ["seed"]),
+    ("complex dtype", lambda c: c.ml.cluster_tensor(np.zeros((4, 5, 3, 3), complex), 5), ["complex"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.cluster_tensor", [
+    ("native: columns below f", lambda c: c.native.cluster_tensor(T4(4, 5, 3, 3), 2), ["columns"]),
+    ("native: columns above n f", lambda c: c.native.cluster_tensor(T4(4, 5, 3, 3), 16), ["columns"]),
+    ("native: chunk 0", lambda c: c.native.cluster_tensor(T4(4, 5, 3, 3), 5, 0, 0), ["chunk"]),
+    ("native: bad shape", lambda c: c.native.cluster_tensor(T4(4, 5, 3, 2), 5), ["shape"]),
+    ("native: NaN", lambda c: c.native.cluster_tensor(_nan_at(T4(4, 5, 3, 3), (0, 4, 2, 2)), 5),
+     ["light 4", "frame 2"]),
+    ("native: unknown representative", lambda c: c.native.cluster_tensor(T4(4, 5, 3, 3), 5, 0, 40, 100, 50, "x"),
+     ["representative"]),
+    ("native: negative columns", lambda c: c.native.cluster_tensor(T4(4, 5, 3, 3), -1), []),
+], raises=("ValueError", "TypeError", "OverflowError"))
+cases_for("TensorClustering.estimate", [
+    ("other n", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5).estimate(T4(4, 6, 3, 3)), ["shape"]),
+    ("other f", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5).estimate(T4(4, 5, 2, 3)), ["shape"]),
+    ("NaN", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 15).estimate(_nan_at(T4(4, 5, 3, 3), (1, 1, 1, 1))),
+     ["non-finite"]),
+    ("strings", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5).estimate(np.full((4, 5, 3, 3), "s")), ["'s'"]),
+], raises=("ValueError", "TypeError"))
+cases_for("TensorClustering.lights", [
+    ("t out of range", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5).lights(5), ["t"]),
+    ("negative t", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5).lights(-1), ["t"]),
+])
+cases_for("flicker", [
+    ("one frame", lambda c: c.ml.flicker(IMG(1, 2, 2, 3) + 1, IMG(1, 2, 2, 3) + 1), ["2 frames"]),
+    ("shapes differ", lambda c: c.ml.flicker(IMG(3, 2, 2, 3), IMG(3, 2, 3, 3) + 1), ["shape"]),
+    ("not (f, H, W, 3)", lambda c: c.ml.flicker(IMG(2, 2, 3) + 1, IMG(2, 2, 3) + 1), ["(f, H, W, 3)"]),
+    ("zero reference", lambda c: c.ml.flicker(IMG(3, 2, 2, 3), IMG(3, 2, 2, 3)), ["zero"]),
+    ("NaN", lambda c: c.ml.flicker(np.full((3, 2, 2, 3), np.nan, np.float32), IMG(3, 2, 2, 3) + 1), ["non-finite"]),
+    ("strings", lambda c: c.ml.flicker(np.full((2,), "a"), np.full((2,), "b")), ["'a'"]),
+], raises=("ValueError", "TypeError"))
+cases_for("relative_l2_per_frame", [
+    ("zero reference frame", lambda c: c.ml.relative_l2_per_frame(IMG(2, 2, 2, 3) + 1,
+                                                                   np.stack([IMG(2, 2, 3) + 1, IMG(2, 2, 3)])),
+     ["frame 1"]),
+    ("shapes differ", lambda c: c.ml.relative_l2_per_frame(IMG(3, 2, 2, 3), IMG(2, 2, 2, 3) + 1), ["shape"]),
+    ("not (f, H, W, 3)", lambda c: c.ml.relative_l2_per_frame(IMG(2, 2, 3) + 1, IMG(2, 2, 3) + 1), ["(f, H, W, 3)"]),
+    ("inf", lambda c: c.ml.relative_l2_per_frame(IMG(2, 2, 2, 3), np.full((2, 2, 2, 3), np.inf)), ["non-finite"]),
+], raises=("ValueError", "TypeError"))
+
 # --------------------------------------------------------------------------------------------------
 # Renderers.
 
@@ -802,6 +861,7 @@ cases_for("device_info", [
 # Functions that are public but not entry points for data, with why they need no corpus entry.
 NOT_COVERED: dict[str, str] = {
     "RenderResult": "a dataclass that only holds results (no validation of its own)",
+    "TensorClustering": "a dataclass that only holds results; made by cluster_tensor (covered)",
     "scenes.available": "takes no arguments",
     "scenes.animated": "takes no arguments",
     "Animation.gbuffers": "takes no arguments (the device is the Animation's, checked when it is made)",

@@ -30,9 +30,10 @@ from ._native import (
     device_info,
     read_exr,
 )
-from .metrics import fraction_within, relative_l2
+from .metrics import flicker, fraction_within, relative_l2, relative_l2_per_frame
 from .progress import progress_bar as _progress_bar
 from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
+from .tensor import TensorClustering, cluster_tensor, tensor_clustering
 
 __version__ = _native.__version__
 
@@ -50,9 +51,13 @@ __all__ = [
     "SceneError",
     "antialias",
     "apply_mapping",
+    "TensorClustering",
     "cluster_reduced_columns",
+    "cluster_tensor",
+    "tensor_clustering",
     "clustering_cost",
     "device_info",
+    "flicker",
     "fraction_within",
     "generate_animation_lights",
     "generate_lights",
@@ -64,6 +69,7 @@ __all__ = [
     "power_sampling",
     "read_exr",
     "relative_l2",
+    "relative_l2_per_frame",
     "render_brute_force",
     "scene_lights",
     "stratified_rows",

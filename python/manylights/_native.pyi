@@ -233,3 +233,18 @@ def antialias(image: npt.NDArray[np.float32], scene: Scene, factor: int = 3,
     """(H, W, C) float32 image of ``scene`` anti-aliased from a deep framebuffer at ``factor`` x the
     resolution (3x3 nearest-neighbour upsampling in the 9-D metric, box filter).
     Raises ValueError for an image of another size or a factor outside [1, 16]."""
+
+def cluster_tensor(slices: npt.NDArray[np.float32], columns: int, seed: int = 0, chunk: int = 40,
+                   init_clusters: int = 100, projection_dim: int = 50, representative: str = "max",
+                   color_averaging: bool = True) -> dict[str, Any]:
+    """Tensor clustering (Hašan et al. 2008) of the light-frame pairs of slices ((r, n, f, 3) or (r, n, f)
+    float32) into `columns` clusters in total, chunks of `chunk` frames.
+
+    Returns a dict: assignment (n, f) int32, representatives (c, 2) int64 (light, frame), frames (c, 2)
+    int64 [start, end), sizes (c,) int64, rec (c, f, 3) float32, cost (c,) float64, rendered (c,) bool,
+    shadow_maps_per_frame (f,) int64, clusters_per_frame (f,) int64, chunks (list of dicts: frames,
+    budget, init_clusters, time_splits, light_splits).
+
+    Raises:
+        ValueError: bad shapes, NaN/inf (row, light, frame, channel named), columns outside [f, n f],
+            chunk / init_clusters / projection_dim of 0, representative not "max" / "sampled" / "centroid"."""

@@ -57,3 +57,67 @@ def error_map(image, reference) -> np.ndarray:
     if a.ndim != 3:
         raise ValueError(f"images must have shape (H, W, C), got {a.shape}")
     return (np.abs(a - b) / (np.abs(b) + 1e-3)).mean(axis=-1).astype(np.float32)
+
+
+def _animation_pair(frames, reference) -> tuple[np.ndarray, np.ndarray]:
+    """Both animations as float64 (f, H, W, C) arrays of one shape, every value finite."""
+    a, b = _pair(frames, reference)
+    if a.ndim != 4:
+        raise ValueError(f"animations must have shape (f, H, W, 3), got {a.shape}")
+    return a, b
+
+
+def relative_l2_per_frame(frames, reference) -> np.ndarray:
+    """Relative L2 error of every frame: ``||X_k - R_k|| / ||R_k||`` over pixels and channels.
+
+    Args:
+        frames, reference: (f, H, W, 3) animations (any real dtype; computed in float64).
+
+    Returns:
+        (f,) float64.
+
+    Raises:
+        ValueError: shapes that differ or are not (f, H, W, C), empty arrays, NaN/inf values (index named),
+            a reference frame that is all zero (frame named)."""
+    a, b = _animation_pair(frames, reference)
+    den = np.sqrt((b * b).reshape(len(b), -1).sum(axis=1))
+    zero = np.flatnonzero(den == 0)
+    if zero.size:
+        raise ValueError(f"reference frame {int(zero[0])} is all zero: relative error undefined")
+    return np.sqrt(((a - b) ** 2).reshape(len(a), -1).sum(axis=1)) / den
+
+
+def flicker(frames, reference) -> float:
+    """Temporal flicker of an animation against its reference: the relative L2 norm of the frame-to-frame
+    change of the error,
+
+        flicker = sqrt( mean_k ||E_{k+1} - E_k||^2 / (2 mean_k ||R_k||^2) ),   E_k = X_k - R_k,
+
+    sums over pixels and channels, k = 0 .. f-2 in the numerator and 0 .. f-1 in the denominator.
+
+    Why this form: an error that stays the same from frame to frame (a fixed bias, a clustering reused
+    over frames) does not flicker and scores 0; an error that changes does. Normalising by the
+    reference's energy, not by its own frame differences, keeps it finite for a static reference (a
+    camera that does not move). The factor 2 makes it equal the per-frame relative L2 for errors that are
+    independent between frames with equal energy (E[||E_{k+1} - E_k||^2] = 2 E||E||^2): per-frame MRCS with
+    new random choices every frame then has flicker ~ its relative L2, and a method reusing its choices
+    over time has less. It is 0 for the reference and grows linearly with the amplitude of added
+    temporal noise.
+
+    Args:
+        frames, reference: (f, H, W, 3) animations with f >= 2 (any real dtype; computed in float64).
+
+    Returns:
+        float.
+
+    Raises:
+        ValueError: shapes that differ or are not (f, H, W, C), fewer than 2 frames, NaN/inf values, an
+            all-zero reference."""
+    a, b = _animation_pair(frames, reference)
+    if len(a) < 2:
+        raise ValueError(f"flicker needs at least 2 frames, got {len(a)}")
+    den = 2.0 * float((b * b).sum()) / len(b)
+    if den == 0:
+        raise ValueError("reference animation is all zero: flicker undefined")
+    num = float((np.diff(a - b, axis=0) ** 2).sum()) / (len(a) - 1)
+    return float(np.sqrt(num / den))

@@ -73,9 +73,28 @@ impl Features {
     }
 }
 
+/// Anything whose scalar columns can be projected: the reduced matrix of MRCS, and the unfolded slabs
+/// `reshape(permute(R, 1, 3, 2), r f, n)` of the reduced tensor (tensor clustering's initialisation).
+pub trait ScalarColumns: Sync {
+    /// Length of a column (r for the reduced matrix, r f for the unfolded tensor).
+    fn num_rows(&self) -> usize;
+    /// Scalar element (row, column).
+    fn scalar(&self, row: usize, column: usize) -> f64;
+}
+
+impl ScalarColumns for ReducedMatrix<'_> {
+    fn num_rows(&self) -> usize {
+        ReducedMatrix::num_rows(self)
+    }
+    #[inline]
+    fn scalar(&self, row: usize, column: usize) -> f64 {
+        ReducedMatrix::scalar(self, row, column)
+    }
+}
+
 /// Sec. 4 random projection: the scalar reduced columns `nonzero` multiplied by a `projection_dim x r`
 /// matrix of N(0, 1/projection_dim) entries when r > projection_dim; otherwise copied unchanged.
-pub fn project(reduced: &ReducedMatrix, nonzero: &[u32], projection_dim: usize, rng: &mut Pcg64) -> Features {
+pub fn project<M: ScalarColumns>(reduced: &M, nonzero: &[u32], projection_dim: usize, rng: &mut Pcg64) -> Features {
     let r = reduced.num_rows();
     let dim = if r > projection_dim { projection_dim } else { r };
     let projection: Option<Vec<f64>> = (r > projection_dim).then(|| {

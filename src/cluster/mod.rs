@@ -66,6 +66,7 @@ pub mod columns;
 pub mod representatives;
 pub mod sampling;
 pub mod splitting;
+pub mod tensor;
 
 #[cfg(test)]
 mod tests;

@@ -91,10 +91,10 @@ pub fn split(features: &Features, members: &[u32], rng: &mut Pcg64) -> (Vec<u32>
 
 /// Heap entry: highest cost first, then largest, then lowest id.
 #[derive(PartialEq)]
-struct Candidate {
-    cost: f64,
-    size: usize,
-    id: usize,
+pub(crate) struct Candidate {
+    pub cost: f64,
+    pub size: usize,
+    pub id: usize,
 }
 
 impl Eq for Candidate {}

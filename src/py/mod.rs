@@ -11,6 +11,7 @@ pub mod lightset;
 pub mod matrix;
 pub mod scene;
 pub mod signals;
+pub mod tensor;
 pub mod util;
 
 #[pymodule]
@@ -25,6 +26,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     lights::register(m)?;
     cluster::register(m)?;
     animation::register(m)?;
+    tensor::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
