@@ -33,10 +33,12 @@ from ._native import (
 from .metrics import fraction_within, relative_l2
 from .progress import progress_bar as _progress_bar
 from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
+from .gather import GatherCloud, gather_cloud
 
 __version__ = _native.__version__
 
 __all__ = [
+    "GatherCloud",
     "GpuError",
     "GpuUnavailableError",
     "LightMatrix",
@@ -49,6 +51,7 @@ __all__ = [
     "clustering_cost",
     "device_info",
     "fraction_within",
+    "gather_cloud",
     "generate_lights",
     "instant_radiosity",
     "load_scene",

@@ -4,10 +4,12 @@ use pyo3::prelude::*;
 pub mod bsdf;
 pub mod cluster;
 pub mod errors;
+pub mod gather;
 pub mod image;
 pub mod lights;
 pub mod lightset;
 pub mod matrix;
+pub mod relight;
 pub mod scene;
 pub mod signals;
 pub mod util;
@@ -23,6 +25,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     bsdf::register(m)?;
     lights::register(m)?;
     cluster::register(m)?;
+    gather::register(m)?;
+    relight::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
