@@ -454,6 +454,15 @@ impl GatherCloud {
     /// indices, non-finite vertices or a bad sphere; `OutOfMemory` when the cloud would not fit.
     pub fn new(scene: &Scene, opts: &GatherOptions) -> Result<GatherCloud> {
         gather_levels(opts.n)?;
+        GatherCloud::new_any_count(scene, opts)
+    }
+
+    /// `new` for any count 1 ..= `MAX_GATHER` (not only powers of 4: such a cloud has no gather image,
+    /// `ClusterHierarchy` refuses it), e.g. for the indirect lights of tensor clustering.
+    pub fn new_any_count(scene: &Scene, opts: &GatherOptions) -> Result<GatherCloud> {
+        if opts.n == 0 || opts.n > MAX_GATHER {
+            return Err(Error::invalid(format!("the number of gather samples must be in 1 ..= {MAX_GATHER}, got {}", opts.n)));
+        }
         crate::memory::check_host(
             &format!("gather cloud of {} samples", opts.n),
             crate::memory::product(&[opts.n as u64, BYTES_PER_SAMPLE]),
@@ -503,9 +512,10 @@ impl GatherCloud {
         self.shape.is_empty()
     }
 
-    /// k with `len() == 4^k` (the gather image is 2^k x 2^k).
+    /// k with `len() == 4^k` (the gather image is 2^k x 2^k); for a cloud of another count
+    /// (`new_any_count`), floor(log4(len())).
     pub fn levels(&self) -> u32 {
-        self.len().trailing_zeros() / 2
+        self.len().max(1).ilog2() / 2
     }
 
     /// The same samples on `other`, a scene with the same topology (module docs): positions, normals,
