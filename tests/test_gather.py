@@ -100,7 +100,8 @@ def test_arrays_and_area_per_shape_match_mitsuba(cbox_lights, mitsuba_ref):
 def test_samples_are_mitsuba_surface_points(cbox_lights, mitsuba_ref):
     """A ray shot at each sample from 1e-4 above it hits, in Mitsuba, the same shape and (away from edges and
     the box bottoms lying on the floor) the same triangle, at the sample's position with its geometric and
-    shading normals and uv."""
+    shading normals and uv. Measured (4^5 samples): 98.2% same triangle; position 2.5e-7, normals 1.8e-7,
+    uv 2.4e-7 at most (the scene is ~2 units across); bound 2e-6."""
     c = ml.gather_cloud(cbox_lights, n=4**4, seed=1)
     p, ng = c.positions.astype(np.float64), c.geo_normals.astype(np.float64)
     hits = _mitsuba_hits(mitsuba_ref, mitsuba_ref.load(CBOX_LIGHTS, res=32), p + 1e-4 * ng, -ng)
@@ -108,16 +109,17 @@ def test_samples_are_mitsuba_surface_points(cbox_lights, mitsuba_ref):
     same = np.array([hits["shape"][k] == ids[c.shape[k]] and (c.triangle[k] == -1 or hits["prim"][k] == c.triangle[k])
                      for k in range(len(c))])
     assert same.mean() >= 0.95, same.mean()
-    assert np.linalg.norm(hits["p"] - c.positions, axis=1).max() < 1e-5
-    np.testing.assert_allclose(hits["n"][same], c.geo_normals[same], atol=1e-5)
-    np.testing.assert_allclose(hits["sh_n"][same], c.normals[same], atol=1e-5)
-    np.testing.assert_allclose(hits["uv"][same], c.uv[same], atol=1e-5)
+    assert np.linalg.norm(hits["p"] - c.positions, axis=1).max() < 2e-6
+    np.testing.assert_allclose(hits["n"][same], c.geo_normals[same], atol=2e-6)
+    np.testing.assert_allclose(hits["sh_n"][same], c.normals[same], atol=2e-6)
+    np.testing.assert_allclose(hits["uv"][same], c.uv[same], atol=2e-6)
 
 
 def test_diffuse_reflectance_matches_mitsuba(mitsuba_ref):
     """k_d at every sample on matpreview's checkerboard plane (diffuse, textured) and its plastic object equals
     Mitsuba's eval_diffuse_reflectance at the same surface point (the checkerboard's edges excepted: a uv
-    rounding can flip a square, 1% of the samples at most)."""
+    rounding can flip a square, 1% of the samples at most; measured: all 825 plane and 149 object samples equal
+    exactly)."""
     scene = ml.load_scene(MATPREVIEW, width=32, height=24)
     c = ml.gather_cloud(scene, n=4**5, seed=0)
     mi_scene = mitsuba_ref.load(MATPREVIEW, width=32, height=24)
