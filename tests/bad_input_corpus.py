@@ -663,6 +663,75 @@ cases_for("relative_l2_per_frame", [
 ], raises=("ValueError", "TypeError"))
 
 # --------------------------------------------------------------------------------------------------
+# Gather cloud, cluster hierarchy, Haar wavelets (issue 11).
+
+_gather = lambda c: c._get("gather", lambda: c.ml.gather_cloud(c.scene, n=16))  # noqa: E731
+F = lambda *shape: np.zeros(shape, np.float32)  # noqa: E731
+
+cases_for("gather_cloud", [
+    ("n = 0", lambda c: c.ml.gather_cloud(c.scene, n=0), ["power of 4", "got 0"]),
+    ("n not a power of 4", lambda c: c.ml.gather_cloud(c.scene, n=8), ["power of 4", "got 8"]),
+    ("n too large", lambda c: c.ml.gather_cloud(c.scene, n=4**13), ["power of 4"]),
+    ("negative n", lambda c: c.ml.gather_cloud(c.scene, n=-4), ["n"]),
+    ("fractional n", lambda c: c.ml.gather_cloud(c.scene, n=4.5), ["n"]),
+    ("NaN n", lambda c: c.ml.gather_cloud(c.scene, n=float("nan")), ["n"]),
+    ("negative seed", lambda c: c.ml.gather_cloud(c.scene, n=16, seed=-1), ["seed"]),
+    ("not a scene", lambda c: c.ml.gather_cloud("scene.xml", n=16), ["Scene"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.gather_cloud", [
+    ("n not a power of 4", lambda c: c.native.gather_cloud(c.scene, 32), ["power of 4", "got 32"]),
+    ("negative n", lambda c: c.native.gather_cloud(c.scene, -16), ["power of 4", "-16"]),
+])
+cases_for("GatherCloud", [
+    ("no constructor (made by gather_cloud)", lambda c: c.ml.GatherCloud(), ["cannot create"]),
+], raises=("TypeError",))
+cases_for("GatherCloud.on", [
+    ("another topology", lambda c: _gather(c).on(c.ml.load_scene(REPO / "scenes" / "cbox" / "scene.xml", res=8)),
+     ["shape", "topology"]),
+], raises=("ValueError",))
+cases_for("GatherCloud.on", [
+    ("not a scene", lambda c: _gather(c).on(None), ["scene"]),
+], raises=("TypeError",))
+cases_for("GatherCloud.hierarchy", [
+    ("K = 0", lambda c: _gather(c).hierarchy(K=0.0), ["K", "got 0"]),
+    ("NaN K", lambda c: _gather(c).hierarchy(K=float("nan")), ["K", "NaN"]),
+    ("inf K", lambda c: _gather(c).hierarchy(K=float("inf")), ["K", "inf"]),
+])
+cases_for("native.haar2d", [
+    ("not square", lambda c: c.native.haar2d(F(4, 2)), ["shape"]),
+    ("side 3", lambda c: c.native.haar2d(F(3, 3)), ["2^k"]),
+    ("empty", lambda c: c.native.haar2d(F(0, 0)), ["2^k"]),
+    ("4-D", lambda c: c.native.haar2d(F(2, 2, 3, 1)), ["shape"]),
+    ("NaN (names the pixel)", lambda c: c.native.haar2d(_nan_at(F(4, 4, 3), (1, 2, 0))), ["image[1, 2, 0]"]),
+])
+cases_for("native.haar2d", [
+    ("float64", lambda c: c.native.haar2d(np.zeros((4, 4))), ["float"]),
+], raises=("TypeError",))
+cases_for("native.ihaar2d", [
+    ("side 6", lambda c: c.native.ihaar2d(F(6, 6)), ["2^k"]),
+    ("inf", lambda c: c.native.ihaar2d(_nan_at(F(2, 2), (1, 1), np.inf)), ["coeffs[1, 1]"]),
+])
+cases_for("native.haar_support_area", [
+    ("side 0", lambda c: c.native.haar_support_area(0), ["power of 2", "got 0"]),
+    ("side 12", lambda c: c.native.haar_support_area(12), ["power of 2", "got 12"]),
+    ("huge side", lambda c: c.native.haar_support_area(2**40), ["power of 2"]),
+])
+cases_for("native.haar_cull_area_weighted", [
+    ("negative keep", lambda c: c.native.haar_cull_area_weighted(F(4, 4), -1), ["keep"]),
+    ("not square", lambda c: c.native.haar_cull_area_weighted(F(4, 8), 3), ["shape"]),
+    ("NaN", lambda c: c.native.haar_cull_area_weighted(_nan_at(F(2, 2), (0, 1)), 1), ["coeffs[0, 1]"]),
+])
+cases_for("native.cull_wavelet_lights", [
+    ("negative epsilon", lambda c: c.native.cull_wavelet_lights(F(4, 3), F(4), -1.0), ["epsilon"]),
+    ("NaN epsilon", lambda c: c.native.cull_wavelet_lights(F(4, 3), F(4), float("nan")), ["epsilon"]),
+    ("length mismatch", lambda c: c.native.cull_wavelet_lights(F(4, 3), F(5), 0.0), ["image norms"]),
+    ("2-D norms", lambda c: c.native.cull_wavelet_lights(F(4, 3), F(4, 1), 0.0), ["image_norms"]),
+    ("3-D light", lambda c: c.native.cull_wavelet_lights(F(4, 3, 1), F(4), 0.0), ["light"]),
+    ("negative norm", lambda c: c.native.cull_wavelet_lights(F(4, 3), -np.ones(4, np.float32), 0.0), ["norm 0"]),
+    ("inf light", lambda c: c.native.cull_wavelet_lights(_nan_at(F(4, 3), (2, 1), np.inf), F(4), 0.0), ["light 2"]),
+])
+
+# --------------------------------------------------------------------------------------------------
 # Renderers.
 
 cases_for("mrcs", [

@@ -34,11 +34,13 @@ from .metrics import flicker, fraction_within, relative_l2, relative_l2_per_fram
 from .progress import progress_bar as _progress_bar
 from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
 from .tensor import TensorClustering, cluster_tensor, tensor_clustering
+from .gather import GatherCloud, gather_cloud
 
 __version__ = _native.__version__
 
 __all__ = [
     "Animation",
+    "GatherCloud",
     "GpuError",
     "GpuUnavailableError",
     "LightMatrix",
@@ -60,6 +62,7 @@ __all__ = [
     "flicker",
     "fraction_within",
     "generate_animation_lights",
+    "gather_cloud",
     "generate_lights",
     "instant_radiosity",
     "load_animation",

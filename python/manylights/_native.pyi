@@ -248,3 +248,78 @@ def cluster_tensor(slices: npt.NDArray[np.float32], columns: int, seed: int = 0,
     Raises:
         ValueError: bad shapes, NaN/inf (row, light, frame, channel named), columns outside [f, n f],
             chunk / init_clusters / projection_dim of 0, representative not "max" / "sampled" / "centroid"."""
+
+class GatherCloud:
+    """n = 4^k gather samples spread uniformly by area over a scene's surfaces (``manylights.gather_cloud``),
+    each tied to (shape, triangle, barycentrics) so ``on`` re-evaluates it on another frame."""
+    positions: npt.NDArray[np.float32]
+    """(n, 3) world positions (m)."""
+    normals: npt.NDArray[np.float32]
+    """(n, 3) unit shading normals."""
+    geo_normals: npt.NDArray[np.float32]
+    """(n, 3) unit geometric normals."""
+    uv: npt.NDArray[np.float32]
+    """(n, 2) texture coordinates."""
+    areas: npt.NDArray[np.float32]
+    """(n,) area each sample stands for (m^2)."""
+    shape: npt.NDArray[np.int64]
+    """(n,) shape index (document order)."""
+    triangle: npt.NDArray[np.int64]
+    """(n,) triangle within the shape; -1 on an analytic sphere."""
+    barycentrics: npt.NDArray[np.float32]
+    """(n, 2) (b1, b2) of vertices 1 and 2; on a sphere (triangle -1) its (u, v) = (phi / 2 pi, theta / pi)."""
+    k_d: npt.NDArray[np.float32]
+    """(n, 3) diffuse coefficient (textures evaluated)."""
+    k_g: npt.NDArray[np.float32]
+    """(n, 3) glossy coefficient (0 without a glossy lobe)."""
+    roughness: npt.NDArray[np.float32]
+    """(n,) microfacet alpha of the glossy lobe (0 without one)."""
+    bsdf: npt.NDArray[np.uint32]
+    """(m, 20) BSDF records (m >= n; rows n.. are blends' second records). Opaque."""
+    total_area: float
+    diagonal: float
+    seed: int
+    side: int
+    def __len__(self) -> int: ...
+    def on(self, scene: Scene) -> GatherCloud:
+        """The same samples on a scene of the same topology (positions, normals, areas, coefficients recomputed).
+
+        Raises:
+            ValueError: a different topology (names the shape). SceneError: non-finite vertices."""
+    def hierarchy(self, K: float = 30.0) -> dict[str, Any]:
+        """Balanced quad-tree by modified 2-means (Sec. 4.2, Eq. 9): dict with order, pixel, sample_at_pixel
+        ((n,) int64), side, levels, K.
+
+        Raises:
+            ValueError: K not finite and > 0."""
+
+def gather_cloud(scene: Scene, n: int = 16384, seed: int = 0, include_emitters: bool = True) -> GatherCloud:
+    """n = 4^k gather samples by the paper's area stratification (see ``manylights.gather_cloud``).
+
+    Raises:
+        ValueError: n not a power of 4 in 1 ..= 4^12, a scene without surfaces. SceneError: bad meshes."""
+
+def haar2d(image: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+    """Forward non-standard orthonormal 2D Haar transform of an (s, s) or (s, s, C) float32 image, s = 2^k.
+
+    Raises:
+        ValueError: non-square / non-power-of-2 shape, non-finite values."""
+
+def ihaar2d(coeffs: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+    """Inverse of haar2d (same shapes and errors)."""
+
+def haar_support_area(side: int) -> npt.NDArray[np.int64]:
+    """(side, side) pixels covered by each Haar basis function. Raises ValueError: side not a power of 2."""
+
+def haar_cull_area_weighted(coeffs: npt.NDArray[np.float32], keep: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float32]]:
+    """Keep the `keep` coefficients of highest |c| * support area (Sec. 4.3): (indices (k,) ascending, values
+    (k,) or (k, C)).
+
+    Raises:
+        ValueError: bad shape, non-finite values, keep < 0."""
+
+def cull_wavelet_lights(light: npt.NDArray[np.float32], image_norms: npt.NDArray[np.float32], epsilon: float) -> npt.NDArray[np.int64]:
+    """Indices j with |light[j]| * image_norms[j] >= epsilon (Sec. 3.5 on-the-fly culling).
+
+    Raises:
+        ValueError: mismatched shapes, non-finite values, negative norms or epsilon."""

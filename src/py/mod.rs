@@ -5,10 +5,12 @@ pub mod animation;
 pub mod bsdf;
 pub mod cluster;
 pub mod errors;
+pub mod gather;
 pub mod image;
 pub mod lights;
 pub mod lightset;
 pub mod matrix;
+pub mod relight;
 pub mod scene;
 pub mod signals;
 pub mod tensor;
@@ -27,6 +29,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     cluster::register(m)?;
     animation::register(m)?;
     tensor::register(m)?;
+    gather::register(m)?;
+    relight::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -347,3 +347,18 @@ fn bad_input_is_an_error() {
 }
 
 
+
+/// Tensor clustering's indirect lights need not be a power of 4: any count is stratified the same way.
+#[test]
+fn any_count_for_other_uses() {
+    let scene = load("cbox");
+    let c = GatherCloud::new_any_count(&scene, &GatherOptions { n: 1000, seed: 1, include_emitters: true }).unwrap();
+    assert_eq!(c.len(), 1000);
+    let areas = shape_areas(&scene);
+    let total: f64 = areas.iter().sum();
+    for (&k, &a) in c.counts_per_shape().iter().zip(&areas) {
+        assert!((k as f64 - 1000.0 * a / total).abs() <= 4.0);
+    }
+    assert!(GatherCloud::new_any_count(&scene, &GatherOptions { n: 0, seed: 1, include_emitters: true }).is_err());
+    assert!(crate::relight::ClusterHierarchy::of_cloud(&c, 30.0).unwrap_err().to_string().contains("power of 4"));
+}
