@@ -88,8 +88,8 @@ def test_brute_force_matches_mitsuba(anim, lights):
 
 
 def test_bad_input(anim):
-    with pytest.raises(ValueError, match="power of 4"):
-        ml.generate_animation_lights(anim, indirect=1000)
+    # Any gather count works (not only powers of 4).
+    assert ml.generate_animation_lights([anim[0]], area=8, indirect=1000).counts["indirect"] > 900
     with pytest.raises(ValueError, match="no frames"):
         ml.generate_animation_lights([], area=10)
     with pytest.raises(ValueError, match="area"):

@@ -32,7 +32,7 @@ def add_parser(sub) -> None:
     p.add_argument("--res", type=int, default=None, help="image width and height (the scene's 'res' parameter)")
     p.add_argument("--area", type=int, default=2048)
     p.add_argument("--environment", type=int, default=2048)
-    p.add_argument("--indirect", type=int, default=4**6, help="gather samples (a power of 4; 0 = direct only)")
+    p.add_argument("--indirect", type=int, default=4000, help="gather samples as indirect lights (0 = direct only)")
     p.add_argument("--photons", type=int, default=50000, help="multiple-bounce photons per frame (0 = one bounce)")
     p.add_argument("--rows", type=int, default=100)
     p.add_argument("--columns", type=int, default=300, help="representative columns per frame on average")

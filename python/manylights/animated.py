@@ -8,7 +8,7 @@ such sets (the Rust module ``lights::animated`` has the derivation):
 - ``area`` oriented points sampled on frame 0's area emitters and tied to (shape, triangle,
   barycentrics), re-evaluated on every frame (intensity L_e A_e(k) / n_e with the frame's emitter area);
 - ``environment`` directional lights whose directions (equal-area strata) are the same in every frame;
-- ``indirect`` gather samples (a power of 4; Sec. 5 of the paper) tied to all surfaces, shaded in each
+- ``indirect`` gather samples (Sec. 5 of the paper) tied to all surfaces, shaded in each
   frame by that frame's direct light with exact shadow rays (plus, with ``photons`` > 0, multiple-bounce
   irradiance by density estimation of a photon pre-pass without the first hit), each a cosine-emitting
   light: a VPL with its Lambertian k_d and flux E A.
@@ -58,8 +58,8 @@ def generate_animation_lights(animation, *, area: int = 1024, environment: int =
         animation: an ``Animation`` (``load_animation``) or a sequence of ``Scene`` with the same shapes.
         area: oriented points over the area emitters (split by power, stratified by area on frame 0).
         environment: directional lights over the environment map (same directions in every frame).
-        indirect: gather samples turned into indirect lights: 0 or a power of 4 (4**k); those on surfaces
-            without diffuse reflectance are left out, so ``counts["indirect"]`` may be smaller.
+        indirect: gather samples turned into indirect lights (0 for none); those on surfaces without
+            diffuse reflectance are left out, so ``counts["indirect"]`` may be smaller.
         photons: photons of the multiple-bounce pre-pass per frame (0: one bounce of indirect light).
         max_depth: Mitsuba's max_depth bounding the photons' bounces (-1 unlimited).
         clamp: VPL geometry-term clamp (1/m^2), None for ``generate_lights``' default of frame 0.
@@ -69,7 +69,7 @@ def generate_animation_lights(animation, *, area: int = 1024, environment: int =
         AnimationLights: f LightSets of n lights each.
 
     Raises:
-        ValueError: no frames, negative counts, ``indirect`` not a power of 4, frames whose shapes differ
+        ValueError: no frames, negative counts, frames whose shapes differ
             in topology or whose numbers of emitters differ (the frame is named), a frame without emitters.
     """
     scenes = [animation[k] for k in range(len(animation))]

@@ -42,7 +42,7 @@ def add_parser(sub) -> None:
     p.add_argument("--res", type=int, default=128)
     p.add_argument("--area", type=int, default=4096)
     p.add_argument("--environment", type=int, default=4096)
-    p.add_argument("--indirect", type=int, default=4**7, help="gather samples (a power of 4)")
+    p.add_argument("--indirect", type=int, default=16000, help="gather samples (indirect lights)")
     p.add_argument("--photons", type=int, default=100000)
     p.add_argument("--rows", type=int, default=100)
     p.add_argument("--tensor", type=int, nargs="+", default=[200, 400], metavar="COLUMNS",

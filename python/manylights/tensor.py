@@ -178,7 +178,7 @@ def _mapping_arrays(T, m: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, chunk: int = 40,
-                      representative: str = "max", init_clusters: int = 100, row_indices=None,
+                      representative: str = "centroid", init_clusters: int = 100, row_indices=None,
                       progress: bool = False):
     """Render an animation by tensor clustering (Hašan, Velázquez, Pellacini, Bala, EGSR 2008, Sec. 4).
 
@@ -195,7 +195,14 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
         columns: representative columns per frame on average (the paper's budget: 300-500 shadow maps per
             frame are rows + columns); the total c = columns * f is clipped to [f, n f].
         seed: seeds the rows and the clustering.
-        chunk, representative, init_clusters: as ``cluster_tensor``.
+        chunk, init_clusters: as ``cluster_tensor``.
+        representative: "centroid" (default; not in the paper: the pair whose scaled reduced column best
+            matches its cluster's sum), "max" (the paper's Sec. 4.5: the pair of largest weight) or
+            "sampled" (MRCS's weight-proportional choice). Measured on the bundled animation (8 frames,
+            48x48, 3,000 lights, 300 shadow maps per frame): mean per-frame error 1.6% with "centroid"
+            against 3.0-3.2% with "max" (per-frame MRCS at 600: 1.8-2.0%); README has the full figures.
+        row_indices: your own view-sample rows instead of ``stratified_rows``.
+        progress: progress bars for the slices.
 
     Returns:
         AnimationResult: frames (f, H, W, 3) float32; shadow_maps_per_frame = rows + representatives

@@ -14,8 +14,8 @@
 //! - Environment emitters: `environment` directional lights over the equal-area strata of the sphere
 //!   (`environment::strata_lights` without importance), whose directions are the strata's centroids and
 //!   so the same in every frame; each frame integrates its own map over them.
-//! - Indirect light (the paper's Sec. 5): a gather cloud (`gather::GatherCloud`, `indirect` = 4^k samples
-//!   uniformly by area over all surfaces, tied to them) made on frame 0 and moved with the surfaces
+//! - Indirect light (the paper's Sec. 5): a gather cloud (`gather::GatherCloud::new_any_count`, `indirect`
+//!   samples uniformly by area over all surfaces, stratified, tied to them) made on frame 0 and moved with the surfaces
 //!   (`GatherCloud::on`). In each frame a gather sample i is shaded by that frame's direct light
 //!   (every delta, area and environment light above, exact shadow rays through the frame's BVH):
 //!   irradiance E_i = sum_j L_j(p_i) max(0, n_i . w_j) V(p_i, j), the area lights' G = cos cos / d^2 clamped
@@ -56,7 +56,7 @@ pub struct AnimationLightOptions {
     pub area: usize,
     /// Directional lights over the environment.
     pub environment: usize,
-    /// Gather samples turned into indirect lights (a power of 4, or 0 for none).
+    /// Gather samples turned into indirect lights (any count; 0 for none).
     pub indirect: usize,
     /// Photons of the multiple-bounce pre-pass per frame (0: one bounce of indirect light only).
     pub photons: usize,
@@ -170,7 +170,7 @@ fn irradiance(rt: &RayTracer, direct: &LightSet, p: Vec3, n: Vec3, n_g: Vec3, cl
 /// Lights for every frame of an animation (module docs). `frames[0]` fixes the area points, the gather
 /// cloud and the light count.
 ///
-/// Errors: no frames; counts above `MAX_LIGHTS`; `indirect` not 0 or a power of 4; frames whose shapes
+/// Errors: no frames; counts above `MAX_LIGHTS`; frames whose shapes
 /// differ in topology (the frame and shape are named), whose numbers of delta or area emitters differ, or
 /// a frame without emitters; what `GatherCloud` and the tracers raise.
 pub fn generate_animation_lights(frames: &[&Scene], opts: &AnimationLightOptions) -> Result<AnimationLights> {
@@ -181,9 +181,6 @@ pub fn generate_animation_lights(frames: &[&Scene], opts: &AnimationLightOptions
         if v > MAX_LIGHTS {
             return Err(Error::invalid(format!("{name} must be at most {MAX_LIGHTS}, got {v}")));
         }
-    }
-    if opts.indirect > 0 && !(opts.indirect.is_power_of_two() && opts.indirect.trailing_zeros() % 2 == 0) {
-        return Err(Error::invalid(format!("indirect (gather samples) must be 0 or a power of 4 (4^k), got {}", opts.indirect)));
     }
     let clamp = match opts.clamp {
         None => default_clamp(first),
@@ -200,7 +197,7 @@ pub fn generate_animation_lights(frames: &[&Scene], opts: &AnimationLightOptions
     let tied = TiedArea { ties, counts };
     let delta0 = LightSet::from_scene(first)?.len();
     let cloud0 = if opts.indirect > 0 {
-        Some(GatherCloud::new(first, &GatherOptions { n: opts.indirect, seed: opts.seed, include_emitters: true })?)
+        Some(GatherCloud::new_any_count(first, &GatherOptions { n: opts.indirect, seed: opts.seed, include_emitters: true })?)
     } else {
         None
     };
