@@ -121,7 +121,22 @@ def _check_backends_block(ns):
     assert a.image.max() > 0 and err < 1e-6, f"README says ~3e-8, got {err:.2e}"
 
 
-CHECKS = {"Matrix Row-Column Sampling in ten lines": _check_mrcs_block, "Python in ten lines": _check_python_block,
+def _check_animation_block(ns):
+    """Tensor clustering in ten lines: shapes, the frames' lights are the same lights, files written, and the
+    printed error and flicker are those of the result against brute force."""
+    import manylights as ml
+
+    T, res, ref, per = ns["T"], ns["res"], ns["ref"], ns["per"]
+    m, n, f = T.shape
+    assert (m, f) == (32 * 32, 4) and len(ns["lights"]) == f and ns["lights"].n == n
+    assert res.frames.shape == ref.shape == per.frames.shape == (4, 32, 32, 3)
+    assert len(list(Path("out/anim").glob("frame_*.exr"))) == 4 and Path("out/anim.gif").is_file()
+    err = ml.relative_l2_per_frame(res.frames, ref).mean()
+    assert 0 < err < 0.2 and np.mean(res.shadow_maps_per_frame) == 64 + 100
+    assert set(res.timings) >= {"slices", "clustering", "mappings", "columns", "reconstruction"}
+
+
+CHECKS = {"Animations: tensor clustering in ten lines": _check_animation_block,"Matrix Row-Column Sampling in ten lines": _check_mrcs_block, "Python in ten lines": _check_python_block,
           "Interactive use and robustness": _check_own_lights_block, "Two backends: CPU and GPU": _check_backends_block}
 
 

@@ -169,7 +169,7 @@ def main(argv=None) -> int:
     bench_tensor.add_parser(sub)
     bench_vs_mitsuba.add_parser(sub)
     a = ap.parse_args(argv)
-    if a.cmd in ("mrcs", "backends", "vs-mitsuba"):
+    if a.cmd in ("mrcs", "backends", "tensor", "vs-mitsuba"):
         a.run(a)
     elif a.cmd == "lights":
         if a.lights < 2:
