@@ -922,6 +922,107 @@ cases_for("scenes.animation_frames", [
     ("fractional count", lambda c: __import__("manylights.scenes").scenes.animation_frames("bounce", 2.5), ["count"]),
 ])
 
+# Animation lights, the lighting tensor, tensor clustering, animation output (issue 10, items 2, 3, 5, 6, 8).
+def _tensor(c):
+    return c._get("tensor", lambda: c.ml.LightTensor(
+        _anim(c), c.ml.generate_animation_lights(_anim(c), area=8, indirect=8, seed=0), device="cpu"))
+
+
+cases_for("generate_animation_lights", [
+    ("no frames", lambda c: c.ml.generate_animation_lights([], area=4), ["no frames"]),
+    ("negative area", lambda c: c.ml.generate_animation_lights(_anim(c), area=-1), ["area"]),
+    ("fractional indirect", lambda c: c.ml.generate_animation_lights(_anim(c), indirect=2.5), ["indirect"]),
+    ("huge photons", lambda c: c.ml.generate_animation_lights(_anim(c), photons=2**40), ["photons"]),
+    ("NaN clamp", lambda c: c.ml.generate_animation_lights(_anim(c), area=4, clamp=float("nan")), ["clamp"]),
+    ("negative seed", lambda c: c.ml.generate_animation_lights(_anim(c), area=4, seed=-1), ["seed"]),
+    ("frames of other scenes", lambda c: c.ml.generate_animation_lights(
+        [c.scene, c.ml.load_scene(REPO / "scenes" / "cbox" / "scene.xml", res=8)], area=4, indirect=4), ["frame 1"]),
+])
+cases_for("native.generate_animation_lights", [
+    ("not scenes", lambda c: c.native.generate_animation_lights(["a"]), ["Scene"]),
+    ("negative count", lambda c: c.native.generate_animation_lights([c.scene], -3), ["area"]),
+], raises=("ValueError", "TypeError", "OverflowError"))
+cases_for("LightTensor", [
+    ("no frames", lambda c: c.ml.LightTensor([], c.lights), ["no frames"]),
+    ("light sets of different sizes", lambda c: c.ml.LightTensor([c.scene, c.scene], [c.lights, c.lights[:1]]),
+     ["frame 1 has 1 lights"]),
+    ("too few light sets", lambda c: c.ml.LightTensor([c.scene, c.scene], [c.lights]), ["1 light sets for 2 frames"]),
+    ("not a light set", lambda c: c.ml.LightTensor([c.scene], ["lights"]), ["LightSet"]),
+    ("not a scene", lambda c: c.ml.LightTensor(["scene.xml"], c.lights), ["Scene"]),
+    ("unknown device", lambda c: c.ml.LightTensor([c.scene], c.lights, device="fpga"), ["fpga"]),
+])
+cases_for("LightTensor.frame", [
+    ("out of range", lambda c: _tensor(c).frame(2), ["frame 2 out of range"]),
+    ("fractional", lambda c: _tensor(c).frame(0.5), ["integer"]),
+], raises=("IndexError", "ValueError"))
+cases_for("LightTensor.slices", [
+    ("no rows", lambda c: _tensor(c).slices([]), ["at least one"]),
+    ("row out of range", lambda c: _tensor(c).slices([64]), ["row index"]),
+    ("fractional rows", lambda c: _tensor(c).slices([0.5]), ["row index"]),
+])
+cases_for("LightTensor.mapping", [
+    ("frame out of range", lambda c: _tensor(c).mapping(0, 5), ["frame 5"]),
+], raises=("IndexError", "TypeError"))
+cases_for("mrcs_per_frame", [
+    ("not a tensor", lambda c: c.ml.mrcs_per_frame(c.A), ["LightTensor"]),
+    ("zero rows", lambda c: c.ml.mrcs_per_frame(_tensor(c), rows=0, columns=2), ["rows"]),
+    ("too many columns", lambda c: c.ml.mrcs_per_frame(_tensor(c), rows=4, columns=10**6), ["columns"]),
+    ("negative seed", lambda c: c.ml.mrcs_per_frame(_tensor(c), rows=4, columns=2, seed=-1), ["seed"]),
+], raises=("ValueError", "TypeError"))
+cases_for("tensor_clustering", [
+    ("not a tensor", lambda c: c.ml.tensor_clustering(c.A), ["LightTensor"]),
+    ("zero columns", lambda c: c.ml.tensor_clustering(_tensor(c), rows=4, columns=0), ["columns"]),
+    ("zero rows", lambda c: c.ml.tensor_clustering(_tensor(c), rows=0, columns=2), ["rows"]),
+    ("chunk 0", lambda c: c.ml.tensor_clustering(_tensor(c), rows=4, columns=2, chunk=0), ["chunk"]),
+    ("unknown representative", lambda c: c.ml.tensor_clustering(_tensor(c), rows=4, columns=2, representative="x"),
+     ["representative"]),
+    ("row index out of range", lambda c: c.ml.tensor_clustering(_tensor(c), columns=2, row_indices=[64]),
+     ["row index"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.tensor_accumulate", [
+    ("acc not 4-D", lambda c: c.native.tensor_accumulate(np.zeros((2, 3), np.float32), np.zeros((1, 1, 1, 3), np.float32),
+                                                          np.zeros(1, np.uint32), np.zeros((1, 2, 3), np.float32),
+                                                          np.zeros((1, 1), np.uint32), np.zeros((1, 1), np.uint32)),
+     ["(f, H, W, 3)"]),
+    ("source frame out of range", lambda c: c.native.tensor_accumulate(
+        np.zeros((2, 1, 1, 3), np.float32), np.zeros((1, 1, 1, 3), np.float32), np.full(1, 7, np.uint32),
+        np.zeros((1, 2, 3), np.float32), np.zeros((1, 1), np.uint32), np.zeros((1, 1), np.uint32)), ["frame 7"]),
+    ("mapping entry out of range", lambda c: c.native.tensor_accumulate(
+        np.zeros((2, 1, 1, 3), np.float32), np.zeros((1, 1, 1, 3), np.float32), np.zeros(1, np.uint32),
+        np.zeros((1, 2, 3), np.float32), np.full((1, 1), 5, np.uint32), np.zeros((1, 1), np.uint32)), ["maps to 5"]),
+    ("float64 columns", lambda c: c.native.tensor_accumulate(
+        np.zeros((2, 1, 1, 3), np.float32), np.zeros((1, 1, 1, 3)), np.zeros(1, np.uint32),
+        np.zeros((1, 2, 3), np.float32), np.zeros((1, 1), np.uint32), np.zeros((1, 1), np.uint32)), ["float32"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.check_host_memory", [
+    ("more than addressable", lambda c: c.native.check_host_memory("test request", 2**100), ["test request"]),
+], raises=("MemoryError", "OverflowError"))
+cases_for("native.encode_srgb8", [
+    ("2-D image", lambda c: c.native.encode_srgb8(np.zeros((2, 2), np.float32)), ["(H, W, 3)"]),
+    ("NaN exposure", lambda c: c.native.encode_srgb8(np.zeros((1, 1, 3), np.float32), float("nan")), ["exposure"]),
+], raises=("ValueError", "TypeError"))
+cases_for("write_exr_sequence", [
+    ("3-D frames", lambda c: c.ml.write_exr_sequence(np.zeros((2, 2, 3)), c.tmp / "seq"), ["(f, H, W, 3)"]),
+    ("no frames", lambda c: c.ml.write_exr_sequence(np.zeros((0, 2, 2, 3)), c.tmp / "seq"), ["empty"]),
+    ("NaN pixel", lambda c: c.ml.write_exr_sequence(_nan_at(np.zeros((2, 2, 2, 3)), (1, 0, 1, 2)), c.tmp / "seq"),
+     ["frame 1", "row 0", "column 1"]),
+    ("prefix with a separator", lambda c: c.ml.write_exr_sequence(np.zeros((1, 2, 2, 3)), c.tmp / "seq", prefix="a/b"),
+     ["prefix"]),
+])
+cases_for("write_video", [
+    ("unknown format", lambda c: c.ml.write_video(np.zeros((2, 4, 4, 3)), c.tmp / "a.avi"), [".avi"]),
+    ("zero fps", lambda c: c.ml.write_video(np.zeros((2, 4, 4, 3)), c.tmp / "a.gif", fps=0), ["fps"]),
+    ("inf value", lambda c: c.ml.write_video(_nan_at(np.zeros((2, 4, 4, 3)), (0, 1, 1, 0), np.inf), c.tmp / "a.gif"),
+     ["frame 0"]),
+    ("missing folder", lambda c: c.ml.write_video(np.zeros((2, 4, 4, 3)), c.tmp / "no" / "a.gif"), ["does not exist"]),
+], raises=("ValueError", "FileNotFoundError"))
+cases_for("side_by_side", [
+    ("no panels", lambda c: c.ml.side_by_side([]), ["at least one"]),
+    ("shapes differ", lambda c: c.ml.side_by_side([np.zeros((2, 2, 3)), np.zeros((2, 3, 3))]), ["all must match"]),
+    ("label count", lambda c: c.ml.side_by_side([np.zeros((2, 2, 3))], labels=[]), ["0 labels"]),
+    ("negative gap", lambda c: c.ml.side_by_side([np.zeros((2, 2, 3))], gap=-1), ["gap"]),
+])
+
 # An adapter that does not exist: the GPU cannot start (a fresh process: the device is created once).
 cases_for("device_info", [
     ("no such adapter", lambda c: c.ml.device_info(), ["MANYLIGHTS_ADAPTER", "no-such-gpu"]),
@@ -934,6 +1035,8 @@ NOT_COVERED: dict[str, str] = {
     "scenes.available": "takes no arguments",
     "scenes.animated": "takes no arguments",
     "Animation.gbuffers": "takes no arguments (the device is the Animation's, checked when it is made)",
+    "AnimationResult": "a dataclass that only holds results (no validation of its own)",
+    "LightTensor.brute_force": "takes only a progress flag (any truthy value shows a bar)",
 }
 
 # Case id -> environment of its own child process.
