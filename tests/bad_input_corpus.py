@@ -976,6 +976,8 @@ cases_for("tensor_clustering", [
     ("chunk 0", lambda c: c.ml.tensor_clustering(_tensor(c), rows=4, columns=2, chunk=0), ["chunk"]),
     ("unknown representative", lambda c: c.ml.tensor_clustering(_tensor(c), rows=4, columns=2, representative="x"),
      ["representative"]),
+    ("negative time_weight", lambda c: c.ml.tensor_clustering(_tensor(c), rows=4, columns=2, time_weight=-1),
+     ["time_weight"]),
     ("row index out of range", lambda c: c.ml.tensor_clustering(_tensor(c), columns=2, row_indices=[64]),
      ["row index"]),
 ], raises=("ValueError", "TypeError"))

@@ -208,9 +208,10 @@ fn light_split(store: &ChunkStore, cl: &Cluster, rng: &mut Pcg64) -> (Vec<u32>, 
     (left, right, cost_left, cost_right)
 }
 
-/// Splits a cluster of at least two pairs in time or lights, whichever leaves the lower cost (ties:
-/// lights).
-pub(crate) fn split(store: &ChunkStore, cl: &Cluster, rng: &mut Pcg64) -> Split {
+/// Splits a cluster of at least two pairs in time or lights, whichever leaves the lower cost, the time
+/// split's cost multiplied by `time_weight` for the comparison (1: the paper; > 1 favours light splits,
+/// the weighting the paper's Sec. 4.3.2 suggests; ties: lights).
+pub(crate) fn split(store: &ChunkStore, cl: &Cluster, rng: &mut Pcg64, time_weight: f64) -> Split {
     let r = store.num_rows;
     let time = (cl.k1 - cl.k0 >= 2).then(|| {
         let (s, p) = time_items(store, cl);
@@ -236,7 +237,7 @@ pub(crate) fn split(store: &ChunkStore, cl: &Cluster, rng: &mut Pcg64) -> Split 
     match (time, light) {
         (Some(t), Some(l)) => {
             let tie = 1e-12 * t.1 * t.1;
-            if (t.0).1 + (t.0).2 < l.2 + l.3 - tie {
+            if time_weight * ((t.0).1 + (t.0).2) < l.2 + l.3 - tie {
                 time_split(t)
             } else {
                 light_split(l)
@@ -286,7 +287,7 @@ mod tests {
         let c = cluster_cost(&store, &cl);
         assert!((c - direct_cost(&store, &cl)).abs() < 1e-9 * c, "{c} vs {}", direct_cost(&store, &cl));
         for seed in 0..5 {
-            let s = split(&store, &cl, &mut Pcg64::seed_from_u64(seed));
+            let s = split(&store, &cl, &mut Pcg64::seed_from_u64(seed), 1.0);
             assert_eq!(s.left.size() + s.right.size(), cl.size());
             for (part, cost) in [(&s.left, s.cost_left), (&s.right, s.cost_right)] {
                 assert!((cost - direct_cost(&store, part)).abs() < 1e-9 * c, "{cost} vs {}", direct_cost(&store, part));
@@ -323,12 +324,12 @@ mod tests {
         let tensor = ReducedTensor::new(&data, r, n, f, 3).unwrap();
         let store = ChunkStore::build(&tensor, 0, f);
         // Within one kind of light, only time separates: the cut must be at frame 3 at zero cost.
-        let s = split(&store, &Cluster { lights: vec![0, 1, 2, 3], k0: 0, k1: 6 }, &mut Pcg64::seed_from_u64(1));
+        let s = split(&store, &Cluster { lights: vec![0, 1, 2, 3], k0: 0, k1: 6 }, &mut Pcg64::seed_from_u64(1), 1.0);
         assert_eq!(s.kind, SplitKind::Time);
         assert_eq!((s.left.k1, s.right.k0), (3, 3));
         assert!(s.cost_left == 0.0 && s.cost_right == 0.0, "{} {}", s.cost_left, s.cost_right);
         // Within frames 0..3, the two kinds of light separate at zero cost by a light split.
-        let s = split(&store, &Cluster { lights: (0..8).collect(), k0: 0, k1: 3 }, &mut Pcg64::seed_from_u64(2));
+        let s = split(&store, &Cluster { lights: (0..8).collect(), k0: 0, k1: 3 }, &mut Pcg64::seed_from_u64(2), 1.0);
         assert_eq!(s.kind, SplitKind::Light);
         let mut parts = [s.left.lights.clone(), s.right.lights.clone()];
         parts.sort();
