@@ -110,15 +110,22 @@ pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &Sha
     if f == Vec3::ZERO {
         return Shaded::default();
     }
-    let blocked = if dist.is_finite() {
-        tracer.occluded(sp.p, sp.n_g, lights.position[j])
-    } else {
-        tracer.occluded_ray(spawn_ray(sp.p, sp.n_g, wo), wo, f32::INFINITY)
-    };
-    if blocked {
+    if light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) {
         Shaded { value: Vec3::ZERO, tested: true, lit: false }
     } else {
         Shaded { value: f, tested: true, lit: true }
+    }
+}
+
+/// Whether light j, seen from surface point `p` (geometric normal `n_g`) in direction `wo` at distance
+/// `dist` (as `LightSet::emitted` returns them), is blocked: one exact shadow ray with Mitsuba's offsets
+/// toward a light at a finite distance, an unbounded one toward a directional light (module docs).
+#[inline]
+pub fn light_blocked(tracer: &RayTracer, lights: &LightSet, j: usize, p: Vec3, n_g: Vec3, wo: Vec3, dist: f32) -> bool {
+    if dist.is_finite() {
+        tracer.occluded(p, n_g, lights.position[j])
+    } else {
+        tracer.occluded_ray(spawn_ray(p, n_g, wo), wo, f32::INFINITY)
     }
 }
 

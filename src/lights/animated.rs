@@ -38,7 +38,7 @@ use super::generate::{default_clamp, vpl, GenerateOptions, MAX_LIGHTS};
 use super::gather::{GatherCloud, GatherOptions};
 use super::{scene_sphere, LightKind, LightSet};
 use crate::error::{Error, Result};
-use crate::raytrace::{offset_p, spawn_ray, RayTracer};
+use crate::raytrace::{offset_p, RayTracer};
 use crate::scene::{Scene, ShapeKind};
 use crate::shading::bsdf::KIND_DIFFUSE;
 use crate::shading::GpuBsdf;
@@ -97,21 +97,13 @@ struct TiedArea {
 fn evaluate_tie(scene: &Scene, tie: &SurfaceTie, frame: usize) -> Result<Option<(Vec3, Vec3, Vec2)>> {
     match *tie {
         SurfaceTie::Triangle { mesh, triangle, b } => {
-            let m = &scene.meshes[mesh];
-            let idx = m.indices.get(triangle as usize).ok_or_else(|| {
-                Error::invalid(format!("frame {frame}: shape {mesh} ('{}') has no triangle {triangle}", m.id))
-            })?;
-            let [i0, i1, i2] = idx.map(|i| i as usize);
-            let (p0, p1, p2) = (m.positions[i0], m.positions[i1], m.positions[i2]);
-            let c = (p1 - p0).cross(p2 - p0);
-            let len = c.length();
-            if !(len > 0.0 && len.is_finite()) {
+            // The gather cloud's evaluation of a tied point; the emitting side as `area_emitters` picks it.
+            let sp = super::gather::surface_point(scene, mesh, triangle, b).map_err(|e| frame_error(frame, e))?;
+            if sp.n_g == Vec3::ZERO {
                 return Ok(None);
             }
-            let n = emitting_normal(m, [i0, i1, i2], c / len);
-            let b0 = 1.0 - b.x - b.y;
-            let uv = if m.uvs.len() == m.positions.len() { m.uvs[i0] * b0 + m.uvs[i1] * b.x + m.uvs[i2] * b.y } else { b };
-            Ok(Some((p0 * b0 + p1 * b.x + p2 * b.y, n, uv)))
+            let idx = scene.meshes[mesh].indices[triangle as usize].map(|i| i as usize);
+            Ok(Some((sp.p, emitting_normal(&scene.meshes[mesh], idx, sp.n_g), sp.uv)))
         }
         SurfaceTie::Sphere { mesh, direction } => {
             let ShapeKind::Sphere { center, radius, flip_normals } = scene.meshes[mesh].kind else {
@@ -155,12 +147,7 @@ fn irradiance(rt: &RayTracer, direct: &LightSet, p: Vec3, n: Vec3, n_g: Vec3, cl
                 radiance *= clamp / g;
             }
         }
-        let blocked = if dist.is_finite() {
-            rt.occluded(p, n_g, direct.position[j])
-        } else {
-            rt.occluded_ray(spawn_ray(p, n_g, wo), wo, f32::INFINITY)
-        };
-        if !blocked {
+        if !crate::cpu::light_blocked(rt, direct, j, p, n_g, wo, dist) {
             e += radiance * cos;
         }
     }

@@ -157,12 +157,13 @@ pub struct GatherCloud {
 
 /// A surface point evaluated from (shape, triangle, coords).
 #[derive(Debug, Clone, Copy)]
-struct SurfacePoint {
-    p: Vec3,
-    n_g: Vec3,
-    n_s: Vec3,
-    uv: Vec2,
-    primitive_area: f32,
+pub(crate) struct SurfacePoint {
+    pub p: Vec3,
+    /// Unit face normal (zero on a triangle of zero area).
+    pub n_g: Vec3,
+    pub n_s: Vec3,
+    pub uv: Vec2,
+    pub primitive_area: f32,
 }
 
 /// Sphere direction of (u, v) = (phi / 2 pi, theta / pi).
@@ -194,7 +195,7 @@ fn triangle_vertices(m: &Mesh, shape: usize, tri: usize) -> Result<[usize; 3]> {
 }
 
 /// The point of `scene.meshes[shape]` at (triangle, coords), with the ray tracer's conventions.
-fn surface_point(scene: &Scene, shape: usize, tri: u32, c: Vec2) -> Result<SurfacePoint> {
+pub(crate) fn surface_point(scene: &Scene, shape: usize, tri: u32, c: Vec2) -> Result<SurfacePoint> {
     let m = &scene.meshes[shape];
     if let ShapeKind::Sphere { center, radius, flip_normals } = m.kind {
         if !(center.is_finite() && radius > 0.0 && radius.is_finite()) {
