@@ -133,7 +133,7 @@ fn area_frame(scene: &Scene, tied: &TiedArea, areas: &[AreaEmitter], frame0: &Li
 
 /// Irradiance from `direct` at a surface point (p, shading normal n, geometric normal n_g), with exact
 /// visibility and the oriented points' G clamped at `clamp` (module docs).
-fn irradiance(rt: &RayTracer, direct: &LightSet, p: Vec3, n: Vec3, n_g: Vec3, clamp: f32) -> Vec3 {
+pub(crate) fn irradiance(rt: &RayTracer, direct: &LightSet, p: Vec3, n: Vec3, n_g: Vec3, clamp: f32) -> Vec3 {
     let mut e = Vec3::ZERO;
     for j in 0..direct.len() {
         let Some((wo, mut radiance, dist)) = direct.emitted(j, p, n) else { continue };
