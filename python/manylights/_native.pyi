@@ -236,9 +236,10 @@ def antialias(image: npt.NDArray[np.float32], scene: Scene, factor: int = 3,
 
 def cluster_tensor(slices: npt.NDArray[np.float32], columns: int, seed: int = 0, chunk: int = 40,
                    init_clusters: int = 100, projection_dim: int = 50, representative: str = "max",
-                   color_averaging: bool = True, time_weight: float = 1.0) -> dict[str, Any]:
+                   color_averaging: bool = True, time_weight: float = 1.0, frame_major: bool = False) -> dict[str, Any]:
     """Tensor clustering (Hašan et al. 2008) of the light-frame pairs of slices ((r, n, f, 3) or (r, n, f)
-    float32) into `columns` clusters in total, chunks of `chunk` frames.
+    float32; with frame_major the same tensor stored as (f, r, n[, 3])) into `columns` clusters in total,
+    chunks of `chunk` frames.
 
     Returns a dict: assignment (n, f) int32, representatives (c, 2) int64 (light, frame), frames (c, 2)
     int64 [start, end), sizes (c,) int64, rec (c, f, 3) float32, cost (c,) float64, rendered (c,) bool,

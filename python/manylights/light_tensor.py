@@ -148,7 +148,8 @@ class LightTensor:
 
     def slices(self, rows: Sequence[int], *, progress: bool = False) -> np.ndarray:
         """The reduced tensor R = A(I, :, :) (the paper's r slices), (r, n, f, 3) float32: R[a, j, k] is
-        light j's contribution to view sample ``rows[a]`` in frame k.
+        light j's contribution to view sample ``rows[a]`` in frame k. Stored frame by frame: the result is a
+        view of an (f, r, n, 3) array (``np.ascontiguousarray`` for an (r, n, f, 3) copy).
 
         Raises:
             ValueError: rows as ``LightMatrix.rows`` (empty, out of range). MemoryError: R would not fit the
@@ -161,10 +162,12 @@ class LightTensor:
 
         _native.check_host_memory(f"reduced tensor: {idx.size} rows x {n} lights x {f} frames x RGB float32",
                                   int(idx.size) * n * f * 12)
-        out = np.empty((idx.size, n, f, 3), np.float32)
+        # Stored frame by frame (each frame's rows are one contiguous block, no strided copy), returned as the
+        # (r, n, f, 3) view; cluster_tensor takes that view without copying.
+        frames = np.empty((f, idx.size, n, 3), np.float32)
         for k in range(f):
-            out[:, :, k] = self.frame(k).rows(idx, progress=progress)
-        return out
+            frames[k] = self.frame(k).rows(idx, progress=progress)
+        return np.moveaxis(frames, 0, 2)
 
     def brute_force(self, *, progress: bool = False) -> np.ndarray:
         """Every element summed per frame plus what the camera sees of emitters: (f, H, W, 3) float32, the

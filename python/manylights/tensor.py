@@ -154,10 +154,14 @@ def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init
     seed = _v.seed(seed)
     if representative not in ("max", "sampled", "centroid"):
         raise ValueError(f"representative must be 'max', 'sampled' or 'centroid', got {representative!r}")
-    d = _native.cluster_tensor(S, columns, seed, _v.integer("chunk", chunk, 1, 2**63 - 1),
+    # A (r, n, f, 3) view of frame-major data (``LightTensor.slices`` returns one) goes to Rust as it is stored,
+    # without a strided copy.
+    fm = np.moveaxis(S, 2, 0)
+    frame_major = not S.flags.c_contiguous and fm.flags.c_contiguous
+    d = _native.cluster_tensor(fm if frame_major else S, columns, seed, _v.integer("chunk", chunk, 1, 2**63 - 1),
                                _v.integer("init_clusters", init_clusters, 1, 2**63 - 1),
                                _v.integer("projection_dim", projection_dim, 1, 2**63 - 1), representative,
-                               bool(color_averaging), _time_weight(time_weight))
+                               bool(color_averaging), _time_weight(time_weight), frame_major)
     return TensorClustering(representatives=d["representatives"], assignment=d["assignment"], rec=d["rec"],
                             frames=d["frames"], sizes=d["sizes"], cost=d["cost"], rendered=d["rendered"],
                             shadow_maps_per_frame=d["shadow_maps_per_frame"],

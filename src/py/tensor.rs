@@ -14,7 +14,7 @@ use std::borrow::Cow;
 /// shadow_maps_per_frame (f,) int64, clusters_per_frame (f,) int64, chunks (list of dicts).
 /// Raises ValueError on bad shapes, non-finite values, columns outside [f, n f], zero chunk.
 #[pyfunction]
-#[pyo3(name = "cluster_tensor", signature = (slices, columns, seed=0, chunk=40, init_clusters=100, projection_dim=50, representative="max", color_averaging=true, time_weight=1.0))]
+#[pyo3(name = "cluster_tensor", signature = (slices, columns, seed=0, chunk=40, init_clusters=100, projection_dim=50, representative="max", color_averaging=true, time_weight=1.0, frame_major=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn cluster_tensor_py<'py>(
     py: Python<'py>,
@@ -27,13 +27,16 @@ pub fn cluster_tensor_py<'py>(
     representative: &str,
     color_averaging: bool,
     time_weight: f64,
+    frame_major: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let shape = slices.shape().to_vec();
-    let (r, n, f, channels) = match *shape {
-        [r, n, f] => (r, n, f, 1),
-        [r, n, f, 3] => (r, n, f, 3),
+    // frame_major: the array is (f, r, n[, 3]), the same tensor stored frame by frame.
+    let dims = match *shape {
+        [a, b, c] => (a, b, c, 1),
+        [a, b, c, 3] => (a, b, c, 3),
         _ => return Err(Error::invalid(format!("slices must have shape (r, n, f, 3) or (r, n, f), got {shape:?}")).into()),
     };
+    let (r, n, f, channels) = if frame_major { (dims.1, dims.2, dims.0, dims.3) } else { dims };
     let representative = match representative {
         "max" => Representative::MaxWeight,
         "sampled" => Representative::Sampled,
@@ -48,7 +51,11 @@ pub fn cluster_tensor_py<'py>(
     };
     let opts = TensorOptions { seed, chunk, init_clusters, projection_dim, representative, color_averaging, time_weight };
     let result = super::signals::detach(py, || {
-        let t = ReducedTensor::new(&data, r, n, f, channels)?;
+        let t = if frame_major {
+            ReducedTensor::frame_major(&data, r, n, f, channels)?
+        } else {
+            ReducedTensor::new(&data, r, n, f, channels)?
+        };
         tensor::cluster_tensor(t, columns, &opts)
     })?;
     let c = result.num_clusters();

@@ -88,12 +88,24 @@ pub struct ReducedTensor<'a> {
     num_lights: usize,
     num_frames: usize,
     channels: usize,
+    /// Element strides (in units of `channels` values) of row, light and frame.
+    strides: [usize; 3],
 }
 
 impl<'a> ReducedTensor<'a> {
     /// Checks shape and values: r, n, f > 0, channels in {1, 3}, `data.len() == r n f channels`, every
     /// value finite (the error names row, light, frame and channel of the first offending value).
     pub fn new(data: &'a [f32], num_rows: usize, num_lights: usize, num_frames: usize, channels: usize) -> Result<Self> {
+        Self::with_layout(data, num_rows, num_lights, num_frames, channels, false)
+    }
+
+    /// `new` for data stored frame by frame, (f, r, n, channels) in memory (each frame's rows as one block,
+    /// as `LightMatrix.rows` returns them), indexed the same way.
+    pub fn frame_major(data: &'a [f32], num_rows: usize, num_lights: usize, num_frames: usize, channels: usize) -> Result<Self> {
+        Self::with_layout(data, num_rows, num_lights, num_frames, channels, true)
+    }
+
+    fn with_layout(data: &'a [f32], num_rows: usize, num_lights: usize, num_frames: usize, channels: usize, frame_major: bool) -> Result<Self> {
         if num_rows == 0 || num_lights == 0 || num_frames == 0 {
             return Err(Error::invalid(format!(
                 "reduced tensor must have at least one row, light and frame, got shape ({num_rows}, {num_lights}, {num_frames})"
@@ -113,17 +125,24 @@ impl<'a> ReducedTensor<'a> {
                 data.len()
             )));
         }
+        let strides = if frame_major {
+            [num_lights, 1, num_rows * num_lights]
+        } else {
+            [num_lights * num_frames, num_frames, 1]
+        };
         if let Some(at) = data.iter().position(|v| !v.is_finite()) {
             let (element, channel) = (at / channels, at % channels);
-            let (row, rest) = (element / (num_lights * num_frames), element % (num_lights * num_frames));
+            let (row, light, frame) = if frame_major {
+                (element % (num_rows * num_lights) / num_lights, element % num_lights, element / (num_rows * num_lights))
+            } else {
+                (element / (num_lights * num_frames), element % (num_lights * num_frames) / num_frames, element % num_frames)
+            };
             return Err(Error::invalid(format!(
-                "reduced tensor has a non-finite value {} at row {row}, light {}, frame {}, channel {channel}",
-                data[at],
-                rest / num_frames,
-                rest % num_frames
+                "reduced tensor has a non-finite value {} at row {row}, light {light}, frame {frame}, channel {channel}",
+                data[at]
             )));
         }
-        Ok(ReducedTensor { data, num_rows, num_lights, num_frames, channels })
+        Ok(ReducedTensor { data, num_rows, num_lights, num_frames, channels, strides })
     }
     pub fn num_rows(&self) -> usize {
         self.num_rows
@@ -140,7 +159,8 @@ impl<'a> ReducedTensor<'a> {
     /// Channel `ch` of element (row, light, frame); scalar input repeats its value in every channel.
     #[inline]
     pub fn channel(&self, row: usize, light: usize, frame: usize, ch: usize) -> f64 {
-        let at = ((row * self.num_lights + light) * self.num_frames + frame) * self.channels;
+        let [sr, sl, sf] = self.strides;
+        let at = (row * sr + light * sl + frame * sf) * self.channels;
         self.data[at + if self.channels == 1 { 0 } else { ch }] as f64
     }
 }

@@ -288,3 +288,39 @@ fn centroid_representative_is_the_best_aligned_pair_not_the_heaviest() {
     assert!((err(&centroid) - want_centroid).abs() < 1e-4 && (err(&max) - want_max).abs() < 1e-4);
     assert!(err(&centroid) < 0.6 * err(&max), "{} vs {}", err(&centroid), err(&max));
 }
+
+#[test]
+fn frame_major_layout_is_the_same_tensor() {
+    let (r, n, f) = (3, 5, 4);
+    let data: Vec<f32> = (0..r * n * f * 3).map(|x| (x as f32 * 0.37).sin().abs()).collect();
+    // The same values stored frame by frame: (f, r, n, 3).
+    let mut fm = vec![0f32; data.len()];
+    for i in 0..r {
+        for j in 0..n {
+            for k in 0..f {
+                for c in 0..3 {
+                    fm[((k * r + i) * n + j) * 3 + c] = data[((i * n + j) * f + k) * 3 + c];
+                }
+            }
+        }
+    }
+    let a = ReducedTensor::new(&data, r, n, f, 3).unwrap();
+    let b = ReducedTensor::frame_major(&fm, r, n, f, 3).unwrap();
+    for i in 0..r {
+        for j in 0..n {
+            for k in 0..f {
+                for c in 0..3 {
+                    assert_eq!(a.channel(i, j, k, c), b.channel(i, j, k, c));
+                }
+            }
+        }
+    }
+    let opts = TensorOptions { init_clusters: 2, ..Default::default() };
+    let ca = cluster_tensor(a, 8, &opts).unwrap();
+    let cb = cluster_tensor(b, 8, &opts).unwrap();
+    assert_eq!(ca.assignment, cb.assignment);
+    assert_eq!(ca.rec, cb.rec);
+    fm[((2 * r + 1) * n + 4) * 3 + 2] = f32::NAN;
+    let e = ReducedTensor::frame_major(&fm, r, n, f, 3).unwrap_err().to_string();
+    assert!(e.contains("row 1, light 4, frame 2, channel 2"), "{e}");
+}
