@@ -124,7 +124,7 @@ pub fn geometry(tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, q: Vec3, 
     }
     let d = q - sp.p;
     let dist2 = d.length_squared();
-    if !(dist2 > 0.0) {
+    if dist2.is_nan() || dist2 <= 0.0 {
         return (0.0, false);
     }
     let wo = d / dist2.sqrt();
@@ -171,7 +171,7 @@ impl Transfer {
         if !(opts.threshold >= 0.0 && opts.threshold.is_finite()) {
             return Err(Error::invalid(format!("threshold must be finite and >= 0, got {}", opts.threshold)));
         }
-        if !(opts.clamp > 0.0) {
+        if opts.clamp.is_nan() || opts.clamp <= 0.0 {
             return Err(Error::invalid(format!("clamp must be > 0 (or infinite for no clamp), got {}", opts.clamp)));
         }
         let t0 = Instant::now();
@@ -281,7 +281,7 @@ impl RowContext<'_> {
             let s2 = (hi - lo).length_squared();
             let d2 = ((lo + hi) * 0.5 - sp.p).length_squared();
             let leaf = depth == self.hierarchy.levels;
-            if !leaf && !(s2 <= self.opts.threshold * d2) {
+            if !leaf && s2 > self.opts.threshold * d2 {
                 for child in 0..4 {
                     stack.push((depth + 1, 4 * c + child));
                 }

@@ -30,10 +30,10 @@ fn exact_gather_rows_invert_to_the_per_sample_transfer() {
         let row = t.hierarchy.from_image(&image, 1);
         let sp = ShadingPoint::new(&view, i);
         let twosided = view.bsdf[i].flags & FLAG_TWOSIDED != 0;
-        for g in 0..64 {
+        for (g, &got) in row.iter().enumerate() {
             let (geo, _) = geometry(&tracer, &sp, twosided, t.emit_position[g], t.emit_normal[g], t.cloud.geo_normal[g], f32::INFINITY);
             let want = geo * t.cloud.area[g];
-            assert!((row[g] - want).abs() <= 1e-4 * want.abs().max(1e-3), "pixel {i} sample {g}: {} vs {want}", row[g]);
+            assert!((got - want).abs() <= 1e-4 * want.abs().max(1e-3), "pixel {i} sample {g}: {got} vs {want}");
             nonzero += (want > 0.0) as usize;
         }
     }
