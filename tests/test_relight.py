@@ -139,3 +139,11 @@ def test_bad_input(box):
     # NaN intensities never make a LightSet (relight checks again in Rust: relight::tests).
     with pytest.raises(ValueError, match="intensity"):
         ml.LightSet.from_arrays(box, kind=0, position=[[0, 0, 0]], intensity=[[float("nan"), 1, 1]])
+
+
+def test_progress_is_reported(box, monkeypatch, capfd):
+    monkeypatch.setenv("MANYLIGHTS_PROGRESS", "log")
+    rel = ml.DirectToIndirect(box, gather=16, final_gather_coefficients=4, progress=True)
+    err = capfd.readouterr().err
+    assert "final gather" in err and "1024" in err, err
+    assert rel.stats["pixels"] == 1024

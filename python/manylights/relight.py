@@ -11,6 +11,7 @@ import numpy as np
 from . import _native
 from . import _validate as _v
 from ._native import LightSet, Scene
+from .progress import progress_bar as _progress_bar
 
 __all__ = ["DirectToIndirect"]
 
@@ -43,6 +44,7 @@ class DirectToIndirect:
         clamp: bound on the geometry term cos cos / d^2 (1/m^2 in scene units; None = no clamp), the
             paper's clamp of F_d against corner singularities.
         K: Eq. 9's position weight of the hierarchy (> 0).
+        progress: show a progress bar (or log lines) over the pixels' rows (``manylights.progress``).
 
     Attributes:
         timings: dict of seconds: gather_cloud, hierarchy, final_gather; after a relight also
@@ -59,7 +61,7 @@ class DirectToIndirect:
     """
 
     def __init__(self, scene: Scene, gather: int = 4**7, final_gather_coefficients: int = 100, seed: int = 0,
-                 *, threshold: float = 0.03, clamp=None, K: float = 30.0):
+                 *, threshold: float = 0.03, clamp=None, K: float = 30.0, progress: bool = False):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a manylights Scene, got {type(scene).__name__}")
         gather = _v.integer("gather", gather, 1)
@@ -76,7 +78,9 @@ class DirectToIndirect:
         if not K > 0:
             raise ValueError(f"K must be > 0, got {K}")
         self.scene = scene
-        self._t = _native.DirectToIndirect(scene, gather, coefficients, _v.seed(seed), threshold, clamp, K)
+        seed = _v.seed(seed)
+        with _progress_bar(scene.width * scene.height, "final gather", progress, unit="pixel") as callback:
+            self._t = _native.DirectToIndirect(scene, gather, coefficients, seed, threshold, clamp, K, callback)
 
     def relight(self, lights: LightSet, epsilon: float = 0.0) -> np.ndarray:
         """The image lit by ``lights``: direct light plus one diffuse bounce through the transfer.

@@ -29,9 +29,19 @@ pub struct DirectToIndirect {
 #[pymethods]
 impl DirectToIndirect {
     #[new]
-    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight))]
+    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, progress=None))]
     #[allow(clippy::too_many_arguments)]
-    fn new(py: Python<'_>, scene: &Scene, gather: usize, coefficients: usize, seed: u64, threshold: f32, clamp: f32, k_weight: f32) -> PyResult<Self> {
+    fn new(
+        py: Python<'_>,
+        scene: &Scene,
+        gather: usize,
+        coefficients: usize,
+        seed: u64,
+        threshold: f32,
+        clamp: f32,
+        k_weight: f32,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Self> {
         let opts = TransferOptions { gather, coefficients, seed, k_weight, threshold, clamp };
         // Check the cheap arguments before the G-buffer and BVH are built.
         crate::lights::gather::gather_levels(gather)?;
@@ -42,7 +52,10 @@ impl DirectToIndirect {
         let tracer = scene.tracer(py)?;
         let s = scene.inner.clone();
         let (v, t) = (view.clone(), tracer.clone());
-        let inner = signals::detach(py, move || Transfer::new(&s, &v, &t, &opts, &mut |_, _| {}))?;
+        let inner = signals::detach(py, move || {
+            let mut cb = signals::progress_callback(progress);
+            Transfer::new(&s, &v, &t, &opts, &mut cb)
+        })?;
         Ok(DirectToIndirect { inner: Arc::new(inner), scene: scene.inner.clone(), view, tracer, last: Mutex::new(None) })
     }
 
