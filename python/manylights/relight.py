@@ -28,7 +28,11 @@ class DirectToIndirect:
     exact per-sample gather (one ray per view-gather pair); the default 0.03 casts ~3.5x fewer rays on a
     box scene for a 0.04% change of the image. Each row is projected into Haar wavelets
     on the gather image and its ``final_gather_coefficients`` most important coefficients kept
-    (area-weighted, 4.3). The multi-bounce matrix M and the glossy F_g are not computed: one diffuse bounce.
+    (area-weighted, 4.3). With ``bounces`` b > 1 the same gather also runs from every gather sample (the
+    gather-to-gather transfer, rows kept to ``multibounce_coefficients``), and relighting bounces the
+    gather samples' radiance b - 1 times through it before the final gather: the paper's multi-bounce
+    matrix M (Eq. 2, 7) as K + K^2 + ... of the one-bounce transfer K, with exact visibility instead of
+    photon mapping. The glossy F_g is not computed (glossy view samples get their diffuse part only).
 
     Relighting (``relight``): E_g = direct irradiance at the gather samples (exact shadow rays), B_g =
     k_d(g) / pi E_g, wavelet-projected and culled on the fly with ``epsilon`` (3.5), indirect radiance
@@ -40,6 +44,10 @@ class DirectToIndirect:
         gather: n_g, a power of 4 (4, 16, ..., 4^12).
         final_gather_coefficients: wavelet coefficients kept per pixel row, 1 ..= gather.
         seed: seeds the gather cloud and the clusters' representatives.
+        bounces: diffuse bounces of indirect light, 1 ..= 64 (1: F_d only, Mitsuba's max_depth 3; b:
+            max_depth b + 2).
+        multibounce_coefficients: wavelet coefficients kept per gather-to-gather row, 1 ..= gather
+            (used when bounces > 1).
         threshold: solid-angle threshold s^2 / d^2 of the hierarchical gather (>= 0; 0 = exact per-sample).
         clamp: bound on the geometry term cos cos / d^2 (1/m^2 in scene units; None = no clamp), the
             paper's clamp of F_d against corner singularities.
@@ -47,21 +55,25 @@ class DirectToIndirect:
         progress: show a progress bar (or log lines) over the pixels' rows (``manylights.progress``).
 
     Attributes:
-        timings: dict of seconds: gather_cloud, hierarchy, final_gather; after a relight also
-            relight_gather_direct, relight_wavelet, relight_transfer, relight_view_direct.
-        stats: dict: gather, pixels, coefficients_per_row, coefficients_kept, bytes, shadow_rays, links,
+        timings: dict of seconds: gather_cloud, hierarchy, final_gather, multibounce; after a relight
+            also relight_gather_direct, relight_bounces, relight_wavelet, relight_transfer,
+            relight_view_direct.
+        stats: dict: gather, pixels, coefficients_per_row, coefficients_kept, bounces,
+            multibounce_coefficients_per_row, multibounce_coefficients_kept, bytes, shadow_rays, links,
             threshold; after a relight wavelet_lights and wavelet_lights_culled.
         gather_positions, gather_normals, gather_geo_normals: (n_g, 3) float32 where and how each gather
             sample emits (its VPL); gather_areas (n_g,) float32 m^2; gather_k_d (n_g, 3) float32.
 
     Raises:
-        ValueError: gather not a power of 4, final_gather_coefficients outside 1 ..= gather, a negative
+        ValueError: gather not a power of 4, final_gather_coefficients (or multibounce_coefficients with
+            bounces > 1) outside 1 ..= gather, bounces outside 1 ..= 64, a negative
             or non-finite threshold, clamp <= 0, K <= 0, non-integer arguments.
         TypeError: scene not a Scene.
     """
 
     def __init__(self, scene: Scene, gather: int = 4**7, final_gather_coefficients: int = 100, seed: int = 0,
-                 *, threshold: float = 0.03, clamp=None, K: float = 30.0, progress: bool = False):
+                 *, bounces: int = 1, multibounce_coefficients: int = 40, threshold: float = 0.03, clamp=None,
+                 K: float = 30.0, progress: bool = False):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a manylights Scene, got {type(scene).__name__}")
         gather = _v.integer("gather", gather, 1)
@@ -70,6 +82,10 @@ class DirectToIndirect:
         coefficients = _v.integer("final_gather_coefficients", final_gather_coefficients, 1)
         if coefficients > gather:
             raise ValueError(f"final_gather_coefficients must be at most gather ({gather}), got {coefficients}")
+        bounces = _v.integer("bounces", bounces, 1, 64)
+        mb = _v.integer("multibounce_coefficients", multibounce_coefficients, 1)
+        if bounces > 1 and mb > gather:
+            raise ValueError(f"multibounce_coefficients must be at most gather ({gather}), got {mb}")
         threshold = _v.real("threshold", threshold, 0.0)
         clamp = math.inf if clamp is None else _v.real("clamp", clamp)
         if not clamp > 0:
@@ -79,11 +95,13 @@ class DirectToIndirect:
             raise ValueError(f"K must be > 0, got {K}")
         self.scene = scene
         seed = _v.seed(seed)
-        with _progress_bar(scene.width * scene.height, "final gather", progress, unit="pixel") as callback:
-            self._t = _native.DirectToIndirect(scene, gather, coefficients, seed, threshold, clamp, K, callback)
+        rows = scene.width * scene.height + (gather if bounces > 1 else 0)
+        with _progress_bar(rows, "final gather", progress, unit="pixel") as callback:
+            self._t = _native.DirectToIndirect(scene, gather, coefficients, seed, threshold, clamp, K, bounces, mb,
+                                               callback)
 
     def relight(self, lights: LightSet, epsilon: float = 0.0) -> np.ndarray:
-        """The image lit by ``lights``: direct light plus one diffuse bounce through the transfer.
+        """The image lit by ``lights``: direct light plus ``bounces`` diffuse bounces through the transfer.
 
         Args:
             lights: a non-empty LightSet of this scene (point, spot, directional, oriented points, VPLs).

@@ -29,7 +29,7 @@ pub struct DirectToIndirect {
 #[pymethods]
 impl DirectToIndirect {
     #[new]
-    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, progress=None))]
+    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -40,9 +40,11 @@ impl DirectToIndirect {
         threshold: f32,
         clamp: f32,
         k_weight: f32,
+        bounces: u32,
+        multibounce_coefficients: usize,
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Self> {
-        let opts = TransferOptions { gather, coefficients, seed, k_weight, threshold, clamp };
+        let opts = TransferOptions { gather, coefficients, seed, k_weight, threshold, clamp, bounces, multibounce_coefficients };
         // Check the cheap arguments before the G-buffer and BVH are built.
         crate::lights::gather::gather_levels(gather)?;
         if !(1..=gather).contains(&coefficients) {
@@ -109,8 +111,10 @@ impl DirectToIndirect {
         d.set_item("gather_cloud", t.seconds_cloud)?;
         d.set_item("hierarchy", t.seconds_hierarchy)?;
         d.set_item("final_gather", t.seconds_rows)?;
+        d.set_item("multibounce", t.seconds_bounce_rows)?;
         if let Some(s) = self.last.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             d.set_item("relight_gather_direct", s.seconds_gather_direct)?;
+            d.set_item("relight_bounces", s.seconds_bounces)?;
             d.set_item("relight_wavelet", s.seconds_wavelet)?;
             d.set_item("relight_transfer", s.seconds_transfer)?;
             d.set_item("relight_view_direct", s.seconds_view_direct)?;
@@ -128,6 +132,9 @@ impl DirectToIndirect {
         d.set_item("pixels", t.rows.len())?;
         d.set_item("coefficients_per_row", t.opts.coefficients)?;
         d.set_item("coefficients_kept", t.coefficients_kept())?;
+        d.set_item("bounces", t.opts.bounces)?;
+        d.set_item("multibounce_coefficients_per_row", if t.opts.bounces > 1 { t.opts.multibounce_coefficients } else { 0 })?;
+        d.set_item("multibounce_coefficients_kept", t.bounce_coefficients_kept())?;
         d.set_item("bytes", t.bytes())?;
         d.set_item("shadow_rays", t.shadow_rays)?;
         d.set_item("links", t.links)?;

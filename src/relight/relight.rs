@@ -1,11 +1,14 @@
 //! Relighting on the CPU with a precomputed `Transfer` (Hašan, Pellacini, Bala, SIGGRAPH 2006, Sec. 3.2,
-//! 3.3 Eq. 5 and 7 without the multi-bounce matrix M, 3.5).
+//! 3.3 Eq. 5 and 7, 3.5).
 //!
 //! For a light set (any `LightSet`: point, spot, directional, oriented points, VPLs):
 //! 1. direct irradiance at every gather sample, E_g = sum_j L_j(p_g) max(0, n_g . w_j) V(p_g, j), exact
 //!    shadow rays (`lights::animated::irradiance`, no extra clamp on oriented points, as the light matrix);
-//! 2. the gather samples' diffuse outgoing radiance B_g = k_d(g) / pi * E_g (RGB), laid out as the gather
-//!    image and projected into wavelets: b^w = W B (`haar::forward`, 3 channels);
+//! 2. the gather samples' diffuse outgoing radiance B_g = k_d(g) / pi * E_g (RGB); with `bounces` b > 1,
+//!    b - 1 passes of the gather-to-gather transfer add the light bounced among gather samples:
+//!    B_{k+1}(h) = k_d(h) / pi * sum_j F_gg^w(h, j) (W B_k)_j, B = B_1 + ... + B_b (the paper's (M + I) g_d,
+//!    Eq. 7, with M = K + K^2 + ... built from the one-bounce transfer K instead of photon mapping);
+//!    B is laid out as the gather image and projected into wavelets: b^w = W B (`haar::forward`, 3 channels);
 //! 3. on-the-fly culling of wavelet lights (3.5): light j is skipped when |b^w_j| * ||F_d^w(:, j)|| <
 //!    epsilon (`haar::cull_wavelet_lights`; epsilon = 0 keeps all);
 //! 4. the sparse products s_i = sum_j F_d^w(i, j) b^w_j over the kept coefficients of each row and the kept
@@ -34,6 +37,8 @@ use std::time::Instant;
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RelightStats {
     pub seconds_gather_direct: f64,
+    /// The gather-to-gather bounce passes (0 work with one bounce).
+    pub seconds_bounces: f64,
     pub seconds_wavelet: f64,
     pub seconds_transfer: f64,
     pub seconds_view_direct: f64,
@@ -70,6 +75,34 @@ pub fn gather_irradiance(t: &Transfer, tracer: &RayTracer, lights: &LightSet) ->
     })
 }
 
+/// Outgoing diffuse radiance of the gather samples (n_g * 3, sample order): B = B_1 + ... + B_b with
+/// B_1 = k_d / pi E (direct) and B_{k+1} = k_d / pi (F_gg^w W B_k) (module docs, step 2).
+pub fn bounce(t: &Transfer, e: &[Vec3]) -> Result<Vec<f32>> {
+    let n = t.cloud.len();
+    let mut b: Vec<Vec3> = (0..n).map(|g| t.cloud.k_d[g] * FRAC_1_PI * e[g]).collect();
+    let mut total = b.clone();
+    if !t.bounce_rows.is_empty() {
+        for _ in 1..t.opts.bounces {
+            let flat: Vec<f32> = b.iter().flat_map(|v| v.to_array()).collect();
+            let mut bw = t.hierarchy.to_image(&flat, 3);
+            haar::forward(&mut bw, t.hierarchy.side(), 3)?;
+            b = crate::interrupt::par_map_chunked(n, 256, |h| {
+                let row = &t.bounce_rows[h];
+                let mut s = Vec3::ZERO;
+                for (&j, &f) in row.index.iter().zip(&row.value) {
+                    let j = j as usize;
+                    s += f * Vec3::new(bw[3 * j], bw[3 * j + 1], bw[3 * j + 2]);
+                }
+                t.cloud.k_d[h] * FRAC_1_PI * s
+            })?;
+            for (a, v) in total.iter_mut().zip(&b) {
+                *a += *v;
+            }
+        }
+    }
+    Ok(total.into_iter().flat_map(|v| v.to_array()).collect())
+}
+
 /// Indirect radiance (H * W * 3) of the camera hits from gather irradiance `e` (steps 2-5 without direct).
 pub fn indirect(t: &Transfer, view: &ViewSamples, e: &[Vec3], epsilon: f32, stats: &mut RelightStats) -> Result<Vec<f32>> {
     let n = t.cloud.len();
@@ -77,7 +110,9 @@ pub fn indirect(t: &Transfer, view: &ViewSamples, e: &[Vec3], epsilon: f32, stat
         return Err(Error::invalid(format!("{} irradiance values for {n} gather samples", e.len())));
     }
     let t0 = Instant::now();
-    let b: Vec<f32> = (0..n).flat_map(|g| (t.cloud.k_d[g] * FRAC_1_PI * e[g]).to_array()).collect();
+    let b = bounce(t, e)?;
+    stats.seconds_bounces = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
     let mut bw = t.hierarchy.to_image(&b, 3);
     haar::forward(&mut bw, t.hierarchy.side(), 3)?;
     let kept = haar::cull_wavelet_lights(&bw, 3, &t.image_norms, epsilon)?;

@@ -33,6 +33,13 @@
 //! from the seed), and every member g gets F_d(i, r) A_g / A_r; otherwise its four children are visited.
 //! `threshold` = 0 descends to every sample: the exact gather (n_g shadow rays per view sample).
 //!
+//! Multiple bounces (3.2 Eq. 2, replacing the paper's photon-mapped M): with `bounces` b > 1 the same
+//! hierarchical gather runs from every gather sample h with k_d(h) > 0 as a receiver (its surface point,
+//! shading normal and geometric normal, lit from the front side), giving the gather-to-gather transfer
+//! F_gg(h, g) = A_g min(G, clamp) V(h, g); its rows are compressed the same way to
+//! `multibounce_coefficients` (the paper's 40 for M). Relighting applies K = diag(k_d / pi) F_gg b - 1
+//! times to the gather samples' radiance, so M = K + ... + K^(b-1) (exact visibility, no photon noise).
+//!
 //! Compression (3.3, 4.3): each row F_d(i, .) is laid out as the gather image, projected by the 2D Haar
 //! transform (`haar::forward`) and culled to its `coefficients` most important coefficients
 //! (`haar::cull_area_weighted`). Rows are computed in parallel (rayon), with interruption checks.
@@ -54,8 +61,12 @@ pub const DEFAULT_COEFFICIENTS: usize = 100;
 /// casts 3.5x fewer shadow rays than the exact gather for a relative L2 change of 0.04% (against
 /// Mitsuba: 2.76% vs 2.72%; tests/test_relight.py).
 pub const DEFAULT_THRESHOLD: f32 = 0.03;
-/// View samples per parallel task.
+/// Receivers per parallel task.
 const ROW_CHUNK: usize = 16;
+/// Receivers between interruption checks and progress reports.
+const ROW_BLOCK: usize = 256;
+/// Wavelet coefficients kept per gather-to-gather row when none are given (the paper's 40 for M).
+pub const DEFAULT_MULTIBOUNCE_COEFFICIENTS: usize = 40;
 
 /// What `Transfer::new` computes.
 #[derive(Debug, Clone, PartialEq)]
@@ -72,6 +83,11 @@ pub struct TransferOptions {
     pub threshold: f32,
     /// Bound on the geometry term G (1/m^2, > 0; infinite = no clamp).
     pub clamp: f32,
+    /// Diffuse bounces of indirect light (>= 1): 1 = F_d only; b > 1 adds b - 1 passes of the
+    /// gather-to-gather transfer before the final gather (module docs).
+    pub bounces: u32,
+    /// Wavelet coefficients kept per gather-to-gather row (1 ..= n_g; used when bounces > 1).
+    pub multibounce_coefficients: usize,
 }
 
 impl Default for TransferOptions {
@@ -83,6 +99,8 @@ impl Default for TransferOptions {
             k_weight: super::hierarchy::DEFAULT_K,
             threshold: DEFAULT_THRESHOLD,
             clamp: f32::INFINITY,
+            bounces: 1,
+            multibounce_coefficients: DEFAULT_MULTIBOUNCE_COEFFICIENTS,
         }
     }
 }
@@ -104,6 +122,9 @@ pub struct Transfer {
     pub rows: Vec<SparseRow>,
     /// 2-norm of every column of the culled F_d^w (the wavelet lights' image norms, Sec. 3.5).
     pub image_norms: Vec<f32>,
+    /// One culled wavelet row per gather sample of the gather-to-gather transfer F_gg (empty when
+    /// `bounces` = 1; an empty row for samples with k_d = 0), 1 channel.
+    pub bounce_rows: Vec<SparseRow>,
     /// Shadow rays cast by the precomputation.
     pub shadow_rays: u64,
     /// Links (cluster evaluations) made by the hierarchical gather.
@@ -112,6 +133,7 @@ pub struct Transfer {
     pub seconds_cloud: f64,
     pub seconds_hierarchy: f64,
     pub seconds_rows: f64,
+    pub seconds_bounce_rows: f64,
 }
 
 /// F_d(i, g) / A_g for a view sample (`sp`, its BSDF flags) and an emitter at `q` with normals
@@ -171,6 +193,15 @@ impl Transfer {
         if !(opts.threshold >= 0.0 && opts.threshold.is_finite()) {
             return Err(Error::invalid(format!("threshold must be finite and >= 0, got {}", opts.threshold)));
         }
+        if opts.bounces < 1 || opts.bounces > 64 {
+            return Err(Error::invalid(format!("bounces must be in 1 ..= 64, got {}", opts.bounces)));
+        }
+        if opts.bounces > 1 && !(1..=opts.gather).contains(&opts.multibounce_coefficients) {
+            return Err(Error::invalid(format!(
+                "multibounce_coefficients must be in 1 ..= gather ({}), got {}",
+                opts.gather, opts.multibounce_coefficients
+            )));
+        }
         if opts.clamp.is_nan() || opts.clamp <= 0.0 {
             return Err(Error::invalid(format!("clamp must be > 0 (or infinite for no clamp), got {}", opts.clamp)));
         }
@@ -190,36 +221,48 @@ impl Transfer {
         let levels = hierarchy.levels;
         let bounds: Vec<Vec<(Vec3, Vec3)>> = (0..=levels).map(|d| hierarchy.cluster_bounds(d, &emit_position)).collect();
         let pixels = view.num_pixels();
-        let side = hierarchy.side();
         let ctx = RowContext { cloud: &cloud, hierarchy: &hierarchy, bounds: &bounds, emit_position: &emit_position, emit_normal: &emit_normal, opts };
-        let mut rows = Vec::with_capacity(pixels);
-        let (mut shadow_rays, mut links) = (0u64, 0u64);
-        let block = 256usize;
-        let mut start = 0;
-        while start < pixels {
-            let end = (start + block).min(pixels);
-            let part = crate::interrupt::par_map_chunked(end - start, ROW_CHUNK, |k| -> Result<(SparseRow, u64, u64)> {
-                let i = start + k;
-                let sp = ShadingPoint::new(view, i);
-                if !sp.surface {
-                    return Ok((SparseRow::default(), 0, 0));
-                }
-                let twosided = view.bsdf[i].flags & FLAG_TWOSIDED != 0;
-                let mut dense = vec![0f32; n];
-                let (rays, l) = ctx.gather(tracer, &sp, twosided, &mut dense);
-                let mut image = hierarchy.to_image(&dense, 1);
-                haar::forward(&mut image, side, 1)?;
-                Ok((haar::cull_area_weighted(&image, side, 1, opts.coefficients)?, rays, l))
-            })?;
-            for r in part {
-                let (row, rays, l) = r?;
-                rows.push(row);
-                shadow_rays += rays;
-                links += l;
-            }
-            start = end;
-            progress(start, pixels);
-        }
+        // Progress counts the pixels' rows, then the gather samples' rows of the bounce pass.
+        let total = pixels + if opts.bounces > 1 { n } else { 0 };
+        let (rows, mut shadow_rays, mut links) = ctx.rows(
+            tracer,
+            pixels,
+            opts.coefficients,
+            |i| (ShadingPoint::new(view, i), view.bsdf[i].flags & FLAG_TWOSIDED != 0),
+            &mut |d, _| progress(d, total),
+        )?;
+        let seconds_rows = t2.elapsed().as_secs_f64();
+        let t3 = Instant::now();
+        let bounce_rows = if opts.bounces > 1 {
+            // Each gather sample as a receiver: its surface point, lit from its front side.
+            let (r, rays, l) = ctx.rows(
+                tracer,
+                n,
+                opts.multibounce_coefficients,
+                |h| {
+                    let (nn, ng) = (emit_normal[h], cloud.geo_normal[h]);
+                    let (s, t) = crate::lights::coordinate_system(nn);
+                    let sp = ShadingPoint {
+                        p: cloud.position[h],
+                        n: nn,
+                        n_g: ng,
+                        s,
+                        t,
+                        wi_local: Vec3::Z,
+                        throughput: Vec3::ONE,
+                        surface: nn != Vec3::ZERO && cloud.k_d[h].max_element() > 0.0,
+                    };
+                    (sp, false)
+                },
+                &mut |d, _| progress(pixels + d, total),
+            )?;
+            shadow_rays += rays;
+            links += l;
+            r
+        } else {
+            Vec::new()
+        };
+        let seconds_bounce_rows = t3.elapsed().as_secs_f64();
         let image_norms = haar::column_norms(&rows, n, 1)?;
         Ok(Transfer {
             opts: opts.clone(),
@@ -235,18 +278,25 @@ impl Transfer {
             links,
             seconds_cloud,
             seconds_hierarchy,
-            seconds_rows: t2.elapsed().as_secs_f64(),
+            seconds_rows,
+            bounce_rows,
+            seconds_bounce_rows,
         })
     }
 
-    /// Wavelet coefficients kept, over all rows.
+    /// Wavelet coefficients kept, over all final-gather rows.
     pub fn coefficients_kept(&self) -> usize {
         self.rows.iter().map(|r| r.index.len()).sum()
     }
 
-    /// Bytes of the culled rows (a u32 index and an f32 value per coefficient).
+    /// Wavelet coefficients kept, over all gather-to-gather rows.
+    pub fn bounce_coefficients_kept(&self) -> usize {
+        self.bounce_rows.iter().map(|r| r.index.len()).sum()
+    }
+
+    /// Bytes of the culled rows of both matrices (a u32 index and an f32 value per coefficient).
     pub fn bytes(&self) -> usize {
-        self.coefficients_kept() * 8
+        (self.coefficients_kept() + self.bounce_coefficients_kept()) * 8
     }
 }
 
@@ -260,6 +310,47 @@ struct RowContext<'a> {
 }
 
 impl RowContext<'_> {
+    /// Culled wavelet rows (`keep` coefficients each) of `count` receivers, `receiver(i)` giving each one's
+    /// shading point and two-sidedness; returns (rows, rays, links). Parallel, in blocks with
+    /// interruption checks and `progress(done, count)` after each.
+    fn rows(
+        &self,
+        tracer: &RayTracer,
+        count: usize,
+        keep: usize,
+        receiver: impl Fn(usize) -> (ShadingPoint, bool) + Sync,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<(Vec<SparseRow>, u64, u64)> {
+        let n = self.cloud.len();
+        let side = self.hierarchy.side();
+        let mut rows = Vec::with_capacity(count);
+        let (mut shadow_rays, mut links) = (0u64, 0u64);
+        let mut start = 0;
+        while start < count {
+            let end = (start + ROW_BLOCK).min(count);
+            let part = crate::interrupt::par_map_chunked(end - start, ROW_CHUNK, |k| -> Result<(SparseRow, u64, u64)> {
+                let (sp, twosided) = receiver(start + k);
+                if !sp.surface {
+                    return Ok((SparseRow::default(), 0, 0));
+                }
+                let mut dense = vec![0f32; n];
+                let (rays, l) = self.gather(tracer, &sp, twosided, &mut dense);
+                let mut image = self.hierarchy.to_image(&dense, 1);
+                haar::forward(&mut image, side, 1)?;
+                Ok((haar::cull_area_weighted(&image, side, 1, keep)?, rays, l))
+            })?;
+            for r in part {
+                let (row, rays, l) = r?;
+                rows.push(row);
+                shadow_rays += rays;
+                links += l;
+            }
+            start = end;
+            progress(start, count);
+        }
+        Ok((rows, shadow_rays, links))
+    }
+
     /// Fills the dense row F_d(i, .) (sample order) by the hierarchical gather; returns (rays, links).
     fn gather(&self, tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, dense: &mut [f32]) -> (u64, u64) {
         // The side of the tangent plane light may come from (module docs: two-sided flip).

@@ -51,6 +51,8 @@ fn bad_options_are_refused() {
         TransferOptions { gather: 16, coefficients: 0, ..Default::default() },
         TransferOptions { gather: 16, coefficients: 4, threshold: -1.0, ..Default::default() },
         TransferOptions { gather: 16, coefficients: 4, clamp: 0.0, ..Default::default() },
+        TransferOptions { gather: 16, coefficients: 4, bounces: 0, ..Default::default() },
+        TransferOptions { gather: 16, coefficients: 4, bounces: 2, multibounce_coefficients: 17, ..Default::default() },
     ] {
         assert!(Transfer::new(&scene, &view, &tracer, &opts, &mut |_, _| {}).is_err(), "{opts:?}");
     }
