@@ -50,7 +50,10 @@ class DirectToIndirect:
             (used when bounces > 1).
         threshold: solid-angle threshold s^2 / d^2 of the hierarchical gather (>= 0; 0 = exact per-sample).
         clamp: bound on the geometry term cos cos / d^2 (1/m^2 in scene units; None = no clamp), the
-            paper's clamp of F_d against corner singularities.
+            paper's clamp of F_d against corner singularities. It trades spikes near corners for
+            darkening: on the 2 m test box at 128x128 with 4^7 gather samples, clamp=100 lowers the error
+            against Mitsuba from 10.0% to 5.3%; at 32x32 with 4^6 samples clamp=10 raises it from 2.8% to
+            5.4%.
         K: Eq. 9's position weight of the hierarchy (> 0).
         progress: show a progress bar (or log lines) over the pixels' rows (``manylights.progress``).
 
@@ -60,7 +63,9 @@ class DirectToIndirect:
             relight_view_direct.
         stats: dict: gather, pixels, coefficients_per_row, coefficients_kept, bounces,
             multibounce_coefficients_per_row, multibounce_coefficients_kept, bytes, shadow_rays, links,
-            threshold; after a relight wavelet_lights and wavelet_lights_culled.
+            threshold; after a relight wavelet_lights (non-zero coefficients of the projected lighting)
+            and wavelet_lights_culled (those skipped by epsilon, including any whose image is 0 after
+            the rows' culling).
         gather_positions, gather_normals, gather_geo_normals: (n_g, 3) float32 where and how each gather
             sample emits (its VPL); gather_areas (n_g,) float32 m^2; gather_k_d (n_g, 3) float32.
 
