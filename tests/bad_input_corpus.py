@@ -730,6 +730,41 @@ cases_for("native.cull_wavelet_lights", [
     ("negative norm", lambda c: c.native.cull_wavelet_lights(F(4, 3), -np.ones(4, np.float32), 0.0), ["norm 0"]),
     ("inf light", lambda c: c.native.cull_wavelet_lights(_nan_at(F(4, 3), (2, 1), np.inf), F(4), 0.0), ["light 2"]),
 ])
+_d2i = lambda c: c._get("d2i", lambda: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4))  # noqa: E731
+cases_for("DirectToIndirect", [
+    ("gather not a power of 4", lambda c: c.ml.DirectToIndirect(c.scene, gather=32, final_gather_coefficients=4), ["power of 4", "32"]),
+    ("gather = 0", lambda c: c.ml.DirectToIndirect(c.scene, gather=0, final_gather_coefficients=4), ["gather"]),
+    ("fractional gather", lambda c: c.ml.DirectToIndirect(c.scene, gather=16.5, final_gather_coefficients=4), ["gather"]),
+    ("coefficients > gather", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=17), ["at most", "17"]),
+    ("coefficients = 0", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=0), ["final_gather_coefficients"]),
+    ("negative threshold", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, threshold=-1), ["threshold"]),
+    ("NaN threshold", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, threshold=float("nan")), ["threshold"]),
+    ("clamp 0", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, clamp=0), ["clamp"]),
+    ("K 0", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, K=0), ["K"]),
+    ("bounces 0", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, bounces=0), ["bounces"]),
+    ("multibounce_coefficients > gather", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, bounces=2, multibounce_coefficients=17), ["multibounce_coefficients", "17"]),
+    ("negative seed", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, seed=-1), ["seed"]),
+    ("not a scene", lambda c: c.ml.DirectToIndirect("scene.xml", gather=16, final_gather_coefficients=4), ["Scene"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.DirectToIndirect", [
+    ("gather not a power of 4", lambda c: c.native.DirectToIndirect(c.scene, 32, 4, 0, 0.0, float("inf"), 30.0), ["power of 4", "32"]),
+    ("coefficients > gather", lambda c: c.native.DirectToIndirect(c.scene, 16, 17, 0, 0.0, float("inf"), 30.0), ["17"]),
+    ("negative threshold", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, -1.0, float("inf"), 30.0), ["threshold"]),
+    ("clamp 0", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, 0.0, 30.0), ["clamp"]),
+    ("K NaN", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), float("nan")), ["K"]),
+    ("bounces 0", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), 30.0, 0), ["bounces"]),
+    ("multibounce_coefficients 0", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), 30.0, 2, 0), ["multibounce_coefficients"]),
+])
+cases_for("DirectToIndirect.relight", [
+    ("empty LightSet", lambda c: _d2i(c).relight(c.lights[0:0]), ["empty"]),
+    ("negative epsilon", lambda c: _d2i(c).relight(c.lights, epsilon=-1.0), ["epsilon"]),
+    ("NaN epsilon", lambda c: _d2i(c).relight(c.lights, epsilon=float("nan")), ["epsilon"]),
+    ("not a LightSet", lambda c: _d2i(c).relight(np.zeros((3, 3))), ["LightSet"]),
+], raises=("ValueError", "TypeError"))
+cases_for("DirectToIndirect.gather_irradiance", [
+    ("empty LightSet", lambda c: _d2i(c).gather_irradiance(c.lights[0:0]), ["empty"]),
+    ("not a LightSet", lambda c: _d2i(c).gather_irradiance(None), ["LightSet"]),
+], raises=("ValueError", "TypeError"))
 
 # --------------------------------------------------------------------------------------------------
 # Renderers.

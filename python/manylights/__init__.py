@@ -35,11 +35,13 @@ from .progress import progress_bar as _progress_bar
 from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
 from .tensor import TensorClustering, cluster_tensor, tensor_clustering
 from .gather import GatherCloud, gather_cloud
+from .relight import DirectToIndirect
 
 __version__ = _native.__version__
 
 __all__ = [
     "Animation",
+    "DirectToIndirect",
     "GatherCloud",
     "GpuError",
     "GpuUnavailableError",

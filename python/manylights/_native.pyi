@@ -250,6 +250,25 @@ def cluster_tensor(slices: npt.NDArray[np.float32], columns: int, seed: int = 0,
         ValueError: bad shapes, NaN/inf (row, light, frame, channel named), columns outside [f, n f],
             chunk / init_clusters / projection_dim of 0, representative not "max" / "sampled" / "centroid"."""
 
+class DirectToIndirect:
+    """Precomputed final-gather transfer F_d^w and CPU relighting (use manylights.DirectToIndirect)."""
+    gather_positions: npt.NDArray[np.float32]
+    gather_normals: npt.NDArray[np.float32]
+    gather_geo_normals: npt.NDArray[np.float32]
+    gather_areas: npt.NDArray[np.float32]
+    gather_k_d: npt.NDArray[np.float32]
+    timings: dict[str, float]
+    stats: dict[str, Any]
+    def __init__(self, scene: Scene, gather: int, coefficients: int, seed: int, threshold: float, clamp: float,
+                 k_weight: float, bounces: int = 1, multibounce_coefficients: int = 40,
+                 progress: Optional[Callable[[int, int], None]] = None) -> None:
+        """Raises ValueError: gather not a power of 4, coefficients outside 1 ..= gather, threshold < 0,
+        clamp <= 0, K <= 0."""
+    def relight(self, lights: LightSet, epsilon: float) -> npt.NDArray[np.float32]:
+        """(H, W, 3) direct + one diffuse bounce. Raises ValueError: empty set, non-finite lights, epsilon < 0."""
+    def gather_irradiance(self, lights: LightSet) -> npt.NDArray[np.float32]:
+        """(n_g, 3) direct irradiance at the gather samples (W/m^2)."""
+
 class GatherCloud:
     """n = 4^k gather samples spread uniformly by area over a scene's surfaces (``manylights.gather_cloud``),
     each tied to (shape, triangle, barycentrics) so ``on`` re-evaluates it on another frame."""

@@ -14,6 +14,7 @@ pub mod relight;
 pub mod scene;
 pub mod signals;
 pub mod tensor;
+pub mod transfer;
 pub mod util;
 
 #[pymodule]
@@ -31,6 +32,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     tensor::register(m)?;
     gather::register(m)?;
     relight::register(m)?;
+    transfer::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,0 +1,153 @@
+//! `DirectToIndirect`: the precomputed final-gather transfer and CPU relighting (`relight::transfer`,
+//! `relight::relight`); the Python class `manylights.DirectToIndirect` wraps it.
+use super::lightset::LightSet;
+use super::scene::Scene;
+use super::signals;
+use super::util::{array, vec3_array};
+use crate::error::Error;
+use crate::matrix::backend::Chosen;
+use crate::relight::relight::{self as core, RelightStats};
+use crate::relight::transfer::{Transfer, TransferOptions};
+use crate::raytrace::RayTracer;
+use crate::view::ViewSamples;
+use crate::view_chains::ChainOptions;
+use numpy::PyArrayDyn;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::sync::{Arc, Mutex};
+
+/// Precomputed direct-to-indirect transfer of one scene and camera (see `manylights.DirectToIndirect`).
+#[pyclass(module = "manylights._native", frozen)]
+pub struct DirectToIndirect {
+    inner: Arc<Transfer>,
+    scene: Arc<crate::scene::Scene>,
+    view: Arc<ViewSamples>,
+    tracer: Arc<RayTracer>,
+    last: Mutex<Option<RelightStats>>,
+}
+
+#[pymethods]
+impl DirectToIndirect {
+    #[new]
+    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        scene: &Scene,
+        gather: usize,
+        coefficients: usize,
+        seed: u64,
+        threshold: f32,
+        clamp: f32,
+        k_weight: f32,
+        bounces: u32,
+        multibounce_coefficients: usize,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Self> {
+        let opts = TransferOptions { gather, coefficients, seed, k_weight, threshold, clamp, bounces, multibounce_coefficients };
+        // Check the cheap arguments before the G-buffer and BVH are built.
+        crate::lights::gather::gather_levels(gather)?;
+        if !(1..=gather).contains(&coefficients) {
+            return Err(Error::invalid(format!("final_gather_coefficients must be in 1 ..= gather ({gather}), got {coefficients}")).into());
+        }
+        let view = scene.view_samples_on(py, ChainOptions::default(), &Chosen::Cpu)?;
+        let tracer = scene.tracer(py)?;
+        let s = scene.inner.clone();
+        let (v, t) = (view.clone(), tracer.clone());
+        let inner = signals::detach(py, move || {
+            let mut cb = signals::progress_callback(progress);
+            Transfer::new(&s, &v, &t, &opts, &mut cb)
+        })?;
+        Ok(DirectToIndirect { inner: Arc::new(inner), scene: scene.inner.clone(), view, tracer, last: Mutex::new(None) })
+    }
+
+    /// (H, W, 3) float32 relit image (direct + one diffuse bounce).
+    fn relight<'py>(&self, py: Python<'py>, lights: &LightSet, epsilon: f32) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let (t, s, v, tr, l) = (self.inner.clone(), self.scene.clone(), self.view.clone(), self.tracer.clone(), lights.inner.clone());
+        let (img, stats) = signals::detach(py, move || core::relight(&t, s, v, tr, l, epsilon))?;
+        *self.last.lock().unwrap_or_else(|e| e.into_inner()) = Some(stats);
+        array(py, img, &[self.inner.height as usize, self.inner.width as usize, 3])
+    }
+
+    /// (n_g, 3) float32 direct irradiance E_g (W/m^2) at the gather samples from `lights`.
+    fn gather_irradiance<'py>(&self, py: Python<'py>, lights: &LightSet) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        core::check_lights(&lights.inner)?;
+        let (t, tr, l) = (self.inner.clone(), self.tracer.clone(), lights.inner.clone());
+        let e = signals::detach(py, move || core::gather_irradiance(&t, &tr, &l))?;
+        vec3_array(py, &e)
+    }
+
+    /// (n_g, 3) float32: where each gather sample emits from (its VPL position).
+    #[getter]
+    fn gather_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.emit_position)
+    }
+    /// (n_g, 3) float32 emitting shading normals.
+    #[getter]
+    fn gather_normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.emit_normal)
+    }
+    /// (n_g, 3) float32 geometric normals.
+    #[getter]
+    fn gather_geo_normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.cloud.geo_normal)
+    }
+    /// (n_g,) float32 areas (m^2).
+    #[getter]
+    fn gather_areas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        array(py, self.inner.cloud.area.clone(), &[self.inner.cloud.len()])
+    }
+    /// (n_g, 3) float32 diffuse coefficients.
+    #[getter]
+    fn gather_k_d<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        vec3_array(py, &self.inner.cloud.k_d)
+    }
+
+    /// Seconds per stage of the precomputation and of the last relight.
+    #[getter]
+    fn timings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        let t = &self.inner;
+        d.set_item("gather_cloud", t.seconds_cloud)?;
+        d.set_item("hierarchy", t.seconds_hierarchy)?;
+        d.set_item("final_gather", t.seconds_rows)?;
+        d.set_item("multibounce", t.seconds_bounce_rows)?;
+        if let Some(s) = self.last.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            d.set_item("relight_gather_direct", s.seconds_gather_direct)?;
+            d.set_item("relight_bounces", s.seconds_bounces)?;
+            d.set_item("relight_wavelet", s.seconds_wavelet)?;
+            d.set_item("relight_transfer", s.seconds_transfer)?;
+            d.set_item("relight_view_direct", s.seconds_view_direct)?;
+        }
+        Ok(d)
+    }
+
+    /// Sizes: gather samples, pixels, coefficients kept, bytes, shadow rays, links, wavelet lights of the
+    /// last relight and how many were culled.
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        let t = &self.inner;
+        d.set_item("gather", t.cloud.len())?;
+        d.set_item("pixels", t.rows.len())?;
+        d.set_item("coefficients_per_row", t.opts.coefficients)?;
+        d.set_item("coefficients_kept", t.coefficients_kept())?;
+        d.set_item("bounces", t.opts.bounces)?;
+        d.set_item("multibounce_coefficients_per_row", if t.opts.bounces > 1 { t.opts.multibounce_coefficients } else { 0 })?;
+        d.set_item("multibounce_coefficients_kept", t.bounce_coefficients_kept())?;
+        d.set_item("bytes", t.bytes())?;
+        d.set_item("shadow_rays", t.shadow_rays)?;
+        d.set_item("links", t.links)?;
+        d.set_item("threshold", t.opts.threshold)?;
+        if let Some(s) = self.last.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            d.set_item("wavelet_lights", s.wavelet_lights)?;
+            d.set_item("wavelet_lights_culled", s.wavelet_lights_culled)?;
+        }
+        Ok(d)
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<DirectToIndirect>()?;
+    Ok(())
+}

@@ -1,0 +1,59 @@
+use super::*;
+use crate::relight::haar;
+use crate::scene::{load_scene, LoadOptions};
+use crate::view_chains::ChainOptions;
+
+fn setup() -> (Scene, ViewSamples, RayTracer) {
+    let path = crate::testing::shared_dir().join("scenes").join("cbox").join("scene.xml");
+    let scene = load_scene(&path, &LoadOptions { size: Some((8, 8)), ..Default::default() }).unwrap();
+    let tracer = RayTracer::new(&scene).unwrap();
+    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
+    let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &ChainOptions::default()).unwrap();
+    (scene, view, tracer)
+}
+
+/// Keeping every coefficient, threshold 0 reproduces the per-sample gather A_g G V (inverse Haar of the
+/// stored rows), and a coarser threshold casts fewer rays.
+#[test]
+fn exact_gather_rows_invert_to_the_per_sample_transfer() {
+    let (scene, view, tracer) = setup();
+    let opts = TransferOptions { gather: 64, coefficients: 64, threshold: 0.0, ..Default::default() };
+    let t = Transfer::new(&scene, &view, &tracer, &opts, &mut |_, _| {}).unwrap();
+    let side = t.hierarchy.side();
+    let mut nonzero = 0;
+    for i in 0..view.num_pixels() {
+        let mut image = vec![0f32; 64];
+        for (&j, &v) in t.rows[i].index.iter().zip(&t.rows[i].value) {
+            image[j as usize] = v;
+        }
+        haar::inverse(&mut image, side, 1).unwrap();
+        let row = t.hierarchy.from_image(&image, 1);
+        let sp = ShadingPoint::new(&view, i);
+        let twosided = view.bsdf[i].flags & FLAG_TWOSIDED != 0;
+        for (g, &got) in row.iter().enumerate() {
+            let (geo, _) = geometry(&tracer, &sp, twosided, t.emit_position[g], t.emit_normal[g], t.cloud.geo_normal[g], f32::INFINITY);
+            let want = geo * t.cloud.area[g];
+            assert!((got - want).abs() <= 1e-4 * want.abs().max(1e-3), "pixel {i} sample {g}: {got} vs {want}");
+            nonzero += (want > 0.0) as usize;
+        }
+    }
+    assert!(nonzero > 64, "only {nonzero} non-zero elements");
+    let coarse = Transfer::new(&scene, &view, &tracer, &TransferOptions { threshold: 1.0, ..opts.clone() }, &mut |_, _| {}).unwrap();
+    assert!(coarse.shadow_rays < t.shadow_rays / 2, "{} vs {}", coarse.shadow_rays, t.shadow_rays);
+}
+
+#[test]
+fn bad_options_are_refused() {
+    let (scene, view, tracer) = setup();
+    for opts in [
+        TransferOptions { gather: 32, coefficients: 8, ..Default::default() },
+        TransferOptions { gather: 16, coefficients: 17, ..Default::default() },
+        TransferOptions { gather: 16, coefficients: 0, ..Default::default() },
+        TransferOptions { gather: 16, coefficients: 4, threshold: -1.0, ..Default::default() },
+        TransferOptions { gather: 16, coefficients: 4, clamp: 0.0, ..Default::default() },
+        TransferOptions { gather: 16, coefficients: 4, bounces: 0, ..Default::default() },
+        TransferOptions { gather: 16, coefficients: 4, bounces: 2, multibounce_coefficients: 17, ..Default::default() },
+    ] {
+        assert!(Transfer::new(&scene, &view, &tracer, &opts, &mut |_, _| {}).is_err(), "{opts:?}");
+    }
+}
