@@ -141,7 +141,13 @@ def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init
             a representative other than "max" / "sampled" / "centroid", a negative seed.
         TypeError: a non-numeric (complex, string) slices array.
     """
-    S = _v.numeric_array("slices", slices)
+    S = np.asarray(slices)
+    # A float32 (r, n, f, 3) view of frame-major data (``LightTensor.slices`` returns one) is handed to Rust as
+    # it is stored; anything else becomes a C-contiguous float32 array.
+    frame_major = (S.dtype == np.float32 and S.ndim in (3, 4) and not S.flags.c_contiguous
+                   and np.moveaxis(S, 2, 0).flags.c_contiguous)
+    if not frame_major:
+        S = _v.numeric_array("slices", S)
     if S.ndim not in (3, 4) or (S.ndim == 4 and S.shape[3] != 3):
         raise ValueError(f"slices must have shape (r, n, f, 3) or (r, n, f), got {S.shape}")
     r, n, f = S.shape[:3]
@@ -154,11 +160,7 @@ def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init
     seed = _v.seed(seed)
     if representative not in ("max", "sampled", "centroid"):
         raise ValueError(f"representative must be 'max', 'sampled' or 'centroid', got {representative!r}")
-    # A (r, n, f, 3) view of frame-major data (``LightTensor.slices`` returns one) goes to Rust as it is stored,
-    # without a strided copy.
-    fm = np.moveaxis(S, 2, 0)
-    frame_major = not S.flags.c_contiguous and fm.flags.c_contiguous
-    d = _native.cluster_tensor(fm if frame_major else S, columns, seed, _v.integer("chunk", chunk, 1, 2**63 - 1),
+    d = _native.cluster_tensor(np.moveaxis(S, 2, 0) if frame_major else S, columns, seed, _v.integer("chunk", chunk, 1, 2**63 - 1),
                                _v.integer("init_clusters", init_clusters, 1, 2**63 - 1),
                                _v.integer("projection_dim", projection_dim, 1, 2**63 - 1), representative,
                                bool(color_averaging), _time_weight(time_weight), frame_major)

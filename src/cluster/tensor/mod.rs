@@ -156,6 +156,10 @@ impl<'a> ReducedTensor<'a> {
     pub fn channels(&self) -> usize {
         self.channels
     }
+    /// Whether the data is stored frame by frame (`frame_major`).
+    pub fn is_frame_major(&self) -> bool {
+        self.strides[1] == 1 && self.num_frames > 1
+    }
     /// Channel `ch` of element (row, light, frame); scalar input repeats its value in every channel.
     #[inline]
     pub fn channel(&self, row: usize, light: usize, frame: usize, ch: usize) -> f64 {
