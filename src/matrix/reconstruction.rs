@@ -23,8 +23,8 @@
 use crate::error::{Error, Result};
 use rayon::prelude::*;
 
-/// A mapping entry for a pixel without a source pixel.
-pub const NO_SOURCE: u32 = u32::MAX;
+/// A mapping entry for a pixel without a source pixel (the pixel mappings' own marker).
+pub use super::mapping::NO_SOURCE;
 
 /// Pixels per parallel task.
 const CHUNK: usize = 1024;
