@@ -741,6 +741,7 @@ cases_for("DirectToIndirect", [
     ("NaN threshold", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, threshold=float("nan")), ["threshold"]),
     ("clamp 0", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, clamp=0), ["clamp"]),
     ("K 0", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, K=0), ["K"]),
+    ("unknown near_field", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, near_field="sphere"), ["near_field", "sphere"]),
     ("bounces 0", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, bounces=0), ["bounces"]),
     ("multibounce_coefficients > gather", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, bounces=2, multibounce_coefficients=17), ["multibounce_coefficients", "17"]),
     ("negative seed", lambda c: c.ml.DirectToIndirect(c.scene, gather=16, final_gather_coefficients=4, seed=-1), ["seed"]),
@@ -753,6 +754,7 @@ cases_for("native.DirectToIndirect", [
     ("clamp 0", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, 0.0, 30.0), ["clamp"]),
     ("K NaN", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), float("nan")), ["K"]),
     ("bounces 0", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), 30.0, 0), ["bounces"]),
+    ("unknown near_field", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), 30.0, 1, 40, None, "sphere"), ["near_field", "sphere"]),
     ("multibounce_coefficients 0", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), 30.0, 2, 0), ["multibounce_coefficients"]),
 ])
 cases_for("DirectToIndirect.relight", [

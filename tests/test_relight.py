@@ -38,7 +38,7 @@ def _dense(scene, rel, lights):
 
 def test_no_culling_equals_dense_transfer_product(box):
     lights = _lights(box)
-    rel = ml.DirectToIndirect(box, gather=4**5, final_gather_coefficients=4**5, threshold=0.0)
+    rel = ml.DirectToIndirect(box, gather=4**5, final_gather_coefficients=4**5, threshold=0.0, near_field="point")
     img = rel.relight(lights)
     assert img.shape == (32, 32, 3) and img.dtype == np.float32
     dense = _dense(box, rel, lights)
@@ -57,7 +57,7 @@ def test_multibounce_without_culling_equals_dense_vpl_chain(box):
     generation's irradiance at the gather samples computed from the previous one's VPLs."""
     lights = ml.scene_lights(box)
     rel = ml.DirectToIndirect(box, gather=4**5, final_gather_coefficients=4**5, bounces=3,
-                              multibounce_coefficients=4**5, threshold=0.0)
+                              multibounce_coefficients=4**5, threshold=0.0, near_field="point")
     img = rel.relight(lights)
 
     def vpls(e):
@@ -123,7 +123,9 @@ def test_against_mitsuba_one_bounce(box, mitsuba_ref, tmp_path):
     err, err_inner, edges, noise = _edge_free_error(mitsuba_ref, BOX, box, spot, rel.relight(spot))
     print(f"spot: relative L2 vs Mitsuba (max_depth 3, 1024 spp, noise {noise:.4f}): {err:.4f}, "
           f"without {edges} edge pixels {err_inner:.4f}")
-    # Measured: 2.76% (reference noise 1.3%; without the bounce it would be 21.6%, the indirect share).
+    # Measured: 3.64% with the default near_field="disc" (2.76% with "point": at 32x32 the point form's
+    # corner spikes average out; the disc's near-field darkening costs a little); reference noise 1.3%;
+    # without the bounce it would be 21.6%, the indirect share.
     assert err < 0.05 and err_inner < 0.05 and edges <= 20
     # A light never seen before (the transfer does not depend on the lights): a point light near the
     # ceiling's corner, rendered by Mitsuba from the same box with the spot swapped for it.
@@ -136,20 +138,20 @@ def test_against_mitsuba_one_bounce(box, mitsuba_ref, tmp_path):
     err, err_inner, edges, noise = _edge_free_error(mitsuba_ref, path, box, point, rel.relight(point))
     print(f"unseen point light: {err:.4f}, without {edges} edge pixels {err_inner:.4f} (noise {noise:.4f})")
     # Measured: 6.2% over every pixel, of which 6.1% is the direct light at the 7 edge pixels; without
-    # them 1.6% (reference noise 1.3%).
+    # them 1.7% (1.6% with "point"; reference noise 1.3%).
     assert err_inner < 0.04 and edges <= 20
 
 
 def test_multibounce_against_mitsuba(box, mitsuba_ref):
     """bounces b matches Mitsuba's max_depth b + 2; many bounces match max_depth -1."""
     lights = ml.scene_lights(box)
-    for bounces, depth, bound in ((2, 4, 0.05), (6, -1, 0.06)):
+    for bounces, depth, bound in ((2, 4, 0.055), (6, -1, 0.065)):
         rel = ml.DirectToIndirect(box, gather=4**6, final_gather_coefficients=100, bounces=bounces)
         ref, _ = mitsuba_ref.mitsuba_render(BOX, (32, 32), max_depth=depth, spp=1024)
         err = ml.relative_l2(rel.relight(lights), ref)
         print(f"bounces {bounces} vs Mitsuba max_depth {depth}: {err:.4f}")
-        # Measured: 3.2% (max_depth 4), 4.1% (max_depth -1; 40 coefficients per gather-to-gather row
-        # lose a little light); reference noise 1.4-1.6%.
+        # Measured: 4.2% (max_depth 4), 5.2% (max_depth -1; 40 coefficients per gather-to-gather row
+        # lose a little light); 3.2% and 4.1% with near_field="point"; reference noise 1.4-1.6%.
         assert err < bound
 
 

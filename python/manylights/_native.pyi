@@ -261,7 +261,7 @@ class DirectToIndirect:
     stats: dict[str, Any]
     def __init__(self, scene: Scene, gather: int, coefficients: int, seed: int, threshold: float, clamp: float,
                  k_weight: float, bounces: int = 1, multibounce_coefficients: int = 40,
-                 progress: Optional[Callable[[int, int], None]] = None) -> None:
+                 progress: Optional[Callable[[int, int], None]] = None, near_field: str = "disc") -> None:
         """Raises ValueError: gather not a power of 4, coefficients outside 1 ..= gather, threshold < 0,
         clamp <= 0, K <= 0."""
     def relight(self, lights: LightSet, epsilon: float) -> npt.NDArray[np.float32]:

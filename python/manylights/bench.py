@@ -13,6 +13,8 @@ Subcommands:
     backends the CPU backend against the GPU backend: ms per column, weighted column and row (``bench_backends``).
     tensor   tensor clustering against per-frame MRCS on an animation: error and flicker against shadow maps
              per frame, speed-up over brute force (``bench_tensor``).
+    relight  direct-to-indirect relighting: error against Mitsuba vs kept wavelet coefficients (the paper's
+             Figure 3), on-the-fly culling, precompute time and memory, relights per second (``bench_relight``).
     vs-mitsuba time to 5/2/1% relative L2 of a converged Mitsuba reference: MRCS on the CPU and GPU backends
              against Mitsuba's path tracer (``bench_vs_mitsuba``).
 
@@ -162,14 +164,15 @@ def main(argv=None) -> int:
     p.add_argument("--visibility", choices=["ray_traced", "hybrid", "shadow_map"], default="ray_traced")
     p.add_argument("--images", action="store_true", help="also write every image as EXR")
     p.add_argument("-o", "--out", default="out/bench")
-    from . import bench_backends, bench_mrcs, bench_tensor, bench_vs_mitsuba
+    from . import bench_backends, bench_mrcs, bench_relight, bench_tensor, bench_vs_mitsuba
 
     bench_mrcs.add_parser(sub)
     bench_backends.add_parser(sub)
     bench_tensor.add_parser(sub)
+    bench_relight.add_parser(sub)
     bench_vs_mitsuba.add_parser(sub)
     a = ap.parse_args(argv)
-    if a.cmd in ("mrcs", "backends", "tensor", "vs-mitsuba"):
+    if a.cmd in ("mrcs", "backends", "tensor", "relight", "vs-mitsuba"):
         a.run(a)
     elif a.cmd == "lights":
         if a.lights < 2:

@@ -7,7 +7,7 @@ use super::util::{array, vec3_array};
 use crate::error::Error;
 use crate::matrix::backend::Chosen;
 use crate::relight::relight::{self as core, RelightStats};
-use crate::relight::transfer::{Transfer, TransferOptions};
+use crate::relight::transfer::{NearField, Transfer, TransferOptions};
 use crate::raytrace::RayTracer;
 use crate::view::ViewSamples;
 use crate::view_chains::ChainOptions;
@@ -29,7 +29,7 @@ pub struct DirectToIndirect {
 #[pymethods]
 impl DirectToIndirect {
     #[new]
-    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None))]
+    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None, near_field="disc"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -43,8 +43,10 @@ impl DirectToIndirect {
         bounces: u32,
         multibounce_coefficients: usize,
         progress: Option<Py<PyAny>>,
+        near_field: &str,
     ) -> PyResult<Self> {
-        let opts = TransferOptions { gather, coefficients, seed, k_weight, threshold, clamp, bounces, multibounce_coefficients };
+        let near_field = NearField::parse(near_field)?;
+        let opts = TransferOptions { gather, coefficients, seed, k_weight, threshold, clamp, bounces, multibounce_coefficients, near_field };
         // Check the cheap arguments before the G-buffer and BVH are built.
         crate::lights::gather::gather_levels(gather)?;
         if !(1..=gather).contains(&coefficients) {
@@ -139,6 +141,7 @@ impl DirectToIndirect {
         d.set_item("shadow_rays", t.shadow_rays)?;
         d.set_item("links", t.links)?;
         d.set_item("threshold", t.opts.threshold)?;
+        d.set_item("near_field", t.opts.near_field.name())?;
         if let Some(s) = self.last.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             d.set_item("wavelet_lights", s.wavelet_lights)?;
             d.set_item("wavelet_lights_culled", s.wavelet_lights_culled)?;

@@ -12,7 +12,14 @@
 //! sample i (position p, shading normal n, direction to the viewer wi) and wo = (q_g - p) / d the
 //! direction toward g, d the distance:
 //!
-//!   F_d(i, g) = A_g * min(G, clamp) * V(i, g),   G = cos_g * cos_i / d^2,
+//!   F_d(i, g) = A_g * min(G, clamp) * V(i, g),   G = cos_g * cos_i / (d^2 + A_g / pi)  (`NearField::Disc`),
+//!
+//! the point-to-disc form factor of a disc of the sample's area facing the receiver (Wallace, Elmquist,
+//! Haines 1989): bounded by pi cos_g cos_i / A_g near the sample, within A_g / (pi d^2) of the point's
+//! G = cos_g * cos_i / d^2 (`NearField::Point`, exactly the light matrix's VPL) beyond it. The paper clamps
+//! F_d instead (4.3, `clamp`, still available); the disc needs no scene-dependent bound: on the bundled
+//! cbox lit by a spot at 128x128 the point form's corner spikes make 24% relative L2 against Mitsuba
+//! (78% of the squared error in 0.1% of the pixels), the disc 10.6%.
 //!
 //! cos_g = -wo . n_g(g) > 0 (front side; also -wo . n_s(g) > 0 as the VPL's Lambertian BSDF needs),
 //! cos_i = |wo . n| with wo on the same side of n as wi (the diffuse BSDF's `cos theta_o > 0` after a
@@ -88,6 +95,36 @@ pub struct TransferOptions {
     pub bounces: u32,
     /// Wavelet coefficients kept per gather-to-gather row (1 ..= n_g; used when bounces > 1).
     pub multibounce_coefficients: usize,
+    /// How a gather sample's geometry term behaves near the receiver (`NearField`).
+    pub near_field: NearField,
+}
+
+/// The geometry term of a gather sample seen by a receiver (module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NearField {
+    /// The sample is a disc of its area A_g facing the receiver: G = cos_g cos_i / (d^2 + A_g / pi)
+    /// (`geometry_patch`), bounded where a point's 1/d^2 spikes (corners, contact).
+    #[default]
+    Disc,
+    /// The sample is a point: G = cos_g cos_i / d^2, exactly the VPL of the light matrix.
+    Point,
+}
+
+impl NearField {
+    /// "disc" or "point".
+    pub fn parse(name: &str) -> Result<NearField> {
+        match name {
+            "disc" => Ok(NearField::Disc),
+            "point" => Ok(NearField::Point),
+            _ => Err(Error::invalid(format!("near_field must be \"disc\" or \"point\", got {name:?}"))),
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            NearField::Disc => "disc",
+            NearField::Point => "point",
+        }
+    }
 }
 
 impl Default for TransferOptions {
@@ -101,6 +138,7 @@ impl Default for TransferOptions {
             clamp: f32::INFINITY,
             bounces: 1,
             multibounce_coefficients: DEFAULT_MULTIBOUNCE_COEFFICIENTS,
+            near_field: NearField::Disc,
         }
     }
 }
@@ -141,6 +179,17 @@ pub struct Transfer {
 /// shadow ray was cast.
 #[inline]
 pub fn geometry(tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, q: Vec3, n_s: Vec3, n_g: Vec3, clamp: f32) -> (f32, bool) {
+    geometry_patch(tracer, sp, twosided, q, n_s, n_g, clamp, 0.0)
+}
+
+/// `geometry` for an emitter that is a patch of area `area` (m^2) rather than a point, in the near field:
+/// G = cos_g cos_i / (d^2 + area / pi), the point-to-disc form factor of a disc of that area facing the
+/// receiver (Wallace, Elmquist, Haines, "A Ray Tracing Algorithm for Progressive Radiosity", 1989), so
+/// A G <= pi cos_g cos_i stays bounded where the point's 1/d^2 spikes; the same as the point form beyond
+/// a few patch sizes (relative change area / (pi d^2)). `area` = 0 is `geometry`.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn geometry_patch(tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, q: Vec3, n_s: Vec3, n_g: Vec3, clamp: f32, area: f32) -> (f32, bool) {
     if !sp.surface {
         return (0.0, false);
     }
@@ -158,7 +207,7 @@ pub fn geometry(tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, q: Vec3, 
     if !(cos_v > 0.0 && cos_i > 0.0 && cos_g > 0.0 && -wo.dot(n_s) > 0.0) {
         return (0.0, false);
     }
-    let g = (cos_g * cos_i / dist2).min(clamp);
+    let g = (cos_g * cos_i / (dist2 + area * std::f32::consts::FRAC_1_PI)).min(clamp);
     if tracer.occluded(sp.p, sp.n_g, q) {
         (0.0, true)
     } else {
@@ -379,7 +428,11 @@ impl RowContext<'_> {
                 continue;
             }
             let r = if members.len() == 1 { members[0] as usize } else { members[representative(self.opts.seed, depth, c, members.len())] as usize };
-            let (g, tested) = geometry(tracer, sp, twosided, self.emit_position[r], self.emit_normal[r], self.cloud.geo_normal[r], self.opts.clamp);
+            let area = match self.opts.near_field {
+                NearField::Disc => self.cloud.area[r],
+                NearField::Point => 0.0,
+            };
+            let (g, tested) = geometry_patch(tracer, sp, twosided, self.emit_position[r], self.emit_normal[r], self.cloud.geo_normal[r], self.opts.clamp, area);
             rays += tested as u64;
             links += 1;
             if g > 0.0 {
