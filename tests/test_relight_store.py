@@ -251,3 +251,20 @@ def test_scene_hash_ignores_file_location_and_ids(box, tmp_path):
     assert set(relight_store.scene_hash(box)) == {"geometry", "materials", "camera", "film"}
     with pytest.raises(TypeError):
         relight_store.scene_hash("scene.xml")
+
+
+def test_nan_lights_never_reach_relight(box, rel, tmp_path):
+    """Lights with a NaN intensity are refused on every way in: the scene file, LightSet.from_arrays, the
+    CLI's light specs (and relight checks again in Rust: relight::relight::tests)."""
+    p = _variant(tmp_path, "nan", '<rgb name="intensity" value="3, 3, 2.5"/>', '<rgb name="intensity" value="nan, 3, 2.5"/>')
+    with pytest.raises(ml.SceneError, match=r"nan\.xml:\d+: light 0: intensity must be finite"):
+        ml.scene_lights(ml.load_scene(p))
+    with pytest.raises(ValueError, match="intensity"):
+        ml.LightSet.from_arrays(box, kind=1, position=[[0, 0.9, 0]], direction=[[0, -1, 0]],
+                                intensity=[[float("nan"), 1, 1]], cutoff_angle=0.5, beam_width=0.3)
+    from manylights import relight_cli
+
+    with pytest.raises(ValueError, match="finite"):
+        relight_cli.placement(box, [{"type": "point", "pos": [0, 0, 0], "intensity": float("nan")}])
+    with pytest.raises(ValueError, match="empty"):
+        rel.relight(ml.scene_lights(box)[0:0])
