@@ -301,7 +301,8 @@ pub fn from_arrays(scene: &Scene, width: u32, height: u32, arrays: Vec<NamedArra
             opts.coefficients, opts.multibounce_coefficients
         )));
     }
-    if !(1..=64).contains(&opts.bounces) || !(opts.k_weight > 0.0) || !(opts.clamp > 0.0) || opts.threshold < 0.0 {
+    // NaN never gets here: `Reader::f32` refuses it.
+    if !(1..=64).contains(&opts.bounces) || opts.k_weight <= 0.0 || opts.clamp <= 0.0 || opts.threshold < 0.0 {
         return Err(Error::invalid(format!("saved options out of range: {opts:?}")));
     }
     let size = r.u32s("size", &[2])?;
