@@ -768,6 +768,55 @@ cases_for("DirectToIndirect.gather_irradiance", [
     ("not a LightSet", lambda c: _d2i(c).gather_irradiance(None), ["LightSet"]),
 ], raises=("ValueError", "TypeError"))
 
+# Saving and loading a precomputation (tests/test_relight_store.py has the scene-change cases).
+_d2i_file = lambda c: c._get("d2i_file", lambda: _d2i(c).save(c.tmp / "d2i.npz"))  # noqa: E731
+
+
+def _d2i_rewritten(c, name, **changes):
+    with np.load(_d2i_file(c), allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays.update(changes)
+    np.savez(c.tmp / name, **arrays)
+    return c.tmp / name
+
+
+cases_for("DirectToIndirect.save", [
+    ("missing folder", lambda c: _d2i(c).save(c.tmp / "no-such-folder" / "x.npz"), ["no-such-folder"]),
+    ("folder is a file", lambda c: _d2i(c).save(c.file("plain.txt", b"x") / "x.npz"), ["plain.txt"]),
+], raises=("OSError",))
+cases_for("DirectToIndirect.save", [
+    ("path not a path", lambda c: _d2i(c).save(3.5), ["path"]),
+], raises=("TypeError",))
+cases_for("DirectToIndirect.load", [
+    ("truncated", lambda c: c.ml.DirectToIndirect.load(c.file("d2i-half.npz", _d2i_file(c).read_bytes()[:2000]), c.scene), ["truncated"]),
+    ("png renamed", lambda c: c.ml.DirectToIndirect.load(c.file("d2i-png.npz", c.png_bytes), c.scene), ["not a manylights relighting file"]),
+    ("random bytes", lambda c: c.ml.DirectToIndirect.load(c.file("d2i-rand.npz", bytes(range(256)) * 8), c.scene), ["not a manylights relighting file"]),
+    ("empty file", lambda c: c.ml.DirectToIndirect.load(c.file("d2i-empty.npz", b""), c.scene), ["d2i-empty.npz"]),
+    ("wrong version", lambda c: c.ml.DirectToIndirect.load(_d2i_rewritten(c, "d2i-v9.npz", version=np.array(9, np.uint32)), c.scene), ["version 9"]),
+    ("film changed", lambda c: c.ml.DirectToIndirect.load(_d2i_file(c), c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=12)), ["film changed"]),
+    ("gather not a power of 4", lambda c: c.ml.DirectToIndirect.load(_d2i_rewritten(c, "d2i-g.npz", **{"options.gather": np.array(32, np.uint64)}), c.scene), ["power of 4", "32"]),
+], raises=("ValueError",))
+cases_for("DirectToIndirect.load", [
+    ("missing file", lambda c: c.ml.DirectToIndirect.load(c.tmp / "absent.npz", c.scene), ["absent.npz"]),
+], raises=("OSError",))
+cases_for("DirectToIndirect.load", [
+    ("not a scene", lambda c: c.ml.DirectToIndirect.load(_d2i_file(c), "scene.xml"), ["Scene"]),
+], raises=("TypeError",))
+cases_for("native.transfer_arrays", [
+    ("not a DirectToIndirect", lambda c: c.native.transfer_arrays(c.scene), ["DirectToIndirect"]),
+], raises=("TypeError",))
+cases_for("native.transfer_from_arrays", [
+    ("no arrays", lambda c: c.native.transfer_from_arrays(c.scene, []), ["options.gather"]),
+    ("wrong shape", lambda c: c.native.transfer_from_arrays(c.scene, [(n, a.reshape(1, -1) if n == "size" else a) for n, a in c.native.transfer_arrays(_d2i(c))]), ["size", "[1, 2]"]),
+], raises=("ValueError",))
+cases_for("native.transfer_from_arrays", [
+    ("int8 array", lambda c: c.native.transfer_from_arrays(c.scene, [("options.gather", np.zeros(1, np.int8))]), ["options.gather", "int8"]),
+    ("not a list", lambda c: c.native.transfer_from_arrays(c.scene, 3), ["int"]),
+], raises=("TypeError",))
+cases_for("native.transfer_scene_hash", [
+    ("not a scene", lambda c: c.native.transfer_scene_hash("scene.xml"), ["Scene"]),
+], raises=("TypeError",))
+
 # --------------------------------------------------------------------------------------------------
 # Renderers.
 

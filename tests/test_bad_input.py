@@ -126,7 +126,8 @@ def public_functions() -> set[str]:
     def add_class(prefix, cls):
         names.add(prefix)
         for k, v in vars(cls).items():
-            if not k.startswith("_") and callable(v) and not isinstance(v, (property, type)):
+            if not k.startswith("_") and (callable(v) or isinstance(v, (classmethod, staticmethod))) \
+                    and not isinstance(v, (property, type)):
                 names.add(f"{prefix}.{k}")
         if "__len__" in vars(cls):
             names.add(prefix)

@@ -1,4 +1,4 @@
-"""Command line: ``python -m manylights {render,demo,animate,info}``."""
+"""Command line: ``python -m manylights {render,demo,animate,relight,info}``."""
 from __future__ import annotations
 
 import argparse
@@ -151,9 +151,12 @@ def main(argv=None):
     from . import animate
 
     animate.add_parser(sub)
+    from . import relight_cli
+
+    relight_cli.add_parser(sub)
     a = ap.parse_args(argv)
     try:
-        if a.cmd == "animate":
+        if a.cmd in ("animate", "relight"):
             a.run(a)
         elif a.cmd == "render":
             render(a.scene, a.output, size=tuple(a.size) if a.size else None, params=_params(a.params),

@@ -269,6 +269,18 @@ class DirectToIndirect:
     def gather_irradiance(self, lights: LightSet) -> npt.NDArray[np.float32]:
         """(n_g, 3) direct irradiance at the gather samples (W/m^2)."""
 
+def transfer_arrays(rel: Any) -> list[tuple[str, npt.NDArray[Any]]]:
+    """[(name, array)] of a precomputed transfer (src/relight/store.rs names them; float32, float64, uint32,
+    uint64 arrays), what ``DirectToIndirect.save`` writes; rel is a ``manylights.DirectToIndirect`` or its native
+    object. Raises TypeError: rel not a DirectToIndirect."""
+def transfer_from_arrays(scene: Scene, arrays: Sequence[tuple[str, npt.NDArray[Any]]]) -> DirectToIndirect:
+    """Rebuilds a DirectToIndirect of ``scene`` from ``transfer_arrays`` output (``DirectToIndirect.load``).
+    Raises ValueError naming the array (missing, shape, dtype, range, non-finite, a gather cloud or film
+    that differs from the scene's), TypeError for an unsupported dtype."""
+def transfer_scene_hash(scene: Scene) -> dict[str, str]:
+    """{"geometry", "materials", "camera", "film": SHA-256 hex} of what a transfer of ``scene`` depends on
+    (emitters excluded). Raises TypeError: scene not a Scene."""
+
 class GatherCloud:
     """n = 4^k gather samples spread uniformly by area over a scene's surfaces (``manylights.gather_cloud``),
     each tied to (shape, triangle, barycentrics) so ``on`` re-evaluates it on another frame."""

@@ -136,6 +136,34 @@ class DirectToIndirect:
             raise TypeError(f"lights must be a manylights LightSet, got {type(lights).__name__}")
         return self._t.relight(lights, _v.real("epsilon", epsilon, 0.0))
 
+    def save(self, path):
+        """Writes the whole precomputation to ``path`` (a numpy ``.npz``; ``manylights.relight_store``
+        describes it): written to a temporary file in the same folder, then renamed, so a failed save leaves
+        no partial file. Returns the path (``pathlib.Path``).
+
+        Raises:
+            OSError: the folder does not exist or cannot be written.
+        """
+        from . import relight_store
+
+        return relight_store.save(self, path)
+
+    @classmethod
+    def load(cls, path, scene: Scene) -> "DirectToIndirect":
+        """A precomputation saved by ``save``, for ``scene``: the scene it was computed on, or that scene
+        with other lights (emitters are free to change). Its ``relight`` is bit-identical to the saved
+        object's; ``timings`` and ``stats`` are the precomputation's.
+
+        Raises:
+            OSError: the file cannot be read.
+            ValueError: naming the file: not a relighting file, damaged or truncated, another format
+                version, or a scene whose geometry, materials, camera or film changed (named).
+            TypeError: scene not a Scene.
+        """
+        from . import relight_store
+
+        return relight_store.load(cls, path, scene)
+
     def gather_irradiance(self, lights: LightSet) -> np.ndarray:
         """(n_g, 3) float32 direct irradiance (W/m^2) of ``lights`` at the gather samples (exact shadow rays).
         Raises ValueError as ``relight``."""

@@ -15,6 +15,7 @@ pub mod scene;
 pub mod signals;
 pub mod tensor;
 pub mod transfer;
+pub mod transfer_store;
 pub mod util;
 
 #[pymodule]
@@ -33,6 +34,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     gather::register(m)?;
     relight::register(m)?;
     transfer::register(m)?;
+    transfer_store::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -26,6 +26,21 @@ pub struct DirectToIndirect {
     last: Mutex<Option<RelightStats>>,
 }
 
+impl DirectToIndirect {
+    /// The precomputed transfer (for `transfer_store`).
+    pub(crate) fn transfer(&self) -> &Arc<Transfer> {
+        &self.inner
+    }
+
+    /// Wraps a transfer rebuilt for `scene` (`transfer_store`): the view samples and BVH are made as `new`
+    /// makes them.
+    pub(crate) fn from_transfer(py: Python<'_>, scene: &Scene, inner: Transfer) -> PyResult<Self> {
+        let view = scene.view_samples_on(py, ChainOptions::default(), &Chosen::Cpu)?;
+        let tracer = scene.tracer(py)?;
+        Ok(DirectToIndirect { inner: Arc::new(inner), scene: scene.inner.clone(), view, tracer, last: Mutex::new(None) })
+    }
+}
+
 #[pymethods]
 impl DirectToIndirect {
     #[new]

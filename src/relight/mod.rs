@@ -7,6 +7,7 @@ pub mod haar;
 pub mod hierarchy;
 #[allow(clippy::module_inception)]
 pub mod relight;
+pub mod store;
 pub mod transfer;
 
 pub use haar::SparseRow;
