@@ -32,7 +32,7 @@
 //! nor are ids and file locations.
 use super::haar::{self, SparseRow};
 use super::hierarchy::{morton_pixel, ClusterHierarchy};
-use super::transfer::{Transfer, TransferOptions};
+use super::transfer::{NearField, Transfer, TransferOptions};
 use crate::error::{Error, Result};
 use crate::lights::gather::{gather_levels, GatherCloud, GatherOptions};
 use crate::scene::{Bsdf, Param, Scene, Texture};
@@ -128,6 +128,7 @@ fn options(w: &mut Writer, o: &TransferOptions) {
     w.f32("options.clamp", o.clamp);
     w.u64("options.bounces", o.bounces as u64);
     w.u64("options.multibounce_coefficients", o.multibounce_coefficients as u64);
+    w.u64("options.near_field", matches!(o.near_field, NearField::Point) as u64);
 }
 
 /// Every array of a transfer (module docs), in a fixed order.
@@ -263,6 +264,11 @@ fn read_options(r: &mut Reader) -> Result<TransferOptions> {
         clamp: r.f32("options.clamp", true)?,
         bounces: u32::try_from(r.u64("options.bounces")?).map_err(|_| Error::invalid("options.bounces is too large"))?,
         multibounce_coefficients: r.usize("options.multibounce_coefficients")?,
+        near_field: match r.u64("options.near_field")? {
+            0 => NearField::Disc,
+            1 => NearField::Point,
+            v => return Err(Error::invalid(format!("options.near_field must be 0 (disc) or 1 (point), got {v}"))),
+        },
     })
 }
 
