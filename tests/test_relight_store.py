@@ -60,7 +60,7 @@ def test_loaded_transfer_relights_bit_identically(box, rel, saved):
     assert np.array_equal(rel.gather_irradiance(ml.scene_lights(box)), loaded.gather_irradiance(ml.scene_lights(box)))
     # Stats and the precomputation's timings come back.
     for k in ["gather", "pixels", "coefficients_per_row", "coefficients_kept", "bounces",
-              "multibounce_coefficients_kept", "bytes", "shadow_rays", "links", "threshold"]:
+              "multibounce_coefficients_kept", "bytes", "shadow_rays", "links", "threshold", "near_field"]:
         assert loaded.stats[k] == rel.stats[k], k
     for k in ["gather_cloud", "hierarchy", "final_gather", "multibounce"]:
         assert loaded.timings[k] == rel.timings[k], k
@@ -84,6 +84,18 @@ def test_file_holds_format_version_hash_and_info(box, rel, saved):
     names = zipfile.ZipFile(saved).namelist()
     assert "final_gather.value.npy" in names and "multibounce.index.npy" in names
     assert not [p for p in saved.parent.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_point_near_field_round_trips(box, tmp_path):
+    rel = ml.DirectToIndirect(box, gather=4**3, final_gather_coefficients=16, near_field="point")
+    rel.save(tmp_path / "point.npz")
+    loaded = ml.DirectToIndirect.load(tmp_path / "point.npz", box)
+    assert loaded.stats["near_field"] == "point" and rel.stats["near_field"] == "point"
+    lights = ml.scene_lights(box)
+    assert np.array_equal(loaded.relight(lights), rel.relight(lights))
+    # The disc form differs (it is darker next to corners), so the option really travels with the file.
+    disc = ml.DirectToIndirect(box, gather=4**3, final_gather_coefficients=16)
+    assert not np.array_equal(disc.relight(lights), rel.relight(lights))
 
 
 def test_changed_lights_still_load(box, rel, saved, tmp_path):
