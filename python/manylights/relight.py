@@ -77,8 +77,9 @@ class DirectToIndirect:
     """
 
     def __init__(self, scene: Scene, gather: int = 4**7, final_gather_coefficients: int = 100, seed: int = 0,
-                 *, bounces: int = 1, multibounce_coefficients: int = 40, threshold: float = 0.03, clamp=None,
-                 K: float = 30.0, progress: bool = False):
+                 *, bounces: int = 1, multibounce_coefficients: int = 40, multibounce: str = "gather",
+                 photons_per_sample: int = 64, photon_neighbours: int = 400, glossy: bool = True,
+                 threshold: float = 0.03, clamp=None, K: float = 30.0, progress: bool = False):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a manylights Scene, got {type(scene).__name__}")
         gather = _v.integer("gather", gather, 1)
@@ -91,6 +92,12 @@ class DirectToIndirect:
         mb = _v.integer("multibounce_coefficients", multibounce_coefficients, 1)
         if bounces > 1 and mb > gather:
             raise ValueError(f"multibounce_coefficients must be at most gather ({gather}), got {mb}")
+        if multibounce not in ("gather", "photons"):
+            raise ValueError(f"multibounce must be 'photons' or 'gather', got {multibounce!r}")
+        photons_per_sample = _v.integer("photons_per_sample", photons_per_sample, 1, 1 << 20)
+        photon_neighbours = _v.integer("photon_neighbours", photon_neighbours, 1, 1 << 20)
+        if not isinstance(glossy, (bool, np.bool_)):
+            raise TypeError(f"glossy must be a bool, got {type(glossy).__name__}")
         threshold = _v.real("threshold", threshold, 0.0)
         clamp = math.inf if clamp is None else _v.real("clamp", clamp)
         if not clamp > 0:
@@ -100,10 +107,11 @@ class DirectToIndirect:
             raise ValueError(f"K must be > 0, got {K}")
         self.scene = scene
         seed = _v.seed(seed)
-        rows = scene.width * scene.height + (gather if bounces > 1 else 0)
+        rows = scene.width * scene.height * (2 if glossy else 1) + (gather if bounces > 1 else 0)
         with _progress_bar(rows, "final gather", progress, unit="pixel") as callback:
             self._t = _native.DirectToIndirect(scene, gather, coefficients, seed, threshold, clamp, K, bounces, mb,
-                                               callback)
+                                               callback, multibounce, photons_per_sample, photon_neighbours,
+                                               bool(glossy))
 
     def relight(self, lights: LightSet, epsilon: float = 0.0) -> np.ndarray:
         """The image lit by ``lights``: direct light plus ``bounces`` diffuse bounces through the transfer.
