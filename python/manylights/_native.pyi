@@ -262,7 +262,7 @@ class DirectToIndirect:
     stats: dict[str, Any]
     def __init__(self, scene: Scene, gather: int, coefficients: int, seed: int, threshold: float, clamp: float,
                  k_weight: float, bounces: int = 1, multibounce_coefficients: int = 40,
-                 progress: Optional[Callable[[int, int], None]] = None, multibounce: str = "gather",
+                 progress: Optional[Callable[[int, int], None]] = None, multibounce: str = "photons",
                  photons_per_sample: int = 64, photon_neighbours: int = 400, glossy: bool = True) -> None:
         """Raises ValueError: gather not a power of 4, coefficients outside 1 ..= gather, threshold < 0,
         clamp <= 0, K <= 0, multibounce not 'photons' or 'gather', photons_per_sample or

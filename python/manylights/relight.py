@@ -77,7 +77,7 @@ class DirectToIndirect:
     """
 
     def __init__(self, scene: Scene, gather: int = 4**7, final_gather_coefficients: int = 100, seed: int = 0,
-                 *, bounces: int = 1, multibounce_coefficients: int = 40, multibounce: str = "gather",
+                 *, bounces: int = 1, multibounce_coefficients: int = 40, multibounce: str = "photons",
                  photons_per_sample: int = 64, photon_neighbours: int = 400, glossy: bool = True,
                  threshold: float = 0.03, clamp=None, K: float = 30.0, progress: bool = False):
         if not isinstance(scene, Scene):
@@ -107,7 +107,7 @@ class DirectToIndirect:
             raise ValueError(f"K must be > 0, got {K}")
         self.scene = scene
         seed = _v.seed(seed)
-        rows = scene.width * scene.height * (2 if glossy else 1) + (gather if bounces > 1 else 0)
+        rows = scene.width * scene.height + (gather if bounces > 1 else 0)
         with _progress_bar(rows, "final gather", progress, unit="pixel") as callback:
             self._t = _native.DirectToIndirect(scene, gather, coefficients, seed, threshold, clamp, K, bounces, mb,
                                                callback, multibounce, photons_per_sample, photon_neighbours,

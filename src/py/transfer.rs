@@ -29,7 +29,7 @@ pub struct DirectToIndirect {
 #[pymethods]
 impl DirectToIndirect {
     #[new]
-    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None, multibounce="gather", photons_per_sample=crate::relight::multibounce::DEFAULT_PHOTONS_PER_SAMPLE, photon_neighbours=crate::relight::multibounce::DEFAULT_PHOTON_NEIGHBOURS, glossy=true))]
+    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None, multibounce="photons", photons_per_sample=crate::relight::multibounce::DEFAULT_PHOTONS_PER_SAMPLE, photon_neighbours=crate::relight::multibounce::DEFAULT_PHOTON_NEIGHBOURS, glossy=true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,

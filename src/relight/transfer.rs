@@ -33,9 +33,9 @@
 //! from the seed), and every member g gets F_d(i, r) A_g / A_r; otherwise its four children are visited.
 //! `threshold` = 0 descends to every sample: the exact gather (n_g shadow rays per view sample).
 //!
-//! Multiple bounces (3.2 Eq. 2): with `bounces` b > 1 and `Multibounce::Photons` the paper's
-//! photon-mapped M (`multibounce` module); with `Multibounce::Gather` (the default; see
-//! `multibounce::DEFAULT_*` and tests/test_relight.py for the measurements behind it) the same
+//! Multiple bounces (3.2 Eq. 2): with `bounces` b > 1 and `Multibounce::Photons` (the default; the
+//! measurements behind it are in the `multibounce` module docs) the paper's photon-mapped M
+//! (`multibounce` module); with `Multibounce::Gather` the same
 //! hierarchical gather runs from every gather sample h with k_d(h) > 0 as a receiver (its surface point,
 //! shading normal and geometric normal, lit from the front side), giving the gather-to-gather transfer
 //! F_gg(h, g) = A_g min(G, clamp) V(h, g); its rows are compressed the same way to
@@ -116,7 +116,7 @@ impl Default for TransferOptions {
             clamp: f32::INFINITY,
             bounces: 1,
             multibounce_coefficients: DEFAULT_MULTIBOUNCE_COEFFICIENTS,
-            multibounce: Multibounce::Gather,
+            multibounce: Multibounce::Photons,
             photons_per_sample: super::multibounce::DEFAULT_PHOTONS_PER_SAMPLE,
             photon_neighbours: super::multibounce::DEFAULT_PHOTON_NEIGHBOURS,
             glossy: true,
@@ -260,7 +260,7 @@ impl Transfer {
         let pixels = view.num_pixels();
         let ctx = RowContext { cloud: &cloud, hierarchy: &hierarchy, bounds: &bounds, emit_position: &emit_position, emit_normal: &emit_normal, opts };
         // Progress counts the pixels' rows, then the gather samples' rows of the bounce pass.
-        let total = pixels + if opts.bounces > 1 { n } else { 0 } + if opts.glossy { pixels } else { 0 };
+        let total = pixels + if opts.bounces > 1 { n } else { 0 };
         let (rows, mut shadow_rays, mut links) = ctx.rows(
             tracer,
             pixels,
@@ -310,11 +310,10 @@ impl Transfer {
         };
         let seconds_bounce_rows = t3.elapsed().as_secs_f64();
         let t4 = Instant::now();
-        let done = pixels + if opts.bounces > 1 { n } else { 0 };
+        // The glossy rows report no progress of their own (their time is `seconds_glossy_rows`): their
+        // count is known only here, after the caller sized its progress display.
         let glossy = if opts.glossy {
-            super::glossy::glossy_rows(view, tracer, &cloud, &hierarchy, &emit_position, &emit_normal, opts, &mut |d, _| {
-                progress(done + d, total)
-            })?
+            super::glossy::glossy_rows(view, tracer, &cloud, &hierarchy, &emit_position, &emit_normal, opts, &mut |_, _| {})?
         } else {
             super::glossy::GlossyRows { rows: Vec::new(), color: Vec::new(), pixels: 0, shadow_rays: 0, links: 0 }
         };
