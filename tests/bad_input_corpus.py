@@ -754,7 +754,7 @@ cases_for("native.DirectToIndirect", [
     ("clamp 0", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, 0.0, 30.0), ["clamp"]),
     ("K NaN", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), float("nan")), ["K"]),
     ("bounces 0", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), 30.0, 0), ["bounces"]),
-    ("unknown near_field", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), 30.0, 1, 40, None, "sphere"), ["near_field", "sphere"]),
+    ("unknown near_field", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), 30.0, 1, 40, None, near_field="sphere"), ["near_field", "sphere"]),
     ("multibounce_coefficients 0", lambda c: c.native.DirectToIndirect(c.scene, 16, 4, 0, 0.0, float("inf"), 30.0, 2, 0), ["multibounce_coefficients"]),
 ])
 cases_for("DirectToIndirect.relight", [

@@ -251,7 +251,8 @@ def cluster_tensor(slices: npt.NDArray[np.float32], columns: int, seed: int = 0,
             chunk / init_clusters / projection_dim of 0, representative not "max" / "sampled" / "centroid"."""
 
 class DirectToIndirect:
-    """Precomputed final-gather transfer F_d^w and CPU relighting (use manylights.DirectToIndirect)."""
+    """Precomputed final-gather transfers F_d^w, F_g^w, the multi-bounce M^w and CPU relighting (use
+    manylights.DirectToIndirect)."""
     gather_positions: npt.NDArray[np.float32]
     gather_normals: npt.NDArray[np.float32]
     gather_geo_normals: npt.NDArray[np.float32]
@@ -261,9 +262,12 @@ class DirectToIndirect:
     stats: dict[str, Any]
     def __init__(self, scene: Scene, gather: int, coefficients: int, seed: int, threshold: float, clamp: float,
                  k_weight: float, bounces: int = 1, multibounce_coefficients: int = 40,
-                 progress: Optional[Callable[[int, int], None]] = None, near_field: str = "disc") -> None:
+                 progress: Optional[Callable[[int, int], None]] = None, multibounce: str = "photons",
+                 photons_per_sample: int = 64, photon_neighbours: int = 400, glossy: bool = True,
+                 near_field: str = "disc") -> None:
         """Raises ValueError: gather not a power of 4, coefficients outside 1 ..= gather, threshold < 0,
-        clamp <= 0, K <= 0."""
+        clamp <= 0, K <= 0, multibounce not 'photons' or 'gather', photons_per_sample or
+        photon_neighbours outside 1 ..= 2^20."""
     def relight(self, lights: LightSet, epsilon: float) -> npt.NDArray[np.float32]:
         """(H, W, 3) direct + one diffuse bounce. Raises ValueError: empty set, non-finite lights, epsilon < 0."""
     def gather_irradiance(self, lights: LightSet) -> npt.NDArray[np.float32]:

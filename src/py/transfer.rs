@@ -44,7 +44,7 @@ impl DirectToIndirect {
 #[pymethods]
 impl DirectToIndirect {
     #[new]
-    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None, near_field="disc"))]
+    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None, multibounce="photons", photons_per_sample=crate::relight::multibounce::DEFAULT_PHOTONS_PER_SAMPLE, photon_neighbours=crate::relight::multibounce::DEFAULT_PHOTON_NEIGHBOURS, glossy=true, near_field="disc"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -58,10 +58,30 @@ impl DirectToIndirect {
         bounces: u32,
         multibounce_coefficients: usize,
         progress: Option<Py<PyAny>>,
+        multibounce: &str,
+        photons_per_sample: usize,
+        photon_neighbours: usize,
+        glossy: bool,
         near_field: &str,
     ) -> PyResult<Self> {
         let near_field = NearField::parse(near_field)?;
-        let opts = TransferOptions { gather, coefficients, seed, k_weight, threshold, clamp, bounces, multibounce_coefficients, near_field };
+        let multibounce = crate::relight::Multibounce::parse(multibounce)?;
+        let opts = TransferOptions {
+            gather,
+            coefficients,
+            seed,
+            k_weight,
+            threshold,
+            clamp,
+            bounces,
+            multibounce_coefficients,
+            multibounce,
+            photons_per_sample,
+            photon_neighbours,
+            glossy,
+            near_field,
+        };
+        crate::relight::multibounce::check_options(&opts)?;
         // Check the cheap arguments before the G-buffer and BVH are built.
         crate::lights::gather::gather_levels(gather)?;
         if !(1..=gather).contains(&coefficients) {
@@ -129,6 +149,7 @@ impl DirectToIndirect {
         d.set_item("hierarchy", t.seconds_hierarchy)?;
         d.set_item("final_gather", t.seconds_rows)?;
         d.set_item("multibounce", t.seconds_bounce_rows)?;
+        d.set_item("glossy_final_gather", t.seconds_glossy_rows)?;
         if let Some(s) = self.last.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             d.set_item("relight_gather_direct", s.seconds_gather_direct)?;
             d.set_item("relight_bounces", s.seconds_bounces)?;
@@ -151,7 +172,11 @@ impl DirectToIndirect {
         d.set_item("coefficients_kept", t.coefficients_kept())?;
         d.set_item("bounces", t.opts.bounces)?;
         d.set_item("multibounce_coefficients_per_row", if t.opts.bounces > 1 { t.opts.multibounce_coefficients } else { 0 })?;
-        d.set_item("multibounce_coefficients_kept", t.bounce_coefficients_kept())?;
+        d.set_item("multibounce_coefficients_kept", t.bounce_coefficients_kept() + t.photon_coefficients_kept())?;
+        d.set_item("multibounce", if t.opts.bounces > 1 { t.opts.multibounce.name() } else { "none" })?;
+        d.set_item("photons", t.photons)?;
+        d.set_item("glossy_pixels", t.glossy_pixels)?;
+        d.set_item("glossy_coefficients_kept", t.glossy_coefficients_kept())?;
         d.set_item("bytes", t.bytes())?;
         d.set_item("shadow_rays", t.shadow_rays)?;
         d.set_item("links", t.links)?;
@@ -160,6 +185,7 @@ impl DirectToIndirect {
         if let Some(s) = self.last.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             d.set_item("wavelet_lights", s.wavelet_lights)?;
             d.set_item("wavelet_lights_culled", s.wavelet_lights_culled)?;
+            d.set_item("wavelet_lights_culled_glossy", s.wavelet_lights_culled_glossy)?;
         }
         Ok(d)
     }

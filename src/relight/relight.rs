@@ -7,12 +7,16 @@
 //! 2. the gather samples' diffuse outgoing radiance B_g = k_d(g) / pi * E_g (RGB); with `bounces` b > 1,
 //!    b - 1 passes of the gather-to-gather transfer add the light bounced among gather samples:
 //!    B_{k+1}(h) = k_d(h) / pi * sum_j F_gg^w(h, j) (W B_k)_j, B = B_1 + ... + B_b (the paper's (M + I) g_d,
-//!    Eq. 7, with M = K + K^2 + ... built from the one-bounce transfer K instead of photon mapping);
+//!    Eq. 7, with M = K + K^2 + ... built from the one-bounce transfer K; `Multibounce::Gather`), or,
+//!    with the photon-mapped M (`Multibounce::Photons`, the paper's 4.3), once:
+//!    B = B_1 + k_d / pi * (M_E^w W B_1) (`multibounce::apply`, RGB rows);
 //!    B is laid out as the gather image and projected into wavelets: b^w = W B (`haar::forward`, 3 channels);
 //! 3. on-the-fly culling of wavelet lights (3.5): light j is skipped when |b^w_j| * ||F_d^w(:, j)|| <
 //!    epsilon (`haar::cull_wavelet_lights`; epsilon = 0 keeps all);
 //! 4. the sparse products s_i = sum_j F_d^w(i, j) b^w_j over the kept coefficients of each row and the kept
 //!    lights (row by row in parallel; the same sum as the paper's image-based accumulation);
+//! 4b. glossy pixels (`glossy`): the same sparse product with the glossy rows F_g^w (culled against
+//!    their own image norms), times the pixel's glossy colour k_g(i), is added (Eq. 6, 8);
 //! 5. indirect radiance L_ind(i) = k_d(i) / pi * s_i, k_d(i) the camera hit's diffuse albedo
 //!    (`ViewSamples::albedo`; the transfer module derives the formula), plus the direct light of the same
 //!    set: the light matrix's column sum on the CPU backend (all view samples of each pixel, delta chains
@@ -45,6 +49,8 @@ pub struct RelightStats {
     /// Wavelet lights (non-zero coefficients of b^w) and how many on-the-fly culling removed.
     pub wavelet_lights: usize,
     pub wavelet_lights_culled: usize,
+    /// Wavelet lights skipped by on-the-fly culling against the glossy F_g^w's image norms.
+    pub wavelet_lights_culled_glossy: usize,
 }
 
 /// Checks a light set for relighting: not empty, finite values.
@@ -81,7 +87,12 @@ pub fn bounce(t: &Transfer, e: &[Vec3]) -> Result<Vec<f32>> {
     let n = t.cloud.len();
     let mut b: Vec<Vec3> = (0..n).map(|g| t.cloud.k_d[g] * FRAC_1_PI * e[g]).collect();
     let mut total = b.clone();
-    if !t.bounce_rows.is_empty() {
+    if !t.photon_rows.is_empty() {
+        // The photon-mapped M, applied once: B = B_1 + diag(k_d / pi) M_E^w W B_1 (`multibounce`).
+        for (a, v) in total.iter_mut().zip(super::multibounce::apply(t, &b)?) {
+            *a += v;
+        }
+    } else if !t.bounce_rows.is_empty() {
         for _ in 1..t.opts.bounces {
             let flat: Vec<f32> = b.iter().flat_map(|v| v.to_array()).collect();
             let mut bw = t.hierarchy.to_image(&flat, 3);
@@ -138,6 +149,10 @@ pub fn indirect(t: &Transfer, view: &ViewSamples, e: &[Vec3], epsilon: f32, stat
         }
         (view.albedo[i] * FRAC_1_PI * Vec3::from_array(s)).to_array()
     })?;
+    let mut out = out;
+    // The glossy final gather (Eq. 6, 8): k_g F_g^w b^w added to the glossy pixels.
+    stats.wavelet_lights_culled_glossy =
+        super::glossy::add_glossy(&t.glossy_rows, &t.glossy_color, &t.glossy_image_norms, &bw, epsilon, &mut out)?;
     stats.seconds_transfer = t1.elapsed().as_secs_f64();
     Ok(out.into_iter().flatten().collect())
 }

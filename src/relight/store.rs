@@ -15,8 +15,10 @@
 //! - `emit_position`, `emit_normal` (n_g, 3): where each gather sample emits from;
 //! - sparse-row matrices, three arrays each: `<name>.offsets` (rows + 1,) u64 (row r is
 //!   `offsets[r] .. offsets[r + 1]` of the next two), `<name>.index` (nnz,) u32 wavelet coefficient,
-//!   `<name>.value` (nnz,) float32: `final_gather` (F_d^w, one row per pixel), `multibounce` (the
-//!   gather-to-gather rows, none with one bounce);
+//!   `<name>.value` (nnz * channels,) float32: `final_gather` (F_d^w, one row per pixel), `multibounce`
+//!   (the gather-to-gather rows; none with one bounce or photons), `photon_multibounce` (the photon-mapped
+//!   M_E^w, 3 channels, one row per gather sample; none with one bounce or the gather method), `glossy`
+//!   (F_g^w, one row per pixel, or none when no pixel is glossy); `glossy_color` (pixels or 0, 3) k_g;
 //! - `stats.*` and `seconds.*`: what the precomputation cast and how long its stages took.
 //!
 //! A new matrix field of `Transfer` is one `w.rows(...)` line in `to_arrays` and one `r.rows(...)` line
@@ -32,6 +34,7 @@
 //! nor are ids and file locations.
 use super::haar::{self, SparseRow};
 use super::hierarchy::{morton_pixel, ClusterHierarchy};
+use super::multibounce::Multibounce;
 use super::transfer::{NearField, Transfer, TransferOptions};
 use crate::error::{Error, Result};
 use crate::lights::gather::{gather_levels, GatherCloud, GatherOptions};
@@ -129,6 +132,10 @@ fn options(w: &mut Writer, o: &TransferOptions) {
     w.u64("options.bounces", o.bounces as u64);
     w.u64("options.multibounce_coefficients", o.multibounce_coefficients as u64);
     w.u64("options.near_field", matches!(o.near_field, NearField::Point) as u64);
+    w.u64("options.multibounce", matches!(o.multibounce, Multibounce::Photons) as u64);
+    w.u64("options.photons_per_sample", o.photons_per_sample as u64);
+    w.u64("options.photon_neighbours", o.photon_neighbours as u64);
+    w.u64("options.glossy", o.glossy as u64);
 }
 
 /// Every array of a transfer (module docs), in a fixed order.
@@ -149,12 +156,18 @@ pub fn to_arrays(t: &Transfer) -> Vec<NamedArray> {
     // Matrices: one line each (module docs).
     w.rows("final_gather", &t.rows);
     w.rows("multibounce", &t.bounce_rows);
+    w.rows("photon_multibounce", &t.photon_rows);
+    w.rows("glossy", &t.glossy_rows);
+    w.vec3s("glossy_color", &t.glossy_color);
+    w.u64("stats.glossy_pixels", t.glossy_pixels as u64);
+    w.u64("stats.photons", t.photons);
     w.u64("stats.shadow_rays", t.shadow_rays);
     w.u64("stats.links", t.links);
     w.f64("seconds.gather_cloud", t.seconds_cloud);
     w.f64("seconds.hierarchy", t.seconds_hierarchy);
     w.f64("seconds.final_gather", t.seconds_rows);
     w.f64("seconds.multibounce", t.seconds_bounce_rows);
+    w.f64("seconds.glossy_final_gather", t.seconds_glossy_rows);
     w.0
 }
 
@@ -226,11 +239,16 @@ impl Reader {
     /// A sparse-row matrix of `count` rows over `n` wavelet coefficients (indices < n, strictly
     /// increasing within a row, as `haar::cull_area_weighted` makes them).
     fn rows(&mut self, name: &str, count: usize, n: usize) -> Result<Vec<SparseRow>> {
+        self.rows_with(name, count, n, 1)
+    }
+
+    /// `rows` of `channels` values per kept coefficient.
+    fn rows_with(&mut self, name: &str, count: usize, n: usize, channels: usize) -> Result<Vec<SparseRow>> {
         let offsets = self.u64s(&format!("{name}.offsets"), &[count + 1])?;
         let nnz = offsets[count];
         let nnz = usize::try_from(nnz).map_err(|_| Error::invalid(format!("'{name}.offsets' ends at {nnz}")))?;
         let index = self.u32s(&format!("{name}.index"), &[nnz])?;
-        let value = self.f32s(&format!("{name}.value"), &[nnz], false)?;
+        let value = self.f32s(&format!("{name}.value"), &[nnz * channels], false)?;
         if offsets[0] != 0 {
             return Err(Error::invalid(format!("'{name}.offsets' must start at 0, got {}", offsets[0])));
         }
@@ -247,7 +265,7 @@ impl Reader {
             if idx.windows(2).any(|p| p[0] >= p[1]) {
                 return Err(Error::invalid(format!("'{name}' row {r}: coefficient indices are not increasing")));
             }
-            rows.push(SparseRow { index: idx.to_vec(), value: value[a..b].to_vec() });
+            rows.push(SparseRow { index: idx.to_vec(), value: value[a * channels..b * channels].to_vec() });
         }
         Ok(rows)
     }
@@ -268,6 +286,18 @@ fn read_options(r: &mut Reader) -> Result<TransferOptions> {
             0 => NearField::Disc,
             1 => NearField::Point,
             v => return Err(Error::invalid(format!("options.near_field must be 0 (disc) or 1 (point), got {v}"))),
+        },
+        multibounce: match r.u64("options.multibounce")? {
+            0 => Multibounce::Gather,
+            1 => Multibounce::Photons,
+            v => return Err(Error::invalid(format!("options.multibounce must be 0 (gather) or 1 (photons), got {v}"))),
+        },
+        photons_per_sample: r.usize("options.photons_per_sample")?,
+        photon_neighbours: r.usize("options.photon_neighbours")?,
+        glossy: match r.u64("options.glossy")? {
+            0 => false,
+            1 => true,
+            v => return Err(Error::invalid(format!("options.glossy must be 0 or 1, got {v}"))),
         },
     })
 }
@@ -299,6 +329,7 @@ pub fn from_arrays(scene: &Scene, width: u32, height: u32, arrays: Vec<NamedArra
         r.arrays.insert(a.name.clone(), a);
     }
     let opts = read_options(&mut r)?;
+    super::multibounce::check_options(&opts)?;
     let levels = gather_levels(opts.gather)?;
     let n = opts.gather;
     if !(1..=n).contains(&opts.coefficients) || (opts.bounces > 1 && !(1..=n).contains(&opts.multibounce_coefficients)) {
@@ -344,7 +375,17 @@ pub fn from_arrays(scene: &Scene, width: u32, height: u32, arrays: Vec<NamedArra
     let pixels = width as usize * height as usize;
     // Matrices: one line each (module docs).
     let rows = r.rows("final_gather", pixels, n)?;
-    let bounce_rows = r.rows("multibounce", if opts.bounces > 1 { n } else { 0 }, n)?;
+    let photon = opts.bounces > 1 && opts.multibounce == Multibounce::Photons;
+    let bounce_rows = r.rows("multibounce", if opts.bounces > 1 && !photon { n } else { 0 }, n)?;
+    let photon_rows = r.rows_with("photon_multibounce", if photon { n } else { 0 }, n, 3)?;
+    // Glossy rows: one per pixel, or none (no glossy pixel, or F_g off).
+    let glossy_count = r.arrays.get("glossy.offsets").map_or(0, |a| a.shape.first().copied().unwrap_or(1).saturating_sub(1));
+    if glossy_count != 0 && (glossy_count != pixels || !opts.glossy) {
+        return Err(Error::invalid(format!("'glossy' has {glossy_count} rows; expected 0 or one per pixel ({pixels}) with glossy on")));
+    }
+    let glossy_rows = r.rows("glossy", glossy_count, n)?;
+    let glossy_color = r.vec3s("glossy_color", glossy_count)?;
+    let glossy_image_norms = if glossy_rows.is_empty() { Vec::new() } else { haar::column_norms(&glossy_rows, n, 1)? };
     let image_norms = haar::column_norms(&rows, n, 1)?;
     let t = Transfer {
         cloud,
@@ -356,6 +397,13 @@ pub fn from_arrays(scene: &Scene, width: u32, height: u32, arrays: Vec<NamedArra
         rows,
         image_norms,
         bounce_rows,
+        photon_rows,
+        photons: r.u64("stats.photons")?,
+        glossy_rows,
+        glossy_color,
+        glossy_image_norms,
+        glossy_pixels: r.usize("stats.glossy_pixels")?,
+        seconds_glossy_rows: r.f64("seconds.glossy_final_gather")?,
         shadow_rays: r.u64("stats.shadow_rays")?,
         links: r.u64("stats.links")?,
         seconds_cloud: r.f64("seconds.gather_cloud")?,

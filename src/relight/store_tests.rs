@@ -14,8 +14,12 @@ fn setup() -> (Scene, ViewSamples, RayTracer) {
 }
 
 fn transfer(bounces: u32) -> (Scene, Transfer) {
+    transfer_with(bounces, crate::relight::Multibounce::Photons)
+}
+
+fn transfer_with(bounces: u32, multibounce: crate::relight::Multibounce) -> (Scene, Transfer) {
     let (scene, view, tracer) = setup();
-    let opts = TransferOptions { gather: 64, coefficients: 20, bounces, multibounce_coefficients: 10, ..Default::default() };
+    let opts = TransferOptions { gather: 64, coefficients: 20, bounces, multibounce_coefficients: 10, multibounce, photons_per_sample: 8, photon_neighbours: 16, ..Default::default() };
     let t = Transfer::new(&scene, &view, &tracer, &opts, &mut |_, _| {}).unwrap();
     (scene, t)
 }
@@ -28,18 +32,24 @@ fn key(scene: &Scene) -> HashMap<String, Vec<u8>> {
 
 #[test]
 fn round_trip_rebuilds_the_same_transfer() {
-    for bounces in [1, 2] {
-        let (scene, t) = transfer(bounces);
+    use crate::relight::Multibounce;
+    for (bounces, multibounce) in [(1, Multibounce::Photons), (2, Multibounce::Gather), (2, Multibounce::Photons)] {
+        let (scene, t) = transfer_with(bounces, multibounce);
         let back = from_arrays(&scene, 8, 8, to_arrays(&t)).unwrap();
         assert_eq!(back.opts, t.opts);
         assert_eq!(back.rows, t.rows);
         assert_eq!(back.bounce_rows, t.bounce_rows);
+        assert_eq!(back.photon_rows, t.photon_rows);
+        assert_eq!(back.photons, t.photons);
+        let photons = bounces > 1 && multibounce == Multibounce::Photons;
+        assert_eq!(back.photon_rows.len(), if photons { 64 } else { 0 });
+        assert!(!photons || back.photon_rows.iter().any(|r| r.value.len() == 3 * r.index.len() && !r.index.is_empty()));
         assert_eq!(back.hierarchy, t.hierarchy);
         assert_eq!(back.image_norms, t.image_norms);
         assert_eq!(back.emit_position, t.emit_position);
         assert_eq!(back.cloud.bsdf.len(), t.cloud.bsdf.len());
         assert_eq!((back.shadow_rays, back.links, back.seconds_rows), (t.shadow_rays, t.links, t.seconds_rows));
-        assert_eq!(back.bounce_rows.len(), if bounces > 1 { 64 } else { 0 });
+        assert_eq!(back.bounce_rows.len(), if bounces > 1 && !photons { 64 } else { 0 });
     }
 }
 

@@ -40,12 +40,18 @@
 //! from the seed), and every member g gets F_d(i, r) A_g / A_r; otherwise its four children are visited.
 //! `threshold` = 0 descends to every sample: the exact gather (n_g shadow rays per view sample).
 //!
-//! Multiple bounces (3.2 Eq. 2, replacing the paper's photon-mapped M): with `bounces` b > 1 the same
+//! Multiple bounces (3.2 Eq. 2): with `bounces` b > 1 and `Multibounce::Photons` (the default; the
+//! measurements behind it are in the `multibounce` module docs) the paper's photon-mapped M
+//! (`multibounce` module); with `Multibounce::Gather` the same
 //! hierarchical gather runs from every gather sample h with k_d(h) > 0 as a receiver (its surface point,
 //! shading normal and geometric normal, lit from the front side), giving the gather-to-gather transfer
 //! F_gg(h, g) = A_g min(G, clamp) V(h, g); its rows are compressed the same way to
 //! `multibounce_coefficients` (the paper's 40 for M). Relighting applies K = diag(k_d / pi) F_gg b - 1
 //! times to the gather samples' radiance, so M = K + ... + K^(b-1) (exact visibility, no photon noise).
+//!
+//! Glossy view samples (3.3 Eq. 6, 4.3): with `glossy` (default on) the pixels whose BSDF has a glossy
+//! lobe also get a row of the glossy final gather F_g (`glossy` module), the view direction's BSDF baked
+//! in; relighting adds k_g(i) F_g^w b^w.
 //!
 //! Compression (3.3, 4.3): each row F_d(i, .) is laid out as the gather image, projected by the 2D Haar
 //! transform (`haar::forward`) and culled to its `coefficients` most important coefficients
@@ -74,6 +80,7 @@ const ROW_CHUNK: usize = 16;
 const ROW_BLOCK: usize = 256;
 /// Wavelet coefficients kept per gather-to-gather row when none are given (the paper's 40 for M).
 pub const DEFAULT_MULTIBOUNCE_COEFFICIENTS: usize = 40;
+pub use super::multibounce::Multibounce;
 
 /// What `Transfer::new` computes.
 #[derive(Debug, Clone, PartialEq)]
@@ -95,6 +102,14 @@ pub struct TransferOptions {
     pub bounces: u32,
     /// Wavelet coefficients kept per gather-to-gather row (1 ..= n_g; used when bounces > 1).
     pub multibounce_coefficients: usize,
+    /// How M is computed when bounces > 1 (`multibounce` module docs).
+    pub multibounce: Multibounce,
+    /// Photons shot from each gather sample (`Multibounce::Photons`).
+    pub photons_per_sample: usize,
+    /// K of the K-nearest photon queries (`Multibounce::Photons`).
+    pub photon_neighbours: usize,
+    /// Compute the glossy final gather F_g for glossy pixels (`glossy` module docs).
+    pub glossy: bool,
     /// How a gather sample's geometry term behaves near the receiver (`NearField`).
     pub near_field: NearField,
 }
@@ -125,6 +140,14 @@ impl NearField {
             NearField::Point => "point",
         }
     }
+    /// The patch area `geometry_patch` takes for a sample of area `area`: itself (disc) or 0 (point).
+    #[inline]
+    pub fn patch_area(self, area: f32) -> f32 {
+        match self {
+            NearField::Disc => area,
+            NearField::Point => 0.0,
+        }
+    }
 }
 
 impl Default for TransferOptions {
@@ -138,6 +161,10 @@ impl Default for TransferOptions {
             clamp: f32::INFINITY,
             bounces: 1,
             multibounce_coefficients: DEFAULT_MULTIBOUNCE_COEFFICIENTS,
+            multibounce: Multibounce::Photons,
+            photons_per_sample: super::multibounce::DEFAULT_PHOTONS_PER_SAMPLE,
+            photon_neighbours: super::multibounce::DEFAULT_PHOTON_NEIGHBOURS,
+            glossy: true,
             near_field: NearField::Disc,
         }
     }
@@ -163,6 +190,22 @@ pub struct Transfer {
     /// One culled wavelet row per gather sample of the gather-to-gather transfer F_gg (empty when
     /// `bounces` = 1; an empty row for samples with k_d = 0), 1 channel.
     pub bounce_rows: Vec<SparseRow>,
+    /// One culled wavelet row per gather sample of the photon-mapped M_E (`multibounce`; 3 channels:
+    /// RGB values per index; empty unless bounces > 1 with `Multibounce::Photons`; an empty row for
+    /// samples with k_d = 0).
+    pub photon_rows: Vec<SparseRow>,
+    /// Photons deposited for `photon_rows`.
+    pub photons: u64,
+    /// One culled wavelet row of the glossy final gather F_g per pixel (`glossy`; 1 channel; empty
+    /// rows for pixels that are not glossy; no rows at all when no pixel is glossy or `glossy` is off).
+    pub glossy_rows: Vec<SparseRow>,
+    /// Each pixel's glossy coefficient k_g (RGB, unit mean; 0 for pixels that are not glossy), one per
+    /// `glossy_rows` row.
+    pub glossy_color: Vec<Vec3>,
+    /// 2-norm of every column of the culled F_g^w (empty without glossy rows).
+    pub glossy_image_norms: Vec<f32>,
+    /// Glossy pixels.
+    pub glossy_pixels: usize,
     /// Shadow rays cast by the precomputation.
     pub shadow_rays: u64,
     /// Links (cluster evaluations) made by the hierarchical gather.
@@ -172,6 +215,7 @@ pub struct Transfer {
     pub seconds_hierarchy: f64,
     pub seconds_rows: f64,
     pub seconds_bounce_rows: f64,
+    pub seconds_glossy_rows: f64,
 }
 
 /// F_d(i, g) / A_g for a view sample (`sp`, its BSDF flags) and an emitter at `q` with normals
@@ -251,6 +295,7 @@ impl Transfer {
                 opts.gather, opts.multibounce_coefficients
             )));
         }
+        super::multibounce::check_options(opts)?;
         if opts.clamp.is_nan() || opts.clamp <= 0.0 {
             return Err(Error::invalid(format!("clamp must be > 0 (or infinite for no clamp), got {}", opts.clamp)));
         }
@@ -282,7 +327,16 @@ impl Transfer {
         )?;
         let seconds_rows = t2.elapsed().as_secs_f64();
         let t3 = Instant::now();
-        let bounce_rows = if opts.bounces > 1 {
+        let photon = opts.bounces > 1 && opts.multibounce == Multibounce::Photons;
+        let (photon_rows, photons) = if photon {
+            let r = super::multibounce::photon_rows(scene, tracer, &cloud, &hierarchy, &emit_position, &emit_normal, opts, &mut |d, _| {
+                progress(pixels + d, total)
+            })?;
+            (r.rows, r.photons)
+        } else {
+            (Vec::new(), 0)
+        };
+        let bounce_rows = if opts.bounces > 1 && !photon {
             // Each gather sample as a receiver: its surface point, lit from its front side.
             let (r, rays, l) = ctx.rows(
                 tracer,
@@ -312,6 +366,18 @@ impl Transfer {
             Vec::new()
         };
         let seconds_bounce_rows = t3.elapsed().as_secs_f64();
+        let t4 = Instant::now();
+        // The glossy rows report no progress of their own (their time is `seconds_glossy_rows`): their
+        // count is known only here, after the caller sized its progress display.
+        let glossy = if opts.glossy {
+            super::glossy::glossy_rows(view, tracer, &cloud, &hierarchy, &emit_position, &emit_normal, opts, &mut |_, _| {})?
+        } else {
+            super::glossy::GlossyRows { rows: Vec::new(), color: Vec::new(), pixels: 0, shadow_rays: 0, links: 0 }
+        };
+        shadow_rays += glossy.shadow_rays;
+        links += glossy.links;
+        let glossy_image_norms = if glossy.rows.is_empty() { Vec::new() } else { haar::column_norms(&glossy.rows, n, 1)? };
+        let seconds_glossy_rows = t4.elapsed().as_secs_f64();
         let image_norms = haar::column_norms(&rows, n, 1)?;
         Ok(Transfer {
             opts: opts.clone(),
@@ -330,6 +396,13 @@ impl Transfer {
             seconds_rows,
             bounce_rows,
             seconds_bounce_rows,
+            photon_rows,
+            photons,
+            glossy_rows: glossy.rows,
+            glossy_color: glossy.color,
+            glossy_image_norms,
+            glossy_pixels: glossy.pixels,
+            seconds_glossy_rows,
         })
     }
 
@@ -343,9 +416,21 @@ impl Transfer {
         self.bounce_rows.iter().map(|r| r.index.len()).sum()
     }
 
-    /// Bytes of the culled rows of both matrices (a u32 index and an f32 value per coefficient).
+    /// Wavelet coefficients kept, over all photon-mapped M rows (3 values each).
+    pub fn photon_coefficients_kept(&self) -> usize {
+        self.photon_rows.iter().map(|r| r.index.len()).sum()
+    }
+
+    /// Wavelet coefficients kept, over all glossy final-gather rows.
+    pub fn glossy_coefficients_kept(&self) -> usize {
+        self.glossy_rows.iter().map(|r| r.index.len()).sum()
+    }
+
+    /// Bytes of the culled rows of all matrices (a u32 index and an f32 value per coefficient and
+    /// channel).
     pub fn bytes(&self) -> usize {
-        (self.coefficients_kept() + self.bounce_coefficients_kept()) * 8
+        (self.coefficients_kept() + self.bounce_coefficients_kept() + self.glossy_coefficients_kept()) * 8
+            + self.photon_coefficients_kept() * 16
     }
 }
 
@@ -428,10 +513,7 @@ impl RowContext<'_> {
                 continue;
             }
             let r = if members.len() == 1 { members[0] as usize } else { members[representative(self.opts.seed, depth, c, members.len())] as usize };
-            let area = match self.opts.near_field {
-                NearField::Disc => self.cloud.area[r],
-                NearField::Point => 0.0,
-            };
+            let area = self.opts.near_field.patch_area(self.cloud.area[r]);
             let (g, tested) = geometry_patch(tracer, sp, twosided, self.emit_position[r], self.emit_normal[r], self.cloud.geo_normal[r], self.opts.clamp, area);
             rays += tested as u64;
             links += 1;

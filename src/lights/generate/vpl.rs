@@ -61,14 +61,14 @@ enum Source<'a> {
     Delta(usize),
 }
 
-/// One VPL before it enters the set.
-struct Vpl {
-    position: Vec3,
-    n_s: Vec3,
-    n_g: Vec3,
-    incident: Vec3,
-    flux: Vec3,
-    bsdf: GpuBsdf,
+/// One VPL (or photon) before it enters the set.
+pub(crate) struct Vpl {
+    pub position: Vec3,
+    pub n_s: Vec3,
+    pub n_g: Vec3,
+    pub incident: Vec3,
+    pub flux: Vec3,
+    pub bsdf: GpuBsdf,
 }
 
 struct Tracer<'a> {
@@ -158,81 +158,102 @@ impl<'a> Tracer<'a> {
     /// Traces particle `index` of stream family `family`; VPL fluxes still to be divided by N.
     fn trace(&self, seed: u64, family: u64, index: u64, out: &mut Vec<Vpl>) {
         let mut rng = stream(seed, family, index);
-        let Some((mut o, mut d, phi_0)) = self.emit(&mut rng) else { return };
-        if !(phi_0.max_element() > 0.0 && phi_0.is_finite()) {
+        let Some((o, d, phi_0)) = self.emit(&mut rng) else { return };
+        walk(self.scene, &self.rt, o, d, phi_0, &mut rng, self.min_vpl_depth, self.max_vpl_depth, &mut |v| out.push(v));
+    }
+}
+
+/// Follows one particle leaving `o` along `d` with flux `phi_0` through the scene's BSDFs (module docs:
+/// tracing, Russian roulette), calling `store` with the record of every hit whose bounce index lies in
+/// `min_depth ..= max_depth` (1 = the first hit); the path ends after bounce `max_depth`. Shared by the
+/// VPLs and photons of light sources and the photons of direct-to-indirect transfer's multi-bounce
+/// matrix (`relight::multibounce`, particles leaving the gather samples).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn walk(
+    scene: &Scene,
+    rt: &RayTracer,
+    o: Vec3,
+    d: Vec3,
+    phi_0: Vec3,
+    rng: &mut Pcg32,
+    min_depth: u32,
+    max_depth: u32,
+    store: &mut dyn FnMut(Vpl),
+) {
+    let (mut o, mut d) = (o, d);
+    if !(phi_0.max_element() > 0.0 && phi_0.is_finite()) {
+        return;
+    }
+    let lum_0 = luminance(phi_0);
+    let mut phi = phi_0;
+    let mut depth = 0u32;
+    loop {
+        let Some(hit) = rt.intersect(o, d, 0.0, f32::INFINITY) else { return };
+        depth += 1;
+        let mesh = &scene.meshes[hit.mesh];
+        // A blendbsdf: one of its two records, the second with probability w (unbiased: the expected
+        // VPL BSDF and continuation weight are (1 - w) f_0 + w f_1).
+        let b = match resolve_records(&scene.bsdfs, &scene.textures, mesh.bsdf, hit.uv) {
+            (first, Some(second)) => {
+                let mut b = if uniform(rng) < first.extra[2] { second } else { first };
+                b.flags &= !FLAG_BLEND;
+                (b.extra[2], b.extra[3]) = (0.0, 0.0);
+                b
+            }
+            (b, None) => b,
+        };
+        let (n_s, n_g, w_in) = (hit.n_s, hit.n_g, hit.wi);
+        let (cos_s_in, cos_g_in) = (w_in.dot(n_s), w_in.dot(n_g));
+        let non_delta = !has_smooth_lobe_only(&b);
+        let mut phi_vpl = phi;
+        if non_delta {
+            // Reflecting side: w_in on the same side of n_s and n_g, and the front unless two-sided.
+            let back_ok = b.flags & FLAG_TWOSIDED != 0 || crate::shading::principled::has_back_side(&b);
+            if !(cos_s_in * cos_g_in > 0.0) || (!back_ok && cos_s_in <= 0.0) {
+                return;
+            }
+            phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
+            if depth <= max_depth && depth >= min_depth {
+                store(Vpl {
+                    position: offset_p(hit.p, n_g, w_in),
+                    n_s,
+                    n_g,
+                    incident: w_in,
+                    flux: phi_vpl,
+                    bsdf: b,
+                });
+            }
+        }
+        if depth >= max_depth {
             return;
         }
-        let lum_0 = luminance(phi_0);
-        let mut phi = phi_0;
-        let mut depth = 0u32;
-        loop {
-            let Some(hit) = self.rt.intersect(o, d, 0.0, f32::INFINITY) else { return };
-            depth += 1;
-            let mesh = &self.scene.meshes[hit.mesh];
-            // A blendbsdf: one of its two records, the second with probability w (unbiased: the expected
-            // VPL BSDF and continuation weight are (1 - w) f_0 + w f_1).
-            let b = match resolve_records(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, hit.uv) {
-                (first, Some(second)) => {
-                    let mut b = if uniform(&mut rng) < first.extra[2] { second } else { first };
-                    b.flags &= !FLAG_BLEND;
-                    (b.extra[2], b.extra[3]) = (0.0, 0.0);
-                    b
-                }
-                (b, None) => b,
-            };
-            let (n_s, n_g, w_in) = (hit.n_s, hit.n_g, hit.wi);
-            let (cos_s_in, cos_g_in) = (w_in.dot(n_s), w_in.dot(n_g));
-            let non_delta = !has_smooth_lobe_only(&b);
-            let mut phi_vpl = phi;
-            if non_delta {
-                // Reflecting side: w_in on the same side of n_s and n_g, and the front unless two-sided.
-                let back_ok = b.flags & FLAG_TWOSIDED != 0 || crate::shading::principled::has_back_side(&b);
-                if !(cos_s_in * cos_g_in > 0.0) || (!back_ok && cos_s_in <= 0.0) {
-                    return;
-                }
-                phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
-                if depth <= self.max_vpl_depth && depth >= self.min_vpl_depth {
-                    out.push(Vpl {
-                        position: offset_p(hit.p, n_g, w_in),
-                        n_s,
-                        n_g,
-                        incident: w_in,
-                        flux: phi_vpl,
-                        bsdf: b,
-                    });
-                }
-            }
-            if depth >= self.max_vpl_depth {
+        let Some(sample) = sample_bsdf(&b, to_local(n_s, w_in), rng) else { return };
+        let w = to_world(n_s, sample.wo);
+        let cos_g_out = w.dot(n_g);
+        let mut phi_next = if sample.delta {
+            phi * sample.weight
+        } else {
+            // Reflection lobes stay on w_in's side, glossy transmission (principled) crosses, for both
+            // normals alike; f |w . n_g| / pdf = weight |w . n_g| / |w . n_s|.
+            let transmitted = sample.wo.z * cos_s_in < 0.0;
+            if !(cos_g_out * cos_g_in > 0.0) != transmitted || cos_g_out == 0.0 || sample.wo.z == 0.0 {
                 return;
             }
-            let Some(sample) = sample_bsdf(&b, to_local(n_s, w_in), &mut rng) else { return };
-            let w = to_world(n_s, sample.wo);
-            let cos_g_out = w.dot(n_g);
-            let mut phi_next = if sample.delta {
-                phi * sample.weight
-            } else {
-                // Reflection lobes stay on w_in's side, glossy transmission (principled) crosses, for both
-                // normals alike; f |w . n_g| / pdf = weight |w . n_g| / |w . n_s|.
-                let transmitted = sample.wo.z * cos_s_in < 0.0;
-                if !(cos_g_out * cos_g_in > 0.0) != transmitted || cos_g_out == 0.0 || sample.wo.z == 0.0 {
-                    return;
-                }
-                phi_vpl * sample.weight * (cos_g_out.abs() / sample.wo.z.abs())
-            };
-            if depth >= RR_DEPTH {
-                let q = (luminance(phi_next) / lum_0).min(0.95);
-                if !(uniform(&mut rng) < q) {
-                    return;
-                }
-                phi_next /= q;
-            }
-            if !(phi_next.max_element() > 0.0 && phi_next.is_finite()) {
+            phi_vpl * sample.weight * (cos_g_out.abs() / sample.wo.z.abs())
+        };
+        if depth >= RR_DEPTH {
+            let q = (luminance(phi_next) / lum_0).min(0.95);
+            if !(uniform(rng) < q) {
                 return;
             }
-            phi = phi_next;
-            o = spawn_ray(hit.p, n_g, w);
-            d = w;
+            phi_next /= q;
         }
+        if !(phi_next.max_element() > 0.0 && phi_next.is_finite()) {
+            return;
+        }
+        phi = phi_next;
+        o = spawn_ray(hit.p, n_g, w);
+        d = w;
     }
 }
 
