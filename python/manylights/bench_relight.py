@@ -56,9 +56,11 @@ def add_parser(sub) -> None:
                    help="coefficients of the culling, unseen-light and frame-rate runs (the paper's 100)")
     p.add_argument("--bounces", type=int, default=6, help="diffuse bounces (6 ~ Mitsuba's max_depth -1 in a box)")
     p.add_argument("--multibounce-coefficients", type=int, default=40)
+    p.add_argument("--multibounce", default="photons", choices=["photons", "gather"], help="how M is computed")
+    p.add_argument("--near-field", default="disc", choices=["disc", "point"], help="gather samples as discs or points")
     p.add_argument("--clamp", type=float, default=None, help="geometry-term clamp (1/scene unit^2; none by default)")
     p.add_argument("--max-depth", type=int, default=-1, help="Mitsuba's path depth of the references")
-    p.add_argument("--ref-spp", type=int, default=4096)
+    p.add_argument("--ref-spp", type=int, default=16384, help="reference spp (16384: noise ~1%% at 128x128)")
     p.add_argument("--cull", type=float, nargs="+", default=[1e-4, 1e-3, 1e-2],
                    help="on-the-fly culling: epsilon as fractions of the unculled image's L2 norm")
     p.add_argument("--sizes", nargs="+", default=["320x240", "640x480"], help="frame-rate image sizes WxH")
@@ -174,6 +176,7 @@ def run(args) -> int:
               f"{100 * edges[key].mean():.1f}%", flush=True)
 
     result = {"scene": args.scene, "size": [W, H], "gather": args.gather, "bounces": args.bounces,
+              "multibounce": args.multibounce, "near_field": args.near_field,
               "multibounce_coefficients": args.multibounce_coefficients, "clamp": args.clamp,
               "max_depth": args.max_depth, "ref_spp": args.ref_spp, "seed": args.seed,
               "default_coefficients": args.default_coefficients,
@@ -192,7 +195,8 @@ def run(args) -> int:
         rel = ml.DirectToIndirect(sc, gather=args.gather, final_gather_coefficients=coefficients, seed=args.seed,
                                   bounces=args.bounces, multibounce_coefficients=min(args.multibounce_coefficients,
                                                                                      args.gather),
-                                  clamp=args.clamp, progress=True)
+                                  multibounce=args.multibounce, near_field=args.near_field, clamp=args.clamp,
+                                  progress=True)
         return rel, time.perf_counter() - t
 
     # 1. error against coefficients
