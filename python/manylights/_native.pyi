@@ -251,7 +251,8 @@ def cluster_tensor(slices: npt.NDArray[np.float32], columns: int, seed: int = 0,
             chunk / init_clusters / projection_dim of 0, representative not "max" / "sampled" / "centroid"."""
 
 class DirectToIndirect:
-    """Precomputed final-gather transfer F_d^w and CPU relighting (use manylights.DirectToIndirect)."""
+    """Precomputed final-gather transfer F_d^w and relighting on the CPU or the GPU (use
+    manylights.DirectToIndirect)."""
     gather_positions: npt.NDArray[np.float32]
     gather_normals: npt.NDArray[np.float32]
     gather_geo_normals: npt.NDArray[np.float32]
@@ -259,11 +260,16 @@ class DirectToIndirect:
     gather_k_d: npt.NDArray[np.float32]
     timings: dict[str, float]
     stats: dict[str, Any]
+    device: dict[str, Any]
+    """The device relighting runs on: kind ("cpu" / "gpu"), name, backend, is_software, threads."""
     def __init__(self, scene: Scene, gather: int, coefficients: int, seed: int, threshold: float, clamp: float,
                  k_weight: float, bounces: int = 1, multibounce_coefficients: int = 40,
-                 progress: Optional[Callable[[int, int], None]] = None) -> None:
+                 progress: Optional[Callable[[int, int], None]] = None, device: str = "auto",
+                 visibility: Optional[str] = None, shadow_map_size: int = 1024) -> None:
         """Raises ValueError: gather not a power of 4, coefficients outside 1 ..= gather, threshold < 0,
-        clamp <= 0, K <= 0."""
+        clamp <= 0, K <= 0, an unknown device or MANYLIGHTS_DEVICE, an unknown visibility or shadow maps
+        on the CPU, shadow_map_size outside 16..=8192; GpuUnavailableError for device="gpu" without an
+        adapter."""
     def relight(self, lights: LightSet, epsilon: float) -> npt.NDArray[np.float32]:
         """(H, W, 3) direct + one diffuse bounce. Raises ValueError: empty set, non-finite lights, epsilon < 0."""
     def gather_irradiance(self, lights: LightSet) -> npt.NDArray[np.float32]:
