@@ -336,8 +336,14 @@ impl GpuRelight {
     }
 }
 
-/// The device relighting runs on for a device asked for (`"auto"` replaced by `MANYLIGHTS_DEVICE`):
-/// as the light matrix's `Device::choose`.
+/// The device relighting runs on for a device asked for (`"auto"` replaced by `MANYLIGHTS_DEVICE`): as
+/// the light matrix's `Device::choose`, i.e. `Auto` takes a hardware GPU (or the adapter
+/// `MANYLIGHTS_ADAPTER` names) and the CPU otherwise. Measured on the 2-core test machine with only
+/// lavapipe (Cornell box, 4^7 gather samples, ~70-93 coefficients per row, one moving spot light, medians):
+/// the CPU relights 128x128 at 140/s, 320x240 at 20/s, 640x480 at 8/s; lavapipe at 8/s, 5/s and 1.7/s
+/// (its column pass costs ~1 us per shading point, the CPU's exact rays ~0.05 us on this box), so the
+/// CPU is the one that meets the 10 relights/s at 320x240 here; a hardware GPU runs the same
+/// passes in parallel over thousands of cores.
 ///
 /// Errors: `GpuUnavailable` for `Gpu` without any adapter; an invalid `MANYLIGHTS_DEVICE`.
 pub fn choose_device(device: Device) -> Result<Chosen> {

@@ -88,6 +88,16 @@ fn gpu_relight_hybrid_is_close_and_bad_input_is_refused() {
     // Measured on lavapipe: 6.0e-8, as with exact rays: no shadow-map decision differs from the exact ray
     // here (the hybrid sends every uncertain test to a ray); the bound leaves room for a few that would.
     assert!(e < 1e-5, "relative L2 {e}");
+    // Another light set on the same setup (the backend's lights are replaced): a single wide spot.
+    let (c, r) = crate::lights::scene_sphere(&scene);
+    let mut spot = LightSet::new(c, r);
+    spot.push_spot(Vec3::new(400.0, 500.0, 200.0), Vec3::new(-0.3, -1.0, 0.2).normalize(), Vec3::splat(5e5), 1.4, 1.2).unwrap();
+    let spot = Arc::new(spot);
+    let (want, _) = crate::relight::relight::relight(&t, scene.clone(), view.clone(), tracer.clone(), spot.clone(), 0.0).unwrap();
+    let (got, _) = g.relight(spot, 0.0).unwrap();
+    let e = rel_l2(&got, &want);
+    // Measured: 2.4e-7.
+    assert!(e < 1e-5, "second light set (a spot with a cube shadow map): relative L2 {e}");
     let empty = Arc::new(LightSet::new(Vec3::ZERO, 1.0));
     assert!(g.relight(empty, 0.0).unwrap_err().to_string().contains("empty"));
     let mut bad = (*l).clone();
