@@ -19,6 +19,7 @@
 //!    included). Light seen directly (emitters' own radiance) is not added: `LightMatrix::emitted` has it.
 //!
 //! Output: H * W * 3 float32, row-major pixels, radiance (W/m^2/sr), like the light matrix's images.
+//! `relight::gpu` computes the same on the GPU.
 use super::haar;
 use super::transfer::Transfer;
 use crate::error::{Error, Result};
