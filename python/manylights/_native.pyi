@@ -251,7 +251,7 @@ def cluster_tensor(slices: npt.NDArray[np.float32], columns: int, seed: int = 0,
             chunk / init_clusters / projection_dim of 0, representative not "max" / "sampled" / "centroid"."""
 
 class DirectToIndirect:
-    """Precomputed final-gather transfers F_d^w, F_g^w, the multi-bounce M^w and CPU relighting (use
+    """Precomputed final-gather transfers F_d^w, F_g^w, the multi-bounce M^w and relighting on the CPU or the GPU (use
     manylights.DirectToIndirect)."""
     gather_positions: npt.NDArray[np.float32]
     gather_normals: npt.NDArray[np.float32]
@@ -260,14 +260,19 @@ class DirectToIndirect:
     gather_k_d: npt.NDArray[np.float32]
     timings: dict[str, float]
     stats: dict[str, Any]
+    device: dict[str, Any]
+    """The device relighting runs on: kind ("cpu" / "gpu"), name, backend, is_software, threads."""
     def __init__(self, scene: Scene, gather: int, coefficients: int, seed: int, threshold: float, clamp: float,
                  k_weight: float, bounces: int = 1, multibounce_coefficients: int = 40,
                  progress: Optional[Callable[[int, int], None]] = None, multibounce: str = "photons",
                  photons_per_sample: int = 64, photon_neighbours: int = 400, glossy: bool = True,
-                 near_field: str = "disc") -> None:
+                 near_field: str = "disc", device: str = "auto", visibility: Optional[str] = None,
+                 shadow_map_size: int = 1024) -> None:
         """Raises ValueError: gather not a power of 4, coefficients outside 1 ..= gather, threshold < 0,
         clamp <= 0, K <= 0, multibounce not 'photons' or 'gather', photons_per_sample or
-        photon_neighbours outside 1 ..= 2^20."""
+        photon_neighbours outside 1 ..= 2^20, near_field not 'disc' or 'point', an unknown device or
+        MANYLIGHTS_DEVICE, an unknown visibility or shadow maps on the CPU, shadow_map_size outside
+        16..=8192; GpuUnavailableError for device="gpu" without an adapter."""
     def relight(self, lights: LightSet, epsilon: float) -> npt.NDArray[np.float32]:
         """(H, W, 3) direct + one diffuse bounce. Raises ValueError: empty set, non-finite lights, epsilon < 0."""
     def gather_irradiance(self, lights: LightSet) -> npt.NDArray[np.float32]:
@@ -277,8 +282,10 @@ def transfer_arrays(rel: Any) -> list[tuple[str, npt.NDArray[Any]]]:
     """[(name, array)] of a precomputed transfer (src/relight/store.rs names them; float32, float64, uint32,
     uint64 arrays), what ``DirectToIndirect.save`` writes; rel is a ``manylights.DirectToIndirect`` or its native
     object. Raises TypeError: rel not a DirectToIndirect."""
-def transfer_from_arrays(scene: Scene, arrays: Sequence[tuple[str, npt.NDArray[Any]]]) -> DirectToIndirect:
-    """Rebuilds a DirectToIndirect of ``scene`` from ``transfer_arrays`` output (``DirectToIndirect.load``).
+def transfer_from_arrays(scene: Scene, arrays: Sequence[tuple[str, npt.NDArray[Any]]], device: str = "auto",
+                         visibility: Optional[str] = None, shadow_map_size: int = 1024) -> DirectToIndirect:
+    """Rebuilds a DirectToIndirect of ``scene`` from ``transfer_arrays`` output (``DirectToIndirect.load``),
+    relighting on ``device`` as the constructor's.
     Raises ValueError naming the array (missing, shape, dtype, range, non-finite, a gather cloud or film
     that differs from the scene's), TypeError for an unsupported dtype."""
 def transfer_scene_hash(scene: Scene) -> dict[str, str]:

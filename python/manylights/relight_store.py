@@ -80,9 +80,10 @@ def save(rel, path) -> Path:
     return path
 
 
-def load(cls, path, scene):
+def load(cls, path, scene, device: str = "auto", visibility=None, shadow_map_size: int = 1024):
     """Reads a precomputation saved by ``save`` for ``scene`` (the same scene, or one whose emitters
-    changed). The result relights bit-identically to the saved object.
+    changed). The result relights bit-identically to the saved object on the same device; ``device``,
+    ``visibility`` and ``shadow_map_size`` choose where it relights, as ``DirectToIndirect``'s.
 
     Raises:
         FileNotFoundError / OSError: the file cannot be read.
@@ -134,7 +135,7 @@ def load(cls, path, scene):
             raise
         raise ValueError(f"{path}: damaged relighting file ({e})") from e
     try:
-        t = _native.transfer_from_arrays(scene, arrays)
+        t = _native.transfer_from_arrays(scene, arrays, device, visibility, shadow_map_size)
     except ValueError as e:
         raise ValueError(f"{path}: {e}") from e
     obj = cls.__new__(cls)

@@ -4,7 +4,8 @@ struct ViewSample {
     position: vec3<f32>,
     shape_index: i32,
     normal: vec3<f32>,
-    _pad0: u32,
+    // VIEW_FLAG_* bits.
+    flags: u32,
     geo_normal: vec3<f32>,
     _pad1: u32,
     wi: vec3<f32>,
@@ -12,3 +13,7 @@ struct ViewSample {
     throughput: vec3<f32>,
     _pad3: u32,
 }
+
+// Only light from the front side of the geometric normal counts (gather samples of relighting:
+// `lights::animated::irradiance`); keep in sync with `VIEW_FLAG_GEO_FRONT` in src/gpu/columns.rs.
+const VIEW_FLAG_GEO_FRONT: u32 = 1u;

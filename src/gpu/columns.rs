@@ -93,7 +93,8 @@ pub struct GpuViewSample {
     pub position: [f32; 3],
     pub shape_index: i32,
     pub normal: [f32; 3],
-    pub _pad0: u32,
+    /// `VIEW_FLAG_*` bits (0 for the camera's view samples).
+    pub flags: u32,
     pub geo_normal: [f32; 3],
     pub _pad1: u32,
     pub wi: [f32; 3],
@@ -102,6 +103,10 @@ pub struct GpuViewSample {
     pub throughput: [f32; 3],
     pub _pad3: u32,
 }
+
+/// `GpuViewSample::flags`: light only from the front side of the geometric normal counts (`wo . n_g > 0`,
+/// as `lights::animated::irradiance` demands of gather samples). Keep in sync with `view_sample.wgsl`.
+pub const VIEW_FLAG_GEO_FRONT: u32 = 1;
 
 /// Keep in sync with `struct ColumnParams` in `shaders/columns.wgsl` (48 bytes).
 #[repr(C)]
@@ -142,7 +147,7 @@ impl ViewBuffers {
                 position: view.position[i].to_array(),
                 shape_index: view.shape_index[i],
                 normal: view.normal[i].to_array(),
-                _pad0: 0,
+                flags: 0,
                 geo_normal: view.geo_normal[i].to_array(),
                 _pad1: 0,
                 wi: view.wi[i].to_array(),
@@ -151,19 +156,25 @@ impl ViewBuffers {
                 _pad3: 0,
             })
             .collect();
+        ViewBuffers::from_parts(device, &samples, &view.bsdf, bsdf_tables)
+    }
+
+    /// Buffers of any shading points: `samples[i]` shaded with `bsdfs[i]` (blended BSDFs' second records
+    /// after the first `samples.len()`), `bsdf_tables` the rough-plastic tables they index.
+    pub fn from_parts(device: &wgpu::Device, samples: &[GpuViewSample], bsdfs: &[crate::shading::GpuBsdf], bsdf_tables: &[f32]) -> ViewBuffers {
         let pad = |bytes: &[u8]| if bytes.is_empty() { vec![0u8; 256] } else { bytes.to_vec() };
         let samples_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ViewBuffers::samples"),
-            contents: &pad(bytemuck::cast_slice(&samples)),
+            contents: &pad(bytemuck::cast_slice(samples)),
             usage: wgpu::BufferUsages::STORAGE,
         });
         let bsdfs = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ViewBuffers::bsdfs"),
-            contents: &pad(bytemuck::cast_slice(&view.bsdf)),
+            contents: &pad(bytemuck::cast_slice(bsdfs)),
             usage: wgpu::BufferUsages::STORAGE,
         });
         let bsdf_tables = storage_buffer(device, "ViewBuffers::bsdf_tables", bsdf_tables, wgpu::BufferUsages::STORAGE);
-        ViewBuffers { samples: samples_buf, bsdfs, bsdf_tables, num_samples: view.len() as u32 }
+        ViewBuffers { samples: samples_buf, bsdfs, bsdf_tables, num_samples: samples.len() as u32 }
     }
 }
 

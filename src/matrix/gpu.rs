@@ -174,15 +174,8 @@ impl GpuBackend {
         out
     }
 
-    /// Encode and submit one batch: shadow maps, then the column pass. Returns the submission.
-    fn run_batch(
-        &self,
-        js: &[usize],
-        batch: &Batch,
-        weights: &[[f32; 4]],
-        accum: &wgpu::Buffer,
-        columns: Option<&wgpu::Buffer>,
-    ) -> wgpu::SubmissionIndex {
+    /// The batch's lights (`GpuLight`s) and shadow-map layers as GPU buffers, and the light count.
+    fn batch_buffers(&self, js: &[usize], batch: &Batch) -> (wgpu::Buffer, wgpu::Buffer, usize) {
         let device = &self.ctx.device;
         let res = self.opts.shadow_resolution;
         let mut gpu_lights = Vec::with_capacity(batch.end - batch.start);
@@ -198,8 +191,31 @@ impl GpuBackend {
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
         );
         let lights_buf = storage_buffer(device, "LightMatrix::lights", &gpu_lights, wgpu::BufferUsages::STORAGE);
+        (lights_buf, layers_buf, gpu_lights.len())
+    }
+
+    /// Record the batch's shadow maps (none with exact rays only).
+    fn encode_shadow_maps(&self, encoder: &mut wgpu::CommandEncoder, layers_buf: &wgpu::Buffer, batch: &Batch) {
+        if self.opts.visibility != Visibility::RayTraced {
+            self.shadow_pass.encode(&self.ctx.device, encoder, &self.atlas, layers_buf, batch.num_layers, &self.geometry);
+        }
+    }
+
+    /// Record the column pass of `num_lights` lights (their shadow maps rendered) over the shading points
+    /// `view`: weighted sum into `accum`, or the columns into `columns`.
+    #[allow(clippy::too_many_arguments)]
+    fn encode_columns(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &ViewBuffers,
+        (lights_buf, layers_buf, num_lights): (&wgpu::Buffer, &wgpu::Buffer, usize),
+        weights: &[[f32; 4]],
+        accum: &wgpu::Buffer,
+        columns: Option<&wgpu::Buffer>,
+    ) {
+        let device = &self.ctx.device;
         let weights_buf = storage_buffer(device, "LightMatrix::weights", weights, wgpu::BufferUsages::STORAGE);
-        let (_, _, dispatch_width) = dispatch_size(self.view_buffers.num_samples);
+        let (_, _, dispatch_width) = dispatch_size(view.num_samples);
         let dummy;
         let columns_buf = match columns {
             Some(b) => b,
@@ -208,23 +224,18 @@ impl GpuBackend {
                 &dummy
             }
         };
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::batch") });
-        if self.opts.visibility != Visibility::RayTraced {
-            self.shadow_pass.encode(device, &mut encoder, &self.atlas, &layers_buf, batch.num_layers, &self.geometry);
-        }
         // With rays, few enough lights per dispatch that an invocation's loops stay bounded (module doc).
         let per_dispatch = match self.opts.visibility {
-            Visibility::ShadowMap => gpu_lights.len(),
+            Visibility::ShadowMap => num_lights,
             Visibility::Hybrid | Visibility::RayTraced => RAYS_PER_INVOCATION as usize,
         };
-        for first in (0..gpu_lights.len()).step_by(per_dispatch.max(1)) {
+        for first in (0..num_lights).step_by(per_dispatch.max(1)) {
             let params = ColumnParams {
-                num_samples: self.view_buffers.num_samples,
-                num_lights: per_dispatch.min(gpu_lights.len() - first) as u32,
+                num_samples: view.num_samples,
+                num_lights: per_dispatch.min(num_lights - first) as u32,
                 write_columns: columns.is_some() as u32,
                 accumulate: columns.is_none() as u32,
-                resolution: res,
+                resolution: self.opts.shadow_resolution,
                 dispatch_width,
                 first_light: first as u32,
                 visibility: self.opts.visibility as u32,
@@ -236,12 +247,12 @@ impl GpuBackend {
             let params_buf = storage_buffer(device, "LightMatrix::params", &[params], wgpu::BufferUsages::UNIFORM);
             self.columns_pass.encode(
                 device,
-                &mut encoder,
+                encoder,
                 &ColumnsInputs {
                     params: &params_buf,
-                    view: &self.view_buffers,
-                    lights: &lights_buf,
-                    layers: &layers_buf,
+                    view,
+                    lights: lights_buf,
+                    layers: layers_buf,
                     weights: &weights_buf,
                     shadow_maps: &self.atlas.array_view,
                     accum,
@@ -253,7 +264,72 @@ impl GpuBackend {
                 },
             );
         }
+    }
+
+    /// Encode and submit one batch: shadow maps, then the column pass. Returns the submission.
+    fn run_batch(
+        &self,
+        js: &[usize],
+        batch: &Batch,
+        weights: &[[f32; 4]],
+        accum: &wgpu::Buffer,
+        columns: Option<&wgpu::Buffer>,
+    ) -> wgpu::SubmissionIndex {
+        let (lights_buf, layers_buf, n) = self.batch_buffers(js, batch);
+        let mut encoder =
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::batch") });
+        self.encode_shadow_maps(&mut encoder, &layers_buf, batch);
+        self.encode_columns(&mut encoder, &self.view_buffers, (&lights_buf, &layers_buf, n), weights, accum, columns);
         self.ctx.queue.submit(Some(encoder.finish()))
+    }
+
+    /// Replaces the light set (same scene, view samples, shadow atlas and BVH): relighting re-uses one
+    /// backend for every light configuration (`crate::relight::gpu`).
+    ///
+    /// Errors: `InvalidParameter` when the spot lights' textures exceed the storage binding limit.
+    pub(crate) fn set_lights(&mut self, lights: Arc<LightSet>) -> Result<()> {
+        let (texels, offsets) = crate::lights::spot_texture::gpu_table(&lights);
+        if texels.len() as u64 * 4 > self.max_binding {
+            return Err(Error::invalid(format!(
+                "the spot lights' projected textures need {} bytes, above the {}-byte storage binding limit",
+                texels.len() as u64 * 4,
+                self.max_binding
+            )));
+        }
+        self.spot_textures = storage_buffer(&self.ctx.device, "LightMatrix::spot_textures", &texels, wgpu::BufferUsages::STORAGE);
+        self.spot_texture_offsets = offsets;
+        self.row_lights = std::sync::OnceLock::new();
+        self.lights = lights;
+        Ok(())
+    }
+
+    /// Adds every light's column (weight 1) over each target's shading points to that target's RGBA f32
+    /// accumulator, stage by stage with a wait after each: per batch the shadow maps, then each
+    /// target's column pass. Returns the seconds spent in the shadow maps and in each target's pass
+    /// (the waits make the stages' times honest at the cost of the overlap between them).
+    pub(crate) fn accumulate_staged(&self, targets: &[(&ViewBuffers, &wgpu::Buffer)]) -> Result<(f64, Vec<f64>)> {
+        let js: Vec<usize> = (0..self.lights.len()).collect();
+        let mut seconds = vec![0.0; targets.len()];
+        let mut shadow = 0.0;
+        for batch in self.batches(&js, usize::MAX) {
+            let t0 = std::time::Instant::now();
+            let (lights_buf, layers_buf, n) = self.batch_buffers(&js, &batch);
+            let mut encoder =
+                self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::shadow") });
+            self.encode_shadow_maps(&mut encoder, &layers_buf, &batch);
+            self.wait_for(self.ctx.queue.submit(Some(encoder.finish())))?;
+            shadow += t0.elapsed().as_secs_f64();
+            let ones = vec![[1.0f32; 4]; n];
+            for (k, (view, accum)) in targets.iter().enumerate() {
+                let t1 = std::time::Instant::now();
+                let mut encoder =
+                    self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::columns") });
+                self.encode_columns(&mut encoder, view, (&lights_buf, &layers_buf, n), &ones, accum, None);
+                self.wait_for(self.ctx.queue.submit(Some(encoder.finish())))?;
+                seconds[k] += t1.elapsed().as_secs_f64();
+            }
+        }
+        Ok((shadow, seconds))
     }
 
     pub(crate) fn wait_for(&self, submission: wgpu::SubmissionIndex) -> Result<()> {

@@ -1,11 +1,14 @@
-//! `DirectToIndirect`: the precomputed final-gather transfer and CPU relighting (`relight::transfer`,
-//! `relight::relight`); the Python class `manylights.DirectToIndirect` wraps it.
+//! `DirectToIndirect`: the precomputed final-gather transfer and relighting on the CPU or the GPU
+//! (`relight::transfer`, `relight::relight`, `relight::gpu`); the Python class
+//! `manylights.DirectToIndirect` wraps it.
 use super::lightset::LightSet;
 use super::scene::Scene;
 use super::signals;
 use super::util::{array, vec3_array};
 use crate::error::Error;
-use crate::matrix::backend::Chosen;
+use crate::matrix::backend::{Chosen, Device, DeviceInfo};
+use crate::matrix::{ColumnOptions, Visibility};
+use crate::relight::gpu::{choose_device, GpuRelight};
 use crate::relight::relight::{self as core, RelightStats};
 use crate::relight::transfer::{NearField, Transfer, TransferOptions};
 use crate::raytrace::RayTracer;
@@ -24,6 +27,8 @@ pub struct DirectToIndirect {
     view: Arc<ViewSamples>,
     tracer: Arc<RayTracer>,
     last: Mutex<Option<RelightStats>>,
+    /// Relighting on the GPU (`relight::gpu`) when the device chosen is one; None = the CPU.
+    gpu: Option<Arc<GpuRelight>>,
 }
 
 impl DirectToIndirect {
@@ -32,19 +37,39 @@ impl DirectToIndirect {
         &self.inner
     }
 
-    /// Wraps a transfer rebuilt for `scene` (`transfer_store`): the view samples and BVH are made as `new`
-    /// makes them.
-    pub(crate) fn from_transfer(py: Python<'_>, scene: &Scene, inner: Transfer) -> PyResult<Self> {
+    /// Wraps a transfer rebuilt for `scene` (`transfer_store`): the view samples, BVH and relighting
+    /// device are made as `new` makes them.
+    pub(crate) fn from_transfer(py: Python<'_>, scene: &Scene, inner: Transfer, device: &str, visibility: Option<&str>, shadow_map_size: u32) -> PyResult<Self> {
+        let (chosen, columns) = relight_device(py, device, visibility, shadow_map_size)?;
         let view = scene.view_samples_on(py, ChainOptions::default(), &Chosen::Cpu)?;
         let tracer = scene.tracer(py)?;
-        Ok(DirectToIndirect { inner: Arc::new(inner), scene: scene.inner.clone(), view, tracer, last: Mutex::new(None) })
+        Self::wrap(py, scene, inner, view, tracer, chosen, columns)
+    }
+
+    fn wrap(
+        py: Python<'_>,
+        scene: &Scene,
+        inner: Transfer,
+        view: Arc<ViewSamples>,
+        tracer: Arc<RayTracer>,
+        chosen: Chosen,
+        columns: ColumnOptions,
+    ) -> PyResult<Self> {
+        let gpu = match chosen {
+            Chosen::Gpu(ctx) => {
+                let (s, v, t) = (scene.inner.clone(), view.clone(), &inner);
+                Some(Arc::new(signals::detach(py, move || GpuRelight::new(ctx, s, v, t, columns))?))
+            }
+            Chosen::Cpu => None,
+        };
+        Ok(DirectToIndirect { inner: Arc::new(inner), scene: scene.inner.clone(), view, tracer, last: Mutex::new(None), gpu })
     }
 }
 
 #[pymethods]
 impl DirectToIndirect {
     #[new]
-    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None, multibounce="photons", photons_per_sample=crate::relight::multibounce::DEFAULT_PHOTONS_PER_SAMPLE, photon_neighbours=crate::relight::multibounce::DEFAULT_PHOTON_NEIGHBOURS, glossy=true, near_field="disc"))]
+    #[pyo3(signature = (scene, gather, coefficients, seed, threshold, clamp, k_weight, bounces=1, multibounce_coefficients=40, progress=None, multibounce="photons", photons_per_sample=crate::relight::multibounce::DEFAULT_PHOTONS_PER_SAMPLE, photon_neighbours=crate::relight::multibounce::DEFAULT_PHOTON_NEIGHBOURS, glossy=true, near_field="disc", device="auto", visibility=None, shadow_map_size=1024))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -63,6 +88,9 @@ impl DirectToIndirect {
         photon_neighbours: usize,
         glossy: bool,
         near_field: &str,
+        device: &str,
+        visibility: Option<&str>,
+        shadow_map_size: u32,
     ) -> PyResult<Self> {
         let near_field = NearField::parse(near_field)?;
         let multibounce = crate::relight::Multibounce::parse(multibounce)?;
@@ -87,6 +115,7 @@ impl DirectToIndirect {
         if !(1..=gather).contains(&coefficients) {
             return Err(Error::invalid(format!("final_gather_coefficients must be in 1 ..= gather ({gather}), got {coefficients}")).into());
         }
+        let (chosen, columns) = relight_device(py, device, visibility, shadow_map_size)?;
         let view = scene.view_samples_on(py, ChainOptions::default(), &Chosen::Cpu)?;
         let tracer = scene.tracer(py)?;
         let s = scene.inner.clone();
@@ -95,13 +124,16 @@ impl DirectToIndirect {
             let mut cb = signals::progress_callback(progress);
             Transfer::new(&s, &v, &t, &opts, &mut cb)
         })?;
-        Ok(DirectToIndirect { inner: Arc::new(inner), scene: scene.inner.clone(), view, tracer, last: Mutex::new(None) })
+        Self::wrap(py, scene, inner, view, tracer, chosen, columns)
     }
 
     /// (H, W, 3) float32 relit image (direct + one diffuse bounce).
     fn relight<'py>(&self, py: Python<'py>, lights: &LightSet, epsilon: f32) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let (t, s, v, tr, l) = (self.inner.clone(), self.scene.clone(), self.view.clone(), self.tracer.clone(), lights.inner.clone());
-        let (img, stats) = signals::detach(py, move || core::relight(&t, s, v, tr, l, epsilon))?;
+        let (img, stats) = match self.gpu.clone() {
+            Some(g) => signals::detach(py, move || g.relight(l, epsilon))?,
+            None => signals::detach(py, move || core::relight(&t, s, v, tr, l, epsilon))?,
+        };
         *self.last.lock().unwrap_or_else(|e| e.into_inner()) = Some(stats);
         array(py, img, &[self.inner.height as usize, self.inner.width as usize, 3])
     }
@@ -140,6 +172,13 @@ impl DirectToIndirect {
         vec3_array(py, &self.inner.cloud.k_d)
     }
 
+    /// The device relighting runs on: dict with kind ("cpu" / "gpu"), name, backend, is_software, threads.
+    #[getter]
+    fn device<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let info = self.gpu.as_ref().map_or_else(DeviceInfo::cpu, |g| g.device());
+        super::scene::device_dict(py, &info)
+    }
+
     /// Seconds per stage of the precomputation and of the last relight.
     #[getter]
     fn timings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -151,11 +190,13 @@ impl DirectToIndirect {
         d.set_item("multibounce", t.seconds_bounce_rows)?;
         d.set_item("glossy_final_gather", t.seconds_glossy_rows)?;
         if let Some(s) = self.last.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            d.set_item("relight_shadow_maps", s.seconds_shadow_maps)?;
             d.set_item("relight_gather_direct", s.seconds_gather_direct)?;
             d.set_item("relight_bounces", s.seconds_bounces)?;
             d.set_item("relight_wavelet", s.seconds_wavelet)?;
             d.set_item("relight_transfer", s.seconds_transfer)?;
             d.set_item("relight_view_direct", s.seconds_view_direct)?;
+            d.set_item("relight_readback", s.seconds_readback)?;
         }
         Ok(d)
     }
@@ -189,6 +230,30 @@ impl DirectToIndirect {
         }
         Ok(d)
     }
+}
+
+/// The device relighting runs on and its column options (`relight::gpu::choose_device`).
+fn relight_device(py: Python<'_>, device: &str, visibility: Option<&str>, shadow_map_size: u32) -> PyResult<(Chosen, ColumnOptions)> {
+    if !(16..=8192).contains(&shadow_map_size) {
+        return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
+    }
+    let visibility = visibility.map(Visibility::parse).transpose()?;
+    let mut device = Device::parse(device)?.with_env()?;
+    if device == Device::Auto && visibility.is_some_and(|v| v != Visibility::RayTraced) {
+        // Shadow maps were asked for: only the GPU renders them.
+        device = Device::Gpu;
+    }
+    let chosen = py.detach(move || choose_device(device))?;
+    if chosen.is_cpu() && visibility.is_some_and(|v| v != Visibility::RayTraced) {
+        return Err(Error::invalid(format!(
+            "visibility {:?} uses shadow maps, which only the GPU renders; relighting on the CPU casts exact rays \
+             (visibility 'ray_traced')",
+            visibility.unwrap_or_default()
+        ))
+        .into());
+    }
+    let columns = ColumnOptions { visibility: visibility.unwrap_or_default(), shadow_resolution: shadow_map_size, ..Default::default() };
+    Ok((chosen, columns))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

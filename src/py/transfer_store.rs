@@ -48,8 +48,17 @@ fn named<'py, T: numpy::Element + Copy>(name: &str, a: &Bound<'py, PyAny>, wrap:
 /// Rebuilds a `DirectToIndirect` of `scene` from [(name, array)] (`transfer_arrays` of a saved one).
 /// Raises TypeError for an array of another dtype than float32/float64/uint32/uint64, ValueError for
 /// what `relight::store::from_arrays` refuses (the array named).
+/// `device`, `visibility`, `shadow_map_size`: where it relights, as `DirectToIndirect`'s constructor.
 #[pyfunction]
-fn transfer_from_arrays(py: Python<'_>, scene: &Scene, arrays: Vec<(String, Bound<'_, PyAny>)>) -> PyResult<DirectToIndirect> {
+#[pyo3(signature = (scene, arrays, device="auto", visibility=None, shadow_map_size=1024))]
+fn transfer_from_arrays(
+    py: Python<'_>,
+    scene: &Scene,
+    arrays: Vec<(String, Bound<'_, PyAny>)>,
+    device: &str,
+    visibility: Option<&str>,
+    shadow_map_size: u32,
+) -> PyResult<DirectToIndirect> {
     let mut list = Vec::with_capacity(arrays.len());
     for (name, a) in &arrays {
         let n = named::<f32>(name, a, Data::F32)
@@ -67,7 +76,7 @@ fn transfer_from_arrays(py: Python<'_>, scene: &Scene, arrays: Vec<(String, Boun
     let s = scene.inner.clone();
     let (w, h) = (s.camera.width, s.camera.height);
     let t = signals::detach(py, move || store::from_arrays(&s, w, h, list))?;
-    DirectToIndirect::from_transfer(py, scene, t)
+    DirectToIndirect::from_transfer(py, scene, t, device, visibility, shadow_map_size)
 }
 
 /// {section: SHA-256 hex digest} of what a transfer of `scene` depends on: "geometry", "materials",

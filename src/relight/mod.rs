@@ -2,7 +2,7 @@
 //! Relighting", SIGGRAPH 2006): the gather cloud's cluster hierarchy and gather image (`hierarchy`),
 //! the 2D Haar wavelets with the paper's coefficient culling (`haar`), the diffuse final-gather transfer
 //! F_d (`transfer`), the glossy final gather F_g (`glossy`), the photon-mapped multi-bounce matrix M
-//! (`multibounce`) and relighting on the CPU (`relight`). The gather cloud itself is
+//! (`multibounce`) and relighting on the CPU (`relight`) or the GPU (`gpu`). The gather cloud itself is
 //! `crate::lights::gather` (shared with tensor clustering).
 //!
 //! The paper's symbols (its Table 1) in the code (`Transfer` fields unless named otherwise; n_v = pixels
@@ -19,6 +19,7 @@
 //! | M (alternative) | `bounce_rows` (gather) | scalar, n_g x n_g | one-bounce gather-to-gather F_gg; M = K + ... + K^(b-1), K = diag(k_d / pi) F_gg |
 //! | W | `haar::forward` on the gather image (`hierarchy`) | n_g x n_g | orthonormal 2D Haar projection |
 pub mod glossy;
+pub mod gpu;
 pub mod haar;
 pub mod hierarchy;
 pub mod multibounce;

@@ -23,6 +23,7 @@
 //!    included). Light seen directly (emitters' own radiance) is not added: `LightMatrix::emitted` has it.
 //!
 //! Output: H * W * 3 float32, row-major pixels, radiance (W/m^2/sr), like the light matrix's images.
+//! `relight::gpu` computes the same on the GPU.
 use super::haar;
 use super::transfer::Transfer;
 use crate::error::{Error, Result};
@@ -40,12 +41,16 @@ use std::time::Instant;
 /// Seconds per stage of one relight and what culling kept.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RelightStats {
+    /// Shadow maps of the lights (GPU only; 0 on the CPU, which casts exact rays).
+    pub seconds_shadow_maps: f64,
     pub seconds_gather_direct: f64,
     /// The gather-to-gather bounce passes (0 work with one bounce).
     pub seconds_bounces: f64,
     pub seconds_wavelet: f64,
     pub seconds_transfer: f64,
     pub seconds_view_direct: f64,
+    /// Copying the image back to the host (GPU only).
+    pub seconds_readback: f64,
     /// Wavelet lights (non-zero coefficients of b^w) and how many on-the-fly culling removed.
     pub wavelet_lights: usize,
     pub wavelet_lights_culled: usize,
