@@ -136,7 +136,25 @@ def _check_animation_block(ns):
     assert set(res.timings) >= {"slices", "clustering", "mappings", "columns", "reconstruction"}
 
 
-CHECKS = {"Animations: tensor clustering in ten lines": _check_animation_block,"Matrix Row-Column Sampling in ten lines": _check_mrcs_block, "Python in ten lines": _check_python_block,
+def _check_relight_block(ns):
+    """Relighting in ten lines: the image shape, the bounces add light to the direct image, culling changes
+    little, and the loaded precomputation relights bit-identically."""
+    import manylights as ml
+
+    rel, back, spot, scene = ns["rel"], ns["back"], ns["spot"], ns["scene"]
+    img = rel.relight(spot)
+    assert img.shape == (64, 64, 3) and img.dtype == np.float32
+    direct = ml.LightMatrix(scene, spot, device="cpu").column_sum(progress=False)
+    assert img.sum() > 1.1 * direct.sum()  # indirect light is there
+    assert 0 < ml.relative_l2(ns["img"], img) < 0.05  # measured 5e-4
+    rel.relight(spot, epsilon=1e-3)
+    assert rel.stats["wavelet_lights_culled"] > 0
+    np.testing.assert_array_equal(back.relight(spot), img)
+    assert rel.stats["bounces"] == 3 and Path("cbox-lights.npz").is_file()
+
+
+CHECKS = {"Relighting: direct-to-indirect transfer in ten lines": _check_relight_block,
+          "Animations: tensor clustering in ten lines": _check_animation_block,"Matrix Row-Column Sampling in ten lines": _check_mrcs_block, "Python in ten lines": _check_python_block,
           "Interactive use and robustness": _check_own_lights_block, "Two backends: CPU and GPU": _check_backends_block}
 
 

@@ -65,6 +65,8 @@ def add_parser(sub) -> None:
                    help="on-the-fly culling: epsilon as fractions of the unculled image's L2 norm")
     p.add_argument("--sizes", nargs="+", default=["320x240", "640x480"], help="frame-rate image sizes WxH")
     p.add_argument("--relights", type=int, default=20, help="relights timed per size")
+    p.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"],
+                   help="where relighting runs (DirectToIndirect device=; the precomputation is on the CPU)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--cache", default="out/bench/cache")
     p.add_argument("--out", default="out/bench")
@@ -176,7 +178,7 @@ def run(args) -> int:
               f"{100 * edges[key].mean():.1f}%", flush=True)
 
     result = {"scene": args.scene, "size": [W, H], "gather": args.gather, "bounces": args.bounces,
-              "multibounce": args.multibounce, "near_field": args.near_field,
+              "multibounce": args.multibounce, "near_field": args.near_field, "device": None,
               "multibounce_coefficients": args.multibounce_coefficients, "clamp": args.clamp,
               "max_depth": args.max_depth, "ref_spp": args.ref_spp, "seed": args.seed,
               "default_coefficients": args.default_coefficients,
@@ -196,7 +198,7 @@ def run(args) -> int:
                                   bounces=args.bounces, multibounce_coefficients=min(args.multibounce_coefficients,
                                                                                      args.gather),
                                   multibounce=args.multibounce, near_field=args.near_field, clamp=args.clamp,
-                                  progress=True)
+                                  device=args.device, progress=True)
         return rel, time.perf_counter() - t
 
     # 1. error against coefficients
@@ -210,6 +212,7 @@ def run(args) -> int:
         relight_s = time.perf_counter() - t
         images[c] = img
         errs = _rel_errors(img, refs["seen"][0], edges["seen"])
+        result["device"] = dict(rel.device)
         row = {"coefficients": c, "precompute_seconds": seconds, "timings": dict(rel.timings),
                "bytes": int(rel.stats["bytes"]), "relight_seconds": relight_s, **errs}
         if c == args.default_coefficients:
