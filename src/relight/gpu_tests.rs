@@ -311,11 +311,16 @@ fn sparse_products_split_over_chunks_and_parts() {
 
 /// Relights per second and stage times, CPU vs GPU, on the bundled Cornell box with a moving spot light
 /// (default transfer: 4^7 gather samples, 100 coefficients per row). Sizes from `RELIGHT_BENCH_SIZES`
-/// (default "128x128,320x240"). Run: `cargo test --release bench_relight -- --ignored --nocapture`.
+/// (default "128x128,320x240"), bounces from `RELIGHT_BENCH_BOUNCES` (default "1"; b > 1 with the default
+/// photon-mapped M). Run: `cargo test --release bench_relight -- --ignored --nocapture`.
+///
+/// Measured on the 2-core test machine, lavapipe, 320x240, epsilon 0 (medians of 6): see
+/// `relight::gpu::choose_device`.
 #[test]
 #[ignore]
 fn bench_relight() {
     let sizes = std::env::var("RELIGHT_BENCH_SIZES").unwrap_or_else(|_| "128x128,320x240".into());
+    let bounce_counts = std::env::var("RELIGHT_BENCH_BOUNCES").unwrap_or_else(|_| "1".into());
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join("cbox").join("scene.xml");
     for size in sizes.split(',') {
         let (w, h) = size.split_once('x').map(|(a, b)| (a.parse().unwrap(), b.parse().unwrap())).unwrap();
@@ -324,39 +329,47 @@ fn bench_relight() {
         let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
         let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &ChainOptions::default()).unwrap();
         let (scene, view, tracer) = (Arc::new(scene), Arc::new(view), Arc::new(tracer));
-        let t0 = Instant::now();
-        let t = Transfer::new(&scene, &view, &tracer, &TransferOptions::default(), &mut |_, _| {}).unwrap();
-        eprintln!("{w}x{h}: precompute {:.1} s, {:.1} coefficients per row", t0.elapsed().as_secs_f64(), t.coefficients_kept() as f64 / t.rows.len() as f64);
-        let (c, r) = crate::lights::scene_sphere(&scene);
-        let spot = |k: usize| {
-            let mut s = LightSet::new(c, r);
-            let x = 30.0 * k as f32 - 100.0;
-            s.push_spot(Vec3::new(278.0 + x, 530.0, 279.0), Vec3::new(-0.002 * x, -1.0, 0.1).normalize(), Vec3::splat(4e5), 0.6, 0.45).unwrap();
-            Arc::new(s)
-        };
-        let g = GpuRelight::new(ctx(), scene.clone(), view.clone(), &t, ColumnOptions::default()).unwrap();
-        for epsilon in [0.0f32, 1e-3] {
-            for device in ["cpu", "gpu"] {
-                let mut all = Vec::new();
-                for k in 0..8 {
-                    let t1 = Instant::now();
-                    let (_, st) = if device == "gpu" {
-                        g.relight(spot(k), epsilon).unwrap()
-                    } else {
-                        crate::relight::relight::relight(&t, scene.clone(), view.clone(), tracer.clone(), spot(k), epsilon).unwrap()
-                    };
-                    all.push((t1.elapsed().as_secs_f64(), st));
+        for bounces in bounce_counts.split(',').map(|b| b.parse::<u32>().unwrap()) {
+            let t0 = Instant::now();
+            let t = Transfer::new(&scene, &view, &tracer, &TransferOptions { bounces, ..Default::default() }, &mut |_, _| {}).unwrap();
+            eprintln!(
+                "{w}x{h} bounces {bounces}: precompute {:.1} s, {:.1} coefficients per row, {} photon coefficients, {} glossy pixels",
+                t0.elapsed().as_secs_f64(),
+                t.coefficients_kept() as f64 / t.rows.len() as f64,
+                t.photon_coefficients_kept(),
+                t.glossy_pixels
+            );
+            let (c, r) = crate::lights::scene_sphere(&scene);
+            let spot = |k: usize| {
+                let mut s = LightSet::new(c, r);
+                let x = 30.0 * k as f32 - 100.0;
+                s.push_spot(Vec3::new(278.0 + x, 530.0, 279.0), Vec3::new(-0.002 * x, -1.0, 0.1).normalize(), Vec3::splat(4e5), 0.6, 0.45).unwrap();
+                Arc::new(s)
+            };
+            let g = GpuRelight::new(ctx(), scene.clone(), view.clone(), &t, ColumnOptions::default()).unwrap();
+            for epsilon in [0.0f32, 1e-3] {
+                for device in ["cpu", "gpu"] {
+                    let mut all = Vec::new();
+                    for k in 0..8 {
+                        let t1 = Instant::now();
+                        let (_, st) = if device == "gpu" {
+                            g.relight(spot(k), epsilon).unwrap()
+                        } else {
+                            crate::relight::relight::relight(&t, scene.clone(), view.clone(), tracer.clone(), spot(k), epsilon).unwrap()
+                        };
+                        all.push((t1.elapsed().as_secs_f64(), st));
+                    }
+                    all.drain(..2); // warm-up
+                    all.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    let (total, st) = &all[all.len() / 2];
+                    eprintln!(
+                        "{w}x{h} bounces {bounces} {device} eps {epsilon}: {:.2} relights/s (median {:.1} ms): shadow maps {:.1}, gather direct {:.1}, bounces {:.1}, \
+                         wavelet {:.1}, transfer {:.1}, view direct {:.1}, readback {:.1} ms; wavelet lights {} culled {}",
+                        1.0 / total, total * 1e3, st.seconds_shadow_maps * 1e3, st.seconds_gather_direct * 1e3, st.seconds_bounces * 1e3,
+                        st.seconds_wavelet * 1e3, st.seconds_transfer * 1e3, st.seconds_view_direct * 1e3, st.seconds_readback * 1e3,
+                        st.wavelet_lights, st.wavelet_lights_culled
+                    );
                 }
-                all.drain(..2); // warm-up
-                all.sort_by(|a, b| a.0.total_cmp(&b.0));
-                let (total, st) = &all[all.len() / 2];
-                eprintln!(
-                    "{w}x{h} {device} eps {epsilon}: {:.2} relights/s (median {:.1} ms): shadow maps {:.1}, gather direct {:.1}, bounces {:.1}, \
-                     wavelet {:.1}, transfer {:.1}, view direct {:.1}, readback {:.1} ms; wavelet lights {} culled {}",
-                    1.0 / total, total * 1e3, st.seconds_shadow_maps * 1e3, st.seconds_gather_direct * 1e3, st.seconds_bounces * 1e3,
-                    st.seconds_wavelet * 1e3, st.seconds_transfer * 1e3, st.seconds_view_direct * 1e3, st.seconds_readback * 1e3,
-                    st.wavelet_lights, st.wavelet_lights_culled
-                );
             }
         }
     }
