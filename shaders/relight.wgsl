@@ -9,8 +9,12 @@
 // - product: per row, sum over a chunk of its sparse coefficients of value * light[index] (CSR rows,
 //   one thread per row: a gather, no atomics; <= params.count iterations per invocation, far below Mesa
 //   22.3's 65,535-iteration limit);
+// - product_rgb: the same over RGB rows (three values per coefficient, row_value[3k .. 3k + 3], each
+//   multiplying its channel of the light: the photon-mapped multiple-bounce rows M_E^w);
 // - finish_bounce: B_{k+1} = k_d / pi * partial, total += B_{k+1} (the multi-bounce passes);
-// - combine: radiance = albedo / pi * partial + direct (a pixel's delta-chain samples summed in), RGB f32.
+// - combine: radiance = albedo / pi * partial + direct (a pixel's delta-chain samples summed in), RGB f32;
+// - combine_glossy: the same plus the glossy final gather, albedo / pi * partial + k_g * partial_glossy +
+//   direct (the CPU's order of additions: relight::indirect, glossy::add_glossy).
 
 const WORKGROUP_SIZE: u32 = 64u;
 const RELIGHT_INV_PI: f32 = 0.318309886183791;
@@ -54,6 +58,10 @@ struct RelightParams {
 // Pixel p's delta-chain samples are width * height + [extra_start[p], extra_start[p + 1]).
 @group(0) @binding(14) var<storage, read> extra_start: array<u32>;
 @group(0) @binding(15) var<storage, read_write> image: array<f32>;
+// The glossy product sum_j F_g^w(i, j) b^w_j per pixel (combine_glossy).
+@group(0) @binding(16) var<storage, read> partial_glossy: array<vec4<f32>>;
+// k_g per pixel (RGB; 0 for pixels that are not glossy).
+@group(0) @binding(17) var<storage, read> glossy_color: array<vec4<f32>>;
 
 fn thread_index(gid: vec3<u32>) -> u32 {
     return gid.y * params.dispatch_width + gid.x;
@@ -120,6 +128,26 @@ fn product(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
+fn product_rgb(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let r = thread_index(gid);
+    if r >= params.num_rows {
+        return;
+    }
+    let out = params.row_offset + r;
+    var s = vec3<f32>(0.0);
+    if params.first != 0u {
+        s = partial[out].xyz;
+    }
+    let start = row_start[r] + params.first;
+    let end = min(row_start[r + 1u], start + params.count);
+    for (var k = start; k < end; k = k + 1u) {
+        let v = vec3<f32>(row_value[3u * k], row_value[3u * k + 1u], row_value[3u * k + 2u]);
+        s = s + v * wavelet_lights[row_index[k]].xyz;
+    }
+    partial[out] = vec4<f32>(s, 0.0);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn finish_bounce(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = thread_index(gid);
     if p >= params.num_rows {
@@ -130,18 +158,36 @@ fn finish_bounce(@builtin(global_invocation_id) gid: vec3<u32>) {
     total[p] = vec4<f32>(total[p].xyz + b, 0.0);
 }
 
+// Direct light of pixel p: its own view sample plus its delta-chain samples.
+fn pixel_direct(p: u32) -> vec3<f32> {
+    var d = direct[p].xyz;
+    for (var k = extra_start[p]; k < extra_start[p + 1u]; k = k + 1u) {
+        d = d + direct[params.num_rows + k].xyz;
+    }
+    return d;
+}
+
+fn write_pixel(p: u32, v: vec3<f32>) {
+    image[3u * p] = v.x;
+    image[3u * p + 1u] = v.y;
+    image[3u * p + 2u] = v.z;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn combine(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = thread_index(gid);
     if p >= params.num_rows {
         return;
     }
-    var d = direct[p].xyz;
-    for (var k = extra_start[p]; k < extra_start[p + 1u]; k = k + 1u) {
-        d = d + direct[params.num_rows + k].xyz;
+    write_pixel(p, (albedo[p].xyz * RELIGHT_INV_PI) * partial[p].xyz + pixel_direct(p));
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn combine_glossy(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = thread_index(gid);
+    if p >= params.num_rows {
+        return;
     }
-    let v = (albedo[p].xyz * RELIGHT_INV_PI) * partial[p].xyz + d;
-    image[3u * p] = v.x;
-    image[3u * p + 1u] = v.y;
-    image[3u * p + 2u] = v.z;
+    let indirect = (albedo[p].xyz * RELIGHT_INV_PI) * partial[p].xyz + glossy_color[p].xyz * partial_glossy[p].xyz;
+    write_pixel(p, indirect + pixel_direct(p));
 }

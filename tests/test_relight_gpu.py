@@ -11,6 +11,7 @@ import pytest
 import manylights as ml
 
 BOX = Path(__file__).parent / "data" / "relight_box.xml"
+GLOSSY_BOX = Path(__file__).parent / "data" / "relight_glossy_box.xml"
 
 
 @pytest.fixture(scope="module")
@@ -57,20 +58,63 @@ def test_gpu_no_culling_equals_dense_transfer_product(box):
         assert t["relight_transfer"] > 0 and t["relight_readback"] > 0
 
 
-def test_gpu_equals_cpu_with_culling_and_bounces(box):
+def _culled(stats):
+    return stats["wavelet_lights"], stats["wavelet_lights_culled"], stats["wavelet_lights_culled_glossy"]
+
+
+@pytest.mark.parametrize("multibounce", ["photons", "gather"])
+def test_gpu_equals_cpu_with_culling_and_bounces(box, multibounce):
+    """Three bounces through the photon-mapped M (the default) or two through the gather-to-gather rows."""
     lights = _lights(box)
-    kw = dict(gather=4**4, final_gather_coefficients=64, bounces=2, multibounce_coefficients=32, multibounce="gather")
+    bounces = 3 if multibounce == "photons" else 2
+    kw = dict(gather=4**4, final_gather_coefficients=64, bounces=bounces, multibounce_coefficients=32,
+              multibounce=multibounce, photons_per_sample=16, photon_neighbours=50)
     cpu = ml.DirectToIndirect(box, device="cpu", **kw)
     gpu = ml.DirectToIndirect(box, device="gpu", visibility="ray_traced", **kw)
+    assert cpu.stats["multibounce"] == multibounce and (cpu.stats["photons"] > 0) == (multibounce == "photons")
+    one = ml.DirectToIndirect(box, device="cpu", **{**kw, "bounces": 1}).relight(lights)
     for epsilon in [0.0, 0.02]:
         a, b = cpu.relight(lights, epsilon=epsilon), gpu.relight(lights, epsilon=epsilon)
         err = ml.relative_l2(b, a)
         sc, sg = cpu.stats, gpu.stats
-        print(f"epsilon {epsilon}: GPU vs CPU {err:.2e}, culled {sg['wavelet_lights_culled']} of {sg['wavelet_lights']}")
-        # Measured: 5.2e-8 and 5.1e-8 (92 of 256 wavelet lights culled at 0.02, the same on both).
+        print(f"{multibounce} epsilon {epsilon}: GPU vs CPU {err:.2e}, culled {sg['wavelet_lights_culled']} of "
+              f"{sg['wavelet_lights']}; bounces' share {ml.relative_l2(one, a):.3f}")
+        # Measured on lavapipe: photons 4.4e-8 and 4.3e-8 (116 of 256 wavelet lights culled at 0.02, the
+        # same on both); gather 4.4e-8 and 4.2e-8 (117 of 256). The multiple bounces are 8.7% (photons)
+        # and 6.0% (gather) of the image (relative L2), so a GPU that skipped them would fail.
         assert err < 1e-6
-        assert (sg["wavelet_lights"], sg["wavelet_lights_culled"]) == (sc["wavelet_lights"], sc["wavelet_lights_culled"])
+        assert _culled(sg) == _culled(sc)
+        assert ml.relative_l2(one, a) > 0.02
     assert 10 < sc["wavelet_lights_culled"] < sc["wavelet_lights"]
+
+
+@pytest.mark.parametrize("bounces", [1, 3])
+def test_gpu_equals_cpu_with_glossy_final_gather(bounces):
+    """The glossy F_g (a rough conductor floor) alone and with the photon-mapped M, with and without
+    culling: the same image up to float rounding, the same lights culled against F_d's and F_g's norms."""
+    scene = ml.load_scene(GLOSSY_BOX, res=16)
+    lights = ml.scene_lights(scene)
+    kw = dict(gather=4**4, final_gather_coefficients=64, bounces=bounces, multibounce_coefficients=32,
+              photons_per_sample=16, photon_neighbours=50)
+    cpu = ml.DirectToIndirect(scene, device="cpu", **kw)
+    gpu = ml.DirectToIndirect(scene, device="gpu", visibility="ray_traced", **kw)
+    assert gpu.stats["glossy_pixels"] >= 20 and gpu.stats["multibounce"] == ("photons" if bounces > 1 else "none")
+    no_glossy = ml.DirectToIndirect(scene, device="gpu", visibility="ray_traced", glossy=False, **kw).relight(lights)
+    for epsilon in [0.0, 0.01]:
+        a, b = cpu.relight(lights, epsilon=epsilon), gpu.relight(lights, epsilon=epsilon)
+        err = ml.relative_l2(b, a)
+        sc, sg = cpu.stats, gpu.stats
+        print(f"bounces {bounces}, epsilon {epsilon}: GPU vs CPU {err:.2e}, culled {_culled(sg)}; "
+              f"F_g's share {ml.relative_l2(no_glossy, b):.3f}")
+        # Measured on lavapipe: 8.3e-8 / 8.4e-8 (one bounce; 19 and 62 of 91 lights culled at 0.01 against
+        # F_d and F_g), 8.4e-8 / 7.9e-8 (three; 156 and 209 of 238). F_g is 21-25% of the image.
+        assert err < 1e-6
+        assert _culled(sg) == _culled(sc)
+        if epsilon > 0:
+            assert 10 < sc["wavelet_lights_culled_glossy"] < sc["wavelet_lights"]
+        else:
+            assert sc["wavelet_lights_culled_glossy"] == 0
+    assert ml.relative_l2(no_glossy, b) > 0.05
 
 
 def test_device_choice(box, monkeypatch):

@@ -61,9 +61,12 @@ class DirectToIndirect:
     On the GPU (``device``; Sec. 5) the transfer rows are uploaded once; each relight renders the lights'
     shadow maps once and runs the light matrix's column pass over the gather samples (a diffuse BSDF of
     reflectance 1 with throughput k_d(g), so the column sum is B_g) and over the view samples (direct
-    light), then the Haar transform level by level, the culling, one thread per pixel summing its sparse
-    row (no atomics; the CPU's summation order), times k_d / pi, plus direct, and reads the image back
-    once. With ``visibility="ray_traced"`` it equals the CPU result to float precision (relative L2 ~1e-7).
+    light), the multiple bounces (the gather-to-gather passes, or the photon-mapped M once: RGB rows),
+    then the Haar transform level by level, the culling (against F_d's and, with glossy pixels, F_g's
+    image norms), one thread per pixel summing its sparse rows (no atomics; the CPU's summation order),
+    k_d / pi times the F_d sum plus k_g times the F_g sum, plus direct, and reads the image back once.
+    With ``visibility="ray_traced"`` it equals the CPU result to float precision (relative L2 ~1e-7,
+    photons, gather and glossy alike).
 
     Args:
         scene: a loaded Scene (its film fixes the image size).

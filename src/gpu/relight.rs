@@ -1,7 +1,8 @@
 //! The relighting kernels (`shaders/relight.wgsl`) of direct-to-indirect transfer on the GPU (Hašan,
 //! Pellacini, Bala, SIGGRAPH 2006, Sec. 3.3, 3.5, 5): the 2D Haar transform level by level, on-the-fly
-//! culling of wavelet lights, sparse products over CSR rows, the multi-bounce update and the final
-//! combination with direct light. `crate::relight::gpu` drives them; the direct light comes from the
+//! culling of wavelet lights, sparse products over CSR rows (one value per coefficient, or RGB for the
+//! photon-mapped M), the multi-bounce update and the final combination with direct light (and the glossy
+//! final gather's product). `crate::relight::gpu` drives them; the direct light comes from the
 //! column pass (`gpu::columns`).
 //!
 //! Sparse products, per-row gathers rather than the paper's image-based scatter: the paper draws one quad
@@ -49,8 +50,10 @@ pub struct RelightPasses {
     pub haar_level: Kernel,
     pub cull: Kernel,
     pub product: Kernel,
+    pub product_rgb: Kernel,
     pub finish_bounce: Kernel,
     pub combine: Kernel,
+    pub combine_glossy: Kernel,
 }
 
 /// Storage bindings that kernels write (`read_write` in the WGSL).
@@ -121,10 +124,14 @@ impl RelightPasses {
             cull: kernel(device, &module, "cull", &[0, 3, 4, 5, 6]),
             // wavelet_lights, row_start, row_index, row_value, partial
             product: kernel(device, &module, "product", &[0, 5, 7, 8, 9, 10]),
+            // the same with three values per coefficient
+            product_rgb: kernel(device, &module, "product_rgb", &[0, 5, 7, 8, 9, 10]),
             // dst, partial, albedo, total
             finish_bounce: kernel(device, &module, "finish_bounce", &[0, 2, 10, 11, 12]),
             // partial, albedo, direct, extra_start, image
             combine: kernel(device, &module, "combine", &[0, 10, 11, 13, 14, 15]),
+            // the same plus partial_glossy, glossy_color
+            combine_glossy: kernel(device, &module, "combine_glossy", &[0, 10, 11, 13, 14, 15, 16, 17]),
         }
     }
 
@@ -161,7 +168,7 @@ mod tests {
         let module = crate::gpu::shaders::assert_struct_sizes("relight.wgsl", RELIGHT_WGSL, &[("RelightParams", 32)]);
         assert_eq!(std::mem::size_of::<RelightParams>(), 32);
         let entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
-        for name in ["haar_level", "cull", "product", "finish_bounce", "combine"] {
+        for name in ["haar_level", "cull", "product", "product_rgb", "finish_bounce", "combine", "combine_glossy"] {
             assert!(entries.contains(&name), "missing entry point {name}: {entries:?}");
         }
         // Every read_write global is in WRITABLE and vice versa (the layouts' access modes).
