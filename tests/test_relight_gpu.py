@@ -9,6 +9,9 @@ import numpy as np
 import pytest
 
 import manylights as ml
+# The scene's spot plus a point and a directional light, and the dense product T g + direct (the gather
+# cloud as VPLs through the CPU light matrix): the same helpers as the CPU tests.
+from test_relight import _dense, _lights
 
 BOX = Path(__file__).parent / "data" / "relight_box.xml"
 GLOSSY_BOX = Path(__file__).parent / "data" / "relight_glossy_box.xml"
@@ -17,24 +20,6 @@ GLOSSY_BOX = Path(__file__).parent / "data" / "relight_glossy_box.xml"
 @pytest.fixture(scope="module")
 def box():
     return ml.load_scene(BOX)
-
-
-def _lights(scene):
-    """The scene's spot light plus a point and a directional light."""
-    d = np.array([0.3, -0.8, -0.52]) / np.linalg.norm([0.3, -0.8, -0.52])
-    extra = ml.LightSet.from_arrays(scene, kind=[0, 2], position=[[-0.4, 0.7, 0.3], [0, 0, 0]],
-                                    direction=[[0, 0, 0], d], intensity=[[0.8, 0.6, 0.5], [0.3, 0.3, 0.35]])
-    return ml.LightSet.concat([ml.scene_lights(scene), extra])
-
-
-def _dense(scene, rel, lights):
-    """T g + direct: every gather sample a VPL of flux E_g A_g and albedo k_d(g), through the CPU light
-    matrix, plus the lights' direct light (as tests/test_relight.py)."""
-    flux = rel.gather_irradiance(lights) * rel.gather_areas[:, None]
-    vpl = ml.LightSet.from_arrays(scene, kind=4, position=rel.gather_positions, normal=rel.gather_normals,
-                                  geo_normal=rel.gather_geo_normals, incident=rel.gather_geo_normals,
-                                  intensity=flux, albedo=rel.gather_k_d)
-    return ml.LightMatrix(scene, vpl, device="cpu").column_sum() + ml.LightMatrix(scene, lights, device="cpu").column_sum()
 
 
 def test_gpu_no_culling_equals_dense_transfer_product(box):

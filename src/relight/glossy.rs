@@ -36,7 +36,7 @@
 //! wavelets and culled to `coefficients` (final_gather_coefficients) like F_d.
 use super::haar::{self, SparseRow};
 use super::hierarchy::ClusterHierarchy;
-use super::transfer::{geometry_patch, TransferOptions};
+use super::transfer::{behind_tangent_plane, geometry_patch, TransferOptions};
 use crate::cpu::ShadingPoint;
 use crate::error::Result;
 use crate::lights::gather::GatherCloud;
@@ -208,12 +208,7 @@ impl Gather<'_> {
         let mut stack = vec![(0u32, 0usize)];
         while let Some((depth, c)) = stack.pop() {
             let (lo, hi) = self.bounds[depth as usize][c];
-            let far = Vec3::new(
-                if side_n.x >= 0.0 { hi.x } else { lo.x },
-                if side_n.y >= 0.0 { hi.y } else { lo.y },
-                if side_n.z >= 0.0 { hi.z } else { lo.z },
-            );
-            if (far - sp.p).dot(side_n) <= 0.0 {
+            if behind_tangent_plane(lo, hi, sp.p, side_n) {
                 continue;
             }
             let members = self.hierarchy.cluster(depth, c);

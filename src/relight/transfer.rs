@@ -259,6 +259,18 @@ pub fn geometry_patch(tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, q: 
     }
 }
 
+/// Whether the box [lo, hi] lies wholly behind the plane through `p` with normal `side_n` (its corner
+/// farthest along `side_n` is not in front): the hierarchical gather culls such clusters (4.3).
+#[inline]
+pub(crate) fn behind_tangent_plane(lo: Vec3, hi: Vec3, p: Vec3, side_n: Vec3) -> bool {
+    let far = Vec3::new(
+        if side_n.x >= 0.0 { hi.x } else { lo.x },
+        if side_n.y >= 0.0 { hi.y } else { lo.y },
+        if side_n.z >= 0.0 { hi.z } else { lo.z },
+    );
+    (far - p).dot(side_n) <= 0.0
+}
+
 /// A deterministic random member index in 0..size for cluster (depth, c).
 fn representative(seed: u64, depth: u32, c: usize, size: usize) -> usize {
     let mut x = seed ^ ((depth as u64) << 56) ^ (c as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
@@ -493,13 +505,7 @@ impl RowContext<'_> {
         let mut stack = vec![(0u32, 0usize)];
         while let Some((depth, c)) = stack.pop() {
             let (lo, hi) = self.bounds[depth as usize][c];
-            // Cull a cluster wholly behind the tangent plane: its box corner farthest along side_n.
-            let far = Vec3::new(
-                if side_n.x >= 0.0 { hi.x } else { lo.x },
-                if side_n.y >= 0.0 { hi.y } else { lo.y },
-                if side_n.z >= 0.0 { hi.z } else { lo.z },
-            );
-            if (far - sp.p).dot(side_n) <= 0.0 {
+            if behind_tangent_plane(lo, hi, sp.p, side_n) {
                 continue;
             }
             let members = self.hierarchy.cluster(depth, c);
