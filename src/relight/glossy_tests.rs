@@ -1,16 +1,10 @@
 use super::*;
 use crate::relight::transfer::{geometry, NearField, Transfer, TransferOptions};
-use crate::scene::{load_scene, LoadOptions};
 use crate::shading::bsdf::{eval_records, KIND_DIFFUSE};
-use crate::view_chains::ChainOptions;
 
 fn setup() -> (crate::scene::Scene, ViewSamples, RayTracer) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests").join("data").join("relight_glossy_box.xml");
-    let scene = load_scene(&path, &LoadOptions { size: Some((8, 8)), ..Default::default() }).unwrap();
-    let tracer = RayTracer::new(&scene).unwrap();
-    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
-    let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &ChainOptions::default()).unwrap();
-    (scene, view, tracer)
+    crate::testing::scene_view_tracer(&path, 8)
 }
 
 fn record(kind: u32) -> GpuBsdf {

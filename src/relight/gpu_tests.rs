@@ -13,10 +13,7 @@ fn setup(size: u32) -> (Arc<Scene>, Arc<ViewSamples>, Arc<RayTracer>) {
 }
 
 fn setup_scene(path: &std::path::Path, size: u32) -> (Arc<Scene>, Arc<ViewSamples>, Arc<RayTracer>) {
-    let scene = load_scene(path, &LoadOptions { size: Some((size, size)), ..Default::default() }).unwrap();
-    let tracer = RayTracer::new(&scene).unwrap();
-    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
-    let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &ChainOptions::default()).unwrap();
+    let (scene, view, tracer) = crate::testing::scene_view_tracer(path, size);
     (Arc::new(scene), Arc::new(view), Arc::new(tracer))
 }
 

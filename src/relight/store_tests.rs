@@ -1,16 +1,10 @@
 use super::*;
 use crate::raytrace::RayTracer;
-use crate::scene::{load_scene, Emitter, LoadOptions};
+use crate::scene::Emitter;
 use crate::view::ViewSamples;
-use crate::view_chains::ChainOptions;
 
 fn setup() -> (Scene, ViewSamples, RayTracer) {
-    let path = crate::testing::shared_dir().join("scenes").join("cbox").join("scene.xml");
-    let scene = load_scene(&path, &LoadOptions { size: Some((8, 8)), ..Default::default() }).unwrap();
-    let tracer = RayTracer::new(&scene).unwrap();
-    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
-    let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &ChainOptions::default()).unwrap();
-    (scene, view, tracer)
+    crate::testing::scene_view_tracer(&crate::testing::shared_dir().join("scenes").join("cbox").join("scene.xml"), 8)
 }
 
 fn transfer(bounces: u32) -> (Scene, Transfer) {

@@ -44,3 +44,14 @@ pub fn lights_of_every_kind(lights: &crate::lights::LightSet, per_kind: usize) -
     }
     js
 }
+
+/// A scene loaded at `size` x `size`, its BVH and its view samples at pixel centres (exact camera rays,
+/// delta chains resolved): what the relighting tests precompute transfers on.
+pub fn scene_view_tracer(path: &Path, size: u32) -> (crate::scene::Scene, crate::view::ViewSamples, crate::raytrace::RayTracer) {
+    let opts = crate::scene::LoadOptions { size: Some((size, size)), ..Default::default() };
+    let scene = crate::scene::load_scene(path, &opts).unwrap();
+    let tracer = crate::raytrace::RayTracer::new(&scene).unwrap();
+    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
+    let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &crate::view_chains::ChainOptions::default()).unwrap();
+    (scene, view, tracer)
+}
