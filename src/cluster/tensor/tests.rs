@@ -324,3 +324,19 @@ fn frame_major_layout_is_the_same_tensor() {
     let e = ReducedTensor::frame_major(&fm, r, n, f, 3).unwrap_err().to_string();
     assert!(e.contains("row 1, light 4, frame 2, channel 2"), "{e}");
 }
+
+#[test]
+fn centroid_representative_skips_pairs_the_rows_barely_see() {
+    // Scalar, one frame, 2 rows: a faint light (0.01, 0.01) exactly along P = (7.01, 7.01) and two
+    // lights (4, 3), (3, 4). Without a weight floor the faint one wins (P . x = 9.91 against 9.81) and
+    // is scaled by Rec = s / w = 708; with CENTROID_WEIGHT_FLOOR (0.5 of the mean weight 3.34) it cannot
+    // be chosen and the first of the two others is, with Rec = s / 5.
+    let data = [0.01f32, 4.0, 3.0, /* row 1 */ 0.01, 3.0, 4.0];
+    let t = ReducedTensor::new(&data, 2, 3, 1, 1).unwrap();
+    let opts = TensorOptions { representative: Representative::Centroid, ..Default::default() };
+    let c = cluster_tensor(t, 1, &opts).unwrap();
+    assert_eq!(c.representatives, vec![(1, 0)]);
+    let s = 0.01 * 2f64.sqrt() + 10.0;
+    assert!((c.rec[0][0] as f64 - s / 5.0).abs() < 1e-5, "{:?}", c.rec[0]);
+    assert!(super::reconstruction::CENTROID_WEIGHT_FLOOR * s / 3.0 > 0.01 * 2f64.sqrt());
+}
