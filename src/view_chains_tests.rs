@@ -186,3 +186,45 @@ fn matrix_over_chain_samples_matches_oracle_and_rows() {
         }
     }
 }
+
+#[test]
+fn gpu_tensor_reconstruction_folds_chain_samples_like_the_cpu() {
+    // Three frames of one scene with delta chains; mappings that shift by one pixel (a pixel with no
+    // source at the start of each), so chains of mappings and the fold of extra samples both matter.
+    let scene = Arc::new(mirror_glass_scene());
+    let view = Arc::new(view_with(&scene, -1));
+    let p = view.num_pixels();
+    assert!(view.len() > p, "the scene must have delta-chain samples");
+    let mut lights = LightSet::from_scene(&scene).unwrap();
+    lights.push_point(Vec3::new(-0.3, 0.5, -0.2), Vec3::new(0.5, 1.0, 0.7)).unwrap();
+    lights.push_point(Vec3::new(0.3, 0.7, 0.1), Vec3::new(0.9, 0.4, 0.7)).unwrap();
+    let n = lights.len();
+    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let opts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 128, ..Default::default() };
+    let a = LightMatrix::new(ctx, scene.clone(), view.clone(), Arc::new(lights), opts).unwrap();
+    let frames = [&a, &a, &a];
+    let f = frames.len();
+    let shift: Vec<u32> = (0..p as u32).map(|i| if i == 0 { crate::matrix::mapping::NO_SOURCE } else { i - 1 }).collect();
+    let back: Vec<u32> = (0..p as u32).map(|i| if i + 1 == p as u32 { crate::matrix::mapping::NO_SOURCE } else { i + 1 }).collect();
+    let fw = [shift.as_slice(), shift.as_slice()];
+    let bw = [back.as_slice(), back.as_slice()];
+    // Representatives in every frame, serving all three frames with different RGB scales.
+    let reps: Vec<(u32, u32)> = (0..n as u32).flat_map(|j| [(j, 0), (j, 2), (j, 1)]).collect();
+    let rec: Vec<f32> = (0..reps.len() * f * 3).map(|x| 0.25 + (x % 7) as f32 * 0.1).collect();
+    let gpu = crate::gpu::reconstruction::reconstruct(&frames, &reps, &rec, &fw, &bw).unwrap();
+    let js: Vec<usize> = reps.iter().map(|r| r.0 as usize).collect();
+    let source: Vec<u32> = reps.iter().map(|r| r.1).collect();
+    let cols = a.columns(&js).unwrap();
+    let mut cpu = vec![0f32; f * p * 3];
+    crate::matrix::reconstruction::accumulate(&mut cpu, f, p, &cols, &source, &rec, &fw, &bw).unwrap();
+    let (num, den) = cpu.iter().zip(&gpu.frames).fold((0f64, 0f64), |(n, d), (&c, &g)| (n + ((c - g) as f64).powi(2), d + (c as f64).powi(2)));
+    assert!(den > 0.0 && (num / den).sqrt() < 1e-6, "relative L2 {}", (num / den).sqrt());
+    assert!(gpu.columns_seconds > 0.0 && gpu.reconstruction_seconds > 0.0);
+    // A light out of range and a matrix on the CPU are named errors.
+    let e = crate::gpu::reconstruction::reconstruct(&frames, &[(n as u32, 0)], &rec[..f * 3], &fw, &bw).unwrap_err().to_string();
+    assert!(e.contains(&format!("light {n} of frame 0")), "{e}");
+    let tracer = Arc::new(crate::raytrace::RayTracer::new(&scene).unwrap());
+    let c = LightMatrix::new_cpu(tracer, scene.clone(), view.clone(), a.lights.clone()).unwrap();
+    let e = crate::gpu::reconstruction::reconstruct(&[&c], &[(0, 0)], &rec[..3], &[], &[]).unwrap_err().to_string();
+    assert!(e.contains("not on the GPU"), "{e}");
+}

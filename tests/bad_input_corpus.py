@@ -1082,6 +1082,17 @@ cases_for("native.tensor_accumulate", [
         np.zeros((2, 1, 1, 3), np.float32), np.zeros((1, 1, 1, 3)), np.zeros(1, np.uint32),
         np.zeros((1, 2, 3), np.float32), np.zeros((1, 1), np.uint32), np.zeros((1, 1), np.uint32)), ["float32"]),
 ], raises=("ValueError", "TypeError"))
+cases_for("native.tensor_reconstruct_gpu", [
+    ("no frames", lambda c: c.native.tensor_reconstruct_gpu([], np.zeros((0, 2), np.uint32), np.zeros((0, 0, 3), np.float32),
+                                                            np.zeros((0, 1), np.uint32), np.zeros((0, 1), np.uint32)),
+     ["no frames"]),
+    ("representatives not (c, 2)", lambda c: c.native.tensor_reconstruct_gpu(
+        [c.A._m], np.zeros((1, 3), np.uint32), np.zeros((1, 1, 3), np.float32), np.zeros((0, 1), np.uint32),
+        np.zeros((0, 1), np.uint32)), ["(c, 2)"]),
+    ("matrix on the CPU", lambda c: c.native.tensor_reconstruct_gpu(
+        [c.ml.LightMatrix(c.scene, c.lights, device="cpu")._m], np.zeros((1, 2), np.uint32),
+        np.zeros((1, 1, 3), np.float32), np.zeros((0, 1), np.uint32), np.zeros((0, 1), np.uint32)), ["not on the GPU"]),
+], raises=("ValueError", "TypeError"))
 cases_for("native.check_host_memory", [
     ("more than addressable", lambda c: c.native.check_host_memory("test request", 2**100), ["test request"]),
 ], raises=("MemoryError", "OverflowError"))

@@ -154,6 +154,15 @@ def stratified_rows(width: int, height: int, r: int, seed: int = 0) -> npt.NDArr
     Raises:
         ValueError: r = 0, r > width * height, or an r whose block list cannot be allocated."""
 
+def tensor_reconstruct_gpu(frames: Sequence[LightMatrix], representatives: npt.NDArray[np.uint32], rec: npt.NDArray[np.float32],
+                           forward: npt.NDArray[np.uint32], backward: npt.NDArray[np.uint32]
+                           ) -> tuple[npt.NDArray[np.float32], float, float]:
+    """Tensor clustering's reconstruction kept on the GPU (Sec. 4.5 and 5): representatives (c, 2) =
+    (light, frame) rendered by their frame's native light matrix (all on one GPU), scaled by rec (c, f, 3),
+    carried through the pixel mappings (f - 1, H * W; 2**32 - 1 = no source) and accumulated on the GPU,
+    read back once. Returns ((f, H, W, 3) float32, columns seconds, reconstruction seconds). Raises
+    ValueError for a matrix not on the GPU, a bad shape or index."""
+
 def tensor_accumulate(acc: npt.NDArray[np.float32], columns: npt.NDArray[np.float32], source: npt.NDArray[np.uint32],
                       rec: npt.NDArray[np.float32], forward: npt.NDArray[np.uint32], backward: npt.NDArray[np.uint32]) -> None:
     """Adds representative columns (c, H, W, 3) from frames source (c,), scaled by rec (c, f, 3) and carried

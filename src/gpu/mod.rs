@@ -7,6 +7,7 @@ pub mod context;
 pub mod gbuffer;
 pub mod mapping;
 pub mod pipeline;
+pub mod reconstruction;
 pub mod relight;
 pub mod rows;
 pub mod scene_buffers;

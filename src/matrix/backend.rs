@@ -85,6 +85,10 @@ pub trait Backend: Send + Sync {
     fn visibility_stats(&self) -> Result<VisibilityStats>;
     /// Sets the counters to 0.
     fn reset_visibility_stats(&self);
+    /// The GPU backend itself, for passes that keep their data on the GPU (None on the CPU).
+    fn as_gpu(&self) -> Option<&super::gpu::GpuBackend> {
+        None
+    }
 }
 
 /// The device asked for.

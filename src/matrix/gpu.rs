@@ -389,6 +389,45 @@ impl GpuBackend {
         Ok(out)
     }
 
+    /// Columns `js` rendered batch by batch into one GPU buffer that is never read back: after each
+    /// batch's column pass has run, `each(buffer, range, seconds)` gets the buffer (column `range.start + c`
+    /// of `js` at floats `[c * m * 3, (c + 1) * m * 3)`, m view samples, RGB; delta-chain samples not
+    /// folded), the batch's range of `js` and the seconds its shadow maps and column pass took. Work
+    /// `each` submits runs before the next batch overwrites the buffer (one queue, in order). At most
+    /// `max_columns` columns per batch. Tensor clustering's GPU-resident reconstruction
+    /// (`crate::gpu::reconstruction`).
+    pub(crate) fn columns_on_gpu(
+        &self,
+        js: &[usize],
+        max_columns: usize,
+        each: &mut dyn FnMut(&wgpu::Buffer, std::ops::Range<usize>, f64) -> Result<()>,
+    ) -> Result<()> {
+        let m = self.view.len();
+        let column_bytes = (m as u64 * 12).max(4);
+        let fit = (self.max_binding.min(128 << 20) / column_bytes) as usize;
+        if fit == 0 {
+            return Err(Error::invalid(format!(
+                "one column of {m} view samples ({column_bytes} bytes) exceeds the storage binding limit"
+            )));
+        }
+        let batches = self.batches(js, fit.min(max_columns.max(1)));
+        let largest = batches.iter().map(|b| b.end - b.start).max().unwrap_or(0);
+        let columns_buf = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("LightMatrix::gpu_columns"),
+            size: (largest as u64 * column_bytes).max(16),
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let accum = storage_buffer::<f32>(&self.ctx.device, "LightMatrix::no_accum", &[], wgpu::BufferUsages::STORAGE);
+        for batch in &batches {
+            let t = std::time::Instant::now();
+            let zeros = vec![[0.0f32; 4]; batch.end - batch.start];
+            self.wait_for(self.run_batch(js, batch, &zeros, &accum, Some(&columns_buf)))?;
+            each(&columns_buf, batch.start..batch.end, t.elapsed().as_secs_f64())?;
+        }
+        Ok(())
+    }
+
     /// `sum_k weights[k] * A(:, js[k])` with RGB weights, rendering only the listed columns (repeats add
     /// up): the reconstruction of clustered renderers (representatives and their weights). H * W * 3
     /// floats; `progress(done, k)` after each batch. Indices and weights are validated by `LightMatrix`.
@@ -418,6 +457,9 @@ impl GpuBackend {
 }
 
 impl Backend for GpuBackend {
+    fn as_gpu(&self) -> Option<&GpuBackend> {
+        Some(self)
+    }
     fn info(&self) -> DeviceInfo {
         DeviceInfo::gpu(&self.ctx)
     }

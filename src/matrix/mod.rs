@@ -146,6 +146,11 @@ impl LightMatrix {
         Ok(LightMatrix { scene, view, lights, opts, backend: Box::new(gpu) })
     }
 
+    /// The GPU backend when this matrix runs on the GPU (passes that keep their data there).
+    pub fn gpu_backend(&self) -> Option<&gpu::GpuBackend> {
+        self.backend.as_gpu()
+    }
+
     /// The matrix on the CPU backend with the scene's ray tracer (`RayTracer::new(&scene)`).
     pub fn new_cpu(tracer: Arc<RayTracer>, scene: Arc<Scene>, view: Arc<ViewSamples>, lights: Arc<LightSet>) -> Result<LightMatrix> {
         check_view(&view)?;

@@ -47,22 +47,7 @@ pub fn accumulate(
     let (f, m, c) = (frames, pixels, source.len());
     check(acc.len() == f * m * 3, || format!("accumulator has {} floats, expected f * m * 3 = {}", acc.len(), f * m * 3))?;
     check(columns.len() == c * m * 3, || format!("{} column floats for {c} representatives of {m} pixels", columns.len()))?;
-    check(rec.len() == c * f * 3, || format!("Rec has {} floats, expected c * f * 3 = {}", rec.len(), c * f * 3))?;
-    let steps = f.saturating_sub(1);
-    check(forward.len() == steps && backward.len() == steps, || {
-        format!("{} forward and {} backward mappings for {f} frames, expected {steps} each", forward.len(), backward.len())
-    })?;
-    for (name, maps) in [("forward", forward), ("backward", backward)] {
-        for (k, map) in maps.iter().enumerate() {
-            check(map.len() == m, || format!("{name} mapping {k} has {} entries, expected m = {m}", map.len()))?;
-            if let Some((i, &v)) = map.iter().enumerate().find(|(_, &v)| v != NO_SOURCE && v as usize >= m) {
-                return Err(Error::invalid(format!("{name} mapping {k}: pixel {i} maps to {v}, outside [0, {m})")));
-            }
-        }
-    }
-    if let Some((r, &k0)) = source.iter().enumerate().find(|(_, &k)| k as usize >= f) {
-        return Err(Error::invalid(format!("representative {r} is in frame {k0}, outside [0, {f})")));
-    }
+    check_inputs(f, m, source, rec, forward, backward)?;
     let scale = |r: usize, k: usize| -> [f32; 3] {
         let s = &rec[(r * f + k) * 3..(r * f + k) * 3 + 3];
         [s[0], s[1], s[2]]
@@ -131,6 +116,30 @@ fn add_frame(acc: &mut [f32], m: usize, k: usize, idx: &[u32], group: &[usize], 
         }
     });
 }
+
+/// Checks what the CPU and GPU reconstructions share: Rec is c x f x 3, f - 1 forward and backward
+/// mappings of m entries each with indices in [0, m) or `NO_SOURCE`, every source frame below f.
+pub(crate) fn check_inputs(f: usize, m: usize, source: &[u32], rec: &[f32], forward: &[&[u32]], backward: &[&[u32]]) -> Result<()> {
+    let c = source.len();
+    check(rec.len() == c * f * 3, || format!("Rec has {} floats, expected c * f * 3 = {}", rec.len(), c * f * 3))?;
+    let steps = f.saturating_sub(1);
+    check(forward.len() == steps && backward.len() == steps, || {
+        format!("{} forward and {} backward mappings for {f} frames, expected {steps} each", forward.len(), backward.len())
+    })?;
+    for (name, maps) in [("forward", forward), ("backward", backward)] {
+        for (k, map) in maps.iter().enumerate() {
+            check(map.len() == m, || format!("{name} mapping {k} has {} entries, expected m = {m}", map.len()))?;
+            if let Some((i, &v)) = map.iter().enumerate().find(|(_, &v)| v != NO_SOURCE && v as usize >= m) {
+                return Err(Error::invalid(format!("{name} mapping {k}: pixel {i} maps to {v}, outside [0, {m})")));
+            }
+        }
+    }
+    if let Some((r, &k0)) = source.iter().enumerate().find(|(_, &k)| k as usize >= f) {
+        return Err(Error::invalid(format!("representative {r} is in frame {k0}, outside [0, {f})")));
+    }
+    Ok(())
+}
+
 
 fn check(ok: bool, msg: impl FnOnce() -> String) -> Result<()> {
     if ok {

@@ -255,6 +255,40 @@ pub fn tensor_accumulate(
     Ok(())
 }
 
+/// Tensor clustering's reconstruction on the GPU (`crate::gpu::reconstruction`): renders each
+/// representative `representatives[c] = (light, frame)` in its frame's light matrix (`frames`, all on one
+/// GPU), scales it by `rec` (c, f, 3), carries it through the pixel mappings `forward` / `backward`
+/// (f - 1, H * W) uint32 and accumulates every frame on the GPU, read back once. Returns ((f, H, W, 3)
+/// float32, seconds of the columns, seconds of the reconstruction).
+#[pyfunction]
+pub fn tensor_reconstruct_gpu<'py>(
+    py: Python<'py>,
+    frames: Vec<PyRef<'py, LightMatrix>>,
+    representatives: PyReadonlyArray2<'py, u32>,
+    rec: numpy::PyReadonlyArrayDyn<'py, f32>,
+    forward: PyReadonlyArray2<'py, u32>,
+    backward: PyReadonlyArray2<'py, u32>,
+) -> PyResult<(Bound<'py, PyArrayDyn<f32>>, f64, f64)> {
+    let reps = representatives.as_array();
+    if reps.ncols() != 2 {
+        return Err(Error::invalid(format!("representatives must have shape (c, 2), got {:?}", reps.shape())).into());
+    }
+    let reps: Vec<(u32, u32)> = reps.outer_iter().map(|r| (r[0], r[1])).collect();
+    let rc = rec.as_slice().map_err(|_| Error::invalid("rec must be C-contiguous"))?.to_vec();
+    let rows = |a: numpy::ndarray::ArrayView2<'_, u32>| -> Vec<Vec<u32>> { a.outer_iter().map(|r| r.to_vec()).collect() };
+    let (fw, bw) = (rows(forward.as_array()), rows(backward.as_array()));
+    let mats: Vec<Arc<CoreMatrix>> = frames.iter().map(|m| m.inner.clone()).collect();
+    let f = mats.len();
+    let (h, w) = mats.first().map(|m| m.image_size()).ok_or_else(|| Error::invalid("no frames to reconstruct"))?;
+    let out = signals::detach(py, move || {
+        let refs: Vec<&CoreMatrix> = mats.iter().map(|m| m.as_ref()).collect();
+        let fr: Vec<&[u32]> = fw.iter().map(|v| v.as_slice()).collect();
+        let br: Vec<&[u32]> = bw.iter().map(|v| v.as_slice()).collect();
+        crate::gpu::reconstruction::reconstruct(&refs, &reps, &rc, &fr, &br)
+    })?;
+    Ok((array(py, out.frames, &[f, h, w, 3])?, out.columns_seconds, out.reconstruction_seconds))
+}
+
 /// Raises MemoryError (naming `what`) when `bytes` of host memory would break the policy
 /// (`crate::memory::check_host`: available memory, `MANYLIGHTS_MEMORY_LIMIT`).
 #[pyfunction]
@@ -265,6 +299,7 @@ pub fn check_host_memory(what: &str, bytes: u128) -> PyResult<()> {
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(check_host_memory, m)?)?;
     m.add_function(wrap_pyfunction!(tensor_accumulate, m)?)?;
+    m.add_function(wrap_pyfunction!(tensor_reconstruct_gpu, m)?)?;
     m.add_function(wrap_pyfunction!(stratified_rows, m)?)?;
     m.add_class::<LightSet>()?;
     m.add_class::<LightMatrix>()?;
