@@ -213,3 +213,26 @@ def test_light_counts_split():
     scene = ml.load_scene(scene_path("cbox"), res=8)
     assert sweep_worker.light_counts(scene, {"total": 1000, "seed": 0}) == {"area": 250, "environment": 0,
                                                                            "indirect": 750, "seed": 0}
+
+
+def test_bench_mrcs_on_two_workers_equals_in_process(tmp_path):
+    """`python -m manylights.bench mrcs --workers 2` runs its renders on ml.sweep's LocalCluster and records
+    the errors the in-process run (--workers 0) records; the rows are in the Parquet file beside the JSON."""
+    from manylights import bench
+
+    argv = ["mrcs", "--scene", "demo", "--lights", "200", "--res", "16", "--columns", "8", "24", "--ratios", "1:1",
+            "1:3", "--seeds", "2", "--device", "cpu", "--reference-dir", str(tmp_path / "refs")]
+    assert bench.main([*argv, "--out", str(tmp_path / "w0"), "--workers", "0"]) == 0
+    assert bench.main([*argv, "--out", str(tmp_path / "w2"), "--workers", "2"]) == 0
+    s0 = json.loads((tmp_path / "w0" / "mrcs-demo.json").read_text())
+    s2 = json.loads((tmp_path / "w2" / "mrcs-demo.json").read_text())
+    assert [(r["method"], r["budget"]) for r in s2["records"]] == [(r["method"], r["budget"]) for r in s0["records"]]
+    assert len(s2["records"]) == 2 * 4 and s2["workers"] == 2 and s0["workers"] == 0
+    np.testing.assert_allclose([r["rel_l2_mean"] for r in s2["records"]], [r["rel_l2_mean"] for r in s0["records"]],
+                               rtol=1e-6)
+    df = pd.read_parquet(tmp_path / "w2" / "mrcs-demo.parquet")
+    # 2 budgets x (power sampling + instant radiosity + 2 MRCS ratios) x 2 seeds, each once
+    assert len(df) == 16 and df["task"].is_unique and (df["status"] == "ok").all()
+    mrcs_1_3 = df[(df["method"] == "mrcs") & (df["columns"] == 24) & (df["rows"] == 8)]
+    rec = next(r for r in s2["records"] if r["method"] == "mrcs 1:3" and r["budget"]["columns"] == 24)
+    assert rec["rel_l2_mean"] == pytest.approx(mrcs_1_3["rel_l2"].mean(), rel=1e-12)
