@@ -1067,6 +1067,18 @@ cases_for("tensor_clustering", [
     ("row index out of range", lambda c: c.ml.tensor_clustering(_tensor(c), columns=2, row_indices=[64]),
      ["row index"]),
 ], raises=("ValueError", "TypeError"))
+cases_for("tensor_clustering", [
+    ("client with frames not from an Animation", lambda c: c.ml.tensor_clustering(
+        c.ml.LightTensor([c.scene], [c.lights], device="cpu"), rows=4, columns=2, client="tcp://127.0.0.1:9"),
+     ["Animation", "load_animation"]),
+    ("client with an unknown representative", lambda c: c.ml.tensor_clustering(
+        _tensor(c), rows=4, columns=2, representative="x", client="tcp://127.0.0.1:9"), ["representative"]),
+])
+cases_for("tensor_clustering", [
+    ("unreachable scheduler", lambda c: c.ml.tensor_clustering(_tensor(c), rows=4, columns=2,
+                                                                client="tcp://127.0.0.1:9", connect_timeout=1),
+     ["scheduler", "127.0.0.1:9"]),
+], raises=("OSError",))
 cases_for("native.tensor_accumulate", [
     ("acc not 4-D", lambda c: c.native.tensor_accumulate(np.zeros((2, 3), np.float32), np.zeros((1, 1, 1, 3), np.float32),
                                                           np.zeros(1, np.uint32), np.zeros((1, 2, 3), np.float32),

@@ -236,3 +236,37 @@ def test_bench_mrcs_on_two_workers_equals_in_process(tmp_path):
     mrcs_1_3 = df[(df["method"] == "mrcs") & (df["columns"] == 24) & (df["rows"] == 8)]
     rec = next(r for r in s2["records"] if r["method"] == "mrcs 1:3" and r["budget"]["columns"] == 24)
     assert rec["rel_l2_mean"] == pytest.approx(mrcs_1_3["rel_l2"].mean(), rel=1e-12)
+
+
+def test_tensor_clustering_chunks_on_workers(client):
+    """tensor_clustering(T, ..., client=): one task per chunk of frames; chunk 0 equals the serial call's first
+    chunk, chunk 1 equals tensor_clustering of its frames alone (same rows), and the joined clustering indexes
+    the whole animation."""
+    import manylights.scenes as sc
+
+    path = sc.resolve("bounce")
+    frames = sc.animation_frames("bounce", count=4)
+    anim = ml.load_animation(path, frames=frames, res=16)
+    lights = ml.generate_animation_lights(anim, area=32, environment=32, indirect=64, photons=0, seed=0)
+    T = ml.LightTensor(anim, lights, device="cpu")
+    kw = dict(rows=16, columns=20, seed=1, chunk=2)
+    serial = ml.tensor_clustering(T, **kw)
+    dist = ml.tensor_clustering(T, client=client, **kw)
+    assert dist.frames.shape == serial.frames.shape == (4, 16, 16, 3)
+    np.testing.assert_array_equal(dist.rows, serial.rows)
+    np.testing.assert_allclose(dist.frames[:2], serial.frames[:2], rtol=1e-6, atol=1e-7)
+    T1 = ml.LightTensor(ml.load_animation(path, frames=frames[2:], res=16), [lights[2], lights[3]], device="cpu")
+    alone = ml.tensor_clustering(T1, row_indices=serial.rows, **{**kw, "rows": None})
+    np.testing.assert_allclose(dist.frames[2:], alone.frames, rtol=1e-6, atol=1e-7)
+    np.testing.assert_array_equal(dist.shadow_maps_per_frame[2:], alone.shadow_maps_per_frame)
+    cl = dist.clustering
+    c0 = len(cl.representatives) - alone.clustering.num_clusters  # clusters of chunk 0
+    assert cl.assignment.shape == (T.shape[1], 4) and cl.rec.shape == (len(cl.representatives), 4, 3)
+    assert (cl.representatives[c0:, 1] >= 2).all() and (cl.representatives[:c0, 1] < 2).all()
+    assert (cl.frames[c0:] == alone.clustering.frames + 2).all()
+    assert dist.budget["chunks"] == 2 and dist.budget["columns"] == int(cl.rendered.sum())
+    # Its error against brute force is that of a tensor clustering (both runs alike).
+    B = T.brute_force(progress=False)
+    e_dist = ml.relative_l2_per_frame(dist.frames, B).mean()
+    e_serial = ml.relative_l2_per_frame(serial.frames, B).mean()
+    assert 0 < e_dist < 3 * e_serial and 0 < e_serial < 0.5
