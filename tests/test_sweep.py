@@ -230,7 +230,8 @@ def test_bench_mrcs_on_two_workers_equals_in_process(tmp_path):
     assert len(s2["records"]) == 2 * 4 and s2["workers"] == 2 and s0["workers"] == 0
     np.testing.assert_allclose([r["rel_l2_mean"] for r in s2["records"]], [r["rel_l2_mean"] for r in s0["records"]],
                                rtol=1e-6)
-    df = pd.read_parquet(tmp_path / "w2" / "mrcs-demo.parquet")
+    (pq,) = (tmp_path / "w2").glob("mrcs-demo-*.parquet")
+    df = pd.read_parquet(pq)
     # 2 budgets x (power sampling + instant radiosity + 2 MRCS ratios) x 2 seeds, each once
     assert len(df) == 16 and df["task"].is_unique and (df["status"] == "ok").all()
     mrcs_1_3 = df[(df["method"] == "mrcs") & (df["columns"] == 24) & (df["rows"] == 8)]
@@ -270,3 +271,29 @@ def test_tensor_clustering_chunks_on_workers(client):
     e_dist = ml.relative_l2_per_frame(dist.frames, B).mean()
     e_serial = ml.relative_l2_per_frame(serial.frames, B).mean()
     assert 0 < e_dist < 3 * e_serial and 0 < e_serial < 0.5
+
+
+def test_animation_sweep_on_workers(client, tmp_path):
+    """Animations in a sweep: tensor clustering and per-frame MRCS rows on 2 workers hold the mean per-frame
+    error and the flicker of the method run directly, against the tensor's brute force."""
+    import manylights.scenes as sc
+    from manylights.metrics import flicker, relative_l2_per_frame
+
+    path = sc.resolve("bounce")
+    frames = sc.animation_frames("bounce", count=3)
+    light_spec = {"area": 32, "environment": 32, "indirect": 64, "photons": 0}
+    df = ml.sweep([(str(path), {"frames": frames, "res": 16})], methods=["tensor_clustering", "mrcs_per_frame"],
+                  budgets=[(16, 20)], seeds=[0, 1], lights=light_spec, client=client, device="cpu", progress=False,
+                  options={"tensor_clustering": {"chunk": 2}}, reference_dir=tmp_path / "refs")
+    assert len(df) == 4 and (df["status"] == "ok").all() and (df["frames"] == 3).all()
+    anim = ml.load_animation(path, frames=frames, res=16)
+    T = ml.LightTensor(anim, ml.generate_animation_lights(anim, **light_spec, seed=0), device="cpu")
+    B = T.brute_force()
+    for r in df.itertuples():
+        res = (ml.tensor_clustering(T, rows=16, columns=20, seed=r.seed, chunk=2) if r.method == "tensor_clustering"
+               else ml.mrcs_per_frame(T, rows=16, columns=20, seed=r.seed))
+        assert r.rel_l2 == pytest.approx(relative_l2_per_frame(res.frames, B).mean(), rel=1e-6)
+        assert r.flicker == pytest.approx(flicker(res.frames, B), rel=1e-6)
+        assert r.shadow_maps_per_frame == pytest.approx(np.mean(res.shadow_maps_per_frame))
+    with pytest.raises(ValueError, match="animation"):
+        ml.sweep([(str(path), {"frames": frames, "res": 16})], methods=["mrcs"], workers=0)

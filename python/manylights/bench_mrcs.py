@@ -4,8 +4,8 @@ One ``ml.sweep`` renders instant radiosity, power sampling and MRCS at row:colum
 over increasing budgets, each at several seeds, against the brute-force image of the scene's light matrix
 (rendered once and cached by content hash under ``--reference-dir``). ``--workers N`` runs the renders on a
 Dask LocalCluster of N processes, ``--scheduler ADDRESS`` on a running cluster, ``--workers 0`` (default) in
-this process. Writes ``<out>/mrcs-<scene>.parquet`` (one row per render, as it completes: a stopped run
-resumes), ``<out>/mrcs-<scene>.json`` (method, budget, seconds per stage, relative L2 mean and std, the
+this process. Writes ``<out>/mrcs-<scene>-<settings hash>.parquet`` (one row per render, as it completes:
+the same command run again resumes a stopped run), ``<out>/mrcs-<scene>.json`` (method, budget, seconds per stage, relative L2 mean and std, the
 sweep's wall time) and ``<out>/mrcs-<scene>.png`` (relative L2 vs seconds, log-log, error bars = std over
 seeds), and prints the speed-up over brute force and the share of MRCS time spent outside shadow maps +
 shading (clustering and readback).
@@ -65,6 +65,16 @@ def _display_path(path: Path) -> str:
         return str(path)
 
 
+def settings_tag(args) -> str:
+    """8 hex digits naming a benchmark's settings (every argument but where and how it runs), so that its
+    Parquet file is resumed by the same command and a changed command writes another file."""
+    import hashlib
+
+    skip = {"out", "workers", "scheduler", "reference_dir", "cache", "run", "cmd"}
+    settings = {k: v for k, v in sorted(vars(args).items()) if k not in skip}
+    return hashlib.sha256(json.dumps(settings, sort_keys=True, default=str).encode()).hexdigest()[:8]
+
+
 def run(args) -> dict:
     import manylights as ml
 
@@ -91,7 +101,7 @@ def run(args) -> dict:
           f"on {where}", flush=True)
     t = time.perf_counter()
     df = ml.sweep([(str(path), {"size": size})], methods=methods, budgets=budgets, seeds=list(range(args.seeds)),
-                  lights=args.lights, client=args.scheduler, workers=args.workers, out=out / f"{stem}.parquet",
+                  lights=args.lights, client=args.scheduler, workers=args.workers, out=out / f"{stem}-{settings_tag(args)}.parquet",
                   reference_dir=args.reference_dir or out / "references", device=args.device,
                   visibility=args.visibility, shadow_map_size=args.shadow_map_size)
     wall = time.perf_counter() - t
@@ -142,7 +152,8 @@ def run(args) -> dict:
     (out / f"{stem}.json").write_text(json.dumps(summary, indent=2) + "\n")
     _chart(records, out / f"{stem}.png", f"{path.parent.name}: {summary['lights']} lights, {size[0]}x{size[1]}, "
            f"{args.seeds} seeds")
-    print(f"wrote {out / (stem + '.json')}, {out / (stem + '.png')} and the rows in {out / (stem + '.parquet')}")
+    print(f"wrote {out / (stem + '.json')}, {out / (stem + '.png')} and the rows in "
+          f"{out / (stem + '-' + settings_tag(args) + '.parquet')}")
     return summary
 
 

@@ -26,13 +26,13 @@ from pathlib import Path
 from typing import Callable, Optional, Sequence
 
 from . import _validate as _v
-from .sweep_worker import METHODS
+from .sweep_worker import ANIMATION_METHODS, METHODS
 
 #: Parquet key-value metadata key holding the sweep definition (checked when a sweep resumes).
 META_KEY = b"manylights.sweep"
 #: The columns every row has, in this order (then ``seconds_<stage>`` columns, sorted).
 COLUMNS = ["task", "scene", "params", "scene_hash", "lights", "method", "rows", "columns", "clusters", "seed",
-           "status", "error", "rel_l2", "error_estimate", "seconds", "setup_seconds", "reference_key",
+           "status", "error", "rel_l2", "error_estimate", "frames", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds", "reference_key",
            "reference_seconds", "reference_cached", "device", "adapter", "host"]
 
 
@@ -69,7 +69,17 @@ def _scene_specs(scenes, local: bool) -> list[dict]:
         for k, v in params.items():
             if not isinstance(k, str):
                 raise ValueError(f"scenes[{i}]: parameter names must be strings, got {k!r}")
-            if k == "size":
+            if k == "frames":
+                if not isinstance(v, (list, tuple)) or not v or not all(isinstance(f, dict) for f in v):
+                    raise ValueError(f"scenes[{i}]: frames must be a non-empty list of parameter dicts (one per "
+                                     f"frame of the animation), got {v!r}")
+                for k_, f in enumerate(v):
+                    for name, x in f.items():
+                        if not isinstance(name, str) or not isinstance(x, (str, int, float, bool)):
+                            raise ValueError(f"scenes[{i}]: frame {k_}: parameter {name!r} must be a string "
+                                             f"name with a string, number or bool value, got {x!r}")
+                v = [dict(f) for f in v]
+            elif k == "size":
                 if not isinstance(v, (tuple, list)) or len(v) != 2:
                     raise ValueError(f"scenes[{i}]: size must be (width, height), got {v!r}")
                 v = [_v.integer(f"scenes[{i}] size[{j}]", x, 1, 2**32 - 1) for j, x in enumerate(v)]
@@ -126,7 +136,8 @@ def _seeds(seeds) -> list[int]:
 
 def _lights(lights) -> dict:
     if isinstance(lights, dict):
-        allowed = {"total", "area", "environment", "indirect", "max_depth", "clamp", "seed", "env_importance"}
+        allowed = {"total", "area", "environment", "indirect", "max_depth", "clamp", "seed", "env_importance",
+                   "photons"}
         if bad := sorted(set(lights) - allowed):
             raise ValueError(f"lights: unknown keys {bad}; allowed: {sorted(allowed)}")
         spec = dict(lights)
@@ -140,7 +151,37 @@ def _lights(lights) -> dict:
     return spec
 
 
-def _tasks(scene_specs, methods, budgets, seeds, lights, matrix) -> list[dict]:
+def _options(options, methods) -> dict:
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(f"options must be a dict of method -> keyword arguments, got {options!r}")
+    out = {}
+    for m, kw in options.items():
+        if m not in methods:
+            raise ValueError(f"options for {m!r}, which is not one of the sweep's methods {methods}")
+        if not isinstance(kw, dict) or not all(isinstance(k, str) for k in kw):
+            raise ValueError(f"options[{m!r}] must be a dict of keyword arguments, got {kw!r}")
+        try:
+            json.dumps(kw)
+        except TypeError as e:
+            raise ValueError(f"options[{m!r}]: values must be plain numbers, strings, lists or dicts ({e})") from None
+        out[m] = dict(kw)
+    return out
+
+
+def _check_kinds(specs, methods) -> None:
+    """Animation methods need animated scenes (``frames`` in their parameters), the others still scenes."""
+    for i, s in enumerate(specs):
+        animated = "frames" in s["params"]
+        wrong = [m for m in methods if (m in ANIMATION_METHODS) != animated]
+        if wrong:
+            what = "an animation (its parameters hold frames)" if animated else "a still scene (no frames parameter)"
+            raise ValueError(f"scenes[{i}] ({s['display']}) is {what}, which method(s) {wrong} do not render; "
+                             f"animation methods: {sorted(ANIMATION_METHODS)}")
+
+
+def _tasks(scene_specs, methods, budgets, seeds, lights, matrix, options=None) -> list[dict]:
     """Every render of the sweep, in a fixed order; methods without rows take each distinct column count
     once (rows = 0 in their rows)."""
     tasks = []
@@ -151,13 +192,14 @@ def _tasks(scene_specs, methods, budgets, seeds, lights, matrix) -> list[dict]:
                 for seed in seeds:
                     ident = json.dumps([s["display"], s["params"], m, rows, c, seed], sort_keys=True)
                     tasks.append({"task": ident, "scene": s, "lights": lights, "matrix": matrix, "method": m,
-                                  "rows": rows, "columns": c, "seed": seed})
+                                  "rows": rows, "columns": c, "seed": seed, "options": (options or {}).get(m, {})})
     return tasks
 
 
-def _definition(scene_specs, methods, budgets, seeds, lights, matrix) -> dict:
+def _definition(scene_specs, methods, budgets, seeds, lights, matrix, options) -> dict:
     return {"version": 1, "scenes": [[s["display"], s["params"]] for s in scene_specs], "methods": methods,
-            "budgets": [list(b) for b in budgets], "seeds": seeds, "lights": lights, "matrix": matrix}
+            "budgets": [list(b) for b in budgets], "seeds": seeds, "lights": lights, "matrix": matrix,
+            "options": options}
 
 
 # ------------------------------------------------------------------------------------------ Parquet
@@ -216,9 +258,9 @@ def _frame(rows: list[dict], order: dict):
     df = df[COLUMNS + stages]
     df = df.assign(_order=df["task"].map(order)).sort_values("_order", kind="stable").drop(columns="_order")
     df = df.reset_index(drop=True)
-    for c in ("lights", "rows", "columns", "clusters", "seed"):
+    for c in ("lights", "rows", "columns", "clusters", "seed", "frames"):
         df[c] = df[c].astype("Int64")
-    for c in ["rel_l2", "error_estimate", "seconds", "setup_seconds", "reference_seconds", *stages]:
+    for c in ["rel_l2", "error_estimate", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds", "reference_seconds", *stages]:
         df[c] = df[c].astype("float64")
     df["reference_cached"] = df["reference_cached"].astype("boolean")
     return df
@@ -333,23 +375,27 @@ def _error_row(task: dict, exc: BaseException) -> dict:
 def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=((100, 300),),
           seeds: Sequence[int] = (0,), *, lights=10_000, client=None, workers: Optional[int] = None,
           out=None, reference_dir=None, device: str = "auto", visibility: Optional[str] = None,
-          shadow_map_size: Optional[int] = None, rerun_errors: bool = False, progress: bool = True,
+          shadow_map_size: Optional[int] = None, options: Optional[dict] = None, rerun_errors: bool = False, progress: bool = True,
           connect_timeout: float = 10.0, on_row: Optional[Callable[[dict], None]] = None):
     """Run every render of methods x budgets x seeds x scenes as Dask tasks; one DataFrame row per render.
 
     Args:
         scenes: a list of scene XML paths, bundled scene names (``"cbox"``) or ``(path, parameters)`` pairs;
-            parameters are ``load_scene``'s (``{"res": 64}``, ``{"size": (64, 48)}``). Paths must be valid
-            on the workers (a shared file system on a real cluster).
-        methods: any of ``"mrcs"`` (takes rows and columns), ``"power_sampling"`` and ``"instant_radiosity"``
-            (columns only: they take each distinct column count of ``budgets`` once, their rows are 0).
+            parameters are ``load_scene``'s (``{"res": 64}``, ``{"size": (64, 48)}``); with ``"frames"``: [one
+            dict per frame] the scene is an animation (``load_animation``; the other parameters are common to
+            every frame). Paths must be valid on the workers (a shared file system on a real cluster).
+        methods: for still scenes any of ``"mrcs"`` (takes rows and columns), ``"power_sampling"`` and
+            ``"instant_radiosity"`` (columns only: they take each distinct column count of ``budgets`` once,
+            their rows are 0); for animations ``"tensor_clustering"`` and ``"mrcs_per_frame"`` (rows and
+            columns per frame).
         budgets: (rows, columns) pairs of integers >= 1 (MRCS: r sampled rows, c clusters; power sampling: c
             sampled lights; instant radiosity: c generated lights).
         seeds: render seeds (integers >= 0); the same seed gives the same row on the same backend.
         lights: the scene's light set: an integer N (a quarter area lights when the scene has area emitters, a
             quarter environment lights when it has an environment, the rest indirect) or a dict of
             ``generate_lights`` arguments (``area``, ``environment``, ``indirect``, ``max_depth``, ``clamp``,
-            ``seed``, or ``total`` split as N is). The light seed is 0 unless given: every render of a scene
+            ``seed``, ``photons`` for animations (``generate_animation_lights``), or ``total`` split as N is).
+            The light seed is 0 unless given: every render of a scene
             sees the same matrix.
         client: None: a new ``LocalCluster`` of ``workers`` processes (default ``default_workers(device)``),
             closed at the end; a ``dask.distributed.Client``; or a scheduler address (``"tcp://host:8786"``).
@@ -360,6 +406,7 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         reference_dir: where brute-force references are cached by content hash (shared by the workers);
             default ``$MANYLIGHTS_CACHE/references`` or ``~/.cache/manylights/references``.
         device, visibility, shadow_map_size: the ``LightMatrix`` settings of every render.
+        options: per method, more keyword arguments of its function (``{"tensor_clustering": {"chunk": 8}}``).
         rerun_errors: with ``out``, also run again the rows stored with ``status="error"``.
         progress: show the count and the running best error per method (a bar, or lines in a log).
         connect_timeout: seconds to wait for a scheduler given by address.
@@ -370,14 +417,17 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         row's key), scene (as given), params (JSON), scene_hash (sha256 of the scene folder), lights (n),
         method, rows, columns, clusters (columns rendered), seed (Int64), status ("ok" / "error"), error
         (type: message, or None), rel_l2 (relative L2 against the brute-force reference, float64),
-        error_estimate (NaN: none of these methods estimates its error), seconds (all stages),
+        error_estimate (NaN: none of these methods estimates its error); for animations frames, max_rel_l2
+        (the worst frame), flicker (``metrics.flicker``) and shadow_maps_per_frame (mean), rel_l2 being the
+        mean per-frame relative L2 (NaN for still scenes); seconds (all stages),
         setup_seconds (scene loading + matrix of that task; 0 when the worker had it cached), reference_key,
         reference_seconds (brute force), reference_cached (True: read from ``reference_dir``, not rendered), device ("cpu" / "gpu"), adapter (the device's name), host, and
         ``seconds_<stage>`` per stage of each method (NaN where a method has no such stage). Seconds are
         wall-clock seconds on the worker.
 
     Raises:
-        ValueError: an unknown or repeated method, empty or repeated scenes / budgets / seeds, a budget not a
+        ValueError: an unknown or repeated method, a method for the other kind of scene (still / animation),
+            bad ``options``, empty or repeated scenes / budgets / seeds, a budget not a
             pair of integers >= 1, a bad lights spec, an ``out`` file of another sweep definition or not a
             sweep's Parquet file (the file is left untouched).
         FileNotFoundError: a scene file missing (named) when the sweep runs locally; the directory of ``out``
@@ -392,6 +442,8 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
     budgets = _budgets(budgets)
     seeds = _seeds(seeds)
     lights = _lights(lights)
+    options = _options(options, methods)
+    _check_kinds(specs, methods)
     if not isinstance(device, str) or device not in ("auto", "cpu", "gpu"):
         raise ValueError(f"device must be 'auto', 'cpu' or 'gpu', got {device!r}")
     matrix = {"device": device}
@@ -407,9 +459,9 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         reference_dir = str(Path(base) / "references")
     reference_dir = os.fspath(reference_dir)
 
-    tasks = _tasks(specs, methods, budgets, seeds, lights, matrix)
+    tasks = _tasks(specs, methods, budgets, seeds, lights, matrix, options)
     order = {t["task"]: i for i, t in enumerate(tasks)}
-    definition = _definition(specs, methods, budgets, seeds, lights, matrix)
+    definition = _definition(specs, methods, budgets, seeds, lights, matrix, options)
     done: dict[str, dict] = {}
     if out is not None:
         out = Path(out)

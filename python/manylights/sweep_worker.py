@@ -24,7 +24,10 @@ from pathlib import Path
 import numpy as np
 
 #: Methods and whether they take rows (methods without rows use the columns of each budget).
-METHODS = {"mrcs": True, "power_sampling": False, "instant_radiosity": False}
+METHODS = {"mrcs": True, "power_sampling": False, "instant_radiosity": False, "tensor_clustering": True,
+           "mrcs_per_frame": True}
+#: Methods that render animations (a scene whose parameters hold ``frames``); the others render one image.
+ANIMATION_METHODS = {"tensor_clustering", "mrcs_per_frame"}
 
 #: Loaded (scene, lights, LightMatrix, content hash) per scene/lights/matrix settings, most recent last.
 _MATRICES: OrderedDict = OrderedDict()
@@ -55,10 +58,11 @@ def scene_hash(xml: Path) -> str:
 
 
 def light_counts(scene, spec: dict) -> dict:
-    """``generate_lights`` arguments of a lights spec: ``{"total": N, "seed": s, ...}`` splits N as the MRCS
-    benchmark does (a quarter area lights when the scene has area emitters, a quarter environment lights
-    when it has an environment, the rest indirect); explicit ``area`` / ``environment`` / ``indirect``
-    counts are taken as they are."""
+    """``generate_lights`` (``generate_animation_lights`` for an animation: ``scene`` is then its frame 0)
+    arguments of a lights spec: ``{"total": N, "seed": s, ...}`` splits N as the MRCS benchmark does (a
+    quarter area lights when the scene has area emitters, a quarter environment lights when it has an
+    environment, the rest indirect); explicit ``area`` / ``environment`` / ``indirect`` counts are taken as
+    they are."""
     spec = dict(spec)
     total = spec.pop("total", None)
     if total is not None:
@@ -84,9 +88,16 @@ def _matrix(scene_spec: dict, lights_spec: dict, matrix_spec: dict):
     digest = scene_hash(path)
     params = dict(scene_spec["params"])
     size = params.pop("size", None)
-    scene = ml.load_scene(path, size=None if size is None else tuple(size), **params)
-    lights = ml.generate_lights(scene, **light_counts(scene, lights_spec))
-    A = ml.LightMatrix(scene, lights, **matrix_spec)
+    size = None if size is None else tuple(size)
+    frames = params.pop("frames", None)
+    if frames is not None:  # an animation: its LightTensor plays the part of the matrix
+        scene = ml.load_animation(path, frames=frames, size=size, device=matrix_spec.get("device", "auto"), **params)
+        lights = ml.generate_animation_lights(scene, **light_counts(scene[0], lights_spec))
+        A = ml.LightTensor(scene, lights, **matrix_spec)
+    else:
+        scene = ml.load_scene(path, size=size, **params)
+        lights = ml.generate_lights(scene, **light_counts(scene, lights_spec))
+        A = ml.LightMatrix(scene, lights, **matrix_spec)
     entry = (scene, lights, A, digest)
     with _LOCK:
         _MATRICES[key] = entry
@@ -111,7 +122,7 @@ def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_
     and stored there (written under a temporary name and renamed, so a reader never sees half a file).
 
     Returns:
-        dict: image (H, W, 3) float32, seconds (of the render that made it), cached (bool), key, scene_hash,
+        dict: image (H, W, 3) float32 ((f, H, W, 3) for an animation), seconds (of the render that made it), cached (bool), key, scene_hash,
         lights (n), device (the matrix's device dict), host.
 
     Raises:
@@ -119,10 +130,13 @@ def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_
             ``load_scene`` / ``generate_lights`` / ``LightMatrix`` raise for the scene.
     """
     scene, lights, A, digest, _ = _matrix(scene_spec, lights_spec, matrix_spec)
-    key = reference_key(digest, scene_spec, lights_spec, matrix_spec, A.device, A.visibility)
+    animation = "frames" in scene_spec["params"]
+    n = len(lights[0]) if animation else len(lights)
+    visibility = A.frame(0).visibility if animation else A.visibility
+    key = reference_key(digest, scene_spec, lights_spec, matrix_spec, A.device, visibility)
     d = Path(reference_dir)
     path = d / f"{key}.npz"
-    out = {"key": key, "scene_hash": digest, "lights": int(len(lights)), "device": dict(A.device),
+    out = {"key": key, "scene_hash": digest, "lights": int(n), "device": dict(A.device),
            "host": socket.gethostname()}
     if path.is_file():
         try:
@@ -132,7 +146,10 @@ def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_
         except (OSError, ValueError, KeyError):
             pass  # unreadable (another program's file): render it again and replace it
     t = time.perf_counter()
-    image = (A.column_sum(progress=False) + A.emitted()).astype(np.float32)
+    if animation:
+        image = A.brute_force(progress=False).astype(np.float32)  # (f, H, W, 3)
+    else:
+        image = (A.column_sum(progress=False) + A.emitted()).astype(np.float32)
     seconds = time.perf_counter() - t
     d.mkdir(parents=True, exist_ok=True)
     tmp = d / f".{key}.{os.getpid()}.{threading.get_ident()}.tmp.npz"
@@ -152,7 +169,8 @@ def render(task: dict, ref: dict) -> dict:
 
     Returns:
         dict of plain values: task (the row's key), method, rows, columns, seed, status, error, rel_l2
-        (relative L2 against ``ref["image"]``), error_estimate (NaN: none of the methods has one), seconds
+        (relative L2 against ``ref["image"]``; the mean over frames for an animation, with max_rel_l2,
+        flicker, frames and shadow_maps_per_frame), error_estimate (NaN: none of the methods has one), seconds
         (all stages) and ``seconds_<stage>`` per stage, clusters (columns rendered), lights, scene_hash,
         reference_key, reference_seconds, reference_cached (read from the cache directory), device, adapter, host, setup_seconds (scene + matrix loading
         of this task; 0 when cached)."""
@@ -167,14 +185,27 @@ def render(task: dict, ref: dict) -> dict:
         row["device"] = A.device.get("kind")
         row["adapter"] = A.device.get("name")
         method, c, seed = task["method"], task["columns"], task["seed"]
+        opts = dict(task.get("options") or {})
+        if method in ANIMATION_METHODS:
+            from .metrics import flicker, relative_l2_per_frame
+
+            render_fn = ml.tensor_clustering if method == "tensor_clustering" else ml.mrcs_per_frame
+            res = render_fn(A, rows=task["rows"], columns=c, seed=seed, **opts)
+            e = relative_l2_per_frame(res.frames, ref["image"])
+            row.update(rel_l2=float(np.mean(e)), max_rel_l2=float(np.max(e)),
+                       flicker=float(flicker(res.frames, ref["image"])), frames=int(len(res.frames)),
+                       shadow_maps_per_frame=float(np.mean(res.shadow_maps_per_frame)),
+                       clusters=int(res.budget["columns"]), seconds=res.seconds)
+            row.update({f"seconds_{k}": float(v) for k, v in res.timings.items()})
+            return row
         if method == "mrcs":
-            res = ml.mrcs(A, rows=task["rows"], columns=c, seed=seed)
+            res = ml.mrcs(A, rows=task["rows"], columns=c, seed=seed, **opts)
             row["clusters"] = int(len(res.representatives))
         elif method == "power_sampling":
-            res = ml.power_sampling(A, columns=c, seed=seed)
+            res = ml.power_sampling(A, columns=c, seed=seed, **opts)
             row["clusters"] = int(len(res.representatives))
         elif method == "instant_radiosity":
-            res = ml.instant_radiosity(scene, lights=c, seed=seed, **task["matrix"])
+            res = ml.instant_radiosity(scene, lights=c, seed=seed, **opts, **task["matrix"])
             row["clusters"] = int(res.budget["lights"])
         else:  # sweep() checks the names: only a hand-made task gets here
             raise ValueError(f"unknown method {method!r}; methods: {', '.join(METHODS)}")
