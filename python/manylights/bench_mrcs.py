@@ -101,7 +101,8 @@ def run(args) -> dict:
           f"on {where}", flush=True)
     t = time.perf_counter()
     df = ml.sweep([(str(path), {"size": size})], methods=methods, budgets=budgets, seeds=list(range(args.seeds)),
-                  lights=args.lights, client=args.scheduler, workers=args.workers, out=out / f"{stem}-{settings_tag(args)}.parquet",
+                  lights=args.lights, client=args.scheduler, workers=args.workers,
+                  out=out / f"{stem}-{settings_tag(args)}.parquet",
                   reference_dir=args.reference_dir or out / "references", device=args.device,
                   visibility=args.visibility, shadow_map_size=args.shadow_map_size)
     wall = time.perf_counter() - t

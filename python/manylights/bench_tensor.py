@@ -143,7 +143,8 @@ def run(args) -> dict:
     if ok is None or ok.empty:
         if interrupted:
             raise SystemExit(130)
-        raise RuntimeError("every run failed: " + ("; ".join(df["error"].dropna().unique()[:3]) if df is not None else ""))
+        errors = "; ".join(df["error"].dropna().unique()[:3]) if df is not None else "no rows"
+        raise RuntimeError(f"every run failed: {errors}")
     for r in df[df["status"] != "ok"].itertuples():
         print(f"  failed: {r.method} columns {r.columns} seed {r.seed}: {r.error}", flush=True)
     first = ok.iloc[0]

@@ -32,7 +32,8 @@ from .sweep_worker import ANIMATION_METHODS, METHODS
 META_KEY = b"manylights.sweep"
 #: The columns every row has, in this order (then ``seconds_<stage>`` columns, sorted).
 COLUMNS = ["task", "scene", "params", "scene_hash", "lights", "method", "rows", "columns", "clusters", "seed",
-           "status", "error", "rel_l2", "error_estimate", "frames", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds", "reference_key",
+           "status", "error", "rel_l2", "error_estimate", "frames", "max_rel_l2", "flicker", "shadow_maps_per_frame",
+           "seconds", "setup_seconds", "reference_key",
            "reference_seconds", "reference_cached", "device", "adapter", "host"]
 
 
@@ -260,7 +261,8 @@ def _frame(rows: list[dict], order: dict):
     df = df.reset_index(drop=True)
     for c in ("lights", "rows", "columns", "clusters", "seed", "frames"):
         df[c] = df[c].astype("Int64")
-    for c in ["rel_l2", "error_estimate", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds", "reference_seconds", *stages]:
+    for c in ["rel_l2", "error_estimate", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds",
+              "reference_seconds", *stages]:
         df[c] = df[c].astype("float64")
     df["reference_cached"] = df["reference_cached"].astype("boolean")
     return df
@@ -375,7 +377,8 @@ def _error_row(task: dict, exc: BaseException) -> dict:
 def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=((100, 300),),
           seeds: Sequence[int] = (0,), *, lights=10_000, client=None, workers: Optional[int] = None,
           out=None, reference_dir=None, device: str = "auto", visibility: Optional[str] = None,
-          shadow_map_size: Optional[int] = None, options: Optional[dict] = None, rerun_errors: bool = False, progress: bool = True,
+          shadow_map_size: Optional[int] = None, options: Optional[dict] = None, rerun_errors: bool = False,
+          progress: bool = True,
           connect_timeout: float = 10.0, on_row: Optional[Callable[[dict], None]] = None):
     """Run every render of methods x budgets x seeds x scenes as Dask tasks; one DataFrame row per render.
 
@@ -421,7 +424,8 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         (the worst frame), flicker (``metrics.flicker``) and shadow_maps_per_frame (mean), rel_l2 being the
         mean per-frame relative L2 (NaN for still scenes); seconds (all stages),
         setup_seconds (scene loading + matrix of that task; 0 when the worker had it cached), reference_key,
-        reference_seconds (brute force), reference_cached (True: read from ``reference_dir``, not rendered), device ("cpu" / "gpu"), adapter (the device's name), host, and
+        reference_seconds (brute force), reference_cached (True: read from ``reference_dir``, not rendered),
+        device ("cpu" / "gpu"), adapter (the device's name), host, and
         ``seconds_<stage>`` per stage of each method (NaN where a method has no such stage). Seconds are
         wall-clock seconds on the worker.
 

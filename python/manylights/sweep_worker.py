@@ -122,7 +122,8 @@ def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_
     and stored there (written under a temporary name and renamed, so a reader never sees half a file).
 
     Returns:
-        dict: image (H, W, 3) float32 ((f, H, W, 3) for an animation), seconds (of the render that made it), cached (bool), key, scene_hash,
+        dict: image (H, W, 3) float32 ((f, H, W, 3) for an animation), seconds (of the render that made it),
+        cached (bool), key, scene_hash,
         lights (n), device (the matrix's device dict), host.
 
     Raises:
@@ -172,8 +173,8 @@ def render(task: dict, ref: dict) -> dict:
         (relative L2 against ``ref["image"]``; the mean over frames for an animation, with max_rel_l2,
         flicker, frames and shadow_maps_per_frame), error_estimate (NaN: none of the methods has one), seconds
         (all stages) and ``seconds_<stage>`` per stage, clusters (columns rendered), lights, scene_hash,
-        reference_key, reference_seconds, reference_cached (read from the cache directory), device, adapter, host, setup_seconds (scene + matrix loading
-        of this task; 0 when cached)."""
+        reference_key, reference_seconds, reference_cached (read from the cache directory), device, adapter, host,
+        setup_seconds (scene + matrix loading of this task; 0 when cached)."""
     import manylights as ml
 
     row = {"task": task["task"], "status": "ok", "error": None, "host": socket.gethostname(),
