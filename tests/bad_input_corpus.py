@@ -1067,6 +1067,18 @@ cases_for("tensor_clustering", [
     ("row index out of range", lambda c: c.ml.tensor_clustering(_tensor(c), columns=2, row_indices=[64]),
      ["row index"]),
 ], raises=("ValueError", "TypeError"))
+cases_for("tensor_clustering", [
+    ("client with frames not from an Animation", lambda c: c.ml.tensor_clustering(
+        c.ml.LightTensor([c.scene], [c.lights], device="cpu"), rows=4, columns=2, client="tcp://127.0.0.1:9"),
+     ["Animation", "load_animation"]),
+    ("client with an unknown representative", lambda c: c.ml.tensor_clustering(
+        _tensor(c), rows=4, columns=2, representative="x", client="tcp://127.0.0.1:9"), ["representative"]),
+])
+cases_for("tensor_clustering", [
+    ("unreachable scheduler", lambda c: c.ml.tensor_clustering(_tensor(c), rows=4, columns=2,
+                                                                client="tcp://127.0.0.1:9", connect_timeout=1),
+     ["scheduler", "127.0.0.1:9"]),
+], raises=("OSError",))
 cases_for("native.tensor_accumulate", [
     ("acc not 4-D", lambda c: c.native.tensor_accumulate(np.zeros((2, 3), np.float32), np.zeros((1, 1, 1, 3), np.float32),
                                                           np.zeros(1, np.uint32), np.zeros((1, 2, 3), np.float32),
@@ -1093,6 +1105,54 @@ cases_for("native.tensor_reconstruct_gpu", [
         [c.ml.LightMatrix(c.scene, c.lights, device="cpu")._m], np.zeros((1, 2), np.uint32),
         np.zeros((1, 1, 3), np.float32), np.zeros((0, 1), np.uint32), np.zeros((0, 1), np.uint32)), ["not on the GPU"]),
 ], raises=("ValueError", "TypeError"))
+# ml.sweep (issue 15): everything is refused before a cluster starts or a file is written.
+def _sweep(c, **kw):
+    args = {"methods": ["mrcs"], "budgets": [(4, 8)], "seeds": [0], "lights": 50, "device": "cpu", "progress": False,
+            "workers": 0, "reference_dir": c.tmp / "sweep-refs", **kw}
+    return c.ml.sweep(args.pop("scenes", [("demo", {"res": 8})]), **args)
+
+
+def _sweep_other_definition(c):
+    out = c.tmp / "sweep-other.parquet"
+    _sweep(c, out=out, seeds=[0])
+    return _sweep(c, out=out, seeds=[0, 1])
+
+
+cases_for("sweep", [
+    ("unknown method", lambda c: _sweep(c, methods=["mrcs", "raytrace"]), ["raytrace", "power_sampling"]),
+    ("empty scenes", lambda c: _sweep(c, scenes=[]), ["scenes is empty"]),
+    ("empty budget list", lambda c: _sweep(c, budgets=[]), ["budgets is empty"]),
+    ("budget not a pair", lambda c: _sweep(c, budgets=[(8,)]), ["budgets[0]", "(8,)"]),
+    ("budget of 0 rows", lambda c: _sweep(c, budgets=[(0, 8)]), ["budgets[0] rows", "0"]),
+    ("budget of negative columns", lambda c: _sweep(c, budgets=[(4, -8)]), ["budgets[0] columns", "-8"]),
+    ("budget not integers", lambda c: _sweep(c, budgets=[(4, "many")]), ["budgets[0] columns", "many"]),
+    ("budget repeated", lambda c: _sweep(c, budgets=[(4, 8), (4, 8)]), ["twice"]),
+    ("negative seed", lambda c: _sweep(c, seeds=[0, -1]), ["seeds[1]", "-1"]),
+    ("empty seeds", lambda c: _sweep(c, seeds=[]), ["seeds is empty"]),
+    ("zero lights", lambda c: _sweep(c, lights=0), ["lights", "0"]),
+    ("unknown lights key", lambda c: _sweep(c, lights={"area": 4, "vpl": 9}), ["vpl"]),
+    ("unknown device", lambda c: _sweep(c, device="tpu"), ["tpu"]),
+    ("scene parameter of a bad type", lambda c: _sweep(c, scenes=[("demo", {"res": [8]})]), ["res"]),
+    ("frames not a list of dicts", lambda c: _sweep(c, methods=["tensor_clustering"],
+                                                    scenes=[("bounce", {"frames": [1, 2]})]), ["frames"]),
+    ("animation method on a still scene", lambda c: _sweep(c, methods=["tensor_clustering"]),
+     ["tensor_clustering", "still"]),
+    ("options for a method not swept", lambda c: _sweep(c, options={"power_sampling": {}}), ["power_sampling"]),
+    ("Parquet file of another sweep", _sweep_other_definition, ["another definition", "seeds"]),
+    ("Parquet file not a sweep's", lambda c: _sweep(c, out=c.file("sweep-foreign.parquet", b"PAR1 not really")),
+     ["sweep-foreign.parquet"]),
+])
+cases_for("sweep", [
+    ("missing scene file", lambda c: _sweep(c, scenes=[str(c.tmp / "no-such-scene.xml")]), ["no-such-scene.xml"]),
+    ("out in a missing directory", lambda c: _sweep(c, out=c.tmp / "no-such-dir" / "s.parquet"), ["no-such-dir"]),
+], raises=("FileNotFoundError",))
+cases_for("sweep", [
+    ("unreachable scheduler", lambda c: _sweep(c, client="tcp://127.0.0.1:9", connect_timeout=1),
+     ["scheduler", "127.0.0.1:9"]),
+], raises=("OSError",))
+cases_for("sweep", [
+    ("scenes not a list", lambda c: _sweep(c, scenes=42), ["scenes"]),
+], raises=("TypeError",))
 cases_for("native.check_host_memory", [
     ("more than addressable", lambda c: c.native.check_host_memory("test request", 2**100), ["test request"]),
 ], raises=("MemoryError", "OverflowError"))

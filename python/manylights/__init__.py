@@ -78,6 +78,7 @@ __all__ = [
     "render_brute_force",
     "scene_lights",
     "stratified_rows",
+    "sweep",
     "write_exr",
     "write_exr_sequence",
     "write_png",
@@ -487,3 +488,4 @@ from .antialias import antialias  # noqa: E402
 from .animated import AnimationLights, generate_animation_lights  # noqa: E402
 from .light_tensor import AnimationResult, LightTensor, mrcs_per_frame  # noqa: E402
 from .video import side_by_side, write_exr_sequence, write_video  # noqa: E402  (needs write_exr above)
+from .sweep import sweep  # noqa: E402  (dask and pandas are imported when a sweep runs)

@@ -1,15 +1,17 @@
 """``python -m manylights.bench mrcs``: error against time for MRCS and its baselines (the paper's Figure 6).
 
-Renders the brute-force image of a scene's light matrix once, then instant radiosity, power sampling and
-MRCS at row:column ratios 1:1, 1:2, 1:3 and 1:5 over increasing budgets, each at several seeds, all in
-one run so the timings compare side by side. Writes ``<out>/mrcs-<scene>.json`` (method, budget, seconds
-per stage, relative L2 mean and std) and ``<out>/mrcs-<scene>.png`` (relative L2 vs seconds, log-log,
-error bars = std over seeds), and prints the speed-up over brute force and the share of MRCS time spent
-outside shadow maps + shading (clustering and readback).
+One ``ml.sweep`` renders instant radiosity, power sampling and MRCS at row:column ratios 1:1, 1:2, 1:3 and 1:5
+over increasing budgets, each at several seeds, against the brute-force image of the scene's light matrix
+(rendered once and cached by content hash under ``--reference-dir``). ``--workers N`` runs the renders on a
+Dask LocalCluster of N processes, ``--scheduler ADDRESS`` on a running cluster, ``--workers 0`` (default) in
+this process. Writes ``<out>/mrcs-<scene>-<settings hash>.parquet`` (one row per render, as it completes:
+the same command run again resumes a stopped run), ``<out>/mrcs-<scene>.json`` (method, budget, seconds per stage, relative L2 mean and std, the
+sweep's wall time) and ``<out>/mrcs-<scene>.png`` (relative L2 vs seconds, log-log, error bars = std over
+seeds), and prints the speed-up over brute force and the share of MRCS time spent outside shadow maps +
+shading (clustering and readback).
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 from pathlib import Path
@@ -37,6 +39,12 @@ def add_parser(sub) -> None:
                    help="GPU visibility (default: the device's own: ray_traced on the CPU, hybrid on a GPU)")
     p.add_argument("--shadow-map-size", type=int, default=512)
     p.add_argument("--out", default="out/bench")
+    p.add_argument("--workers", type=int, default=0,
+                   help="Dask LocalCluster worker processes (0: every render in this process, no cluster)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="a running Dask scheduler (tcp://host:8786) instead of a LocalCluster")
+    p.add_argument("--reference-dir", default=None,
+                   help="brute-force references shared by the workers (default: <out>/references)")
     p.set_defaults(run=run)
 
 
@@ -57,92 +65,97 @@ def _display_path(path: Path) -> str:
         return str(path)
 
 
-def _load(path: Path, res: int):
-    """The scene at width ``res``, height from the film's own aspect ratio."""
-    import manylights as ml
+def settings_tag(args) -> str:
+    """8 hex digits naming a benchmark's settings (every argument but where and how it runs), so that its
+    Parquet file is resumed by the same command and a changed command writes another file."""
+    import hashlib
 
-    film = ml.load_scene(path)
-    return ml.load_scene(path, size=(res, max(1, round(res * film.height / film.width))))
+    skip = {"out", "workers", "scheduler", "reference_dir", "cache", "run", "cmd"}
+    settings = {k: v for k, v in sorted(vars(args).items()) if k not in skip}
+    return hashlib.sha256(json.dumps(settings, sort_keys=True, default=str).encode()).hexdigest()[:8]
 
 
 def run(args) -> dict:
     import manylights as ml
 
+    if args.workers is not None and args.workers < 0:
+        raise ValueError(f"--workers must be >= 0, got {args.workers}")
     path = _resolve_scene(args.scene)
-    scene = _load(path, args.res)
-    has_area = any(e["type"] == "area" for e in scene.emitters)
-    has_env = any(e["type"] in ("envmap", "constant") for e in scene.emitters)
-    n_area = args.lights // 4 if has_area else 0
-    n_env = args.lights // 4 if has_env else 0
-    t = time.perf_counter()
-    lights = ml.generate_lights(scene, area=n_area, environment=n_env, indirect=args.lights - n_area - n_env, seed=0)
-    t_gen = time.perf_counter() - t
-    A = ml.LightMatrix(scene, lights, device=args.device, visibility=args.visibility,
-                       shadow_map_size=args.shadow_map_size)
-    print(f"{path}: {scene.width}x{scene.height}, {len(lights)} lights (generated in {t_gen:.2f} s), "
-          f"{A.device['kind']} backend ({A.device['name']}), visibility {A.visibility}"
-          + (f", shadow maps {args.shadow_map_size}^2" if A.device["kind"] == "gpu" else ""))
-
+    film = ml.load_scene(path)
+    size = (args.res, max(1, round(args.res * film.height / film.width)))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     stem = f"mrcs-{path.parent.name}"
-    # The cache key names everything the reference depends on, the scene file's content included.
-    xml_hash = hashlib.sha256(path.read_bytes()).hexdigest()[:12]
-    reference, t_brute = _brute_force(A, out / f"{stem}-reference-{xml_hash}-{len(lights)}-{scene.width}x"
-                                      f"{scene.height}-{A.visibility}-{args.shadow_map_size}.npz")
-    print(f"brute force ({len(lights)} columns): {t_brute:.1f} s")
 
-    summary = {"scene": _display_path(path), "size": [scene.width, scene.height], "lights": len(lights),
-               "visibility": A.visibility, "shadow_map_size": args.shadow_map_size, "device": A.device,
-               "brute_force_seconds": t_brute, "seeds": args.seeds, "records": [], "adapter": ml.device_info()}
+    # Every render is one row of ml.sweep: power sampling and instant radiosity at each column count, MRCS at
+    # each ratio's (rows, columns); a (rows, columns) pair two ratios share is run once, under the first.
+    labels: dict[tuple[int, int], str] = {}
+    for c in args.columns:
+        for name in args.ratios:
+            labels.setdefault((max(1, c // RATIOS[name]), c), "mrcs " + name)
+    budgets = list(labels) or [(1, c) for c in args.columns]
+    methods = ["power_sampling", "instant_radiosity"] + (["mrcs"] if args.ratios else [])
+    where = (f"scheduler {args.scheduler}" if args.scheduler else
+             "this process" if args.workers == 0 else f"a LocalCluster of {args.workers or 'default'} workers")
+    print(f"{path}: {size[0]}x{size[1]}, {args.lights} lights, {len(args.columns)} budgets x {args.seeds} seeds "
+          f"on {where}", flush=True)
+    t = time.perf_counter()
+    df = ml.sweep([(str(path), {"size": size})], methods=methods, budgets=budgets, seeds=list(range(args.seeds)),
+                  lights=args.lights, client=args.scheduler, workers=args.workers,
+                  out=out / f"{stem}-{settings_tag(args)}.parquet",
+                  reference_dir=args.reference_dir or out / "references", device=args.device,
+                  visibility=args.visibility, shadow_map_size=args.shadow_map_size)
+    wall = time.perf_counter() - t
+    failed = df[df["status"] != "ok"]
+    for r in failed.itertuples():
+        print(f"  failed: {r.method} rows {r.rows} columns {r.columns} seed {r.seed}: {r.error}", flush=True)
+    ok = df[df["status"] == "ok"]
+    if ok.empty:
+        raise RuntimeError(f"every render of the sweep failed (first error: {failed['error'].iloc[0]})")
+    first = ok.iloc[0]
+    t_brute = float(first["reference_seconds"])
+    print(f"{int(first['lights'])} lights, {first['device']} backend ({first['adapter']}); brute force "
+          f"{t_brute:.1f} s{' (cached)' if first['reference_cached'] else ''}; sweep of {len(df)} renders: "
+          f"{wall:.1f} s wall", flush=True)
+    summary = {"scene": _display_path(path), "size": list(size), "lights": int(first["lights"]),
+               "visibility": args.visibility, "shadow_map_size": args.shadow_map_size,
+               "device": {"kind": first["device"], "name": first["adapter"]}, "brute_force_seconds": t_brute,
+               "seeds": args.seeds, "workers": args.workers, "scheduler": args.scheduler,
+               "sweep_wall_seconds": wall, "hosts": sorted(ok["host"].unique().tolist()), "records": [],
+               "adapter": ml.device_info(args.device)}
     records = summary["records"]
+    stage_cols = [c for c in df.columns if c.startswith("seconds_")]
 
-    def record(method, budget, results):
-        errs = [ml.relative_l2(r.image, reference) for r in results]
-        stages = {k: float(np.mean([r.timings.get(k, 0.0) for r in results])) for k in results[0].timings}
-        rec = {"method": method, "budget": budget, "seconds": float(np.mean([r.seconds for r in results])),
-               "stages": stages, "rel_l2_mean": float(np.mean(errs)), "rel_l2_std": float(np.std(errs)),
-               "seeds": len(results)}
+    def record(method, budget, rows):
+        if rows.empty:
+            return
+        stages = {c[len("seconds_"):]: float(rows[c].mean()) for c in stage_cols if rows[c].notna().all()}
+        errs = rows["rel_l2"].to_numpy()
+        rec = {"method": method, "budget": budget, "seconds": float(rows["seconds"].mean()), "stages": stages,
+               "rel_l2_mean": float(np.mean(errs)), "rel_l2_std": float(np.std(errs)), "seeds": len(rows)}
         if method.startswith("mrcs"):
             rec["overhead_share"] = sum(stages.get(k, 0.0) for k in OVERHEAD_STAGES) / max(rec["seconds"], 1e-9)
         records.append(rec)
         extra = f"   overhead {rec['overhead_share']:.1%}" if "overhead_share" in rec else ""
         print(f"  {method:<18s} {json.dumps(budget):<34s} {rec['seconds']:8.3f} s   "
               f"rel L2 {rec['rel_l2_mean']:.4f} +- {rec['rel_l2_std']:.4f}{extra}", flush=True)
-        # Written after every record, so that a long run that is stopped keeps what it measured.
-        (out / f"{stem}.json").write_text(json.dumps(summary, indent=2) + "\n")
-        return rec
 
-    seeds = range(args.seeds)
     for c in args.columns:
-        record("power_sampling", {"columns": c}, [ml.power_sampling(A, columns=c, seed=s) for s in seeds])
-        record("instant_radiosity", {"lights": c},
-               [ml.instant_radiosity(scene, lights=c, seed=s, device=args.device, visibility=args.visibility,
-                                     shadow_map_size=args.shadow_map_size) for s in seeds])
+        record("power_sampling", {"columns": c}, ok[(ok["method"] == "power_sampling") & (ok["columns"] == c)])
+        record("instant_radiosity", {"lights": c}, ok[(ok["method"] == "instant_radiosity") & (ok["columns"] == c)])
         for name in args.ratios:
             r = max(1, c // RATIOS[name])
-            record("mrcs " + name, {"rows": r, "columns": c}, [ml.mrcs(A, rows=r, columns=c, seed=s) for s in seeds])
+            if labels.get((r, c)) == "mrcs " + name:
+                record("mrcs " + name, {"rows": r, "columns": c},
+                       ok[(ok["method"] == "mrcs") & (ok["rows"] == r) & (ok["columns"] == c)])
 
     _summarize(summary, t_brute)
     (out / f"{stem}.json").write_text(json.dumps(summary, indent=2) + "\n")
-    _chart(records, out / f"{stem}.png", f"{path.parent.name}: {len(lights)} lights, {scene.width}x{scene.height}, "
+    _chart(records, out / f"{stem}.png", f"{path.parent.name}: {summary['lights']} lights, {size[0]}x{size[1]}, "
            f"{args.seeds} seeds")
-    print(f"wrote {out / (stem + '.json')} and {out / (stem + '.png')}")
+    print(f"wrote {out / (stem + '.json')}, {out / (stem + '.png')} and the rows in "
+          f"{out / (stem + '-' + settings_tag(args) + '.parquet')}")
     return summary
-
-
-def _brute_force(A, cache: Path):
-    """The full column sum (+ emitted) and its seconds; reused from ``cache`` when an earlier run with the
-    same scene file, light count, size and visibility stored it (the seconds are those of that run)."""
-    if cache.exists():
-        with np.load(cache) as z:
-            print(f"brute force read from {cache}")
-            return z["image"], float(z["seconds"])
-    t = time.perf_counter()
-    image = A.column_sum(progress=True) + A.emitted()
-    seconds = time.perf_counter() - t
-    np.savez(cache, image=image, seconds=seconds)
-    return image, seconds
 
 
 def _summarize(summary: dict, t_brute: float) -> None:

@@ -9,6 +9,9 @@ run measures it side by side:
    (``generate_animation_lights``: area + environment + gather-sample indirect lights with a photon pre-pass).
 2. Brute force of every frame (all columns), once, cached under ``--cache`` keyed by the scene's content,
    the frame parameters, the size, the light options and the device; its time is the Table 2 baseline.
+   Every run below is one row of an ``ml.sweep`` (``--workers N``: a Dask LocalCluster of N processes,
+   ``--scheduler ADDRESS``: a running cluster; default: this process); the rows are kept in
+   ``<out>/tensor-<scene>-<method>-<settings hash>.parquet``, so a stopped run resumes.
 3. For every seed of ``--seeds`` and every budget: ``tensor_clustering`` with ``--rows`` rows and
    ``columns`` per frame (the budgets ``--tensor``, shadow maps per frame = rows + columns) and
    ``mrcs_per_frame`` at the budgets ``--mrcs`` (rows + columns per frame). Per run: mean per-frame
@@ -25,7 +28,6 @@ against shadow maps per frame).
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import time
@@ -52,8 +54,12 @@ def add_parser(sub) -> None:
     p.add_argument("--seeds", type=int, default=4)
     p.add_argument("--chunk", type=int, default=40)
     p.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"])
-    p.add_argument("--cache", default="out/bench/cache")
+    p.add_argument("--cache", default="out/bench/cache", help="brute-force references (shared by the workers)")
     p.add_argument("--out", default="out/bench")
+    p.add_argument("--workers", type=int, default=0,
+                   help="Dask LocalCluster worker processes (0: every run in this process, no cluster)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="a running Dask scheduler (tcp://host:8786) instead of a LocalCluster")
     p.set_defaults(run=run)
 
 
@@ -66,42 +72,31 @@ def _check(args) -> None:
             raise ValueError(f"--{name} budgets must be >= 1, got {getattr(args, name)}")
 
 
-def _key(path: Path, frames: list, args, device: dict) -> str:
-    from .bench_vs_mitsuba import scene_hash
-
-    h = hashlib.sha256()
-    h.update(scene_hash(path).encode())
-    h.update(json.dumps({"frames": frames, "res": args.res, "area": args.area, "environment": args.environment,
-                         "indirect": args.indirect, "photons": args.photons, "device": device.get("kind")},
-                        sort_keys=True).encode())
-    return h.hexdigest()[:16]
-
-
-def brute_force(T, cache: Path, key: str) -> tuple[np.ndarray, float, bool]:
-    """(frames, seconds, cached): every frame's column sum + emitted, cached as an .npy (written under a
-    temporary name, then renamed)."""
-    cache.mkdir(parents=True, exist_ok=True)
-    npy = cache / f"tensor-brute-{key}.npy"
-    meta = npy.with_suffix(".json")
-    if npy.is_file() and meta.is_file():
-        return np.load(npy), float(json.loads(meta.read_text())["seconds"]), True
-    t = time.perf_counter()
-    B = T.brute_force(progress=True)
-    seconds = time.perf_counter() - t
-    tmp = npy.with_name(f".{npy.stem}.tmp{os.getpid()}.npy")
-    np.save(tmp, B)
-    os.replace(tmp, npy)
-    meta.write_text(json.dumps({"seconds": seconds, "shape": list(B.shape)}) + "\n")
-    return B, seconds, False
+def _records(df) -> list:
+    """One record per run (row) of the sweeps' DataFrame, in the order seed, method, columns."""
+    recs = []
+    stages = [c for c in df.columns if c.startswith("seconds_")]
+    for r in df[df["status"] == "ok"].sort_values(["seed"], kind="stable").to_dict("records"):
+        recs.append({"method": r["method"], "columns": int(r["columns"]), "seed": int(r["seed"]),
+                     "shadow_maps_per_frame": float(r["shadow_maps_per_frame"]),
+                     "mean_relative_l2": float(r["rel_l2"]), "max_relative_l2": float(r["max_rel_l2"]),
+                     "flicker": float(r["flicker"]), "seconds": float(r["seconds"]),
+                     "timings": {c[len("seconds_"):]: float(r[c]) for c in stages if r[c] == r[c]},
+                     "host": r["host"]})
+    return recs
 
 
 def run(args) -> dict:
+    import pandas as pd
+
     import manylights as ml
     import manylights.scenes as sc
 
-    from .metrics import flicker, relative_l2_per_frame
+    from .sweep import _connect
 
     _check(args)
+    if args.workers is not None and args.workers < 0:
+        raise ValueError(f"--workers must be >= 0, got {args.workers}")
     path = sc.resolve(args.scene)
     name = path.parent.name
     if name not in sc.animated():
@@ -110,55 +105,70 @@ def run(args) -> dict:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     json_path, png_path = out / f"tensor-{name}.json", out / f"tensor-{name}.png"
+    scene = (str(path), {"frames": frames, "res": args.res})
+    lights = {"area": args.area, "environment": args.environment, "indirect": args.indirect, "photons": args.photons,
+              "seed": 0}
+    seeds = list(range(args.seeds))
+    # Two sweeps (tensor clustering at --tensor, per-frame MRCS at --mrcs) on one cluster, one brute force.
+    runs = [("tensor_clustering", args.tensor, {"chunk": args.chunk}), ("mrcs_per_frame", args.mrcs, {})]
+    from .bench_mrcs import settings_tag
+
+    tag = settings_tag(args)
+    parquets = {m: out / f"tensor-{name}-{m}-{tag}.parquet" for m, _, _ in runs}
+    client, owned = (None, False) if (args.workers == 0 and not args.scheduler) else \
+        _connect(args.scheduler, args.workers, 10.0, args.device)
+    where = (f"scheduler {args.scheduler}" if args.scheduler else "this process" if client is None else
+             f"a LocalCluster of {len(client.scheduler_info()['workers'])} workers")
+    print(f"{name}: {len(frames)} frames at {args.res}x{args.res} on {where}", flush=True)
+    interrupted = False
     t = time.perf_counter()
-    anim = ml.load_animation(path, frames=frames, res=args.res)
-    lights = ml.generate_animation_lights(anim, area=args.area, environment=args.environment, indirect=args.indirect,
-                                          photons=args.photons, seed=0)
-    t_lights = time.perf_counter() - t
-    T = ml.LightTensor(anim, lights, device=args.device)
-    m, n, f = T.shape
-    print(f"{name}: {f} frames at {args.res}x{args.res}, {n} lights per frame {lights.counts} "
-          f"({t_lights:.1f} s), device {T.device['kind']} ({T.device['name']})", flush=True)
-    B, t_brute, cached = brute_force(T, Path(args.cache), _key(path, frames, args, T.device))
-    print(f"brute force: {t_brute:.1f} s ({t_brute / f:.2f} s per frame){' (cached)' if cached else ''}", flush=True)
-    summary = {"scene": f"scenes/{name}/scene.xml", "frames": f, "size": [args.res, args.res], "lights": n,
-               "light_counts": lights.counts, "lights_seconds": t_lights, "device": T.device,
-               "brute_force_seconds": t_brute, "brute_force_cached": cached, "rows": args.rows,
-               "seeds": args.seeds, "records": [], "interrupted": False}
-
-    def save() -> None:
-        tmp = json_path.with_suffix(f".tmp{os.getpid()}")
-        tmp.write_text(json.dumps(summary, indent=2) + "\n")
-        os.replace(tmp, json_path)
-
-    runs = [("tensor_clustering", c) for c in args.tensor] + [("mrcs_per_frame", c) for c in args.mrcs]
     try:
-        for seed in range(args.seeds):
-            for method, cols in runs:
-                if method == "tensor_clustering":
-                    res = ml.tensor_clustering(T, rows=args.rows, columns=cols, seed=seed, chunk=args.chunk)
-                else:
-                    res = ml.mrcs_per_frame(T, rows=args.rows, columns=min(cols, n), seed=seed)
-                e = relative_l2_per_frame(res.frames, B)
-                rec = {"method": method, "columns": cols, "seed": seed,
-                       "shadow_maps_per_frame": float(np.mean(res.shadow_maps_per_frame)),
-                       "mean_relative_l2": float(np.mean(e)), "max_relative_l2": float(np.max(e)),
-                       "flicker": float(flicker(res.frames, B)), "seconds": res.seconds, "timings": res.timings}
-                summary["records"].append(rec)
-                print(f"  seed {seed} {method:<18s} {rec['shadow_maps_per_frame']:7.1f} maps/frame  "
-                      f"rel L2 {rec['mean_relative_l2']:.3%}  flicker {rec['flicker']:.3f}  {rec['seconds']:.1f} s",
-                      flush=True)
-                save()
+        for method, budgets, opts in runs:
+            ml.sweep([scene], methods=[method], budgets=[(args.rows, c) for c in budgets], seeds=seeds, lights=lights,
+                     client=client, workers=0 if client is None else None, out=parquets[method],
+                     reference_dir=args.cache, device=args.device, options={method: opts} if opts else None)
     except KeyboardInterrupt:
-        summary["interrupted"] = True
+        interrupted = True
         print("\ninterrupted: reporting what was measured")
+    finally:
+        if owned:
+            cluster = client.cluster
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    wall = time.perf_counter() - t
+    parts = [pd.read_parquet(p) for p in parquets.values() if p.is_file()]
+    df = pd.concat(parts, ignore_index=True) if parts else None
+    ok = None if df is None else df[df["status"] == "ok"]
+    if ok is None or ok.empty:
+        if interrupted:
+            raise SystemExit(130)
+        errors = "; ".join(df["error"].dropna().unique()[:3]) if df is not None else "no rows"
+        raise RuntimeError(f"every run failed: {errors}")
+    for r in df[df["status"] != "ok"].itertuples():
+        print(f"  failed: {r.method} columns {r.columns} seed {r.seed}: {r.error}", flush=True)
+    first = ok.iloc[0]
+    t_brute, f, n = float(first["reference_seconds"]), int(first["frames"]), int(first["lights"])
+    cached = bool(df.loc[df["method"] == runs[0][0], "reference_cached"].iloc[0]) if \
+        (df["method"] == runs[0][0]).any() else bool(first["reference_cached"])
+    print(f"{n} lights per frame, device {first['device']} ({first['adapter']}); brute force: {t_brute:.1f} s "
+          f"({t_brute / f:.2f} s per frame){' (cached)' if cached else ''}; sweeps: {wall:.1f} s wall", flush=True)
+    summary = {"scene": f"scenes/{name}/scene.xml", "frames": f, "size": [args.res, args.res], "lights": n,
+               "light_spec": lights, "device": {"kind": first["device"], "name": first["adapter"]},
+               "brute_force_seconds": t_brute, "brute_force_cached": cached, "rows": args.rows,
+               "seeds": args.seeds, "workers": args.workers, "scheduler": args.scheduler, "sweep_wall_seconds": wall,
+               "records": _records(ok), "interrupted": interrupted}
+    for rec in summary["records"]:
+        print(f"  seed {rec['seed']} {rec['method']:<18s} {rec['shadow_maps_per_frame']:7.1f} maps/frame  "
+              f"rel L2 {rec['mean_relative_l2']:.3%}  flicker {rec['flicker']:.3f}  {rec['seconds']:.1f} s", flush=True)
     summary["table"] = table(summary["records"], t_brute)
-    save()
+    tmp = json_path.with_suffix(f".tmp{os.getpid()}")
+    tmp.write_text(json.dumps(summary, indent=2) + "\n")
+    os.replace(tmp, json_path)
     print_table(summary)
-    if summary["records"]:
-        chart(summary, png_path)
-        print(f"wrote {json_path} and {png_path}")
-    if summary["interrupted"]:
+    chart(summary, png_path)
+    print(f"wrote {json_path}, {png_path} and the rows in {', '.join(str(p) for p in parquets.values())}")
+    if interrupted:
         raise SystemExit(130)
     return summary
 

@@ -232,7 +232,7 @@ def _reconstruct_gpu(T, cl, reps, todo, fw, bw, timings) -> np.ndarray:
 
 def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, chunk: int = 40,
                       representative: str = "centroid", init_clusters: int = 100, time_weight: float = 1.0,
-                      row_indices=None, progress: bool = False):
+                      row_indices=None, progress: bool = False, client=None, connect_timeout: float = 10.0):
     """Render an animation by tensor clustering (Hašan, Velázquez, Pellacini, Bala, EGSR 2008, Sec. 4).
 
     The same ``rows`` stratified view samples are computed in every frame (the r slices, ``T.slices``), the
@@ -260,6 +260,11 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
             barely see is scaled up by hundreds (which made one seed in 8 an outlier at 6.4%).
         row_indices: your own view-sample rows instead of ``stratified_rows``.
         progress: progress bars for the slices.
+        client: a ``dask.distributed.Client`` or scheduler address: each chunk of ``chunk`` frames is one Dask
+            task (a worker loads its frames from ``T.animation``'s paths and parameters; ``tensor_dask``).
+            Chunk b then equals this function on that chunk's frames alone (the first chunk equals the serial
+            call's). Timings are summed over chunks; ``budget`` adds chunks and wall_seconds.
+        connect_timeout: seconds to wait for a scheduler given by address.
 
     Returns:
         AnimationResult: frames (f, H, W, 3) float32; shadow_maps_per_frame = rows + representatives
@@ -269,7 +274,8 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
 
     Raises:
         TypeError: T is not a LightTensor. ValueError: rows or columns out of range, a bad chunk or
-            representative, a negative seed.
+            representative, a negative seed; ``client`` with a T not made from an ``Animation``.
+        OSError: a scheduler address not reachable within ``connect_timeout``.
     """
     from . import stratified_rows
     from .light_tensor import AnimationResult, LightTensor
@@ -279,6 +285,13 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
     m, n, f = T.shape
     seed = _v.seed(seed)
     columns = _v.integer("columns", columns, 1, n)
+    if client is not None:
+        from .tensor_dask import distributed_tensor_clustering
+
+        return distributed_tensor_clustering(T, rows, columns, seed, chunk, client, row_indices,
+                                             _v.real("connect_timeout", connect_timeout, 0.0),
+                                             dict(representative=representative, init_clusters=init_clusters,
+                                                  time_weight=time_weight))
     timings = {}
     t = time.perf_counter()
     if row_indices is None:
