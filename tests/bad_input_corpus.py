@@ -1079,6 +1079,10 @@ cases_for("tensor_clustering", [
                                                                 client="tcp://127.0.0.1:9", connect_timeout=1),
      ["scheduler", "127.0.0.1:9"]),
 ], raises=("OSError",))
+cases_for("cluster_tensor", [
+    ("negative first_chunk", lambda c: c.ml.cluster_tensor(np.ones((2, 3, 2, 3), np.float32), 4, first_chunk=-1),
+     ["first_chunk"]),
+])
 cases_for("native.tensor_accumulate", [
     ("acc not 4-D", lambda c: c.native.tensor_accumulate(np.zeros((2, 3), np.float32), np.zeros((1, 1, 1, 3), np.float32),
                                                           np.zeros(1, np.uint32), np.zeros((1, 2, 3), np.float32),

@@ -240,9 +240,9 @@ def test_bench_mrcs_on_two_workers_equals_in_process(tmp_path):
 
 
 def test_tensor_clustering_chunks_on_workers(client):
-    """tensor_clustering(T, ..., client=): one task per chunk of frames; chunk 0 equals the serial call's first
-    chunk, chunk 1 equals tensor_clustering of its frames alone (same rows), and the joined clustering indexes
-    the whole animation."""
+    """tensor_clustering(T, ..., client=): one task per chunk of frames, each clustered with its chunk index
+    (``first_chunk``), so the result equals the serial call's, and the joined clustering indexes the whole
+    animation."""
     import manylights.scenes as sc
 
     path = sc.resolve("bounce")
@@ -255,9 +255,10 @@ def test_tensor_clustering_chunks_on_workers(client):
     dist = ml.tensor_clustering(T, client=client, **kw)
     assert dist.frames.shape == serial.frames.shape == (4, 16, 16, 3)
     np.testing.assert_array_equal(dist.rows, serial.rows)
-    np.testing.assert_allclose(dist.frames[:2], serial.frames[:2], rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(dist.frames, serial.frames, rtol=1e-6, atol=1e-7)
+    np.testing.assert_array_equal(dist.clustering.representatives, serial.clustering.representatives)
     T1 = ml.LightTensor(ml.load_animation(path, frames=frames[2:], res=16), [lights[2], lights[3]], device="cpu")
-    alone = ml.tensor_clustering(T1, row_indices=serial.rows, **{**kw, "rows": None})
+    alone = ml.tensor_clustering(T1, row_indices=serial.rows, first_chunk=1, **{**kw, "rows": None})
     np.testing.assert_allclose(dist.frames[2:], alone.frames, rtol=1e-6, atol=1e-7)
     np.testing.assert_array_equal(dist.shadow_maps_per_frame[2:], alone.shadow_maps_per_frame)
     cl = dist.clustering

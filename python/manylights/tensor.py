@@ -102,7 +102,7 @@ def _time_weight(v) -> float:
 
 def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init_clusters: int = 100,
                    projection_dim: int = 50, representative: str = "max",
-                   color_averaging: bool = True, time_weight: float = 1.0) -> TensorClustering:
+                   color_averaging: bool = True, time_weight: float = 1.0, first_chunk: int = 0) -> TensorClustering:
     """Cluster the light-frame pairs of a reduced tensor (Hašan et al. 2008, Sec. 4.3-4.5).
 
     Args:
@@ -129,6 +129,9 @@ def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init
         time_weight: a cluster is split in time only if that split's cost times ``time_weight`` is below
             the light split's (1: the paper; > 1 keeps clusters spanning more frames, the weighting of
             light against time splits that the paper's Sec. 4.3.2 suggests).
+        first_chunk: index of the first chunk within a longer animation. Random streams are per (seed,
+            chunk index), so the frames of chunk b clustered alone with ``first_chunk=b`` give exactly that
+            chunk of the whole animation clustered at once (how chunks run as separate Dask tasks).
 
     Returns:
         TensorClustering with representatives (c, 2), assignment (n, f), rec (c, f, 3), frames (c, 2),
@@ -138,7 +141,7 @@ def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init
     Raises:
         ValueError: slices not of shape (r, n, f, 3) / (r, n, f) or empty, NaN/inf (row, light, frame and
             channel named), columns not an integer in [f, n f], chunk / init_clusters / projection_dim < 1,
-            a representative other than "max" / "sampled" / "centroid", a negative seed.
+            a representative other than "max" / "sampled" / "centroid", a negative seed or first_chunk.
         TypeError: a non-numeric (complex, string) slices array.
     """
     S = np.asarray(slices)
@@ -163,7 +166,8 @@ def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init
     d = _native.cluster_tensor(np.moveaxis(S, 2, 0) if frame_major else S, columns, seed, _v.integer("chunk", chunk, 1, 2**63 - 1),
                                _v.integer("init_clusters", init_clusters, 1, 2**63 - 1),
                                _v.integer("projection_dim", projection_dim, 1, 2**63 - 1), representative,
-                               bool(color_averaging), _time_weight(time_weight), frame_major)
+                               bool(color_averaging), _time_weight(time_weight), frame_major,
+                               _v.integer("first_chunk", first_chunk, 0, 2**62))
     return TensorClustering(representatives=d["representatives"], assignment=d["assignment"], rec=d["rec"],
                             frames=d["frames"], sizes=d["sizes"], cost=d["cost"], rendered=d["rendered"],
                             shadow_maps_per_frame=d["shadow_maps_per_frame"],
@@ -232,7 +236,8 @@ def _reconstruct_gpu(T, cl, reps, todo, fw, bw, timings) -> np.ndarray:
 
 def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, chunk: int = 40,
                       representative: str = "centroid", init_clusters: int = 100, time_weight: float = 1.0,
-                      row_indices=None, progress: bool = False, client=None, connect_timeout: float = 10.0):
+                      row_indices=None, progress: bool = False, client=None, connect_timeout: float = 10.0,
+                      first_chunk: int = 0):
     """Render an animation by tensor clustering (Hašan, Velázquez, Pellacini, Bala, EGSR 2008, Sec. 4).
 
     The same ``rows`` stratified view samples are computed in every frame (the r slices, ``T.slices``), the
@@ -262,9 +267,11 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
         progress: progress bars for the slices.
         client: a ``dask.distributed.Client`` or scheduler address: each chunk of ``chunk`` frames is one Dask
             task (a worker loads its frames from ``T.animation``'s paths and parameters; ``tensor_dask``).
-            Chunk b then equals this function on that chunk's frames alone (the first chunk equals the serial
-            call's). Timings are summed over chunks; ``budget`` adds chunks and wall_seconds.
+            Each chunk is clustered with its index (``first_chunk``), so the result equals the serial call's
+            to float round-off. Timings are summed over chunks; ``budget`` adds chunks and wall_seconds.
         connect_timeout: seconds to wait for a scheduler given by address.
+        first_chunk: as ``cluster_tensor``: T is chunk ``first_chunk`` onwards of a longer animation (its
+            chunks are then clustered exactly as in the whole animation).
 
     Returns:
         AnimationResult: frames (f, H, W, 3) float32; shadow_maps_per_frame = rows + representatives
@@ -304,7 +311,7 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
     timings["slices"] = time.perf_counter() - t
     t = time.perf_counter()
     cl = cluster_tensor(R, min(max(columns * f, f), n * f), seed=seed, chunk=chunk, init_clusters=init_clusters,
-                        representative=representative, time_weight=time_weight)
+                        representative=representative, time_weight=time_weight, first_chunk=first_chunk)
     del R
     timings["clustering"] = time.perf_counter() - t
     t = time.perf_counter()

@@ -8,9 +8,8 @@ lights from their arrays (``LightSet.from_arrays``: bit-identical lights, no GPU
 chunk's ``LightTensor`` and runs ``tensor_clustering`` on it with the rows chosen once on the client. The
 frames, the counts of shadow maps and the clusterings of the chunks are joined in frame order.
 
-A chunk is clustered with the random streams of a chunk 0 (its own animation), so chunk b of a distributed
-run equals ``tensor_clustering`` of that chunk's frames alone; the first chunk equals the first chunk of the
-serial call, the later ones are other (equally valid) draws than the serial call's.
+Chunk b is clustered with its index (``first_chunk=b``; the random streams are per (seed, chunk index)), so
+a distributed run equals the serial call to float round-off.
 """
 from __future__ import annotations
 
@@ -28,7 +27,7 @@ def _light_arrays(ls) -> dict:
 
 
 def render_chunk(paths: list, params: list, size: tuple, anim_device: str, light_arrays: list, options: dict,
-                 row_indices: np.ndarray, columns: int, seed: int, kwargs: dict) -> dict:
+                 row_indices: np.ndarray, columns: int, seed: int, kwargs: dict, index: int = 0) -> dict:
     """A worker's task: tensor clustering of one chunk of frames, loaded from paths + parameters.
 
     Returns:
@@ -45,7 +44,8 @@ def render_chunk(paths: list, params: list, size: tuple, anim_device: str, light
     lights = [ml.LightSet.from_arrays(anim[k], **arrays) for k, arrays in enumerate(light_arrays)]
     T = ml.LightTensor(anim, lights, **options)
     load = time.perf_counter() - t
-    res = tensor_clustering(T, columns=columns, seed=seed, row_indices=row_indices, chunk=len(paths), **kwargs)
+    res = tensor_clustering(T, columns=columns, seed=seed, row_indices=row_indices, chunk=len(paths),
+                            first_chunk=index, **kwargs)
     return {"frames": res.frames, "shadow_maps_per_frame": res.shadow_maps_per_frame,
             "timings": {"load": load, **res.timings}, "budget": res.budget, "device": res.device,
             "clustering": res.clustering, "host": socket.gethostname()}
@@ -118,11 +118,11 @@ def distributed_tensor_clustering(T, rows: int, columns: int, seed: int, chunk: 
     try:
         starts = list(range(0, f, chunk))
         futures = []
-        for k0 in starts:
+        for index, k0 in enumerate(starts):
             ks = range(k0, min(k0 + chunk, f))
             futures.append(cl.submit(render_chunk, [anim.paths[k] for k in ks], [anim.params[k] for k in ks], size,
                                      anim.device, [_light_arrays(T.lights[k]) for k in ks], dict(T._options),
-                                     row_indices, columns, seed, kwargs, pure=False))
+                                     row_indices, columns, seed, kwargs, index, pure=False))
         parts = cl.gather(futures)
     finally:
         if owned:

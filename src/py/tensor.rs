@@ -14,7 +14,7 @@ use std::borrow::Cow;
 /// shadow_maps_per_frame (f,) int64, clusters_per_frame (f,) int64, chunks (list of dicts).
 /// Raises ValueError on bad shapes, non-finite values, columns outside [f, n f], zero chunk.
 #[pyfunction]
-#[pyo3(name = "cluster_tensor", signature = (slices, columns, seed=0, chunk=40, init_clusters=100, projection_dim=50, representative="max", color_averaging=true, time_weight=1.0, frame_major=false))]
+#[pyo3(name = "cluster_tensor", signature = (slices, columns, seed=0, chunk=40, init_clusters=100, projection_dim=50, representative="max", color_averaging=true, time_weight=1.0, frame_major=false, first_chunk=0))]
 #[allow(clippy::too_many_arguments)]
 pub fn cluster_tensor_py<'py>(
     py: Python<'py>,
@@ -28,6 +28,7 @@ pub fn cluster_tensor_py<'py>(
     color_averaging: bool,
     time_weight: f64,
     frame_major: bool,
+    first_chunk: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let shape = slices.shape().to_vec();
     // frame_major: the array is (f, r, n[, 3]), the same tensor stored frame by frame.
@@ -49,7 +50,7 @@ pub fn cluster_tensor_py<'py>(
         Ok(s) if slices.is_c_contiguous() => Cow::Borrowed(s),
         _ => Cow::Owned(slices.as_array().iter().copied().collect()),
     };
-    let opts = TensorOptions { seed, chunk, init_clusters, projection_dim, representative, color_averaging, time_weight };
+    let opts = TensorOptions { seed, chunk, init_clusters, projection_dim, representative, color_averaging, time_weight, first_chunk };
     let result = super::signals::detach(py, || {
         let t = if frame_major {
             ReducedTensor::frame_major(&data, r, n, f, channels)?

@@ -204,6 +204,10 @@ pub struct TensorOptions {
     /// paper; > 1 makes clusters span more frames: less flicker, Sec. 4.3.2's "weighting light splits
     /// differently from time splits").
     pub time_weight: f64,
+    /// Index of the first chunk in the whole animation: random streams are per (seed, chunk index), so
+    /// a chunk clustered on its own (a Dask task) with its index here equals the same chunk of the
+    /// whole animation clustered at once.
+    pub first_chunk: usize,
 }
 
 impl Default for TensorOptions {
@@ -216,6 +220,7 @@ impl Default for TensorOptions {
             representative: Representative::MaxWeight,
             color_averaging: true,
             time_weight: 1.0,
+            first_chunk: 0,
         }
     }
 }
@@ -353,8 +358,8 @@ pub fn cluster_tensor(tensor: ReducedTensor, columns: usize, opts: &TensorOption
     for (index, (start, end, budget)) in chunk_budgets(f, opts.chunk, columns).into_iter().enumerate() {
         let t0 = std::time::Instant::now();
         let store = ChunkStore::build(&tensor, start, end);
-        let (clusters, report) = cluster_chunk(&store, budget, opts, index)?;
-        let mut rng_rep = chunk_rng(opts.seed, index, 3);
+        let (clusters, report) = cluster_chunk(&store, budget, opts, opts.first_chunk + index)?;
+        let mut rng_rep = chunk_rng(opts.seed, opts.first_chunk + index, 3);
         for cl in clusters {
             let t = out.representatives.len() as u32;
             for &j in &cl.lights {
