@@ -85,6 +85,9 @@ pub trait Backend: Send + Sync {
     fn visibility_stats(&self) -> Result<VisibilityStats>;
     /// Sets the counters to 0.
     fn reset_visibility_stats(&self);
+    /// Clustered visibility (`crate::cluster::visibility`): the representatives' visibility matrix and
+    /// the image shaded with it (emitters seen directly not included).
+    fn clustered_shading(&self, job: &crate::cluster::visibility::ClusteredShading) -> Result<crate::cluster::visibility::ClusteredImage>;
 }
 
 /// The device asked for.

@@ -444,4 +444,7 @@ impl Backend for GpuBackend {
     fn reset_visibility_stats(&self) {
         GpuBackend::reset_visibility_stats(self)
     }
+    fn clustered_shading(&self, job: &crate::cluster::visibility::ClusteredShading) -> Result<crate::cluster::visibility::ClusteredImage> {
+        crate::gpu::clustered_visibility::render(self, job)
+    }
 }
