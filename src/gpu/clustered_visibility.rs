@@ -9,7 +9,8 @@
 //!    visibility interpolated over its F view clusters (Eq. 9) and adds to an RGBA f32 accumulator;
 //!    ranges hold at most `SHADE_LOOP_BUDGET / (F + 1)` lights, so an invocation's loops stay below
 //!    Mesa's 65,535 iterations whatever K_light is.
-//! Only the image (m x 16 bytes) and the visibility matrix are read back.
+//! Only the image (m x 16 bytes) and the visibility matrix are read back. The stages' seconds exclude the
+//! set-up (uploads, the pipeline compiled on a matrix's first call).
 //!
 //! GPU memory besides the backend's: cluster lights (192 B each), membership (8 B per sample and
 //! column), representatives (4 B per view cluster), the visibility matrix (4 B per word) and the
@@ -115,7 +116,6 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
         }
     }
     crate::memory::check_gpu(ctx, "clustered visibility buffers", sizes.iter().map(|s| s.1 as u128).sum(), false)?;
-    let t0 = Instant::now();
     let own_bvh;
     let bvh = if backend.opts.visibility == Visibility::ShadowMap {
         own_bvh = GpuBvh::upload(device, &backend.scene, backend.max_binding)?;
@@ -140,7 +140,7 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
         mapped_at_creation: false,
     });
     let gave_up_buf = storage_buffer(device, "ClusteredVisibility::gave_up", &[0u32; 4], usage | wgpu::BufferUsages::COPY_SRC);
-    let pass = ClusteredVisibilityPass::new(device);
+    let pass = backend.clustered_pass.get_or_init(|| ClusteredVisibilityPass::new(device));
     let base = ClusteredParams {
         stage: STAGE_VISIBILITY,
         num_samples: m as u32,
@@ -178,7 +178,8 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
         let submission = ctx.queue.submit(Some(encoder.finish()));
         crate::interrupt::wait_gpu(device, Some(submission), label)
     };
-    // Stage 1: the visibility matrix.
+    // Stage 1: the visibility matrix (set-up above: uploads and the pipeline, compiled once per matrix).
+    let t0 = Instant::now();
     let mut first = 0u64;
     while first < pairs {
         let count = PAIRS_PER_DISPATCH.min(pairs - first) as u32;

@@ -212,3 +212,37 @@ fn bad_clusterings_are_refused_with_the_value() {
     bad_normal.normals[1] = [f32::INFINITY, 0.0, 0.0];
     assert!(verr(bad_normal).contains("view normal 1"));
 }
+
+#[test]
+fn shading_in_several_gpu_dispatches_still_equals_brute_force() {
+    // F = 64 (the most): the GPU shades at most 738 lights per dispatch, so ~1,100 lights take two.
+    let xml = crate::testing::shared_dir().join("scenes/cbox-lights/scene.xml");
+    let opts = LoadOptions { params: vec![("res".into(), "8".into())], size: None };
+    let scene = Arc::new(load_scene(&xml, &opts).unwrap());
+    let gen = GenerateOptions { area: 64, environment: 16, indirect: 1024, seed: 9, ..Default::default() };
+    let lights = Arc::new(generate_lights(&scene, &gen).unwrap());
+    let per = crate::gpu::clustered_visibility::lights_per_dispatch(MAX_FUZZINESS);
+    assert!(lights.len() > per && lights.len() < 2 * per, "{} lights, {per} per dispatch", lights.len());
+    let ctx = GpuContext::shared().unwrap();
+    let view = Arc::new(crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap());
+    let copts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 64, ..Default::default() };
+    let a = LightMatrix::new(ctx.clone(), scene.clone(), view.clone(), lights.clone(), copts.clone()).unwrap();
+    // A matrix with shadow maps only has no GPU BVH of its own: the pass builds one.
+    let sm = ColumnOptions { visibility: Visibility::ShadowMap, ..copts };
+    let a_sm = LightMatrix::new(ctx, scene, view.clone(), lights.clone(), sm).unwrap();
+    let m = view.len();
+    let mut vc = view_singletons(&view);
+    // Column 0: the sample's own cluster (weight 1); 63 more clusters with weight 0.
+    vc.membership = FuzzyMembership {
+        f: MAX_FUZZINESS,
+        clusters: (0..m).flat_map(|i| (0..MAX_FUZZINESS).map(move |c| ((i + c) % m) as u32)).collect(),
+        weights: (0..m).flat_map(|_| (0..MAX_FUZZINESS).map(|c| if c == 0 { 1.0 } else { 0.0 })).collect(),
+    };
+    let (_, out) = a.clustered_shading(&light_singletons(&lights), &vc).unwrap();
+    let brute = a.column_sum(None, &mut |_, _| {}).unwrap();
+    let e = rel_l2(&out.image, &brute);
+    assert!(e < 1e-5, "relative L2 against brute force {e}");
+    let (_, out_sm) = a_sm.clustered_shading(&light_singletons(&lights), &vc).unwrap();
+    assert_eq!(out_sm.visibility, out.visibility);
+    assert_eq!(out_sm.image, out.image);
+}
