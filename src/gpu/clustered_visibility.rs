@@ -9,6 +9,7 @@
 //!    visibility interpolated over its F view clusters (Eq. 9) and adds to an RGBA f32 accumulator;
 //!    ranges hold at most `SHADE_LOOP_BUDGET / (F + 1)` lights, so an invocation's loops stay below
 //!    Mesa's 65,535 iterations whatever K_light is.
+//!
 //! Only the image (m x 16 bytes) and the visibility matrix are read back. The stages' seconds exclude the
 //! set-up (uploads, the pipeline compiled on a matrix's first call).
 //!

@@ -95,8 +95,8 @@ fn light_grid(lights: &LightSet) -> LightClustering {
         (t.x as u32) * 9 + (t.y as u32) * 3 + t.z as u32
     };
     let assignment: Vec<u32> = lights.position.iter().map(|&p| cell(p)).collect();
-    let mut sum = vec![Vec3::ZERO; 27];
-    let mut n = vec![0f32; 27];
+    let mut sum = [Vec3::ZERO; 27];
+    let mut n = [0f32; 27];
     for (j, &a) in assignment.iter().enumerate() {
         sum[a as usize] += lights.position[j];
         n[a as usize] += 1.0;
