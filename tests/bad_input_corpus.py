@@ -634,6 +634,76 @@ cases_for("native.cluster_tensor", [
      ["representative"]),
     ("native: negative columns", lambda c: c.native.cluster_tensor(T4(4, 5, 3, 3), -1), []),
 ], raises=("ValueError", "TypeError", "OverflowError"))
+def _cs(c, **kw):
+    """Valid clustered_shading arguments for the corpus matrix (one light label, two view clusters, F = 1)
+    with ``kw`` replaced."""
+    args = dict(light_labels=np.zeros(c.n, np.int64), light_centroids=np.zeros((1, 3), np.float32),
+                view_centroids=np.zeros((2, 3), np.float32), view_normals=np.tile([0, 0, 1], (2, 1)).astype(np.float32),
+                membership_clusters=np.zeros((c.m, 1), np.uint32), membership_weights=np.ones((c.m, 1), np.float32))
+    return {**args, **kw}
+
+
+def _cs_native(c, **kw):
+    a = _cs(c, **kw)
+    return c.native.clustered_shading(c.A._m, a["light_labels"].astype(np.uint32), a["light_centroids"],
+                                      a["view_centroids"], a["view_normals"], a["membership_clusters"],
+                                      a["membership_weights"])
+
+
+cases_for("clustered_shading", [
+    ("label out of range", lambda c: c.ml.clustered_shading(c.A, **_cs(c, light_labels=np.full(c.n, 5))),
+     ["light label 5", "1 light centroids"]),
+    ("negative label", lambda c: c.ml.clustered_shading(c.A, **_cs(c, light_labels=-np.ones(c.n, np.int64))),
+     ["light label -1"]),
+    ("float labels", lambda c: c.ml.clustered_shading(c.A, **_cs(c, light_labels=np.zeros(c.n))), ["integers"]),
+    ("labels not one per light", lambda c: c.ml.clustered_shading(c.A, **_cs(c, light_labels=[0])),
+     ["one label per light"]),
+    ("NaN light centroid", lambda c: c.ml.clustered_shading(c.A, **_cs(c, light_centroids=np.full((1, 3), np.nan))),
+     ["light_centroids", "nan"]),
+    ("centroids (k, 2)", lambda c: c.ml.clustered_shading(c.A, **_cs(c, view_centroids=np.zeros((2, 2)))),
+     ["view_centroids", "(k, 3)"]),
+    ("no view centroids", lambda c: c.ml.clustered_shading(c.A, **_cs(c, view_centroids=np.zeros((0, 3)))),
+     ["view_centroids", "k >= 1"]),
+    ("inf view normal", lambda c: c.ml.clustered_shading(c.A, **_cs(c, view_normals=np.full((2, 3), np.inf))),
+     ["view_normals", "inf"]),
+    ("normals of another count", lambda c: c.ml.clustered_shading(c.A, **_cs(c, view_normals=np.ones((3, 3)))),
+     ["view_normals", "shape"]),
+    ("weights not summing to 1", lambda c: c.ml.clustered_shading(
+        c.A, **_cs(c, membership_weights=np.full((c.m, 1), 0.5, np.float32))), ["sum to 1", "0.5"]),
+    ("NaN weight", lambda c: c.ml.clustered_shading(
+        c.A, **_cs(c, membership_weights=_nan_at(np.ones((c.m, 1), np.float32), (3, 0)))), ["membership_weights", "nan"]),
+    ("negative weight", lambda c: c.ml.clustered_shading(c.A, **_cs(
+        c, membership_clusters=np.zeros((c.m, 2), np.uint32),
+        membership_weights=np.tile(np.float32([1.5, -0.5]), (c.m, 1)))), ["-0.5", ">= 0"]),
+    ("cluster id out of range", lambda c: c.ml.clustered_shading(
+        c.A, **_cs(c, membership_clusters=np.full((c.m, 1), 7))), ["membership cluster 7", "2 view centroids"]),
+    ("membership rows != view samples", lambda c: c.ml.clustered_shading(c.A, **_cs(
+        c, membership_clusters=np.zeros((3, 1), np.uint32), membership_weights=np.ones((3, 1), np.float32))),
+     ["shape", "view sample"]),
+    ("clusters and weights of other shapes", lambda c: c.ml.clustered_shading(
+        c.A, **_cs(c, membership_weights=np.ones((c.m, 2), np.float32))), ["membership", "shape"]),
+    ("F > view clusters", lambda c: c.ml.clustered_shading(c.A, **_cs(
+        c, membership_clusters=np.zeros((c.m, 3), np.uint32),
+        membership_weights=np.full((c.m, 3), 1 / 3, np.float32))), ["fuzziness", "got 3"]),
+    ("A not a LightMatrix", lambda c: c.ml.clustered_shading("A", **_cs(c)), ["LightMatrix"]),
+    ("string weights", lambda c: c.ml.clustered_shading(c.A, **_cs(c, membership_weights=np.full((c.m, 1), "x"))),
+     ["membership_weights"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.clustered_shading", [
+    ("native: label out of range", lambda c: _cs_native(c, light_labels=np.full(c.n, 9)), ["light label 9"]),
+    ("native: cluster id out of range", lambda c: _cs_native(c, membership_clusters=np.full((c.m, 1), 2, np.uint32)),
+     ["membership cluster 2"]),
+    ("native: NaN view centroid", lambda c: _cs_native(c, view_centroids=np.full((2, 3), np.nan, np.float32)),
+     ["view centroid 0", "NaN"]),
+    ("native: centroids (k, 4)", lambda c: _cs_native(c, light_centroids=np.zeros((1, 4), np.float32)),
+     ["light_centroids", "(k, 3)"]),
+    ("native: weights of another shape", lambda c: _cs_native(c, membership_weights=np.ones((c.m, 2), np.float32)),
+     ["membership_weights", "shape"]),
+    ("native: F = 0", lambda c: _cs_native(c, membership_clusters=np.zeros((c.m, 0), np.uint32),
+                                           membership_weights=np.ones((c.m, 0), np.float32)), ["got 0"]),
+    ("native: float64 weights", lambda c: _cs_native(c, membership_weights=np.ones((c.m, 1))), []),
+], raises=("ValueError", "TypeError"))
+
 cases_for("TensorClustering.estimate", [
     ("other n", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5).estimate(T4(4, 6, 3, 3)), ["shape"]),
     ("other f", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 5).estimate(T4(4, 5, 2, 3)), ["shape"]),

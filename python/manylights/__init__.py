@@ -36,6 +36,7 @@ from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
 from .tensor import TensorClustering, cluster_tensor, tensor_clustering
 from .gather import GatherCloud, gather_cloud
 from .relight import DirectToIndirect
+from .clustered import clustered_shading
 
 __version__ = _native.__version__
 
@@ -58,6 +59,7 @@ __all__ = [
     "TensorClustering",
     "cluster_reduced_columns",
     "cluster_tensor",
+    "clustered_shading",
     "tensor_clustering",
     "clustering_cost",
     "device_info",

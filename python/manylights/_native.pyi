@@ -212,6 +212,22 @@ def cluster_reduced_columns(R: npt.NDArray[np.float32], c: int, seed: int = 0,
     Raises:
         ValueError: c = 0 or c > n, NaN/inf (names row and column), bad shapes or power."""
 
+def clustered_shading(A: LightMatrix, light_labels: npt.NDArray[np.uint32], light_centroids: npt.NDArray[np.float32],
+                      view_centroids: npt.NDArray[np.float32], view_normals: npt.NDArray[np.float32],
+                      membership_clusters: npt.NDArray[np.uint32],
+                      membership_weights: npt.NDArray[np.float32]) -> dict[str, Any]:
+    """Clustered visibility of A with given clusterings (public wrapper: manylights.clustered_shading).
+    light_labels (n,), light_centroids (k_light, 3), view_centroids / view_normals (k_view, 3),
+    membership_clusters / membership_weights (m, F).
+
+    Returns a dict: image (H, W, 3) float32 (no emitters), visibility (k_view, ceil(K / 32)) uint32 bit rows,
+    rays, gave_up (int), visibility_seconds, shading_seconds (float), light_representatives,
+    light_cluster_labels, light_cluster_sizes (K,) int64, view_representatives (k_view,) int64 (-1: none),
+    light_clusters K, view_clusters k_view (int).
+
+    Raises:
+        ValueError: shapes, labels, cluster ids, weights or non-finite values (named)."""
+
 def clustering_cost(R: npt.NDArray[np.float32], assignment: npt.NDArray[np.int32]) -> float:
     """Sum of the paper's cluster costs of a partition on the (unprojected, scalar) reduced matrix."""
 

@@ -307,6 +307,10 @@ impl Backend for CpuBackend {
     fn reset_visibility_stats(&self) {
         self.shadow_tests.store(0, Ordering::Relaxed);
     }
+
+    fn clustered_shading(&self, job: &crate::cluster::visibility::ClusteredShading) -> Result<crate::cluster::visibility::ClusteredImage> {
+        crate::cluster::visibility::cpu::render(&self.tracer, &self.view, job)
+    }
 }
 
 #[cfg(test)]

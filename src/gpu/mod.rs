@@ -2,6 +2,7 @@
 //! `shaders/`.
 pub mod bsdf_eval;
 pub mod bvh;
+pub mod clustered_visibility;
 pub mod columns;
 pub mod context;
 pub mod gbuffer;

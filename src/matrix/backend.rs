@@ -89,6 +89,9 @@ pub trait Backend: Send + Sync {
     fn as_gpu(&self) -> Option<&super::gpu::GpuBackend> {
         None
     }
+    /// Clustered visibility (`crate::cluster::visibility`): the representatives' visibility matrix and
+    /// the image shaded with it (emitters seen directly not included).
+    fn clustered_shading(&self, job: &crate::cluster::visibility::ClusteredShading) -> Result<crate::cluster::visibility::ClusteredImage>;
 }
 
 /// The device asked for.

@@ -53,6 +53,8 @@ pub struct GpuBackend {
     pub(crate) row_scratch: std::sync::Mutex<Option<super::rows::RowScratch>>,
     /// CPU ray tracer of the exact oracle (`oracle.rs`), built on first use (or given).
     pub(crate) oracle: std::sync::OnceLock<Arc<RayTracer>>,
+    /// The clustered-visibility pass (`gpu::clustered_visibility`), compiled on first use.
+    pub(crate) clustered_pass: std::sync::OnceLock<crate::gpu::clustered_visibility::ClusteredVisibilityPass>,
 }
 
 /// Lights `js[start..end]` and the first layer of each.
@@ -145,6 +147,7 @@ impl GpuBackend {
             row_lights: std::sync::OnceLock::new(),
             row_scratch: std::sync::Mutex::new(None),
             oracle: std::sync::OnceLock::new(),
+            clustered_pass: std::sync::OnceLock::new(),
             ctx,
             scene,
             view,
@@ -485,5 +488,8 @@ impl Backend for GpuBackend {
     }
     fn reset_visibility_stats(&self) {
         GpuBackend::reset_visibility_stats(self)
+    }
+    fn clustered_shading(&self, job: &crate::cluster::visibility::ClusteredShading) -> Result<crate::cluster::visibility::ClusteredImage> {
+        crate::gpu::clustered_visibility::render(self, job)
     }
 }

@@ -277,6 +277,20 @@ impl LightMatrix {
         self.backend.weighted_sum(js, weights, progress)
     }
 
+    /// Clustered visibility (`crate::cluster::visibility`) of this matrix's scene, view samples and lights
+    /// with the given clusterings, on this matrix's backend.
+    ///
+    /// Errors: `InvalidParameter` naming the bad value (module docs of `cluster::visibility`); GPU errors.
+    pub fn clustered_shading(
+        &self,
+        lights: &crate::cluster::visibility::LightClustering,
+        view: &crate::cluster::visibility::ViewClustering,
+    ) -> Result<(crate::cluster::visibility::ClusteredShading, crate::cluster::visibility::ClusteredImage)> {
+        let job = crate::cluster::visibility::ClusteredShading::new(&self.lights, &self.view, lights, view)?;
+        let out = self.backend.clustered_shading(&job)?;
+        Ok((job, out))
+    }
+
     /// Rows `is` (pixel indices `y * width + x`, any order, repeats allowed) as r * n * 3 floats,
     /// `[row][light][rgb]`, with the default `RowOptions`; `progress(rows_done, r)` as it goes. A pixel
     /// with delta-chain samples (`crate::view_chains`) has the sum of its samples' rows.

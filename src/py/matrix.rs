@@ -20,7 +20,7 @@ pub fn scene_lights(scene: &Scene) -> PyResult<LightSet> {
 /// The light matrix of a scene and a light set (GPU columns; see `manylights.LightMatrix`).
 #[pyclass(module = "manylights._native", frozen)]
 pub struct LightMatrix {
-    inner: Arc<CoreMatrix>,
+    pub(crate) inner: Arc<CoreMatrix>,
 }
 
 #[pymethods]

@@ -4,6 +4,7 @@ use pyo3::prelude::*;
 pub mod animation;
 pub mod bsdf;
 pub mod cluster;
+pub mod clustered_visibility;
 pub mod errors;
 pub mod gather;
 pub mod image;
@@ -29,6 +30,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     bsdf::register(m)?;
     lights::register(m)?;
     cluster::register(m)?;
+    clustered_visibility::register(m)?;
     animation::register(m)?;
     tensor::register(m)?;
     gather::register(m)?;
