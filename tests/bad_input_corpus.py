@@ -1270,6 +1270,7 @@ NOT_COVERED: dict[str, str] = {
     "Animation.gbuffers": "takes no arguments (the device is the Animation's, checked when it is made)",
     "AnimationResult": "a dataclass that only holds results (no validation of its own)",
     "LightTensor.brute_force": "takes only a progress flag (any truthy value shows a bar)",
+    "LightMatrix.view_samples": "takes no arguments",
 }
 
 # Case id -> environment of its own child process.

@@ -267,6 +267,16 @@ class LightMatrix:
         """(m, n): view samples (H * W) by lights."""
         return tuple(self._m.shape)
 
+    def view_samples(self) -> dict:
+        """The matrix's view samples (the shading points; the paper's deep framebuffer): pixels first, row
+        by row, then the surfaces seen through delta chains (mirrors, glass), m_s >= H * W of them.
+
+        Returns:
+            dict: ``position`` (m_s, 3) float32 world units, ``normal`` (m_s, 3) float32 unit shading normal,
+            ``pixel`` (m_s,) int64 the pixel (y * W + x) each sample belongs to, ``surface`` (m_s,) bool
+            (False for background pixels, whose position and normal are 0)."""
+        return dict(self._m.view_samples())
+
     def columns(self, indices: Sequence[int]) -> np.ndarray:
         """Columns ``indices`` as images, (k, H, W, 3) float32.
 

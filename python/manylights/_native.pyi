@@ -96,6 +96,9 @@ class LightMatrix:
     def visibility_stats(self) -> dict[str, int]:
         """shadow_tests, ray_casts, gave_up since creation or reset_visibility_stats()."""
     def reset_visibility_stats(self) -> None: ...
+    def view_samples(self) -> dict[str, npt.NDArray[Any]]:
+        """position (m_s, 3) f32, normal (m_s, 3) f32, pixel (m_s,) int64, surface (m_s,) bool: the view
+        samples, pixels first, then the delta-chain samples."""
     def columns(self, indices: Sequence[int]) -> npt.NDArray[np.float32]:
         """(k, H, W, 3). Raises ValueError for an index >= n."""
     def column_sum(self, weights: Optional[npt.NDArray[np.float32]] = None,

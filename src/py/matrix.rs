@@ -100,6 +100,24 @@ impl LightMatrix {
     fn reset_visibility_stats(&self) {
         self.inner.reset_visibility_stats()
     }
+    /// The view samples of the matrix (the shading points, pixels first, then the delta-chain samples):
+    /// dict of position (m, 3) float32 (world units), normal (m, 3) float32 (unit shading normal), pixel
+    /// (m,) int64 (the pixel each sample belongs to, row-major) and surface (m,) bool (false for
+    /// background pixels, whose position and normal are 0).
+    fn view_samples<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        let v = &self.inner.view;
+        let m = v.len();
+        let p = v.num_pixels();
+        let flat = |a: &[glam::Vec3]| -> Vec<f32> { a.iter().flat_map(|x| [x.x, x.y, x.z]).collect() };
+        let pixel: Vec<i64> = (0..m).map(|i| if i < p { i as i64 } else { v.extra_pixel[i - p] as i64 }).collect();
+        let surface: Vec<bool> = v.shape_index.iter().map(|&s| s >= 0).collect();
+        let d = pyo3::types::PyDict::new(py);
+        d.set_item("position", array(py, flat(&v.position), &[m, 3])?)?;
+        d.set_item("normal", array(py, flat(&v.normal), &[m, 3])?)?;
+        d.set_item("pixel", array(py, pixel, &[m])?)?;
+        d.set_item("surface", numpy::PyArray1::from_vec(py, surface))?;
+        Ok(d)
+    }
     /// Columns `indices` as a (k, H, W, 3) float32 array.
     fn columns<'py>(&self, py: Python<'py>, indices: Vec<usize>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
