@@ -5,6 +5,7 @@ pub mod bvh;
 pub mod columns;
 pub mod context;
 pub mod gbuffer;
+pub mod kmeans;
 pub mod mapping;
 pub mod pipeline;
 pub mod relight;
