@@ -129,14 +129,24 @@ fn key_less(a: vec2<u32>, b: vec2<u32>) -> bool {
     return (a.x & INDEX_MASK) < (b.x & INDEX_MASK);
 }
 
-// The sorted list of a point's F best candidates (invocation-private).
+// The sorted list of a point's F best candidates (invocation-private). F = 1 (K-means) keeps its one
+// candidate in `best0`, a register: a dynamically indexed private array lives in memory on CPU adapters
+// and made the assignment several times slower.
 var<private> list: array<vec2<u32>, MAX_F>;
+var<private> best0: vec2<u32>;
 var<private> found: u32;
 var<private> steps: u32;
 
-// Insert a candidate into `list` (Alg. 2, lines 9-17); counts its shifts in `steps`.
+// Insert a candidate into the list (Alg. 2, lines 9-17); counts its shifts in `steps`.
 fn insert(cand: vec2<u32>) {
     let f = params.f;
+    if f == 1u {
+        if found == 0u || key_less(cand, best0) {
+            best0 = cand;
+            found = 1u;
+        }
+        return;
+    }
     if found == f && !key_less(cand, list[f - 1u]) {
         return;
     }
@@ -155,10 +165,35 @@ fn insert(cand: vec2<u32>) {
     list[j] = cand;
 }
 
+// The F-th (last) entry of a full list.
+fn worst() -> vec2<u32> {
+    if params.f == 1u {
+        return best0;
+    }
+    return list[params.f - 1u];
+}
+
 fn store_list(i: u32) {
+    if params.f == 1u {
+        best_idx[i] = best0.x;
+        best_d2[i] = bitcast<f32>(best0.y);
+        return;
+    }
     for (var j = 0u; j < params.f; j = j + 1u) {
         best_idx[i * params.f + j] = list[j].x;
         best_d2[i * params.f + j] = bitcast<f32>(list[j].y);
+    }
+}
+
+fn load_list(i: u32) {
+    let f = params.f;
+    found = f;
+    if f == 1u {
+        best0 = vec2<u32>(best_idx[i], bitcast<u32>(best_d2[i]));
+        return;
+    }
+    for (var j = 0u; j < f; j = j + 1u) {
+        list[j] = vec2<u32>(best_idx[i * f + j], bitcast<u32>(best_d2[i * f + j]));
     }
 }
 
@@ -227,14 +262,16 @@ fn assign(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let c0 = vec3<i32>(cell_coord(p));
     let dims = vec3<i32>(params.grid_dims.xyz);
     let h = params.grid_lo.w;
+    // Position of p inside its cell, in cells per axis.
+    let frac = clamp((p - params.grid_lo.xyz) / h - vec3<f32>(c0), vec3<f32>(0.0), vec3<f32>(1.0));
     let f = params.f;
     let budget = params.budget;
     found = 0u;
     steps = 0u;
     var complete = false;
     // Shell r: the cells at Chebyshev distance r from the point's cell (r = 0, 1 is the paper's 27-cell
-    // neighbourhood). Every centroid outside shells 0..r is at least r*h away, so the list is exact once
-    // its F-th entry is admissible and closer than that.
+    // neighbourhood). Every centroid outside shells 0..r lies beyond a face of their (2r+1)^3 block, so
+    // the list is exact once its F-th entry is admissible and closer than the nearest such face.
     var r = 0;
     loop {
         if r > i32(params.max_shell) {
@@ -286,10 +323,26 @@ fn assign(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         if steps >= budget {
             break;
         }
-        if found == f && (list[f - 1u].x & INADMISSIBLE) == 0u {
-            let bound = f32(r) * h - params.slack;
-            let worst = bitcast<f32>(list[f - 1u].y);
-            if bound > 0.0 && worst < bound * bound {
+        // Distance from p to the nearest face of the block of shells 0..r behind which cells remain
+        // (faces on the grid's border hide nothing).
+        var bound = 3.0e38;
+        for (var a = 0; a < 3; a = a + 1) {
+            if c0[a] - r > 0 {
+                bound = min(bound, (frac[a] + f32(r)) * h);
+            }
+            if c0[a] + r < dims[a] - 1 {
+                bound = min(bound, (1.0 - frac[a] + f32(r)) * h);
+            }
+        }
+        if bound == 3.0e38 {
+            // Every cell visited: the list is exact.
+            complete = true;
+            break;
+        }
+        let last = worst();
+        if found == f && (last.x & INADMISSIBLE) == 0u {
+            let b = bound - params.slack;
+            if b > 0.0 && bitcast<f32>(last.y) < b * b {
                 complete = true;
                 break;
             }
@@ -316,10 +369,7 @@ fn assign_chunk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     found = 0u;
     if params.chunk_start > 0u {
         // The first chunk held >= F centroids (CHUNK >= MAX_F and F <= k), so the stored list is full.
-        found = f;
-        for (var j = 0u; j < f; j = j + 1u) {
-            list[j] = vec2<u32>(best_idx[i * f + j], bitcast<u32>(best_d2[i * f + j]));
-        }
+        load_list(i);
     }
     let end = min(params.chunk_start + CHUNK, params.k);
     for (var c = params.chunk_start; c < end; c = c + 1u) {

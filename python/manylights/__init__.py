@@ -36,6 +36,7 @@ from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
 from .tensor import TensorClustering, cluster_tensor, tensor_clustering
 from .gather import GatherCloud, gather_cloud
 from .relight import DirectToIndirect
+from .kmeans import KMeansResult, fuzzy_membership, kmeans
 
 __version__ = _native.__version__
 
@@ -83,6 +84,9 @@ __all__ = [
     "write_png",
     "write_video",
     "side_by_side",
+    "KMeansResult",
+    "kmeans",
+    "fuzzy_membership",
 ]
 
 

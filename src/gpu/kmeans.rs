@@ -399,3 +399,4 @@ mod tests {
         assert!(Grid::new([0.0; 3], [1.0; 3], 1 << 30).num_cells() <= MAX_GRID_CELLS);
     }
 }
+

@@ -7,6 +7,7 @@ pub mod cluster;
 pub mod errors;
 pub mod gather;
 pub mod image;
+pub mod kmeans;
 pub mod lights;
 pub mod lightset;
 pub mod matrix;
@@ -29,6 +30,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     bsdf::register(m)?;
     lights::register(m)?;
     cluster::register(m)?;
+    kmeans::register(m)?;
     animation::register(m)?;
     tensor::register(m)?;
     gather::register(m)?;

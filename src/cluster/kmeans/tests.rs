@@ -164,8 +164,11 @@ fn grid_assignment_equals_exhaustive() {
     let (pts, nrm) = uniform_points(12_000, 21);
     let (cts, cns) = uniform_points(2500, 22);
     let (bp, bn) = blob_points(8000, 30, 23);
+    // Planar data (a flat grid axis), normals +-z.
+    let flat: Vec<[f32; 3]> = pts.iter().map(|p| [p[0], p[1], 0.0]).collect();
+    let flat_n: Vec<[f32; 3]> = nrm.iter().map(|n| [0.0, 0.0, n[2].signum()]).collect();
     for cos in [None, Some(DEFAULT_COS_THRESHOLD)] {
-        for (p, n, c, cn) in [(&pts, &nrm, &cts[..], &cns[..]), (&bp, &bn, &bp[..300], &bn[..300])] {
+        for (p, n, c, cn) in [(&pts, &nrm, &cts[..], &cns[..]), (&bp, &bn, &bp[..300], &bn[..300]), (&flat, &flat_n, &flat[..500], &flat_n[..500])] {
             let ex = fuzzy_membership_gpu_with_budget(&ctx, p, n, c, cn, 6, cos, false, None).unwrap();
             let grid = fuzzy_membership_gpu_with_budget(&ctx, p, n, c, cn, 6, cos, true, None).unwrap();
             let starved = fuzzy_membership_gpu_with_budget(&ctx, p, n, c, cn, 6, cos, true, Some(8)).unwrap();
