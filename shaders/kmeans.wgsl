@@ -334,6 +334,8 @@ fn assign(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
                 bound = min(bound, (1.0 - frac[a] + f32(r)) * h);
             }
         }
+        // The three iterations above count against the budget too.
+        steps = steps + 3u;
         if bound == 3.0e38 {
             // Every cell visited: the list is exact.
             complete = true;

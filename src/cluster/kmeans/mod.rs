@@ -396,11 +396,12 @@ pub fn cluster_view_samples(device: KMeansDevice, points: &[[f32; 3]], normals: 
     if gamma == 0 {
         return Err(Error::invalid("cluster_view_samples: gamma must be >= 1, got 0"));
     }
+    check_points(points, normals, p.cos_threshold, "cluster_view_samples")?;
     check_params(points.len(), p)?;
     let gamma = gamma.min((points.len() / p.k).max(1));
     let subset = downsample_indices(points.len(), gamma, p.seed)?;
     let sub_points: Vec<[f32; 3]> = subset.iter().map(|&i| points[i as usize]).collect();
-    let sub_normals: Vec<[f32; 3]> = subset.iter().filter_map(|&i| normals.get(i as usize).copied()).collect();
+    let sub_normals: Vec<[f32; 3]> = subset.iter().map(|&i| normals[i as usize]).collect();
     let (kmeans, membership) = match device {
         KMeansDevice::Cpu => {
             let km = kmeans_cpu(&sub_points, &sub_normals, p)?;
