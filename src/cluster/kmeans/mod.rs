@@ -43,9 +43,10 @@
 //! Each coordinate is quantised to `round(2^24 (x - lo) / extent)` over the data's bounding box
 //! (positions) or over [-1, 1] (normals): a step of 2^-24 of the box size, about f32's own resolution at
 //! that scale. The quantised values are summed exactly in 64 bits (two u32 words with an atomic carry),
-//! so the sums do not depend on the order of the atomics. The GPU converts a sum to f32 before dividing
-//! (relative error ~1e-7, i.e. below one quantisation step in the mean); the CPU divides in f64. CPU and GPU
-//! centroids therefore agree to about 1e-7 of the bounding box, not bit for bit.
+//! so the sums do not depend on the order of the atomics. The GPU converts a 64-bit sum to f32 before
+//! dividing (relative error ~1e-7 of the mean, i.e. a few quantisation steps at most); the CPU divides in
+//! f64. CPU and GPU centroids therefore agree to a few 2^-24 of the bounding box, not bit for bit; two GPU
+//! runs (grid or not) agree bit for bit. The objective adds per-workgroup f32 partial sums (256 points) in f64.
 //!
 //! # Symbols
 //! | paper | here |

@@ -187,6 +187,14 @@ fn grid_assignment_equals_exhaustive() {
             assert!(differ <= 2, "{differ} slots differ from the CPU");
         }
     }
+    // The largest fuzziness (F = 16), threshold on.
+    let cos = Some(DEFAULT_COS_THRESHOLD);
+    let ex = fuzzy_membership_gpu_with_budget(&ctx, &pts, &nrm, &cts[..500], &cns[..500], MAX_FUZZY, cos, false, None).unwrap();
+    let grid = fuzzy_membership_gpu_with_budget(&ctx, &pts, &nrm, &cts[..500], &cns[..500], MAX_FUZZY, cos, true, None).unwrap();
+    let starved = fuzzy_membership_gpu_with_budget(&ctx, &pts, &nrm, &cts[..500], &cns[..500], MAX_FUZZY, cos, true, Some(8)).unwrap();
+    assert_eq!(grid.clusters, ex.clusters);
+    assert_eq!(starved.clusters, ex.clusters);
+    assert_eq!(grid.weights, ex.weights);
     // The whole K-means run: grid and exhaustive give bit-identical centroids and assignments.
     let (pts, nrm) = uniform_points(20_000, 31);
     let q = KMeansParams { k: 300, max_iterations: 6, cos_threshold: Some(DEFAULT_COS_THRESHOLD), ..KMeansParams::new(300) };
