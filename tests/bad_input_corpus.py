@@ -603,6 +603,65 @@ cases_for("clustering_cost", [
     ("bad R shape", lambda c: c.ml.clustering_cost(R(4, 10, 2), np.zeros(10, np.int64)), ["shape"]),
 ])
 
+# K-means and fuzzy membership (issue 12, items 1-2).
+KP = lambda n=20: np.random.default_rng(2).random((n, 3), dtype=np.float32)  # noqa: E731
+KN = lambda n=20: np.tile(np.array([[0, 0, 1]], np.float32), (n, 1))  # noqa: E731
+cases_for("kmeans", [
+    ("k = 0", lambda c: c.ml.kmeans(KP(), KN(), 0), ["k", "got 0"]),
+    ("k > N", lambda c: c.ml.kmeans(KP(), KN(), 21), ["k", "got 21"]),
+    ("negative k", lambda c: c.ml.kmeans(KP(), KN(), -3), ["k", "-3"]),
+    ("fractional k", lambda c: c.ml.kmeans(KP(), KN(), 2.5), ["k", "2.5"]),
+    ("huge k", lambda c: c.ml.kmeans(KP(), KN(), 2**70), ["k"]),
+    ("NaN point", lambda c: c.ml.kmeans(_nan_at(KP(), (4, 1)), KN(), 3), ["points", "(4, 1)"]),
+    ("inf normal", lambda c: c.ml.kmeans(KP(), _nan_at(KN(), (2, 0), np.inf), 3), ["normals", "(2, 0)"]),
+    ("zero normal", lambda c: c.ml.kmeans(KP(), _nan_at(KN(), (5, 2), 0.0), 3), ["normal 5", "zero"]),
+    ("points (N, 2)", lambda c: c.ml.kmeans(KP()[:, :2], None, 3), ["points", "(N, 3)", "(20, 2)"]),
+    ("normals rows differ", lambda c: c.ml.kmeans(KP(), KN(19), 3), ["normals", "(19, 3)"]),
+    ("no points", lambda c: c.ml.kmeans(np.zeros((0, 3), np.float32), None, 1), ["at least one"]),
+    ("negative iterations", lambda c: c.ml.kmeans(KP(), KN(), 3, iterations=-1), ["iterations", "-1"]),
+    ("NaN tolerance", lambda c: c.ml.kmeans(KP(), KN(), 3, tolerance=np.nan), ["tolerance", "nan"]),
+    ("negative tolerance", lambda c: c.ml.kmeans(KP(), KN(), 3, tolerance=-0.5), ["tolerance", "-0.5"]),
+    ("threshold > 1", lambda c: c.ml.kmeans(KP(), KN(), 3, cos_threshold=1.5), ["cos_threshold", "1.5"]),
+    ("threshold < -1", lambda c: c.ml.kmeans(KP(), KN(), 3, cos_threshold=-2), ["cos_threshold", "-2"]),
+    ("bad device", lambda c: c.ml.kmeans(KP(), KN(), 3, device="tpu"), ["device", "tpu"]),
+    ("negative seed", lambda c: c.ml.kmeans(KP(), KN(), 3, seed=-1), ["seed", "-1"]),
+    ("complex points", lambda c: c.ml.kmeans(np.zeros((4, 3), complex), None, 1), ["complex"]),
+], raises=("ValueError", "TypeError"))
+cases_for("fuzzy_membership", [
+    ("f = 0", lambda c: c.ml.fuzzy_membership(KP(), KN(), KP(5), KN(5), 0), ["f", "got 0"]),
+    ("f > k", lambda c: c.ml.fuzzy_membership(KP(), KN(), KP(5), KN(5), 6), ["f", "got 6"]),
+    ("f > 16", lambda c: c.ml.fuzzy_membership(KP(), KN(), KP(20), KN(20), 17), ["f", "got 17"]),
+    ("NaN centroid", lambda c: c.ml.fuzzy_membership(KP(), KN(), _nan_at(KP(5), (3, 0)), KN(5), 2),
+     ["centroids", "(3, 0)"]),
+    ("one side's normals", lambda c: c.ml.fuzzy_membership(KP(), KN(), KP(5), None, 2), ["normals"]),
+    ("centroid normals rows", lambda c: c.ml.fuzzy_membership(KP(), KN(), KP(5), KN(4), 2),
+     ["centroid_normals", "(4, 3)"]),
+    ("no centroids", lambda c: c.ml.fuzzy_membership(KP(), None, np.zeros((0, 3), np.float32), None, 1),
+     ["0 centroids"]),
+    ("threshold NaN", lambda c: c.ml.fuzzy_membership(KP(), KN(), KP(5), KN(5), 2, cos_threshold=np.nan),
+     ["cos_threshold", "nan"]),
+    ("bad device", lambda c: c.ml.fuzzy_membership(KP(), KN(), KP(5), KN(5), 2, device=3), ["device", "3"]),
+], raises=("ValueError", "TypeError"))
+# The native functions behind them (checks that hold without the Python wrapper).
+cases_for("native.kmeans", [
+    ("k = 0", lambda c: c.native.kmeans(KP(), KN(), 0), ["k", "got 0"]),
+    ("k > N", lambda c: c.native.kmeans(KP(), KN(), 21), ["k", "got 21"]),
+    ("negative iterations", lambda c: c.native.kmeans(KP(), KN(), 3, -4), ["iterations", "-4"]),
+    ("NaN point", lambda c: c.native.kmeans(_nan_at(KP(), (6, 2)), KN(), 3), ["point 6"]),
+    ("shape", lambda c: c.native.kmeans(np.zeros((5, 4), np.float32), None, 1), ["(N, 3)", "[5, 4]"]),
+    ("normals rows", lambda c: c.native.kmeans(KP(), KN(3), 2), ["normals", "3 rows"]),
+    ("threshold", lambda c: c.native.kmeans(KP(), KN(), 2, 10, 0.0, 3.0), ["cos_threshold", "3"]),
+    ("negative tolerance", lambda c: c.native.kmeans(KP(), KN(), 2, 10, -1.0), ["tolerance", "-1"]),
+    ("device", lambda c: c.native.kmeans(KP(), KN(), 2, device="quantum"), ["device", "quantum"]),
+])
+cases_for("native.fuzzy_membership", [
+    ("f = 0", lambda c: c.native.fuzzy_membership(KP(), KN(), KP(5), KN(5), 0), ["F", "got 0"]),
+    ("f > k", lambda c: c.native.fuzzy_membership(KP(), KN(), KP(5), KN(5), 9), ["F", "got 9"]),
+    ("negative f", lambda c: c.native.fuzzy_membership(KP(), KN(), KP(5), KN(5), -1), ["f", "-1"]),
+    ("one side's normals", lambda c: c.native.fuzzy_membership(KP(), None, KP(5), KN(5), 2), ["normals"]),
+    ("NaN normal", lambda c: c.native.fuzzy_membership(KP(), _nan_at(KN(), (1, 1)), KP(5), KN(5), 2), ["normal 1"]),
+])
+
 # Tensor clustering (issue 10, item 5) and the animation metrics (item 6).
 T4 = lambda *shape: np.random.default_rng(1).random(shape, dtype=np.float32)  # noqa: E731
 cases_for("cluster_tensor", [
@@ -1265,6 +1324,7 @@ cases_for("device_info", [
 NOT_COVERED: dict[str, str] = {
     "RenderResult": "a dataclass that only holds results (no validation of its own)",
     "TensorClustering": "a dataclass that only holds results; made by cluster_tensor (covered)",
+    "KMeansResult": "a dataclass that only holds results; made by kmeans (covered)",
     "scenes.available": "takes no arguments",
     "scenes.animated": "takes no arguments",
     "Animation.gbuffers": "takes no arguments (the device is the Animation's, checked when it is made)",

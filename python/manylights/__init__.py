@@ -37,6 +37,7 @@ from .tensor import TensorClustering, cluster_tensor, tensor_clustering
 from .gather import GatherCloud, gather_cloud
 from .relight import DirectToIndirect
 from .clustered import clustered_shading
+from .kmeans import KMeansResult, fuzzy_membership, kmeans
 
 __version__ = _native.__version__
 
@@ -86,6 +87,9 @@ __all__ = [
     "write_png",
     "write_video",
     "side_by_side",
+    "KMeansResult",
+    "kmeans",
+    "fuzzy_membership",
 ]
 
 

@@ -394,3 +394,30 @@ def cull_wavelet_lights(light: npt.NDArray[np.float32], image_norms: npt.NDArray
 
     Raises:
         ValueError: mismatched shapes, non-finite values, negative norms or epsilon."""
+
+def kmeans(points: npt.NDArray[np.float32], normals: Optional[npt.NDArray[np.float32]], k: int, iterations: int = 10,
+           tolerance: float = 0.0, cos_threshold: Optional[float] = 0.8660254, grid: bool = True,
+           device: str = "auto", seed: int = 0) -> dict[str, Any]:
+    """K-means of (N, 3) float32 points with (N, 3) float32 normals or None (then no orientation term), Eq. 7
+    of the 2022 GPU fuzzy K-means paper (the public wrapper is manylights.kmeans).
+
+    Returns a dict: centroids (k, 3) float32, centroid_normals (k, 3) float32, labels (N,) int64, objective
+    (iterations + 1 floats: sum of squared distances to the nearest centroid after t updates), iterations,
+    initial (k,) int64, timings (seconds: setup, iterations, readback, total), device ("cpu"/"gpu").
+
+    Raises:
+        ValueError: k outside [1, N], negative iterations / tolerance, bad shapes, NaN/inf, zero normals
+            with the threshold on, cos_threshold outside [-1, 1], an unknown device."""
+
+def fuzzy_membership(points: npt.NDArray[np.float32], normals: Optional[npt.NDArray[np.float32]],
+                     centroids: npt.NDArray[np.float32], centroid_normals: Optional[npt.NDArray[np.float32]],
+                     f: int = 6, cos_threshold: Optional[float] = 0.8660254, grid: bool = True,
+                     device: str = "auto") -> dict[str, Any]:
+    """The f nearest of the (k, 3) centroids of each (N, 3) point and the Eq. 10 weights (Alg. 2).
+
+    Returns a dict: clusters (N, f) int64 nearest first, weights (N, f) float32 (rows sum to 1), distances
+    (N, f) float32, admissible (N, f) bool, device.
+
+    Raises:
+        ValueError: f outside [1, min(k, 16)], bad shapes, NaN/inf, zero normals with the threshold on,
+            normals for only one side, cos_threshold outside [-1, 1], an unknown device."""

@@ -63,6 +63,7 @@
 //! | r' | `projection_dim` |
 
 pub mod columns;
+pub mod kmeans;
 pub mod representatives;
 pub mod sampling;
 pub mod splitting;

@@ -6,6 +6,7 @@ pub mod clustered_visibility;
 pub mod columns;
 pub mod context;
 pub mod gbuffer;
+pub mod kmeans;
 pub mod mapping;
 pub mod pipeline;
 pub mod reconstruction;

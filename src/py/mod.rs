@@ -8,6 +8,7 @@ pub mod clustered_visibility;
 pub mod errors;
 pub mod gather;
 pub mod image;
+pub mod kmeans;
 pub mod lights;
 pub mod lightset;
 pub mod matrix;
@@ -31,6 +32,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     lights::register(m)?;
     cluster::register(m)?;
     clustered_visibility::register(m)?;
+    kmeans::register(m)?;
     animation::register(m)?;
     tensor::register(m)?;
     gather::register(m)?;
