@@ -709,6 +709,23 @@ def _cs_native(c, **kw):
                                       a["membership_weights"])
 
 
+cases_for("native.cluster_view_samples", [
+    ("k = 0", lambda c: c.native.cluster_view_samples(KP(), KN(), 0), ["k", "got 0"]),
+    ("gamma = 0", lambda c: c.native.cluster_view_samples(KP(), KN(), 3, 0), ["gamma", "got 0"]),
+    ("f = 0", lambda c: c.native.cluster_view_samples(KP(), KN(), 3, 2, 0), ["f"]),
+    ("NaN point", lambda c: c.native.cluster_view_samples(_nan_at(KP(), (6, 2)), KN(), 3), ["point 6"]),
+    ("normals rows", lambda c: c.native.cluster_view_samples(KP(), KN(3), 2), ["normals", "3 rows"]),
+])
+cases_for("clustered_visibility", [
+    ("not a matrix", lambda c: c.ml.clustered_visibility("A"), ["LightMatrix"]),
+    ("zero light clusters", lambda c: c.ml.clustered_visibility(c.A, light_clusters=0), ["light_clusters"]),
+    ("zero view clusters", lambda c: c.ml.clustered_visibility(c.A, view_clusters=0), ["view_clusters"]),
+    ("fuzzy 17", lambda c: c.ml.clustered_visibility(c.A, fuzzy=17), ["fuzzy", "17"]),
+    ("downsample 0", lambda c: c.ml.clustered_visibility(c.A, downsample=0), ["downsample"]),
+    ("negative iterations", lambda c: c.ml.clustered_visibility(c.A, iterations=-1), ["iterations"]),
+    ("threshold 2", lambda c: c.ml.clustered_visibility(c.A, cos_threshold=2.0), ["cos_threshold"]),
+    ("negative seed", lambda c: c.ml.clustered_visibility(c.A, seed=-1), ["seed"]),
+], raises=("ValueError", "TypeError"))
 cases_for("clustered_shading", [
     ("label out of range", lambda c: c.ml.clustered_shading(c.A, **_cs(c, light_labels=np.full(c.n, 5))),
      ["light label 5", "1 light centroids"]),

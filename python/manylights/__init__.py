@@ -36,7 +36,7 @@ from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
 from .tensor import TensorClustering, cluster_tensor, tensor_clustering
 from .gather import GatherCloud, gather_cloud
 from .relight import DirectToIndirect
-from .clustered import clustered_shading
+from .clustered import clustered_shading, clustered_visibility
 from .kmeans import KMeansResult, fuzzy_membership, kmeans
 
 __version__ = _native.__version__
@@ -61,6 +61,7 @@ __all__ = [
     "cluster_reduced_columns",
     "cluster_tensor",
     "clustered_shading",
+    "clustered_visibility",
     "tensor_clustering",
     "clustering_cost",
     "device_info",

@@ -421,3 +421,10 @@ def fuzzy_membership(points: npt.NDArray[np.float32], normals: Optional[npt.NDAr
     Raises:
         ValueError: f outside [1, min(k, 16)], bad shapes, NaN/inf, zero normals with the threshold on,
             normals for only one side, cos_threshold outside [-1, 1], an unknown device."""
+
+def cluster_view_samples(points: npt.NDArray[np.float32], normals: npt.NDArray[np.float32], k: int, gamma: int = 4,
+                         f: int = 6, iterations: int = 10, cos_threshold: Optional[float] = ..., grid: bool = True,
+                         device: str = "auto", seed: int = 0) -> dict[str, Any]:
+    """View-sample clustering of the 2022 paper (Alg. 1 with downsampling by gamma, then Alg. 2): centroids,
+    centroid_normals (k, 3) float32, clusters (N, f) int64, weights (N, f) float32, gamma, subset, objective,
+    iterations, device, seconds. Raises ValueError naming a bad k, gamma, f, shape or value."""

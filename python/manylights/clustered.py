@@ -106,3 +106,125 @@ def clustered_shading(A, light_labels, light_centroids, view_centroids, view_nor
               "lights": int(n), "view_samples": int(clusters.shape[0])}
     return RenderResult(image=image, method="clustered_visibility", seed=0, timings=timings, clusters=labels,
                         representatives=out["light_representatives"], budget=budget, device=A.device)
+
+
+def _split_budget(k: int, counts: list) -> list:
+    """k clusters over groups of ``counts`` items in proportion (largest remainders), each non-empty group
+    at least 1 and at most its count."""
+    total = sum(counts)
+    share = [k * c / total for c in counts]
+    out = [min(c, max(1 if c else 0, int(s))) for c, s in zip(counts, share)]
+    for i in sorted(range(len(counts)), key=lambda i: share[i] - int(share[i]), reverse=True):
+        if sum(out) >= k:
+            break
+        if out[i] < counts[i]:
+            out[i] += 1
+    return out
+
+
+def clustered_visibility(A, light_clusters: int = 1000, view_clusters: int = 8000, fuzzy: int = 6, seed: int = 0, *,
+                         iterations: int = 10, cos_threshold=None, downsample: int = 4, add_emitted: bool = True):
+    """Render light matrix ``A`` by clustered visibility, the whole method of "GPU-based fuzzy K-means
+    clustering of VPLs and shading points" (Computers & Graphics 2022, Sec. 3, Alg. 1-2, Eqs. 6-10).
+
+    1. The lights are clustered by K-means (``kmeans``): oriented lights (area-light samples, VPLs) by
+       position with Eq. 7's orientation threshold on their normals; point and spot lights by position;
+       directional lights by their direction (a point on the unit sphere), each kind with a share of
+       ``light_clusters`` proportional to its count (kinds never share a cluster: their units differ).
+    2. The view samples (``A.view_samples()``, background excluded) are downsampled by ``downsample``
+       (one per block of that many, seeded) and clustered by K-means with the threshold; every view sample
+       then gets its ``fuzzy`` nearest clusters with Eq. 10's inverse-distance weights (F = 1: hard).
+    3. One exact shadow ray per (view cluster, light cluster) pair of representatives fills the
+       visibility matrix; every view sample is shaded by every light cluster with its own BSDF and geometry
+       term and the visibility interpolated over its F clusters (Eq. 6 with Eq. 9; ``clustered_shading``).
+
+    Everything runs on ``A``'s device (K-means, membership, rays and shading on the GPU for a GPU matrix).
+
+    Args:
+        A: a ``LightMatrix``.
+        light_clusters: K_vpl, light clusters (clipped to the number of lights).
+        view_clusters: K_sp, view-sample clusters (clipped to the surface view samples).
+        fuzzy: F, clusters per view sample, 1 <= F <= 16.
+        seed: seeds both K-means initialisations and the downsampling.
+        iterations: K-means iterations (the paper's fixed count).
+        cos_threshold: Eq. 7's n_t; None = cos 30 deg, the paper's.
+        downsample: the paper's downsampling factor gamma of the view samples (>= 1; lowered when fewer
+            than ``view_clusters`` samples would remain).
+        add_emitted: add what the camera sees of emitters, as every renderer does.
+
+    Returns:
+        RenderResult (method "clustered_visibility") with image (H, W, 3) float32; timings in seconds:
+        light_clustering, view_clustering, visibility, shading, setup, emitted; budget: light_clusters,
+        view_clusters, fuzziness, rays, gave_up, lights, view_samples, downsample; clusters (n,) the light
+        labels; representatives of the light clusters.
+
+    Raises:
+        TypeError: A is not a LightMatrix. ValueError: light_clusters or view_clusters < 1, fuzzy outside
+            [1, 16], iterations < 0, downsample < 1, a threshold outside [-1, 1], an empty light set, a
+            scene with no surface in view.
+    """
+    from . import LightMatrix
+    from .kmeans import COS_30_DEG
+
+    if not isinstance(A, LightMatrix):
+        raise TypeError(f"A must be a LightMatrix, got {type(A).__name__}")
+    m, n = _matrix_shape(A)
+    if n == 0:
+        raise ValueError("the light matrix has no lights (n = 0): nothing to cluster")
+    light_clusters = _v.integer("light_clusters", light_clusters, 1, 2**31)
+    view_clusters = _v.integer("view_clusters", view_clusters, 1, 2**31)
+    fuzzy = _v.integer("fuzzy", fuzzy, 1, 16)
+    iterations = _v.integer("iterations", iterations, 0, 2**31)
+    downsample = _v.integer("downsample", downsample, 1, 2**31)
+    seed = _v.seed(seed)
+    threshold = COS_30_DEG if cos_threshold is None else _v.real("cos_threshold", cos_threshold, -1.0, 1.0)
+    device = A.device.get("kind", "cpu")
+    timings = {}
+
+    t = time.perf_counter()
+    L = A.lights
+    kind = np.asarray(L.kind)
+    groups = [(np.flatnonzero((kind == 3) | (kind == 4)), "oriented"), (np.flatnonzero((kind == 0) | (kind == 1)), "point"),
+              (np.flatnonzero(kind == 2), "directional")]
+    ks = _split_budget(min(light_clusters, n), [len(g) for g, _ in groups])
+    labels = np.zeros(n, np.int64)
+    centroids = []
+    for (idx, what), k in zip(groups, ks):
+        if len(idx) == 0:
+            continue
+        if what == "directional":
+            pts, nrm = np.asarray(L.direction)[idx], None
+        else:
+            pts = np.asarray(L.position)[idx]
+            nrm = np.asarray(L.normal)[idx] if what == "oriented" else None
+        res = _native.kmeans(np.ascontiguousarray(pts, np.float32),
+                             None if nrm is None else np.ascontiguousarray(nrm, np.float32), k, iterations,
+                             0.0, threshold if nrm is not None else None, True, device, seed)
+        labels[idx] = np.asarray(res["labels"]) + sum(len(c) for c in centroids)
+        centroids.append(np.asarray(res["centroids"], np.float32))
+    centroids = np.concatenate(centroids)
+    timings["light_clustering"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    vs = A.view_samples()
+    surface = np.flatnonzero(vs["surface"])
+    if len(surface) == 0:
+        raise ValueError("no view sample sees a surface (an empty image): nothing to shade")
+    kv = min(view_clusters, len(surface))
+    vc = _native.cluster_view_samples(np.ascontiguousarray(vs["position"][surface]),
+                                      np.ascontiguousarray(vs["normal"][surface]), kv, downsample,
+                                      min(fuzzy, kv), iterations, threshold, True, device, seed)
+    f = vc["clusters"].shape[1]
+    members = np.zeros((len(vs["surface"]), f), np.int64)
+    weights = np.zeros((len(vs["surface"]), f), np.float32)
+    weights[:, 0] = 1.0  # background samples: any cluster, weight 1 (never shaded)
+    members[surface] = vc["clusters"]
+    weights[surface] = vc["weights"]
+    timings["view_clustering"] = time.perf_counter() - t
+
+    res = clustered_shading(A, labels, centroids, vc["centroids"], vc["centroid_normals"], members, weights,
+                            add_emitted=add_emitted)
+    res.timings = {**timings, **res.timings}
+    res.seed = seed
+    res.budget = {**res.budget, "downsample": int(vc["gamma"]), "kmeans_iterations": iterations}
+    return res

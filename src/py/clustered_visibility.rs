@@ -2,7 +2,7 @@
 //! wrapper with argument checks is `manylights.clustered_shading` (python/manylights/clustered.py).
 use super::matrix::LightMatrix;
 use super::util::array;
-use crate::cluster::visibility::{FuzzyMembership, LightClustering, ViewClustering};
+use crate::cluster::visibility::{Membership, LightClustering, ViewClustering};
 use crate::error::Error;
 use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -62,7 +62,7 @@ pub fn clustered_shading_py<'py>(
     let vc = ViewClustering {
         centroids: rows3("view_centroids", &view_centroids)?,
         normals: rows3("view_normals", &view_normals)?,
-        membership: FuzzyMembership {
+        membership: Membership {
             f,
             clusters: membership_clusters.as_array().iter().copied().collect(),
             weights: membership_weights.as_array().iter().copied().collect(),

@@ -166,8 +166,70 @@ pub fn fuzzy_membership_py<'py>(
     Ok(out)
 }
 
+/// View-sample clustering as the 2022 paper does it (Alg. 1 with downsampling, then Alg. 2):
+/// K-means of the view samples `downsample_indices` keeps (one per block of `gamma`, seeded; gamma lowered
+/// so that at least k remain), then the F nearest clusters of every view sample with Eq. 10 weights.
+///
+/// Args: points, normals (N, 3) float32 (normals required: the threshold applies); k; gamma >= 1; f;
+///     iterations; cos_threshold (None: off); grid; device "auto" / "gpu" / "cpu"; seed.
+///
+/// Returns:
+///     dict: centroids, centroid_normals (k, 3) float32, clusters (N, f) int64, weights (N, f) float32,
+///     gamma (the factor used), subset (int64 indices clustered), objective (list), iterations, device,
+///     seconds (K-means and membership together).
+///
+/// Raises:
+///     ValueError: k, gamma, f or iterations out of range, bad shapes, NaN/inf, zero normals, bad device.
+#[pyfunction]
+#[pyo3(name = "cluster_view_samples", signature = (points, normals, k, gamma=4, f=6, iterations=10, cos_threshold=Some(DEFAULT_COS_THRESHOLD), grid=true, device="auto", seed=0))]
+#[allow(clippy::too_many_arguments)]
+pub fn cluster_view_samples_py<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f32>,
+    normals: PyReadonlyArray2<'py, f32>,
+    k: i64,
+    gamma: i64,
+    f: i64,
+    iterations: i64,
+    cos_threshold: Option<f32>,
+    grid: bool,
+    device: &str,
+    seed: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let pts = triples("points", &points)?;
+    let nrm = normals_or_zero(Some(normals), "normals", pts.len(), "points")?;
+    if k < 1 {
+        return Err(Error::invalid(format!("cluster_view_samples: k must be in [1, {}] (the number of view samples), got {k}", pts.len())).into());
+    }
+    let params = KMeansParams { k: k as usize, max_iterations: count("iterations", iterations)?, tolerance: 0.0, cos_threshold, use_grid: grid, seed };
+    let (gamma, f) = (count("gamma", gamma)?, count("f", f)?);
+    let chosen = Device::parse(device)?;
+    let t = std::time::Instant::now();
+    let (r, dev) = super::signals::detach(py, move || match chosen.choose()? {
+        Chosen::Cpu => Ok((kmeans::cluster_view_samples(kmeans::KMeansDevice::Cpu, &pts, &nrm, gamma, &params, f)?, "cpu")),
+        Chosen::Gpu(ctx) => Ok((kmeans::cluster_view_samples(kmeans::KMeansDevice::Gpu(&ctx), &pts, &nrm, gamma, &params, f)?, "gpu")),
+    })?;
+    let seconds = t.elapsed().as_secs_f64();
+    let m = &r.membership;
+    let n = m.clusters.len() / m.f.max(1);
+    let out = PyDict::new(py);
+    out.set_item("centroids", triples_array(py, &r.kmeans.centroids)?)?;
+    out.set_item("centroid_normals", triples_array(py, &r.kmeans.centroid_normals)?)?;
+    out.set_item("clusters", array(py, m.clusters.iter().map(|&c| c as i64).collect(), &[n, m.f])?)?;
+    out.set_item("weights", array(py, m.weights.clone(), &[n, m.f])?)?;
+    out.set_item("gamma", r.gamma)?;
+    let ns = r.subset.len();
+    out.set_item("subset", array(py, r.subset.iter().map(|&i| i as i64).collect(), &[ns])?)?;
+    out.set_item("objective", r.kmeans.objective.clone())?;
+    out.set_item("iterations", r.kmeans.iterations)?;
+    out.set_item("device", dev)?;
+    out.set_item("seconds", seconds)?;
+    Ok(out)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(kmeans_py, m)?)?;
     m.add_function(wrap_pyfunction!(fuzzy_membership_py, m)?)?;
+    m.add_function(wrap_pyfunction!(cluster_view_samples_py, m)?)?;
     Ok(())
 }

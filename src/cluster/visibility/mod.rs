@@ -77,12 +77,19 @@ pub struct LightClustering {
 
 /// Each view sample's F nearest view clusters (nearest first) and their weights (rows sum to 1).
 #[derive(Debug, Clone)]
-pub struct FuzzyMembership {
+pub struct Membership {
     pub f: usize,
     /// `m * f` cluster ids.
     pub clusters: Vec<u32>,
     /// `m * f` weights.
     pub weights: Vec<f32>,
+}
+
+/// K-means' fuzzy membership (`crate::cluster::kmeans::fuzzy`, Eq. 10) as the shading's input.
+impl From<crate::cluster::kmeans::fuzzy::FuzzyMembership> for Membership {
+    fn from(m: crate::cluster::kmeans::fuzzy::FuzzyMembership) -> Membership {
+        Membership { f: m.f, clusters: m.clusters, weights: m.weights }
+    }
 }
 
 /// A fuzzy clustering of the view samples.
@@ -92,7 +99,7 @@ pub struct ViewClustering {
     pub centroids: Vec<[f32; 3]>,
     /// One mean normal per view cluster (finite; used only for validation and reported back).
     pub normals: Vec<[f32; 3]>,
-    pub membership: FuzzyMembership,
+    pub membership: Membership,
 }
 
 fn check_finite3(what: &str, k: usize, v: &[f32; 3]) -> Result<()> {
@@ -303,7 +310,7 @@ impl ViewRepresentatives {
 pub struct ClusteredShading {
     pub lights: ClusterLights,
     pub view_reps: ViewRepresentatives,
-    pub membership: FuzzyMembership,
+    pub membership: Membership,
 }
 
 impl ClusteredShading {

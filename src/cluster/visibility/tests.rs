@@ -49,7 +49,7 @@ fn view_singletons(view: &ViewSamples) -> ViewClustering {
     ViewClustering {
         centroids: view.position.iter().map(|&p| finite_or_zero(p)).collect(),
         normals: view.normal.iter().map(|&n| finite_or_zero(n)).collect(),
-        membership: FuzzyMembership { f: 1, clusters: (0..m as u32).collect(), weights: vec![1.0; m] },
+        membership: Membership { f: 1, clusters: (0..m as u32).collect(), weights: vec![1.0; m] },
     }
 }
 
@@ -83,7 +83,7 @@ fn view_blocks(view: &ViewSamples, block: u32, f: usize) -> ViewClustering {
     ViewClustering {
         centroids: centroids.iter().map(|c| c.to_array()).collect(),
         normals: nsum.iter().map(|n| n.normalize_or_zero().to_array()).collect(),
-        membership: FuzzyMembership { f, clusters, weights },
+        membership: Membership { f, clusters, weights },
     }
 }
 
@@ -199,7 +199,7 @@ fn bad_clusterings_are_refused_with_the_value() {
     let vc = |f: usize, clusters: Vec<u32>, weights: Vec<f32>| ViewClustering {
         centroids: vec![[0.0; 3], [1.0; 3]],
         normals: vec![[0.0, 0.0, 1.0]; 2],
-        membership: FuzzyMembership { f, clusters, weights },
+        membership: Membership { f, clusters, weights },
     };
     let verr = |c: ViewClustering| c.validate(2).unwrap_err().to_string();
     assert!(verr(vc(1, vec![0, 2], vec![1.0, 1.0])).contains("membership cluster 2"));
@@ -233,7 +233,7 @@ fn shading_in_several_gpu_dispatches_still_equals_brute_force() {
     let m = view.len();
     let mut vc = view_singletons(&view);
     // Column 0: the sample's own cluster (weight 1); 63 more clusters with weight 0.
-    vc.membership = FuzzyMembership {
+    vc.membership = Membership {
         f: MAX_FUZZINESS,
         clusters: (0..m).flat_map(|i| (0..MAX_FUZZINESS).map(move |c| ((i + c) % m) as u32)).collect(),
         weights: (0..m).flat_map(|_| (0..MAX_FUZZINESS).map(|c| if c == 0 { 1.0 } else { 0.0 })).collect(),
