@@ -10,6 +10,8 @@ Subcommands:
     python -m manylights.bench lights --scene all --lights 100000 --engine oracle
 
     mrcs     error against time for MRCS and its baselines (``bench_mrcs``).
+    compare  power sampling, instant radiosity, MRCS and clustered visibility on one error-against-time
+             chart per scene, and clustered visibility over light x view cluster counts (``bench_compare``).
     backends the CPU backend against the GPU backend: ms per column, weighted column and row (``bench_backends``).
     tensor   tensor clustering against per-frame MRCS on an animation: error and flicker against shadow maps
              per frame, speed-up over brute force (``bench_tensor``).
@@ -164,15 +166,16 @@ def main(argv=None) -> int:
     p.add_argument("--visibility", choices=["ray_traced", "hybrid", "shadow_map"], default="ray_traced")
     p.add_argument("--images", action="store_true", help="also write every image as EXR")
     p.add_argument("-o", "--out", default="out/bench")
-    from . import bench_backends, bench_mrcs, bench_relight, bench_tensor, bench_vs_mitsuba
+    from . import bench_backends, bench_compare, bench_mrcs, bench_relight, bench_tensor, bench_vs_mitsuba
 
     bench_mrcs.add_parser(sub)
+    bench_compare.add_parser(sub)
     bench_backends.add_parser(sub)
     bench_tensor.add_parser(sub)
     bench_relight.add_parser(sub)
     bench_vs_mitsuba.add_parser(sub)
     a = ap.parse_args(argv)
-    if a.cmd in ("mrcs", "backends", "tensor", "relight", "vs-mitsuba"):
+    if a.cmd in ("mrcs", "compare", "backends", "tensor", "relight", "vs-mitsuba"):
         a.run(a)
     elif a.cmd == "lights":
         if a.lights < 2:

@@ -24,8 +24,9 @@ from pathlib import Path
 import numpy as np
 
 #: Methods and whether they take rows (methods without rows use the columns of each budget).
-METHODS = {"mrcs": True, "power_sampling": False, "instant_radiosity": False, "tensor_clustering": True,
-           "mrcs_per_frame": True}
+METHODS = {"mrcs": True, "power_sampling": False, "instant_radiosity": False, "clustered_visibility": True,
+           "tensor_clustering": True, "mrcs_per_frame": True}
+#: clustered_visibility reads a budget (rows, columns) as (view clusters, light clusters).
 #: Methods that render animations (a scene whose parameters hold ``frames``); the others render one image.
 ANIMATION_METHODS = {"tensor_clustering", "mrcs_per_frame"}
 
@@ -208,6 +209,10 @@ def render(task: dict, ref: dict) -> dict:
         elif method == "instant_radiosity":
             res = ml.instant_radiosity(scene, lights=c, seed=seed, **opts, **task["matrix"])
             row["clusters"] = int(res.budget["lights"])
+        elif method == "clustered_visibility":
+            res = ml.clustered_visibility(A, light_clusters=c, view_clusters=task["rows"], seed=seed, **opts)
+            row["clusters"] = int(res.budget["light_clusters"])
+            row["rays"] = int(res.budget["rays"])
         else:  # sweep() checks the names: only a hand-made task gets here
             raise ValueError(f"unknown method {method!r}; methods: {', '.join(METHODS)}")
         row["rel_l2"] = float(ml.relative_l2(res.image, ref["image"]))
