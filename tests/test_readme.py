@@ -153,7 +153,30 @@ def _check_relight_block(ns):
     assert rel.stats["bounces"] == 3 and Path("cbox-lights.npz").is_file()
 
 
+def _check_clustered_block(ns):
+    """Clustered visibility in ten lines: the error printed is that of the result against brute force, the
+    rays are one per pair of representatives, K-means ran on the view samples."""
+    import manylights as ml
+
+    res, ref, km = ns["res"], ns["ref"], ns["km"]
+    err = ml.relative_l2(res.image, ref)
+    assert 1e-3 < err < 0.01, f"README says 0.5%, got {err:.4f}"
+    assert res.budget["rays"] == res.budget["light_clusters"] * 500 == 109_000
+    assert km.centroids.shape == (50, 3) and {"light_clustering", "view_clustering", "visibility"} <= set(res.timings)
+
+
+def _check_sweep_block(ns):
+    """Sweeps: every (scene, method, budget, seed) once, all rendered, errors against the references."""
+    df = ns["df"]
+    assert len(df) == 2 * 2 * 2 * 2 and (df["status"] == "ok").all()
+    assert df[["scene", "method", "rows", "columns", "seed"]].drop_duplicates().shape[0] == 16
+    assert (df["rel_l2"] > 0).all() and (df["rel_l2"] < 0.2).all()
+    assert Path("sweep.parquet").is_file()
+
+
 CHECKS = {"Relighting: direct-to-indirect transfer in ten lines": _check_relight_block,
+          "Clustered visibility: GPU fuzzy K-means in ten lines": _check_clustered_block,
+          "Sweeps on Dask: methods x budgets x seeds x scenes": _check_sweep_block,
           "Animations: tensor clustering in ten lines": _check_animation_block,"Matrix Row-Column Sampling in ten lines": _check_mrcs_block, "Python in ten lines": _check_python_block,
           "Interactive use and robustness": _check_own_lights_block, "Two backends: CPU and GPU": _check_backends_block}
 
