@@ -67,6 +67,7 @@ pub mod representatives;
 pub mod sampling;
 pub mod splitting;
 pub mod tensor;
+pub mod variance;
 
 #[cfg(test)]
 mod tests;

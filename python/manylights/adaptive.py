@@ -1,0 +1,351 @@
+"""An error estimate for MRCS without the reference, and progressive MRCS (issue 14, items 1-2).
+
+Error estimate (``RenderResult.error_estimate``, ``RenderResult.error_image``)
+------------------------------------------------------------------------------
+Matrix row-column sampling (Hašan et al. 2007, Sec. 3.3) estimates the column sum ``ΣA`` by
+``X = sum_k A[:, J_k] / p_{J_k}``, one representative ``J_k`` per cluster ``C_k`` drawn independently with
+probability ``p_j`` (``|rho_j| / s_k``; power or uniform for zero-norm clusters). For a FIXED clustering X
+is unbiased and its variance at pixel i, per channel, is exactly
+
+    Var[X_i] = sum_k ( sum_{j in C_k} A_ij^2 / p_j  -  (sum_{j in C_k} A_ij)^2 )          (1)
+
+(expand ``E[X_i^2]`` over the independent draws; this is the per-row form of the paper's Appendix A,
+which writes the same quantity summed over the rows of R). Every term of (1) is known at a pixel whose
+whole row of A has been rendered -- and MRCS renders r such rows to build R. So at each sampled row i
+we know the exact variance of the estimate there, and the exact value ``T_i = sum_j A_ij`` (+ emitted).
+The rows are a stratified sample of the pixels (one per block of equal area, Sec. 4), so
+
+    error_estimate = sqrt( sum_{i in rows} sum_ch Var[X_ich] / sum_{i in rows} sum_ch T_ich^2 )   (2)
+
+estimates ``sqrt(E ||X - ΣA||^2) / ||ΣA + emitted||``, the expected relative L2 of the image against
+brute force (``metrics.relative_l2``) -- a ratio of two stratified means. The estimate costs no column
+and no extra row: one pass over R (``_native.mrcs_row_variance``, O(r n), in Rust). It is conditional on
+the clustering, which is what a user holds after the run; the realised error of one run scatters
+around it (the sum of c independent cluster errors), which the calibration measures.
+
+Caveat, measured by ``python -m manylights.bench calibrate``: the clustering is fitted to these same
+rows (it minimises the reduced form of (1)), so (2) can read low. ``holdout=h`` renders h extra
+stratified rows (seeded apart from the clustering's) that the clustering never saw and evaluates (1)
+there as well (cost: h rows, no column); the estimate then uses all rows.
+
+``error_image`` (H, W) float32 is the per-pixel RMS error over channels, ``sqrt(mean_ch Var[X_ich])``
+in radiance units, known at the sampled pixels and spread to every pixel from its nearest sampled pixel
+(the resolution of the row stratification: a map of where the error is, not a per-pixel certificate).
+
+Progressive MRCS (``mrcs_progressive``)
+---------------------------------------
+Round t renders ``Δr_t`` new stratified rows (seed of round t), clusters ALL rows rendered so far into
+``Δc_t`` new clusters (refined rows, more clusters) and renders their ``Δc_t`` representatives: an
+independent unbiased estimate ``X_t`` of ΣA given the rows. Round T returns the combination
+
+    X^(T) = sum_{t<=T} a_t X_t,   a_t = (1 / v_t) / sum_{t'<=T} (1 / v_t'),   v_t = sum_{rows} sum_ch Var[X_t]
+
+Because the weights depend only on rows and clusterings -- never on the representative draws -- the
+combination is unbiased, and its variance is ``sum_t a_t^2 Var[X_t]`` (independent draws), estimated by
+(1)-(2) at all rows so far. Nothing rendered is thrown away: each round's columns stay in the image.
+With doubling increments (``Δc_t = c_0 2^t``) the error falls at least like 1/sqrt(columns); it is at
+most ``sqrt(2)``-ish above one fresh MRCS run of the same total when MRCS itself converges like
+1/sqrt(c), more when clustering does better than that (each round starts a new clustering).
+
+Seeding: round 0 uses ``seed`` itself, so round 0 IS ``mrcs(A, rows=r_0, columns=c_0, seed=seed)``;
+round t >= 1 uses a seed derived from (seed, t) only. A run stopped after round k therefore returns
+exactly the image of a fresh run whose schedule ends at round k (``columns=c_0, rounds=k+1`` or the
+list truncated), bit for bit on the same backend.
+"""
+from __future__ import annotations
+
+import time
+from typing import Iterator, Optional, Sequence
+
+import numpy as np
+
+from . import _native
+from . import _validate as _v
+from .mrcs import RenderResult, _light_luminance_power, _matrix_shape
+
+
+# --------------------------------------------------------------------------------------------------
+# error estimate
+# --------------------------------------------------------------------------------------------------
+def row_variance(R, clustering: dict) -> np.ndarray:
+    """Exact variance of the MRCS estimate at complete rows of A, equation (1) of the module doc.
+
+    Args:
+        R: (h, n, 3) rows of the light matrix (``LightMatrix.rows``), any real dtype (float32 used).
+        clustering: a dict from ``cluster_reduced_columns`` (needs ``assignment`` (n,) and
+            ``probability`` (n,)).
+
+    Returns:
+        (h, 3) float64 variance per row and channel, radiance^2.
+
+    Raises:
+        ValueError: shapes that do not match, a clustering without ``assignment`` / ``probability``,
+            NaN/inf in R, probabilities outside [0, 1].
+    """
+    R = np.ascontiguousarray(_v.numeric_array("R", R), dtype=np.float32)
+    if not hasattr(clustering, "__getitem__") or any(k not in clustering for k in ("assignment", "probability")):
+        raise ValueError("clustering must be a dict from cluster_reduced_columns with 'assignment' and 'probability'")
+    assignment = np.ascontiguousarray(clustering["assignment"], dtype=np.int32).reshape(-1)
+    probability = np.ascontiguousarray(clustering["probability"], dtype=np.float64).reshape(-1)
+    c = int(assignment.max()) + 1 if assignment.size else 0
+    return _native.mrcs_row_variance(R, assignment, probability, c)
+
+
+def _totals(R: np.ndarray, rows: np.ndarray, emitted: np.ndarray) -> np.ndarray:
+    """(h, 3) float64 exact pixel values at the rows: row sums of A plus what the camera sees directly."""
+    return R.sum(axis=1, dtype=np.float64) + emitted.reshape(-1, 3)[rows].astype(np.float64)
+
+
+def relative_error_from_rows(variance: np.ndarray, totals: np.ndarray) -> float:
+    """Equation (2): sqrt(sum variance / sum totals^2) over rows and channels; inf for an all-zero image."""
+    den = float(np.sum(np.square(totals)))
+    num = float(np.sum(variance))
+    if den <= 0.0:
+        return 0.0 if num == 0.0 else float("inf")
+    return float(np.sqrt(num / den))
+
+
+def error_image(shape: tuple[int, int], rows: np.ndarray, variance: np.ndarray) -> np.ndarray:
+    """(H, W) float32 map of the estimated per-pixel RMS error over channels: ``sqrt(mean_ch variance)`` at
+    each sampled pixel (``rows``: (h,) indices ``y * W + x``), every other pixel takes its nearest
+    sampled pixel's value (ties: the first row)."""
+    h, w = shape
+    rms = np.sqrt(np.maximum(np.asarray(variance, np.float64), 0.0).mean(axis=1))
+    rows = np.asarray(rows, np.int64)
+    ry, rx = (rows // w).astype(np.float64), (rows % w).astype(np.float64)
+    out = np.empty(h * w, np.float32)
+    ys, xs = np.divmod(np.arange(h * w, dtype=np.int64), w)
+    step = max(1, 2_000_000 // max(len(rows), 1))
+    for a in range(0, h * w, step):
+        d = (ys[a:a + step, None] - ry[None, :]) ** 2 + (xs[a:a + step, None] - rx[None, :]) ** 2
+        out[a:a + step] = rms[np.argmin(d, axis=1)]
+    return out.reshape(h, w)
+
+
+def draw_representatives(clustering: dict, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """One more representative per cluster, drawn independently of the clustering's own with the same
+    probabilities (``clustering['probability']``), and its unbiased grey weights ``1/p``.
+
+    Returns:
+        (representatives (c,) int64, weights (c, 3) float32). Vectorised numpy, O(n)."""
+    a = np.asarray(clustering["assignment"], np.int64)
+    p = np.asarray(clustering["probability"], np.float64)
+    c = int(a.max()) + 1
+    order = np.argsort(a, kind="stable")
+    counts = np.bincount(a, minlength=c)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    cum = np.cumsum(p[order])
+    base = np.concatenate([[0.0], cum])[starts]
+    last = starts + counts - 1
+    u = np.random.default_rng(seed).random(c)
+    idx = np.searchsorted(cum, base + u * (cum[last] - base), side="right")
+    idx = np.clip(idx, starts, last)
+    # Round-off may land on a light of probability 0: step back to the cluster's last drawable light.
+    reps = order[idx]
+    bad = p[reps] <= 0
+    for k in np.flatnonzero(bad):
+        members = order[starts[k]:last[k] + 1]
+        reps[k] = members[np.flatnonzero(p[members] > 0)[-1]]
+    w = (1.0 / p[reps]).astype(np.float32)
+    return reps.astype(np.int64), np.repeat(w[:, None], 3, axis=1)
+
+
+def halves_estimate(X1: np.ndarray, X2: np.ndarray, image: np.ndarray) -> tuple[float, np.ndarray]:
+    """Equation (3) of the module doc: (relative L2 estimate, (H, W) float32 per-pixel RMS error) of the
+    mean of two independent unbiased estimates ``X1``, ``X2`` (H, W, 3) of the same image ``image``."""
+    d = 0.5 * (np.asarray(X1, np.float64) - np.asarray(X2, np.float64))
+    den = float(np.linalg.norm(np.asarray(image, np.float64)))
+    num = float(np.linalg.norm(d))
+    est = (0.0 if num == 0.0 else float("inf")) if den == 0.0 else num / den
+    return est, np.sqrt(np.mean(d * d, axis=2)).astype(np.float32)
+
+
+def mrcs_halves(A, R: np.ndarray, columns: int, seed: int, power: np.ndarray, timings: dict,
+                progress: bool = False, **cluster_options) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The paired-representative MRCS of ``mrcs(..., halves=True)``: ``columns // 2`` clusters of the
+    reduced matrix ``R``, two independent representatives each. Returns (clustering, representatives
+    (2k,), weights (2k, 3) (each half's weights / 2: the image is the mean), X1, X2 (H, W, 3) float32:
+    the two half images, no emitted)."""
+    from . import cluster_reduced_columns
+
+    k = columns // 2
+    if k < 1:
+        raise ValueError(f"columns must be at least 2 for the paired (halves) error estimate, got {columns}")
+    t = time.perf_counter()
+    cl = cluster_reduced_columns(R, k, seed=seed, power=power, **cluster_options)
+    reps2, w2 = draw_representatives(cl, _derived_seed(seed, 1 << 21))
+    timings["clustering"] = timings.get("clustering", 0.0) + time.perf_counter() - t
+    t = time.perf_counter()
+    X1 = A.weighted_sum(cl["representatives"], cl["weights"], progress=progress)
+    X2 = A.weighted_sum(reps2, w2, progress=progress)
+    timings["columns"] = timings.get("columns", 0.0) + time.perf_counter() - t
+    reps = np.concatenate([np.asarray(cl["representatives"], np.int64), reps2])
+    weights = (0.5 * np.concatenate([np.asarray(cl["weights"], np.float32), w2])).astype(np.float32)
+    return cl, reps, weights, X1, X2
+
+
+def attach_error_estimate(A, res: RenderResult, clustering: dict, error_rows: int,
+                          progress: bool = False) -> RenderResult:
+    """Fill ``res.error_estimate`` / ``res.error_image`` of a plain MRCS run from ``error_rows`` extra
+    stratified rows the clustering never saw (module doc, estimator (4)); ``res.budget['error_rows']``
+    and ``timings['error_estimate']`` say what it cost."""
+    from . import stratified_rows
+
+    t = time.perf_counter()
+    emitted = A.emitted()
+    extra = stratified_rows(A.scene, error_rows, seed=_derived_seed(res.seed, 1 << 20))
+    Rh = A.rows(extra, progress=progress)
+    tot = _totals(Rh, extra, emitted)
+    x = res.image.reshape(-1, 3)[extra].astype(np.float64)
+    den = float(np.sum(tot * tot))
+    num = float(np.sum((x - tot) ** 2))
+    res.error_estimate = (0.0 if num == 0.0 else float("inf")) if den == 0.0 else float(np.sqrt(num / den))
+    h, w = emitted.shape[:2]
+    res.error_image = error_image((h, w), extra, row_variance(Rh, clustering))
+    res.budget["error_rows"] = int(error_rows)
+    res.timings["error_estimate"] = time.perf_counter() - t
+    return res
+
+
+def _derived_seed(seed: int, stream: int) -> int:
+    """A seed in [0, 2^63) from (seed, stream), independent across streams (numpy SeedSequence)."""
+    state = np.random.SeedSequence([int(seed), int(stream)]).generate_state(2, np.uint32)
+    return int((int(state[0]) << 31) ^ int(state[1])) & ((1 << 63) - 1)
+
+
+# --------------------------------------------------------------------------------------------------
+# progressive MRCS
+# --------------------------------------------------------------------------------------------------
+def _schedule(name: str, value, rounds: Optional[int], limit: int) -> list[int]:
+    """Per-round increments from an int (first round, doubling) or a list of cumulative totals."""
+    if isinstance(value, (list, tuple, np.ndarray)):
+        totals = [_v.integer(f"{name}[{k}]", v, 1, limit) for k, v in enumerate(value)]
+        if not totals:
+            raise ValueError(f"{name} must list at least one cumulative total, got []")
+        if any(b <= a for a, b in zip(totals, totals[1:])):
+            raise ValueError(f"{name} must be strictly increasing cumulative totals per round, got {list(totals)}")
+        if rounds is not None and rounds != len(totals):
+            raise ValueError(f"rounds = {rounds} does not match the {len(totals)} totals given in {name}")
+        return [b - a for a, b in zip([0] + totals[:-1], totals)]
+    first = _v.integer(name, value, 1, limit)
+    if rounds is None:
+        raise ValueError(f"give rounds= when {name} is an int (the first round's {name}; later rounds double it)")
+    steps = [first * 2 ** t for t in range(rounds)]
+    if sum(steps) > limit:
+        raise ValueError(f"{rounds} rounds doubling {name} from {first} need {sum(steps)} {name}, more than "
+                         f"the {limit} available")
+    return steps
+
+
+def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed: int = 0, *,
+                     add_emitted: bool = True, progress: bool = True,
+                     **cluster_options) -> Iterator[RenderResult]:
+    """Progressive matrix row-column sampling: an iterator of ``RenderResult``, one per round, each an
+    unbiased image of all columns rendered so far with its error estimate (module doc).
+
+    Args:
+        A: a ``LightMatrix`` (either backend).
+        rows: the first round's new rows (int; round t adds ``rows * 2**t``) or the cumulative row totals
+            per round (strictly increasing list, one per round).
+        columns: the first round's clusters = representative columns (int; round t adds
+            ``columns * 2**t``) or the cumulative column totals per round (list).
+        rounds: number of rounds (needed when both are ints; must match the lists' length otherwise).
+        seed: round 0 uses it as is (round 0 equals ``mrcs(A, rows, columns, seed)``), round t a seed
+            derived from (seed, t).
+        add_emitted: add ``A.emitted()`` to every image.
+        progress: a progress bar over rounds showing the columns and the current error estimate
+            (``manylights.progress``: a bar on a terminal or notebook, a few log lines elsewhere).
+        **cluster_options: passed to ``cluster_reduced_columns`` (projection_dim, sampling_fraction).
+
+    Yields:
+        RenderResult per round: image (H, W, 3) float32, method "mrcs_progressive", budget (rows,
+        columns, lights, round, rounds), error_estimate (float, relative L2), error_image (H, W) float32,
+        representatives / weights of ALL rounds (weights scaled by the round's combination weight),
+        timings summed over rounds so far. Stopping the loop (break, Ctrl-C between rounds) keeps every
+        result already yielded.
+
+    Raises:
+        TypeError: A is not a LightMatrix. ValueError: an empty light matrix, rows / columns / rounds
+            not positive integers or lists that do not increase, more columns than lights or rows than
+            pixels in total, a negative seed, bad cluster options.
+    """
+    from . import stratified_rows
+    from .progress import progress_bar
+
+    m, n = _matrix_shape(A)
+    if n == 0:
+        raise ValueError("the light matrix has no lights (n = 0): nothing to sample")
+    seed = _v.seed(seed)
+    if rounds is not None:
+        rounds = _v.integer("rounds", rounds, 1, 64)
+    dc = _schedule("columns", columns, rounds, n)
+    dr = _schedule("rows", rows, len(dc) if rounds is None else rounds, m)
+    if len(dr) != len(dc):
+        raise ValueError(f"rows give {len(dr)} rounds and columns {len(dc)}: give the same number")
+    if sum(dc) > n:
+        raise ValueError(f"columns: {sum(dc)} in total is more than the n = {n} lights; render brute force instead")
+    if min(dc) < 2:
+        raise ValueError(f"every round needs at least 2 new columns (two representatives per cluster), got {dc}")
+    return _progressive(A, dr, dc, seed, add_emitted, progress, cluster_options, stratified_rows, progress_bar)
+
+
+def _progressive(A, dr, dc, seed, add_emitted, progress, cluster_options, stratified_rows,
+                 progress_bar) -> Iterator[RenderResult]:
+    power = _light_luminance_power(A.lights)
+    emitted = A.emitted()
+    R_all = None
+    row_all = np.zeros(0, np.int64)
+    rounds = []  # per round: clustering, half images X1, X2, variance at all rows so far (rows, 3)
+    timings: dict = {}
+    bar = progress_bar(len(dc), "mrcs_progressive", progress, unit="round")
+    with bar as cb:
+        for t, (r_t, c_t) in enumerate(zip(dr, dc)):
+            s_t = seed if t == 0 else _derived_seed(seed, t)
+            t0 = time.perf_counter()
+            new_rows = stratified_rows(A.scene, r_t, seed=s_t)
+            R_t = A.rows(new_rows, progress=False)
+            timings["rows"] = timings.get("rows", 0.0) + time.perf_counter() - t0
+            R_all = R_t if R_all is None else np.concatenate([R_all, R_t])
+            row_all = np.concatenate([row_all, new_rows])
+            cl, reps, weights, X1, X2 = mrcs_halves(A, R_all, c_t, s_t, power, timings, **cluster_options)
+            t0 = time.perf_counter()
+            # Combination weights from the rows only (never from the draws): earlier rounds' variances
+            # extended to the new rows, this round's at all rows.
+            for rd in rounds:
+                rd["var"] = np.concatenate([rd["var"], row_variance(R_t, rd["clustering"])])
+            rounds.append({"clustering": cl, "reps": reps, "weights": weights, "X1": X1, "X2": X2,
+                           "var": row_variance(R_all, cl)})
+            v = np.array([rd["var"].sum() for rd in rounds])
+            a = (v <= 0).astype(np.float64) if np.any(v <= 0) else 1.0 / v  # exact rounds win outright
+            a /= a.sum()
+            H1 = sum(a_t * rd["X1"].astype(np.float64) for a_t, rd in zip(a, rounds))
+            H2 = sum(a_t * rd["X2"].astype(np.float64) for a_t, rd in zip(a, rounds))
+            image = 0.5 * (H1 + H2) + (emitted if add_emitted else 0.0)
+            timings["combination"] = timings.get("combination", 0.0) + time.perf_counter() - t0
+            res = RenderResult(
+                image=image.astype(np.float32), method="mrcs_progressive", seed=seed, timings=dict(timings),
+                rows=row_all.copy(), clusters=cl["assignment"],
+                representatives=np.concatenate([rd["reps"] for rd in rounds]),
+                weights=np.concatenate([a_t * rd["weights"] for a_t, rd in zip(a, rounds)]).astype(np.float32),
+                budget={"rows": int(len(row_all)), "columns": int(sum(len(rd["reps"]) for rd in rounds)),
+                        "lights": int(A.shape[1]), "round": t, "rounds": len(dc)}, device=A.device)
+            res.error_estimate, res.error_image = halves_estimate(H1, H2, image)
+            if cb is not None:
+                cb(t + 1, len(dc))
+                _show_estimate(bar, res)
+            yield res
+
+
+def _show_estimate(bar, res: RenderResult) -> None:
+    """The current estimate on the bar (tqdm postfix) or as a log line."""
+    import sys
+
+    msg = (f"round {res.budget['round'] + 1}/{res.budget['rounds']}: {res.budget['columns']} columns, "
+           f"estimated relative L2 {res.error_estimate:.2%}")
+    if bar.bar is not None:
+        bar.bar.set_postfix_str(msg)
+    elif bar.mode == "log":
+        try:
+            print(f"manylights: mrcs_progressive: {msg}", file=sys.stderr, flush=True)
+        except (OSError, ValueError):
+            pass
