@@ -836,6 +836,31 @@ cases_for("mrcs", [
     ("clustering representative out of range", lambda c: c.ml.mrcs(
         c.A, clustering={"representatives": [c.n], "weights": np.ones((1, 3))}), ["range"]),
 ])
+cases_for("mrcs", [
+    ("negative error_rows", lambda c: c.ml.mrcs(c.A, rows=4, columns=2, error_rows=-1), ["error_rows"]),
+    ("error_rows past the pixels", lambda c: c.ml.mrcs(c.A, rows=4, columns=2, error_rows=c.m + 1), ["error_rows"]),
+    ("halves with one column", lambda c: c.ml.mrcs(c.A, rows=4, columns=1, halves=True), ["columns"]),
+    ("halves with a given clustering", lambda c: c.ml.mrcs(
+        c.A, halves=True, clustering={"representatives": [0], "weights": np.ones((1, 3))}), ["halves"]),
+])
+cases_for("mrcs_progressive", [
+    ("not a matrix", lambda c: c.ml.mrcs_progressive("A", rounds=2), ["LightMatrix"]),
+], raises=("TypeError",))
+cases_for("mrcs_progressive", [
+    ("ints without rounds", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=2), ["rounds"]),
+    ("zero rounds", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=2, rounds=0), ["rounds"]),
+    ("NaN rounds", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=2, rounds=float("nan")), ["rounds"]),
+    ("one column per round", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=1, rounds=2), ["2 new columns"]),
+    ("decreasing columns", lambda c: c.ml.mrcs_progressive(c.A, rows=[4, 8], columns=[4, 2]), ["increasing"]),
+    ("empty columns", lambda c: c.ml.mrcs_progressive(c.A, rows=[], columns=[]), ["at least one"]),
+    ("rounds do not match the list", lambda c: c.ml.mrcs_progressive(c.A, rows=[4, 8], columns=[2, 4], rounds=3),
+     ["rounds"]),
+    ("rows and columns rounds differ", lambda c: c.ml.mrcs_progressive(c.A, rows=[4, 8, 12], columns=[2, 4]),
+     ["rounds"]),
+    ("more columns than lights", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=c.n, rounds=2), ["lights"]),
+    ("more rows than pixels", lambda c: c.ml.mrcs_progressive(c.A, rows=c.m, columns=2, rounds=2), ["rows"]),
+    ("negative seed", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=2, rounds=2, seed=-1), ["seed"]),
+])
 cases_for("power_sampling", [
     ("zero columns", lambda c: c.ml.power_sampling(c.A, columns=0), ["columns"]),
     ("fractional columns", lambda c: c.ml.power_sampling(c.A, columns=2.5), ["columns"]),
