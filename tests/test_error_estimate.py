@@ -118,3 +118,28 @@ def test_progressive_weights_reproduce_the_image(small):
     res = list(ml.mrcs_progressive(A, rows=8, columns=16, rounds=3, seed=2, progress=False))[-1]
     again = A.weighted_sum(res.representatives, res.weights) + A.emitted()
     np.testing.assert_allclose(again, res.image, rtol=1e-4, atol=1e-5)
+
+
+def test_render_to_target_error_and_time_budget(small):
+    A, truth = small
+    hits = 0
+    for s in range(4):
+        res = ml.render(A, target_error=0.05, seed=s, progress=False)
+        assert res.budget["stopped"] == "target error reached", res.budget
+        assert res.error_estimate <= 0.05
+        chosen = res.budget["chosen"]
+        assert chosen["rounds"] == len(chosen["estimates"]) and chosen["seconds_per_row"] > 0
+        hits += ml.relative_l2(res.image, truth) <= 0.05
+    assert hits >= 3, hits
+    # A time budget far below one round's cost stops after the first round.
+    res = ml.render(A, time_budget=1e-6, progress=False)
+    assert res.budget["stopped"] == "time budget" and res.budget["round"] == 0
+
+
+def test_render_unreachable_target_falls_back_to_brute_force(small):
+    A, truth = small
+    res = ml.render(A, target_error=1e-9, first_columns=256, progress=False)
+    # 256 + 512 + 1024 columns, then 2048 more would pass n = 2041: brute force, exact.
+    assert res.method == "brute_force" and res.budget["stopped"] == "all lights: brute force"
+    assert res.budget["chosen"]["rounds"] == 3 and res.error_estimate == 0.0
+    np.testing.assert_array_equal(res.image, truth)

@@ -72,6 +72,7 @@ __all__ = [
     "load_scene",
     "mrcs",
     "mrcs_progressive",
+    "render",
     "mrcs_per_frame",
     "power_sampling",
     "read_exr",
@@ -485,6 +486,7 @@ def _as_image(image) -> np.ndarray:
 
 
 from .render import render_brute_force  # noqa: E402  (needs LightMatrix above)
+from .adaptive import render  # noqa: E402  (after .render: the function ml.render replaces the submodule attribute)
 from .animation import Animation, apply_mapping, load_animation  # noqa: E402  (needs load_scene above)
 from .antialias import antialias  # noqa: E402
 from .animated import AnimationLights, generate_animation_lights  # noqa: E402

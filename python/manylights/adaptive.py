@@ -1,56 +1,82 @@
-"""An error estimate for MRCS without the reference, and progressive MRCS (issue 14, items 1-2).
+"""An error estimate for MRCS without the reference, progressive MRCS and budgets chosen automatically
+(issue 14, items 1-3).
 
 Error estimate (``RenderResult.error_estimate``, ``RenderResult.error_image``)
 ------------------------------------------------------------------------------
 Matrix row-column sampling (Hašan et al. 2007, Sec. 3.3) estimates the column sum ``ΣA`` by
 ``X = sum_k A[:, J_k] / p_{J_k}``, one representative ``J_k`` per cluster ``C_k`` drawn independently with
-probability ``p_j`` (``|rho_j| / s_k``; power or uniform for zero-norm clusters). For a FIXED clustering X
-is unbiased and its variance at pixel i, per channel, is exactly
+probability ``p_j`` (``|rho_j| / s_k``; power or uniform for zero-norm clusters; ``probability`` in the
+clustering dict). For a FIXED clustering X is unbiased and its variance at pixel i, per channel, is
 
     Var[X_i] = sum_k ( sum_{j in C_k} A_ij^2 / p_j  -  (sum_{j in C_k} A_ij)^2 )          (1)
 
-(expand ``E[X_i^2]`` over the independent draws; this is the per-row form of the paper's Appendix A,
-which writes the same quantity summed over the rows of R). Every term of (1) is known at a pixel whose
-whole row of A has been rendered -- and MRCS renders r such rows to build R. So at each sampled row i
-we know the exact variance of the estimate there, and the exact value ``T_i = sum_j A_ij`` (+ emitted).
-The rows are a stratified sample of the pixels (one per block of equal area, Sec. 4), so
+(expand ``E[X_i^2]`` over the independent draws: the per-row form of the paper's Appendix A). (1) is
+exact at every pixel whose whole row of A is known (``row_variance``, Rust: src/cluster/variance.rs).
+Summed over a stratified set of rows and divided by the squared exact pixel values there,
 
-    error_estimate = sqrt( sum_{i in rows} sum_ch Var[X_ich] / sum_{i in rows} sum_ch T_ich^2 )   (2)
+    sqrt( sum_{rows} sum_ch Var[X_ich] / sum_{rows} sum_ch T_ich^2 )                        (2)
 
-estimates ``sqrt(E ||X - ΣA||^2) / ||ΣA + emitted||``, the expected relative L2 of the image against
-brute force (``metrics.relative_l2``) -- a ratio of two stratified means. The estimate costs no column
-and no extra row: one pass over R (``_native.mrcs_row_variance``, O(r n), in Rust). It is conditional on
-the clustering, which is what a user holds after the run; the realised error of one run scatters
-around it (the sum of c independent cluster errors), which the calibration measures.
+estimates the expected relative L2. Evaluated at the clustering's OWN rows (free) it reads low -- the
+clustering minimises the reduced form of (1) on exactly those rows -- by 0.4x (median, measured on
+cbox-lights 32x32, 8 seeds x 4 budgets), so MRCS does not report it. Two estimators ship instead:
 
-Caveat, measured by ``python -m manylights.bench calibrate``: the clustering is fitted to these same
-rows (it minimises the reduced form of (1)), so (2) can read low. ``holdout=h`` renders h extra
-stratified rows (seeded apart from the clustering's) that the clustering never saw and evaluates (1)
-there as well (cost: h rows, no column); the estimate then uses all rows.
+(3) ``mrcs(..., halves=True)``, the default of ``mrcs_progressive`` and ``render``: ``c // 2`` clusters,
+    TWO representatives drawn independently in each (``draw_representatives``), rendered as two half
+    images ``X1``, ``X2``, each an unbiased estimate of ΣA; the image is their mean. Then
+    ``E||X1 - X2||^2 = 2 E||X1 - ΣA||^2 = 4 E||(X1 + X2)/2 - ΣA||^2``, so
 
-``error_image`` (H, W) float32 is the per-pixel RMS error over channels, ``sqrt(mean_ch Var[X_ich])``
-in radiance units, known at the sampled pixels and spread to every pixel from its nearest sampled pixel
-(the resolution of the row stratification: a map of where the error is, not a per-pixel certificate).
+        error_estimate = ||X1 - X2|| / 2 / ||image||,    error_image = RMS_ch |X1 - X2| / 2,
+
+    per pixel at full resolution (one degree of freedom per pixel: noisy; a map of where the error is).
+    Cost: no extra column and no extra row; the price is a clustering of c/2 clusters instead of c
+    (measured, mean true relative L2 over 8 seeds at 32x32, 2k lights, 32 rows x 128 columns, plain /
+    halves: cbox-lights 0.062 / 0.059, matpreview 0.031 / 0.068, veach-ajar 0.016 / 0.067: where c
+    clusters pay off, halves costs up to 2-4x in error).
+(4) ``mrcs(..., error_rows=h)``: the plain MRCS image, plus h extra stratified rows (seeded apart from
+    the clustering's) that the clustering never saw; the estimate is the REALISED relative error at
+    those pixels, ``sqrt(sum ||X_i - T_i||^2 / sum ||T_i||^2)`` (exact T_i from the full rows), and
+    ``error_image`` spreads (1) at those rows to their nearest pixels. Cost: h rows, no column.
+
+Calibration (``python -m manylights.bench calibrate``, 32 px wide, 2048 lights, budgets rows:columns
+16:32, 32:64, 32:128, 64:256, 8 seeds, 6 scenes, CPU backend): estimate within a factor 2 of the true
+relative L2 against brute force in 87.5% of 192 runs for (3) (cbox-lights 94%, bounce 97%, demo 97%,
+matpreview 94%, bunny 97%, veach-ajar 47%; 95.6% without veach-ajar) and 72.4% for (4) with h = rows.
+Why veach-ajar fails, measured: at 64 rows 93% of its lights (the room behind the door) have a zero
+reduced column and share ONE zero-norm cluster drawn by power; nearly every draw lands on a light that
+adds nothing, so both halves agree (``X1 - X2`` ~ 0) while the image misses that cluster's light (3.8%
+of the image). The estimate is unbiased in the mean square (rms estimate 0.039 vs rms true error 0.040
+over 32 seeds) but bimodal, so single runs fall outside 2x. No two-sample estimate can see a stratum
+whose samples are almost always zero; the cure is more samples there (a budget change, not done here).
 
 Progressive MRCS (``mrcs_progressive``)
 ---------------------------------------
 Round t renders ``Δr_t`` new stratified rows (seed of round t), clusters ALL rows rendered so far into
-``Δc_t`` new clusters (refined rows, more clusters) and renders their ``Δc_t`` representatives: an
-independent unbiased estimate ``X_t`` of ΣA given the rows. Round T returns the combination
+``Δc_t / 2`` new clusters (refined rows, more clusters) with two representatives each as in (3): two
+independent unbiased half estimates ``X_t1``, ``X_t2`` of ΣA given the rows. Round T returns
 
-    X^(T) = sum_{t<=T} a_t X_t,   a_t = (1 / v_t) / sum_{t'<=T} (1 / v_t'),   v_t = sum_{rows} sum_ch Var[X_t]
+    H_h = sum_{t<=T} a_t X_th  (h = 1, 2),   image = (H_1 + H_2) / 2,
+    a_t = (1 / v_t) / sum_{t'<=T} (1 / v_t'),   v_t = sum over all rows so far of (1) for round t
 
-Because the weights depend only on rows and clusterings -- never on the representative draws -- the
-combination is unbiased, and its variance is ``sum_t a_t^2 Var[X_t]`` (independent draws), estimated by
-(1)-(2) at all rows so far. Nothing rendered is thrown away: each round's columns stay in the image.
-With doubling increments (``Δc_t = c_0 2^t``) the error falls at least like 1/sqrt(columns); it is at
-most ``sqrt(2)``-ish above one fresh MRCS run of the same total when MRCS itself converges like
-1/sqrt(c), more when clustering does better than that (each round starts a new clustering).
+The weights depend only on rows and clusterings -- never on the representative draws -- so H_1 and H_2
+stay independent and unbiased, the image is unbiased and (3) applies to it unchanged. Nothing rendered
+is thrown away: every round's columns stay in the image (``representatives``/``weights`` of the result
+reproduce it). With doubling increments (``Δc_t = c_0 2^t``) the error falls at least like
+1/sqrt(columns) (inverse-variance weighting of independent estimates); it can stay above a single MRCS
+run of the same total where clustering converges faster than that (each round starts a new clustering).
 
-Seeding: round 0 uses ``seed`` itself, so round 0 IS ``mrcs(A, rows=r_0, columns=c_0, seed=seed)``;
-round t >= 1 uses a seed derived from (seed, t) only. A run stopped after round k therefore returns
-exactly the image of a fresh run whose schedule ends at round k (``columns=c_0, rounds=k+1`` or the
-list truncated), bit for bit on the same backend.
+Seeding: round 0 uses ``seed`` itself, so round 0 IS ``mrcs(A, rows=r_0, columns=c_0, seed=seed,
+halves=True)``; round t >= 1 uses a seed derived from (seed, t) only. A run stopped after round k
+therefore returns exactly the image of a fresh run whose schedule ends at round k (``rounds=k+1``, or
+the lists truncated), bit for bit on the same backend (tests/test_error_estimate.py).
+
+Budgets (``render``)
+--------------------
+``render(A, target_error=, time_budget=)`` runs ``mrcs_progressive`` with doubling rounds and the
+row:column ratio from the measured seconds per row and per column on this device (rows get 25% of the
+time), stops at the target (by the estimate (3)) or before the time budget would be exceeded, and falls
+back to brute force (exact, said so in ``budget['stopped']``) when the next round would need more
+columns than there are lights. Items 4 and 5 of issue 14 (light counts and shadow-map resolution per
+scene, the notebook cell) are not implemented.
 """
 from __future__ import annotations
 
@@ -216,7 +242,7 @@ def _derived_seed(seed: int, stream: int) -> int:
 # --------------------------------------------------------------------------------------------------
 # progressive MRCS
 # --------------------------------------------------------------------------------------------------
-def _schedule(name: str, value, rounds: Optional[int], limit: int) -> list[int]:
+def _schedule(name: str, value, rounds: Optional[int], limit: int, what: str) -> list[int]:
     """Per-round increments from an int (first round, doubling) or a list of cumulative totals."""
     if isinstance(value, (list, tuple, np.ndarray)):
         totals = [_v.integer(f"{name}[{k}]", v, 1, limit) for k, v in enumerate(value)]
@@ -233,7 +259,7 @@ def _schedule(name: str, value, rounds: Optional[int], limit: int) -> list[int]:
     steps = [first * 2 ** t for t in range(rounds)]
     if sum(steps) > limit:
         raise ValueError(f"{rounds} rounds doubling {name} from {first} need {sum(steps)} {name}, more than "
-                         f"the {limit} available")
+                         f"the {limit} {what}")
     return steps
 
 
@@ -278,8 +304,8 @@ def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed
     seed = _v.seed(seed)
     if rounds is not None:
         rounds = _v.integer("rounds", rounds, 1, 64)
-    dc = _schedule("columns", columns, rounds, n)
-    dr = _schedule("rows", rows, len(dc) if rounds is None else rounds, m)
+    dc = _schedule("columns", columns, rounds, n, "lights")
+    dr = _schedule("rows", rows, len(dc) if rounds is None else rounds, m, "pixels (view samples)")
     if len(dr) != len(dc):
         raise ValueError(f"rows give {len(dr)} rounds and columns {len(dc)}: give the same number")
     if sum(dc) > n:
@@ -349,3 +375,142 @@ def _show_estimate(bar, res: RenderResult) -> None:
             print(f"manylights: mrcs_progressive: {msg}", file=sys.stderr, flush=True)
         except (OSError, ValueError):
             pass
+
+
+# --------------------------------------------------------------------------------------------------
+# budgets chosen automatically (issue 14, item 3)
+# --------------------------------------------------------------------------------------------------
+#: Share of the render time given to rows (clustering information) against columns (the image):
+#: rows = ROW_TIME_SHARE / (1 - ROW_TIME_SHARE) * columns * (cost of a column / cost of a row).
+ROW_TIME_SHARE = 0.25
+
+
+def _measure_costs(A, seed: int) -> tuple[float, float]:
+    """Seconds per row and per (weighted) column on this matrix's device, from 8 of each (the first call
+    of each kind, which sets up buffers, is made and not counted)."""
+    from . import stratified_rows
+
+    m, n = A.shape
+    k = min(8, n, m)
+    rows = stratified_rows(A.scene, k, seed=_derived_seed(seed, 1 << 22))
+    cols = np.random.default_rng(_derived_seed(seed, 1 << 23)).choice(n, size=k, replace=False)
+    w = np.ones((k, 3), np.float32)
+    A.rows(rows[:1], progress=False)
+    A.weighted_sum(cols[:1], w[:1])
+    t = time.perf_counter()
+    A.rows(rows, progress=False)
+    t_row = (time.perf_counter() - t) / k
+    t = time.perf_counter()
+    A.weighted_sum(cols, w)
+    t_col = (time.perf_counter() - t) / k
+    return max(t_row, 1e-9), max(t_col, 1e-9)
+
+
+def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
+           first_columns: int = 32, max_rounds: int = 16, add_emitted: bool = True,
+           progress: bool = True) -> RenderResult:
+    """Render ``A``'s column sum to a target relative L2 and/or within a time budget, choosing the budget
+    (issue 14, item 3): progressive MRCS (``mrcs_progressive``) with doubling rounds, stopped when the
+    estimated relative L2 (``error_estimate``, paired representatives) is <= ``target_error``, or before a
+    round that would end past ``time_budget`` seconds (a round costs about the time of all earlier ones:
+    the increments double), or when the next round would need more columns than there are lights -- then
+    the brute-force image (all n columns, exact: error 0) is returned if the time budget allows.
+
+    The row:column ratio comes from the measured cost of a row against a column on this device
+    (8 of each, timed before rendering): rows get ``ROW_TIME_SHARE`` (25%) of the render time,
+    ``rows = 1/3 * columns * t_column / t_row``, at least 8 and at most ``columns`` per round.
+
+    Args:
+        A: a ``LightMatrix``.
+        target_error: relative L2 to reach (a float > 0), or None (then time_budget is needed).
+        time_budget: seconds of rendering (> 0), or None (then target_error is needed).
+        seed: as ``mrcs_progressive``.
+        first_columns: columns of round 0 (>= 2).
+        max_rounds: at most this many rounds (>= 1).
+        add_emitted, progress: as ``mrcs_progressive``.
+
+    Returns:
+        RenderResult of the last round (or method "brute_force"), with ``budget['stopped']`` ("target
+        error reached", "time budget", "max_rounds", "all lights: brute force", "all lights: time budget
+        too small for brute force") and ``budget['chosen']``: seconds_per_row, seconds_per_column,
+        rows_per_column, rounds, target_error, time_budget, and the estimate after every round
+        (``estimates``).
+
+    Raises:
+        TypeError: A is not a LightMatrix. ValueError: neither target_error nor time_budget given, a
+            target_error or time_budget that is not a finite number > 0, an empty light matrix (n = 0),
+            first_columns < 2 or > n, max_rounds < 1, a negative seed.
+    """
+    m, n = _matrix_shape(A)
+    if n == 0:
+        raise ValueError("the light matrix has no lights (n = 0): nothing to render")
+    if target_error is None and time_budget is None:
+        raise ValueError("give target_error (relative L2, e.g. 0.02) or time_budget (seconds) or both")
+    if target_error is not None:
+        target_error = _v.real("target_error", target_error)
+        if not target_error > 0:
+            raise ValueError(f"target_error must be a relative L2 > 0, got {target_error}")
+    if time_budget is not None:
+        time_budget = _v.real("time_budget", time_budget)
+        if not time_budget > 0:
+            raise ValueError(f"time_budget must be seconds > 0, got {time_budget}")
+    seed = _v.seed(seed)
+    max_rounds = _v.integer("max_rounds", max_rounds, 1, 64)
+    first_columns = _v.integer("first_columns", first_columns, 2, max(n, 2))
+    start = time.perf_counter()
+    t_row, t_col = _measure_costs(A, seed)
+    share = ROW_TIME_SHARE / (1.0 - ROW_TIME_SHARE)
+    per_column = min(1.0, max(share * t_col / t_row, 0.0))
+    col_totals, row_totals = [], []
+    c_tot = r_tot = 0
+    for t in range(max_rounds):
+        dc = first_columns * 2 ** t
+        if c_tot + dc > n:
+            break
+        dr = int(min(max(8, round(per_column * dc)), m - r_tot))
+        if dr < 1:
+            break
+        c_tot += dc
+        r_tot += dr
+        col_totals.append(c_tot)
+        row_totals.append(r_tot)
+    chosen = {"seconds_per_row": t_row, "seconds_per_column": t_col, "rows_per_column": per_column,
+              "target_error": target_error, "time_budget": time_budget, "estimates": []}
+    last = None
+    stopped = "max_rounds" if len(col_totals) == max_rounds else "all lights"
+    if col_totals:
+        t_round_start = time.perf_counter()
+        for res in mrcs_progressive(A, rows=row_totals, columns=col_totals, seed=seed, add_emitted=add_emitted,
+                                    progress=progress):
+            last = res
+            chosen["estimates"].append(res.error_estimate)
+            now = time.perf_counter()
+            if target_error is not None and res.error_estimate <= target_error:
+                stopped = "target error reached"
+                break
+            # The next round costs about as much as all rounds so far (doubling increments).
+            if time_budget is not None and (now - start) + (now - t_round_start) > time_budget:
+                stopped = "time budget"
+                break
+    if stopped == "all lights":
+        elapsed = time.perf_counter() - start
+        # Brute force costs about n columns.
+        if time_budget is None or elapsed + n * t_col <= time_budget or last is None:
+            t = time.perf_counter()
+            image = A.column_sum(progress=progress)
+            timings = {"columns": time.perf_counter() - t}
+            if add_emitted:
+                image = image + A.emitted()
+            last = RenderResult(image=image, method="brute_force", seed=seed, timings=timings,
+                                budget={"columns": int(n), "lights": int(n)}, device=A.device)
+            last.error_estimate = 0.0
+            last.error_image = np.zeros(image.shape[:2], np.float32)
+            stopped = "all lights: brute force"
+        else:
+            stopped = "all lights: time budget too small for brute force"
+    chosen["rounds"] = len(chosen["estimates"])
+    last.budget["stopped"] = stopped
+    last.budget["chosen"] = chosen
+    last.timings["budget_choice"] = 0.0 if not chosen else max(
+        time.perf_counter() - start - sum(v for k, v in last.timings.items() if k != "budget_choice"), 0.0)
+    return last

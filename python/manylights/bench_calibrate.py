@@ -92,8 +92,11 @@ def run(args) -> dict:
         A = ml.LightMatrix(scene, lights, device=args.device)
         truth = A.column_sum(progress=False) + A.emitted()
         runs = calibrate(A, truth, [(r, min(c, len(lights))) for r, c in budgets], args.seeds, args.estimators)
+        shown = _display_path(path)
+        if Path(shown).is_absolute():  # results carry no machine paths: the scene's folder and file
+            shown = f"{Path(path).parent.name}/{Path(path).name}"
         for x in runs:
-            x["scene"] = _display_path(path)
+            x["scene"] = shown
         all_runs += runs
         for est in args.estimators:
             for rows, cols in budgets:
