@@ -143,3 +143,11 @@ def test_render_unreachable_target_falls_back_to_brute_force(small):
     assert res.method == "brute_force" and res.budget["stopped"] == "all lights: brute force"
     assert res.budget["chosen"]["rounds"] == 3 and res.error_estimate == 0.0
     np.testing.assert_array_equal(res.image, truth)
+
+
+def test_unseen_lights_counts_zero_reduced_columns(small):
+    A, _ = small
+    res = ml.mrcs(A, rows=16, columns=32, seed=4, halves=True)
+    R = A.rows(res.rows, progress=False)
+    assert res.budget["unseen_lights"] == int(np.sum(~np.any(R != 0, axis=(0, 2))))
+    assert 0 < res.budget["unseen_lights"] < A.shape[1]

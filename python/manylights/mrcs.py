@@ -156,7 +156,8 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
         res = RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
                            clusters=cl["assignment"], representatives=reps, weights=weights,
                            budget={"rows": int(len(row_indices)), "columns": int(len(reps)), "lights": int(n),
-                                   "clusters": int(len(reps) // 2)}, device=A.device)
+                                   "clusters": int(len(reps) // 2), "unseen_lights": cl["unseen_lights"]},
+                           device=A.device)
         res.error_estimate, res.error_image = adaptive.halves_estimate(X1, X2, res.image)
         return res
     t = time.perf_counter()
