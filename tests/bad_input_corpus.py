@@ -875,6 +875,8 @@ cases_for("render", [
     ("one first column", lambda c: c.ml.render(c.A, target_error=0.1, first_columns=1), ["first_columns"]),
     ("zero max_rounds", lambda c: c.ml.render(c.A, target_error=0.1, max_rounds=0), ["max_rounds"]),
     ("negative seed", lambda c: c.ml.render(c.A, target_error=0.1, seed=-1), ["seed"]),
+    ("zero rows_per_column", lambda c: c.ml.render(c.A, target_error=0.1, rows_per_column=0), ["rows_per_column"]),
+    ("rows_per_column above 1", lambda c: c.ml.render(c.A, target_error=0.1, rows_per_column=2), ["rows_per_column"]),
 ])
 cases_for("native.mrcs_row_variance", [
     ("label out of range", lambda c: c.ml._native.mrcs_row_variance(

@@ -412,8 +412,8 @@ def _measure_costs(A, seed: int) -> tuple[float, float]:
 
 
 def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
-           first_columns: int = 32, max_rounds: int = 16, add_emitted: bool = True,
-           progress: bool = True) -> RenderResult:
+           first_columns: int = 32, max_rounds: int = 16, rows_per_column: Optional[float] = None,
+           add_emitted: bool = True, progress: bool = True) -> RenderResult:
     """Render ``A``'s column sum to a target relative L2 and/or within a time budget, choosing the budget
     (issue 14, item 3): progressive MRCS (``mrcs_progressive``) with doubling rounds, stopped when the
     estimated relative L2 (``error_estimate``, paired representatives) is <= ``target_error``, or before a
@@ -432,6 +432,9 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         seed: as ``mrcs_progressive``.
         first_columns: columns of round 0 (>= 2).
         max_rounds: at most this many rounds (>= 1).
+        rows_per_column: new rows per new column in every round (in (0, 1]) instead of the measured
+            choice: the measured costs vary from run to run, so the same seed gives the same image only
+            with this fixed (``budget['chosen']['rows_per_column']`` of a run reproduces it).
         add_emitted, progress: as ``mrcs_progressive``.
 
     Returns:
@@ -444,7 +447,7 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
     Raises:
         TypeError: A is not a LightMatrix. ValueError: neither target_error nor time_budget given, a
             target_error or time_budget that is not a finite number > 0, an empty light matrix (n = 0),
-            first_columns < 2 or > n, max_rounds < 1, a negative seed.
+            first_columns < 2 or > n, max_rounds < 1, rows_per_column outside (0, 1], a negative seed.
     """
     m, n = _matrix_shape(A)
     if n == 0:
@@ -462,10 +465,14 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
     seed = _v.seed(seed)
     max_rounds = _v.integer("max_rounds", max_rounds, 1, 64)
     first_columns = _v.integer("first_columns", first_columns, 2, max(n, 2))
+    if rows_per_column is not None:
+        rows_per_column = _v.real("rows_per_column", rows_per_column)
+        if not 0.0 < rows_per_column <= 1.0:
+            raise ValueError(f"rows_per_column must be in (0, 1], got {rows_per_column}")
     start = time.perf_counter()
     t_row, t_col = _measure_costs(A, seed)
     share = ROW_TIME_SHARE / (1.0 - ROW_TIME_SHARE)
-    per_column = min(1.0, max(share * t_col / t_row, 0.0))
+    per_column = min(1.0, max(share * t_col / t_row, 0.0)) if rows_per_column is None else rows_per_column
     col_totals, row_totals = [], []
     c_tot = r_tot = 0
     for t in range(max_rounds):
