@@ -151,3 +151,14 @@ def test_unseen_lights_counts_zero_reduced_columns(small):
     R = A.rows(res.rows, progress=False)
     assert res.budget["unseen_lights"] == int(np.sum(~np.any(R != 0, axis=(0, 2))))
     assert 0 < res.budget["unseen_lights"] < A.shape[1]
+
+
+def test_render_tiny_light_sets(small):
+    """Fewer lights than the default first round: smaller rounds, or brute force below 4 lights."""
+    A, _ = small
+    for n in (3, 7):
+        sub = ml.LightMatrix(A.scene, A.lights[:n])
+        truth = sub.column_sum(progress=False) + sub.emitted()
+        res = ml.render(sub, target_error=1e-9, rows_per_column=0.5, progress=False)
+        assert res.method == "brute_force" and res.budget["stopped"] == "all lights: brute force"
+        np.testing.assert_array_equal(res.image, truth)

@@ -416,7 +416,7 @@ def _measure_costs(A, seed: int) -> tuple[float, float]:
 
 
 def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
-           first_columns: int = 32, max_rounds: int = 16, rows_per_column: Optional[float] = None,
+           first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
            add_emitted: bool = True, progress: bool = True) -> RenderResult:
     """Render ``A``'s column sum to a target relative L2 and/or within a time budget, choosing the budget
     (issue 14, item 3): progressive MRCS (``mrcs_progressive``) with doubling rounds, stopped when the
@@ -435,7 +435,8 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         target_error: relative L2 to reach (a float > 0), or None (then time_budget is needed).
         time_budget: seconds of rendering (> 0), or None (then target_error is needed).
         seed: as ``mrcs_progressive``.
-        first_columns: columns of round 0 (>= 2).
+        first_columns: columns of round 0 (>= 2; default min(32, n // 2), and a matrix of fewer than 4
+            lights is rendered by brute force).
         max_rounds: at most this many rounds (>= 1).
         rows_per_column: new rows per new column in every round (in (0, 1]) instead of the measured
             choice: the measured costs vary from run to run, so the same seed gives the same image only
@@ -469,7 +470,12 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
             raise ValueError(f"time_budget must be seconds > 0, got {time_budget}")
     seed = _v.seed(seed)
     max_rounds = _v.integer("max_rounds", max_rounds, 1, 64)
-    first_columns = _v.integer("first_columns", first_columns, 2, max(n, 2))
+    if first_columns is None:
+        first_columns = min(32, n // 2)
+        if first_columns < 2:
+            first_columns = n + 1  # no round fits: brute force below
+    else:
+        first_columns = _v.integer("first_columns", first_columns, 2, max(n, 2))
     if rows_per_column is not None:
         rows_per_column = _v.real("rows_per_column", rows_per_column)
         if not 0.0 < rows_per_column <= 1.0:
