@@ -290,7 +290,9 @@ def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed
     Yields:
         RenderResult per round: image (H, W, 3) float32, method "mrcs_progressive", budget (rows,
         columns, lights, round, rounds), error_estimate (float, relative L2), error_image (H, W) float32,
-        representatives / weights of ALL rounds (weights scaled by the round's combination weight),
+        representatives / weights of ALL rounds (weights scaled by the round's combination weight:
+        ``A.weighted_sum(representatives, weights)`` reproduces the image), clusters (the last round's
+        assignment), budget['unseen_lights'] (lights no row so far sees),
         timings summed over rounds so far. Stopping the loop (break, Ctrl-C between rounds) keeps every
         result already yielded.
 
