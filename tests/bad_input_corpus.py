@@ -982,6 +982,64 @@ cases_for("mrcs", [
     ("clustering representative out of range", lambda c: c.ml.mrcs(
         c.A, clustering={"representatives": [c.n], "weights": np.ones((1, 3))}), ["range"]),
 ])
+cases_for("mrcs", [
+    ("negative error_rows", lambda c: c.ml.mrcs(c.A, rows=4, columns=2, error_rows=-1), ["error_rows"]),
+    ("error_rows past the pixels", lambda c: c.ml.mrcs(c.A, rows=4, columns=2, error_rows=c.m + 1), ["error_rows"]),
+    ("halves with one column", lambda c: c.ml.mrcs(c.A, rows=4, columns=1, halves=True), ["columns"]),
+    ("halves with a given clustering", lambda c: c.ml.mrcs(
+        c.A, halves=True, clustering={"representatives": [0], "weights": np.ones((1, 3))}), ["halves"]),
+])
+cases_for("mrcs_progressive", [
+    ("not a matrix", lambda c: c.ml.mrcs_progressive("A", rounds=2), ["LightMatrix"]),
+], raises=("TypeError",))
+cases_for("mrcs_progressive", [
+    ("ints without rounds", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=2), ["rounds"]),
+    ("zero rounds", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=2, rounds=0), ["rounds"]),
+    ("NaN rounds", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=2, rounds=float("nan")), ["rounds"]),
+    ("one column per round", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=1, rounds=2), ["2 new columns"]),
+    ("decreasing columns", lambda c: c.ml.mrcs_progressive(c.A, rows=[4, 8], columns=[4, 2]), ["increasing"]),
+    ("empty columns", lambda c: c.ml.mrcs_progressive(c.A, rows=[], columns=[]), ["at least one"]),
+    ("rounds do not match the list", lambda c: c.ml.mrcs_progressive(c.A, rows=[4, 8], columns=[2, 4], rounds=3),
+     ["rounds"]),
+    ("rows and columns rounds differ", lambda c: c.ml.mrcs_progressive(c.A, rows=[4, 8, 12], columns=[2, 4]),
+     ["rounds"]),
+    ("more columns than lights", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=c.n, rounds=2), ["lights"]),
+    ("more rows than pixels", lambda c: c.ml.mrcs_progressive(c.A, rows=c.m, columns=2, rounds=2), ["rows"]),
+    ("negative seed", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=2, rounds=2, seed=-1), ["seed"]),
+])
+cases_for("render", [
+    ("not a matrix", lambda c: c.ml.render(None, target_error=0.1), ["LightMatrix"]),
+], raises=("TypeError",))
+cases_for("render", [
+    ("no target and no budget", lambda c: c.ml.render(c.A), ["target_error"]),
+    ("zero target", lambda c: c.ml.render(c.A, target_error=0.0), ["target_error"]),
+    ("negative target", lambda c: c.ml.render(c.A, target_error=-0.02), ["target_error"]),
+    ("NaN target", lambda c: c.ml.render(c.A, target_error=float("nan")), ["target_error"]),
+    ("zero time budget", lambda c: c.ml.render(c.A, time_budget=0), ["time_budget"]),
+    ("negative time budget", lambda c: c.ml.render(c.A, time_budget=-1.0), ["time_budget"]),
+    ("inf time budget", lambda c: c.ml.render(c.A, time_budget=float("inf")), ["time_budget"]),
+    ("one first column", lambda c: c.ml.render(c.A, target_error=0.1, first_columns=1), ["first_columns"]),
+    ("zero max_rounds", lambda c: c.ml.render(c.A, target_error=0.1, max_rounds=0), ["max_rounds"]),
+    ("negative seed", lambda c: c.ml.render(c.A, target_error=0.1, seed=-1), ["seed"]),
+    ("zero rows_per_column", lambda c: c.ml.render(c.A, target_error=0.1, rows_per_column=0), ["rows_per_column"]),
+    ("rows_per_column above 1", lambda c: c.ml.render(c.A, target_error=0.1, rows_per_column=2), ["rows_per_column"]),
+])
+cases_for("native.mrcs_row_variance", [
+    ("label out of range", lambda c: c.ml._native.mrcs_row_variance(
+        np.ones((2, 3, 3), np.float32), np.array([0, 1, 5], np.int32), np.full(3, 0.5), 2), ["assignment[2]"]),
+    ("negative label", lambda c: c.ml._native.mrcs_row_variance(
+        np.ones((2, 3, 3), np.float32), np.array([0, -1, 0], np.int32), np.full(3, 0.5), 2), ["-1"]),
+    ("probability above 1", lambda c: c.ml._native.mrcs_row_variance(
+        np.ones((2, 3, 3), np.float32), np.zeros(3, np.int32), np.array([0.5, 2.0, 0.5]), 1), ["probability[1]"]),
+    ("NaN probability", lambda c: c.ml._native.mrcs_row_variance(
+        np.ones((2, 3, 3), np.float32), np.zeros(3, np.int32), np.array([0.5, np.nan, 0.5]), 1), ["probability[1]"]),
+    ("wrong length", lambda c: c.ml._native.mrcs_row_variance(
+        np.ones((2, 3, 3), np.float32), np.zeros(2, np.int32), np.full(3, 0.5), 1), ["n = 3"]),
+    ("NaN row", lambda c: c.ml._native.mrcs_row_variance(
+        np.full((2, 3, 3), np.nan, np.float32), np.zeros(3, np.int32), np.full(3, 0.5), 1), ["non-finite"]),
+    ("bad shape", lambda c: c.ml._native.mrcs_row_variance(
+        np.ones((2, 3, 2), np.float32), np.zeros(3, np.int32), np.full(3, 0.5), 1), ["shape"]),
+])
 cases_for("power_sampling", [
     ("zero columns", lambda c: c.ml.power_sampling(c.A, columns=0), ["columns"]),
     ("fractional columns", lambda c: c.ml.power_sampling(c.A, columns=2.5), ["columns"]),

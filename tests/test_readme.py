@@ -174,9 +174,24 @@ def _check_sweep_block(ns):
     assert Path("sweep.parquet").is_file()
 
 
-CHECKS = {"Relighting: direct-to-indirect transfer in ten lines": _check_relight_block,
+def _check_adaptive_block(ns):
+    """Error estimates, progressive MRCS and budgets (issue 14): the estimate within 2x of the true error,
+    the progressive rounds' budgets as commented, the target reached by the estimate and the truth."""
+    import manylights as ml
+
+    A, res, best = ns["A"], ns["res"], ns["best"]
+    truth = A.column_sum(progress=False) + A.emitted()
+    true = ml.relative_l2(res.image, truth)
+    assert 0.5 * true <= res.error_estimate <= 2 * true, (res.error_estimate, true)
+    assert res.error_image.shape == (32, 32) and ns["r"].budget["columns"] == 496
+    assert best.budget["stopped"] == "target error reached" and best.error_estimate <= 0.05
+    assert ml.relative_l2(best.image, truth) <= 0.1
+
+
+CHECKS = {"Error estimates, progressive MRCS and budgets": _check_adaptive_block,
           "Clustered visibility: GPU fuzzy K-means in ten lines": _check_clustered_block,
           "Sweeps on Dask: methods x budgets x seeds x scenes": _check_sweep_block,
+          "Relighting: direct-to-indirect transfer in ten lines": _check_relight_block,
           "Animations: tensor clustering in ten lines": _check_animation_block,"Matrix Row-Column Sampling in ten lines": _check_mrcs_block, "Python in ten lines": _check_python_block,
           "Interactive use and robustness": _check_own_lights_block, "Two backends: CPU and GPU": _check_backends_block}
 

@@ -33,6 +33,7 @@ from ._native import (
 from .metrics import flicker, fraction_within, relative_l2, relative_l2_per_frame
 from .progress import progress_bar as _progress_bar
 from .mrcs import RenderResult, instant_radiosity, mrcs, power_sampling
+from .adaptive import mrcs_progressive
 from .tensor import TensorClustering, cluster_tensor, tensor_clustering
 from .gather import GatherCloud, gather_cloud
 from .relight import DirectToIndirect
@@ -74,6 +75,8 @@ __all__ = [
     "load_animation",
     "load_scene",
     "mrcs",
+    "mrcs_progressive",
+    "render",
     "mrcs_per_frame",
     "power_sampling",
     "read_exr",
@@ -422,7 +425,8 @@ def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_
         color_averaging: the paper's per-channel representative scaling (biased; off = unbiased grey weights).
 
     Returns:
-        dict with assignment (n,), representatives (c,), weights (c, 3), cost, cluster_costs (c,).
+        dict with assignment (n,), representatives (c,), weights (c, 3), cost, cluster_costs (c,),
+        probability (n,) float64 (chance of each light being its cluster's representative).
 
     Raises:
         ValueError: bad shapes, NaN/inf (row and column named), c not an integer in [1, n], a negative or
@@ -500,6 +504,7 @@ def _as_image(image) -> np.ndarray:
 
 
 from .render import render_brute_force  # noqa: E402  (needs LightMatrix above)
+from .adaptive import render  # noqa: E402  (after .render: the function ml.render replaces the submodule attribute)
 from .animation import Animation, apply_mapping, load_animation  # noqa: E402  (needs load_scene above)
 from .antialias import antialias  # noqa: E402
 from .animated import AnimationLights, generate_animation_lights  # noqa: E402

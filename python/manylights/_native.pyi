@@ -210,7 +210,8 @@ def cluster_reduced_columns(R: npt.NDArray[np.float32], c: int, seed: int = 0,
     """MRCS clustering of the reduced columns of R ((r, n, 3) or (r, n) float32) into c clusters.
 
     Returns a dict: assignment (n,) int32, representatives (c,) int64, weights (c, 3) float32 (unbiased
-    estimator: sum_k weights[k] * column[representatives[k]]), cost float, cluster_costs (c,) float64.
+    estimator: sum_k weights[k] * column[representatives[k]]), cost float, cluster_costs (c,) float64,
+    probability (n,) float64 (chance of each light being its cluster's representative).
 
     Raises:
         ValueError: c = 0 or c > n, NaN/inf (names row and column), bad shapes or power."""
@@ -231,6 +232,11 @@ def clustered_shading(A: LightMatrix, light_labels: npt.NDArray[np.uint32], ligh
     Raises:
         ValueError: shapes, labels, cluster ids, weights or non-finite values (named)."""
 
+def mrcs_row_variance(rows: npt.NDArray[np.float32], assignment: npt.NDArray[np.int32],
+                      probability: npt.NDArray[np.float64], num_clusters: int) -> npt.NDArray[np.float64]:
+    """(h, 3) exact variance of the MRCS estimate at h complete rows (h, n, 3) for a clustering
+    (assignment (n,) labels < num_clusters, probability (n,) of each light being its cluster's
+    representative). Raises ValueError for bad shapes, labels or probabilities outside [0, 1]."""
 def clustering_cost(R: npt.NDArray[np.float32], assignment: npt.NDArray[np.int32]) -> float:
     """Sum of the paper's cluster costs of a partition on the (unprojected, scalar) reduced matrix."""
 

@@ -50,6 +50,11 @@ class RenderResult:
     budget: dict = field(default_factory=dict)
     #: The device that computed the image (``LightMatrix.device``: kind "cpu"/"gpu", name, backend, ...).
     device: dict = field(default_factory=dict)
+    #: Estimated relative L2 of ``image`` against brute force, without the reference (MRCS: see
+    #: ``manylights.adaptive``); None for renderers without one.
+    error_estimate: Optional[float] = None
+    #: (H, W) float32 estimated RMS error per pixel (radiance), where the renderer has one.
+    error_image: Optional[np.ndarray] = None
 
     @property
     def seconds(self) -> float:
@@ -74,7 +79,8 @@ def _reconstruct(A, reps, weights, timings: dict, add_emitted: bool, progress: b
 
 
 def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=None, clustering=None,
-         add_emitted: bool = True, progress: bool = False, **cluster_options) -> RenderResult:
+         add_emitted: bool = True, progress: bool = False, error_rows: int = 0, halves: bool = False,
+         **cluster_options) -> RenderResult:
     """Render the column sum of light matrix ``A`` by Matrix Row-Column Sampling.
 
     Args:
@@ -85,6 +91,11 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
         row_indices: your own rows (view-sample indices) instead of ``stratified_rows``.
         clustering: your own clustering result (a dict with ``representatives`` (c,) and ``weights`` (c, 3)).
         add_emitted: add what the camera sees of emitters (``A.emitted()``), as every renderer does.
+        error_rows: h > 0 renders h extra stratified rows only to estimate the error of this image
+            (``error_estimate``, ``error_image``; ``manylights.adaptive``). 0: no estimate (None).
+        halves: the error estimate from two independent half images instead: ``columns // 2`` clusters
+            with two representatives each (same column count, one clustering of half the size), the
+            image is their mean (``manylights.adaptive``; calibrated in ``bench calibrate``).
         **cluster_options: passed to ``cluster_reduced_columns`` (projection_dim, sampling_fraction, ...).
 
     Returns:
@@ -92,19 +103,25 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
         and timings per stage in seconds: row_selection, row_setup (GPU allocations and the light upload
         of a matrix's first rows call), row_shadow_maps (GPU cube maps at the rows),
         row_evaluation (GPU: all lights against each row), row_readback (GPU -> numpy), clustering,
-        columns (GPU shadow maps + shading of the representatives, accumulated on the GPU), emitted.
+        columns (GPU shadow maps + shading of the representatives, accumulated on the GPU), emitted,
+        error_estimate; ``error_estimate`` (float, estimated relative L2 against brute force) and
+        ``error_image`` ((H, W) float32 RMS error per pixel) with ``halves`` or ``error_rows``
+        (``manylights.adaptive``), else None.
 
     Raises:
         TypeError: A is not a LightMatrix. ValueError: rows / columns out of range, row_indices outside
             [0, m), a clustering without representatives in [0, n) and finite (c, 3) or (c,) weights,
-            a negative seed.
+            a negative seed, error_rows not an integer in [0, m], halves with columns < 2 or with a
+            given clustering.
     """
     from . import cluster_reduced_columns, stratified_rows
+    from . import adaptive
 
     m, n = _matrix_shape(A)
     if n == 0:
         raise ValueError("the light matrix has no lights (n = 0): nothing to sample")
     seed = _v.seed(seed)
+    error_rows = _v.integer("error_rows", error_rows, 0, m)
     timings = {}
     t = time.perf_counter()
     if clustering is not None:
@@ -125,6 +142,24 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
         # GPU -> host copy and the numpy array (the rest of the call).
         timings["row_readback"] = max(wall - stages["setup"] - stages["shadow_maps"] - stages["evaluation"], 0.0)
 
+    if halves:
+        if R is None:
+            raise ValueError("halves=True needs the rows: it cannot be combined with a given clustering")
+        cl, reps, weights, X1, X2 = adaptive.mrcs_halves(A, R, _v.integer("columns", columns, 2, n), seed,
+                                                        _light_luminance_power(A.lights), timings, progress,
+                                                        **cluster_options)
+        image = 0.5 * (X1 + X2)
+        if add_emitted:
+            t = time.perf_counter()
+            image = image + A.emitted()
+            timings["emitted"] = time.perf_counter() - t
+        res = RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
+                           clusters=cl["assignment"], representatives=reps, weights=weights,
+                           budget={"rows": int(len(row_indices)), "columns": int(len(reps)), "lights": int(n),
+                                   "clusters": int(len(reps) // 2), "unseen_lights": cl["unseen_lights"]},
+                           device=A.device)
+        res.error_estimate, res.error_image = adaptive.halves_estimate(X1, X2, res.image)
+        return res
     t = time.perf_counter()
     if clustering is None:
         clustering = cluster_reduced_columns(R, _v.integer("columns", columns, 1, n), seed=seed,
@@ -133,10 +168,13 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
     timings["clustering"] = time.perf_counter() - t
 
     image = _reconstruct(A, reps, weights, timings, add_emitted, progress)
-    return RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
-                        clusters=clustering.get("assignment"), representatives=reps, weights=weights,
-                        budget={"rows": 0 if row_indices is None else int(len(row_indices)),
-                                "columns": int(len(reps)), "lights": int(n)}, device=A.device)
+    res = RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
+                       clusters=clustering.get("assignment"), representatives=reps, weights=weights,
+                       budget={"rows": 0 if row_indices is None else int(len(row_indices)),
+                               "columns": int(len(reps)), "lights": int(n)}, device=A.device)
+    if error_rows and R is not None:
+        adaptive.attach_error_estimate(A, res, clustering, error_rows, progress=progress)
+    return res
 
 
 def _matrix_shape(A) -> tuple[int, int]:

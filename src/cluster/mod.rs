@@ -69,6 +69,7 @@ pub mod sampling;
 pub mod splitting;
 pub mod tensor;
 pub mod visibility;
+pub mod variance;
 
 #[cfg(test)]
 mod tests;

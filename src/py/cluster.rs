@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 use std::borrow::Cow;
 
 /// (data, r, n, channels) of an (r, n, 3) or (r, n) float32 array (copied only when not C-contiguous).
-fn reduced_view<'a>(reduced: &'a PyReadonlyArrayDyn<'_, f32>) -> PyResult<(Cow<'a, [f32]>, usize, usize, usize)> {
+pub(crate) fn reduced_view<'a>(reduced: &'a PyReadonlyArrayDyn<'_, f32>) -> PyResult<(Cow<'a, [f32]>, usize, usize, usize)> {
     let shape = reduced.shape();
     let (r, n, channels) = match *shape {
         [r, n] => (r, n, 1),
@@ -39,7 +39,8 @@ fn reduced_view<'a>(reduced: &'a PyReadonlyArrayDyn<'_, f32>) -> PyResult<(Cow<'
 /// Returns:
 ///     dict with assignment (n,) int32, representatives (c,) int64, weights (c, 3) float32 (the column
 ///     sum estimate is sum_k weights[k] * column[representatives[k]]), cost (float, total objective on
-///     the unprojected scalar R) and cluster_costs (c,) float64.
+///     the unprojected scalar R), cluster_costs (c,) float64 and probability (n,) float64 (the chance that
+///     each light is drawn as the representative of its cluster; src/cluster/variance.rs).
 ///
 /// Raises:
 ///     ValueError: bad shape, non-finite value (row and column named), c out of range, bad power.
@@ -58,16 +59,19 @@ pub fn cluster_reduced_columns_py<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let (data, r, n, channels) = reduced_view(&R)?;
     let power: Option<Vec<f32>> = power.map(|p| p.as_array().iter().copied().collect());
-    let result = super::signals::detach(py, || {
+    let (result, probability) = super::signals::detach(py, || {
         let reduced = ReducedMatrix::new(&data, r, n, channels)?;
         let opts = ClusterOptions { seed, projection_dim, sampling_fraction, power: power.as_deref(), color_averaging };
-        cluster::cluster_reduced_columns(reduced, c, &opts)
+        let result = cluster::cluster_reduced_columns(reduced, c, &opts)?;
+        let probability = cluster::variance::probabilities_of(&reduced, &result, power.as_deref());
+        Ok::<_, Error>((result, probability))
     })?;
     let out = PyDict::new(py);
     let k = result.representatives.len();
     out.set_item("assignment", array(py, result.assignment.iter().map(|&a| a as i32).collect(), &[n])?)?;
     out.set_item("representatives", array(py, result.representatives.iter().map(|&j| j as i64).collect(), &[k])?)?;
     out.set_item("weights", array(py, result.weights.iter().flatten().copied().collect(), &[k, 3])?)?;
+    out.set_item("probability", array(py, probability, &[n])?)?;
     out.set_item("cost", result.total_cost())?;
     out.set_item("cluster_costs", array(py, result.cost, &[k])?)?;
     Ok(out)

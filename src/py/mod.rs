@@ -19,6 +19,7 @@ pub mod tensor;
 pub mod transfer;
 pub mod transfer_store;
 pub mod util;
+pub mod variance;
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -39,6 +40,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     relight::register(m)?;
     transfer::register(m)?;
     transfer_store::register(m)?;
+    variance::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
