@@ -298,3 +298,16 @@ def test_animation_sweep_on_workers(client, tmp_path):
         assert r.shadow_maps_per_frame == pytest.approx(np.mean(res.shadow_maps_per_frame))
     with pytest.raises(ValueError, match="animation"):
         ml.sweep([(str(path), {"frames": frames, "res": 16})], methods=["mrcs"], workers=0)
+
+
+def test_error_estimate_column_is_the_methods_own(tmp_path):
+    """MRCS with halves=True estimates its own error; the sweep keeps it per row (NaN for the others)."""
+    df = ml.sweep([("cbox", {"res": 16})], methods=["mrcs", "power_sampling"], budgets=[(8, 32)], seeds=[0],
+                  lights=LIGHTS, device="cpu", progress=False, workers=0, reference_dir=tmp_path / "refs",
+                  options={"mrcs": {"halves": True}})
+    mrcs = df[df.method == "mrcs"].iloc[0]
+    scene = ml.load_scene(scene_path("cbox"), res=16)
+    lights = ml.generate_lights(scene, area=LIGHTS // 4, indirect=LIGHTS - LIGHTS // 4, seed=0)
+    res = ml.mrcs(ml.LightMatrix(scene, lights, device="cpu"), rows=8, columns=32, seed=0, halves=True)
+    assert mrcs.error_estimate == pytest.approx(res.error_estimate, rel=1e-6) and mrcs.error_estimate > 0
+    assert np.isnan(df[df.method == "power_sampling"].iloc[0].error_estimate)

@@ -420,7 +420,7 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         row's key), scene (as given), params (JSON), scene_hash (sha256 of the scene folder), lights (n),
         method, rows, columns, clusters (columns rendered), seed (Int64), status ("ok" / "error"), error
         (type: message, or None), rel_l2 (relative L2 against the brute-force reference, float64),
-        error_estimate (NaN: none of these methods estimates its error); for animations frames, max_rel_l2
+        error_estimate (the method's own estimate of its error where it makes one, e.g. ``options={"mrcs": {"halves": True}}``; NaN otherwise); for animations frames, max_rel_l2
         (the worst frame), flicker (``metrics.flicker``) and shadow_maps_per_frame (mean), rel_l2 being the
         mean per-frame relative L2 (NaN for still scenes); seconds (all stages),
         setup_seconds (scene loading + matrix of that task; 0 when the worker had it cached), reference_key,

@@ -172,7 +172,7 @@ def render(task: dict, ref: dict) -> dict:
     Returns:
         dict of plain values: task (the row's key), method, rows, columns, seed, status, error, rel_l2
         (relative L2 against ``ref["image"]``; the mean over frames for an animation, with max_rel_l2,
-        flicker, frames and shadow_maps_per_frame), error_estimate (NaN: none of the methods has one), seconds
+        flicker, frames and shadow_maps_per_frame), error_estimate (the method's own estimate of its relative L2: MRCS with options {"halves": True}; NaN otherwise), seconds
         (all stages) and ``seconds_<stage>`` per stage, clusters (columns rendered), lights, scene_hash,
         reference_key, reference_seconds, reference_cached (read from the cache directory), device, adapter, host,
         setup_seconds (scene + matrix loading of this task; 0 when cached)."""
@@ -216,6 +216,8 @@ def render(task: dict, ref: dict) -> dict:
         else:  # sweep() checks the names: only a hand-made task gets here
             raise ValueError(f"unknown method {method!r}; methods: {', '.join(METHODS)}")
         row["rel_l2"] = float(ml.relative_l2(res.image, ref["image"]))
+        if getattr(res, "error_estimate", None) is not None:
+            row["error_estimate"] = float(res.error_estimate)
         row["seconds"] = res.seconds
         for k, v in res.timings.items():
             row[f"seconds_{k}"] = float(v)
