@@ -1,35 +1,13 @@
 //! The CPU backend against the exact oracle (the same arithmetic: bit-equal) and against the GPU backend
 //! with exact rays (`Visibility::RayTraced`: the same rays, f32 rounding of the GPU's shading apart).
 use crate::gpu::GpuContext;
-use crate::lights::{generate_lights, GenerateOptions};
 use crate::matrix::backend::{Chosen, Device};
-use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
-use crate::raytrace::RayTracer;
-use crate::scene::{load_scene, LoadOptions};
-use std::sync::Arc;
+use crate::matrix::{ColumnOptions, LightMatrix};
 
 /// Relative tolerance of "equal" between the backends.
 const REL: f32 = 1e-5;
 
-struct Pair {
-    cpu: LightMatrix,
-    gpu: LightMatrix,
-}
-
-fn pair(res: u32) -> Pair {
-    let xml = crate::testing::shared_dir().join("scenes/cbox-lights/scene.xml");
-    let opts = LoadOptions { params: vec![("res".into(), res.to_string())], size: None };
-    let scene = Arc::new(load_scene(&xml, &opts).unwrap());
-    let gen = GenerateOptions { area: 24, environment: 24, indirect: 300, seed: 5, ..Default::default() };
-    let lights = Arc::new(generate_lights(&scene, &gen).unwrap());
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
-    let view = Arc::new(crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap());
-    let tracer = Arc::new(RayTracer::new(&scene).unwrap());
-    let copts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 256, ..Default::default() };
-    let gpu = LightMatrix::new(ctx, scene.clone(), view.clone(), lights.clone(), copts.clone()).unwrap();
-    let cpu = LightMatrix::with_device(&Chosen::Cpu, scene, view, lights, copts, Some(tracer)).unwrap();
-    Pair { cpu, gpu }
-}
+use crate::testing::backend_pair as pair;
 
 /// Lights of every kind (3 each).
 fn every_kind(a: &LightMatrix) -> Vec<usize> {

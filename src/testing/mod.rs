@@ -55,3 +55,32 @@ pub fn scene_view_tracer(path: &Path, size: u32) -> (crate::scene::Scene, crate:
     let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &crate::view_chains::ChainOptions::default()).unwrap();
     (scene, view, tracer)
 }
+
+/// The same light matrix on both backends with exact rays: cbox-lights (point, spot, directional,
+/// oriented points, VPLs) at res x res, 24 area + 24 environment + 300 indirect lights (seed 5), and the
+/// CPU backend's ray tracer.
+pub struct BackendPair {
+    pub cpu: crate::matrix::LightMatrix,
+    pub gpu: crate::matrix::LightMatrix,
+    pub tracer: std::sync::Arc<crate::raytrace::RayTracer>,
+}
+
+pub fn backend_pair(res: u32) -> BackendPair {
+    use crate::lights::{generate_lights, GenerateOptions};
+    use crate::matrix::backend::Chosen;
+    use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
+    use crate::scene::{load_scene, LoadOptions};
+    use std::sync::Arc;
+    let xml = shared_dir().join("scenes/cbox-lights/scene.xml");
+    let opts = LoadOptions { params: vec![("res".into(), res.to_string())], size: None };
+    let scene = Arc::new(load_scene(&xml, &opts).unwrap());
+    let gen = GenerateOptions { area: 24, environment: 24, indirect: 300, seed: 5, ..Default::default() };
+    let lights = Arc::new(generate_lights(&scene, &gen).unwrap());
+    let ctx = crate::gpu::GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let view = Arc::new(crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap());
+    let tracer = Arc::new(crate::raytrace::RayTracer::new(&scene).unwrap());
+    let copts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 256, ..Default::default() };
+    let gpu = LightMatrix::new(ctx, scene.clone(), view.clone(), lights.clone(), copts.clone()).unwrap();
+    let cpu = LightMatrix::with_device(&Chosen::Cpu, scene, view, lights, copts, Some(tracer.clone())).unwrap();
+    BackendPair { cpu, gpu, tracer }
+}

@@ -3,33 +3,12 @@
 use super::*;
 use crate::gpu::GpuContext;
 use crate::lights::{generate_lights, GenerateOptions};
-use crate::matrix::backend::Chosen;
 use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
-use crate::raytrace::{spawn_ray, RayTracer};
+use crate::raytrace::spawn_ray;
 use crate::scene::{load_scene, LoadOptions};
 use std::sync::Arc;
 
-struct Pair {
-    cpu: LightMatrix,
-    gpu: LightMatrix,
-    tracer: Arc<RayTracer>,
-}
-
-/// cbox-lights (point, spot, directional, oriented points, VPLs) at res x res on both backends, exact rays.
-fn pair(res: u32) -> Pair {
-    let xml = crate::testing::shared_dir().join("scenes/cbox-lights/scene.xml");
-    let opts = LoadOptions { params: vec![("res".into(), res.to_string())], size: None };
-    let scene = Arc::new(load_scene(&xml, &opts).unwrap());
-    let gen = GenerateOptions { area: 24, environment: 24, indirect: 300, seed: 5, ..Default::default() };
-    let lights = Arc::new(generate_lights(&scene, &gen).unwrap());
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
-    let view = Arc::new(crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap());
-    let tracer = Arc::new(RayTracer::new(&scene).unwrap());
-    let copts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 256, ..Default::default() };
-    let gpu = LightMatrix::new(ctx, scene.clone(), view.clone(), lights.clone(), copts.clone()).unwrap();
-    let cpu = LightMatrix::with_device(&Chosen::Cpu, scene, view, lights, copts, Some(tracer.clone())).unwrap();
-    Pair { cpu, gpu, tracer }
-}
+use crate::testing::backend_pair as pair;
 
 fn finite_or_zero(v: Vec3) -> [f32; 3] {
     if v.is_finite() { v.to_array() } else { [0.0; 3] }
