@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench_mrcs import _display_path, _resolve_scene, settings_tag
+from .bench_mrcs import _display_path, _resolve_scene, ok_rows, settings_tag
 
 COLORS = {"power_sampling": "C0", "instant_radiosity": "C1", "mrcs": "C2", "clustered_visibility": "C3"}
 
@@ -112,12 +112,7 @@ def run(args) -> dict:
     import pandas as pd
 
     df = pd.concat([base, mrcs, cv], ignore_index=True)
-    failed = df[df["status"] != "ok"]
-    for r in failed.itertuples():
-        print(f"  failed: {r.method} rows {r.rows} columns {r.columns} seed {r.seed}: {r.error}", flush=True)
-    ok = df[df["status"] == "ok"]
-    if ok.empty:
-        raise RuntimeError(f"every render failed (first error: {failed['error'].iloc[0]})")
+    ok = ok_rows(df)
     first = ok.iloc[0]
     t_brute = float(first["reference_seconds"])
     records = (_records(ok, "power_sampling", ["columns"]) + _records(ok, "instant_radiosity", ["columns"])

@@ -106,12 +106,7 @@ def run(args) -> dict:
                   reference_dir=args.reference_dir or out / "references", device=args.device,
                   visibility=args.visibility, shadow_map_size=args.shadow_map_size)
     wall = time.perf_counter() - t
-    failed = df[df["status"] != "ok"]
-    for r in failed.itertuples():
-        print(f"  failed: {r.method} rows {r.rows} columns {r.columns} seed {r.seed}: {r.error}", flush=True)
-    ok = df[df["status"] == "ok"]
-    if ok.empty:
-        raise RuntimeError(f"every render of the sweep failed (first error: {failed['error'].iloc[0]})")
+    ok = ok_rows(df)
     first = ok.iloc[0]
     t_brute = float(first["reference_seconds"])
     print(f"{int(first['lights'])} lights, {first['device']} backend ({first['adapter']}); brute force "
@@ -156,6 +151,20 @@ def run(args) -> dict:
     print(f"wrote {out / (stem + '.json')}, {out / (stem + '.png')} and the rows in "
           f"{out / (stem + '-' + settings_tag(args) + '.parquet')}")
     return summary
+
+
+def ok_rows(df):
+    """The rendered rows of a sweep's DataFrame; prints every failed row.
+
+    Raises:
+        RuntimeError: every render failed (the first error quoted)."""
+    failed = df[df["status"] != "ok"]
+    for r in failed.itertuples():
+        print(f"  failed: {r.method} rows {r.rows} columns {r.columns} seed {r.seed}: {r.error}", flush=True)
+    ok = df[df["status"] == "ok"]
+    if ok.empty:
+        raise RuntimeError(f"every render of the sweep failed (first error: {failed['error'].iloc[0]})")
+    return ok
 
 
 def _summarize(summary: dict, t_brute: float) -> None:
