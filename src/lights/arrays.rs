@@ -203,6 +203,7 @@ impl LightSet {
         out.cutoff_angle = idx.iter().map(|&j| self.cutoff_angle[j]).collect();
         out.beam_width = idx.iter().map(|&j| self.beam_width[j]).collect();
         out.spot_texture = idx.iter().map(|&j| self.spot_texture[j].clone()).collect();
+        out.patch = idx.iter().map(|&j| self.patch[j]).collect();
         Ok(out)
     }
 
