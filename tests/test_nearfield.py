@@ -75,7 +75,8 @@ def test_patches_partition_the_emitter_and_survive_arrays(scene):
     lights = ml.generate_lights(scene, area=100, environment=0, indirect=0, seed=3)
     p = lights.patch
     assert p.shape == (100, 4, 3) and p.dtype == np.float32
-    # Each patch is the part of its stratum in one triangle: together they tile the 0.1 x 0.06 m panel.
+    # Each patch is the part of its stratum in one triangle; 100 strata over the panel's two equal triangles
+    # straddle none, so together they tile the 0.1 x 0.06 m panel.
     area = 0.5 * np.linalg.norm(np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1]), axis=-1)
     assert area.sum() == pytest.approx(0.1 * 0.06, rel=1e-5)
     assert (area > 0).all()
