@@ -140,3 +140,15 @@ def test_zero_area_emitter_is_a_scene_error(tmp_path):
     xml.write_text(XML.read_text().replace('<scale x="0.05" y="0.03" z="1"/>', '<scale x="0.05" y="0" z="1"/>'))
     with pytest.raises(ml.SceneError, match=r'flat.xml:\d+: area emitter on a degenerate shape "panel".*zero area'):
         ml.load_scene(xml, size=(16, 16))
+
+
+def test_textured_emitters_keep_the_point_formula(tmp_path):
+    """The patch formula assumes L constant over the patch: points of a textured emitter carry none."""
+    xml = tmp_path / "textured.xml"
+    xml.write_text(XML.read_text().replace(
+        '<rgb name="radiance" value="10, 10, 10"/>',
+        '<texture type="checkerboard" name="radiance"><rgb name="color0" value="10, 1, 1"/>'
+        '<rgb name="color1" value="1, 1, 10"/></texture>'))
+    scene = ml.load_scene(xml, size=(16, 16))
+    lights = ml.generate_lights(scene, area=64, environment=0, indirect=0, seed=0)
+    assert len(lights) == 64 and not lights.patch.any()

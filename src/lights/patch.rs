@@ -25,7 +25,8 @@
 //! for bit.
 //!
 //! A patch is stored as 4 corners in order around a planar convex quadrilateral (a triangle repeats a
-//! corner); all zero = no patch (user-made oriented points, sphere emitters, animation frames).
+//! corner); all zero = no patch (user-made oriented points, sphere emitters, textured emitters -- the
+//! formula assumes L constant over the patch --, and the lights of animations, `lights::animated`).
 //! Angles use `angle_between` (2 atan(|a-b| / |a+b|) with the Cephes single-precision atan), written
 //! identically in `shaders/common/light.wgsl` so that the GPU equals the CPU.
 use crate::error::{Error, Result};
