@@ -58,6 +58,9 @@ class LightSet:
     beam_width: npt.NDArray[np.float32]
     bsdf: npt.NDArray[np.uint32]
     """(n, 20) uint32: each VPL's 80-byte BSDF record (opaque; for from_arrays of the same scene)."""
+    patch: npt.NDArray[np.float32]
+    """(n, 4, 3) float32: each oriented point's patch corners (m); all zero = none. Receivers within 3
+    patch radii get the patch's projected solid angle instead of 1/d^2 (issue 13)."""
     scene_sphere: tuple[tuple[float, float, float], float]
     def __len__(self) -> int: ...
     def __getitem__(self, key: Union[int, slice, Sequence[int], npt.NDArray[Any]]) -> LightSet:
@@ -70,7 +73,7 @@ class LightSet:
                     intensity: Optional[npt.ArrayLike] = None, power: Optional[npt.ArrayLike] = None,
                     cutoff_angle: Optional[npt.ArrayLike] = None, beam_width: Optional[npt.ArrayLike] = None,
                     bsdf: Optional[npt.ArrayLike] = None, albedo: Optional[npt.ArrayLike] = None,
-                    vpl_clamp: Optional[float] = None) -> LightSet:
+                    vpl_clamp: Optional[float] = None, patch: Optional[npt.ArrayLike] = None) -> LightSet:
         """A LightSet from per-light arrays (see the method's docstring: shapes, units, checks).
         Raises ValueError naming the argument, the expected and the actual shape or value."""
     @staticmethod

@@ -8,7 +8,7 @@ const LIGHT_DIRECTIONAL: u32 = 2u;
 const LIGHT_ORIENTED_POINT: u32 = 3u;
 const LIGHT_VPL: u32 = 4u;
 
-// Keep in sync with `GpuLight` in src/gpu/columns.rs (192 bytes).
+// Keep in sync with `GpuLight` in src/gpu/columns.rs (256 bytes).
 struct Light {
     position: vec3<f32>,
     kind: u32,
@@ -40,6 +40,8 @@ struct Light {
     tan_cutoff: f32,
     // VPL: the BSDF at its hit (zero for other kinds).
     bsdf: Bsdf,
+    // Oriented point: its patch's 4 corners (xyz; all zero = none), src/lights/patch.rs.
+    patch_corners: array<vec4<f32>, 4>,
 }
 
 const SPOT_NO_TEXTURE: u32 = 0xffffffffu;
@@ -107,6 +109,87 @@ fn spot_texture_eval(l: Light, v: vec3<f32>) -> vec3<f32> {
     out += spot_texel(o, w, x0, y1) * (wx0 * wy1);
     out += spot_texel(o, w, x1, y1) * (wx1 * wy1);
     return out;
+}
+
+// ---- Patches of oriented points: the near field without 1 / d^2 (twin of src/lights/patch.rs) ----
+
+const PATCH_NEAR_FIELD_RADII: f32 = 3.0;
+
+// Whether p is within PATCH_NEAR_FIELD_RADII patch radii of the patch's centre (false without a patch).
+fn patch_is_near(l: Light, p: vec3<f32>) -> bool {
+    let c0 = l.patch_corners[0].xyz;
+    let c1 = l.patch_corners[1].xyz;
+    let c2 = l.patch_corners[2].xyz;
+    let c3 = l.patch_corners[3].xyz;
+    let centre = (c0 + c1 + c2 + c3) * 0.25;
+    let d0 = c0 - centre;
+    let d1 = c1 - centre;
+    let d2 = c2 - centre;
+    let d3 = c3 - centre;
+    let r2 = max(max(max(dot(d0, d0), dot(d1, d1)), dot(d2, d2)), dot(d3, d3));
+    let dp = p - centre;
+    return r2 > 0.0 && dot(dp, dp) < r2 * (PATCH_NEAR_FIELD_RADII * PATCH_NEAR_FIELD_RADII);
+}
+
+// atan(z) for z in [0, 1] (Cephes atanf), as `atan_unit` in patch.rs.
+fn atan_unit(z: f32) -> f32 {
+    var base = 0.0;
+    var x = z;
+    if z > 0.41421357 {
+        base = 0.78539816339745;
+        x = (z - 1.0) / (z + 1.0);
+    }
+    let x2 = x * x;
+    return base + ((((8.0537445e-2 * x2 - 1.3877686e-1) * x2 + 1.9977711e-1) * x2 - 3.333295e-1) * x2 * x + x);
+}
+
+// The angle between unit vectors a and b.
+fn angle_between(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    let y = length(a - b);
+    let x = length(a + b);
+    var half: f32;
+    if y <= x {
+        half = atan_unit(y / x);
+    } else {
+        half = 1.57079632679490 - atan_unit(x / y);
+    }
+    return 2.0 * half;
+}
+
+// (projected solid angle, area) of the part of l's patch above the plane through p with normal n.
+fn patch_clipped(l: Light, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
+    var v: array<vec3<f32>, 5>;
+    var k = 0u;
+    for (var i = 0u; i < 4u; i++) {
+        let a = l.patch_corners[i].xyz - p;
+        let b = l.patch_corners[(i + 1u) % 4u].xyz - p;
+        let ha = dot(n, a);
+        let hb = dot(n, b);
+        if ha >= 0.0 {
+            v[k] = a;
+            k += 1u;
+        }
+        if (ha >= 0.0) != (hb >= 0.0) {
+            let t = ha / (ha - hb);
+            v[k] = a + (b - a) * t;
+            k += 1u;
+        }
+    }
+    var psa = 0.0;
+    var cross_sum = vec3<f32>(0.0);
+    for (var i = 0u; i < k; i++) {
+        let a = v[i];
+        let b = v[(i + 1u) % k];
+        let g = cross(a, b);
+        cross_sum += g;
+        let gl = length(g);
+        let la = length(a);
+        let lb = length(b);
+        if gl > 0.0 && la > 0.0 && lb > 0.0 {
+            psa += angle_between(a / la, b / lb) * (dot(n, g) / gl);
+        }
+    }
+    return vec2<f32>(0.5 * abs(psa), 0.5 * length(cross_sum));
 }
 
 // What a light sends to p: wo (unit, toward the light), radiance factor, distance (1e30 for directional).
@@ -188,7 +271,19 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
         if !(cos_theta > 0.0) {
             return e;
         }
-        e.radiance = l.intensity * (cos_theta * inv_d2);
+        if patch_is_near(l, p) {
+            let cos_r = dot(e.wo, n);
+            if !(cos_r > 0.0) {
+                return e;
+            }
+            let pa = patch_clipped(l, p, n);
+            if !(pa.x > 0.0 && pa.y > 0.0) {
+                return e;
+            }
+            e.radiance = l.intensity * (pa.x / (pa.y * cos_r));
+        } else {
+            e.radiance = l.intensity * (cos_theta * inv_d2);
+        }
     } else if l.kind == LIGHT_VPL {
         // I(w) = Phi f(incident, w) |w . n_g|, then the geometry-term clamp min(1, clamp / G).
         let w = -e.wo;

@@ -13,7 +13,7 @@
 //! Only the image (m x 16 bytes) and the visibility matrix are read back. The stages' seconds exclude the
 //! set-up (uploads, the pipeline compiled on a matrix's first call).
 //!
-//! GPU memory besides the backend's: cluster lights (192 B each), membership (8 B per sample and
+//! GPU memory besides the backend's: cluster lights (256 B each), membership (8 B per sample and
 //! column), representatives (4 B per view cluster), the visibility matrix (4 B per word) and the
 //! accumulator (16 B per sample). A backend made with shadow-map-only visibility has no BVH; one is
 //! built and uploaded here then.
@@ -220,7 +220,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<ClusteredParams>(), 48);
         crate::gpu::shaders::assert_struct_sizes("clustered_visibility.wgsl", CLUSTERED_VISIBILITY_WGSL, &[
             ("ClusteredParams", 48),
-            ("Light", 192),
+            ("Light", 256),
             ("ViewSample", 80),
             ("Bsdf", 80),
         ]);

@@ -22,8 +22,8 @@ pub const WORKGROUP_SIZE: u32 = 64;
 /// Most lights one dispatch loops over.
 pub const MAX_LIGHTS_PER_DISPATCH: usize = 256;
 
-/// Keep in sync with `struct Light` in `shaders/common/light.wgsl` (192 bytes: 64 for every kind, then
-/// oriented-point / VPL fields and the VPL's 80-byte BSDF, stored in the light itself so the column
+/// Keep in sync with `struct Light` in `shaders/common/light.wgsl` (256 bytes: 64 for every kind, then
+/// oriented-point / VPL fields, the VPL's 80-byte BSDF and an oriented point's patch, stored in the light itself so the column
 /// pass needs no extra binding; its roughplastic table offset indexes the scene's table buffer). A
 /// textured spot's texture is in the separate `spot_textures` binding (`crate::lights::spot_texture`).
 #[repr(C)]
@@ -54,6 +54,8 @@ pub struct GpuLight {
     pub tan_cutoff: f32,
     /// VPL BSDF (zero for other kinds).
     pub bsdf: crate::shading::GpuBsdf,
+    /// Oriented point: its patch's 4 corners (xyz, w unused; all zero = none; `crate::lights::patch`).
+    pub patch: [[f32; 4]; 4],
 }
 
 impl GpuLight {
@@ -82,6 +84,7 @@ impl GpuLight {
             incident: lights.incident[j].to_array(),
             tan_cutoff: frame.map_or(0.0, |t| t.tan_cutoff),
             bsdf: lights.bsdf[j],
+            patch: lights.patch[j].map(|c| c.extend(0.0).to_array()),
         }
     }
 }
@@ -269,7 +272,7 @@ mod tests {
 
     #[test]
     fn struct_sizes() {
-        assert_eq!(std::mem::size_of::<GpuLight>(), 192);
+        assert_eq!(std::mem::size_of::<GpuLight>(), 256);
         assert_eq!(std::mem::size_of::<GpuViewSample>(), 80);
         assert_eq!(std::mem::size_of::<ColumnParams>(), 48);
         assert_eq!(std::mem::size_of::<crate::shading::GpuBsdf>(), 80);
@@ -278,7 +281,7 @@ mod tests {
     #[test]
     fn columns_wgsl_validates_and_layouts_match() {
         crate::gpu::shaders::assert_struct_sizes("columns.wgsl", COLUMNS_WGSL, &[
-            ("Light", 192),
+            ("Light", 256),
             ("ViewSample", 80),
             ("ColumnParams", 48),
             ("Bsdf", 80),

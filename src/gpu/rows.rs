@@ -157,7 +157,7 @@ mod tests {
         crate::gpu::shaders::assert_struct_sizes("rows.wgsl", ROWS_WGSL, &[
             ("RowParams", 48),
             ("RowInfo", 32),
-            ("Light", 192),
+            ("Light", 256),
             ("ViewSample", 80),
             ("ShadowLayer", 256),
         ]);

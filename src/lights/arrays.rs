@@ -9,7 +9,9 @@
 //!   (the arrays hold no projected texture: such spots are untextured, so a scene's textured spot
 //!   comes back from its arrays without its texture; subsets and `concat` keep it)
 //! - directional (2): direction (unit, the direction light travels), intensity = irradiance (W/m^2)
-//! - oriented point (3): position, normal (unit), intensity I0 along the normal (W/sr)
+//! - oriented point (3): position, normal (unit), intensity I0 along the normal (W/sr); optional patch
+//!   (4 corners of the planar convex piece of emitter it stands for, `lights::patch`; all zero = none,
+//!   the default)
 //! - VPL (4): position, normal n_s (unit), geo_normal n_g (unit), incident (unit), intensity = flux
 //!   Phi (W), bsdf
 //!
@@ -36,6 +38,8 @@ pub struct LightArrays {
     pub cutoff_angle: Option<Vec<f32>>,
     pub beam_width: Option<Vec<f32>>,
     pub bsdf: Option<Vec<GpuBsdf>>,
+    /// Oriented points' patches (4 corners each); None = no patches.
+    pub patch: Option<Vec<[Vec3; 4]>>,
 }
 
 /// Light kind from its integer code.
@@ -95,10 +99,11 @@ impl LightSet {
     ///
     /// Errors: `InvalidParameter` naming the array, the light index, the expected and the actual value
     /// (array lengths other than n, unknown kinds, non-finite values, negative intensities, non-unit
-    /// vectors, bad spot angles, a VPL without a BSDF).
+    /// vectors, bad spot angles, a VPL without a BSDF, a patch with non-finite corners or zero area).
     pub fn from_arrays(a: &LightArrays, scene_center: Vec3, scene_radius: f32, vpl_clamp: f32) -> Result<LightSet> {
         let n = a.kind.len();
-        let lens: [(&str, Option<usize>); 10] = [
+        let lens: [(&str, Option<usize>); 11] = [
+            ("patch", a.patch.as_ref().map(Vec::len)),
             ("position", a.position.as_ref().map(Vec::len)),
             ("direction", a.direction.as_ref().map(Vec::len)),
             ("normal", a.normal.as_ref().map(Vec::len)),
@@ -176,6 +181,13 @@ impl LightSet {
             set.geo_normal[j] = geo;
             set.incident[j] = incident;
             set.bsdf[j] = bsdf;
+            if let Some(patches) = &a.patch {
+                let c = patches[j];
+                super::patch::check(j, &c)?;
+                if kind == LightKind::OrientedPoint {
+                    set.patch[j] = c;
+                }
+            }
         }
         Ok(set)
     }
@@ -203,6 +215,7 @@ impl LightSet {
         out.cutoff_angle = idx.iter().map(|&j| self.cutoff_angle[j]).collect();
         out.beam_width = idx.iter().map(|&j| self.beam_width[j]).collect();
         out.spot_texture = idx.iter().map(|&j| self.spot_texture[j].clone()).collect();
+        out.patch = idx.iter().map(|&j| self.patch[j]).collect();
         Ok(out)
     }
 

@@ -16,6 +16,9 @@
 //! - directional: F = E (irradiance at normal incidence), wo = -direction.
 //! - oriented point (a piece of area A_k of an emitter of radiance L, `intensity` I0 = L A_k in W/sr):
 //!   I(w) = I0 max(0, cos theta), theta between `normal` and w = (p - position) / d; F = I(w) / d^2.
+//!   With a `patch` (the piece of the emitter the point stands for) and p within a few patch radii,
+//!   F = I0 PSA / (A cos_r) instead: the patch's projected solid angle, no 1 / d^2 spike (`patch`
+//!   module; the rule, its unbiasedness and its deviation for glossy receivers are documented there).
 //! - VPL (`intensity` = Phi, W): a particle that arrived at the VPL from direction `incident` (unit,
 //!   pointing from the VPL back toward where the particle came from) with flux Phi (already multiplied
 //!   by the shading-normal correction |incident . n_s| / |incident . n_g|). Its radiant intensity toward
@@ -44,6 +47,7 @@
 pub mod arrays;
 pub mod animated;
 pub mod gather;
+pub mod patch;
 pub mod photon_map;
 pub mod generate;
 pub mod spot_texture;
@@ -97,6 +101,9 @@ pub struct LightSet {
     /// Centre and radius of the scene's bounding sphere (directional power and shadow-map fitting).
     pub scene_center: Vec3,
     pub scene_radius: f32,
+    /// Oriented point: the piece of its area emitter it stands for (4 corners of a planar convex
+    /// quadrilateral, `patch` module), used in the near field; all zero = none (other kinds too).
+    pub patch: Vec<[Vec3; 4]>,
     /// Bound on the VPL geometry term G = cos cos / d^2 (1/m^2); `f32::INFINITY` = no clamp.
     pub vpl_clamp: f32,
 }
@@ -186,6 +193,19 @@ impl LightSet {
         self.geo_normal.push(Vec3::ZERO);
         self.incident.push(Vec3::ZERO);
         self.bsdf.push(bytemuck::Zeroable::zeroed());
+        self.patch.push([Vec3::ZERO; 4]);
+    }
+
+    /// Give oriented point j its patch (`patch` module; all-zero corners = none).
+    ///
+    /// Errors: `InvalidParameter` for another kind, non-finite corners or a patch of zero area.
+    pub fn set_patch(&mut self, j: usize, corners: [Vec3; 4]) -> Result<()> {
+        patch::check(j, &corners)?;
+        if self.kind[j] != LightKind::OrientedPoint && !patch::is_none(&corners) {
+            return Err(Error::invalid(format!("light {j}: only oriented points have a patch, got a {:?}", self.kind[j])));
+        }
+        self.patch[j] = corners;
+        Ok(())
     }
 
     /// Add an oriented point light: I(w) = I0 max(0, cos theta) around the unit `normal`; I0 in W/sr.
@@ -228,6 +248,7 @@ impl LightSet {
         self.geo_normal.extend_from_slice(&other.geo_normal);
         self.incident.extend_from_slice(&other.incident);
         self.bsdf.extend_from_slice(&other.bsdf);
+        self.patch.extend_from_slice(&other.patch);
     }
 
     /// Add an isotropic point light of intensity I (W/sr).
@@ -333,7 +354,12 @@ impl LightSet {
                 if !(cos > 0.0) {
                     return None;
                 }
-                self.intensity[j] * (cos * inv_d2)
+                let c = &self.patch[j];
+                if patch::is_near(c, p) {
+                    patch::near_field(c, self.intensity[j], p, n, wo)?
+                } else {
+                    self.intensity[j] * (cos * inv_d2)
+                }
             }
             LightKind::Vpl => {
                 let (n_s, n_g, incident) = (self.normal[j], self.geo_normal[j], self.incident[j]);

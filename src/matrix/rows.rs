@@ -15,7 +15,7 @@
 //! `gpu::rows::MAX_LIGHTS_PER_DISPATCH` lights (and 128 MiB of `GpuLight`s) per dispatch.
 //!
 //! The matrix keeps the row pass's GPU memory between calls (all lights as `GpuLight`s, the cube atlas
-//! and the output buffer: at most `RowOptions::memory_budget` + 128 MiB + 192 bytes per light), so that a
+//! and the output buffer: at most `RowOptions::memory_budget` + 128 MiB + 256 bytes per light), so that a
 //! budget sweep does not pay hundreds of MiB of allocation per call; a larger call grows it.
 //!
 //! Values equal the column pass's (`columns.wgsl`) up to visibility decisions: the same WGSL evaluates
@@ -54,7 +54,7 @@ use std::time::Instant;
 /// Most cubes in one depth array texture (2048 layers / 6).
 pub const MAX_CUBES_PER_BATCH: usize = 341;
 /// Bytes of one `GpuLight`.
-const LIGHT_BYTES: u64 = 192;
+const LIGHT_BYTES: u64 = 256;
 /// Mitsuba's math::RayEpsilon<float> (offset_p), as `bvh.wgsl`.
 const RAY_EPSILON: f32 = 8.940_697e-5;
 /// The directional stand-in point lies this factor beyond the scene's bounding sphere as seen from the
@@ -134,7 +134,7 @@ impl GpuBackend {
             &format!("rows: {r} rows x {n} lights x RGB float32"),
             crate::memory::product(&[r as u64, n as u64, 12]),
         )?;
-        crate::memory::check_gpu(&self.ctx, &format!("rows: {n} lights (192 bytes each on the GPU)"), crate::memory::product(&[n as u64, LIGHT_BYTES]), false)?;
+        crate::memory::check_gpu(&self.ctx, &format!("rows: {n} lights (256 bytes each on the GPU)"), crate::memory::product(&[n as u64, LIGHT_BYTES]), false)?;
         if self.opts.visibility != Visibility::RayTraced {
             let res = opts.resolution as u64;
             crate::memory::check_gpu(&self.ctx, &format!("rows: a {res}^2 cube depth map (shadow_map_size = {res})"), crate::memory::product(&[24, res, res]), false)?;

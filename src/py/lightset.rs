@@ -15,9 +15,9 @@ use std::sync::Arc;
 /// u32 words of one `GpuBsdf`.
 const BSDF_WORDS: usize = std::mem::size_of::<GpuBsdf>() / 4;
 /// Keyword arguments of `from_arrays`.
-const KEYS: [&str; 13] = [
+const KEYS: [&str; 14] = [
     "kind", "position", "direction", "normal", "geo_normal", "incident", "intensity", "power", "cutoff_angle",
-    "beam_width", "bsdf", "albedo", "vpl_clamp",
+    "beam_width", "bsdf", "albedo", "vpl_clamp", "patch",
 ];
 
 /// A set of lights (struct of arrays); numpy views via the properties.
@@ -110,6 +110,15 @@ impl LightSet {
         let words: Vec<u32> = bytemuck::cast_slice(&self.inner.bsdf).to_vec();
         array(py, words, &[self.inner.len(), BSDF_WORDS])
     }
+    /// (n, 4, 3) float32: each oriented point's patch, the 4 corners (m, in order around a planar convex
+    /// quadrilateral; a triangle repeats one) of the piece of area emitter it stands for; receivers
+    /// within 3 patch radii of its centre get the patch's projected solid angle instead of 1 / d^2
+    /// (issue 13). All zero = none (other kinds, sphere emitters, user-made points without one).
+    #[getter]
+    fn patch<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let flat: Vec<f32> = self.inner.patch.iter().flat_map(|c| c.iter().flat_map(|v| v.to_array())).collect();
+        array(py, flat, &[self.inner.len(), 4, 3])
+    }
     /// Centre (3,) and radius of the scene's bounding sphere the set belongs to.
     #[getter]
     fn scene_sphere(&self) -> ([f32; 3], f32) {
@@ -135,6 +144,8 @@ impl LightSet {
     ///     bsdf: (n, 20) uint32 VPL BSDF records (the `bsdf` property of a set of the same scene), or
     ///     albedo: (n, 3) or (n,) diffuse reflectance in [0, 1] of each VPL's Lambertian BSDF.
     ///     vpl_clamp: bound on the VPL geometry term in 1/m^2 (default inf: no clamp).
+    ///     patch: (n, 4, 3) corners (m) of each oriented point's patch (the `patch` property); all zero
+    ///         or omitted = none (point formula everywhere); ignored for other kinds.
     ///
     /// Fields a kind does not use are ignored and stored as 0, and unit vectors are stored as given
     /// (not renormalised), so ``LightSet.from_arrays(scene, kind=s.kind, position=s.position, ...)``
@@ -147,7 +158,8 @@ impl LightSet {
     ///     ValueError: naming the argument and light: a missing required array, a shape other than
     ///         the expected one (both shapes given), a non-numeric dtype, NaN or infinite values,
     ///         negative intensity or power, a vector whose length is not 1 (within 1e-4), spot angles
-    ///         out of range, an unknown kind, an unknown keyword.
+    ///         out of range, an unknown kind, an unknown keyword, a patch with NaN/infinite corners or
+    ///         zero area.
     #[staticmethod]
     #[pyo3(signature = (scene, **arrays))]
     fn from_arrays(py: Python<'_>, scene: &Scene, arrays: Option<&Bound<'_, PyDict>>) -> PyResult<LightSet> {
@@ -277,7 +289,16 @@ fn from_arrays_impl(py: Python<'_>, scene: &Scene, kwargs: Option<&Bound<'_, PyD
         cutoff_angle: fl("cutoff_angle")?,
         beam_width: fl("beam_width")?,
         bsdf: None,
+        patch: None,
     };
+    if let Some(p) = get("patch")? {
+        let (a, shape) = numeric(py, "patch", &p, "float32", false)?;
+        if shape != [n, 4, 3] {
+            return Err(Error::invalid(format!("patch must have shape (n, 4, 3) = ({n}, 4, 3), got {}", shape_str(&shape))).into());
+        }
+        let flat: Vec<f32> = a.call_method0("ravel")?.call_method0("tolist")?.extract()?;
+        arrays.patch = Some(flat.chunks_exact(12).map(|c| [0, 1, 2, 3].map(|k| Vec3::from_slice(&c[3 * k..3 * k + 3]))).collect());
+    }
     // The VPL BSDF: raw records (the `bsdf` property of another set of this scene) or a diffuse albedo.
     match (get("bsdf")?, get("albedo")?) {
         (Some(_), Some(_)) => return Err(Error::invalid("give either bsdf= or albedo=, not both").into()),

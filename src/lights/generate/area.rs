@@ -15,6 +15,11 @@
 //! `flip_normals`). The light sits at Mitsuba's `offset_p` above the surface, so its own surface never
 //! shadows it. Zero-area or zero-radiance emitters get no lights (zero contribution).
 //!
+//! Each mesh light carries its patch (`LightSet::patch`, `lights::patch`): the part of its stratum in
+//! the triangle it fell in (`AreaEmitter::stratum_piece`), within which it is uniform; receivers in the
+//! patch's near field use the patch's projected solid angle instead of 1 / d^2. Sphere lights and
+//! textured emitters have none (the patch formula assumes L constant over the patch).
+//!
 //! Textured radiance (`Emitter::Area::texture`): each light takes L at its own uv (mesh uvs
 //! interpolated, or (b1, b2) without uvs; spheres (phi / 2pi, theta / pi) of the world direction from the
 //! centre, as `view_resolve`), I0 = L(uv) A_e / n_e, which keeps each emitter's lights an unbiased
@@ -23,7 +28,7 @@
 //! L at their own uv.
 use super::sampling::{equal_area_cells, stream, uniform, uniform_triangle, STREAM_AREA};
 use crate::error::Result;
-use crate::lights::LightSet;
+use crate::lights::{patch, LightSet};
 use crate::raytrace::offset_p;
 use crate::scene::texture::eval as eval_texture;
 use crate::scene::{Emitter, Scene, ShapeKind, Texture};
@@ -103,6 +108,38 @@ impl AreaEmitter {
                 (*center + d * *radius, if *flip { -d } else { d }, sphere_uv(d), SurfaceTie::Sphere { mesh: self.mesh, direction: d })
             }
         }
+    }
+}
+
+impl AreaEmitter {
+    /// The piece of stratum [lo, hi) (fractions of the cumulative area) that holds the point
+    /// `sample_point_tied(u0, .)` returns: the stratum's part of that point's triangle, a strip between
+    /// two lines parallel to the edge (p0, p1) (`uniform_triangle` maps v to the distance from that
+    /// edge), as 4 corners in order (a triangle repeats p2). Spheres: no patch (all zero).
+    pub fn stratum_piece(&self, u0: f32, lo: f64, hi: f64) -> [Vec3; 4] {
+        let AreaShape::Triangles { triangles, cdf, .. } = &self.shape else {
+            return [Vec3::ZERO; 4];
+        };
+        let total = *cdf.last().unwrap_or(&0.0);
+        let target = u0 as f64 * total;
+        let k = cdf.partition_point(|&c| c <= target).min(triangles.len() - 1);
+        let before = if k == 0 { 0.0 } else { cdf[k - 1] };
+        let a = cdf[k] - before;
+        if !(a > 0.0) {
+            return [Vec3::ZERO; 4];
+        }
+        // The stratum's range inside triangle k, widened to hold the point's own (rounded) target.
+        let v0 = ((lo * total).min(target).max(before) - before) / a;
+        let v1 = ((hi * total).max(target).min(cdf[k]) - before) / a;
+        let ([p0, p1, p2], _) = triangles[k];
+        // b2 = 1 - sqrt(v): the strip between b2 = 1 - sqrt(v1) and 1 - sqrt(v0).
+        let edge = |v: f64| {
+            let b2 = (1.0 - v.clamp(0.0, 1.0).sqrt()) as f32;
+            (p0 * (1.0 - b2) + p2 * b2, p1 * (1.0 - b2) + p2 * b2)
+        };
+        let (q0, q1) = edge(v1);
+        let (q3, q2) = edge(v0);
+        [q0, q1, q2, q3]
     }
 }
 
@@ -261,8 +298,16 @@ pub fn area_lights_tied(
             AreaShape::Triangles { .. } => {
                 for k in 0..n_e {
                     let u0 = ((k as f64 + uniform(&mut rng) as f64) / n_e as f64) as f32;
-                    let (p, normal, uv, tie) = emitter.sample_point_tied(u0.min(1.0 - f32::EPSILON), uniform(&mut rng));
+                    let u0 = u0.min(1.0 - f32::EPSILON);
+                    let (p, normal, uv, tie) = emitter.sample_point_tied(u0, uniform(&mut rng));
                     set.push_oriented_point(offset_p(p, normal, normal), normal, emitter.radiance_at(uv) * scale)?;
+                    let piece = emitter.stratum_piece(u0, k as f64 / n_e as f64, (k + 1) as f64 / n_e as f64);
+                    // Textured emitters keep the point formula: the patch formula spreads the point's own
+                    // L(uv) over its whole strip, across texels of other radiance (measured: 14% instead of
+                    // 3% relative L2 on tests/test_materials.py's checkerboard light).
+                    if emitter.texture.is_none() && patch::quad_area(&piece) > 0.0 {
+                        set.set_patch(set.len() - 1, piece)?;
+                    }
                     ties.push((e, tie));
                 }
             }

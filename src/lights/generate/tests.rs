@@ -365,3 +365,33 @@ fn emitted_oriented_point_and_vpl() {
     assert!(s.emitted(1, -p, Vec3::Y).is_none());
     assert!((s.power(1).x - 1.5).abs() < 1e-5, "{}", s.power(1));
 }
+
+/// Issue 13 item 1: each area point's patch is the part of its stratum in its triangle, and the near-field estimate of a receiver 1 cm from the emitter is unbiased: its mean
+/// over seeds is L times the emitter's exact projected solid angle (`lights::patch`), with strata that
+/// straddle the quad's two triangles (n = 7).
+#[test]
+fn area_patches_are_stratum_pieces_and_the_near_field_is_unbiased() {
+    use crate::lights::patch;
+    let scene = furnace_box(0.5, vec![], true);
+    let corners = [Vec3::new(-0.3, 0.8, -0.3), Vec3::new(0.3, 0.8, -0.3), Vec3::new(0.3, 0.8, 0.3), Vec3::new(-0.3, 0.8, 0.3)];
+    let (p, n) = (Vec3::new(0.05, 0.79, 0.02), Vec3::Y);
+    let (exact, _) = patch::clipped_projected_solid_angle(&corners, p, n);
+    let seeds = 200;
+    let mut mean = 0.0f64;
+    for seed in 0..seeds {
+        let set = generate_lights(&scene, &GenerateOptions { seed, ..only(7, 0, 0) }).unwrap();
+        // Each patch is (part of) its stratum of area 0.36 / 7; only the stratum straddling the two
+        // triangles keeps just the piece its point fell in.
+        let areas: Vec<f64> = set.patch.iter().map(|c| patch::quad_area(c) as f64).collect();
+        let a_j = 0.36 / 7.0;
+        assert!(areas.iter().all(|&a| a > 0.0 && a <= a_j * (1.0 + EXACT_REL)), "{areas:?}");
+        assert_eq!(areas.iter().filter(|&&a| (a / a_j - 1.0).abs() > EXACT_REL).count(), 1, "{areas:?}");
+        for j in 0..set.len() {
+            assert!(patch::is_near(&set.patch[j], p));
+            // A diffuse receiver's value is f_r F cos_r: sum F cos_r / L over the lights (L = (1, 2, 3)).
+            let (wo, f, _) = set.emitted(j, p, n).unwrap();
+            mean += (f.x * wo.dot(n)) as f64 / seeds as f64;
+        }
+    }
+    assert!((mean / exact as f64 - 1.0).abs() < 5e-3, "mean {mean} vs exact projected solid angle {exact}");
+}
