@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .bench_dask import add_dask_arguments, check_dask_arguments
 from .bench_mrcs import _display_path, _resolve_scene, ok_rows, settings_tag
 
 COLORS = {"power_sampling": "C0", "instant_radiosity": "C1", "mrcs": "C2", "clustered_visibility": "C3"}
@@ -56,11 +57,7 @@ def add_parser(sub) -> None:
     p.add_argument("--seeds", type=int, default=8)
     p.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"])
     p.add_argument("--out", default="out/bench")
-    p.add_argument("--workers", type=int, default=0,
-                   help="Dask LocalCluster worker processes (0: every render in this process, no cluster)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a running Dask scheduler")
-    p.add_argument("--reference-dir", default=None,
-                   help="brute-force references shared by the workers (default: <out>/references)")
+    add_dask_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -81,8 +78,7 @@ def _records(ok, method: str, keys: list) -> list:
 def run(args) -> dict:
     import manylights as ml
 
-    if args.workers < 0:
-        raise ValueError(f"--workers must be >= 0, got {args.workers}")
+    check_dask_arguments(args)
     if args.fuzzy < 1:
         raise ValueError(f"--fuzzy must be >= 1, got {args.fuzzy}")
     pairs = [_pair(c) for c in args.clusters]

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .bench_dask import add_dask_arguments, check_dask_arguments
+
 RATIOS = {"1:1": 1, "1:2": 2, "1:3": 3, "1:5": 5}
 # MRCS stages outside shadow maps + shading (the paper's "overhead"), and the GPU stages.
 OVERHEAD_STAGES = ("row_selection", "row_setup", "row_readback", "clustering")
@@ -39,12 +41,7 @@ def add_parser(sub) -> None:
                    help="GPU visibility (default: the device's own: ray_traced on the CPU, hybrid on a GPU)")
     p.add_argument("--shadow-map-size", type=int, default=512)
     p.add_argument("--out", default="out/bench")
-    p.add_argument("--workers", type=int, default=0,
-                   help="Dask LocalCluster worker processes (0: every render in this process, no cluster)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="a running Dask scheduler (tcp://host:8786) instead of a LocalCluster")
-    p.add_argument("--reference-dir", default=None,
-                   help="brute-force references shared by the workers (default: <out>/references)")
+    add_dask_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -78,8 +75,7 @@ def settings_tag(args) -> str:
 def run(args) -> dict:
     import manylights as ml
 
-    if args.workers is not None and args.workers < 0:
-        raise ValueError(f"--workers must be >= 0, got {args.workers}")
+    check_dask_arguments(args)
     path = _resolve_scene(args.scene)
     film = ml.load_scene(path)
     size = (args.res, max(1, round(args.res * film.height / film.width)))

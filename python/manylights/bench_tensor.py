@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .bench_dask import add_dask_arguments, check_dask_arguments
 
 def add_parser(sub) -> None:
     p = sub.add_parser("tensor", help="tensor clustering vs per-frame MRCS on an animation (error, flicker)",
@@ -56,10 +57,7 @@ def add_parser(sub) -> None:
     p.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"])
     p.add_argument("--cache", default="out/bench/cache", help="brute-force references (shared by the workers)")
     p.add_argument("--out", default="out/bench")
-    p.add_argument("--workers", type=int, default=0,
-                   help="Dask LocalCluster worker processes (0: every run in this process, no cluster)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="a running Dask scheduler (tcp://host:8786) instead of a LocalCluster")
+    add_dask_arguments(p, reference_dir=False)
     p.set_defaults(run=run)
 
 
@@ -95,8 +93,7 @@ def run(args) -> dict:
     from .sweep import _connect
 
     _check(args)
-    if args.workers is not None and args.workers < 0:
-        raise ValueError(f"--workers must be >= 0, got {args.workers}")
+    check_dask_arguments(args)
     path = sc.resolve(args.scene)
     name = path.parent.name
     if name not in sc.animated():
