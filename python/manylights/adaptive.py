@@ -82,6 +82,7 @@ scene, the notebook cell) are not implemented.
 """
 from __future__ import annotations
 
+import os
 import time
 from typing import Iterator, Optional, Sequence
 
@@ -417,9 +418,27 @@ def _measure_costs(A, seed: int) -> tuple[float, float]:
     return max(t_row, 1e-9), max(t_col, 1e-9)
 
 
+def check_targets(target_error, time_budget) -> tuple[Optional[float], Optional[float]]:
+    """(target_error, time_budget) as floats (or None), checked: at least one given, each finite and > 0.
+
+    Raises:
+        ValueError: neither given, NaN/inf, <= 0 or not a number (the message names the parameter)."""
+    if target_error is None and time_budget is None:
+        raise ValueError("give target_error (relative L2, e.g. 0.02) or time_budget (seconds) or both")
+    if target_error is not None:
+        target_error = _v.real("target_error", target_error)
+        if not target_error > 0:
+            raise ValueError(f"target_error must be a relative L2 > 0, got {target_error}")
+    if time_budget is not None:
+        time_budget = _v.real("time_budget", time_budget)
+        if not time_budget > 0:
+            raise ValueError(f"time_budget must be seconds > 0, got {time_budget}")
+    return target_error, time_budget
+
+
 def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
            first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
-           add_emitted: bool = True, progress: bool = True) -> RenderResult:
+           add_emitted: bool = True, progress: bool = True, **scene_options) -> RenderResult:
     """Render ``A``'s column sum to a target relative L2 and/or within a time budget, choosing the budget
     (issue 14, item 3): progressive MRCS (``mrcs_progressive``) with doubling rounds, stopped when the
     estimated relative L2 (``error_estimate``, paired representatives) is <= ``SAFETY`` (0.8) x
@@ -432,8 +451,13 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
     (8 of each, timed before rendering): rows get ``ROW_TIME_SHARE`` (25%) of the render time,
     ``rows = 1/3 * columns * t_column / t_row``, at least 8 and at most ``columns`` per round.
 
+    ``A`` may also be a scene XML path: then the light counts are chosen too (issue 14 item 4,
+    ``manylights.light_budget.render_scene``; ``scene_options``: params, size, device, max_depth,
+    first_lights, max_lights, count_rows, generation_share), and ``target_error`` is the error of the
+    whole image against the converged scene.
+
     Args:
-        A: a ``LightMatrix``.
+        A: a ``LightMatrix``, or a scene XML path (str / os.PathLike).
         target_error: relative L2 to reach (a float > 0), or None (then time_budget is needed).
         time_budget: seconds of rendering (> 0), or None (then target_error is needed).
         seed: as ``mrcs_progressive``.
@@ -453,23 +477,24 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         (``estimates``).
 
     Raises:
-        TypeError: A is not a LightMatrix. ValueError: neither target_error nor time_budget given, a
+        TypeError: A is not a LightMatrix or a path; scene_options with a LightMatrix.
+        FileNotFoundError: a scene path that does not exist.
+        ValueError: neither target_error nor time_budget given, a
             target_error or time_budget that is not a finite number > 0, an empty light matrix (n = 0),
             first_columns < 2 or > n, max_rounds < 1, rows_per_column outside (0, 1], a negative seed.
     """
+    if isinstance(A, (str, os.PathLike)):
+        from .light_budget import render_scene
+
+        return render_scene(A, target_error, time_budget, seed, first_columns=first_columns, max_rounds=max_rounds,
+                            rows_per_column=rows_per_column, add_emitted=add_emitted, progress=progress,
+                            **scene_options)
+    if scene_options:
+        raise TypeError(f"render: {', '.join(sorted(scene_options))} only apply to a scene path, not a LightMatrix")
     m, n = _matrix_shape(A)
     if n == 0:
         raise ValueError("the light matrix has no lights (n = 0): nothing to render")
-    if target_error is None and time_budget is None:
-        raise ValueError("give target_error (relative L2, e.g. 0.02) or time_budget (seconds) or both")
-    if target_error is not None:
-        target_error = _v.real("target_error", target_error)
-        if not target_error > 0:
-            raise ValueError(f"target_error must be a relative L2 > 0, got {target_error}")
-    if time_budget is not None:
-        time_budget = _v.real("time_budget", time_budget)
-        if not time_budget > 0:
-            raise ValueError(f"time_budget must be seconds > 0, got {time_budget}")
+    target_error, time_budget = check_targets(target_error, time_budget)
     seed = _v.seed(seed)
     max_rounds = _v.integer("max_rounds", max_rounds, 1, 64)
     if first_columns is None:
