@@ -50,6 +50,7 @@ def test_counts_are_chosen_reproducibly_and_meet_their_shares():
             assert lc[k]["estimates"][-2][1] > light_budget.SAFETY * share
     assert lc["indirect"]["count"] > 256, "VPLs at 32 px need more than the first 256 for a 5% target"
     assert a.budget["shadow_map_size"]["value"] is None  # CPU: exact rays
+    assert a.budget["target_reached"] is True
     assert a.budget["estimated_total_error"] == pytest.approx(math.hypot(lc["estimated_generation_error"],
                                                                          a.error_estimate))
     # The MRCS part against the brute force of exactly these lights: within its share of the target.
