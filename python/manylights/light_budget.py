@@ -26,10 +26,11 @@ seed), which is at least as good (area points and environment directions are str
 two independent sets of n/2; VPLs are equal in distribution), so (6) is a conservative estimate of what
 the picked count leaves -- of its VARIANCE: the VPLs' geometry-term clamp (``generate_lights``' clamp)
 removes energy deterministically, which no comparison of two draws can see (veach-ajar 64x36: estimate
-11% at 65,536 VPLs, 20% against Mitsuba; README). Growth: every kind starts at ``first_lights`` and each kind whose estimate is
-above ``SAFETY`` x its share doubles (recomputed at the new count) until it is below, or ``max_lights``
-is reached, or the count phase has used its part of ``time_budget`` (a quarter); a kind whose lights add
-nothing at any row stops at once (estimate 0).
+11-13% at 65,536 VPLs, 20-25% against Mitsuba; README). Growth: every kind starts at ``first_lights``
+and each kind whose estimate is above ``SAFETY`` x its share doubles (recomputed at the new count) until
+it is below, or ``max_lights`` is reached, or the count phase has used its part of ``time_budget`` (a
+quarter); a kind whose lights add nothing at any row stops at once (estimate 0). With only a time budget
+the kind of the largest estimate doubles first.
 
 Which kinds exist (``budget['light_counts'][kind]['reason']``):
 
@@ -179,16 +180,17 @@ def choose_light_counts(scene, target_error: Optional[float], time_budget: Optio
     halves: dict = {}  # kind -> (count, S_a, S_b)
 
     def measure(k: str, n: int) -> None:
-        s_a = _row_sums(scene, _kind_lights(scene, k, n // 2, max_depth, _derived_seed(seed, 1000 * _STREAM[k] + 2 * n), d),
-                        rows, matrix_options)
-        s_b = _row_sums(scene, _kind_lights(scene, k, n // 2, max_depth, _derived_seed(seed, 1000 * _STREAM[k] + 2 * n + 1), d),
-                        rows, matrix_options)
-        halves[k] = (n, s_a, s_b)
+        # Two independent sets of n/2 lights, seeds from (seed, kind, count, half).
+        s = [_row_sums(scene, _kind_lights(scene, k, n // 2, max_depth,
+                                           _derived_seed(seed, 1000 * _STREAM[k] + 2 * n + half), d),
+                       rows, matrix_options) for half in (0, 1)]
+        halves[k] = (n, s[0], s[1])
 
     def estimates() -> dict:
         total = base + emitted_rows + sum(0.5 * (sa + sb) for _, sa, sb in halves.values())
         den = float(np.linalg.norm(total))
-        return {k: (0.0 if den == 0 else float(np.linalg.norm(0.5 * (sa - sb))) / den) for k, (_, sa, sb) in halves.items()}
+        return {k: (0.0 if den == 0 else float(np.linalg.norm(0.5 * (sa - sb))) / den)
+                for k, (_, sa, sb) in halves.items()}
 
     for k in active:
         out[k] = {"count": first_lights, "estimates": [], "share": share}
@@ -315,14 +317,16 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     res.budget["integrator"] = {"type": integ, "max_depth": max_depth}
     if A.device.get("kind") == "gpu":
         res.budget["shadow_map_size"] = {"value": A.shadow_map_size, "reason": (
-            "hybrid visibility (default): every uncertain shadow-map test is an exact ray, so the size changes "
-            "the cost, not the image; the default is kept")}
+            "hybrid visibility (default): every uncertain shadow-map test is an exact ray, so the size "
+            "changes the cost, not the image; the default is kept")}
     else:
-        res.budget["shadow_map_size"] = {"value": None, "reason": "the CPU backend casts exact shadow rays: no shadow maps"}
+        res.budget["shadow_map_size"] = {"value": None,
+                                         "reason": "the CPU backend casts exact shadow rays: no shadow maps"}
     res.budget["glossy"] = {"reason": "generate_lights has no separate glossy work to choose (no such option)"}
-    res.budget["estimated_total_error"] = float(np.hypot(counts["estimated_generation_error"], res.error_estimate))
+    total = float(np.hypot(counts["estimated_generation_error"], res.error_estimate))
+    res.budget["estimated_total_error"] = total
     # Halving sees the light generation's variance, not the VPL clamp's bias (module doc).
-    res.budget["target_reached"] = None if target_error is None else bool(res.budget["estimated_total_error"] <= target_error)
+    res.budget["target_reached"] = None if target_error is None else bool(total <= target_error)
     res.timings["light_counts"] = counts["seconds"]
     res.timings["lights"] = t_lights
     return res
