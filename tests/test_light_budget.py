@@ -137,3 +137,13 @@ def test_bad_paths_and_options(tmp_path):
         ml.render(A, target_error=0.05, first_lights=64)
     with pytest.raises(TypeError, match="LightMatrix"):
         ml.render(42, target_error=0.05)
+
+
+def test_time_budget_only_gives_every_kind_a_reason():
+    res = ml.render(CBOX, time_budget=2.0, max_depth=-1, **OPTS)
+    lc = res.budget["light_counts"]
+    assert res.budget["target_reached"] is None
+    assert all(lc[k]["reason"] for k in light_budget.KINDS)
+    assert lc["area"]["count"] >= 256 and lc["indirect"]["count"] >= 256 and lc["environment"]["count"] == 0
+    assert res.budget["stopped"] in ("time budget", "max_rounds", "all lights: brute force",
+                                     "all lights: time budget too small for brute force")
