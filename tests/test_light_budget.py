@@ -147,3 +147,12 @@ def test_time_budget_only_gives_every_kind_a_reason():
     assert lc["area"]["count"] >= 256 and lc["indirect"]["count"] >= 256 and lc["environment"]["count"] == 0
     assert res.budget["stopped"] in ("time budget", "max_rounds", "all lights: brute force",
                                      "all lights: time budget too small for brute force")
+
+
+def test_malformed_scene_file(tmp_path):
+    f = tmp_path / "broken.xml"
+    f.write_text("<scene version='3.0.0'><integrator type='path'>")
+    with pytest.raises(ml.SceneError):
+        ml.render(f, target_error=0.05)
+    with pytest.raises(ValueError, match="well-formed"):
+        light_budget.integrator_depth(f)

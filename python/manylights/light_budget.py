@@ -86,12 +86,15 @@ def integrator_depth(path, params: Optional[dict] = None) -> tuple[str, int]:
     ``$name`` values are resolved from ``<default>`` elements and ``params`` (which override them).
 
     Raises:
-        FileNotFoundError: no such file. ValueError: another integrator type (give ``max_depth=``), a
-            ``max_depth`` that is not an integer or references an undefined ``$name``."""
+        FileNotFoundError: no such file. ValueError: malformed XML, another integrator type (give
+            ``max_depth=``), a ``max_depth`` that is not an integer or references an undefined ``$name``."""
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"scene file not found: {p}")
-    root = ET.parse(p).getroot()
+    try:
+        root = ET.parse(p).getroot()
+    except ET.ParseError as e:
+        raise ValueError(f"{p}: not a well-formed XML file ({e})") from None
     defaults = {d.get("name"): d.get("value") for d in root if d.tag == "default"}
     defaults.update({k: str(v) for k, v in (params or {}).items()})
 
@@ -110,7 +113,8 @@ def integrator_depth(path, params: Optional[dict] = None) -> tuple[str, int]:
         return kind, 2
     if kind not in ("path", "volpath"):
         raise ValueError(f"{p}: integrator type {kind!r} is not path, volpath or direct: give max_depth=")
-    depth = next((resolve(e.get("value")) for e in integ if e.tag == "integer" and e.get("name") == "max_depth"), "-1")
+    depth = next((resolve(e.get("value")) for e in integ
+                  if e.tag == "integer" and e.get("name") == "max_depth"), "-1")
     try:
         return kind, int(depth)
     except ValueError:
@@ -292,14 +296,15 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         raise ValueError(f"generation_share must be in (0, 1), got {generation_share}")
     t_start = time.perf_counter()
     params = dict(params or {})
+    if max_depth is not None:
+        max_depth = _v.integer("max_depth", max_depth, -1, 1 << 20)
+        if max_depth in (0, 1):
+            raise ValueError(f"max_depth must be -1 or >= 2 (Mitsuba's path depth), got {max_depth}")
+    scene = load_scene(p, size=size, **params)  # malformed XML: SceneError naming file and line
     if max_depth is None:
         integ, max_depth = integrator_depth(p, params)
     else:
         integ = "given"
-    max_depth = _v.integer("max_depth", max_depth, -1, 1 << 20)
-    if max_depth in (0, 1):
-        raise ValueError(f"max_depth must be -1 or >= 2 (Mitsuba's path depth), got {max_depth}")
-    scene = load_scene(p, size=size, **params)
     matrix_options = {"device": device, "max_depth": max_depth}
     counts = choose_light_counts(scene, target_error, time_budget, seed, max_depth=max_depth,
                                  first_lights=first_lights, max_lights=max_lights, count_rows=count_rows,
