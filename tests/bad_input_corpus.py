@@ -1024,6 +1024,24 @@ cases_for("render", [
     ("zero rows_per_column", lambda c: c.ml.render(c.A, target_error=0.1, rows_per_column=0), ["rows_per_column"]),
     ("rows_per_column above 1", lambda c: c.ml.render(c.A, target_error=0.1, rows_per_column=2), ["rows_per_column"]),
 ])
+DEMO_XML = REPO / "scenes" / "demo" / "scene.xml"
+cases_for("render[scene path]", [
+    ("zero target", lambda c: c.ml.render(DEMO_XML, target_error=0.0), ["target_error"]),
+    ("NaN target", lambda c: c.ml.render(DEMO_XML, target_error=float("nan")), ["target_error"]),
+    ("negative time budget", lambda c: c.ml.render(DEMO_XML, time_budget=-1.0), ["time_budget"]),
+    ("no target and no budget", lambda c: c.ml.render(DEMO_XML), ["target_error"]),
+    ("odd first_lights", lambda c: c.ml.render(DEMO_XML, target_error=0.1, first_lights=5), ["first_lights"]),
+    ("max_lights below first_lights", lambda c: c.ml.render(DEMO_XML, target_error=0.1, max_lights=4),
+     ["max_lights"]),
+    ("generation_share 0", lambda c: c.ml.render(DEMO_XML, target_error=0.1, generation_share=0), ["generation_share"]),
+    ("max_depth 1", lambda c: c.ml.render(DEMO_XML, target_error=0.1, max_depth=1), ["max_depth"]),
+])
+cases_for("render[scene path]", [
+    ("missing scene file", lambda c: c.ml.render(c.tmp / "missing.xml", target_error=0.1), ["missing.xml"]),
+], raises=("FileNotFoundError",))
+cases_for("render[scene path]", [
+    ("scene options with a matrix", lambda c: c.ml.render(c.A, target_error=0.1, first_lights=64), ["first_lights"]),
+], raises=("TypeError",))
 cases_for("native.mrcs_row_variance", [
     ("label out of range", lambda c: c.ml._native.mrcs_row_variance(
         np.ones((2, 3, 3), np.float32), np.array([0, 1, 5], np.int32), np.full(3, 0.5), 2), ["assignment[2]"]),

@@ -186,6 +186,10 @@ def _check_adaptive_block(ns):
     assert res.error_image.shape == (32, 32) and ns["r"].budget["columns"] == 496
     assert best.budget["stopped"] == "target error reached" and best.error_estimate <= 0.05
     assert ml.relative_l2(best.image, truth) <= 0.1
+    # The scene path: cbox has an area light and no environment, its path integrator asks for VPLs.
+    counts = ns["auto"].budget["light_counts"]
+    assert counts["area"]["count"] >= 256 and counts["indirect"]["count"] >= 256
+    assert counts["environment"]["count"] == 0 and ns["auto"].budget["target_reached"] is True
 
 
 CHECKS = {"Error estimates, progressive MRCS and budgets": _check_adaptive_block,

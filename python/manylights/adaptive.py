@@ -1,5 +1,5 @@
 """An error estimate for MRCS without the reference, progressive MRCS and budgets chosen automatically
-(issue 14, items 1-3).
+(issue 14, items 1-3; item 4, the light counts of a scene, in ``manylights.light_budget``).
 
 Error estimate (``RenderResult.error_estimate``, ``RenderResult.error_image``)
 ------------------------------------------------------------------------------
@@ -39,14 +39,26 @@ cbox-lights 32x32, 8 seeds x 4 budgets), so MRCS does not report it. Two estimat
 
 Calibration (``python -m manylights.bench calibrate``, 32 px wide, 2048 lights, budgets rows:columns
 16:32, 32:64, 32:128, 64:256, 8 seeds, 6 scenes, CPU backend): estimate within a factor 2 of the true
-relative L2 against brute force in 87.5% of 192 runs for (3) (cbox-lights 94%, bounce 97%, demo 97%,
-matpreview 94%, bunny 97%, veach-ajar 47%; 95.6% without veach-ajar) and 72.4% for (4) with h = rows.
-Why veach-ajar fails, measured: at 64 rows 93% of its lights (the room behind the door) have a zero
-reduced column and share ONE zero-norm cluster drawn by power; nearly every draw lands on a light that
-adds nothing, so both halves agree (``X1 - X2`` ~ 0) while the image misses that cluster's light (3.8%
-of the image). The estimate is unbiased in the mean square (rms estimate 0.039 vs rms true error 0.040
-over 32 seeds) but bimodal, so single runs fall outside 2x. No two-sample estimate can see a stratum
-whose samples are almost always zero; the cure is more samples there (a budget change, not done here).
+relative L2 against brute force in 88.0% of 192 runs for (3) (cbox-lights 97%, bounce 97%, demo 97%,
+matpreview 94%, bunny 97%, veach-ajar 47%; 96.2% without veach-ajar) and 74.0% for (4) with h = rows:
+short of the issue's 90% because of veach-ajar. Two causes there, measured on its whole 576 x 2041
+matrix (32x18 px):
+
+(i) zero-norm lights: at 64 rows 93% of its lights have a zero reduced column. They shared ONE
+    power-drawn cluster: nearly every draw landed on a light adding nothing, both halves agreed and the
+    image missed that light (3.8% of the image). They now get ``ceil(c z / 8n)`` strata
+    (``zero_cluster_count``, src/cluster/mod.rs). A/B on the same non-zero clusters, 64 seeds: at 64:256
+    within 2x 36% -> 73%, median true error 0.038 -> 0.008; no change at the smaller budgets (16:32 38 /
+    36%, 32:64 55 / 48%, 32:128 55 / 58%: seed noise).
+(ii) VPL splotches: one VPL near the floor puts 52% of the image's L2 norm on 3 pixels (another 22% on
+    3 others). Rows that miss those pixels give it a small reduced norm, it shares a cluster of 3-8
+    lights at weight ~1-2, both halves usually skip it: the image misses it (true error ~0.52) and the
+    halves agree (estimate 0.1-0.3). No estimate from the run can see a light it never drew; this is
+    the row sampling's blind spot and dominates the failures at 16-32 rows (rms true error 2.3 at
+    16:32). An unshadowed bound ``|I_j| min(clamp, cos cos / d^2)`` over the view samples ranks that
+    VPL 20th of 2041 and points at the pixel next to its peak, but rows at the bound's top pixels did
+    not help (a quarter / half of the rows: within 2x 34% / 47% against 53% with stratified rows only,
+    8 seeds x 4 budgets): not kept.
 Results of (3) carry ``budget['unseen_lights']``, the number of lights no sampled row sees: when it is a
 large share of n, treat the estimate as a lower bound.
 
@@ -77,11 +89,23 @@ Budgets (``render``)
 row:column ratio from the measured seconds per row and per column on this device (rows get 25% of the
 time), stops at the target (by the estimate (3)) or before the time budget would be exceeded, and falls
 back to brute force (exact, said so in ``budget['stopped']``) when the next round would need more
-columns than there are lights. Items 4 and 5 of issue 14 (light counts and shadow-map resolution per
-scene, the notebook cell) are not implemented.
+columns than there are lights. ``render("scene.xml", ...)`` (item 4) also chooses the light counts
+before that: ``manylights.light_budget`` (its module doc: the error split (5), the halving estimate (6)).
+
+Symbols
+-------
+| here | meaning |
+|---|---|
+| ``A``, ``m``, ``n`` | the light matrix, its rows (pixels) and columns (lights) |
+| ``C_k``, ``J_k``, ``p_j`` | cluster k, its representative, light j's selection probability (``probability``) |
+| ``X``, ``X1``, ``X2`` | the MRCS estimate and the two half estimates of (3) |
+| ``T_i`` | exact pixel value at row i (row sum + emitted) |
+| ``Δr_t``, ``Δc_t``, ``a_t``, ``v_t`` | round t's new rows, new columns, combination weight, variance (1) summed |
+| ``SAFETY`` | stop at this fraction (0.8) of the target |
 """
 from __future__ import annotations
 
+import os
 import time
 from typing import Iterator, Optional, Sequence
 
@@ -417,9 +441,27 @@ def _measure_costs(A, seed: int) -> tuple[float, float]:
     return max(t_row, 1e-9), max(t_col, 1e-9)
 
 
+def check_targets(target_error, time_budget) -> tuple[Optional[float], Optional[float]]:
+    """(target_error, time_budget) as floats (or None), checked: at least one given, each finite and > 0.
+
+    Raises:
+        ValueError: neither given, NaN/inf, <= 0 or not a number (the message names the parameter)."""
+    if target_error is None and time_budget is None:
+        raise ValueError("give target_error (relative L2, e.g. 0.02) or time_budget (seconds) or both")
+    if target_error is not None:
+        target_error = _v.real("target_error", target_error)
+        if not target_error > 0:
+            raise ValueError(f"target_error must be a relative L2 > 0, got {target_error}")
+    if time_budget is not None:
+        time_budget = _v.real("time_budget", time_budget)
+        if not time_budget > 0:
+            raise ValueError(f"time_budget must be seconds > 0, got {time_budget}")
+    return target_error, time_budget
+
+
 def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
            first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
-           add_emitted: bool = True, progress: bool = True) -> RenderResult:
+           add_emitted: bool = True, progress: bool = True, **scene_options) -> RenderResult:
     """Render ``A``'s column sum to a target relative L2 and/or within a time budget, choosing the budget
     (issue 14, item 3): progressive MRCS (``mrcs_progressive``) with doubling rounds, stopped when the
     estimated relative L2 (``error_estimate``, paired representatives) is <= ``SAFETY`` (0.8) x
@@ -432,8 +474,13 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
     (8 of each, timed before rendering): rows get ``ROW_TIME_SHARE`` (25%) of the render time,
     ``rows = 1/3 * columns * t_column / t_row``, at least 8 and at most ``columns`` per round.
 
+    ``A`` may also be a scene XML path: then the light counts are chosen too (issue 14 item 4,
+    ``manylights.light_budget.render_scene``; ``scene_options``: params, size, device, max_depth,
+    first_lights, max_lights, count_rows, generation_share), and ``target_error`` is the error of the
+    whole image against the converged scene.
+
     Args:
-        A: a ``LightMatrix``.
+        A: a ``LightMatrix``, or a scene XML path (str / os.PathLike).
         target_error: relative L2 to reach (a float > 0), or None (then time_budget is needed).
         time_budget: seconds of rendering (> 0), or None (then target_error is needed).
         seed: as ``mrcs_progressive``.
@@ -453,23 +500,24 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         (``estimates``).
 
     Raises:
-        TypeError: A is not a LightMatrix. ValueError: neither target_error nor time_budget given, a
+        TypeError: A is not a LightMatrix or a path; scene_options with a LightMatrix.
+        FileNotFoundError: a scene path that does not exist.
+        ValueError: neither target_error nor time_budget given, a
             target_error or time_budget that is not a finite number > 0, an empty light matrix (n = 0),
             first_columns < 2 or > n, max_rounds < 1, rows_per_column outside (0, 1], a negative seed.
     """
+    if isinstance(A, (str, os.PathLike)):
+        from .light_budget import render_scene
+
+        return render_scene(A, target_error, time_budget, seed, first_columns=first_columns, max_rounds=max_rounds,
+                            rows_per_column=rows_per_column, add_emitted=add_emitted, progress=progress,
+                            **scene_options)
+    if scene_options:
+        raise TypeError(f"render: {', '.join(sorted(scene_options))} only apply to a scene path, not a LightMatrix")
     m, n = _matrix_shape(A)
     if n == 0:
         raise ValueError("the light matrix has no lights (n = 0): nothing to render")
-    if target_error is None and time_budget is None:
-        raise ValueError("give target_error (relative L2, e.g. 0.02) or time_budget (seconds) or both")
-    if target_error is not None:
-        target_error = _v.real("target_error", target_error)
-        if not target_error > 0:
-            raise ValueError(f"target_error must be a relative L2 > 0, got {target_error}")
-    if time_budget is not None:
-        time_budget = _v.real("time_budget", time_budget)
-        if not time_budget > 0:
-            raise ValueError(f"time_budget must be seconds > 0, got {time_budget}")
+    target_error, time_budget = check_targets(target_error, time_budget)
     seed = _v.seed(seed)
     max_rounds = _v.integer("max_rounds", max_rounds, 1, 64)
     if first_columns is None:

@@ -46,6 +46,14 @@ def _budgets(specs) -> list[tuple[int, int]]:
     return out
 
 
+def _load(path: Path, res: int):
+    """The scene at width ``res``, height from the film's own aspect ratio."""
+    import manylights as ml
+
+    film = ml.load_scene(path)
+    return ml.load_scene(path, size=(res, max(1, round(res * film.height / film.width))))
+
+
 def calibrate(A, truth: np.ndarray, budgets, seeds: int, estimators) -> list[dict]:
     """Runs of one matrix: dicts with estimator, rows, columns, seed, estimate, true relative L2, seconds."""
     import manylights as ml
@@ -74,7 +82,7 @@ def within(runs, factor: float = 2.0) -> float:
 def run(args) -> dict:
     import manylights as ml
 
-    from .bench_mrcs import _display_path, _load, _resolve_scene
+    from .bench_mrcs import _display_path, _resolve_scene
 
     budgets = _budgets(args.budgets)
     out = Path(args.out)

@@ -380,3 +380,24 @@ fn timing() {
         eprintln!("r = {r}, n = {n}, c = 900, {threads} thread(s): {:.3} s, cost {:.4e}", t.elapsed().as_secs_f64(), c.total_cost());
     }
 }
+
+#[test]
+fn zero_norm_strata_get_a_share_of_the_budget() {
+    // ceil(c z / 8n), at least c - #non-zero, every stratum and at least one non-zero cluster kept.
+    assert_eq!(zero_cluster_count(128, 140, 1900), 15); // veach-ajar-like: 93% unseen
+    assert_eq!(zero_cluster_count(128, 1900, 140), 2);
+    assert_eq!(zero_cluster_count(16, 1900, 1), 1);
+    assert_eq!(zero_cluster_count(100, 30, 570), 70); // the non-zero columns leave 70 over
+    assert_eq!(zero_cluster_count(2, 1, 1000), 1);
+    assert_eq!(zero_cluster_count(50, 1000, 0), 0);
+    // The clustering uses it: c = 128 over 2000 columns of which 1800 have zero reduced norm.
+    let n = 2000;
+    let mut reduced = vec![0.0f32; 8 * n];
+    for j in 0..200 {
+        reduced[(j % 8) * n + j] = 1.0 + j as f32;
+    }
+    let cl = cluster_reduced_columns(ReducedMatrix::new(&reduced, 8, n, 1).unwrap(), 128, &ClusterOptions::default()).unwrap();
+    let zero_clusters = cl.clusters.iter().filter(|c| c.iter().all(|&j| j >= 200)).count();
+    assert_eq!(zero_clusters, 15);
+    assert!(cl.clusters.iter().all(|c| !c.is_empty()));
+}

@@ -1,0 +1,158 @@
+"""Issue 14 item 4: ``ml.render("scene.xml", target_error=...)`` picks the light counts (manylights.light_budget)."""
+import math
+
+import numpy as np
+import pytest
+
+import manylights as ml
+from manylights import light_budget
+from manylights.adaptive import _derived_seed
+from conftest import REPO
+
+CBOX_LIGHTS = REPO / "scenes" / "cbox-lights" / "scene.xml"
+CBOX = REPO / "scenes" / "cbox" / "scene.xml"
+DELTA_EMITTERS = [0, 1, 2]  # cbox-lights' top-level point, spot and directional emitters (document order)
+OPTS = dict(params={"res": 32}, rows_per_column=0.25, progress=False)
+
+
+def brute_force_at_picked_counts(path, res, seed, max_depth, params):
+    """The brute-force image of the light generation ``render`` used (same counts, same seed)."""
+    scene = ml.load_scene(path, **params)
+    n = {k: res.budget["light_counts"][k]["count"] for k in light_budget.KINDS}
+    lights = ml.generate_lights(scene, area=n["area"], environment=n["environment"], indirect=n["indirect"],
+                                max_depth=max_depth if n["indirect"] else 5,
+                                seed=_derived_seed(seed, light_budget._STREAM["final"]))
+    A = ml.LightMatrix(scene, lights, max_depth=max_depth)
+    return A.column_sum(progress=False) + A.emitted()
+
+
+def counts(res):
+    return {k: v["count"] for k, v in res.budget["light_counts"].items() if isinstance(v, dict)}
+
+
+def test_counts_are_chosen_reproducibly_and_meet_their_shares():
+    a = ml.render(str(CBOX_LIGHTS), target_error=0.05, seed=2, **OPTS)
+    b = ml.render(CBOX_LIGHTS, target_error=0.05, seed=2, **OPTS)
+    assert counts(a) == counts(b)
+    np.testing.assert_array_equal(a.image, b.image)  # rows_per_column fixed: the same bits
+    lc = a.budget["light_counts"]
+    assert lc["delta"]["count"] == 3
+    # cbox-lights has an area light, an environment (that the closed box keeps out) and path tracing.
+    assert lc["area"]["count"] >= 256 and lc["indirect"]["count"] >= 256
+    assert lc["environment"]["estimates"][-1][1] == 0.0 and "add nothing" in lc["environment"]["reason"]
+    assert a.budget["integrator"] == {"type": "path", "max_depth": -1}
+    share = math.sqrt(0.5 / 3) * 0.05
+    for k in ("area", "indirect"):
+        n_k, e_k = lc[k]["estimates"][-1]
+        assert n_k == lc[k]["count"] and e_k <= light_budget.SAFETY * share, (k, lc[k])
+        # Each doubling was needed: the estimate before the last step was above the share.
+        if len(lc[k]["estimates"]) > 1:
+            assert lc[k]["estimates"][-2][1] > light_budget.SAFETY * share
+    assert lc["indirect"]["count"] > 256, "VPLs at 32 px need more than the first 256 for a 5% target"
+    assert a.budget["shadow_map_size"]["value"] is None  # CPU: exact rays
+    assert a.budget["target_reached"] is True
+    assert a.budget["estimated_total_error"] == pytest.approx(math.hypot(lc["estimated_generation_error"],
+                                                                         a.error_estimate))
+    # The MRCS part against the brute force of exactly these lights: within its share of the target.
+    bf = brute_force_at_picked_counts(CBOX_LIGHTS, a, 2, -1, OPTS["params"])
+    assert ml.relative_l2(a.image, bf) <= math.sqrt(0.5) * 0.05
+    other = ml.render(CBOX_LIGHTS, target_error=0.05, seed=3, **OPTS)
+    assert not np.array_equal(other.image, a.image)
+
+
+def test_a_tighter_target_grows_the_vpls():
+    loose = ml.render(CBOX, target_error=0.1, seed=0, max_depth=-1, **OPTS)
+    tight = ml.render(CBOX, target_error=0.01, seed=0, max_depth=-1, **OPTS)
+    assert counts(loose)["environment"] == 0 and "no envmap" in loose.budget["light_counts"]["environment"]["reason"]
+    assert counts(loose)["delta"] == 0
+    assert counts(tight)["indirect"] > counts(loose)["indirect"]
+    e_loose = loose.budget["light_counts"]["estimated_generation_error"]
+    e_tight = tight.budget["light_counts"]["estimated_generation_error"]
+    assert e_tight < e_loose
+
+
+def test_delta_lights_only(tmp_path):
+    """Only delta lights and direct light only: nothing to generate, the exact image of the 3 lights.
+    The same scene under path tracing: its delta lights' indirect light still needs VPLs."""
+    from manylights import reference
+
+    xml = reference.scene_variant(CBOX_LIGHTS, tmp_path, keep_emitters=DELTA_EMITTERS)
+    direct = ml.render(xml, target_error=0.02, max_depth=2, **OPTS)
+    lc = direct.budget["light_counts"]
+    assert counts(direct) == {"delta": 3, "area": 0, "environment": 0, "indirect": 0}
+    assert "direct light only" in lc["indirect"]["reason"] and "no area emitters" in lc["area"]["reason"]
+    assert direct.method == "brute_force" and direct.error_estimate == 0.0
+    scene = ml.load_scene(xml, res=32)
+    A = ml.LightMatrix(scene, ml.generate_lights(scene, area=0), max_depth=2)
+    np.testing.assert_allclose(direct.image, A.column_sum(progress=False) + A.emitted(), rtol=1e-6, atol=1e-7)
+    gi = ml.render(xml, target_error=0.05, **OPTS)  # the XML's path integrator, max_depth -1
+    assert counts(gi)["area"] == 0 and counts(gi)["indirect"] >= 256
+
+
+def test_integrator_depth_from_the_xml(tmp_path):
+    assert light_budget.integrator_depth(CBOX) == ("path", 6)  # $max_depth, <default> 6
+    assert light_budget.integrator_depth(CBOX, {"max_depth": 3}) == ("path", 3)
+    assert light_budget.integrator_depth(REPO / "scenes" / "veach-ajar" / "scene.xml") == ("path", 13)
+    assert light_budget.integrator_depth(REPO / "scenes" / "demo" / "scene.xml") == ("path", 2)
+    f = tmp_path / "s.xml"
+    f.write_text('<scene version="3.0.0"><integrator type="direct"/></scene>')
+    assert light_budget.integrator_depth(f) == ("direct", 2)
+    f.write_text('<scene version="3.0.0"/>')
+    assert light_budget.integrator_depth(f) == ("path", -1)
+    f.write_text('<scene version="3.0.0"><integrator type="aov"/></scene>')
+    with pytest.raises(ValueError, match="aov.*max_depth="):
+        light_budget.integrator_depth(f)
+    f.write_text('<scene version="3.0.0"><integrator type="path"><integer name="max_depth" value="$d"/>'
+                 '</integrator></scene>')
+    with pytest.raises(ValueError, match=r"\$d"):
+        light_budget.integrator_depth(f)
+
+
+@pytest.mark.parametrize("kwargs, error, match", [
+    ({"target_error": 0.0}, ValueError, "target_error"),
+    ({"target_error": -0.1}, ValueError, "target_error"),
+    ({"target_error": float("nan")}, ValueError, "target_error"),
+    ({"time_budget": 0.0}, ValueError, "time_budget"),
+    ({"time_budget": -2.0}, ValueError, "time_budget"),
+    ({"time_budget": float("inf")}, ValueError, "time_budget"),
+    ({}, ValueError, "target_error .* or time_budget"),
+    ({"target_error": 0.05, "first_lights": 3}, ValueError, "first_lights must be even"),
+    ({"target_error": 0.05, "max_lights": 2}, ValueError, "max_lights"),
+    ({"target_error": 0.05, "generation_share": 1.0}, ValueError, "generation_share"),
+    ({"target_error": 0.05, "max_depth": 1}, ValueError, "max_depth"),
+])
+def test_bad_input(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        ml.render(CBOX_LIGHTS, **kwargs)
+
+
+def test_bad_paths_and_options(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no-such-scene.xml"):
+        ml.render(tmp_path / "no-such-scene.xml", target_error=0.05)
+    with pytest.raises(FileNotFoundError):
+        ml.render(str(tmp_path), target_error=0.05)  # a folder is no scene file
+    scene = ml.load_scene(CBOX_LIGHTS, res=16)
+    A = ml.LightMatrix(scene, ml.generate_lights(scene, area=16))
+    with pytest.raises(TypeError, match="first_lights only apply to a scene path"):
+        ml.render(A, target_error=0.05, first_lights=64)
+    with pytest.raises(TypeError, match="LightMatrix"):
+        ml.render(42, target_error=0.05)
+
+
+def test_time_budget_only_gives_every_kind_a_reason():
+    res = ml.render(CBOX, time_budget=2.0, max_depth=-1, **OPTS)
+    lc = res.budget["light_counts"]
+    assert res.budget["target_reached"] is None
+    assert all(lc[k]["reason"] for k in light_budget.KINDS)
+    assert lc["area"]["count"] >= 256 and lc["indirect"]["count"] >= 256 and lc["environment"]["count"] == 0
+    assert res.budget["stopped"] in ("time budget", "max_rounds", "all lights: brute force",
+                                     "all lights: time budget too small for brute force")
+
+
+def test_malformed_scene_file(tmp_path):
+    f = tmp_path / "broken.xml"
+    f.write_text("<scene version='3.0.0'><integrator type='path'>")
+    with pytest.raises(ml.SceneError):
+        ml.render(f, target_error=0.05)
+    with pytest.raises(ValueError, match="well-formed"):
+        light_budget.integrator_depth(f)
