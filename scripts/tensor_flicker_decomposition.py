@@ -22,7 +22,7 @@ same clusterings with one part replaced at a time, so each variant isolates one 
 and splits the flicker that the mappings add (chain - exact) by the span in frames of the clusters.
 Per-frame MRCS at 600 shadow maps (100 rows + 500 columns) is the baseline. Usage:
 
-    python scripts/tensor_flicker_decomposition.py [--seeds 8] [--cache /tmp/bounce-A.npy] [--still-box]
+    python scripts/tensor_flicker_decomposition.py [--seeds 8] [--cache /tmp/bounce-A.npy] [--still-box] [--frames 8 --res 48]
 """
 from __future__ import annotations
 
@@ -124,21 +124,25 @@ def main(argv=None):
     ap.add_argument("--seeds", type=int, default=8)
     ap.add_argument("--cache", default=None, help=".npy file for the full tensor (reused when present)")
     ap.add_argument("--still-box", action="store_true", help="the box keeps its frame-0 pose (camera moves)")
+    ap.add_argument("--frames", type=int, default=8, help="consecutive frames of bounce's 40-frame path")
+    ap.add_argument("--res", type=int, default=48, help="image width and height")
     args = ap.parse_args(argv)
     t0 = time.time()
-    T = animation_tensor(still_box=args.still_box)
+    T = animation_tensor(args.frames, args.res, still_box=args.still_box)
     m, n, f = T.shape
     H, W = T.scenes[0].height, T.scenes[0].width
     if args.cache and os.path.exists(args.cache):
         A = np.load(args.cache)
     else:
-        A = np.stack([T.frame(k).columns(np.arange(n)) for k in range(f)])
+        A = np.empty((f, n, H, W, 3), np.float32)
+        for k in range(f):
+            A[k] = T.frame(k).columns(np.arange(n))
         if args.cache:
             np.save(args.cache, A)
     A = A.reshape(f, n, m, 3)
     emitted = np.stack([T.frame(k).emitted().reshape(m, 3) for k in range(f)])
     B = A.sum(1, dtype=np.float64) + emitted
-    TN = np.sqrt((A.astype(np.float64) ** 2).sum(2)).transpose(1, 0, 2)  # (n, f, 3) true channel norms
+    TN = np.stack([np.sqrt((A[k].astype(np.float64) ** 2).sum(1)) for k in range(f)], axis=1)  # (n, f, 3) true norms
     g = T.animation.gbuffers()
     sc = T.scenes
     cache = {}
