@@ -6,7 +6,9 @@ with the camera still (the pixel mappings are the identity) and moving (they car
 
 Measured (8 seeds, README): still camera, tensor (centroid) 1.58% / flicker 0.0118 against MRCS 2.22% /
 0.0260 (0.71x error, 0.45x flicker); moving camera 1.57% / 0.0126 against 1.91% / 0.0206 (0.82x, 0.61x:
-the issue's "at most half" holds with the camera still, not with it moving). The paper's max-weight
+the issue's "at most half" holds with the camera still, not with it moving: representative columns carried
+to other frames miss the moving box's shadow, which no pixel mapping moves; with the box held still it is
+0.50x, scripts/tensor_flicker_decomposition.py). The paper's max-weight
 representative gives 2.9-3.2% (above MRCS at 600) at 0.7-0.9x its flicker."""
 from __future__ import annotations
 
