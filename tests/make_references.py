@@ -55,6 +55,9 @@ REFERENCES = {
     # noise, which the test checks, about 0.3%.
     "veach-plates-direct": (HERE / "data" / "veach_plates.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.0003,
                             None),
+    # The same plates under an environment map with a bright band (glossy MIS against environment strata).
+    "veach-plates-env-direct": (HERE / "data" / "veach_plates_env.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002,
+                                None),
     # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
     "matpreview-full-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
                                None),

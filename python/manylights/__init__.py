@@ -386,7 +386,10 @@ class LightMatrix:
         view samples on an area emitter's shape show its radiance when seen from its +normal side
         (shading normal), background pixels the environment (envmap / constant emitters) along the
         pixel-centre camera ray. Not part of any column: every renderer adds it
-        (``render_brute_force`` = ``column_sum() + emitted()``). NaN/inf emitter values count as 0."""
+        (``render_brute_force`` = ``column_sum() + emitted()``). NaN/inf emitter values count as 0.
+        With glossy view samples (``glossy_roughness``) it also holds the BSDF-sampled strategy of
+        glossy MIS (each glossy sample's ``bsdf_samples`` rays to area emitters and the environment,
+        weighted by w_B = 1 - w_L; seeded by ``glossy_seed``), so every renderer's image includes it."""
         return self._m.emitted()
 
     def _index(self, name: str, v, size: int, what: str) -> int:
