@@ -120,7 +120,8 @@ fn shade_sample(i: u32) {
         let e = light_emitted(lights[c], s.position, n);
         if e.valid {
             let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
-            let f = bsdf_eval(b, wi_local, wo_local) * e.radiance * s.throughput;
+            let w = glossy_light_weight(b, s.bsdf_samples, lights[c], s.position, wi_local, wo_local);
+            let f = bsdf_eval(b, wi_local, wo_local) * e.radiance * s.throughput * w;
             if any(f != vec3<f32>(0.0)) {
                 acc = acc + f * interpolated_visibility(i, c);
             }

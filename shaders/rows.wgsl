@@ -206,7 +206,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation
             let e = light_emitted(l, s.position, n);
             if e.valid {
                 let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
-                let f = bsdf_eval(bsdfs[row.sample], wi_local, wo_local) * e.radiance * s.throughput;
+                let b = bsdfs[row.sample];
+                let w = glossy_light_weight(b, s.bsdf_samples, l, s.position, wi_local, wo_local);
+                let f = bsdf_eval(b, wi_local, wo_local) * e.radiance * s.throughput * w;
                 if any(f != vec3<f32>(0.0)) {
                     contribution = f * row_visibility(row, s, l, e.wo);
                 }

@@ -43,6 +43,11 @@ pub struct ViewSamples {
     /// Per pixel (`width * height`), the emission seen along its delta chains (area emitters and the
     /// environment reached after >= 1 delta bounce), throughput applied. Empty = none.
     pub chain_emitted: Vec<Vec3>,
+    /// n_B per sample: BSDF samples of a glossy view sample (`matrix::glossy`; its light columns carry
+    /// the MIS weight w_L), 0 for the others. Empty = no glossy sample.
+    pub bsdf_samples: Vec<u32>,
+    /// Seed of the glossy samples' BSDF rays (`matrix::glossy::bsdf_image`).
+    pub glossy_seed: u64,
 }
 
 impl ViewSamples {
@@ -56,6 +61,15 @@ impl ViewSamples {
     /// Number of pixels, `width * height` (the rows of the light matrix).
     pub fn num_pixels(&self) -> usize {
         self.width as usize * self.height as usize
+    }
+    /// Mark the glossy samples (`matrix::glossy`, rule in its module docs) with their BSDF sample counts.
+    ///
+    /// Errors: `InvalidParameter` for bad options (`GlossyOptions::check`).
+    pub fn set_glossy(&mut self, opts: &crate::matrix::glossy::GlossyOptions) -> crate::error::Result<()> {
+        let n = crate::matrix::glossy::bsdf_samples_per_view_sample(self, opts)?;
+        self.bsdf_samples = if n.iter().any(|&k| k > 0) { n } else { Vec::new() };
+        self.glossy_seed = opts.seed;
+        Ok(())
     }
     /// Throughput of sample `i` (1 when `throughput` is empty).
     pub fn throughput_of(&self, i: usize) -> Vec3 {

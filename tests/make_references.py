@@ -50,6 +50,17 @@ REFERENCES = {
     # light. The emitters seen directly (radiance 40, exact) dominate the image's norm; the target makes the
     # noise on the lit surfaces, which the test checks, ~0.5%.
     "staircase-direct": (HERE / "data" / "staircase_recessed.xml", {"res": 64}, (64, 64), 2, 0.00002, None),
+    # Issue 13 item 3 (tests/test_glossy.py): Veach's plates, sphere lights on rough plastic (alpha 0.005-0.1),
+    # direct light. The spheres seen directly (exact) dominate the norm; the target makes the plates' own
+    # noise, which the test checks, about 0.3%.
+    "veach-plates-direct": (HERE / "data" / "veach_plates.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.0003,
+                            None),
+    # The same plates under an environment map with a bright band (glossy MIS against environment strata).
+    "veach-plates-env-direct": (HERE / "data" / "veach_plates_env.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002,
+                                None),
+    # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
+    "matpreview-full-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
+                               None),
 }
 
 

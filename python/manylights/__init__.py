@@ -231,16 +231,29 @@ class LightMatrix:
             extra view sample of the pixel with its RGB throughput (a row of the matrix is a pixel: the sum
             of its samples). -1 (default) = unlimited (at most 8 delta bounces, branches below 1e-3
             throughput dropped); 2 = direct light only (mirrors show the emitters they reflect).
+        glossy_roughness: glossy highlights by BSDF sampling with multiple importance sampling (issue 13
+            item 3, Veach and Guibas 1995; rule and formulas in ``src/matrix/glossy.rs``): view samples on a
+            ``roughplastic`` / ``roughconductor`` whose GGX/Beckmann alpha is below this threshold (in
+            [0, 1]; 0 = off; default 0.2) weight the columns of area and uniform-environment light samples by
+            the power-heuristic light weight w_L = q_L^2 / (q_L^2 + (n_B p_B)^2) (q_L the density of the light
+            samples in that direction, p_B the BSDF pdf), and ``emitted()`` adds the BSDF-sampled rest
+            (n_B = ``bsdf_samples`` rays per glossy sample, exact visibility, weight w_B = 1 - w_L), so
+            every renderer's image includes it. Diffuse receivers keep pure many-light columns. Delta
+            lights and VPLs are never weighted.
+        bsdf_samples: n_B, BSDF samples per glossy view sample (1..65536; default 256).
+        glossy_seed: seed of those BSDF samples (same seed, same image).
 
     Raises:
         ValueError: an unknown ``device`` or ``visibility`` (or an invalid ``MANYLIGHTS_DEVICE``), shadow-map
-            visibility with ``device="cpu"``, a bad ``shadow_map_size`` or ``max_depth`` (0, 1 or < -1).
+            visibility with ``device="cpu"``, a bad ``shadow_map_size`` or ``max_depth`` (0, 1 or < -1), a
+            ``glossy_roughness`` outside [0, 1] or a ``bsdf_samples`` outside 1..65536.
         GpuUnavailableError: ``device="gpu"`` on a machine without any GPU adapter (the message says what
             to install).
     """
 
     def __init__(self, scene: Scene, lights: LightSet, *, device: str = "auto", shadow_map_size: Optional[int] = None,
-                 visibility: Optional[str] = None, max_depth: int = -1):
+                 visibility: Optional[str] = None, max_depth: int = -1, glossy_roughness: float = 0.2,
+                 bsdf_samples: int = 256, glossy_seed: int = 0):
         self.scene = scene
         self.lights = lights
         if not isinstance(device, str):
@@ -252,7 +265,10 @@ class LightMatrix:
         #: Texels per side of each shadow map (the default resolved; GPU only).
         self.shadow_map_size = _v.integer("shadow_map_size", shadow_map_size, 16, 8192)
         self._m = _native.LightMatrix(scene, lights, self.shadow_map_size, visibility=visibility,
-                                      max_depth=_v.integer("max_depth", max_depth, -1, 1 << 20), device=device)
+                                      max_depth=_v.integer("max_depth", max_depth, -1, 1 << 20), device=device,
+                                      glossy_roughness=_v.real("glossy_roughness", glossy_roughness, 0.0, 1.0),
+                                      bsdf_samples=_v.integer("bsdf_samples", bsdf_samples, 1, 65536),
+                                      glossy_seed=_v.integer("glossy_seed", glossy_seed, 0, (1 << 64) - 1))
 
     @property
     def device(self) -> dict:
@@ -370,7 +386,10 @@ class LightMatrix:
         view samples on an area emitter's shape show its radiance when seen from its +normal side
         (shading normal), background pixels the environment (envmap / constant emitters) along the
         pixel-centre camera ray. Not part of any column: every renderer adds it
-        (``render_brute_force`` = ``column_sum() + emitted()``). NaN/inf emitter values count as 0."""
+        (``render_brute_force`` = ``column_sum() + emitted()``). NaN/inf emitter values count as 0.
+        With glossy view samples (``glossy_roughness``) it also holds the BSDF-sampled strategy of
+        glossy MIS (each glossy sample's ``bsdf_samples`` rays to area emitters and the environment,
+        weighted by w_B = 1 - w_L; seeded by ``glossy_seed``), so every renderer's image includes it."""
         return self._m.emitted()
 
     def _index(self, name: str, v, size: int, what: str) -> int:

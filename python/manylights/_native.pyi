@@ -88,14 +88,19 @@ class LightMatrix:
     def __init__(self, scene: Scene, lights: LightSet, shadow_map_size: int = 1024,
                  normal_offset: Optional[float] = None, depth_bias: Optional[float] = None,
                  slope_bias: Optional[float] = None, visibility: Optional[str] = None, max_depth: int = -1,
-                 device: str = "auto") -> None:
+                 device: str = "auto", glossy_roughness: float = 0.2, bsdf_samples: int = 256,
+                 glossy_seed: int = 0) -> None:
         """device: "auto" (MANYLIGHTS_DEVICE, else a hardware GPU, else the CPU), "gpu" or "cpu".
         visibility: None (the device's default: "ray_traced" on the CPU, "hybrid" on a GPU), "hybrid"
         (shadow maps where certain, exact GPU rays elsewhere), "ray_traced" or "shadow_map" (shadow-map
         modes choose the GPU under "auto"). max_depth: Mitsuba's path depth for delta BSDF chains
         (mirrors, glass; -1 unlimited, 2 = direct light only). Raises ValueError for an unknown device or
-        visibility, shadow maps on the CPU, bias < 0 or max_depth in {0, 1} or < -1;
-        GpuUnavailableError for device="gpu" without an adapter."""
+        visibility, shadow maps on the CPU, bias < 0 or max_depth in {0, 1} or < -1, glossy_roughness
+        outside [0, 1] or bsdf_samples outside 1..=65536 (with glossy_roughness > 0);
+        GpuUnavailableError for device="gpu" without an adapter. glossy_roughness / bsdf_samples /
+        glossy_seed: glossy MIS (src/matrix/glossy.rs): view samples on rough plastic / conductor with
+        alpha below the threshold weight area and uniform-environment columns by the power-heuristic
+        w_L, and emitted() adds their BSDF-sampled rest (bsdf_samples rays each, seeded)."""
     def visibility_stats(self) -> dict[str, int]:
         """shadow_tests, ray_casts, gave_up since creation or reset_visibility_stats()."""
     def reset_visibility_stats(self) -> None: ...
@@ -108,7 +113,8 @@ class LightMatrix:
                    progress: Optional[Callable[[int, int], None]] = None) -> npt.NDArray[np.float32]:
         """(H, W, 3) weighted sum. Raises ValueError for a wrong length or NaN/inf weights."""
     def emitted(self) -> npt.NDArray[np.float32]:
-        """(H, W, 3): emitted radiance seen directly (area emitters, environment background)."""
+        """(H, W, 3): emitted radiance seen directly (area emitters, environment background), plus the
+        BSDF strategy of glossy MIS when the matrix has glossy view samples."""
     def weighted_sum(self, indices: Sequence[int], weights: npt.NDArray[np.float32],
                      progress: Optional[Callable[[int, int], None]] = None) -> npt.NDArray[np.float32]:
         """(H, W, 3): sum_k weights[k] * column[indices[k]], (k, 3) RGB weights; only those columns are rendered."""

@@ -7,7 +7,8 @@ struct ViewSample {
     // VIEW_FLAG_* bits.
     flags: u32,
     geo_normal: vec3<f32>,
-    _pad1: u32,
+    // n_B: BSDF samples of a glossy view sample (common/glossy.wgsl), 0 for the others.
+    bsdf_samples: u32,
     wi: vec3<f32>,
     _pad2: u32,
     throughput: vec3<f32>,

@@ -106,7 +106,11 @@ pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &Sha
     let Some((wo, radiance, dist)) = lights.emitted(j, sp.p, sp.n) else {
         return Shaded::default();
     };
-    let f = crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, sp.local(wo)) * radiance * sp.throughput;
+    let wo_local = sp.local(wo);
+    let mut f = crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, wo_local) * radiance * sp.throughput;
+    if !view.bsdf_samples.is_empty() {
+        f *= crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, wo_local, j);
+    }
     if f == Vec3::ZERO {
         return Shaded::default();
     }

@@ -62,6 +62,7 @@ pub const CLUSTERED_VISIBILITY_WGSL: &str = concat!(
     include_str!("../../shaders/common/bsdf.wgsl"),
     include_str!("../../shaders/common/principled.wgsl"),
     include_str!("../../shaders/common/light.wgsl"),
+    include_str!("../../shaders/common/glossy.wgsl"),
     include_str!("../../shaders/common/bvh.wgsl"),
     include_str!("../../shaders/common/view_sample.wgsl"),
     include_str!("../../shaders/clustered_visibility.wgsl"),

@@ -84,7 +84,12 @@ impl GpuLight {
             incident: lights.incident[j].to_array(),
             tan_cutoff: frame.map_or(0.0, |t| t.tan_cutoff),
             bsdf: lights.bsdf[j],
-            patch: lights.patch[j].map(|c| c.extend(0.0).to_array()),
+            // The glossy-MIS measure rides in the first corner's unused w (`shaders/common/glossy.wgsl`).
+            patch: {
+                let mut c = lights.patch[j].map(|c| c.extend(0.0).to_array());
+                c[0][3] = lights.mis_measure[j];
+                c
+            },
         }
     }
 }
@@ -99,7 +104,8 @@ pub struct GpuViewSample {
     /// `VIEW_FLAG_*` bits (0 for the camera's view samples).
     pub flags: u32,
     pub geo_normal: [f32; 3],
-    pub _pad1: u32,
+    /// n_B of a glossy view sample (`ViewSamples::bsdf_samples`), 0 for the others.
+    pub bsdf_samples: u32,
     pub wi: [f32; 3],
     pub _pad2: u32,
     /// RGB throughput of the sample's delta chain (1 for the camera's own hits).
@@ -152,7 +158,7 @@ impl ViewBuffers {
                 normal: view.normal[i].to_array(),
                 flags: 0,
                 geo_normal: view.geo_normal[i].to_array(),
-                _pad1: 0,
+                bsdf_samples: view.bsdf_samples.get(i).copied().unwrap_or(0),
                 wi: view.wi[i].to_array(),
                 _pad2: 0,
                 throughput: view.throughput_of(i).to_array(),

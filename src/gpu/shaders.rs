@@ -13,6 +13,7 @@ macro_rules! light_pass {
             include_str!("../../shaders/common/bsdf.wgsl"),
             include_str!("../../shaders/common/principled.wgsl"),
             include_str!("../../shaders/common/light.wgsl"),
+            include_str!("../../shaders/common/glossy.wgsl"),
             include_str!("../../shaders/common/shadow_layer.wgsl"),
             include_str!("../../shaders/common/bvh.wgsl"),
             include_str!("../../shaders/common/view_sample.wgsl"),

@@ -216,6 +216,9 @@ impl LightSet {
         out.beam_width = idx.iter().map(|&j| self.beam_width[j]).collect();
         out.spot_texture = idx.iter().map(|&j| self.spot_texture[j].clone()).collect();
         out.patch = idx.iter().map(|&j| self.patch[j]).collect();
+        // A subset no longer covers its emitters with equal-area strata: no glossy MIS for its lights.
+        out.mis_measure = vec![0.0; idx.len()];
+        out.mis_mesh = vec![-1; idx.len()];
         Ok(out)
     }
 

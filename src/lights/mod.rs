@@ -106,6 +106,14 @@ pub struct LightSet {
     pub patch: Vec<[Vec3; 4]>,
     /// Bound on the VPL geometry term G = cos cos / d^2 (1/m^2); `f32::INFINITY` = no clamp.
     pub vpl_clamp: f32,
+    /// The sampling measure of light j for glossy MIS (`matrix::glossy`): the area (m^2) of the
+    /// equal-area stratum an area-light sample stands for (its emitter's area / its count), the solid
+    /// angle (sr) of a uniform environment stratum; 0 = not a sample of an emitter BSDF sampling can hit
+    /// (delta lights, VPLs, user-made lights, importance-allocated environment strata, subsets).
+    pub mis_measure: Vec<f32>,
+    /// The `Scene::meshes` index of the emitter an area-light sample was drawn on (`mis_measure` > 0);
+    /// -1 otherwise.
+    pub mis_mesh: Vec<i32>,
 }
 
 fn check_vec(what: &str, j: usize, v: Vec3, nonneg: bool) -> Result<()> {
@@ -194,6 +202,14 @@ impl LightSet {
         self.incident.push(Vec3::ZERO);
         self.bsdf.push(bytemuck::Zeroable::zeroed());
         self.patch.push([Vec3::ZERO; 4]);
+        self.mis_measure.push(0.0);
+        self.mis_mesh.push(-1);
+    }
+
+    /// Mark light j as a sample of an emitter for glossy MIS (`mis_measure`, `mis_mesh`; generation only).
+    pub(crate) fn set_mis(&mut self, j: usize, measure: f32, mesh: i32) {
+        self.mis_measure[j] = if measure.is_finite() && measure > 0.0 { measure } else { 0.0 };
+        self.mis_mesh[j] = mesh;
     }
 
     /// Give oriented point j its patch (`patch` module; all-zero corners = none).
@@ -249,6 +265,8 @@ impl LightSet {
         self.incident.extend_from_slice(&other.incident);
         self.bsdf.extend_from_slice(&other.bsdf);
         self.patch.extend_from_slice(&other.patch);
+        self.mis_measure.extend_from_slice(&other.mis_measure);
+        self.mis_mesh.extend_from_slice(&other.mis_mesh);
     }
 
     /// Add an isotropic point light of intensity I (W/sr).

@@ -82,9 +82,20 @@ pub fn emitted_radiance(scene: &Scene, view: &ViewSamples) -> Vec<Vec3> {
 }
 
 impl LightMatrix {
-    /// What the camera sees directly (module docs): H * W * 3 floats, row 0 at the top, RGB.
-    pub fn emitted(&self) -> Vec<f32> {
-        emitted_radiance(&self.scene, &self.view).iter().flat_map(|v| v.to_array()).collect()
+    /// What the camera sees directly (module docs) plus, with glossy view samples, the BSDF strategy of
+    /// glossy MIS (`glossy::bsdf_image`, exact rays on the CPU): H * W * 3 floats, row 0 at the top, RGB.
+    ///
+    /// Errors: building the ray tracer (GPU backend, first use).
+    pub fn emitted(&self) -> crate::error::Result<Vec<f32>> {
+        let mut e = emitted_radiance(&self.scene, &self.view);
+        if !self.view.bsdf_samples.is_empty() {
+            let tracer = self.tracer()?;
+            let g = super::glossy::bsdf_image(&self.scene, &tracer, &self.view, &self.lights, self.view.glossy_seed);
+            for (a, b) in e.iter_mut().zip(g) {
+                *a += b;
+            }
+        }
+        Ok(e.iter().flat_map(|v| v.to_array()).collect())
     }
 }
 

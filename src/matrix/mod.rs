@@ -30,6 +30,7 @@
 //! Symbols: m = number of rows = pixels (`width * height`), n = number of lights, w = weights.
 pub mod backend;
 pub mod emitted;
+pub mod glossy;
 pub mod gpu;
 pub mod mapping;
 pub mod oracle;

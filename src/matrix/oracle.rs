@@ -48,7 +48,7 @@ pub fn exact_element(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, 
 
 impl LightMatrix {
     /// The ray tracer of the exact oracle (the CPU backend's own, or the GPU backend's built on first use).
-    fn tracer(&self) -> Result<Arc<RayTracer>> {
+    pub(crate) fn tracer(&self) -> Result<Arc<RayTracer>> {
         self.backend.tracer()
     }
 

@@ -26,7 +26,7 @@ pub struct LightMatrix {
 #[pymethods]
 impl LightMatrix {
     #[new]
-    #[pyo3(signature = (scene, lights, shadow_map_size=1024, normal_offset=None, depth_bias=None, slope_bias=None, visibility=None, max_depth=-1, device="auto"))]
+    #[pyo3(signature = (scene, lights, shadow_map_size=1024, normal_offset=None, depth_bias=None, slope_bias=None, visibility=None, max_depth=-1, device="auto", glossy_roughness=crate::matrix::glossy::DEFAULT_ROUGHNESS, bsdf_samples=crate::matrix::glossy::DEFAULT_BSDF_SAMPLES, glossy_seed=0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -39,7 +39,12 @@ impl LightMatrix {
         visibility: Option<&str>,
         max_depth: i64,
         device: &str,
+        glossy_roughness: f32,
+        bsdf_samples: u32,
+        glossy_seed: u64,
     ) -> PyResult<Self> {
+        let glossy = crate::matrix::glossy::GlossyOptions { roughness: glossy_roughness, bsdf_samples, seed: glossy_seed };
+        glossy.check()?;
         if !(16..=8192).contains(&shadow_map_size) {
             return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
         }
@@ -52,7 +57,12 @@ impl LightMatrix {
         }
         let chosen = py.detach(move || device.choose())?;
         let visibility = visibility.unwrap_or(if chosen.is_cpu() { Visibility::RayTraced } else { Visibility::Hybrid });
-        let view = scene.view_samples_on(py, chains, &chosen)?;
+        let mut view = scene.view_samples_on(py, chains, &chosen)?;
+        if glossy.roughness > 0.0 && view.bsdf.iter().any(|b| crate::matrix::glossy::lobe_alpha(b).is_some_and(|a| a < glossy.roughness)) {
+            let mut v = (*view).clone();
+            v.set_glossy(&glossy)?;
+            view = Arc::new(v);
+        }
         let tracer = if chosen.is_cpu() { Some(scene.tracer(py)?) } else { None };
         let (s, l) = (scene.inner.clone(), lights.inner.clone());
         let mut opts = ColumnOptions { visibility, shadow_resolution: shadow_map_size, ..Default::default() };
@@ -175,7 +185,7 @@ impl LightMatrix {
     /// background pixels), (H, W, 3) float32; not part of any column.
     fn emitted<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
-        let data = signals::detach(py, move || Ok(m.emitted()))?;
+        let data = signals::detach(py, move || m.emitted())?;
         let (h, w) = self.inner.image_size();
         array(py, data, &[h, w, 3])
     }

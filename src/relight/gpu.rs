@@ -248,7 +248,7 @@ impl GpuRelight {
                 normal: c.normal[g].to_array(),
                 flags: VIEW_FLAG_GEO_FRONT,
                 geo_normal: c.geo_normal[g].to_array(),
-                _pad1: 0,
+                bsdf_samples: 0,
                 wi: c.normal[g].to_array(),
                 _pad2: 0,
                 throughput: c.k_d[g].to_array(),

@@ -76,7 +76,10 @@ pub fn shade(view: &ViewSamples, job: &ClusteredShading, vis: &VisibilityMatrix)
                 for c in 0..lights.len() {
                     let Some((wo, radiance, _)) = lights.emitted(c, sp.p, sp.n) else { continue };
                     let local = Vec3::new(wo.dot(sp.s), wo.dot(sp.t), wo.dot(sp.n));
-                    let v = crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, local) * radiance * sp.throughput;
+                    let mut v = crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, local) * radiance * sp.throughput;
+                    if !view.bsdf_samples.is_empty() {
+                        v *= crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, local, c);
+                    }
                     if v == Vec3::ZERO {
                         continue;
                     }

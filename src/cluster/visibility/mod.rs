@@ -241,6 +241,11 @@ impl ClusterLights {
         let representative: Vec<usize> = used.iter().map(|&s| best[s].1).collect();
         let mut set = lights.select(&representative)?;
         set.intensity = used.iter().map(|&s| sum[s]).collect();
+        // Glossy MIS: a cluster light is weighted as its representative is in the full matrix (w_L of
+        // the representative's own density), the approximation of the members' weighted sum that keeps
+        // `LightMatrix::emitted`'s BSDF strategy (weighted by the full set's densities) consistent.
+        set.mis_measure = representative.iter().map(|&j| lights.mis_measure[j]).collect();
+        set.mis_mesh = representative.iter().map(|&j| lights.mis_mesh[j]).collect();
         Ok(ClusterLights {
             lights: set,
             representative,

@@ -309,6 +309,7 @@ pub fn area_lights_tied(
                         set.set_patch(set.len() - 1, piece)?;
                     }
                     ties.push((e, tie));
+                    set.set_mis(set.len() - 1, scale, emitter.mesh as i32);
                 }
             }
             AreaShape::Sphere { center, radius, flip } => {
@@ -318,6 +319,7 @@ pub fn area_lights_tied(
                     let p = *center + d * *radius;
                     set.push_oriented_point(offset_p(p, normal, normal), normal, emitter.radiance_at(sphere_uv(d)) * scale)?;
                     ties.push((e, SurfaceTie::Sphere { mesh: emitter.mesh, direction: d }));
+                    set.set_mis(set.len() - 1, scale, emitter.mesh as i32);
                 }
             }
         }

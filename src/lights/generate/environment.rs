@@ -183,6 +183,7 @@ impl Environment {
             for (cell, (e, centroid)) in cells.iter().zip(self.integrate_cells(&cells)) {
                 if e.max_element() > 0.0 {
                     push(&mut set, e, centroid, cell.sample(0.5, 0.5))?;
+                    set.set_mis(set.len() - 1, cell.solid_angle(), -1);
                 }
             }
             return Ok(set);

@@ -30,6 +30,8 @@ pub const STREAM_AREA: u64 = 1;
 pub const STREAM_ENV: u64 = 2;
 pub const STREAM_PILOT: u64 = 3;
 pub const STREAM_PARTICLE: u64 = 4;
+/// BSDF samples of glossy view samples (`matrix::glossy`).
+pub const STREAM_GLOSSY: u64 = 5;
 
 /// SplitMix64 finaliser: decorrelates seeds.
 fn mix(mut z: u64) -> u64 {
@@ -161,15 +163,17 @@ fn mean(v: [f32; 3]) -> f32 {
 }
 
 /// Microfacet normal with density D(h) cos(theta_h) for an isotropic alpha (GGX or Beckmann).
-fn sample_microfacet(ggx: bool, alpha: f32, u1: f32, u2: f32) -> Vec3 {
+pub(crate) fn sample_microfacet(ggx: bool, alpha: f32, u1: f32, u2: f32) -> Vec3 {
     let tan2 = if ggx { alpha * alpha * u1 / (1.0 - u1).max(1e-12) } else { -alpha * alpha * (1.0 - u1).max(1e-12).ln() };
     let cos = 1.0 / (1.0 + tan2).sqrt();
-    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    // sin = tan cos, not sqrt(1 - cos^2), which cancels in f32 near the lobe's centre for small alpha
+    // (cos within a few ulps of 1 at alpha = 0.005: sin quantized to steps of ~3e-4 rad).
+    let sin = tan2.sqrt() * cos;
     let phi = 2.0 * PI * u2;
     Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)
 }
 
-fn reflect(wi: Vec3, h: Vec3) -> Vec3 {
+pub(crate) fn reflect(wi: Vec3, h: Vec3) -> Vec3 {
     2.0 * wi.dot(h) * h - wi
 }
 

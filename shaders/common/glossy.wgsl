@@ -1,0 +1,48 @@
+// Glossy MIS (issue 13 item 3): the light-strategy weight w_L of a glossy view sample, the WGSL twin of
+// src/matrix/glossy.rs (`light_weight`, `bsdf_pdf`). Needs common/bsdf.wgsl and common/light.wgsl. A light's sampling
+// measure (`LightSet::mis_measure`: stratum area or solid angle, 0 = no MIS) travels in patch_corners[0].w;
+// a view sample's n_B in `ViewSample::bsdf_samples`.
+
+// p_B(wo): the density of the BSDF strategy, D(h) cos_h / (4 |wo . h|) (0 where it samples nothing).
+fn glossy_bsdf_pdf(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> f32 {
+    var wi = wi_in;
+    var wo = wo_in;
+    if (b.flags & BSDF_FLAG_TWOSIDED) != 0u && wi.z < 0.0 {
+        wi.z = -wi.z;
+        wo.z = -wo.z;
+    }
+    if !(wi.z > 0.0 && wo.z > 0.0) {
+        return 0.0;
+    }
+    let alpha = sqrt(b.alpha_u * b.alpha_v);
+    let h = normalize(wi + wo);
+    return bsdf_microfacet_d((b.flags & BSDF_FLAG_GGX) != 0u, alpha, alpha, h) * h.z / (4.0 * abs(dot(wo, h)));
+}
+
+// w_L = q_L^2 / (q_L^2 + (n_B p_B)^2) of light l at a view sample at p with n_B BSDF samples (1 when n_B = 0
+// or the light has no MIS measure).
+fn glossy_light_weight(b: Bsdf, n_b: u32, l: Light, p: vec3<f32>, wi_local: vec3<f32>, wo_local: vec3<f32>) -> f32 {
+    let measure = l.patch_corners[0].w;
+    if n_b == 0u || !(measure > 0.0) {
+        return 1.0;
+    }
+    var q = 0.0;
+    if l.kind == LIGHT_DIRECTIONAL {
+        q = 1.0 / measure;
+    } else if l.kind == LIGHT_ORIENTED_POINT {
+        let d = l.position - p;
+        let dist2 = dot(d, d);
+        let cos_l = -dot(d, l.normal) / sqrt(dist2);
+        if !(cos_l > 0.0) {
+            return 1.0;
+        }
+        q = dist2 / (measure * cos_l);
+    } else {
+        return 1.0;
+    }
+    let pb = f32(n_b) * glossy_bsdf_pdf(b, wi_local, wo_local);
+    // The power heuristic (exponent 2), as `power_heuristic` in glossy.rs.
+    let q2 = q * q;
+    let sum = q2 + pb * pb;
+    return select(0.0, q2 / sum, sum > 0.0);
+}
