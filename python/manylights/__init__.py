@@ -12,6 +12,7 @@ Quick start::
 """
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import Optional, Sequence
@@ -148,6 +149,9 @@ def generate_lights(
     clamp: Optional[float] = None,
     env_importance: bool = False,
     seed: int = 0,
+    indirect_kind: str = "vpl",
+    vsl_radius_scale: float = 1.0,
+    vsl_neighbours: int = 16,
 ) -> LightSet:
     """Turn a scene's emitters and its indirect light into point-like lights (many-light columns).
 
@@ -169,6 +173,13 @@ def generate_lights(
             ``float("inf")`` = no clamp.
         env_importance: allocate environment strata by luminance (equal power per light).
         seed: same seed -> identical LightSet.
+        indirect_kind: ``"vpl"`` (point VPLs, bounded by ``clamp``) or ``"vsl"``: virtual spherical
+            lights (Hasan, Krivanek, Walter, Bala, SIGGRAPH Asia 2009, Sec. 4-5): each VPL spread over a
+            sphere of radius ``vsl_radius_scale`` times the distance to its ``vsl_neighbours``-th
+            nearest VPL (the ``vsl_radius`` property, m), its cap integrated against both cosines
+            (``src/lights/vsl.rs``); not clamped. Still one column per light.
+        vsl_radius_scale: > 0, finite (``"vsl"`` only).
+        vsl_neighbours: k >= 1 of the k-th nearest VPL (``"vsl"`` only).
 
     Returns:
         LightSet with numpy views ``kind`` (0 point, 1 spot, 2 directional, 3 oriented point, 4 VPL),
@@ -176,7 +187,9 @@ def generate_lights(
 
     Raises:
         ValueError: a negative, non-integer or too large count, a NaN or non-positive clamp,
-            max_depth < 3 with indirect > 0, or a scene without emitters. Zero-area or zero-radiance
+            max_depth < 3 with indirect > 0, an indirect_kind other than "vpl"/"vsl", a
+            vsl_radius_scale that is 0, negative, NaN or infinite, vsl_neighbours < 1, or a scene
+            without emitters. Zero-area or zero-radiance
             emitters contribute nothing (no lights, no NaN).
     """
     counts = {"area": area, "environment": environment, "indirect": indirect, "max_depth": max_depth}
@@ -189,8 +202,15 @@ def generate_lights(
         clamp = float(clamp)
         if not clamp > 0.0:
             raise ValueError(f"clamp must be > 0 (or inf for no clamp), got {clamp}")
+    if indirect_kind not in ("vpl", "vsl"):
+        raise ValueError(f"indirect_kind must be 'vpl' or 'vsl', got {indirect_kind!r}")
+    vsl_radius_scale = float(vsl_radius_scale)
+    if not (vsl_radius_scale > 0.0 and math.isfinite(vsl_radius_scale)):
+        raise ValueError(f"vsl_radius_scale must be finite and > 0, got {vsl_radius_scale}")
+    vsl_neighbours = _v.integer("vsl_neighbours", vsl_neighbours, 1, 1 << 20)
     return _native.generate_lights(
-        scene, int(area), int(environment), int(indirect), int(max_depth), clamp, bool(env_importance), int(seed)
+        scene, int(area), int(environment), int(indirect), int(max_depth), clamp, bool(env_importance), int(seed),
+        indirect_kind, vsl_radius_scale, int(vsl_neighbours),
     )
 
 

@@ -30,6 +30,8 @@
 //!   F = I(w) / d^2, scaled by min(1, clamp / G) with G = |w . n_g| |wo . n| / d^2 the geometry term
 //!   (n = the receiver's shading normal): the VPL contribution becomes Phi f_v f_r min(G, clamp),
 //!   the usual bound of the 1 / d^2 singularity (`vpl_clamp`, infinite = no clamp).
+//!   A VPL with `vsl_radius` r > 0 is a virtual spherical light instead (`vsl` module): not clamped,
+//!   F = `vsl::spread(I(w), |w . n_g|, |wo . n|, d^2, r)`, which tends to I(w) / d^2 for d >> r.
 //!
 //! `power()` (W): point 4 pi I; spot I * 2 pi (1 - (sin c - sin b) / (c - b)) with c = cutoff_angle,
 //! b = beam_width (the exact integral of Mitsuba's falloff over the sphere, i.e. the mean weight of its
@@ -49,11 +51,12 @@ pub mod animated;
 pub mod gather;
 pub mod patch;
 pub mod photon_map;
+pub mod vsl;
 pub mod generate;
 pub mod spot_texture;
 
 pub use arrays::LightArrays;
-pub use generate::{generate_lights, GenerateOptions};
+pub use generate::{generate_lights, GenerateOptions, VslOptions};
 
 use crate::error::{Error, Result};
 use crate::scene::{Emitter, Scene};
@@ -104,7 +107,11 @@ pub struct LightSet {
     /// Oriented point: the piece of its area emitter it stands for (4 corners of a planar convex
     /// quadrilateral, `patch` module), used in the near field; all zero = none (other kinds too).
     pub patch: Vec<[Vec3; 4]>,
-    /// Bound on the VPL geometry term G = cos cos / d^2 (1/m^2); `f32::INFINITY` = no clamp.
+    /// VPL: the radius r (m) of its virtual spherical light (`vsl` module), 0 = a point VPL (then the
+    /// clamp applies); 0 for other kinds.
+    pub vsl_radius: Vec<f32>,
+    /// Bound on the VPL geometry term G = cos cos / d^2 (1/m^2); `f32::INFINITY` = no clamp. VSLs
+    /// (`vsl_radius > 0`) are not clamped.
     pub vpl_clamp: f32,
 }
 
@@ -194,6 +201,7 @@ impl LightSet {
         self.incident.push(Vec3::ZERO);
         self.bsdf.push(bytemuck::Zeroable::zeroed());
         self.patch.push([Vec3::ZERO; 4]);
+        self.vsl_radius.push(0.0);
     }
 
     /// Give oriented point j its patch (`patch` module; all-zero corners = none).
@@ -249,6 +257,21 @@ impl LightSet {
         self.incident.extend_from_slice(&other.incident);
         self.bsdf.extend_from_slice(&other.bsdf);
         self.patch.extend_from_slice(&other.patch);
+        self.vsl_radius.extend_from_slice(&other.vsl_radius);
+    }
+
+    /// Make VPL j a virtual spherical light of radius `r` (m; `vsl` module), or a point VPL with r = 0.
+    ///
+    /// Errors: `InvalidParameter` for another kind with r != 0, or r NaN, infinite or negative.
+    pub fn set_vsl_radius(&mut self, j: usize, r: f32) -> Result<()> {
+        if !(r >= 0.0 && r.is_finite()) {
+            return Err(Error::invalid(format!("vsl_radius[{j}] must be finite and >= 0 (m; 0 = a point VPL), got {r}")));
+        }
+        if r != 0.0 && self.kind[j] != LightKind::Vpl {
+            return Err(Error::invalid(format!("light {j}: only VPLs have a vsl_radius, got a {:?} with radius {r}", self.kind[j])));
+        }
+        self.vsl_radius[j] = r;
+        Ok(())
     }
 
     /// Add an isotropic point light of intensity I (W/sr).
@@ -377,6 +400,10 @@ impl LightSet {
                 // eval = f |w . n_s|; I(w) = Phi f |w . n_g|.
                 let f_cos = crate::shading::bsdf::eval(&self.bsdf[j], wi_local, wo_local);
                 let intensity = self.intensity[j] * f_cos * (cos_g_out.abs() / wo_local.z.abs());
+                let r = self.vsl_radius[j];
+                if r > 0.0 {
+                    return Some((wo, vsl::spread(intensity, cos_g_out.abs(), wo.dot(n).abs(), dist2, r)?, dist));
+                }
                 let g = cos_g_out.abs() * wo.dot(n).abs() * inv_d2;
                 let clamp = if g > self.vpl_clamp { self.vpl_clamp / g } else { 1.0 };
                 intensity * (inv_d2 * clamp)
