@@ -393,6 +393,30 @@ class LightMatrix:
         (``render_brute_force`` = ``column_sum() + emitted()``). NaN/inf emitter values count as 0."""
         return self._m.emitted()
 
+    def bias_compensation(self, max_depth: int = -1, spp: int = 1, light_samples: int = 64, seed: int = 0) -> np.ndarray:
+        """The energy the VPL geometry-term clamp removes, estimated without bias by short BSDF-sampled
+        paths (Kollig and Keller 2004; ``src/matrix/bias_compensation.rs``), (H, W, 3) float32, to add
+        to an image like ``emitted()``: ``column_sum() + emitted() + bias_compensation()`` estimates the
+        unclamped VPL image. Computed on the CPU (rayon) whatever ``device``.
+
+        Args:
+            max_depth: Mitsuba's max_depth the lights were generated with (-1 = unlimited); a path
+                vertex at level l uses the direct lights when l + 2 <= max_depth and the VPLs when
+                l + 3 <= max_depth (exact for 3 and unlimited).
+            spp: BSDF samples per view sample (>= 1).
+            light_samples: lights drawn per path vertex proportionally to their unshadowed
+                contribution (0 = all lights traced, exact).
+            seed: same seed -> identical image.
+
+        Raises:
+            ValueError: spp < 1, a negative light_samples, or a light set holding virtual spherical
+                lights (not clamped). Zero for an infinite clamp or a set without VPLs.
+        """
+        spp = _v.integer("spp", spp, 1, 1 << 24)
+        light_samples = _v.integer("light_samples", light_samples, 0, 1 << 24)
+        max_depth = _v.integer("max_depth", max_depth, -1, 1 << 30)
+        return self._m.bias_compensation(int(max_depth), int(spp), int(light_samples), _v.seed(seed))
+
     def _index(self, name: str, v, size: int, what: str) -> int:
         if isinstance(v, (bool, np.bool_)) or int(v) != v:
             raise ValueError(f"{name} must be an integer, got {v!r}")

@@ -112,6 +112,9 @@ class LightMatrix:
         """(H, W, 3) weighted sum. Raises ValueError for a wrong length or NaN/inf weights."""
     def emitted(self) -> npt.NDArray[np.float32]:
         """(H, W, 3): emitted radiance seen directly (area emitters, environment background)."""
+    def bias_compensation(self, max_depth: int = -1, spp: int = 1, light_samples: int = 64,
+                          seed: int = 0) -> npt.NDArray[np.float32]:
+        """(H, W, 3): Kollig-Keller estimate of the energy the VPL clamp removes (CPU)."""
     def weighted_sum(self, indices: Sequence[int], weights: npt.NDArray[np.float32],
                      progress: Optional[Callable[[int, int], None]] = None) -> npt.NDArray[np.float32]:
         """(H, W, 3): sum_k weights[k] * column[indices[k]], (k, 3) RGB weights; only those columns are rendered."""
