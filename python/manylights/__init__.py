@@ -402,7 +402,7 @@ class LightMatrix:
         Args:
             max_depth: Mitsuba's max_depth the lights were generated with (-1 = unlimited); a path
                 vertex at level l uses the direct lights when l + 2 <= max_depth and the VPLs when
-                l + 3 <= max_depth (exact for 3 and unlimited).
+                l + 3 <= max_depth (exact for 3 and unlimited); 0 <= max_depth < 3 gives zeros (no VPLs).
             spp: BSDF samples per view sample (>= 1).
             light_samples: lights drawn per path vertex proportionally to their unshadowed
                 contribution (0 = all lights traced, exact).
