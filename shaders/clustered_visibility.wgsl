@@ -119,8 +119,7 @@ fn shade_sample(i: u32) {
         let c = params.first + k;
         let e = light_emitted(lights[c], s.position, n);
         if e.valid {
-            let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
-            let f = bsdf_eval(b, wi_local, wo_local) * e.radiance * s.throughput;
+            let f = light_shade(lights[c], s.position, e, fs, ft, n, wi_local, b) * s.throughput;
             if any(f != vec3<f32>(0.0)) {
                 acc = acc + f * interpolated_visibility(i, c);
             }

@@ -205,8 +205,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation
             let l = lights[k];
             let e = light_emitted(l, s.position, n);
             if e.valid {
-                let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
-                let f = bsdf_eval(bsdfs[row.sample], wi_local, wo_local) * e.radiance * s.throughput;
+                let f = light_shade(l, s.position, e, fs, ft, n, wi_local, bsdfs[row.sample]) * s.throughput;
                 if any(f != vec3<f32>(0.0)) {
                     contribution = f * row_visibility(row, s, l, e.wo);
                 }

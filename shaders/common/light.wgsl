@@ -232,6 +232,54 @@ fn vsl_spread(intensity: vec3<f32>, cos_light: f32, cos_receiver: f32, dist2: f3
     return intensity * (psa_y * psa_x / (omega * 3.14159265358979 * r2 * cos_light * cos_receiver));
 }
 
+// The receiver's lobe integrated over a VSL's cap (twin of `vsl::cap_shade`): l a VPL with radius > 0 whose
+// centre lies along wo from p; the receiver's frame (fs, ft, n), wi_local and BSDF b.
+const VSL_CAP_SAMPLES: u32 = 4u;
+
+fn vsl_cap_shade(l: Light, p: vec3<f32>, wo: vec3<f32>, fs: vec3<f32>, ft: vec3<f32>, n: vec3<f32>, wi_local: vec3<f32>, b: Bsdf) -> vec3<f32> {
+    let r = l.cutoff_angle;
+    let dp = l.position - p;
+    let s = min(r * r / dot(dp, dp), 1.0);
+    let one_minus_cos = s / (1.0 + sqrt(1.0 - s));
+    let ta = coordinate_system_s(wo);
+    let tb = coordinate_system_t(wo);
+    let vs = coordinate_system_s(l.normal);
+    let vt = coordinate_system_t(l.normal);
+    let wi_v = vec3<f32>(dot(l.incident, vs), dot(l.incident, vt), dot(l.incident, l.normal));
+    let cos_g_in = dot(l.incident, l.geo_normal);
+    let k = f32(VSL_CAP_SAMPLES);
+    var sum = vec3<f32>(0.0);
+    for (var a = 0u; a < VSL_CAP_SAMPLES; a++) {
+        let z = 1.0 - one_minus_cos * ((f32(a) + 0.5) / k);
+        let rr = sqrt(max(1.0 - z * z, 0.0));
+        for (var c = 0u; c < VSL_CAP_SAMPLES; c++) {
+            let phi = 6.28318530717959 * ((f32(c) + 0.5) / k);
+            let w = ta * (rr * cos(phi)) + tb * (rr * sin(phi)) + wo * z;
+            let out = -w;
+            let cos_g_out = dot(out, l.geo_normal);
+            let out_local = vec3<f32>(dot(out, vs), dot(out, vt), dot(out, l.normal));
+            if !(cos_g_out * cos_g_in > 0.0) || out_local.z == 0.0 {
+                continue;
+            }
+            let f_cos = bsdf_eval(l.bsdf, wi_v, out_local);
+            let w_local = vec3<f32>(dot(w, fs), dot(w, ft), dot(w, n));
+            sum += bsdf_eval(b, wi_local, w_local) * f_cos * (abs(cos_g_out) / abs(out_local.z));
+        }
+    }
+    return l.intensity * sum * (2.0 * one_minus_cos / (k * k * r * r));
+}
+
+// What a receiver (frame fs, ft, n; wi_local; BSDF b) at p reflects from l, given e = light_emitted(l, p, n)
+// (valid): bsdf_eval toward e.wo times e.radiance, or a VSL's cap integrated against the receiver's lobe.
+// Twin of `LightSet::shade_receiver`.
+fn light_shade(l: Light, p: vec3<f32>, e: Emitted, fs: vec3<f32>, ft: vec3<f32>, n: vec3<f32>, wi_local: vec3<f32>, b: Bsdf) -> vec3<f32> {
+    if l.kind == LIGHT_VPL && l.cutoff_angle > 0.0 {
+        return vsl_cap_shade(l, p, e.wo, fs, ft, n, wi_local, b);
+    }
+    let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
+    return bsdf_eval(b, wi_local, wo_local) * e.radiance;
+}
+
 // What a light sends to p: wo (unit, toward the light), radiance factor, distance (1e30 for directional).
 struct Emitted {
     wo: vec3<f32>,

@@ -106,7 +106,8 @@ pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &Sha
     let Some((wo, radiance, dist)) = lights.emitted(j, sp.p, sp.n) else {
         return Shaded::default();
     };
-    let f = crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, sp.local(wo)) * radiance * sp.throughput;
+    let receiver = |w: Vec3| crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, sp.local(w));
+    let f = lights.shade_receiver(j, sp.p, wo, radiance, receiver) * sp.throughput;
     if f == Vec3::ZERO {
         return Shaded::default();
     }

@@ -31,7 +31,8 @@
 //!   (n = the receiver's shading normal): the VPL contribution becomes Phi f_v f_r min(G, clamp),
 //!   the usual bound of the 1 / d^2 singularity (`vpl_clamp`, infinite = no clamp).
 //!   A VPL with `vsl_radius` r > 0 is a virtual spherical light instead (`vsl` module): not clamped,
-//!   F = `vsl::spread(I(w), |w . n_g|, |wo . n|, d^2, r)`, which tends to I(w) / d^2 for d >> r.
+//!   F = `vsl::spread(I(w), |w . n_g|, |wo . n|, d^2, r)`, which tends to I(w) / d^2 for d >> r; shading
+//!   sites integrate the receiver's lobe over the sphere's cap instead (`shade_receiver`).
 //!
 //! `power()` (W): point 4 pi I; spot I * 2 pi (1 - (sin c - sin b) / (c - b)) with c = cutoff_angle,
 //! b = beam_width (the exact integral of Mitsuba's falloff over the sphere, i.e. the mean weight of its
@@ -341,6 +342,19 @@ impl LightSet {
     /// Scalar power (mean of the RGB channels) of every light.
     pub fn power_luminance(&self) -> Vec<f32> {
         self.powers().iter().map(|p| p.element_sum() / 3.0).collect()
+    }
+
+    /// What a receiver at `p` reflects from light j, given what `emitted(j, p, n)` returned (`wo`,
+    /// `radiance`) and `receiver(w)` = its `bsdf_eval` toward world direction w (f_r |w . n|):
+    /// `receiver(wo) * radiance`, except for a virtual spherical light, whose cap is integrated against
+    /// the receiver's lobe (`vsl::cap_shade`). Every shading site uses it (CPU twin of `light_shade`).
+    #[inline]
+    pub fn shade_receiver(&self, j: usize, p: Vec3, wo: Vec3, radiance: Vec3, receiver: impl Fn(Vec3) -> Vec3) -> Vec3 {
+        if self.vsl_radius[j] > 0.0 {
+            vsl::cap_shade(self, j, p, wo, receiver)
+        } else {
+            receiver(wo) * radiance
+        }
     }
 
     /// What light j sends to point p whose shading normal is `n` (used only by the VPL clamp):

@@ -8,25 +8,28 @@
 //! from every point of its projected disk (area pi r^2), the radiance I_j / (pi r^2): far away it is the
 //! VPL (same intensity, same power), close by the receiver x sees a cap of solid angle
 //! Omega = 2 pi (1 - cos sigma), sin^2 sigma = min(1, r^2 / d^2) (inside the sphere: the hemisphere
-//! around wo). The receiver's reflected radiance is the integral over that cap of
-//! f_r(x) cos_x f_v cos_y / (pi r^2) Phi; as the paper (Sec. 4.2) we split the product integral into
-//! the product of the two integrals over the cap divided by Omega, each integral being a cosine lobe:
+//! around wo). The receiver reflects the integral over that cap of
+//!     f_r(x; wi, w) |w . n| I_j(-w) / (pi r^2) dw,
+//! both lobes integrated over the cap as the paper does (Sec. 4): `cap_shade` takes `CAP_SAMPLES`^2 = 16
+//! stratified directions uniform in the cap's solid angle (the same fixed pattern on the CPU and in
+//! WGSL), evaluating the receiver's BSDF and the VSL's at each. Every shading site calls it through
+//! `LightSet::shade_receiver` (CPU backend, oracle, CPU reference, clustered visibility; `light_shade`
+//! in `columns.wgsl`, `rows.wgsl`, `clustered_visibility.wgsl`).
+//!
+//! `LightSet::emitted` (what callers that do not shade see: wo, validity, distance) returns the closed
+//! form with both BSDFs at the centre direction (the paper's product-of-integrals split, Sec. 4.2):
 //!     F = Phi f_v(wo) * PSA(cos_y, sin^2 sigma) * PSA(cos_x, sin^2 sigma) / (Omega pi r^2 cos_x)
 //! where PSA(cos theta, sin^2 sigma) is the exact projected solid angle of a spherical cap of
 //! half-angle sigma whose axis makes angle theta with the normal (clipped by the horizon; Snyder,
 //! "Area light sources for real-time graphics", 1996; Lagarde and de Rousiers, "Moving Frostbite to
-//! PBR", 2014, Eq. 19), cos_y = |w . n_g| at the VSL and cos_x = |wo . n| at the receiver (n its
-//! shading normal), both toward the sphere's centre. The receiver multiplies F by its
-//! `bsdf_eval(wi, wo)` = f_r cos_x as for any light, so its reflected radiance is
-//! f_r(wo) f_v(wo) Phi PSA_y PSA_x / (Omega pi r^2).
+//! PBR", 2014, Eq. 19), cos_y = |w . n_g| at the VSL and cos_x = |wo . n| at the receiver. For a
+//! Lambertian receiver and VSL it is the exact cap integral that the quadrature approximates.
 //!
-//! Limits: r -> 0 (or d >> r: PSA -> pi sin^2 sigma cos, Omega -> pi sin^2 sigma) gives the VPL's
-//! f_r f_v Phi cos_x cos_y / d^2 exactly; at d -> 0 the value stays below f_r f_v Phi pi / (2 r^2)
-//! (no spike). Deviations from the paper: the BSDFs are evaluated at the centre direction (exact for a
-//! Lambertian receiver and VSL, whose f is constant over the cap; for glossy lobes narrower than the
-//! cap the paper integrates the lobe, we keep its value at the centre); visibility is the one shadow
-//! ray to the centre (as the paper's shadow maps); the VSL's BSDF at directions below its plane
-//! counts as 0 (the centre direction decides).
+//! Limits: r -> 0 (or d >> r) gives the VPL's f_r f_v Phi cos_x cos_y / d^2; at d -> 0 the value stays
+//! bounded (no spike, no clamp). Deviations from the paper: a fixed 16-direction quadrature of the cap
+//! (the paper importance-samples the lobes); visibility is the one shadow ray to the centre (as the
+//! paper's shadow maps); a receiver for which the centre direction is below the VSL's plane or its
+//! own horizon gets nothing (`emitted` decides validity by the centre).
 //!
 //! Radii (`radii`): r_j = scale * distance from VPL j to its `k`-th nearest VPL (a kd-tree over all
 //! VPL positions, `photon_map::PhotonMap`), the paper's density-adapted radius; never below
@@ -34,7 +37,7 @@
 //!
 //! Symbols: Phi flux (W), f_v the VSL's BSDF, f_r the receiver's, d the distance x-y, r the radius,
 //! sigma the cap's half-angle, Omega its solid angle, PSA projected solid angle (sr).
-//! Written identically in `shaders/common/light.wgsl` (`vsl_spread`), so the GPU equals the CPU.
+//! Written identically in `shaders/common/light.wgsl` (`vsl_spread`, `vsl_cap_shade`), so the GPU equals the CPU.
 use super::patch::atan_unit;
 use super::photon_map::PhotonMap;
 use crate::error::{Error, Result};
@@ -92,6 +95,47 @@ pub fn spread(intensity: Vec3, cos_light: f32, cos_receiver: f32, dist2: f32, r:
     let psa_y = cap_projected_solid_angle(cos_light, s);
     let psa_x = cap_projected_solid_angle(cos_receiver, s);
     Some(intensity * (psa_y * psa_x / (omega * PI * r2 * cos_light * cos_receiver)))
+}
+
+/// Stratified directions per axis of the cap quadrature (`cap_shade`): 4 x 4 = 16 directions.
+pub const CAP_SAMPLES: usize = 4;
+
+/// The reflected radiance at receiver `p` from VSL j (`vsl_radius[j]` > 0) whose centre lies along the
+/// unit `wo` (module docs: the receiver's lobe integrated over the cap): `CAP_SAMPLES`^2 stratified
+/// directions w uniform in the cap's solid angle Omega, each weighted by `receiver(w)` = f_r(wi, w)
+/// |w . n| (the receiver's `bsdf_eval`) times the VSL's intensity I_j(-w) (its BSDF and |cos| at
+/// that direction; 0 below its plane), times Omega / (K pi r^2). Tends to f_r(wo) I_j(-wo) / d^2 as
+/// r -> 0. Twin of `vsl_cap_shade` in light.wgsl.
+pub fn cap_shade(lights: &super::LightSet, j: usize, p: Vec3, wo: Vec3, receiver: impl Fn(Vec3) -> Vec3) -> Vec3 {
+    let r = lights.vsl_radius[j];
+    let d2 = (lights.position[j] - p).length_squared();
+    let s = (r * r / d2).min(1.0);
+    // 1 - cos sigma without cancellation.
+    let one_minus_cos = s / (1.0 + (1.0 - s).sqrt());
+    let (ta, tb) = super::coordinate_system(wo);
+    let (n_s, n_g, incident) = (lights.normal[j], lights.geo_normal[j], lights.incident[j]);
+    let (vs, vt) = super::coordinate_system(n_s);
+    let local = |v: Vec3| Vec3::new(v.dot(vs), v.dot(vt), v.dot(n_s));
+    let (wi_v, cos_g_in) = (local(incident), incident.dot(n_g));
+    let k = CAP_SAMPLES as f32;
+    let mut sum = Vec3::ZERO;
+    for a in 0..CAP_SAMPLES {
+        let z = 1.0 - one_minus_cos * ((a as f32 + 0.5) / k);
+        let rr = (1.0 - z * z).max(0.0).sqrt();
+        for b in 0..CAP_SAMPLES {
+            let phi = 2.0 * PI * ((b as f32 + 0.5) / k);
+            let w = ta * (rr * phi.cos()) + tb * (rr * phi.sin()) + wo * z;
+            let out = -w;
+            let cos_g_out = out.dot(n_g);
+            let out_local = local(out);
+            if !(cos_g_out * cos_g_in > 0.0) || out_local.z == 0.0 {
+                continue;
+            }
+            let f_cos = crate::shading::bsdf::eval(&lights.bsdf[j], wi_v, out_local);
+            sum += receiver(w) * f_cos * (cos_g_out.abs() / out_local.z.abs());
+        }
+    }
+    lights.intensity[j] * sum * (2.0 * one_minus_cos / (k * k * r * r))
 }
 
 /// Checks a user radius scale: finite and > 0.
@@ -173,6 +217,33 @@ mod tests {
             assert!(f.cmple(bound * 1.0001).all() && f.is_finite(), "{f} vs {bound}");
         }
         assert!(spread(i, cy, 0.0, d2, 0.1).is_none());
+    }
+
+    #[test]
+    fn cap_quadrature_agrees_with_the_closed_form_for_lambertian_lobes() {
+        use crate::shading::bsdf::KIND_DIFFUSE;
+        let mut b: crate::shading::GpuBsdf = bytemuck::Zeroable::zeroed();
+        b.kind = KIND_DIFFUSE;
+        b.diffuse = [0.5, 0.5, 0.5];
+        let mut set = super::super::LightSet::new(Vec3::ZERO, 10.0);
+        let n_v = Vec3::new(0.0, 0.0, 1.0);
+        set.push_vpl(Vec3::ZERO, n_v, n_v, Vec3::new(0.3, 0.0, 1.0).normalize(), Vec3::ONE, b).unwrap();
+        set.vsl_radius[0] = 0.1;
+        let n_r = Vec3::new(0.0, -0.6, -0.8);
+        let lambert = |w: Vec3| Vec3::splat(0.7 / PI * w.dot(n_r).max(0.0));
+        for (p, tol) in [(Vec3::new(0.3, 0.4, 2.0), 2e-3), (Vec3::new(0.1, 0.2, 0.5), 0.03)] {
+            let wo = (set.position[0] - p).normalize();
+            let (_, f, _) = set.emitted(0, p, n_r).unwrap();
+            let closed = lambert(wo) * f;
+            let quad = set.shade_receiver(0, p, wo, f, lambert);
+            assert!(((quad - closed) / closed).abs().max_element() < tol, "at {p}: quadrature {quad} vs closed form {closed}");
+        }
+        // Inside the sphere: finite, at most f_r f_v Phi Omega / (pi r^2) <= 2 f_r f_v Phi / r^2.
+        let p = Vec3::new(0.0, 0.02, 0.03);
+        let wo = (set.position[0] - p).normalize();
+        let (_, f, _) = set.emitted(0, p, n_r).unwrap();
+        let q = set.shade_receiver(0, p, wo, f, lambert);
+        assert!(q.is_finite() && q.max_element() > 0.0 && q.max_element() <= 2.0 * (0.7 / PI) * (0.5 / PI) / 0.01, "{q}");
     }
 
     #[test]

@@ -75,8 +75,8 @@ pub fn shade(view: &ViewSamples, job: &ClusteredShading, vis: &VisibilityMatrix)
                 let mut sum = Vec3::ZERO;
                 for c in 0..lights.len() {
                     let Some((wo, radiance, _)) = lights.emitted(c, sp.p, sp.n) else { continue };
-                    let local = Vec3::new(wo.dot(sp.s), wo.dot(sp.t), wo.dot(sp.n));
-                    let v = crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, local) * radiance * sp.throughput;
+                    let receiver = |w: Vec3| crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, Vec3::new(w.dot(sp.s), w.dot(sp.t), w.dot(sp.n)));
+                    let v = lights.shade_receiver(c, sp.p, wo, radiance, receiver) * sp.throughput;
                     if v == Vec3::ZERO {
                         continue;
                     }

@@ -7,6 +7,7 @@ use crate::lights::LightKind;
 use crate::matrix::reference::CpuReference;
 use crate::matrix::{ColumnOptions, LightMatrix};
 use crate::testing::scenes::cast_view;
+use glam::Vec3;
 use std::sync::Arc;
 
 fn vpl_indices(lights: &LightSet) -> Vec<usize> {
@@ -103,4 +104,18 @@ fn gpu_vsl_columns_match_cpu() {
         assert!(ok as f64 >= 0.99 * m as f64, "VSL {j}: {ok} of {m} pixels match");
     }
     assert!(near > 50, "the near field (receivers within 2 radii) must be exercised: {near}");
+    // Rows (rows.wgsl) shade VSLs the same way: 64 surface pixels, every chosen VSL.
+    let is: Vec<usize> = (0..m).filter(|&i| v.shape_index[i] >= 0).step_by(37).take(64).collect();
+    let rows = matrix.rows(&is, &mut |_, _| {}).unwrap();
+    let n = l.len();
+    let (mut ok, mut total) = (0usize, 0usize);
+    for (r, &i) in is.iter().enumerate() {
+        for &j in &js {
+            let want = reference.element(v, l, i, j);
+            let got = Vec3::from_slice(&rows[(r * n + j) * 3..(r * n + j) * 3 + 3]);
+            total += 1;
+            ok += ((got - want).abs().max_element() <= (0.02 * want.max_element()).max(1e-6)) as usize;
+        }
+    }
+    assert!(ok as f64 >= 0.97 * total as f64, "rows: {ok} of {total} elements match");
 }
