@@ -121,7 +121,7 @@ fn shade_sample(i: u32) {
         if e.valid {
             let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
             let w = glossy_light_weight(b, s.bsdf_samples, lights[c], s.position, wi_local, wo_local);
-            let f = bsdf_eval(b, wi_local, wo_local) * e.radiance * s.throughput * w;
+            let f = light_shade(lights[c], s.position, e, fs, ft, n, wi_local, b) * s.throughput * w;
             if any(f != vec3<f32>(0.0)) {
                 acc = acc + f * interpolated_visibility(i, c);
             }

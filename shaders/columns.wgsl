@@ -179,7 +179,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if e.valid && ((s.flags & VIEW_FLAG_GEO_FRONT) == 0u || dot(e.wo, s.geo_normal) > 0.0) {
                 let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
                 let w = glossy_light_weight(b, s.bsdf_samples, l, s.position, wi_local, wo_local);
-                let f = bsdf_eval(b, wi_local, wo_local) * e.radiance * s.throughput * w;
+                let f = light_shade(l, s.position, e, fs, ft, n, wi_local, b) * s.throughput * w;
                 if any(f != vec3<f32>(0.0)) {
                     contribution = f * visibility(l, s.position, s.geo_normal, e.wo);
                 }

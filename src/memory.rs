@@ -14,8 +14,8 @@
 use crate::error::{Error, Result};
 
 /// Host bytes per light of a `LightSet` (kind, five Vec3, intensity, two angles, an 80-byte BSDF, a
-/// 4-corner patch) plus its cached power.
-pub const HOST_BYTES_PER_LIGHT: u64 = 4 + 6 * 12 + 8 + 80 + 48 + 12;
+/// 4-corner patch, a VSL radius, the glossy-MIS measure and emitter index) plus its cached power.
+pub const HOST_BYTES_PER_LIGHT: u64 = 4 + 6 * 12 + 8 + 80 + 48 + 4 + 8 + 12;
 /// Host bytes per view sample: the G-buffer ids and readback, `ViewSamples` (positions, normals, wi,
 /// uv, albedo, indices, an 80-byte BSDF) and the GPU upload's staging copy (64 + 80 bytes).
 pub const HOST_BYTES_PER_VIEW_SAMPLE: u64 = 8 + 4 * 12 + 8 + 12 + 8 + 80 + 144;

@@ -414,6 +414,13 @@ cases_for("generate_lights", [
     ("max_depth 2 with VPLs", lambda c: c.ml.generate_lights(c.scene, indirect=10, max_depth=2), ["max_depth"]),
     ("negative seed", lambda c: c.ml.generate_lights(c.scene, area=4, seed=-1), ["seed"]),
     ("fractional seed", lambda c: c.ml.generate_lights(c.scene, area=4, seed=0.5), ["seed"]),
+    ("unknown indirect_kind", lambda c: c.ml.generate_lights(c.scene, area=4, indirect_kind="spheres"), ["indirect_kind"]),
+    ("zero VSL radius scale", lambda c: c.ml.generate_lights(c.scene, area=4, indirect=10, indirect_kind="vsl",
+                                                             vsl_radius_scale=0.0), ["vsl_radius_scale"]),
+    ("NaN VSL radius scale", lambda c: c.ml.generate_lights(c.scene, area=4, indirect=10, indirect_kind="vsl",
+                                                            vsl_radius_scale=float("nan")), ["vsl_radius_scale"]),
+    ("zero VSL neighbours", lambda c: c.ml.generate_lights(c.scene, area=4, indirect_kind="vsl", vsl_neighbours=0),
+     ["vsl_neighbours"]),
 ])
 cases_for("stratified_rows", [
     ("zero rows", lambda c: c.ml.stratified_rows(c.scene, 0), ["r"]),
@@ -520,6 +527,13 @@ cases_for("LightMatrix.columns", _IDX_CASES(lambda c, i: c.A.columns([0, i]), la
 ])
 cases_for("LightMatrix.element", _IDX_CASES(lambda c, i: c.A.element(i, 0), lambda c: c.m)
           + [("column out of range", lambda c: c.A.element(0, c.n), ["range"])])
+cases_for("LightMatrix.bias_compensation", [
+    ("zero spp", lambda c: c.A.bias_compensation(spp=0), ["spp"]),
+    ("fractional spp", lambda c: c.A.bias_compensation(spp=1.5), ["spp"]),
+    ("negative light_samples", lambda c: c.A.bias_compensation(light_samples=-1), ["light_samples"]),
+    ("max_depth below -1", lambda c: c.A.bias_compensation(max_depth=-2), ["max_depth"]),
+    ("negative seed", lambda c: c.A.bias_compensation(seed=-1), ["seed"]),
+])
 cases_for("LightMatrix.row_exact", _IDX_CASES(lambda c, i: c.A.row_exact(i), lambda c: c.m))
 cases_for("LightMatrix.column_exact", _IDX_CASES(lambda c, i: c.A.column_exact(i), lambda c: c.n))
 cases_for("LightMatrix.rows", _IDX_CASES(lambda c, i: c.A.rows([0, i], progress=False), lambda c: c.m) + [

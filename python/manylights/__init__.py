@@ -12,6 +12,7 @@ Quick start::
 """
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import Optional, Sequence
@@ -148,6 +149,9 @@ def generate_lights(
     clamp: Optional[float] = None,
     env_importance: bool = False,
     seed: int = 0,
+    indirect_kind: str = "vpl",
+    vsl_radius_scale: float = 1.0,
+    vsl_neighbours: int = 16,
 ) -> LightSet:
     """Turn a scene's emitters and its indirect light into point-like lights (many-light columns).
 
@@ -169,6 +173,13 @@ def generate_lights(
             ``float("inf")`` = no clamp.
         env_importance: allocate environment strata by luminance (equal power per light).
         seed: same seed -> identical LightSet.
+        indirect_kind: ``"vpl"`` (point VPLs, bounded by ``clamp``) or ``"vsl"``: virtual spherical
+            lights (Hasan, Krivanek, Walter, Bala, SIGGRAPH Asia 2009, Sec. 4-5): each VPL spread over a
+            sphere of radius ``vsl_radius_scale`` times the distance to its ``vsl_neighbours``-th
+            nearest VPL (the ``vsl_radius`` property, m), its cap integrated against both cosines
+            (``src/lights/vsl.rs``); not clamped. Still one column per light.
+        vsl_radius_scale: > 0, finite (``"vsl"`` only).
+        vsl_neighbours: k >= 1 of the k-th nearest VPL (``"vsl"`` only).
 
     Returns:
         LightSet with numpy views ``kind`` (0 point, 1 spot, 2 directional, 3 oriented point, 4 VPL),
@@ -176,7 +187,9 @@ def generate_lights(
 
     Raises:
         ValueError: a negative, non-integer or too large count, a NaN or non-positive clamp,
-            max_depth < 3 with indirect > 0, or a scene without emitters. Zero-area or zero-radiance
+            max_depth < 3 with indirect > 0, an indirect_kind other than "vpl"/"vsl", a
+            vsl_radius_scale that is 0, negative, NaN or infinite, vsl_neighbours < 1, or a scene
+            without emitters. Zero-area or zero-radiance
             emitters contribute nothing (no lights, no NaN).
     """
     counts = {"area": area, "environment": environment, "indirect": indirect, "max_depth": max_depth}
@@ -189,8 +202,15 @@ def generate_lights(
         clamp = float(clamp)
         if not clamp > 0.0:
             raise ValueError(f"clamp must be > 0 (or inf for no clamp), got {clamp}")
+    if indirect_kind not in ("vpl", "vsl"):
+        raise ValueError(f"indirect_kind must be 'vpl' or 'vsl', got {indirect_kind!r}")
+    vsl_radius_scale = float(vsl_radius_scale)
+    if not (vsl_radius_scale > 0.0 and math.isfinite(vsl_radius_scale)):
+        raise ValueError(f"vsl_radius_scale must be finite and > 0, got {vsl_radius_scale}")
+    vsl_neighbours = _v.integer("vsl_neighbours", vsl_neighbours, 1, 1 << 20)
     return _native.generate_lights(
-        scene, int(area), int(environment), int(indirect), int(max_depth), clamp, bool(env_importance), int(seed)
+        scene, int(area), int(environment), int(indirect), int(max_depth), clamp, bool(env_importance), int(seed),
+        indirect_kind, vsl_radius_scale, int(vsl_neighbours),
     )
 
 
@@ -391,6 +411,30 @@ class LightMatrix:
         glossy MIS (each glossy sample's ``bsdf_samples`` rays to area emitters and the environment,
         weighted by w_B = 1 - w_L; seeded by ``glossy_seed``), so every renderer's image includes it."""
         return self._m.emitted()
+
+    def bias_compensation(self, max_depth: int = -1, spp: int = 1, light_samples: int = 64, seed: int = 0) -> np.ndarray:
+        """The energy the VPL geometry-term clamp removes, estimated without bias by short BSDF-sampled
+        paths (Kollig and Keller 2004; ``src/matrix/bias_compensation.rs``), (H, W, 3) float32, to add
+        to an image like ``emitted()``: ``column_sum() + emitted() + bias_compensation()`` estimates the
+        unclamped VPL image. Computed on the CPU (rayon) whatever ``device``.
+
+        Args:
+            max_depth: Mitsuba's max_depth the lights were generated with (-1 = unlimited); a path
+                vertex at level l uses the direct lights when l + 2 <= max_depth and the VPLs when
+                l + 3 <= max_depth (exact for 3 and unlimited); 0 <= max_depth < 3 gives zeros (no VPLs).
+            spp: BSDF samples per view sample (>= 1).
+            light_samples: lights drawn per path vertex proportionally to their unshadowed
+                contribution (0 = all lights traced, exact).
+            seed: same seed -> identical image.
+
+        Raises:
+            ValueError: spp < 1, a negative light_samples, or a light set holding virtual spherical
+                lights (not clamped). Zero for an infinite clamp or a set without VPLs.
+        """
+        spp = _v.integer("spp", spp, 1, 1 << 24)
+        light_samples = _v.integer("light_samples", light_samples, 0, 1 << 24)
+        max_depth = _v.integer("max_depth", max_depth, -1, 1 << 30)
+        return self._m.bias_compensation(int(max_depth), int(spp), int(light_samples), _v.seed(seed))
 
     def _index(self, name: str, v, size: int, what: str) -> int:
         if isinstance(v, (bool, np.bool_)) or int(v) != v:

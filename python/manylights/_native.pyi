@@ -61,6 +61,8 @@ class LightSet:
     patch: npt.NDArray[np.float32]
     """(n, 4, 3) float32: each oriented point's patch corners (m); all zero = none. Receivers within 3
     patch radii get the patch's projected solid angle instead of 1/d^2 (issue 13)."""
+    vsl_radius: npt.NDArray[np.float32]
+    """(n,) float32: each VPL's virtual-spherical-light radius (m); 0 = a point VPL (clamped)."""
     scene_sphere: tuple[tuple[float, float, float], float]
     def __len__(self) -> int: ...
     def __getitem__(self, key: Union[int, slice, Sequence[int], npt.NDArray[Any]]) -> LightSet:
@@ -73,7 +75,8 @@ class LightSet:
                     intensity: Optional[npt.ArrayLike] = None, power: Optional[npt.ArrayLike] = None,
                     cutoff_angle: Optional[npt.ArrayLike] = None, beam_width: Optional[npt.ArrayLike] = None,
                     bsdf: Optional[npt.ArrayLike] = None, albedo: Optional[npt.ArrayLike] = None,
-                    vpl_clamp: Optional[float] = None, patch: Optional[npt.ArrayLike] = None) -> LightSet:
+                    vpl_clamp: Optional[float] = None, patch: Optional[npt.ArrayLike] = None,
+                    vsl_radius: Optional[npt.ArrayLike] = None) -> LightSet:
         """A LightSet from per-light arrays (see the method's docstring: shapes, units, checks).
         Raises ValueError naming the argument, the expected and the actual shape or value."""
     @staticmethod
@@ -115,6 +118,9 @@ class LightMatrix:
     def emitted(self) -> npt.NDArray[np.float32]:
         """(H, W, 3): emitted radiance seen directly (area emitters, environment background), plus the
         BSDF strategy of glossy MIS when the matrix has glossy view samples."""
+    def bias_compensation(self, max_depth: int = -1, spp: int = 1, light_samples: int = 64,
+                          seed: int = 0) -> npt.NDArray[np.float32]:
+        """(H, W, 3): Kollig-Keller estimate of the energy the VPL clamp removes (CPU)."""
     def weighted_sum(self, indices: Sequence[int], weights: npt.NDArray[np.float32],
                      progress: Optional[Callable[[int, int], None]] = None) -> npt.NDArray[np.float32]:
         """(H, W, 3): sum_k weights[k] * column[indices[k]], (k, 3) RGB weights; only those columns are rendered."""
@@ -153,7 +159,8 @@ def scene_lights(scene: Scene) -> LightSet:
     """The scene's point, spot and directional emitters."""
 
 def generate_lights(scene: Scene, area: int = 4096, environment: int = 0, indirect: int = 0, max_depth: int = 5,
-                    clamp: Optional[float] = None, env_importance: bool = False, seed: int = 0) -> LightSet:
+                    clamp: Optional[float] = None, env_importance: bool = False, seed: int = 0,
+                    indirect_kind: str = "vpl", vsl_radius_scale: float = 1.0, vsl_neighbours: int = 16) -> LightSet:
     """Delta emitters plus area, environment and indirect (VPL) lights; see ``manylights.generate_lights``.
 
     Raises:

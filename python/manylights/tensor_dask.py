@@ -19,7 +19,7 @@ import numpy as np
 
 #: LightSet arrays that ``LightSet.from_arrays`` takes back (power follows from the intensity).
 LIGHT_FIELDS = ("kind", "position", "direction", "normal", "geo_normal", "incident", "intensity", "cutoff_angle",
-                "beam_width", "bsdf", "patch")
+                "beam_width", "bsdf", "patch", "vsl_radius")
 
 
 def _light_arrays(ls) -> dict:

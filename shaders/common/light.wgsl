@@ -19,6 +19,7 @@ struct Light {
     // I (W/sr) or E (W/m^2).
     intensity: vec3<f32>,
     cos_cutoff: f32,
+    // Spot: cutoff angle (radians); VPL: its virtual-spherical-light radius (m; 0 = a point VPL).
     cutoff_angle: f32,
     cos_beam: f32,
     // 1 / (cutoff_angle - beam_width), 0 when they are equal.
@@ -192,6 +193,93 @@ fn patch_clipped(l: Light, p: vec3<f32>, n: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(0.5 * abs(psa), 0.5 * length(cross_sum));
 }
 
+// ---- Virtual spherical lights (twin of src/lights/vsl.rs, formulas there) ----
+
+// atan(z) for z >= 0.
+fn atan_pos(z: f32) -> f32 {
+    if z <= 1.0 {
+        return atan_unit(z);
+    }
+    return 1.57079632679490 - atan_unit(1.0 / z);
+}
+
+// Projected solid angle of a spherical cap (half-angle sigma as sin^2 sigma) whose axis makes angle theta
+// (cos_theta in [0, 1]) with the normal, clipped by the horizon.
+fn cap_projected_solid_angle(cos_theta: f32, sin2_sigma: f32) -> f32 {
+    let c = clamp(cos_theta, 0.0, 1.0);
+    let s = clamp(sin2_sigma, 0.0, 1.0);
+    if c * c > s {
+        return 3.14159265358979 * s * c;
+    }
+    if s >= 1.0 {
+        return 1.57079632679490 * (1.0 + c);
+    }
+    let sin_theta = sqrt(max(1.0 - c * c, 0.0));
+    let x = sqrt(max(1.0 / s - 1.0, 0.0));
+    let y = clamp(-x * c / sin_theta, -1.0, 1.0);
+    let t = sin_theta * sqrt(max(1.0 - y * y, 0.0));
+    return max((c * acos_precise(y) - x * t) * s + atan_pos(t / x), 0.0);
+}
+
+// The VSL radiance factor of a VPL with centre intensity `intensity` (cosine cos_light > 0 included),
+// radius r, at squared distance dist2 from a receiver whose |cos| toward the centre is cos_receiver > 0.
+fn vsl_spread(intensity: vec3<f32>, cos_light: f32, cos_receiver: f32, dist2: f32, r: f32) -> vec3<f32> {
+    let r2 = r * r;
+    let s = min(r2 / dist2, 1.0);
+    let omega = 2.0 * 3.14159265358979 * s / (1.0 + sqrt(1.0 - s));
+    let psa_y = cap_projected_solid_angle(cos_light, s);
+    let psa_x = cap_projected_solid_angle(cos_receiver, s);
+    return intensity * (psa_y * psa_x / (omega * 3.14159265358979 * r2 * cos_light * cos_receiver));
+}
+
+// The receiver's lobe integrated over a VSL's cap (twin of `vsl::cap_shade`): l a VPL with radius > 0 whose
+// centre lies along wo from p; the receiver's frame (fs, ft, n), wi_local and BSDF b.
+const VSL_CAP_SAMPLES: u32 = 4u;
+
+fn vsl_cap_shade(l: Light, p: vec3<f32>, wo: vec3<f32>, fs: vec3<f32>, ft: vec3<f32>, n: vec3<f32>, wi_local: vec3<f32>, b: Bsdf) -> vec3<f32> {
+    let r = l.cutoff_angle;
+    let dp = l.position - p;
+    let s = min(r * r / dot(dp, dp), 1.0);
+    let one_minus_cos = s / (1.0 + sqrt(1.0 - s));
+    let ta = coordinate_system_s(wo);
+    let tb = coordinate_system_t(wo);
+    let vs = coordinate_system_s(l.normal);
+    let vt = coordinate_system_t(l.normal);
+    let wi_v = vec3<f32>(dot(l.incident, vs), dot(l.incident, vt), dot(l.incident, l.normal));
+    let cos_g_in = dot(l.incident, l.geo_normal);
+    let k = f32(VSL_CAP_SAMPLES);
+    var sum = vec3<f32>(0.0);
+    for (var a = 0u; a < VSL_CAP_SAMPLES; a++) {
+        let z = 1.0 - one_minus_cos * ((f32(a) + 0.5) / k);
+        let rr = sqrt(max(1.0 - z * z, 0.0));
+        for (var c = 0u; c < VSL_CAP_SAMPLES; c++) {
+            let phi = 6.28318530717959 * ((f32(c) + 0.5) / k);
+            let w = ta * (rr * cos(phi)) + tb * (rr * sin(phi)) + wo * z;
+            let out = -w;
+            let cos_g_out = dot(out, l.geo_normal);
+            let out_local = vec3<f32>(dot(out, vs), dot(out, vt), dot(out, l.normal));
+            if !(cos_g_out * cos_g_in > 0.0) || out_local.z == 0.0 {
+                continue;
+            }
+            let f_cos = bsdf_eval(l.bsdf, wi_v, out_local);
+            let w_local = vec3<f32>(dot(w, fs), dot(w, ft), dot(w, n));
+            sum += bsdf_eval(b, wi_local, w_local) * f_cos * (abs(cos_g_out) / abs(out_local.z));
+        }
+    }
+    return l.intensity * sum * (2.0 * one_minus_cos / (k * k * r * r));
+}
+
+// What a receiver (frame fs, ft, n; wi_local; BSDF b) at p reflects from l, given e = light_emitted(l, p, n)
+// (valid): bsdf_eval toward e.wo times e.radiance, or a VSL's cap integrated against the receiver's lobe.
+// Twin of `LightSet::shade_receiver`.
+fn light_shade(l: Light, p: vec3<f32>, e: Emitted, fs: vec3<f32>, ft: vec3<f32>, n: vec3<f32>, wi_local: vec3<f32>, b: Bsdf) -> vec3<f32> {
+    if l.kind == LIGHT_VPL && l.cutoff_angle > 0.0 {
+        return vsl_cap_shade(l, p, e.wo, fs, ft, n, wi_local, b);
+    }
+    let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
+    return bsdf_eval(b, wi_local, wo_local) * e.radiance;
+}
+
 // What a light sends to p: wo (unit, toward the light), radiance factor, distance (1e30 for directional).
 struct Emitted {
     wo: vec3<f32>,
@@ -300,6 +388,15 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
         }
         let f_cos = bsdf_eval(l.bsdf, wi_local, wo_local);
         let intensity = l.intensity * f_cos * (abs(cos_g_out) / abs(wo_local.z));
+        if l.cutoff_angle > 0.0 {
+            let cos_r = abs(dot(e.wo, n));
+            if !(cos_r > 0.0) {
+                return e;
+            }
+            e.radiance = vsl_spread(intensity, abs(cos_g_out), cos_r, dist2, l.cutoff_angle);
+            e.valid = true;
+            return e;
+        }
         let g = abs(cos_g_out) * abs(dot(e.wo, n)) * inv_d2;
         let scale = select(1.0, l.clamp / g, g > l.clamp);
         e.radiance = intensity * (inv_d2 * scale);

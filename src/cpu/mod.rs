@@ -107,7 +107,8 @@ pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &Sha
         return Shaded::default();
     };
     let wo_local = sp.local(wo);
-    let mut f = crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, wo_local) * radiance * sp.throughput;
+    let receiver = |w: Vec3| crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, sp.local(w));
+    let mut f = lights.shade_receiver(j, sp.p, wo, radiance, receiver) * sp.throughput;
     if !view.bsdf_samples.is_empty() {
         f *= crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, wo_local, j);
     }

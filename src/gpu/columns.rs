@@ -35,6 +35,7 @@ pub struct GpuLight {
     pub first_layer: u32,
     pub intensity: [f32; 3],
     pub cos_cutoff: f32,
+    /// Spot: cutoff angle (radians); VPL: its virtual-spherical-light radius (m, 0 = a point VPL).
     pub cutoff_angle: f32,
     pub cos_beam: f32,
     pub inv_transition: f32,
@@ -73,7 +74,7 @@ impl GpuLight {
             first_layer,
             intensity: lights.intensity[j].to_array(),
             cos_cutoff: if spot { cutoff.cos() } else { -2.0 },
-            cutoff_angle: cutoff,
+            cutoff_angle: if lights.kind[j] == LightKind::Vpl { lights.vsl_radius[j] } else { cutoff },
             cos_beam: if spot { beam.cos() } else { -2.0 },
             inv_transition: if cutoff > beam { 1.0 / (cutoff - beam) } else { 0.0 },
             is_cube: is_cube as u32,

@@ -13,7 +13,8 @@
 //!   (4 corners of the planar convex piece of emitter it stands for, `lights::patch`; all zero = none,
 //!   the default)
 //! - VPL (4): position, normal n_s (unit), geo_normal n_g (unit), incident (unit), intensity = flux
-//!   Phi (W), bsdf
+//!   Phi (W), bsdf; optional vsl_radius (m, finite and >= 0: a virtual spherical light, `lights::vsl`;
+//!   0 = a point VPL, the default; ignored for other kinds)
 //!
 //! Unit vectors must have length 1 within `UNIT_TOL`; positions finite; intensities finite and >= 0.
 use super::{LightKind, LightSet};
@@ -40,6 +41,8 @@ pub struct LightArrays {
     pub bsdf: Option<Vec<GpuBsdf>>,
     /// Oriented points' patches (4 corners each); None = no patches.
     pub patch: Option<Vec<[Vec3; 4]>>,
+    /// VPLs' virtual-spherical-light radii (m, >= 0; 0 = a point VPL); None = all point VPLs.
+    pub vsl_radius: Option<Vec<f32>>,
 }
 
 /// Light kind from its integer code.
@@ -99,10 +102,12 @@ impl LightSet {
     ///
     /// Errors: `InvalidParameter` naming the array, the light index, the expected and the actual value
     /// (array lengths other than n, unknown kinds, non-finite values, negative intensities, non-unit
-    /// vectors, bad spot angles, a VPL without a BSDF, a patch with non-finite corners or zero area).
+    /// vectors, bad spot angles, a VPL without a BSDF, a patch with non-finite corners or zero area, a NaN, infinite or
+    /// negative vsl_radius).
     pub fn from_arrays(a: &LightArrays, scene_center: Vec3, scene_radius: f32, vpl_clamp: f32) -> Result<LightSet> {
         let n = a.kind.len();
-        let lens: [(&str, Option<usize>); 11] = [
+        let lens: [(&str, Option<usize>); 12] = [
+            ("vsl_radius", a.vsl_radius.as_ref().map(Vec::len)),
             ("patch", a.patch.as_ref().map(Vec::len)),
             ("position", a.position.as_ref().map(Vec::len)),
             ("direction", a.direction.as_ref().map(Vec::len)),
@@ -188,6 +193,15 @@ impl LightSet {
                     set.patch[j] = c;
                 }
             }
+            if let Some(radii) = &a.vsl_radius {
+                let r = radii[j];
+                if !(r >= 0.0 && r.is_finite()) {
+                    return Err(Error::invalid(format!("vsl_radius[{j}] must be finite and >= 0 (m; 0 = a point VPL), got {r}")));
+                }
+                if kind == LightKind::Vpl {
+                    set.vsl_radius[j] = r;
+                }
+            }
         }
         Ok(set)
     }
@@ -219,6 +233,7 @@ impl LightSet {
         // A subset no longer covers its emitters with equal-area strata: no glossy MIS for its lights.
         out.mis_measure = vec![0.0; idx.len()];
         out.mis_mesh = vec![-1; idx.len()];
+        out.vsl_radius = idx.iter().map(|&j| self.vsl_radius[j]).collect();
         Ok(out)
     }
 

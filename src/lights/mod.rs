@@ -30,6 +30,9 @@
 //!   F = I(w) / d^2, scaled by min(1, clamp / G) with G = |w . n_g| |wo . n| / d^2 the geometry term
 //!   (n = the receiver's shading normal): the VPL contribution becomes Phi f_v f_r min(G, clamp),
 //!   the usual bound of the 1 / d^2 singularity (`vpl_clamp`, infinite = no clamp).
+//!   A VPL with `vsl_radius` r > 0 is a virtual spherical light instead (`vsl` module): not clamped,
+//!   F = `vsl::spread(I(w), |w . n_g|, |wo . n|, d^2, r)`, which tends to I(w) / d^2 for d >> r; shading
+//!   sites integrate the receiver's lobe over the sphere's cap instead (`shade_receiver`).
 //!
 //! `power()` (W): point 4 pi I; spot I * 2 pi (1 - (sin c - sin b) / (c - b)) with c = cutoff_angle,
 //! b = beam_width (the exact integral of Mitsuba's falloff over the sphere, i.e. the mean weight of its
@@ -49,11 +52,12 @@ pub mod animated;
 pub mod gather;
 pub mod patch;
 pub mod photon_map;
+pub mod vsl;
 pub mod generate;
 pub mod spot_texture;
 
 pub use arrays::LightArrays;
-pub use generate::{generate_lights, GenerateOptions};
+pub use generate::{generate_lights, GenerateOptions, VslOptions};
 
 use crate::error::{Error, Result};
 use crate::scene::{Emitter, Scene};
@@ -104,7 +108,11 @@ pub struct LightSet {
     /// Oriented point: the piece of its area emitter it stands for (4 corners of a planar convex
     /// quadrilateral, `patch` module), used in the near field; all zero = none (other kinds too).
     pub patch: Vec<[Vec3; 4]>,
-    /// Bound on the VPL geometry term G = cos cos / d^2 (1/m^2); `f32::INFINITY` = no clamp.
+    /// VPL: the radius r (m) of its virtual spherical light (`vsl` module), 0 = a point VPL (then the
+    /// clamp applies); 0 for other kinds.
+    pub vsl_radius: Vec<f32>,
+    /// Bound on the VPL geometry term G = cos cos / d^2 (1/m^2); `f32::INFINITY` = no clamp. VSLs
+    /// (`vsl_radius > 0`) are not clamped.
     pub vpl_clamp: f32,
     /// The sampling measure of light j for glossy MIS (`matrix::glossy`): the area (m^2) of the
     /// equal-area stratum an area-light sample stands for (its emitter's area / its count), the solid
@@ -202,6 +210,7 @@ impl LightSet {
         self.incident.push(Vec3::ZERO);
         self.bsdf.push(bytemuck::Zeroable::zeroed());
         self.patch.push([Vec3::ZERO; 4]);
+        self.vsl_radius.push(0.0);
         self.mis_measure.push(0.0);
         self.mis_mesh.push(-1);
     }
@@ -267,6 +276,21 @@ impl LightSet {
         self.patch.extend_from_slice(&other.patch);
         self.mis_measure.extend_from_slice(&other.mis_measure);
         self.mis_mesh.extend_from_slice(&other.mis_mesh);
+        self.vsl_radius.extend_from_slice(&other.vsl_radius);
+    }
+
+    /// Make VPL j a virtual spherical light of radius `r` (m; `vsl` module), or a point VPL with r = 0.
+    ///
+    /// Errors: `InvalidParameter` for another kind with r != 0, or r NaN, infinite or negative.
+    pub fn set_vsl_radius(&mut self, j: usize, r: f32) -> Result<()> {
+        if !(r >= 0.0 && r.is_finite()) {
+            return Err(Error::invalid(format!("vsl_radius[{j}] must be finite and >= 0 (m; 0 = a point VPL), got {r}")));
+        }
+        if r != 0.0 && self.kind[j] != LightKind::Vpl {
+            return Err(Error::invalid(format!("light {j}: only VPLs have a vsl_radius, got a {:?} with radius {r}", self.kind[j])));
+        }
+        self.vsl_radius[j] = r;
+        Ok(())
     }
 
     /// Add an isotropic point light of intensity I (W/sr).
@@ -338,6 +362,19 @@ impl LightSet {
         self.powers().iter().map(|p| p.element_sum() / 3.0).collect()
     }
 
+    /// What a receiver at `p` reflects from light j, given what `emitted(j, p, n)` returned (`wo`,
+    /// `radiance`) and `receiver(w)` = its `bsdf_eval` toward world direction w (f_r |w . n|):
+    /// `receiver(wo) * radiance`, except for a virtual spherical light, whose cap is integrated against
+    /// the receiver's lobe (`vsl::cap_shade`). Every shading site uses it (CPU twin of `light_shade`).
+    #[inline]
+    pub fn shade_receiver(&self, j: usize, p: Vec3, wo: Vec3, radiance: Vec3, receiver: impl Fn(Vec3) -> Vec3) -> Vec3 {
+        if self.vsl_radius[j] > 0.0 {
+            vsl::cap_shade(self, j, p, wo, receiver)
+        } else {
+            receiver(wo) * radiance
+        }
+    }
+
     /// What light j sends to point p whose shading normal is `n` (used only by the VPL clamp):
     /// (wo, unit direction from p toward the light; radiance factor F (module docs); distance to the
     /// light, infinite for directional). `None` when it sends nothing (outside a spot cone, behind an
@@ -395,6 +432,10 @@ impl LightSet {
                 // eval = f |w . n_s|; I(w) = Phi f |w . n_g|.
                 let f_cos = crate::shading::bsdf::eval(&self.bsdf[j], wi_local, wo_local);
                 let intensity = self.intensity[j] * f_cos * (cos_g_out.abs() / wo_local.z.abs());
+                let r = self.vsl_radius[j];
+                if r > 0.0 {
+                    return Some((wo, vsl::spread(intensity, cos_g_out.abs(), wo.dot(n).abs(), dist2, r)?, dist));
+                }
                 let g = cos_g_out.abs() * wo.dot(n).abs() * inv_d2;
                 let clamp = if g > self.vpl_clamp { self.vpl_clamp / g } else { 1.0 };
                 intensity * (inv_d2 * clamp)

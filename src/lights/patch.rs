@@ -77,7 +77,7 @@ pub fn is_near(c: &[Vec3; 4], p: Vec3) -> bool {
 
 /// atan(z) for z in [0, 1] (Cephes `atanf`, ~2 ulp), twin of `atan_unit` in light.wgsl.
 #[inline]
-fn atan_unit(z: f32) -> f32 {
+pub(crate) fn atan_unit(z: f32) -> f32 {
     let (base, x) = if z > 0.414_213_57 { (std::f32::consts::FRAC_PI_4, (z - 1.0) / (z + 1.0)) } else { (0.0, z) };
     let x2 = x * x;
     base + ((((8.053_744_5e-2 * x2 - 1.387_768_6e-1) * x2 + 1.997_771_1e-1) * x2 - 3.333_295e-1) * x2 * x + x)

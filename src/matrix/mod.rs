@@ -29,6 +29,7 @@
 //!
 //! Symbols: m = number of rows = pixels (`width * height`), n = number of lights, w = weights.
 pub mod backend;
+pub mod bias_compensation;
 pub mod emitted;
 pub mod glossy;
 pub mod gpu;

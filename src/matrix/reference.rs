@@ -87,7 +87,7 @@ impl CpuReference {
         let n = view.normal[i];
         let (s, t) = coordinate_system(n);
         let local = |v: Vec3| Vec3::new(v.dot(s), v.dot(t), v.dot(n));
-        let f = crate::shading::bsdf::eval_records(&view.bsdf, i, local(view.wi[i]), local(wo)) * radiance;
+        let f = lights.shade_receiver(j, p, wo, radiance, |w| crate::shading::bsdf::eval_records(&view.bsdf, i, local(view.wi[i]), local(w)));
         let vis = self.visible(p, view.geo_normal[i], wo, dist);
         (if vis { f } else { Vec3::ZERO }, vis)
     }

@@ -2,14 +2,16 @@
 use super::matrix::LightSet;
 use super::scene::Scene;
 use crate::error::Error;
-use crate::lights::{generate_lights as core_generate, GenerateOptions};
+use crate::lights::{generate_lights as core_generate, GenerateOptions, VslOptions};
 use pyo3::prelude::*;
 
 /// Delta lights of the scene plus `area` oriented points, `environment` directional lights and about
 /// `indirect` VPLs. Args as `manylights.generate_lights`; `max_depth < 0` = unlimited,
-/// `clamp = None` = the scene-scaled default. Raises ValueError for bad values or a scene without emitters.
+/// `clamp = None` = the scene-scaled default; `indirect_kind = "vsl"` makes the VPLs virtual spherical
+/// lights (`lights::vsl`). Raises ValueError for bad values or a scene without emitters.
 #[pyfunction]
-#[pyo3(signature = (scene, area=4096, environment=0, indirect=0, max_depth=5, clamp=None, env_importance=false, seed=0))]
+#[pyo3(signature = (scene, area=4096, environment=0, indirect=0, max_depth=5, clamp=None, env_importance=false, seed=0,
+                    indirect_kind="vpl", vsl_radius_scale=1.0, vsl_neighbours=crate::lights::vsl::DEFAULT_NEIGHBOURS))]
 #[allow(clippy::too_many_arguments)]
 pub fn generate_lights(
     py: Python<'_>,
@@ -21,6 +23,9 @@ pub fn generate_lights(
     clamp: Option<f32>,
     env_importance: bool,
     seed: u64,
+    indirect_kind: &str,
+    vsl_radius_scale: f32,
+    vsl_neighbours: usize,
 ) -> PyResult<LightSet> {
     let count = |name: &str, v: i64| -> PyResult<usize> {
         usize::try_from(v).map_err(|_| Error::invalid(format!("{name} must be a count >= 0, got {v}")).into())
@@ -33,6 +38,11 @@ pub fn generate_lights(
         clamp,
         env_importance,
         seed,
+        vsl: match indirect_kind {
+            "vpl" => None,
+            "vsl" => Some(VslOptions { scale: vsl_radius_scale, neighbours: vsl_neighbours }),
+            k => return Err(Error::invalid(format!("indirect_kind must be 'vpl' or 'vsl', got {k:?}")).into()),
+        },
     };
     let s = scene.inner.clone();
     let set = super::signals::detach(py, move || core_generate(&s, &opts))?;

@@ -15,9 +15,9 @@ use std::sync::Arc;
 /// u32 words of one `GpuBsdf`.
 const BSDF_WORDS: usize = std::mem::size_of::<GpuBsdf>() / 4;
 /// Keyword arguments of `from_arrays`.
-const KEYS: [&str; 14] = [
+const KEYS: [&str; 15] = [
     "kind", "position", "direction", "normal", "geo_normal", "incident", "intensity", "power", "cutoff_angle",
-    "beam_width", "bsdf", "albedo", "vpl_clamp", "patch",
+    "beam_width", "bsdf", "albedo", "vpl_clamp", "patch", "vsl_radius",
 ];
 
 /// A set of lights (struct of arrays); numpy views via the properties.
@@ -119,6 +119,13 @@ impl LightSet {
         let flat: Vec<f32> = self.inner.patch.iter().flat_map(|c| c.iter().flat_map(|v| v.to_array())).collect();
         array(py, flat, &[self.inner.len(), 4, 3])
     }
+    /// (n,) float32: each VPL's virtual-spherical-light radius in m (Hasan et al. 2009; 0 = a point
+    /// VPL, clamped by ``vpl_clamp``; 0 for other kinds). ``generate_lights(indirect_kind="vsl")`` sets
+    /// it from the distance to the k-th nearest VPL.
+    #[getter]
+    fn vsl_radius<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        array(py, self.inner.vsl_radius.clone(), &[self.inner.len()])
+    }
     /// Centre (3,) and radius of the scene's bounding sphere the set belongs to.
     #[getter]
     fn scene_sphere(&self) -> ([f32; 3], f32) {
@@ -146,6 +153,8 @@ impl LightSet {
     ///     vpl_clamp: bound on the VPL geometry term in 1/m^2 (default inf: no clamp).
     ///     patch: (n, 4, 3) corners (m) of each oriented point's patch (the `patch` property); all zero
     ///         or omitted = none (point formula everywhere); ignored for other kinds.
+    ///     vsl_radius: (n,) or scalar VSL radii in m (the `vsl_radius` property), finite and >= 0;
+    ///         0 or omitted = point VPLs; ignored for other kinds.
     ///
     /// Fields a kind does not use are ignored and stored as 0, and unit vectors are stored as given
     /// (not renormalised), so ``LightSet.from_arrays(scene, kind=s.kind, position=s.position, ...)``
@@ -159,7 +168,7 @@ impl LightSet {
     ///         the expected one (both shapes given), a non-numeric dtype, NaN or infinite values,
     ///         negative intensity or power, a vector whose length is not 1 (within 1e-4), spot angles
     ///         out of range, an unknown kind, an unknown keyword, a patch with NaN/infinite corners or
-    ///         zero area.
+    ///         zero area, a NaN, infinite or negative vsl_radius.
     #[staticmethod]
     #[pyo3(signature = (scene, **arrays))]
     fn from_arrays(py: Python<'_>, scene: &Scene, arrays: Option<&Bound<'_, PyDict>>) -> PyResult<LightSet> {
@@ -290,6 +299,7 @@ fn from_arrays_impl(py: Python<'_>, scene: &Scene, kwargs: Option<&Bound<'_, PyD
         beam_width: fl("beam_width")?,
         bsdf: None,
         patch: None,
+        vsl_radius: fl("vsl_radius")?,
     };
     if let Some(p) = get("patch")? {
         let (a, shape) = numeric(py, "patch", &p, "float32", false)?;

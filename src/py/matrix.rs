@@ -189,6 +189,21 @@ impl LightMatrix {
         let (h, w) = self.inner.image_size();
         array(py, data, &[h, w, 3])
     }
+    /// Kollig-Keller compensation of the VPL clamp (`matrix::bias_compensation`), (H, W, 3) float32.
+    /// `max_depth` < 0 = unlimited; `light_samples` = 0 traces every light at each path vertex.
+    #[pyo3(signature = (max_depth=-1, spp=1, light_samples=64, seed=0))]
+    fn bias_compensation<'py>(&self, py: Python<'py>, max_depth: i64, spp: u32, light_samples: usize, seed: u64) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let m = self.inner.clone();
+        let opts = crate::matrix::bias_compensation::BiasCompensationOptions {
+            max_depth: if max_depth < 0 { u32::MAX } else { u32::try_from(max_depth).unwrap_or(u32::MAX) },
+            spp,
+            light_samples,
+            seed,
+        };
+        let data = signals::detach(py, move || m.bias_compensation(&opts))?;
+        let (h, w) = self.inner.image_size();
+        array(py, data, &[h, w, 3])
+    }
     /// Rows `indices` (view sample indices) as an (r, n, 3) float32 array and the per-stage timings
     /// (dict of seconds: shadow_maps, evaluation, readback; batches). `progress(done, total)` is called
     /// per row batch; `shadow_map_size` = texels per cube face.

@@ -12,7 +12,8 @@
 //!   split among emitters by power; the total power equals sum_e pi A_e L_e exactly.
 //! - `environment` (`environment.rs`): `Directional` lights, one per stratum of an equal-area
 //!   (cylindrical) partition of the sphere, each carrying the radiance integrated over its stratum.
-//! - `indirect` (`vpl.rs`): `Vpl` lights from particle tracing (paths with >= 1 bounce).
+//! - `indirect` (`vpl.rs`): `Vpl` lights from particle tracing (paths with >= 1 bounce); optionally
+//!   virtual spherical lights (`GenerateOptions::vsl`, `lights::vsl`): the same VPLs with a radius each.
 //! - the scene's `point`, `spot`, `directional` emitters are included as they are (first, in
 //!   `Scene::emitters` order), then area lights, environment lights, VPLs.
 //!
@@ -38,6 +39,8 @@ pub(crate) mod test_scenes;
 mod tests;
 #[cfg(test)]
 mod material_tests;
+#[cfg(test)]
+mod vsl_tests;
 
 use super::{scene_sphere, LightSet};
 use crate::error::{Error, Result};
@@ -67,11 +70,27 @@ pub struct GenerateOptions {
     /// Allocate environment strata by luminance (each stratum carries an equal share of the power).
     pub env_importance: bool,
     pub seed: u64,
+    /// `Some`: the VPLs become virtual spherical lights (`lights::vsl`) with these radii (no clamp);
+    /// `None`: point VPLs with the geometry-term clamp.
+    pub vsl: Option<VslOptions>,
+}
+
+/// Radii of virtual spherical lights: `scale` times the distance to the `neighbours`-th nearest VPL.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VslOptions {
+    pub scale: f32,
+    pub neighbours: usize,
+}
+
+impl Default for VslOptions {
+    fn default() -> Self {
+        VslOptions { scale: 1.0, neighbours: crate::lights::vsl::DEFAULT_NEIGHBOURS }
+    }
 }
 
 impl Default for GenerateOptions {
     fn default() -> Self {
-        GenerateOptions { area: 4096, environment: 0, indirect: 0, max_depth: 5, clamp: None, env_importance: false, seed: 0 }
+        GenerateOptions { area: 4096, environment: 0, indirect: 0, max_depth: 5, clamp: None, env_importance: false, seed: 0, vsl: None }
     }
 }
 
@@ -88,7 +107,10 @@ pub fn default_clamp(scene: &Scene) -> f32 {
 /// Delta lights of the scene, then `area` oriented points, `environment` directional lights and about
 /// `indirect` VPLs (module docs).
 ///
-/// Errors: `InvalidParameter` for counts above `MAX_LIGHTS`, a clamp that is NaN or <= 0, `max_depth < 3`
+/// With `opts.vsl`, every VPL gets its virtual-spherical-light radius (`lights::vsl::radii`).
+///
+/// Errors: `InvalidParameter` for counts above `MAX_LIGHTS`, a clamp that is NaN or <= 0, a VSL scale
+/// that is not finite and > 0 or 0 neighbours, `max_depth < 3`
 /// with `indirect > 0`, or a scene without emitters; `Scene` errors from the emitters (bad spot frames).
 pub fn generate_lights(scene: &Scene, opts: &GenerateOptions) -> Result<LightSet> {
     for (name, v) in [("area", opts.area), ("environment", opts.environment), ("indirect", opts.indirect)] {
@@ -128,8 +150,14 @@ pub fn generate_lights(scene: &Scene, opts: &GenerateOptions) -> Result<LightSet
     if let Some(env) = &env {
         set.extend(&env.strata_lights(opts.environment, opts.env_importance, opts.seed, center, radius)?);
     }
+    if let Some(v) = &opts.vsl {
+        crate::lights::vsl::check_scale(v.scale)?;
+    }
     if opts.indirect > 0 {
-        let vpls = vpl::trace_vpls(scene, &areas, env.as_ref(), opts)?;
+        let mut vpls = vpl::trace_vpls(scene, &areas, env.as_ref(), opts)?;
+        if let Some(v) = &opts.vsl {
+            vpls.vsl_radius = crate::lights::vsl::radii(&vpls.position, v.neighbours, v.scale, radius)?;
+        }
         set.extend(&vpls);
     }
     Ok(set)
