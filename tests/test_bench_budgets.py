@@ -16,7 +16,7 @@ from manylights import bench_budgets
 def test_budgets_bench_runs_and_its_ratios_come_from_its_numbers(tmp_path):
     cmd = [sys.executable, "-m", "manylights.bench", "budgets", "--scene", "cbox", "--res", "16", "--lights", "600",
            "--seeds", "2", "--targets", "0.2", "0.05", "--budgets", "4:16", "8:32", "8:64", "--out", str(tmp_path),
-           "--reference-dir", str(tmp_path / "references")]
+           "--cache", str(tmp_path / "cache")]
     subprocess.run(cmd, check=True, capture_output=True, text=True)
     s = json.loads((tmp_path / "budgets-cbox.json").read_text())
     assert (tmp_path / "budgets-cbox.png").stat().st_size > 1000
@@ -41,10 +41,17 @@ def test_budgets_bench_runs_and_its_ratios_come_from_its_numbers(tmp_path):
         if reaching:
             best = min(reaching, key=lambda f: f["seconds"])
             assert (row["cheapest_fixed"]["rows"], row["cheapest_fixed"]["columns"]) == (best["rows"], best["columns"])
-            assert row["ratio"] == pytest.approx(row["render_seconds"] / best["seconds"])
+            paired = np.mean([r["fixed_seconds"] for r in mine])
+            assert row["cheapest_fixed"]["seconds_paired"] == pytest.approx(paired)
+            assert row["ratio"] == pytest.approx(row["render_seconds"] / paired)
+            assert row["ratio_sweep"] == pytest.approx(row["render_seconds"] / best["seconds"])
+            # The paired re-render is the sweep's render again: same seed, same bits, same error.
+            for r in mine:
+                assert r["fixed_rel_l2"] == pytest.approx(best["rel_l2"][r["seed"]], rel=1e-6)
             assert row["met"] == (row["hit_rate"] >= 0.9 and row["ratio"] <= 2.0)
         else:
             assert row["cheapest_fixed"] is None and row["ratio"] is None and row["met"] is False
+            assert all(r["fixed_seconds"] is None for r in mine)
     # 20% is within reach of the largest fixed budget at this size.
     assert s["table"][0]["cheapest_fixed"] is not None
 
