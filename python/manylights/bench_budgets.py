@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -204,9 +205,13 @@ def run(args) -> dict:
                          "seconds_per_row": ch.get("seconds_per_row"),
                          "seconds_per_column": ch.get("seconds_per_column"),
                          "fixed_seconds": f_sec, "fixed_rel_l2": f_err})
+            msg = (f"target {e:.0%} seed {s}: true {runs[-1]['true']:.2%}, estimate {runs[-1]['estimate']:.2%}, "
+                   f"{wall:.2f} s, {runs[-1]['columns']} columns")
             if bar is not None:
                 bar.update(1)
-                bar.set_postfix_str(f"e {e:.0%} seed {s}: true {runs[-1]['true']:.2%}")
+                bar.set_postfix_str(msg)
+            elif mode() == "log":  # one line per render: a long run stopped early still says what it measured
+                print(f"manylights: budgets: {msg}", file=sys.stderr, flush=True)
     finally:
         if bar is not None:
             bar.close()
