@@ -21,7 +21,7 @@ def test_budgets_bench_runs_and_its_ratios_come_from_its_numbers(tmp_path):
     s = json.loads((tmp_path / "budgets-cbox.json").read_text())
     assert (tmp_path / "budgets-cbox.png").stat().st_size > 1000
     assert s["size"] == [16, 16] and s["lights"] > 500 and s["seeds"] == 2 and s["targets"] == [0.2, 0.05]
-    assert s["light_spec"] == {"total": 600} and s["device"]["kind"] == "cpu" and s["brute_force_seconds"] > 0
+    assert s["complete"] and s["light_spec"] == {"total": 600} and s["device"]["kind"] == "cpu" and s["brute_force_seconds"] > 0
     assert [(f["rows"], f["columns"]) for f in s["fixed"]] == [(4, 16), (8, 32), (8, 64)]
     assert len(s["runs"]) == 4 and {(r["target"], r["seed"]) for r in s["runs"]} == {(e, k) for e in (0.2, 0.05)
                                                                                      for k in (0, 1)}

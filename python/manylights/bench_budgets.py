@@ -177,16 +177,42 @@ def run(args) -> dict:
     print(f"{name} {size[0]}x{size[1]}, {ref['lights']} lights ({json.dumps(spec_lights)}), CPU backend; brute "
           f"force {ref['seconds']:.1f} s{' (cached)' if ref['cached'] else ''}; {len(budgets)} fixed budgets x "
           f"{len(seeds)} seeds in {sweep_wall:.1f} s", flush=True)
-    runs = []
+    shown = _display_path(path)
+    if Path(shown).is_absolute():
+        shown = f"{path.parent.name}/{path.name}"
+    runs: list[dict] = []
     jobs = [(e, s) for e in args.targets for s in seeds]
     cheapest = {e: cheapest_reaching(fixed, e) for e in args.targets}
+
+    def write(done: list) -> dict:
+        """JSON + chart of the targets whose seeds are all rendered (after each one: a long run stopped
+        early keeps what it measured; ``complete`` says whether every target is in)."""
+        table = summarize(done, runs, fixed)
+        summary = {"scene": shown, "size": list(size), "lights": int(ref["lights"]), "light_spec": spec_lights,
+                   "device": {"kind": A.device.get("kind"), "name": A.device.get("name")},
+                   "brute_force_seconds": float(ref["seconds"]), "seeds": args.seeds, "targets": list(done),
+                   "complete": len(done) == len(args.targets), "reach": REACH, "sweep_wall_seconds": sweep_wall,
+                   "table": table, "fixed": fixed, "runs": [x for x in runs if x["target"] in done]}
+        (out / f"budgets-{name}.json").write_text(json.dumps(summary, indent=1) + "\n")
+        _chart(summary, out / f"budgets-{name}.png")
+        row = table[-1]
+        cf = row["cheapest_fixed"]
+        cheap = ("none reaches it" if cf is None else
+                 f"cheapest fixed {cf['rows']}:{cf['columns']} {cf['seconds_paired']:.2f} s next to the renders "
+                 f"({cf['seconds']:.2f} s in the sweep), ratio {row['ratio']:.2f}x ({row['ratio_sweep']:.2f}x)")
+        print(f"  target {row['target']:.0%}: true <= e in {row['hit_rate']:.0%} of {row['seeds']} seeds (mean "
+              f"{row['true_mean']:.2%}, max {row['true_max']:.2%}), render {row['render_seconds']:.2f} s "
+              f"({row['rows_mean']:.0f} rows, {row['columns_mean']:.0f} columns); {cheap}", flush=True)
+        return summary
+
     bar = None
     if mode() == "bar":
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(jobs), desc="render to target", unit="render", leave=False)
+    summary: dict = {}
     try:
-        for e, s in jobs:
+        for i, (e, s) in enumerate(jobs):
             t = time.perf_counter()
             res = ml.render(A, target_error=e, seed=s, max_rounds=args.max_rounds, progress=False)
             wall = time.perf_counter() - t
@@ -210,29 +236,13 @@ def run(args) -> dict:
             if bar is not None:
                 bar.update(1)
                 bar.set_postfix_str(msg)
-            elif mode() == "log":  # one line per render: a long run stopped early still says what it measured
+            elif mode() == "log":  # one line per render
                 print(f"manylights: budgets: {msg}", file=sys.stderr, flush=True)
+            if i + 1 == len(jobs) or jobs[i + 1][0] != e:
+                summary = write(list(dict.fromkeys(x["target"] for x in runs)))
     finally:
         if bar is not None:
             bar.close()
-    table = summarize(args.targets, runs, fixed)
-    for row in table:
-        cf = row["cheapest_fixed"]
-        cheap = ("none reaches it" if cf is None else
-                 f"cheapest fixed {cf['rows']}:{cf['columns']} {cf['seconds_paired']:.2f} s next to the renders "
-                 f"({cf['seconds']:.2f} s in the sweep), ratio {row['ratio']:.2f}x ({row['ratio_sweep']:.2f}x)")
-        print(f"  target {row['target']:.0%}: true <= e in {row['hit_rate']:.0%} of {row['seeds']} seeds (mean "
-              f"{row['true_mean']:.2%}, max {row['true_max']:.2%}), render {row['render_seconds']:.2f} s "
-              f"({row['rows_mean']:.0f} rows, {row['columns_mean']:.0f} columns); {cheap}", flush=True)
-    shown = _display_path(path)
-    if Path(shown).is_absolute():
-        shown = f"{path.parent.name}/{path.name}"
-    summary = {"scene": shown, "size": list(size), "lights": int(ref["lights"]), "light_spec": spec_lights,
-               "device": {"kind": A.device.get("kind"), "name": A.device.get("name")},
-               "brute_force_seconds": float(ref["seconds"]), "seeds": args.seeds, "targets": list(args.targets),
-               "reach": REACH, "sweep_wall_seconds": sweep_wall, "table": table, "fixed": fixed, "runs": runs}
-    (out / f"budgets-{name}.json").write_text(json.dumps(summary, indent=1) + "\n")
-    _chart(summary, out / f"budgets-{name}.png")
     print(f"wrote {out / f'budgets-{name}.json'} and {out / f'budgets-{name}.png'}")
     return summary
 
