@@ -19,6 +19,8 @@ Subcommands:
              Figure 3), on-the-fly culling, precompute time and memory, relights per second (``bench_relight``).
     calibrate the MRCS error estimate (``error_estimate``) against the true relative L2 over scenes x
              budgets x seeds: table, JSON and scatter plot (``bench_calibrate``).
+    budgets  ml.render(A, target_error=e) against the cheapest fixed MRCS budget reaching e: share of seeds
+             at or below e, time ratio; JSON + chart (``bench_budgets``).
     vs-mitsuba time to 5/2/1% relative L2 of a converged Mitsuba reference: MRCS on the CPU and GPU backends
              against Mitsuba's path tracer (``bench_vs_mitsuba``).
 
@@ -168,7 +170,7 @@ def main(argv=None) -> int:
     p.add_argument("--visibility", choices=["ray_traced", "hybrid", "shadow_map"], default="ray_traced")
     p.add_argument("--images", action="store_true", help="also write every image as EXR")
     p.add_argument("-o", "--out", default="out/bench")
-    from . import bench_backends, bench_calibrate, bench_compare, bench_mrcs, bench_relight, bench_tensor, bench_vs_mitsuba
+    from . import bench_backends, bench_budgets, bench_calibrate, bench_compare, bench_mrcs, bench_relight, bench_tensor, bench_vs_mitsuba
 
     bench_mrcs.add_parser(sub)
     bench_compare.add_parser(sub)
@@ -177,8 +179,9 @@ def main(argv=None) -> int:
     bench_relight.add_parser(sub)
     bench_vs_mitsuba.add_parser(sub)
     bench_calibrate.add_parser(sub)
+    bench_budgets.add_parser(sub)
     a = ap.parse_args(argv)
-    if a.cmd in ("mrcs", "compare", "backends", "tensor", "relight", "vs-mitsuba", "calibrate"):
+    if a.cmd in ("mrcs", "compare", "backends", "tensor", "relight", "vs-mitsuba", "calibrate", "budgets"):
         a.run(a)
     elif a.cmd == "lights":
         if a.lights < 2:
