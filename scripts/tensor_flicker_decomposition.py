@@ -22,7 +22,7 @@ same clusterings with one part replaced at a time, so each variant isolates one 
 and splits the flicker that the mappings add (chain - exact) by the span in frames of the clusters.
 Per-frame MRCS at 600 shadow maps (100 rows + 500 columns) is the baseline. Usage:
 
-    python scripts/tensor_flicker_decomposition.py [--seeds 8] [--cache /tmp/bounce-A.npy] [--still-box] [--frames 8 --res 48]
+    python scripts/tensor_flicker_decomposition.py [--seeds 8] [--cache bounce-A.npy] [--still-box] [--frames 8 --res 48]
 """
 from __future__ import annotations
 
