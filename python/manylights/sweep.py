@@ -495,7 +495,7 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
             off), ``bsdf_samples``, ``glossy_seed``, ``max_depth``), and ``bias_compensation`` (``spp``,
             ``light_samples``, ``max_depth``) adds ``LightMatrix.bias_compensation(seed=<render seed>)`` to
             every image of the model, its seconds in ``seconds`` and ``seconds_bias_compensation`` (the
-            model's brute-force reference adds it with seed 0). Every render runs once per model; rows name
+            model's brute-force reference adds it with seed ``sweep_worker.REFERENCE_BIAS_SEED``, 2^64 - 1). Every render runs once per model; rows name
             their model in ``light_model`` (None without the axis). Each worker caches each model's matrix.
         truth: the image the error is measured against instead of each model's brute force: an image file
             (EXR or ``.npy``, (H, W, 3+)) for every scene, or a list of one path or None per scene (a

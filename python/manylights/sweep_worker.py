@@ -116,8 +116,13 @@ def reference_key(digest: str, scene_spec: dict, lights_spec: dict, matrix_spec:
     what = {"scene": digest, "params": scene_spec["params"], "lights": lights_spec,
             "matrix": {**matrix_spec, "device": device.get("kind"), "visibility": visibility}}
     if bias_compensation is not None:
-        what["bias_compensation"] = bias_compensation
+        what["bias_compensation"] = {**bias_compensation, "seed": REFERENCE_BIAS_SEED}
     return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()[:24]
+
+
+#: The seed of the bias compensation image in a light model's brute-force reference: one no render uses
+#: (render seeds are the sweep's seeds, small integers), so a render's compensation is independent of it.
+REFERENCE_BIAS_SEED = 2**64 - 1
 
 
 def bias_image(A, settings: Optional[dict], seed: int):
@@ -156,7 +161,8 @@ def truth_image(path: str) -> np.ndarray:
 
 def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_dir: str,
               bias_compensation: Optional[dict] = None) -> dict:
-    """The brute-force image (column sum + emitted, + the bias compensation image of seed 0 when
+    """The brute-force image (column sum + emitted, + the bias compensation image of seed
+    ``REFERENCE_BIAS_SEED`` when
     ``bias_compensation`` holds its settings) of a scene's light matrix, rendered at most once per
     content: read from ``<reference_dir>/<key>.npz`` when an earlier task or sweep stored it, else rendered
     and stored there (written under a temporary name and renamed, so a reader never sees half a file).
@@ -192,7 +198,7 @@ def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_
     else:
         image = A.column_sum(progress=False) + A.emitted()
         if bias_compensation is not None:
-            image = image + bias_image(A, bias_compensation, 0)
+            image = image + bias_image(A, bias_compensation, REFERENCE_BIAS_SEED)
         image = image.astype(np.float32)
     seconds = time.perf_counter() - t
     d.mkdir(parents=True, exist_ok=True)
