@@ -1,10 +1,12 @@
 """``python -m manylights.bench compare`` (issue 12 item 6) on a tiny configuration: every renderer on one
-chart with its error against the cached brute force, the light x view cluster study, JSON and PNGs."""
+chart with its error against the cached brute force, the light x view cluster study, JSON and PNGs; and the
+light models of issue 13 side by side (``--light-models``)."""
 from __future__ import annotations
 
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -43,3 +45,66 @@ def test_cluster_pairs_are_checked():
         bench_compare._pair("300-2400")
     with pytest.raises(ValueError, match=">= 1"):
         bench_compare._pair("0x10")
+
+
+def test_light_models_side_by_side_record_their_model(tmp_path):
+    """``--light-models`` (issue 13): every model's renders are rows naming it; the bias compensation's seconds
+    are in each image's time; with the clamped VPLs' brute force as the truth the errors are exact: 0 for VPLs
+    and for glossy MIS off (cbox has no glossy surface), > 0 for VSLs and the compensated VPLs."""
+    import numpy as np
+    import pandas as pd
+
+    import manylights as ml
+    from manylights.scenes import scene_path
+    from manylights.sweep_worker import light_counts
+
+    scene = ml.load_scene(scene_path("cbox"), size=(16, 16))
+    lights = ml.generate_lights(scene, **light_counts(scene, {"total": 400, "seed": 0}))
+    A = ml.LightMatrix(scene, lights, device="cpu", max_depth=5)
+    np.save(tmp_path / "vpl.npy", A.column_sum(progress=False) + A.emitted())
+    cmd = [sys.executable, "-m", "manylights.bench", "compare", "--scene", "cbox", "--lights", "400", "--res", "16",
+           "--seeds", "2", "--columns", "30", "90", "--device", "cpu", "--max-depth", "5", "--truth",
+           str(tmp_path / "vpl.npy"), "--light-models", "vpl", "vpl+bc", "vsl", "no-mis", "--out", str(tmp_path)]
+    subprocess.run(cmd, check=True, capture_output=True, text=True)
+    summary = json.loads((tmp_path / "compare-cbox-lightmodels.json").read_text())
+    assert (tmp_path / "compare-cbox-lightmodels.png").stat().st_size > 1000
+    assert summary["truth"].endswith("vpl.npy")
+    models = ["vpl", "vpl+bc", "vsl", "no-mis"]
+    assert [b["light_model"] for b in summary["brute_force"]] == models
+    brute = {b["light_model"]: b["rel_l2"] for b in summary["brute_force"]}
+    assert brute["vpl"] == 0.0 and brute["no-mis"] == 0.0
+    assert 0.001 < brute["vpl+bc"] < 0.5 and 0.001 < brute["vsl"] < 0.5
+    got = {(r["light_model"], r["method"], r["budget"]["columns"]) for r in summary["records"]}
+    assert got == {(m, k, c) for m in models for k in ("mrcs", "power_sampling") for c in (30, 90)}
+    df = pd.concat([pd.read_parquet(p) for p in tmp_path.glob("compare-cbox-lightmodels-*.parquet")])
+    assert len(df) == 4 * 2 * 2 * 2 and (df["status"] == "ok").all() and df["task"].is_unique
+    assert sorted(df["light_model"].unique()) == sorted(models)
+    assert (df["truth"] == "image:vpl.npy").all()
+    vpl = df[df.light_model == "vpl"]
+    assert np.array_equal(vpl["rel_l2"].to_numpy(), vpl["rel_l2_brute_force"].to_numpy())
+    bc = df[df.light_model == "vpl+bc"]
+    assert (bc["seconds_bias_compensation"] > 0).all()
+    assert (bc["seconds"] >= bc["seconds_bias_compensation"] + bc["seconds_columns"]).all()
+    assert df.loc[df.light_model != "vpl+bc", "seconds_bias_compensation"].isna().all()
+    # The same seed gives the same image in both VPL models but for the compensation: its rows differ.
+    assert (bc["rel_l2"].to_numpy() != vpl["rel_l2"].to_numpy()).all()
+
+
+def test_light_model_settings_are_checked(tmp_path):
+    import manylights as ml
+    from manylights import bench_light_models as blm
+
+    with pytest.raises(ValueError, match="bias compensation applies to clamped VPLs"):
+        ml.sweep("cbox", light_models={"x": {"lights": {"indirect_kind": "vsl"}, "bias_compensation": {"spp": 1}}},
+                 workers=0, progress=False)
+    with pytest.raises(ValueError, match=r"light_models\['x'\]\['matrix'\]"):
+        ml.sweep("cbox", light_models={"x": {"matrix": {"visibility": "hybrid"}}}, workers=0, progress=False)
+    with pytest.raises(ValueError, match="one image path"):
+        ml.sweep("cbox", truth=[None, None], workers=0, progress=False)
+    with pytest.raises(FileNotFoundError, match="truth"):
+        ml.sweep("cbox", truth=tmp_path / "missing.exr", workers=0, progress=False)
+    # The stored Mitsuba references are found by scene file and size.
+    assert blm.find_reference(Path("scenes/veach-ajar/scene.xml"), (32, 18)).name == "veach-ajar-gi-32.exr"
+    assert blm.find_reference(Path("tests/data/veach_plates.xml"), (64, 48)).name == "veach-plates-direct.exr"
+    assert blm.find_reference(Path("scenes/veach-ajar/scene.xml"), (30, 18)) is None
+    assert blm.scene_stem(Path("tests/data/veach_plates.xml")) == "veach-plates"

@@ -14,7 +14,8 @@ content hash under ``--reference-dir``):
 
 ``compare-<scene>.json`` holds every record (method, budget, seconds per stage, error mean and std); the
 rows stay in Parquet files beside it (a stopped run resumes). ``--workers`` / ``--scheduler`` run the
-renders on Dask as ``bench mrcs`` does.
+renders on Dask as ``bench mrcs`` does. ``--light-models vpl vpl+bc vsl no-mis`` charts the light models and
+estimator options of issue 13 instead (``bench_light_models``), against the scene's Mitsuba reference.
 """
 from __future__ import annotations
 
@@ -56,6 +57,15 @@ def add_parser(sub) -> None:
     p.add_argument("--grid-view", type=int, nargs="*", default=[50, 200, 800], help="view clusters of the study")
     p.add_argument("--seeds", type=int, default=8)
     p.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"])
+    p.add_argument("--light-models", nargs="+", default=None, metavar="MODEL",
+                   help="instead of the renderers: the light models / options side by side (bench_light_models: "
+                        "vpl, vpl+bc, vsl, no-mis), power sampling and MRCS per model, compare-<scene>-lightmodels.*")
+    p.add_argument("--truth", default="auto",
+                   help="with --light-models: the image errors are measured against: auto (the scene's Mitsuba "
+                        "reference in tests/references when one matches scene and size, else brute force), none "
+                        "(each model's brute force) or an EXR / .npy path")
+    p.add_argument("--max-depth", type=int, default=None,
+                   help="with --light-models: Mitsuba max_depth of lights and matrix (default: the reference's, else 5)")
     p.add_argument("--out", default="out/bench")
     add_dask_arguments(p)
     p.set_defaults(run=run)
@@ -84,6 +94,10 @@ def run(args) -> dict:
     pairs = [_pair(c) for c in args.clusters]
     path = _resolve_scene(args.scene)
     film = ml.load_scene(path)
+    if args.light_models is not None:
+        from . import bench_light_models
+
+        return bench_light_models.run(args, path, film)
     size = (args.res, max(1, round(args.res * film.height / film.width)))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -162,13 +176,20 @@ def _chart(records, t_brute: float, png: Path, title: str) -> None:
                         label=method.replace("_", " ") + (" (1:3)" if method == "mrcs" else ""))
     ax.axvline(t_brute, color="k", linestyle=":", linewidth=1, label=f"brute force ({t_brute:.1f} s)")
     ax.axhline(0.02, color="grey", linestyle="--", linewidth=1, label="2%")
+    finish_loglog(fig, ax, png, "time (s)", "relative L2 error vs brute force", title, 8)
+
+
+def finish_loglog(fig, ax, png: Path, xlabel: str, ylabel: str, title: str, legend_size: int) -> None:
+    """Log-log axes with labels, title, grid and legend; save ``png`` (120 dpi) and close ``fig``."""
+    import matplotlib.pyplot as plt
+
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("relative L2 error vs brute force")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=legend_size)
     fig.tight_layout()
     fig.savefig(png, dpi=120)
     plt.close(fig)

@@ -31,8 +31,8 @@ from .sweep_worker import ANIMATION_METHODS, METHODS
 #: Parquet key-value metadata key holding the sweep definition (checked when a sweep resumes).
 META_KEY = b"manylights.sweep"
 #: The columns every row has, in this order (then ``seconds_<stage>`` columns, sorted).
-COLUMNS = ["task", "scene", "params", "scene_hash", "lights", "method", "rows", "columns", "clusters", "seed",
-           "status", "error", "rel_l2", "error_estimate", "frames", "max_rel_l2", "flicker", "shadow_maps_per_frame",
+COLUMNS = ["task", "scene", "params", "scene_hash", "lights", "light_model", "method", "rows", "columns", "clusters",
+           "seed", "status", "error", "rel_l2", "truth", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "frames", "max_rel_l2", "flicker", "shadow_maps_per_frame",
            "seconds", "setup_seconds", "reference_key",
            "reference_seconds", "reference_cached", "device", "adapter", "host"]
 
@@ -138,7 +138,7 @@ def _seeds(seeds) -> list[int]:
 def _lights(lights) -> dict:
     if isinstance(lights, dict):
         allowed = {"total", "area", "environment", "indirect", "max_depth", "clamp", "seed", "env_importance",
-                   "photons"}
+                   "photons", "indirect_kind", "vsl_radius_scale", "vsl_neighbours"}
         if bad := sorted(set(lights) - allowed):
             raise ValueError(f"lights: unknown keys {bad}; allowed: {sorted(allowed)}")
         spec = dict(lights)
@@ -171,6 +171,68 @@ def _options(options, methods) -> dict:
     return out
 
 
+#: What a light model may change: ``generate_lights`` arguments, ``LightMatrix`` settings, and the bias
+#: compensation image added to every render (``LightMatrix.bias_compensation`` arguments but the seed).
+MODEL_LIGHTS = {"indirect_kind", "vsl_radius_scale", "vsl_neighbours", "clamp", "max_depth"}
+MODEL_MATRIX = {"glossy_roughness", "bsdf_samples", "glossy_seed", "max_depth"}
+MODEL_BIAS = {"spp", "light_samples", "max_depth"}
+
+
+def _light_models(light_models) -> Optional[list[dict]]:
+    """``{name: {"lights": {...}, "matrix": {...}, "bias_compensation": {...} or None}}`` -> a list of
+    ``{"name", "lights", "matrix", "bias_compensation"}`` (None: no light-model axis)."""
+    if light_models is None:
+        return None
+    if not isinstance(light_models, dict) or not light_models:
+        raise ValueError(f"light_models must be a non-empty dict of name -> settings, got {light_models!r}")
+    out = []
+    for name, spec in light_models.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"light_models: names must be non-empty strings, got {name!r}")
+        spec = {} if spec is None else spec
+        if not isinstance(spec, dict) or (bad := sorted(set(spec) - {"lights", "matrix", "bias_compensation"})):
+            raise ValueError(f"light_models[{name!r}] must be a dict with keys lights, matrix, bias_compensation, "
+                             f"got {spec!r}")
+        model = {"name": name}
+        for key, allowed in (("lights", MODEL_LIGHTS), ("matrix", MODEL_MATRIX), ("bias_compensation", MODEL_BIAS)):
+            kw = spec.get(key)
+            if kw is None:
+                model[key] = None if key == "bias_compensation" else {}
+                continue
+            if not isinstance(kw, dict) or (bad := sorted(set(kw) - allowed)):
+                raise ValueError(f"light_models[{name!r}][{key!r}] must be a dict of {sorted(allowed)}, got {kw!r}")
+            try:
+                json.dumps(kw)
+            except TypeError as e:
+                raise ValueError(f"light_models[{name!r}][{key!r}]: values must be plain numbers or strings ({e})") \
+                    from None
+            model[key] = dict(kw)
+        if model["lights"].get("indirect_kind", "vpl") not in ("vpl", "vsl"):
+            raise ValueError(f"light_models[{name!r}]: indirect_kind must be 'vpl' or 'vsl', got "
+                             f"{model['lights']['indirect_kind']!r}")
+        if model["bias_compensation"] is not None and model["lights"].get("indirect_kind") == "vsl":
+            raise ValueError(f"light_models[{name!r}]: bias compensation applies to clamped VPLs, not to VSLs")
+        out.append(model)
+    return out
+
+
+def _truth(truth, specs) -> list[Optional[str]]:
+    """One image file (EXR or .npy) per scene, or None (brute force)."""
+    if truth is None or isinstance(truth, (str, os.PathLike)):
+        truth = [truth] * len(specs)
+    truth = list(truth)
+    if len(truth) != len(specs):
+        raise ValueError(f"truth must be one image path (or None) per scene: {len(specs)} scenes, {len(truth)} given")
+    out = []
+    for i, t in enumerate(truth):
+        if t is not None:
+            if not Path(t).is_file():
+                raise FileNotFoundError(f"truth[{i}]: image file not found: {t}")
+            t = str(Path(t).resolve())
+        out.append(t)
+    return out
+
+
 def _check_kinds(specs, methods) -> None:
     """Animation methods need animated scenes (``frames`` in their parameters), the others still scenes."""
     for i, s in enumerate(specs):
@@ -182,25 +244,41 @@ def _check_kinds(specs, methods) -> None:
                              f"animation methods: {sorted(ANIMATION_METHODS)}")
 
 
-def _tasks(scene_specs, methods, budgets, seeds, lights, matrix, options=None) -> list[dict]:
-    """Every render of the sweep, in a fixed order; methods without rows take each distinct column count
-    once (rows = 0 in their rows)."""
+def _tasks(scene_specs, methods, budgets, seeds, lights, matrix, options=None, models=None,
+           truth=None) -> list[dict]:
+    """Every render of the sweep, in a fixed order (scene, light model, method, budget, seed); methods without
+    rows take each distinct column count once (rows = 0 in their rows). A light model's settings are merged
+    into the task's lights / matrix specs; its name joins the task key only when there is a light-model axis."""
     tasks = []
-    for s in scene_specs:
-        for m in methods:
-            pairs = budgets if METHODS[m] else list(dict.fromkeys((0, c) for _, c in budgets))
-            for rows, c in pairs:
-                for seed in seeds:
-                    ident = json.dumps([s["display"], s["params"], m, rows, c, seed], sort_keys=True)
-                    tasks.append({"task": ident, "scene": s, "lights": lights, "matrix": matrix, "method": m,
-                                  "rows": rows, "columns": c, "seed": seed, "options": (options or {}).get(m, {})})
+    for i, s in enumerate(scene_specs):
+        for model in models or [None]:
+            t_lights = lights if model is None else _lights({**lights, **model["lights"]})
+            t_matrix = matrix if model is None else {**matrix, **model["matrix"]}
+            bias = None if model is None else model["bias_compensation"]
+            if bias is not None:  # the compensation's paths use the lights' max_depth unless told
+                bias = {"max_depth": t_lights.get("max_depth", 5), **bias}
+            for m in methods:
+                pairs = budgets if METHODS[m] else list(dict.fromkeys((0, c) for _, c in budgets))
+                for rows, c in pairs:
+                    for seed in seeds:
+                        key = [s["display"], s["params"], m, rows, c, seed] + ([] if model is None else [model["name"]])
+                        tasks.append({"task": json.dumps(key, sort_keys=True), "scene": s, "lights": t_lights,
+                                      "matrix": t_matrix, "method": m, "rows": rows, "columns": c, "seed": seed,
+                                      "options": (options or {}).get(m, {}),
+                                      "light_model": None if model is None else model["name"],
+                                      "bias_compensation": bias, "truth": None if truth is None else truth[i]})
     return tasks
 
 
-def _definition(scene_specs, methods, budgets, seeds, lights, matrix, options) -> dict:
-    return {"version": 1, "scenes": [[s["display"], s["params"]] for s in scene_specs], "methods": methods,
-            "budgets": [list(b) for b in budgets], "seeds": seeds, "lights": lights, "matrix": matrix,
-            "options": options}
+def _definition(scene_specs, methods, budgets, seeds, lights, matrix, options, models=None, truth=None) -> dict:
+    d = {"version": 1, "scenes": [[s["display"], s["params"]] for s in scene_specs], "methods": methods,
+         "budgets": [list(b) for b in budgets], "seeds": seeds, "lights": lights, "matrix": matrix,
+         "options": options}
+    if models is not None:
+        d["light_models"] = models
+    if truth is not None and any(t is not None for t in truth):
+        d["truth"] = truth
+    return d
 
 
 # ------------------------------------------------------------------------------------------ Parquet
@@ -261,7 +339,7 @@ def _frame(rows: list[dict], order: dict):
     df = df.reset_index(drop=True)
     for c in ("lights", "rows", "columns", "clusters", "seed", "frames"):
         df[c] = df[c].astype("Int64")
-    for c in ["rel_l2", "error_estimate", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds",
+    for c in ["rel_l2", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds",
               "reference_seconds", *stages]:
         df[c] = df[c].astype("float64")
     df["reference_cached"] = df["reference_cached"].astype("boolean")
@@ -378,7 +456,7 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
           seeds: Sequence[int] = (0,), *, lights=10_000, client=None, workers: Optional[int] = None,
           out=None, reference_dir=None, device: str = "auto", visibility: Optional[str] = None,
           shadow_map_size: Optional[int] = None, options: Optional[dict] = None, rerun_errors: bool = False,
-          progress: bool = True,
+          light_models: Optional[dict] = None, truth=None, progress: bool = True,
           connect_timeout: float = 10.0, on_row: Optional[Callable[[dict], None]] = None):
     """Run every render of methods x budgets x seeds x scenes as Dask tasks; one DataFrame row per render.
 
@@ -410,6 +488,19 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
             default ``$MANYLIGHTS_CACHE/references`` or ``~/.cache/manylights/references``.
         device, visibility, shadow_map_size: the ``LightMatrix`` settings of every render.
         options: per method, more keyword arguments of its function (``{"tensor_clustering": {"chunk": 8}}``).
+        light_models: an axis of light models / estimator options, ``{name: {"lights": {...}, "matrix":
+            {...}, "bias_compensation": {...}}}`` (every key optional): ``lights`` overrides ``generate_lights``
+            arguments (``indirect_kind`` "vpl" / "vsl", ``vsl_radius_scale``, ``vsl_neighbours``, ``clamp``,
+            ``max_depth``), ``matrix`` the ``LightMatrix`` settings (``glossy_roughness`` (0 = glossy MIS
+            off), ``bsdf_samples``, ``glossy_seed``, ``max_depth``), and ``bias_compensation`` (``spp``,
+            ``light_samples``, ``max_depth``) adds ``LightMatrix.bias_compensation(seed=<render seed>)`` to
+            every image of the model, its seconds in ``seconds`` and ``seconds_bias_compensation`` (the
+            model's brute-force reference adds it with seed ``sweep_worker.REFERENCE_BIAS_SEED``, 2^64 - 1). Every render runs once per model; rows name
+            their model in ``light_model`` (None without the axis). Each worker caches each model's matrix.
+        truth: the image the error is measured against instead of each model's brute force: an image file
+            (EXR or ``.npy``, (H, W, 3+)) for every scene, or a list of one path or None per scene (a
+            converged Mitsuba reference: ``rel_l2`` is then against it, ``rel_l2_brute_force`` against the
+            brute force and ``reference_rel_l2`` the brute force's own error against it).
         rerun_errors: with ``out``, also run again the rows stored with ``status="error"``.
         progress: show the count and the running best error per method (a bar, or lines in a log).
         connect_timeout: seconds to wait for a scheduler given by address.
@@ -419,7 +510,9 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         pandas DataFrame, one row per render in task order (scene, method, budget, seed), columns: task (the
         row's key), scene (as given), params (JSON), scene_hash (sha256 of the scene folder), lights (n),
         method, rows, columns, clusters (columns rendered), seed (Int64), status ("ok" / "error"), error
-        (type: message, or None), rel_l2 (relative L2 against the brute-force reference, float64),
+        (type: message, or None), light_model (its name, or None), rel_l2 (relative L2 against the truth, float64),
+        truth ("brute_force" or "image:<file name>"), rel_l2_brute_force (against the brute-force reference),
+        reference_rel_l2 (the brute force against the truth image; NaN without one),
         error_estimate (the method's own estimate of its error where it makes one, e.g. ``options={"mrcs": {"halves": True}}``; NaN otherwise); for animations frames, max_rel_l2
         (the worst frame), flicker (``metrics.flicker``) and shadow_maps_per_frame (mean), rel_l2 being the
         mean per-frame relative L2 (NaN for still scenes); seconds (all stages),
@@ -431,11 +524,12 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
 
     Raises:
         ValueError: an unknown or repeated method, a method for the other kind of scene (still / animation),
-            bad ``options``, empty or repeated scenes / budgets / seeds, a budget not a
+            bad ``options`` or ``light_models``, a ``truth`` list of the wrong length, empty or repeated
+            scenes / budgets / seeds, a budget not a
             pair of integers >= 1, a bad lights spec, an ``out`` file of another sweep definition or not a
             sweep's Parquet file (the file is left untouched).
         FileNotFoundError: a scene file missing (named) when the sweep runs locally; the directory of ``out``
-            missing. A scene missing on a remote worker gives error rows naming the path and host.
+            missing; a ``truth`` image missing. A scene missing on a remote worker gives error rows naming the path and host.
         OSError: a scheduler address not reachable within ``connect_timeout``.
         TypeError: scenes not a list of paths / pairs.
         KeyboardInterrupt: Ctrl-C; the rows written so far stay in ``out``, the LocalCluster is closed.
@@ -447,6 +541,8 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
     seeds = _seeds(seeds)
     lights = _lights(lights)
     options = _options(options, methods)
+    models = _light_models(light_models)
+    truths = _truth(truth, specs)
     _check_kinds(specs, methods)
     if not isinstance(device, str) or device not in ("auto", "cpu", "gpu"):
         raise ValueError(f"device must be 'auto', 'cpu' or 'gpu', got {device!r}")
@@ -463,9 +559,9 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         reference_dir = str(Path(base) / "references")
     reference_dir = os.fspath(reference_dir)
 
-    tasks = _tasks(specs, methods, budgets, seeds, lights, matrix, options)
+    tasks = _tasks(specs, methods, budgets, seeds, lights, matrix, options, models, truths)
     order = {t["task"]: i for i, t in enumerate(tasks)}
-    definition = _definition(specs, methods, budgets, seeds, lights, matrix, options)
+    definition = _definition(specs, methods, budgets, seeds, lights, matrix, options, models, truths)
     done: dict[str, dict] = {}
     if out is not None:
         out = Path(out)
@@ -486,7 +582,8 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         task = tasks[order[row["task"]]]
         s = task["scene"]
         row = {**row, "scene": s["display"], "params": json.dumps(s["params"], sort_keys=True),
-               "method": task["method"], "rows": task["rows"], "columns": task["columns"], "seed": task["seed"]}
+               "method": task["method"], "rows": task["rows"], "columns": task["columns"], "seed": task["seed"],
+               "light_model": task["light_model"]}
         row.setdefault("error_estimate", math.nan)
         rows[row["task"]] = row
         if out is not None:
@@ -517,8 +614,8 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
 
 
 def _ref_id(task: dict) -> str:
-    return json.dumps([task["scene"]["path"], task["scene"]["params"], task["lights"], task["matrix"]],
-                      sort_keys=True)
+    return json.dumps([task["scene"]["path"], task["scene"]["params"], task["lights"], task["matrix"],
+                       task.get("bias_compensation")], sort_keys=True)
 
 
 def _run_serial(todo: list[dict], reference_dir: str, accept) -> None:
@@ -530,7 +627,8 @@ def _run_serial(todo: list[dict], reference_dir: str, accept) -> None:
         rid = _ref_id(t)
         if rid not in refs:
             try:
-                refs[rid] = sweep_worker.reference(t["scene"], t["lights"], t["matrix"], reference_dir)
+                refs[rid] = sweep_worker.reference(t["scene"], t["lights"], t["matrix"], reference_dir,
+                                                   t.get("bias_compensation"))
             except Exception as e:  # noqa: BLE001  (every task of this scene gets the error row)
                 refs[rid] = e
         ref = refs[rid]
@@ -553,7 +651,7 @@ def _run_dask(client, todo: list[dict], reference_dir: str, accept) -> None:
         rid = _ref_id(t)
         if rid not in refs:
             refs[rid] = client.submit(sweep_worker.reference, t["scene"], t["lights"], t["matrix"], reference_dir,
-                                      key=f"manylights-reference-{stamp}-{len(refs)}", pure=False,
+                                      t.get("bias_compensation"), key=f"manylights-reference-{stamp}-{len(refs)}", pure=False,
                                       resources=resources)
         f = client.submit(sweep_worker.render, t, refs[rid], key=f"manylights-render-{stamp}-{i}", pure=False,
                           resources=resources)

@@ -20,6 +20,7 @@ import threading
 import time
 from collections import OrderedDict
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
@@ -108,17 +109,61 @@ def _matrix(scene_spec: dict, lights_spec: dict, matrix_spec: dict):
 
 
 def reference_key(digest: str, scene_spec: dict, lights_spec: dict, matrix_spec: dict, device: dict,
-                  visibility: str) -> str:
+                  visibility: str, bias_compensation: Optional[dict] = None) -> str:
     """The cache key of a brute-force reference: everything the image depends on (the scene folder's
-    content hash, the loader parameters, the light spec, the backend kind and visibility), 24 hex digits."""
-    h = hashlib.sha256(json.dumps({"scene": digest, "params": scene_spec["params"], "lights": lights_spec,
-                                   "matrix": {**matrix_spec, "device": device.get("kind"), "visibility": visibility}},
-                                  sort_keys=True).encode())
-    return h.hexdigest()[:24]
+    content hash, the loader parameters, the light spec, the backend kind and visibility, the bias
+    compensation's settings when a light model adds it), 24 hex digits."""
+    what = {"scene": digest, "params": scene_spec["params"], "lights": lights_spec,
+            "matrix": {**matrix_spec, "device": device.get("kind"), "visibility": visibility}}
+    if bias_compensation is not None:
+        what["bias_compensation"] = {**bias_compensation, "seed": REFERENCE_BIAS_SEED}
+    return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()[:24]
 
 
-def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_dir: str) -> dict:
-    """The brute-force image (column sum + emitted) of a scene's light matrix, rendered at most once per
+#: The seed of the bias compensation image in a light model's brute-force reference: one no render uses
+#: (render seeds are the sweep's seeds, small integers), so a render's compensation is independent of it.
+REFERENCE_BIAS_SEED = 2**64 - 1
+
+
+def bias_image(A, settings: Optional[dict], seed: int):
+    """``A.bias_compensation(**settings, seed=seed)`` (H, W, 3) float32, or None without settings."""
+    if settings is None:
+        return None
+    return A.bias_compensation(seed=seed, **settings)
+
+
+#: Truth images read by this process: path -> (mtime_ns, image (H, W, 3) float32).
+_TRUTHS: dict = {}
+
+
+def truth_image(path: str) -> np.ndarray:
+    """The image at ``path`` (OpenEXR through ``read_exr``, or a ``.npy``), its first three channels,
+    float32, read once per process (again when the file changes).
+
+    Raises:
+        FileNotFoundError: the file is missing on this host; ValueError: not an (H, W, >= 3) image."""
+    import manylights as ml
+
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"truth image not found on host {socket.gethostname()}: {path}")
+    mtime = p.stat().st_mtime_ns
+    got = _TRUTHS.get(path)
+    if got is None or got[0] != mtime:
+        img = np.load(p) if p.suffix == ".npy" else ml.read_exr(p)
+        img = np.asarray(img, dtype=np.float32)
+        if img.ndim != 3 or img.shape[2] < 3:
+            raise ValueError(f"truth image {path} must be (H, W, 3+), got shape {img.shape}")
+        got = (mtime, img[..., :3])
+        _TRUTHS[path] = got
+    return got[1]
+
+
+def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_dir: str,
+              bias_compensation: Optional[dict] = None) -> dict:
+    """The brute-force image (column sum + emitted, + the bias compensation image of seed
+    ``REFERENCE_BIAS_SEED`` when
+    ``bias_compensation`` holds its settings) of a scene's light matrix, rendered at most once per
     content: read from ``<reference_dir>/<key>.npz`` when an earlier task or sweep stored it, else rendered
     and stored there (written under a temporary name and renamed, so a reader never sees half a file).
 
@@ -135,7 +180,7 @@ def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_
     animation = "frames" in scene_spec["params"]
     n = len(lights[0]) if animation else len(lights)
     visibility = A.frame(0).visibility if animation else A.visibility
-    key = reference_key(digest, scene_spec, lights_spec, matrix_spec, A.device, visibility)
+    key = reference_key(digest, scene_spec, lights_spec, matrix_spec, A.device, visibility, bias_compensation)
     d = Path(reference_dir)
     path = d / f"{key}.npz"
     out = {"key": key, "scene_hash": digest, "lights": int(n), "device": dict(A.device),
@@ -151,7 +196,10 @@ def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_
     if animation:
         image = A.brute_force(progress=False).astype(np.float32)  # (f, H, W, 3)
     else:
-        image = (A.column_sum(progress=False) + A.emitted()).astype(np.float32)
+        image = A.column_sum(progress=False) + A.emitted()
+        if bias_compensation is not None:
+            image = image + bias_image(A, bias_compensation, REFERENCE_BIAS_SEED)
+        image = image.astype(np.float32)
     seconds = time.perf_counter() - t
     d.mkdir(parents=True, exist_ok=True)
     tmp = d / f".{key}.{os.getpid()}.{threading.get_ident()}.tmp.npz"
@@ -172,7 +220,9 @@ def render(task: dict, ref: dict) -> dict:
     Returns:
         dict of plain values: task (the row's key), method, rows, columns, seed, status, error, rel_l2
         (relative L2 against ``ref["image"]``; the mean over frames for an animation, with max_rel_l2,
-        flicker, frames and shadow_maps_per_frame), error_estimate (the method's own estimate of its relative L2: MRCS with options {"halves": True}; NaN otherwise), seconds
+        flicker, frames and shadow_maps_per_frame), truth ("brute_force", or "image:<file name>" when the task
+        names a truth image: rel_l2 is then against it, rel_l2_brute_force against ``ref`` and
+        reference_rel_l2 is ``ref``'s own error against it), error_estimate (the method's own estimate of its relative L2: MRCS with options {"halves": True}; NaN otherwise), seconds
         (all stages) and ``seconds_<stage>`` per stage, clusters (columns rendered), lights, scene_hash,
         reference_key, reference_seconds, reference_cached (read from the cache directory), device, adapter, host,
         setup_seconds (scene + matrix loading of this task; 0 when cached)."""
@@ -215,12 +265,28 @@ def render(task: dict, ref: dict) -> dict:
             row["rays"] = int(res.budget["rays"])
         else:  # sweep() checks the names: only a hand-made task gets here
             raise ValueError(f"unknown method {method!r}; methods: {', '.join(METHODS)}")
-        row["rel_l2"] = float(ml.relative_l2(res.image, ref["image"]))
-        if getattr(res, "error_estimate", None) is not None:
-            row["error_estimate"] = float(res.error_estimate)
-        row["seconds"] = res.seconds
+        image, seconds = res.image, res.seconds
         for k, v in res.timings.items():
             row[f"seconds_{k}"] = float(v)
+        if task.get("bias_compensation") is not None:  # the light model's compensation image: its cost counts
+            t = time.perf_counter()
+            image = image + bias_image(A, task["bias_compensation"], seed)
+            row["seconds_bias_compensation"] = time.perf_counter() - t
+            seconds += row["seconds_bias_compensation"]
+        row["rel_l2_brute_force"] = float(ml.relative_l2(image, ref["image"]))
+        row["rel_l2"] = row["rel_l2_brute_force"]
+        row["truth"] = "brute_force"
+        if task.get("truth") is not None:
+            truth = truth_image(task["truth"])
+            if truth.shape != image.shape:
+                raise ValueError(f"truth image {task['truth']} is {truth.shape[1]}x{truth.shape[0]}, the render "
+                                 f"{image.shape[1]}x{image.shape[0]}")
+            row["rel_l2"] = float(ml.relative_l2(image, truth))
+            row["reference_rel_l2"] = float(ml.relative_l2(ref["image"], truth))
+            row["truth"] = f"image:{Path(task['truth']).name}"
+        if getattr(res, "error_estimate", None) is not None:
+            row["error_estimate"] = float(res.error_estimate)
+        row["seconds"] = seconds
     except Exception as e:  # noqa: BLE001  (recorded in the row; the sweep goes on)
         row["status"] = "error"
         row["error"] = f"{type(e).__name__}: {e}"
