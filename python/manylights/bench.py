@@ -63,8 +63,8 @@ def render(scene, lights, engine: str, visibility: str) -> np.ndarray:
     rows = np.empty((m, 3), np.float64)
     for i in range(m):
         rows[i] = A.row_exact(i).sum(0, dtype=np.float64)
-    h, w, _ = A.emitted().shape
-    return (rows.reshape(h, w, 3) + A.emitted()).astype(np.float32)
+    emitted = A.emitted()  # one call: with glossy view samples it traces the BSDF-sampled strategy's rays
+    return (rows.reshape(emitted.shape) + emitted).astype(np.float32)
 
 
 def lights_runs(args) -> list[dict]:
