@@ -108,6 +108,9 @@ def test_weights_leave_diffuse_and_delta_light_scenes_alone(tmp_path):
     bare = ml.LightMatrix(small, lights, device="cpu", max_depth=2, glossy_roughness=0.0)
     np.testing.assert_array_equal(none.column_sum(progress=False), bare.column_sum(progress=False))
     np.testing.assert_array_equal(none.emitted(), bare.emitted())
+    assert none.glossy_work == (0, 0) and bare.glossy_work == (0, 0)
+    views, samples = ml.LightMatrix(small, lights, device="cpu", max_depth=2, bsdf_samples=64).glossy_work
+    assert 0 < views <= 32 * 24 and samples == 64 * views  # every plate pixel is below the default 0.2
     # Delta lights are never weighted: a point light's column (light 0: delta lights come first) is the
     # same with and without MIS.
     xml = XML.read_text().replace("</scene>", '<emitter type="point"><point name="position" x="0" y="3" z="3"/>'

@@ -50,6 +50,7 @@ def test_counts_are_chosen_reproducibly_and_meet_their_shares():
             assert lc[k]["estimates"][-2][1] > light_budget.SAFETY * share
     assert lc["indirect"]["count"] > 256, "VPLs at 32 px need more than the first 256 for a 5% target"
     assert a.budget["shadow_map_size"]["value"] is None  # CPU: exact rays
+    assert a.budget["glossy"]["view_samples"] == 0 and "no glossy work" in a.budget["glossy"]["reason"]  # diffuse box
     assert a.budget["target_reached"] is True
     assert a.budget["estimated_total_error"] == pytest.approx(math.hypot(lc["estimated_generation_error"],
                                                                          a.error_estimate))
@@ -89,23 +90,38 @@ def test_delta_lights_only(tmp_path):
     assert counts(gi)["area"] == 0 and counts(gi)["indirect"] >= 256
 
 
-def test_integrator_depth_from_the_xml(tmp_path):
-    assert light_budget.integrator_depth(CBOX) == ("path", 6)  # $max_depth, <default> 6
-    assert light_budget.integrator_depth(CBOX, {"max_depth": 3}) == ("path", 3)
-    assert light_budget.integrator_depth(REPO / "scenes" / "veach-ajar" / "scene.xml") == ("path", 13)
-    assert light_budget.integrator_depth(REPO / "scenes" / "demo" / "scene.xml") == ("path", 2)
+MINI = ('<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>'
+        '<integer name="height" value="8"/></film></sensor><shape type="rectangle"/>{}</scene>')
+
+
+def test_integrator_depth_from_the_loader(tmp_path):
+    def depth(path, **params):
+        return light_budget.integrator_depth(ml.load_scene(path, **params))
+
+    assert depth(CBOX) == ("path", 6)  # $max_depth, <default> 6
+    assert depth(CBOX, max_depth=3) == ("path", 3)
+    assert depth(REPO / "scenes" / "veach-ajar" / "scene.xml") == ("path", 13)
+    assert depth(REPO / "scenes" / "demo" / "scene.xml") == ("path", 2)
     f = tmp_path / "s.xml"
-    f.write_text('<scene version="3.0.0"><integrator type="direct"/></scene>')
-    assert light_budget.integrator_depth(f) == ("direct", 2)
-    f.write_text('<scene version="3.0.0"/>')
-    assert light_budget.integrator_depth(f) == ("path", -1)
-    f.write_text('<scene version="3.0.0"><integrator type="aov"/></scene>')
-    with pytest.raises(ValueError, match="aov.*max_depth="):
-        light_budget.integrator_depth(f)
-    f.write_text('<scene version="3.0.0"><integrator type="path"><integer name="max_depth" value="$d"/>'
-                 '</integrator></scene>')
-    with pytest.raises(ValueError, match=r"\$d"):
-        light_budget.integrator_depth(f)
+    f.write_text(MINI.format('<integrator type="direct"/>'))
+    assert depth(f) == ("direct", 2)
+    f.write_text(MINI.format(""))
+    assert depth(f) == ("path", -1) and ml.load_scene(f).integrator is None
+    # An <include>d integrator counts (the loader resolves includes; the old ElementTree reader did not).
+    (tmp_path / "integrator.xml").write_text('<scene version="3.0.0"><integrator type="volpath">'
+                                             '<integer name="max_depth" value="4"/></integrator></scene>')
+    f.write_text(MINI.format('<include filename="integrator.xml"/>'))
+    assert depth(f) == ("volpath", 4)
+    f.write_text(MINI.format('<integrator type="aov"><string name="aovs" value="nn:sh_normal"/></integrator>'))
+    assert ml.load_scene(f).integrator == {"type": "aov", "max_depth": None, "file": f, "line": 1}
+    with pytest.raises(ValueError, match=r"s\.xml:1: .*aov.*max_depth="):
+        depth(f)
+    f.write_text(MINI.format('<integrator type="path"><integer name="max_depth" value="$d"/></integrator>'))
+    with pytest.raises(ml.SceneError, match=r"\$d"):
+        depth(f)
+    f.write_text(MINI.format('<integrator type="path"><integer name="max_depth" value="-3"/></integrator>'))
+    with pytest.raises(ml.SceneError, match="max_depth.*-3"):
+        depth(f)
 
 
 @pytest.mark.parametrize("kwargs, error, match", [
@@ -152,7 +168,5 @@ def test_time_budget_only_gives_every_kind_a_reason():
 def test_malformed_scene_file(tmp_path):
     f = tmp_path / "broken.xml"
     f.write_text("<scene version='3.0.0'><integrator type='path'>")
-    with pytest.raises(ml.SceneError):
+    with pytest.raises(ml.SceneError, match="broken.xml"):
         ml.render(f, target_error=0.05)
-    with pytest.raises(ValueError, match="well-formed"):
-        light_budget.integrator_depth(f)

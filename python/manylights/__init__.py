@@ -301,6 +301,13 @@ class LightMatrix:
         """How shadow tests are decided: "ray_traced" (always on the CPU), "hybrid" or "shadow_map"."""
         return self._m.visibility
 
+    @property
+    def glossy_work(self) -> tuple[int, int]:
+        """Glossy MIS work (issue 13, item 3): (view samples that get BSDF samples, BSDF samples in all),
+        both ints; (0, 0) when no view sample's lobe alpha is below ``glossy_roughness`` (e.g. a
+        diffuse-only scene: pure many-light columns)."""
+        return tuple(self._m.glossy_work)
+
     def visibility_stats(self) -> dict[str, int]:
         """Counters since creation: ``shadow_tests``, ``ray_casts`` (tests resolved by exact rays) and
         ``gave_up`` (rays that ran out of traversal steps; should be 0)."""

@@ -32,6 +32,9 @@ class Scene:
     """origin, left, up, forward, fov_x, fov_y (degrees), near_clip, far_clip, width, height,
     principal_point_offset (x, y) in film units."""
     bounds: tuple[tuple[float, float, float], tuple[float, float, float]]
+    integrator: Optional[dict[str, Any]]
+    """The first top-level ``<integrator>``: type, max_depth (Mitsuba's path depth: a path tracer's
+    property, default -1; 2 for ``direct``; None for plugins without one), file (Path), line; None if absent."""
     def gbuffer(self, device: str = "auto") -> dict[str, np.ndarray]:
         """View samples at pixel centres: position, normal, geo_normal, wi, albedo (H, W, 3) float32,
         uv (H, W, 2) float32, shape_index, prim_index (H, W) int32 (-1 = background). Computed on
@@ -88,6 +91,8 @@ class LightMatrix:
     shape: tuple[int, int]
     device: dict[str, Any]
     visibility: str
+    glossy_work: tuple[int, int]
+    """(view samples with BSDF samples, BSDF samples in all) of glossy MIS; (0, 0) = none (diffuse)."""
     def __init__(self, scene: Scene, lights: LightSet, shadow_map_size: int = 1024,
                  normal_offset: Optional[float] = None, depth_bias: Optional[float] = None,
                  slope_bias: Optional[float] = None, visibility: Optional[str] = None, max_depth: int = -1,

@@ -37,13 +37,14 @@ Which kinds exist (``budget['light_counts'][kind]['reason']``):
 - ``delta``: the scene's point, spot and directional emitters, one light each, exact (never grown);
 - ``area``: oriented points on area emitters, only if the scene has ``area`` emitters;
 - ``environment``: directions of ``envmap`` / ``constant`` emitters, only if it has them;
-- ``indirect``: VPLs, only if the integrator asks for indirect light (``max_depth`` -1 or > 2; read from
-  the XML's top-level ``<integrator>``: ``path``/``volpath`` with their ``max_depth`` (default -1),
+- ``indirect``: VPLs, only if the integrator asks for indirect light (``max_depth`` -1 or > 2; the
+  loader's ``Scene.integrator``, the XML's first top-level ``<integrator>``: ``path``/``volpath`` with their ``max_depth`` (default -1),
   ``direct`` = 2; ``max_depth=`` overrides). A scene with only delta lights still gets VPLs when the
   integrator asks for indirect light (its delta lights' light bounces); "no VPLs" needs both only delta
   lights (or any lights) AND ``max_depth`` 2.
-- glossy work: ``generate_lights`` has no glossy option (VPLs carry their own BSDF record; no separate
-  glossy lights exist), so there is nothing to choose: said in ``budget['glossy']``.
+- glossy work: the ``LightMatrix``'s glossy MIS (src/matrix/glossy.rs) gives BSDF samples only to view
+  samples whose lobe is narrower than ``glossy_roughness``; a diffuse-only scene gets none. Reported, not
+  chosen, in ``budget['glossy']`` (``LightMatrix.glossy_work``).
 - shadow-map resolution (``budget['shadow_map_size']``): the CPU backend has no shadow maps (exact rays);
   the GPU backend's default ``hybrid`` visibility redoes every uncertain shadow-map test with an exact
   ray, so the resolution changes the cost, not the image (README: 512^2 and 1024^2 give the same image
@@ -64,7 +65,6 @@ from __future__ import annotations
 
 import os
 import time
-import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Optional
 
@@ -80,45 +80,21 @@ KINDS = ("area", "environment", "indirect")
 _STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5}
 
 
-def integrator_depth(path, params: Optional[dict] = None) -> tuple[str, int]:
-    """The top-level ``<integrator>`` of a Mitsuba 3 XML: (type, max_depth). ``path``/``volpath``: their
-    ``max_depth`` (Mitsuba's default -1); ``direct``: 2; no integrator: Mitsuba's default ``path``, -1.
-    ``$name`` values are resolved from ``<default>`` elements and ``params`` (which override them).
+def integrator_depth(scene) -> tuple[str, int]:
+    """The scene's top-level ``<integrator>`` as (type, max_depth), from the loader (``Scene.integrator``,
+    which resolved ``$name`` values, ``<include>`` and version upgrades): a path tracer's ``max_depth``
+    (Mitsuba's default -1), 2 for ``direct``; no integrator: Mitsuba's default ``path``, -1.
 
     Raises:
-        FileNotFoundError: no such file. ValueError: malformed XML, another integrator type (give
-            ``max_depth=``), a ``max_depth`` that is not an integer or references an undefined ``$name``."""
-    p = Path(path)
-    if not p.is_file():
-        raise FileNotFoundError(f"scene file not found: {p}")
-    try:
-        root = ET.parse(p).getroot()
-    except ET.ParseError as e:
-        raise ValueError(f"{p}: not a well-formed XML file ({e})") from None
-    defaults = {d.get("name"): d.get("value") for d in root if d.tag == "default"}
-    defaults.update({k: str(v) for k, v in (params or {}).items()})
-
-    def resolve(v: str) -> str:
-        if v is not None and v.startswith("$"):
-            if v[1:] not in defaults:
-                raise ValueError(f"{p}: integrator value {v} names no <default> or parameter")
-            return defaults[v[1:]]
-        return v
-
-    integ = next((e for e in root if e.tag == "integrator"), None)
+        ValueError: an integrator without a path depth (e.g. ``aov``): give ``max_depth=`` (names the file
+            and line)."""
+    integ = scene.integrator
     if integ is None:
         return "path", -1
-    kind = resolve(integ.get("type"))
-    if kind == "direct":
-        return kind, 2
-    if kind not in ("path", "volpath"):
-        raise ValueError(f"{p}: integrator type {kind!r} is not path, volpath or direct: give max_depth=")
-    depth = next((resolve(e.get("value")) for e in integ
-                  if e.tag == "integer" and e.get("name") == "max_depth"), "-1")
-    try:
-        return kind, int(depth)
-    except ValueError:
-        raise ValueError(f"{p}: integrator max_depth {depth!r} is not an integer") from None
+    if integ["max_depth"] is None:
+        raise ValueError(f"{integ['file']}:{integ['line']}: integrator type {integ['type']!r} has no path depth "
+                         "(not path, volpath or direct): give max_depth=")
+    return integ["type"], int(integ["max_depth"])
 
 
 def _kind_lights(scene, kind: str, count: int, max_depth: int, seed: int, delta: int):
@@ -264,7 +240,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     Returns:
         ``adaptive.render``'s RenderResult; ``budget`` adds ``light_counts`` (per kind: count, reason,
         estimates, share; estimated_generation_error, rows, seconds), ``integrator`` (type, max_depth),
-        ``shadow_map_size`` (value, reason), ``glossy`` (reason), ``estimated_total_error`` (equation (5):
+        ``shadow_map_size`` (value, reason), ``glossy`` (view_samples, bsdf_samples, reason), ``estimated_total_error`` (equation (5):
         sqrt(E_gen^2 + error_estimate^2)), ``target_reached`` (that total <= target_error; None without a
         target); ``timings['light_counts']`` and ``timings['lights']``.
         ``error_estimate`` stays the MRCS estimate against the brute force of the generated lights.
@@ -302,7 +278,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
             raise ValueError(f"max_depth must be -1 or >= 2 (Mitsuba's path depth), got {max_depth}")
     scene = load_scene(p, size=size, **params)  # malformed XML: SceneError naming file and line
     if max_depth is None:
-        integ, max_depth = integrator_depth(p, params)
+        integ, max_depth = integrator_depth(scene)
     else:
         integ = "given"
     matrix_options = {"device": device, "max_depth": max_depth}
@@ -327,7 +303,10 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     else:
         res.budget["shadow_map_size"] = {"value": None,
                                          "reason": "the CPU backend casts exact shadow rays: no shadow maps"}
-    res.budget["glossy"] = {"reason": "generate_lights has no separate glossy work to choose (no such option)"}
+    views, samples = A.glossy_work
+    res.budget["glossy"] = {"view_samples": views, "bsdf_samples": samples, "reason": (
+        f"glossy MIS: {views} view samples below glossy_roughness get {samples} BSDF samples in all"
+        if views else "no view sample's lobe is below glossy_roughness: pure many-light columns, no glossy work")}
     total = float(np.hypot(counts["estimated_generation_error"], res.error_estimate))
     res.budget["estimated_total_error"] = total
     # Halving sees the light generation's variance, not the VPL clamp's bias (module doc).

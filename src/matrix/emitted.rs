@@ -120,6 +120,7 @@ mod tests {
         };
         let mut scene = Scene {
             path: "test".into(),
+            integrator: None,
             camera,
             meshes: Vec::new(),
             bsdfs: Vec::new(),

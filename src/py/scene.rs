@@ -268,6 +268,20 @@ impl Scene {
             })
             .collect()
     }
+    /// The first top-level `<integrator>`: {"type", "max_depth", "file", "line"}, or None when the file has
+    /// none (Mitsuba then renders with `path`, max_depth -1). `max_depth` is Mitsuba's path depth: the
+    /// property of a path-tracing plugin (default -1 = unbounded), 2 for `direct`, None for plugins
+    /// without one (e.g. `aov`).
+    #[getter]
+    fn integrator<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(i) = &self.inner.integrator else { return Ok(None) };
+        let d = PyDict::new(py);
+        d.set_item("type", &i.plugin)?;
+        d.set_item("max_depth", i.max_depth)?;
+        d.set_item("file", &i.loc.file)?;
+        d.set_item("line", i.loc.line)?;
+        Ok(Some(d))
+    }
     /// Camera: origin, forward, up, left (world), fov_x / fov_y (degrees), near_clip, width, height,
     /// principal_point_offset (x, y) in film units.
     #[getter]

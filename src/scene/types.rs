@@ -20,6 +20,21 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// All emitters: the top-level ones in document order, then the area emitters of shapes.
     pub emitters: Vec<Emitter>,
+    /// The first top-level `<integrator>`, if the file has one (Mitsuba's default is `path`, depth -1).
+    pub integrator: Option<Integrator>,
+}
+
+/// A top-level `<integrator>`: we render no image with it, but its path depth says how much light
+/// transport the scene asks for (e.g. whether indirect light, hence VPLs, is wanted).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Integrator {
+    /// The `type` attribute: "path", "volpath", "direct", ...
+    pub plugin: String,
+    /// Mitsuba's path depth of this integrator (1 = emitters seen directly, 2 = direct light, -1 =
+    /// unbounded): `max_depth` of a path-tracing plugin (default -1), 2 for `direct`; `None` for other
+    /// plugins (e.g. `aov`), whose depth we do not know.
+    pub max_depth: Option<i64>,
+    pub loc: Location,
 }
 
 /// `<sensor type="perspective">` with its `<film type="hdrfilm">`.

@@ -33,7 +33,7 @@ mod spectrum;
 mod upgrade;
 
 use crate::error::{Error, Location, Result};
-use crate::scene::Scene;
+use crate::scene::{Integrator, Scene};
 use std::path::Path;
 
 /// Options of `load_scene`: `$name` substitutions (like `mitsuba.load_file(path, **params)`) and an
@@ -69,6 +69,7 @@ pub fn load_scene_with_warnings(path: &Path, opts: &LoadOptions) -> Result<(Scen
     let mut camera = None;
     let mut area_nodes = Vec::new();
     let mut unused = Vec::new();
+    let mut integrator = None;
     for child in &root.children {
         let (node, loc) = match child {
             parse::Child::Object { node, .. } => (*node, doc.nodes[*node].loc.clone()),
@@ -86,7 +87,12 @@ pub fn load_scene_with_warnings(path: &Path, opts: &LoadOptions) -> Result<(Scen
                 camera.get_or_insert(c);
             }
             "bsdf" | "texture" => unused.push(node),
-            "integrator" | "sampler" | "film" | "rfilter" => {}
+            "integrator" => {
+                if integrator.is_none() {
+                    integrator = Some(read_integrator(&doc, node)?);
+                }
+            }
+            "sampler" | "film" | "rfilter" => {}
             other => return Err(Error::scene(&loc, format!("unsupported <{other} type=\"{}\">", n.plugin))),
         }
     }
@@ -130,8 +136,31 @@ pub fn load_scene_with_warnings(path: &Path, opts: &LoadOptions) -> Result<(Scen
         bsdfs: b.bsdfs,
         textures: b.textures,
         emitters,
+        integrator,
     };
     Ok((scene, b.warnings))
+}
+
+/// Mitsuba 3.9.1's integrators with a `max_depth` (default -1: unbounded).
+const PATH_INTEGRATORS: &[&str] = &["path", "volpath", "volpathmis", "ptracer", "prb", "prb_basic", "prbvolpath"];
+
+/// The integrator's type and path depth (see [`Integrator`]); only `max_depth` is read (the other
+/// properties choose how Mitsuba samples, not what the converged image is).
+fn read_integrator(doc: &parse::Document, node: usize) -> Result<Integrator> {
+    let mut p = props::Props::new(doc, node);
+    let plugin = p.node.plugin.clone();
+    let max_depth = if PATH_INTEGRATORS.contains(&plugin.as_str()) {
+        let (d, loc) = p.int("max_depth", -1)?;
+        if d < -1 {
+            return Err(Error::scene(&loc, format!("integrator \"{plugin}\": max_depth must be -1 (unbounded) or >= 0, got {d}")));
+        }
+        Some(d)
+    } else if plugin == "direct" {
+        Some(2)
+    } else {
+        None
+    };
+    Ok(Integrator { plugin, max_depth, loc: p.loc().clone() })
 }
 
 #[cfg(test)]

@@ -56,6 +56,7 @@ fn bsdfs() -> Vec<Bsdf> {
 fn scene(camera: Camera, meshes: Vec<Mesh>) -> Scene {
     Scene {
         path: "test_scene.xml".into(),
+        integrator: None,
         camera,
         meshes,
         bsdfs: bsdfs(),

@@ -14,6 +14,7 @@ fn load(name: &str) -> Scene {
 fn bare_scene(meshes: Vec<crate::scene::Mesh>) -> Scene {
     Scene {
         path: "test.xml".into(),
+        integrator: None,
         camera: square_camera(32, Vec3::new(0.0, 1.0, 3.0), Vec3::ZERO),
         meshes,
         bsdfs: vec![Bsdf::Diffuse { reflectance: Param::Value(Vec3::splat(0.5)) }],

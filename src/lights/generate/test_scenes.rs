@@ -34,6 +34,7 @@ pub fn furnace_box(rho: f32, emitters: Vec<Emitter>, area: bool) -> Scene {
     }
     Scene {
         path: "furnace_box.xml".into(),
+        integrator: None,
         camera: square_camera(32, Vec3::new(0.0, 0.0, 0.9), Vec3::ZERO),
         meshes,
         bsdfs,
@@ -84,6 +85,7 @@ pub fn open_box(size: u32) -> Scene {
     data[(w + 2) as usize] = Vec3::new(4.0, 3.0, 2.0);
     Scene {
         path: "open_box.xml".into(),
+        integrator: None,
         camera: square_camera(size, Vec3::new(0.0, 0.3, 3.4), Vec3::new(0.0, -0.2, 0.0)),
         meshes,
         bsdfs,

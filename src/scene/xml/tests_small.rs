@@ -309,3 +309,30 @@ fn refusals_name_file_and_line() {
     let path = write("noversion", &[("scene.xml", noversion)]);
     assert_err(load_scene(&path, &LoadOptions::default()), 1, &["version"]);
 }
+
+#[test]
+fn the_integrator_and_its_path_depth() {
+    let depth = |body: &str, params: &[(&str, &str)]| {
+        let s = load_with("integrator", &format!("{RECT}\n{body}"), params).unwrap();
+        s.integrator.map(|i| (i.plugin, i.max_depth, i.loc.line))
+    };
+    assert_eq!(depth("", &[]), None); // Mitsuba's default (path, -1) is the caller's to apply
+    let path = r#"<default name="d" value="6"/>
+<integrator type="path"><integer name="max_depth" value="$d"/><integer name="rr_depth" value="3"/></integrator>"#;
+    assert_eq!(depth(path, &[]), Some(("path".into(), Some(6), 6)));
+    assert_eq!(depth(path, &[("d", "3")]), Some(("path".into(), Some(3), 6)));
+    assert_eq!(depth(r#"<integrator type="volpath"/>"#, &[]), Some(("volpath".into(), Some(-1), 5)));
+    assert_eq!(depth(r#"<integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>"#, &[]),
+        Some(("direct".into(), Some(2), 5)));
+    assert_eq!(depth(r#"<integrator type="aov"><string name="aovs" value="nn:sh_normal"/></integrator>"#, &[]),
+        Some(("aov".into(), None, 5)));
+    // Only the first top-level integrator counts (Mitsuba renders with the first).
+    assert_eq!(depth("<integrator type=\"direct\"/>\n<integrator type=\"path\"/>", &[]), Some(("direct".into(), Some(2), 5)));
+    let bad = |test: &str, body: &str| load_str(test, &format!("{RECT}\n{body}"));
+    assert_err(bad("int-depth", r#"<integrator type="path"><integer name="max_depth" value="-2"/></integrator>"#), 5,
+        &["max_depth", "-2"]);
+    assert_err(bad("float-depth", r#"<integrator type="path"><float name="max_depth" value="3"/></integrator>"#), 5,
+        &["max_depth", "<integer>"]);
+    assert_err(bad("undef-depth", r#"<integrator type="path"><integer name="max_depth" value="$d"/></integrator>"#), 5,
+        &["undefined parameter $d"]);
+}
