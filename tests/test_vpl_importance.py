@@ -123,3 +123,16 @@ def test_delta_lights_without_indirect_unchanged():
         assert np.array_equal(getattr(a, name), getattr(b, name)), name
     c = ml.generate_lights(scene, area=0, indirect=200, seed=1, vpl_importance=True, vpl_view_samples=64)
     assert np.array_equal(c.position[: len(a)], a.position) and (c.kind[len(a):] == 4).all()
+
+
+def test_bench_light_models_name_the_importance_models():
+    """``bench compare --light-models vpl+is vsl+is``: the models pass the sweep's settings check and reach
+    ``generate_lights`` as ``vpl_importance=True``; a bad value is refused by name."""
+    from manylights import bench_light_models as blm
+    from manylights.sweep import _light_models
+
+    models = _light_models({k: blm.MODELS[k][0] for k in ("vpl+is", "vsl+is")})
+    assert [m["lights"] for m in models] == [{"vpl_importance": True},
+                                             {"indirect_kind": "vsl", "vpl_importance": True}]
+    with pytest.raises(ValueError, match="vpl_importanc"):
+        _light_models({"x": {"lights": {"vpl_importances": True}}})
