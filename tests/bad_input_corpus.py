@@ -421,6 +421,12 @@ cases_for("generate_lights", [
                                                             vsl_radius_scale=float("nan")), ["vsl_radius_scale"]),
     ("zero VSL neighbours", lambda c: c.ml.generate_lights(c.scene, area=4, indirect_kind="vsl", vsl_neighbours=0),
      ["vsl_neighbours"]),
+    ("non-bool vpl_importance", lambda c: c.ml.generate_lights(c.scene, area=4, indirect=10, vpl_importance="yes"),
+     ["vpl_importance"]),
+    ("negative vpl_view_samples", lambda c: c.ml.generate_lights(c.scene, area=4, indirect=10, vpl_importance=True,
+                                                                 vpl_view_samples=-1), ["vpl_view_samples"]),
+    ("NaN vpl_accept_min", lambda c: c.ml.generate_lights(c.scene, area=4, indirect=10, vpl_importance=True,
+                                                          vpl_accept_min=float("nan")), ["vpl_accept_min"]),
 ])
 cases_for("stratified_rows", [
     ("zero rows", lambda c: c.ml.stratified_rows(c.scene, 0), ["r"]),

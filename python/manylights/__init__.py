@@ -152,6 +152,9 @@ def generate_lights(
     indirect_kind: str = "vpl",
     vsl_radius_scale: float = 1.0,
     vsl_neighbours: int = 16,
+    vpl_importance: bool = False,
+    vpl_view_samples: int = 256,
+    vpl_accept_min: float = 0.01,
 ) -> LightSet:
     """Turn a scene's emitters and its indirect light into point-like lights (many-light columns).
 
@@ -180,6 +183,18 @@ def generate_lights(
             (``src/lights/vsl.rs``); not clamped. Still one column per light.
         vsl_radius_scale: > 0, finite (``"vsl"`` only).
         vsl_neighbours: k >= 1 of the k-th nearest VPL (``"vsl"`` only).
+        vpl_importance: importance-sample the VPLs (and VSLs) by their estimated contribution to the
+            camera's image (Georgiev and Slusallek, "Simple and Robust Iterative Importance Sampling of
+            Virtual Point Lights", EG 2010 short paper): each particle-tracing candidate j is accepted
+            with probability p_j = min(1, Phi_j / Phi_v + vpl_accept_min), its flux divided by p_j
+            (unbiased: the same expected image), where Phi_j is its clamped contribution to about
+            ``vpl_view_samples`` pilot pixel centres (exact shadow rays) and Phi_v the image's indirect
+            contribution over ``indirect``; particles are traced until about ``indirect`` VPLs are
+            accepted (at most indirect / vpl_accept_min candidates). CPU generation (the lights are
+            ordinary columns for every backend and renderer); ``src/lights/generate/vpl_importance.rs``.
+            Default False (README, issue 13: measured accuracy and cost).
+        vpl_view_samples: integer in 1 ..= 65536, pilot view samples (``vpl_importance`` only).
+        vpl_accept_min: eps in (0, 1], the floor of the acceptance probability (1 = plain VPLs).
 
     Returns:
         LightSet with numpy views ``kind`` (0 point, 1 spot, 2 directional, 3 oriented point, 4 VPL),
@@ -188,8 +203,10 @@ def generate_lights(
     Raises:
         ValueError: a negative, non-integer or too large count, a NaN or non-positive clamp,
             max_depth < 3 with indirect > 0, an indirect_kind other than "vpl"/"vsl", a
-            vsl_radius_scale that is 0, negative, NaN or infinite, vsl_neighbours < 1, or a scene
-            without emitters. Zero-area or zero-radiance
+            vsl_radius_scale that is 0, negative, NaN or infinite, vsl_neighbours < 1, a non-bool
+            vpl_importance, vpl_view_samples outside 1 ..= 65536, a vpl_accept_min that is NaN or
+            outside (0, 1], vpl_importance on a camera that sees no surface (or that no pilot VPL
+            reaches), or a scene without emitters. Zero-area or zero-radiance
             emitters contribute nothing (no lights, no NaN).
     """
     counts = {"area": area, "environment": environment, "indirect": indirect, "max_depth": max_depth}
@@ -208,9 +225,19 @@ def generate_lights(
     if not (vsl_radius_scale > 0.0 and math.isfinite(vsl_radius_scale)):
         raise ValueError(f"vsl_radius_scale must be finite and > 0, got {vsl_radius_scale}")
     vsl_neighbours = _v.integer("vsl_neighbours", vsl_neighbours, 1, 1 << 20)
+    if not isinstance(vpl_importance, (bool, np.bool_)):
+        raise ValueError(f"vpl_importance must be True or False, got {vpl_importance!r}")
+    vpl_view_samples = _v.integer("vpl_view_samples", vpl_view_samples, 1, 1 << 16)
+    try:
+        vpl_accept_min = float(vpl_accept_min)
+    except (TypeError, ValueError):
+        raise ValueError(f"vpl_accept_min must be a number in (0, 1], got {vpl_accept_min!r}") from None
+    if isinstance(vpl_accept_min, bool) or not 0.0 < vpl_accept_min <= 1.0:
+        raise ValueError(f"vpl_accept_min must be in (0, 1], got {vpl_accept_min}")
     return _native.generate_lights(
         scene, int(area), int(environment), int(indirect), int(max_depth), clamp, bool(env_importance), int(seed),
-        indirect_kind, vsl_radius_scale, int(vsl_neighbours),
+        indirect_kind, vsl_radius_scale, int(vsl_neighbours), bool(vpl_importance), int(vpl_view_samples),
+        vpl_accept_min,
     )
 
 

@@ -7,6 +7,8 @@ next to each other on one error-against-time chart per scene.
 | ``vpl+bc`` | clamped VPLs + bias compensation (Kollig and Keller 2004) | ``LightMatrix.bias_compensation(spp, light_samples)`` added to every image |
 | ``vsl`` | virtual spherical lights (Hasan et al. 2009, Sec. 4-5), glossy MIS on | ``generate_lights(indirect_kind="vsl")`` |
 | ``no-mis`` | clamped VPLs, glossy MIS off | ``LightMatrix(glossy_roughness=0)`` |
+| ``vpl+is`` | clamped VPLs importance-sampled by the camera (Georgiev and Slusallek 2010) | ``generate_lights(vpl_importance=True)`` |
+| ``vsl+is`` | VSLs from importance-sampled VPLs | ``generate_lights(indirect_kind="vsl", vpl_importance=True)`` |
 
 One ``ml.sweep`` with a ``light_models`` axis: power sampling at each ``--columns`` count and MRCS at rows =
 min(columns / 3, pixels), at ``--seeds`` render seeds, per model; plus each model's brute force (all its
@@ -35,9 +37,13 @@ MODELS = {
                "bias compensation (no VPLs: adds 0)"),
     "vsl": ({"lights": {"indirect_kind": "vsl"}}, "VSL (glossy MIS on)", "VSL (no indirect lights: = default)"),
     "no-mis": ({"matrix": {"glossy_roughness": 0.0}}, "VPL, clamped, glossy MIS off", "glossy MIS off"),
+    "vpl+is": ({"lights": {"vpl_importance": True}}, "VPL, clamped, importance-sampled",
+               "VPL importance sampling (no VPLs: = default)"),
+    "vsl+is": ({"lights": {"indirect_kind": "vsl", "vpl_importance": True}}, "VSL, importance-sampled",
+               "VSL importance sampling (no VPLs: = default)"),
 }
 METHOD_STYLE = {"mrcs": ("o", "-"), "power_sampling": ("s", "--")}
-MODEL_COLOR = {"vpl": "C0", "vpl+bc": "C1", "vsl": "C2", "no-mis": "C3"}
+MODEL_COLOR = {"vpl": "C0", "vpl+bc": "C1", "vsl": "C2", "no-mis": "C3", "vpl+is": "C4", "vsl+is": "C5"}
 REFERENCES = Path(__file__).resolve().parents[2] / "tests" / "references"
 
 

@@ -138,7 +138,8 @@ def _seeds(seeds) -> list[int]:
 def _lights(lights) -> dict:
     if isinstance(lights, dict):
         allowed = {"total", "area", "environment", "indirect", "max_depth", "clamp", "seed", "env_importance",
-                   "photons", "indirect_kind", "vsl_radius_scale", "vsl_neighbours"}
+                   "photons", "indirect_kind", "vsl_radius_scale", "vsl_neighbours", "vpl_importance",
+                   "vpl_view_samples", "vpl_accept_min"}
         if bad := sorted(set(lights) - allowed):
             raise ValueError(f"lights: unknown keys {bad}; allowed: {sorted(allowed)}")
         spec = dict(lights)
@@ -173,7 +174,8 @@ def _options(options, methods) -> dict:
 
 #: What a light model may change: ``generate_lights`` arguments, ``LightMatrix`` settings, and the bias
 #: compensation image added to every render (``LightMatrix.bias_compensation`` arguments but the seed).
-MODEL_LIGHTS = {"indirect_kind", "vsl_radius_scale", "vsl_neighbours", "clamp", "max_depth"}
+MODEL_LIGHTS = {"indirect_kind", "vsl_radius_scale", "vsl_neighbours", "clamp", "max_depth", "vpl_importance",
+                "vpl_view_samples", "vpl_accept_min"}
 MODEL_MATRIX = {"glossy_roughness", "bsdf_samples", "glossy_seed", "max_depth"}
 MODEL_BIAS = {"spp", "light_samples", "max_depth"}
 
@@ -491,7 +493,7 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         light_models: an axis of light models / estimator options, ``{name: {"lights": {...}, "matrix":
             {...}, "bias_compensation": {...}}}`` (every key optional): ``lights`` overrides ``generate_lights``
             arguments (``indirect_kind`` "vpl" / "vsl", ``vsl_radius_scale``, ``vsl_neighbours``, ``clamp``,
-            ``max_depth``), ``matrix`` the ``LightMatrix`` settings (``glossy_roughness`` (0 = glossy MIS
+            ``max_depth``, ``vpl_importance``, ``vpl_view_samples``, ``vpl_accept_min``), ``matrix`` the ``LightMatrix`` settings (``glossy_roughness`` (0 = glossy MIS
             off), ``bsdf_samples``, ``glossy_seed``, ``max_depth``), and ``bias_compensation`` (``spp``,
             ``light_samples``, ``max_depth``) adds ``LightMatrix.bias_compensation(seed=<render seed>)`` to
             every image of the model, its seconds in ``seconds`` and ``seconds_bias_compensation`` (the

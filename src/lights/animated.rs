@@ -267,7 +267,7 @@ fn frame_error(k: usize, e: Error) -> Error {
 fn photon_irradiance(scene: &Scene, cloud: &GatherCloud, chosen: &[usize], opts: &AnimationLightOptions) -> Result<Vec<Vec3>> {
     let areas = area_emitters(scene);
     let env = Environment::from_scene(scene);
-    let gen = GenerateOptions { area: 0, environment: 0, indirect: opts.photons, max_depth: opts.max_depth, clamp: None, env_importance: false, seed: opts.seed ^ 0x7068_6f74, vsl: None };
+    let gen = GenerateOptions { area: 0, environment: 0, indirect: opts.photons, max_depth: opts.max_depth, clamp: None, env_importance: false, seed: opts.seed ^ 0x7068_6f74, vsl: None, vpl_importance: None };
     let photons = vpl::trace_photons(scene, &areas, env.as_ref(), &gen)?;
     if photons.is_empty() {
         return Ok(vec![Vec3::ZERO; chosen.len()]);

@@ -57,7 +57,7 @@ pub mod generate;
 pub mod spot_texture;
 
 pub use arrays::LightArrays;
-pub use generate::{generate_lights, GenerateOptions, VslOptions};
+pub use generate::{generate_lights, GenerateOptions, VplImportance, VslOptions};
 
 use crate::error::{Error, Result};
 use crate::scene::{Emitter, Scene};

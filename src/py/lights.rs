@@ -2,16 +2,19 @@
 use super::matrix::LightSet;
 use super::scene::Scene;
 use crate::error::Error;
-use crate::lights::{generate_lights as core_generate, GenerateOptions, VslOptions};
+use crate::lights::{generate_lights as core_generate, GenerateOptions, VplImportance, VslOptions};
 use pyo3::prelude::*;
 
 /// Delta lights of the scene plus `area` oriented points, `environment` directional lights and about
 /// `indirect` VPLs. Args as `manylights.generate_lights`; `max_depth < 0` = unlimited,
 /// `clamp = None` = the scene-scaled default; `indirect_kind = "vsl"` makes the VPLs virtual spherical
-/// lights (`lights::vsl`). Raises ValueError for bad values or a scene without emitters.
+/// lights (`lights::vsl`); `vpl_importance` accepts VPL candidates by their image contribution
+/// (`lights::generate::vpl_importance`). Raises ValueError for bad values or a scene without emitters.
 #[pyfunction]
 #[pyo3(signature = (scene, area=4096, environment=0, indirect=0, max_depth=5, clamp=None, env_importance=false, seed=0,
-                    indirect_kind="vpl", vsl_radius_scale=1.0, vsl_neighbours=crate::lights::vsl::DEFAULT_NEIGHBOURS))]
+                    indirect_kind="vpl", vsl_radius_scale=1.0, vsl_neighbours=crate::lights::vsl::DEFAULT_NEIGHBOURS,
+                    vpl_importance=false, vpl_view_samples=crate::lights::generate::vpl_importance::DEFAULT_VIEW_SAMPLES as i64,
+                    vpl_accept_min=crate::lights::generate::vpl_importance::DEFAULT_ACCEPT_MIN))]
 #[allow(clippy::too_many_arguments)]
 pub fn generate_lights(
     py: Python<'_>,
@@ -26,6 +29,9 @@ pub fn generate_lights(
     indirect_kind: &str,
     vsl_radius_scale: f32,
     vsl_neighbours: usize,
+    vpl_importance: bool,
+    vpl_view_samples: i64,
+    vpl_accept_min: f32,
 ) -> PyResult<LightSet> {
     let count = |name: &str, v: i64| -> PyResult<usize> {
         usize::try_from(v).map_err(|_| Error::invalid(format!("{name} must be a count >= 0, got {v}")).into())
@@ -42,6 +48,10 @@ pub fn generate_lights(
             "vpl" => None,
             "vsl" => Some(VslOptions { scale: vsl_radius_scale, neighbours: vsl_neighbours }),
             k => return Err(Error::invalid(format!("indirect_kind must be 'vpl' or 'vsl', got {k:?}")).into()),
+        },
+        vpl_importance: match vpl_importance {
+            true => Some(VplImportance { view_samples: count("vpl_view_samples", vpl_view_samples)?, accept_min: vpl_accept_min }),
+            false => None,
         },
     };
     let s = scene.inner.clone();

@@ -13,7 +13,9 @@
 //! - `environment` (`environment.rs`): `Directional` lights, one per stratum of an equal-area
 //!   (cylindrical) partition of the sphere, each carrying the radiance integrated over its stratum.
 //! - `indirect` (`vpl.rs`): `Vpl` lights from particle tracing (paths with >= 1 bounce); optionally
-//!   virtual spherical lights (`GenerateOptions::vsl`, `lights::vsl`): the same VPLs with a radius each.
+//!   virtual spherical lights (`GenerateOptions::vsl`, `lights::vsl`): the same VPLs with a radius each;
+//!   optionally importance sampled by their contribution to the camera's view
+//!   (`GenerateOptions::vpl_importance`, `vpl_importance.rs`: Georgiev and Slusallek 2010).
 //! - the scene's `point`, `spot`, `directional` emitters are included as they are (first, in
 //!   `Scene::emitters` order), then area lights, environment lights, VPLs.
 //!
@@ -31,6 +33,9 @@ pub mod area;
 pub mod environment;
 pub mod sampling;
 pub mod vpl;
+pub mod vpl_importance;
+#[cfg(test)]
+mod vpl_importance_tests;
 #[cfg(test)]
 mod gpu_tests;
 #[cfg(test)]
@@ -41,6 +46,8 @@ mod tests;
 mod material_tests;
 #[cfg(test)]
 mod vsl_tests;
+
+pub use vpl_importance::VplImportance;
 
 use super::{scene_sphere, LightSet};
 use crate::error::{Error, Result};
@@ -73,6 +80,9 @@ pub struct GenerateOptions {
     /// `Some`: the VPLs become virtual spherical lights (`lights::vsl`) with these radii (no clamp);
     /// `None`: point VPLs with the geometry-term clamp.
     pub vsl: Option<VslOptions>,
+    /// `Some`: VPL candidates are accepted by their estimated image contribution (`vpl_importance`);
+    /// `None`: every particle record is a VPL. Applies to the VPLs (and VSLs) of `indirect`.
+    pub vpl_importance: Option<VplImportance>,
 }
 
 /// Radii of virtual spherical lights: `scale` times the distance to the `neighbours`-th nearest VPL.
@@ -90,7 +100,7 @@ impl Default for VslOptions {
 
 impl Default for GenerateOptions {
     fn default() -> Self {
-        GenerateOptions { area: 4096, environment: 0, indirect: 0, max_depth: 5, clamp: None, env_importance: false, seed: 0, vsl: None }
+        GenerateOptions { area: 4096, environment: 0, indirect: 0, max_depth: 5, clamp: None, env_importance: false, seed: 0, vsl: None, vpl_importance: None }
     }
 }
 
@@ -110,7 +120,8 @@ pub fn default_clamp(scene: &Scene) -> f32 {
 /// With `opts.vsl`, every VPL gets its virtual-spherical-light radius (`lights::vsl::radii`).
 ///
 /// Errors: `InvalidParameter` for counts above `MAX_LIGHTS`, a clamp that is NaN or <= 0, a VSL scale
-/// that is not finite and > 0 or 0 neighbours, `max_depth < 3`
+/// that is not finite and > 0 or 0 neighbours, bad `vpl_importance` options (`VplImportance::check`) or a
+/// view importance sampling cannot use (`vpl_importance::trace_importance`), `max_depth < 3`
 /// with `indirect > 0`, or a scene without emitters; `Scene` errors from the emitters (bad spot frames).
 pub fn generate_lights(scene: &Scene, opts: &GenerateOptions) -> Result<LightSet> {
     for (name, v) in [("area", opts.area), ("environment", opts.environment), ("indirect", opts.indirect)] {
@@ -152,6 +163,9 @@ pub fn generate_lights(scene: &Scene, opts: &GenerateOptions) -> Result<LightSet
     }
     if let Some(v) = &opts.vsl {
         crate::lights::vsl::check_scale(v.scale)?;
+    }
+    if let Some(imp) = &opts.vpl_importance {
+        imp.check()?;
     }
     if opts.indirect > 0 {
         let mut vpls = vpl::trace_vpls(scene, &areas, env.as_ref(), opts)?;

@@ -32,6 +32,9 @@ pub const STREAM_PILOT: u64 = 3;
 pub const STREAM_PARTICLE: u64 = 4;
 /// BSDF samples of glossy view samples (`matrix::glossy`).
 pub const STREAM_GLOSSY: u64 = 5;
+/// Pilot candidates and acceptance decisions of VPL importance sampling (`vpl_importance`).
+pub const STREAM_IMPORTANCE_PILOT: u64 = 8;
+pub const STREAM_ACCEPT: u64 = 9;
 
 /// SplitMix64 finaliser: decorrelates seeds.
 fn mix(mut z: u64) -> u64 {

@@ -71,17 +71,17 @@ pub(crate) struct Vpl {
     pub bsdf: GpuBsdf,
 }
 
-struct Tracer<'a> {
-    scene: &'a Scene,
-    rt: RayTracer,
+pub(crate) struct Tracer<'a> {
+    pub(crate) scene: &'a Scene,
+    pub(crate) rt: RayTracer,
     sources: Vec<(Source<'a>, Vec3)>,
     /// Selection CDF over `sources` (by mean power) and the probabilities.
     cdf: Vec<f64>,
     prob: Vec<f32>,
     delta: LightSet,
     env: Option<&'a Environment>,
-    center: Vec3,
-    radius: f32,
+    pub(crate) center: Vec3,
+    pub(crate) radius: f32,
     max_vpl_depth: u32,
     /// First bounce that stores a record (1: VPLs; 2: photons without the first hit).
     min_vpl_depth: u32,
@@ -156,7 +156,7 @@ impl<'a> Tracer<'a> {
     }
 
     /// Traces particle `index` of stream family `family`; VPL fluxes still to be divided by N.
-    fn trace(&self, seed: u64, family: u64, index: u64, out: &mut Vec<Vpl>) {
+    pub(crate) fn trace(&self, seed: u64, family: u64, index: u64, out: &mut Vec<Vpl>) {
         let mut rng = stream(seed, family, index);
         let Some((o, d, phi_0)) = self.emit(&mut rng) else { return };
         walk(self.scene, &self.rt, o, d, phi_0, &mut rng, self.min_vpl_depth, self.max_vpl_depth, &mut |v| out.push(v));
@@ -270,53 +270,73 @@ pub fn trace_photons(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environm
     trace_particles(scene, areas, env, opts, 2)
 }
 
-/// Particle tracing storing a record at every hit with bounce index in [min_depth, max_depth - 2].
+/// Particle tracing storing a record at every hit with bounce index in [min_depth, max_depth - 2];
+/// with `opts.vpl_importance`, the VPLs are importance sampled by the camera (`vpl_importance`).
 fn trace_particles(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environment>, opts: &GenerateOptions, min_depth: u32) -> Result<LightSet> {
     let (center, radius) = scene_sphere(scene);
-    let mut out = LightSet::new(center, radius);
     if opts.indirect == 0 || opts.max_depth < 3 {
-        return Ok(out);
+        return Ok(LightSet::new(center, radius));
     }
-    let delta = LightSet::from_scene(scene)?;
-    let mut sources: Vec<(Source, Vec3)> = Vec::new();
-    for e in areas {
-        sources.push((Source::Area(e), e.power()));
-    }
-    if let Some(env) = env {
-        let sampler = env.sampler();
-        let power = sampler.integral * (PI * radius * radius);
-        sources.push((Source::Env(sampler), power));
-    }
-    for j in 0..delta.len() {
-        let power = match delta.kind[j] {
-            LightKind::Spot if delta.spot_texture[j].is_none() => {
-                delta.intensity[j] * spot_solid_angle(delta.cutoff_angle[j], delta.beam_width[j])
-            }
-            _ => delta.power(j),
-        };
-        sources.push((Source::Delta(j), power));
-    }
-    let weights: Vec<f64> = sources.iter().map(|(_, p)| luminance(*p).max(0.0) as f64).collect();
-    let total: f64 = weights.iter().sum();
-    if !(total > 0.0) || radius <= 0.0 {
-        return Ok(out);
-    }
-    let mut acc = 0.0;
-    let cdf: Vec<f64> = weights.iter().map(|w| { acc += w; acc }).collect();
-    let prob: Vec<f32> = weights.iter().map(|w| (w / total) as f32).collect();
-    let tracer = Tracer {
-        scene,
-        rt: RayTracer::new(scene)?,
-        sources,
-        cdf,
-        prob,
-        delta,
-        env,
-        center,
-        radius,
-        max_vpl_depth: opts.max_depth.saturating_sub(2),
-        min_vpl_depth: min_depth,
+    let Some(tracer) = Tracer::new(scene, areas, env, opts, min_depth)? else {
+        return Ok(LightSet::new(center, radius));
     };
+    match &opts.vpl_importance {
+        Some(imp) => Ok(super::vpl_importance::trace_importance(&tracer, opts, imp)?.0),
+        None => trace_plain(&tracer, opts),
+    }
+}
+
+impl<'a> Tracer<'a> {
+    /// The particle sources of the scene (area, environment, delta emitters, chosen by power); `None`
+    /// when nothing emits (or the scene has no extent).
+    pub(crate) fn new(scene: &'a Scene, areas: &'a [AreaEmitter], env: Option<&'a Environment>, opts: &GenerateOptions, min_depth: u32) -> Result<Option<Tracer<'a>>> {
+        let (center, radius) = scene_sphere(scene);
+        let delta = LightSet::from_scene(scene)?;
+        let mut sources: Vec<(Source, Vec3)> = Vec::new();
+        for e in areas {
+            sources.push((Source::Area(e), e.power()));
+        }
+        if let Some(env) = env {
+            let sampler = env.sampler();
+            let power = sampler.integral * (PI * radius * radius);
+            sources.push((Source::Env(sampler), power));
+        }
+        for j in 0..delta.len() {
+            let power = match delta.kind[j] {
+                LightKind::Spot if delta.spot_texture[j].is_none() => {
+                    delta.intensity[j] * spot_solid_angle(delta.cutoff_angle[j], delta.beam_width[j])
+                }
+                _ => delta.power(j),
+            };
+            sources.push((Source::Delta(j), power));
+        }
+        let weights: Vec<f64> = sources.iter().map(|(_, p)| luminance(*p).max(0.0) as f64).collect();
+        let total: f64 = weights.iter().sum();
+        if !(total > 0.0) || radius <= 0.0 {
+            return Ok(None);
+        }
+        let mut acc = 0.0;
+        let cdf: Vec<f64> = weights.iter().map(|w| { acc += w; acc }).collect();
+        let prob: Vec<f32> = weights.iter().map(|w| (w / total) as f32).collect();
+        Ok(Some(Tracer {
+            scene,
+            rt: RayTracer::new(scene)?,
+            sources,
+            cdf,
+            prob,
+            delta,
+            env,
+            center,
+            radius,
+            max_vpl_depth: opts.max_depth.saturating_sub(2),
+            min_vpl_depth: min_depth,
+        }))
+    }
+}
+
+/// Plain particle tracing: N from the pilot (module docs), every record kept with flux / N.
+fn trace_plain(tracer: &Tracer, opts: &GenerateOptions) -> Result<LightSet> {
+    let mut out = LightSet::new(tracer.center, tracer.radius);
     // Particles in parallel chunks with interruption checks between them (Ctrl-C; `crate::interrupt`).
     let run = |family: u64, n: usize| -> Result<Vec<Vec<Vpl>>> {
         crate::interrupt::par_map_chunked(n, 8192, |k| {
