@@ -5,14 +5,14 @@ inverse-variance combination).
 Schedule
 --------
 Round 0 is a pilot of ``r_0 = 8`` rows and ``c_0 = 32`` columns. Its OWN rows, columns and clustering are
-timed (``t_r`` seconds per row, ``t_c`` per column including its share of the clustering; every later
-round re-times them from its own work): nothing is rendered only to time it. After each round t with
+timed (``t_r`` seconds per row plus its share of the clustering, which reads every row so far, ``t_c``
+per column; every later round re-times them from its own work): nothing is rendered only to time it. After each round t with
 combined estimate ``eps_t`` (3) at ``R_t`` rows in total and ``Δc_t`` new columns:
 
 1. **Stop** when ``eps_t <= SAFETY e`` (0.8 e), or when the next round would not fit the time budget.
 2. **How far each lever goes** (the scene's answer, not the cost's): the rows so far are split into two
    interleaved halves ``T`` and ``H``; ``T`` is clustered into k = Δc_t / 2 clusters (at most
-   ``DECISION_CLUSTERS``), into 2k, and ``T``'s every other row into k, and the exact variance (1)
+   ``DECISION_CLUSTERS``, 256), into 2k, and ``T``'s every other row into k, and the exact variance (1)
    (``row_variance``) of each clustering is summed over the held-out rows ``H`` (which none of them saw):
    ``V(|T|, k)``, ``V(|T|, 2k)``, ``V(|T|/2, k)``. Their log2 ratios are the local elasticities of the
    variance in the columns and in the rows,
@@ -20,7 +20,8 @@ combined estimate ``eps_t`` (3) at ``R_t`` rows in total and ``Δc_t`` new colum
        e_c = log2 V(|T|, k) / V(|T|, 2k),      e_r = log2 V(|T|/2, k) / V(|T|, k)          (7)
 
    (clamped to [0.5, 2] and [0, 2]: Monte Carlo alone gives e_c = 1; rows that add nothing give e_r = 0).
-   Only CPU work on the rendered rows; no rendering. Done while there are >= ``DECISION_ROWS`` (32) rows
+   Only CPU work on the rendered rows (at most ``DECISION_MAX_ROWS``, 128, evenly spaced); no rendering.
+   Done while there are >= ``DECISION_ROWS`` (32) rows
    (before that: e_c = 1, e_r = ``PRIOR_E_ROWS``); redone whenever the rows have doubled since.
 3. **Row:column ratio.** Locally ``V ~ R^-e_r Δc^-e_c``; minimising the round's cost ``ΔR t_r + Δc t_c``
    at a fixed V (Lagrange: ``t_r = λ e_r / R``, ``t_c = λ e_c / Δc``) gives
@@ -34,7 +35,7 @@ combined estimate ``eps_t`` (3) at ``R_t`` rows in total and ``Δc_t`` new colum
    gives ``1 / eps_t^2 = sum_s 1 / V_s``); the next round must bring the combination to
    ``(AIM SAFETY e)^2``, so alone it needs ``1 / V_new = 1 / (AIM SAFETY e)^2 - 1 / eps_t^2``, predicted by
    ``V_new = V_t (R / R_t)^-e_r (Δc / Δc_t)^-e_c`` with R from (8); Δc solves it (bisection), at least
-   ``max(c_0, C_t / 4)`` and at most ``GROWTH`` (16) x the columns so far (``PILOT_GROWTH``, 4, and at
+   ``max(c_0, C_t / 2)`` (every round re-clusters all rows: small rounds do not pay) and at most ``GROWTH`` (16) x the columns so far (``PILOT_GROWTH``, 4, and at
    least ``DECISION_ROWS`` rows in total, while (7) is not measured yet: an 8-row pilot predicts badly). AIM = 0.85
    is the margin: a seed that lands just above the stop adds a small top-up round, not a doubling.
    Without a target (time budget only) each round doubles the columns, cut to what the time left allows.
@@ -52,7 +53,7 @@ Symbols
 |---|---|
 | ``e``, ``eps_t`` | target relative L2, the combined estimate (3) after round t |
 | ``R_t``, ``C_t``, ``Δc_t``, ``ΔR`` | rows so far, columns so far, round t's new columns, next round's new rows |
-| ``t_r``, ``t_c`` | measured seconds per row and per column (clustering included) of the last round |
+| ``t_r``, ``t_c`` | measured seconds per row (its share of the clustering included) and per column, last round |
 | ``e_r``, ``e_c`` | elasticities (7) of the variance in rows and columns |
 | ``V_s``, ``v_s`` | round s's variance alone (relative^2) and its variance (1) summed over the rows |
 | ``SAFETY``, ``AIM``, ``GROWTH`` | stop at 0.8 e; aim rounds at 0.85 x that; at most 16x columns per round |
@@ -78,17 +79,26 @@ SAFETY = 0.8
 AIM = 0.85
 #: At most this many times the columns so far in one round (PILOT_GROWTH before (7) is measured: a pilot
 #: of 8 rows predicts poorly, e.g. 20-60% at 8:32 on cbox-lights 32x32 and 1.2-2.6% after 16x columns).
-GROWTH = 16
+GROWTH = 8
 PILOT_GROWTH = 4
 #: Rows of the pilot round (round 0) and the fewest new rows of any later round.
 FIRST_ROWS = 8
 #: The elasticities (7) are measured from this many rows on; before, e_c = 1 and e_r = PRIOR_E_ROWS.
 DECISION_ROWS = 32
 PRIOR_E_ROWS = 0.5
-#: The clusterings of (7) use at most this many clusters (their cost stays a small share of a round).
-DECISION_CLUSTERS = 512
+#: The clusterings of (7) use at most this many clusters and rows (their cost stays a small share of a
+#: round: on all rows so far, up to 933, they took 25 s of a 141 s render on veach-ajar 128x72 at 100k
+#: lights; a uniform subset of the lights instead measured e_r = 0 where more rows clearly paid).
+DECISION_CLUSTERS = 256
+DECISION_MAX_ROWS = 128
 E_COLUMNS_RANGE = (0.5, 2.0)
 E_ROWS_RANGE = (0.0, 2.0)
+#: e_r / e_c in (8) is kept in this range (rows get 1/3 to 2/3 of a round's time): the cheapest fixed
+#: budgets of bench budgets spend 40-70% of their time on rows on cbox and veach-ajar.
+RATIO_RANGE = (0.5, 2.0)
+#: The exponents of the prediction (step 4), clamped: at least Monte Carlo's 1 for the columns.
+PREDICT_E_ROWS = (0.5, 2.0)
+PREDICT_E_COLUMNS = (1.0, 2.0)
 
 
 def check_targets(target_error, time_budget) -> tuple[Optional[float], Optional[float]]:
@@ -116,8 +126,11 @@ def elasticities(R: np.ndarray, k: int, power: np.ndarray, seed: int) -> tuple[f
     variance (held-out rows all exact) counts as the range's top."""
     from . import cluster_reduced_columns
 
-    T, H = R[0::2], R[1::2]
-    k = int(max(1, min(k, DECISION_CLUSTERS, R.shape[1])))
+    n = R.shape[1]
+    k = int(max(1, min(k, DECISION_CLUSTERS, n)))
+    if len(R) > DECISION_MAX_ROWS:  # evenly spaced rows (each round's rows are stratified over the image)
+        R = R[np.linspace(0, len(R) - 1, DECISION_MAX_ROWS).round().astype(np.int64)]
+    T, H = np.ascontiguousarray(R[0::2]), np.ascontiguousarray(R[1::2])
 
     def var(rows, c, stream):
         cl = cluster_reduced_columns(rows, c, seed=_derived_seed(seed, stream), power=power)
@@ -125,7 +138,7 @@ def elasticities(R: np.ndarray, k: int, power: np.ndarray, seed: int) -> tuple[f
 
     v1 = var(T, k, 1 << 24)
     v2 = var(T, min(2 * k, R.shape[1]), (1 << 24) + 1)
-    v3 = var(T[0::2], k, (1 << 24) + 2)
+    v3 = var(np.ascontiguousarray(T[0::2]), k, (1 << 24) + 2)
 
     def log2_ratio(a, b, lo, hi):
         if b <= 0.0:
@@ -139,10 +152,12 @@ def elasticities(R: np.ndarray, k: int, power: np.ndarray, seed: int) -> tuple[f
 
 
 def _round_costs(rd: dict) -> tuple[float, float]:
-    """(seconds per row, seconds per column) of one finished round from its own timings."""
+    """(seconds per row, seconds per column) of one finished round from its own timings. A row costs its
+    rendering plus its share of the round's clustering (which reads every row so far: it grows with the
+    rows, ~n R projections), a column its rendering."""
     sec = rd["seconds"]
-    t_r = sec.get("rows", 0.0) / max(rd["new_rows"], 1)
-    t_c = (sec.get("columns", 0.0) + sec.get("clustering", 0.0)) / max(rd["new_columns"], 1)
+    t_r = sec.get("rows", 0.0) / max(rd["new_rows"], 1) + sec.get("clustering", 0.0) / max(rd["total_rows"], 1)
+    t_c = sec.get("columns", 0.0) / max(rd["new_columns"], 1)
     return max(t_r, 1e-9), max(t_c, 1e-9)
 
 
@@ -273,8 +288,12 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
             e_r, e_c, _ = elasticities(state["R"], dc_t // 2, power, _derived_seed(seed, len(state["rounds"])))
             decided_at = R_t
         measured = decided_at > 0
+        # The measured (7) is noisy where a few pixels carry the variance (veach-ajar: e_r from 0 to 2 between
+        # seeds at the same rows): the ratio (8) uses it within RATIO_RANGE, the prediction within the
+        # PREDICT_* ranges.
+        p_r, p_c = float(np.clip(e_r, *PREDICT_E_ROWS)), float(np.clip(e_c, *PREDICT_E_COLUMNS))
         if rows_per_column is None:
-            ratio = e_r / e_c * t_c / t_r  # (8): total rows per new column
+            ratio = float(np.clip(e_r / e_c, *RATIO_RANGE)) * t_c / t_r  # (8): total rows per new column
             # Until (7) is measured, the next round brings the rows to DECISION_ROWS to measure it.
             floor = R_t + FIRST_ROWS if measured else max(R_t + FIRST_ROWS, DECISION_ROWS)
 
@@ -283,13 +302,13 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         else:
             def rows_of(dc, R_t=R_t):
                 return min(m, R_t + max(FIRST_ROWS, round(rows_per_column * dc)))
-        lo, hi = max(first_columns, C_t // 4), max(first_columns, (GROWTH if measured else PILOT_GROWTH) * C_t)
+        lo, hi = max(first_columns, C_t // 2), max(first_columns, (GROWTH if measured else PILOT_GROWTH) * C_t)
         if target_error is not None and 0.0 < eps < math.inf:
             v = np.array([r["var"].sum() for r in state["rounds"]], np.float64)
             V_t = eps * eps * float(v[-1] * np.sum(1.0 / v)) if np.all(v > 0) else eps * eps
             goal = AIM * SAFETY * target_error
             V_req = 1.0 / (1.0 / goal ** 2 - 1.0 / eps ** 2)
-            dc = _solve_columns(V_t, V_req, R_t, dc_t, e_r, e_c, rows_of, lo, hi)
+            dc = _solve_columns(V_t, V_req, R_t, dc_t, p_r, p_c, rows_of, lo, hi)
             why = (f"estimate {eps:.3%} > {SAFETY:g} x target: {dc} columns predicted to bring it to "
                    f"{goal:.3%} (e_r {e_r:.2f}, e_c {e_c:.2f})")
         else:
