@@ -172,9 +172,10 @@ def test_elasticities_see_rows_and_columns(small):
 def test_render_unreachable_target_falls_back_to_brute_force(small):
     A, truth = small
     res = ml.render(A, target_error=1e-9, first_columns=256, rows_per_column=0.25, progress=False)
-    # After round 0 (256 columns) the predicted round passes n = 2041 lights: brute force, exact.
+    # Rounds of 256 and 1024 columns (at most GROWTH = 4x the columns so far), then the predicted round
+    # passes n = 2041 lights: brute force, exact.
     assert res.method == "brute_force" and res.budget["stopped"] == "all lights: brute force"
-    assert res.budget["chosen"]["rounds"] == 1 and res.error_estimate == 0.0
+    assert res.budget["chosen"]["columns"] == [256, 1280] and res.error_estimate == 0.0
     np.testing.assert_array_equal(res.image, truth)
 
 

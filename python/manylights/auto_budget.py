@@ -21,7 +21,7 @@ combined estimate ``eps_t`` (3) at ``R_t`` rows in total and ``Δc_t`` new colum
 
    (clamped to [0.5, 2] and [0, 2]: Monte Carlo alone gives e_c = 1; rows that add nothing give e_r = 0).
    Only CPU work on the rendered rows (at most ``DECISION_MAX_ROWS``, 128, evenly spaced); no rendering.
-   Done while there are >= ``DECISION_ROWS`` (32) rows
+   Done while there are >= ``DECISION_ROWS`` (16) rows
    (before that: e_c = 1, e_r = ``PRIOR_E_ROWS``); redone whenever the rows have doubled since.
 3. **Row:column ratio.** Locally ``V ~ R^-e_r Δc^-e_c``; minimising the round's cost ``ΔR t_r + Δc t_c``
    at a fixed V (Lagrange: ``t_r = λ e_r / R``, ``t_c = λ e_c / Δc``) gives
@@ -35,8 +35,10 @@ combined estimate ``eps_t`` (3) at ``R_t`` rows in total and ``Δc_t`` new colum
    gives ``1 / eps_t^2 = sum_s 1 / V_s``); the next round must bring the combination to
    ``(AIM SAFETY e)^2``, so alone it needs ``1 / V_new = 1 / (AIM SAFETY e)^2 - 1 / eps_t^2``, predicted by
    ``V_new = V_t (R / R_t)^-e_r (Δc / Δc_t)^-e_c`` with R from (8); Δc solves it (bisection), at least
-   ``max(c_0, C_t / 2)`` (every round re-clusters all rows: small rounds do not pay) and at most ``GROWTH`` (16) x the columns so far (``PILOT_GROWTH``, 4, and at
-   least ``DECISION_ROWS`` rows in total, while (7) is not measured yet: an 8-row pilot predicts badly). AIM = 0.85
+   ``max(c_0, C_t / 2)`` (every round re-clusters all rows: small rounds do not pay) and at most
+   ``GROWTH`` (4) x the columns so far (predictions from small rounds run far: on veach-ajar 16x and 8x
+   caps ended 5% renders at 0.3-1.3% with 6,500-11,300 columns); the round after the pilot brings the
+   rows to ``DECISION_ROWS`` so that (7) can be measured. AIM = 0.85
    is the margin: a seed that lands just above the stop adds a small top-up round, not a doubling.
    Without a target (time budget only) each round doubles the columns, cut to what the time left allows.
 5. **All lights**: when the next round would pass n columns, brute force (exact; said in ``stopped``).
@@ -56,7 +58,7 @@ Symbols
 | ``t_r``, ``t_c`` | measured seconds per row (its share of the clustering included) and per column, last round |
 | ``e_r``, ``e_c`` | elasticities (7) of the variance in rows and columns |
 | ``V_s``, ``v_s`` | round s's variance alone (relative^2) and its variance (1) summed over the rows |
-| ``SAFETY``, ``AIM``, ``GROWTH`` | stop at 0.8 e; aim rounds at 0.85 x that; at most 16x columns per round |
+| ``SAFETY``, ``AIM``, ``GROWTH`` | stop at 0.8 e; aim rounds at 0.85 x that; at most 4x the columns so far per round |
 """
 from __future__ import annotations
 
@@ -77,14 +79,13 @@ from .mrcs import RenderResult, _light_luminance_power, _matrix_shape
 SAFETY = 0.8
 #: A predicted round aims at AIM x SAFETY x target (margin for the prediction's error).
 AIM = 0.85
-#: At most this many times the columns so far in one round (PILOT_GROWTH before (7) is measured: a pilot
-#: of 8 rows predicts poorly, e.g. 20-60% at 8:32 on cbox-lights 32x32 and 1.2-2.6% after 16x columns).
-GROWTH = 8
-PILOT_GROWTH = 4
+#: At most this many times the columns so far in one round (a pilot of 8 rows predicts poorly: 20-60% at
+#: 8:32 on cbox-lights 32x32 and 1.2-2.6% after 16x columns; later rounds on veach-ajar overshoot too).
+GROWTH = 4
 #: Rows of the pilot round (round 0) and the fewest new rows of any later round.
 FIRST_ROWS = 8
 #: The elasticities (7) are measured from this many rows on; before, e_c = 1 and e_r = PRIOR_E_ROWS.
-DECISION_ROWS = 32
+DECISION_ROWS = 16
 PRIOR_E_ROWS = 0.5
 #: The clusterings of (7) use at most this many clusters and rows (their cost stays a small share of a
 #: round: on all rows so far, up to 933, they took 25 s of a 141 s render on veach-ajar 128x72 at 100k
@@ -302,7 +303,7 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         else:
             def rows_of(dc, R_t=R_t):
                 return min(m, R_t + max(FIRST_ROWS, round(rows_per_column * dc)))
-        lo, hi = max(first_columns, C_t // 2), max(first_columns, (GROWTH if measured else PILOT_GROWTH) * C_t)
+        lo, hi = max(first_columns, C_t // 2), max(first_columns, GROWTH * C_t)
         if target_error is not None and 0.0 < eps < math.inf:
             v = np.array([r["var"].sum() for r in state["rounds"]], np.float64)
             V_t = eps * eps * float(v[-1] * np.sum(1.0 / v)) if np.all(v > 0) else eps * eps
