@@ -40,7 +40,11 @@ combined estimate ``eps_t`` (3) at ``R_t`` rows in total and ``Δc_t`` new colum
    caps ended 5% renders at 0.3-1.3% with 6,500-11,300 columns); the round after the pilot brings the
    rows to ``DECISION_ROWS`` so that (7) can be measured. AIM = 0.85
    is the margin: a seed that lands just above the stop adds a small top-up round, not a doubling.
-   Without a target (time budget only) each round doubles the columns, cut to what the time left allows.
+   A round also costs its overhead ``t_0`` (clustering, combination, (7): about a second at 100k lights
+   whatever its size), so it gets at least ``t_0 / t_c`` columns: that at most doubles the round, and a
+   further round (another ``t_0``) gets unlikely (on cbox 128^2 the rounds of 30-100 columns cost 1-2 s
+   each, the columns 0.05-0.2 s). Without a target (time budget only) each round doubles the columns,
+   cut to what the time left allows.
 5. **All lights**: when the next round would pass n columns, brute force (exact; said in ``stopped``).
 
 Every round stays the unbiased round of ``mrcs_progressive`` (weights from rows only), so the estimate is
@@ -152,14 +156,15 @@ def elasticities(R: np.ndarray, k: int, power: np.ndarray, seed: int) -> tuple[f
                       "variance": [v1, v2, v3]}
 
 
-def _round_costs(rd: dict) -> tuple[float, float]:
-    """(seconds per row, seconds per column) of one finished round from its own timings. A row costs its
-    rendering plus its share of the round's clustering (which reads every row so far: it grows with the
-    rows, ~n R projections), a column its rendering."""
+def _round_costs(rd: dict) -> tuple[float, float, float]:
+    """(seconds per row, seconds per column, seconds of overhead) of one finished round from its own
+    timings: a row costs its rendering plus its share of the round's clustering (which reads every row so
+    far: it grows with the rows, ~n R projections), a column its rendering; the overhead is what the round
+    spent beside rendering (clustering, combination)."""
     sec = rd["seconds"]
     t_r = sec.get("rows", 0.0) / max(rd["new_rows"], 1) + sec.get("clustering", 0.0) / max(rd["total_rows"], 1)
     t_c = sec.get("columns", 0.0) / max(rd["new_columns"], 1)
-    return max(t_r, 1e-9), max(t_c, 1e-9)
+    return max(t_r, 1e-9), max(t_c, 1e-9), sec.get("clustering", 0.0) + sec.get("combination", 0.0)
 
 
 def _solve_columns(V_t: float, V_req: float, R_t: int, dc_t: int, e_r: float, e_c: float, rows_of, lo: int,
@@ -214,7 +219,7 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         error reached", "time budget", "max_rounds", "all lights: brute force", "all lights: time budget
         too small for brute force") and ``budget['chosen']``: ``rows`` and ``columns`` (cumulative per
         round: ``mrcs_progressive(A, rows=, columns=, seed=seed)`` reproduces the image), per round
-        ``estimates``, ``seconds_per_row`` / ``seconds_per_column`` (measured), ``e_rows`` / ``e_columns``
+        ``estimates``, ``seconds_per_row`` / ``seconds_per_column`` / ``overhead_seconds`` (measured), ``e_rows`` / ``e_columns``
         (7) and ``rows_per_column`` (new rows per new column) behind each next round, and ``why`` (a
         sentence per round); target_error, time_budget, rounds.
 
@@ -252,7 +257,7 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
     start = time.perf_counter()
     power = _light_luminance_power(A.lights)
     chosen = {"target_error": target_error, "time_budget": time_budget, "rows": [], "columns": [], "estimates": [],
-              "seconds_per_row": [], "seconds_per_column": [], "e_rows": [], "e_columns": [], "rows_per_column": [],
+              "seconds_per_row": [], "seconds_per_column": [], "overhead_seconds": [], "e_rows": [], "e_columns": [], "rows_per_column": [],
               "why": [], "given_rows_per_column": rows_per_column}
     decision_seconds = 0.0
     pending: list = []
@@ -283,11 +288,15 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
             stopped = "max_rounds"
             break
         R_t, C_t, dc_t = int(res.budget["rows"]), int(res.budget["columns"]), int(len(rd["reps"]))
-        t_r, t_c = _round_costs(rd)
         # (7): the elasticities from the rows, when there are enough and they doubled since the last look.
+        t_dec0 = time.perf_counter()
+        decision_seconds_last = 0.0
         if R_t >= DECISION_ROWS and R_t >= 2 * decided_at:
             e_r, e_c, _ = elasticities(state["R"], dc_t // 2, power, _derived_seed(seed, len(state["rounds"])))
             decided_at = R_t
+            decision_seconds_last = time.perf_counter() - t_dec0
+        t_r, t_c, t_0 = _round_costs(rd)
+        t_0 += decision_seconds_last
         measured = decided_at > 0
         # The measured (7) is noisy where a few pixels carry the variance (veach-ajar: e_r from 0 to 2 between
         # seeds at the same rows): the ratio (8) uses it within RATIO_RANGE, the prediction within the
@@ -312,6 +321,12 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
             dc = _solve_columns(V_t, V_req, R_t, dc_t, p_r, p_c, rows_of, lo, hi)
             why = (f"estimate {eps:.3%} > {SAFETY:g} x target: {dc} columns predicted to bring it to "
                    f"{goal:.3%} (e_r {e_r:.2f}, e_c {e_c:.2f})")
+            # A round costs its overhead t_0 whatever its size: buy at least as many columns as t_0 pays
+            # for (the round costs at most 2x, and another round, t_0 again, becomes unlikely).
+            floor_dc = min(hi, int(t_0 / t_c))
+            if floor_dc > dc:
+                dc = floor_dc
+                why += f"; raised to {dc} columns, the round's overhead {t_0:.2f} s in columns"
         else:
             dc = max(lo, C_t)
             why = f"doubling the columns to {C_t + dc} (no target to predict from)"
@@ -329,6 +344,7 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         dr = int(max(0, round(rows_of(dc) - R_t)))
         chosen["seconds_per_row"].append(t_r)
         chosen["seconds_per_column"].append(t_c)
+        chosen["overhead_seconds"].append(t_0)
         chosen["e_rows"].append(e_r)
         chosen["e_columns"].append(e_c)
         chosen["rows_per_column"].append(dr / dc)
