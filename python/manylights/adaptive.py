@@ -106,9 +106,8 @@ Symbols
 """
 from __future__ import annotations
 
-import os
 import time
-from typing import Iterator, Optional, Sequence
+from typing import Iterator, Optional
 
 import numpy as np
 
