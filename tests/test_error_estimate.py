@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights import adaptive
+from manylights import adaptive, auto_budget
 from manylights.mrcs import _light_luminance_power
 from conftest import SCENE_CONFIGS
 
@@ -126,9 +126,11 @@ def test_render_to_target_error_and_time_budget(small):
     for s in range(4):
         res = ml.render(A, target_error=0.05, seed=s, rows_per_column=0.25, progress=False)
         assert res.budget["stopped"] == "target error reached", res.budget
-        assert res.error_estimate <= adaptive.SAFETY * 0.05
+        assert res.error_estimate <= auto_budget.SAFETY * 0.05
         chosen = res.budget["chosen"]
-        assert chosen["rounds"] == len(chosen["estimates"]) and chosen["seconds_per_row"] > 0
+        assert chosen["rounds"] == len(chosen["estimates"]) == len(chosen["columns"]) == len(chosen["rows"])
+        assert len(chosen["why"]) == chosen["rounds"] - 1 and all(x > 0 for x in chosen["seconds_per_row"])
+        assert chosen["columns"][-1] == res.budget["columns"] and chosen["rows"][-1] == res.budget["rows"]
         hits += ml.relative_l2(res.image, truth) <= 0.05
     assert hits >= 3, hits
     # A time budget far below one round's cost stops after the first round.
@@ -136,12 +138,44 @@ def test_render_to_target_error_and_time_budget(small):
     assert res.budget["stopped"] == "time budget" and res.budget["round"] == 0
 
 
+def test_render_schedule_reproduces_the_image(small):
+    """The reported schedule replayed by mrcs_progressive gives the image bit for bit, whether the ratio
+    was measured (8) or given; with rows_per_column given, render itself repeats bit for bit."""
+    A, _ = small
+    res = ml.render(A, target_error=0.03, seed=3, progress=False)
+    ch = res.budget["chosen"]
+    assert res.method == "mrcs_progressive" and ch["rounds"] >= 2, res.budget
+    replay = list(ml.mrcs_progressive(A, rows=ch["rows"], columns=ch["columns"], seed=3, progress=False))[-1]
+    np.testing.assert_array_equal(replay.image, res.image)
+    assert replay.error_estimate == res.error_estimate
+    a = ml.render(A, target_error=0.02, seed=4, rows_per_column=0.1, progress=False)
+    b = ml.render(A, target_error=0.02, seed=4, rows_per_column=0.1, progress=False)
+    np.testing.assert_array_equal(a.image, b.image)
+    assert a.budget["chosen"]["columns"] == b.budget["chosen"]["columns"]
+
+
+def test_elasticities_see_rows_and_columns(small):
+    """Equation (7) of auto_budget: with 2 training rows more rows must pay (e_r > 0); the measured
+    exponents stay in their ranges; the same seed gives the same numbers."""
+    A, _ = small
+    R = A.rows(ml.stratified_rows(A.scene, 64, seed=1), progress=False)
+    power = _light_luminance_power(A.lights)
+    e_r, e_c, info = auto_budget.elasticities(R, 64, power, seed=7)
+    assert auto_budget.E_ROWS_RANGE[0] <= e_r <= auto_budget.E_ROWS_RANGE[1]
+    assert auto_budget.E_COLUMNS_RANGE[0] <= e_c <= auto_budget.E_COLUMNS_RANGE[1]
+    assert info["train_rows"] == 32 and info["held_out_rows"] == 32
+    v1, v2, v3 = info["variance"]
+    assert v2 < v1 < v3, info  # more clusters and more rows both lower the held-out variance here
+    assert auto_budget.elasticities(R, 64, power, seed=7)[:2] == (e_r, e_c)
+
+
 def test_render_unreachable_target_falls_back_to_brute_force(small):
     A, truth = small
     res = ml.render(A, target_error=1e-9, first_columns=256, rows_per_column=0.25, progress=False)
-    # 256 + 512 + 1024 columns, then 2048 more would pass n = 2041: brute force, exact.
+    # Rounds of 256 and 1024 columns (at most GROWTH = 4x the columns so far), then the predicted round
+    # passes n = 2041 lights: brute force, exact.
     assert res.method == "brute_force" and res.budget["stopped"] == "all lights: brute force"
-    assert res.budget["chosen"]["rounds"] == 3 and res.error_estimate == 0.0
+    assert res.budget["chosen"]["columns"] == [256, 1280] and res.error_estimate == 0.0
     np.testing.assert_array_equal(res.image, truth)
 
 

@@ -601,7 +601,7 @@ def _as_image(image) -> np.ndarray:
 
 
 from .render import render_brute_force  # noqa: E402  (needs LightMatrix above)
-from .adaptive import render  # noqa: E402  (after .render: the function ml.render replaces the submodule attribute)
+from .auto_budget import render  # noqa: E402  (after .render: the function ml.render replaces the submodule attribute)
 from .animation import Animation, apply_mapping, load_animation  # noqa: E402  (needs load_scene above)
 from .antialias import antialias  # noqa: E402
 from .animated import AnimationLights, generate_animation_lights  # noqa: E402

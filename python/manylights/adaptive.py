@@ -1,5 +1,5 @@
-"""An error estimate for MRCS without the reference, progressive MRCS and budgets chosen automatically
-(issue 14, items 1-3; item 4, the light counts of a scene, in ``manylights.light_budget``).
+"""An error estimate for MRCS without the reference and progressive MRCS (issue 14, items 1-2; item 3, the
+budgets, in ``manylights.auto_budget``; item 4, the light counts of a scene, in ``manylights.light_budget``).
 
 Error estimate (``RenderResult.error_estimate``, ``RenderResult.error_image``)
 ------------------------------------------------------------------------------
@@ -69,7 +69,10 @@ Round t renders ``Δr_t`` new stratified rows (seed of round t), clusters ALL ro
 independent unbiased half estimates ``X_t1``, ``X_t2`` of ΣA given the rows. Round T returns
 
     H_h = sum_{t<=T} a_t X_th  (h = 1, 2),   image = (H_1 + H_2) / 2,
-    a_t = (1 / v_t) / sum_{t'<=T} (1 / v_t'),   v_t = sum over all rows so far of (1) for round t
+    a_t = (1 / v_t) / sum_{t'<=T} (1 / v_t'),   v_t = sum over the rows so far of (1) for round t
+
+(all rows so far, or ``WEIGHT_ROWS`` = 48 of them drawn with round T's seed: evaluating every round at
+every row cost 24 s of a 141 s render on veach-ajar 128x72 at 100k lights)
 
 The weights depend only on rows and clusterings -- never on the representative draws -- so H_1 and H_2
 stay independent and unbiased, the image is unbiased and (3) applies to it unchanged. Nothing rendered
@@ -85,12 +88,11 @@ the lists truncated), bit for bit on the same backend (tests/test_error_estimate
 
 Budgets (``render``)
 --------------------
-``render(A, target_error=, time_budget=)`` runs ``mrcs_progressive`` with doubling rounds and the
-row:column ratio from the measured seconds per row and per column on this device (rows get 25% of the
-time), stops at the target (by the estimate (3)) or before the time budget would be exceeded, and falls
-back to brute force (exact, said so in ``budget['stopped']``) when the next round would need more
-columns than there are lights. ``render("scene.xml", ...)`` (item 4) also chooses the light counts
-before that: ``manylights.light_budget`` (its module doc: the error split (5), the halving estimate (6)).
+``render(A, target_error=, time_budget=)`` (``manylights.auto_budget``, its module doc: the elasticities
+(7), the row:column ratio (8), increments predicted from the estimate) drives these rounds through the
+same generator, choosing each round's rows and columns from what the earlier rounds rendered.
+``render("scene.xml", ...)`` (item 4) also chooses the light counts before that:
+``manylights.light_budget`` (its module doc: the error split (5), the halving estimate (6)).
 
 Symbols
 -------
@@ -101,13 +103,11 @@ Symbols
 | ``X``, ``X1``, ``X2`` | the MRCS estimate and the two half estimates of (3) |
 | ``T_i`` | exact pixel value at row i (row sum + emitted) |
 | ``Δr_t``, ``Δc_t``, ``a_t``, ``v_t`` | round t's new rows, new columns, combination weight, variance (1) summed |
-| ``SAFETY`` | stop at this fraction (0.8) of the target |
 """
 from __future__ import annotations
 
-import os
 import time
-from typing import Iterator, Optional, Sequence
+from typing import Iterator, Optional
 
 import numpy as np
 
@@ -325,9 +325,6 @@ def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed
             not positive integers or lists that do not increase, more columns than lights or rows than
             pixels in total, a negative seed, bad cluster options.
     """
-    from . import stratified_rows
-    from .progress import progress_bar
-
     m, n = _matrix_shape(A)
     if n == 0:
         raise ValueError("the light matrix has no lights (n = 0): nothing to sample")
@@ -342,35 +339,63 @@ def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed
         raise ValueError(f"columns: {sum(dc)} in total is more than the n = {n} lights; render brute force instead")
     if min(dc) < 2:
         raise ValueError(f"every round needs at least 2 new columns (two representatives per cluster), got {dc}")
-    return _progressive(A, dr, dc, seed, add_emitted, progress, cluster_options, stratified_rows, progress_bar)
+    plan = iter(list(zip(dr, dc)))
+    return _progressive(A, lambda state: next(plan, None), len(dc), seed, add_emitted, progress, cluster_options)
 
 
-def _progressive(A, dr, dc, seed, add_emitted, progress, cluster_options, stratified_rows,
-                 progress_bar) -> Iterator[RenderResult]:
+#: The combination weights of a round evaluate (1) at all rows so far, or at this many of them.
+WEIGHT_ROWS = 48
+
+
+def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, progress: bool, cluster_options: dict,
+                 state: Optional[dict] = None) -> Iterator[RenderResult]:
+    """The rounds of ``mrcs_progressive``. ``plan(state)`` gives round t's (new rows, new columns), or None to
+    stop, before each round; ``state`` (filled here, read by ``plan``: ``R`` (rows so far, n, 3), ``rows``,
+    ``rounds`` (per round: clustering, rows/columns, ``var`` (1) at all rows so far, the round's own timings
+    ``seconds``), ``round`` (the next round's index)) lets ``render`` choose increments from what was
+    rendered. Round t's seed depends only on (seed, t), so a schedule replayed as lists gives the same bits."""
+    from . import stratified_rows
+    from .progress import progress_bar
+
     power = _light_luminance_power(A.lights)
     emitted = A.emitted()
-    R_all = None
-    row_all = np.zeros(0, np.int64)
-    rounds = []  # per round: clustering, half images X1, X2, variance at all rows so far (rows, 3)
+    state = {} if state is None else state
+    state.update({"R": None, "rows": np.zeros(0, np.int64), "rounds": [], "round": 0})
+    rounds = state["rounds"]  # per round: clustering, half images X1, X2, variance at all rows so far (rows, 3)
     timings: dict = {}
-    bar = progress_bar(len(dc), "mrcs_progressive", progress, unit="round")
+    bar = progress_bar(planned_rounds, "mrcs_progressive", progress, unit="round")
     with bar as cb:
-        for t, (r_t, c_t) in enumerate(zip(dr, dc)):
+        t = 0
+        while True:
+            step = plan(state)
+            if step is None:
+                break
+            r_t, c_t = int(step[0]), int(step[1])
             s_t = seed if t == 0 else _derived_seed(seed, t)
+            before = dict(timings)
             t0 = time.perf_counter()
-            new_rows = stratified_rows(A.scene, r_t, seed=s_t)
-            R_t = A.rows(new_rows, progress=False)
+            if r_t > 0:
+                new_rows = stratified_rows(A.scene, r_t, seed=s_t)
+                R_t = A.rows(new_rows, progress=False)
+            else:  # a round that only adds columns (render, when every pixel is a row already)
+                new_rows, R_t = np.zeros(0, np.int64), np.zeros((0,) + state["R"].shape[1:], np.float32)
             timings["rows"] = timings.get("rows", 0.0) + time.perf_counter() - t0
-            R_all = R_t if R_all is None else np.concatenate([R_all, R_t])
-            row_all = np.concatenate([row_all, new_rows])
+            R_all = R_t if state["R"] is None else np.concatenate([state["R"], R_t])
+            row_all = np.concatenate([state["rows"], new_rows])
+            state["R"], state["rows"] = R_all, row_all
             cl, reps, weights, X1, X2 = mrcs_halves(A, R_all, c_t, s_t, power, timings, **cluster_options)
             t0 = time.perf_counter()
-            # Combination weights from the rows only (never from the draws): earlier rounds' variances
-            # extended to the new rows, this round's at all rows.
-            for rd in rounds:
-                rd["var"] = np.concatenate([rd["var"], row_variance(R_t, rd["clustering"])])
             rounds.append({"clustering": cl, "reps": reps, "weights": weights, "X1": X1, "X2": X2,
-                           "var": row_variance(R_all, cl)})
+                           "new_rows": r_t, "new_columns": c_t, "total_rows": int(len(row_all))})
+            # Combination weights from the rows only (never from the draws): every round's variance (1) at
+            # the same rows, all rows so far or WEIGHT_ROWS of them drawn with this round's seed.
+            pick = slice(None)
+            if len(row_all) > WEIGHT_ROWS:
+                pick = np.sort(np.random.default_rng(_derived_seed(s_t, 1 << 25)).choice(
+                    len(row_all), WEIGHT_ROWS, replace=False))
+            R_w = np.ascontiguousarray(R_all[pick])
+            for rd in rounds:
+                rd["var"] = row_variance(R_w, rd["clustering"])
             v = np.array([rd["var"].sum() for rd in rounds])
             a = (v <= 0).astype(np.float64) if np.any(v <= 0) else 1.0 / v  # exact rounds win outright
             a /= a.sum()
@@ -378,17 +403,22 @@ def _progressive(A, dr, dc, seed, add_emitted, progress, cluster_options, strati
             H2 = sum(a_t * rd["X2"].astype(np.float64) for a_t, rd in zip(a, rounds))
             image = 0.5 * (H1 + H2) + (emitted if add_emitted else 0.0)
             timings["combination"] = timings.get("combination", 0.0) + time.perf_counter() - t0
+            rounds[-1]["seconds"] = {k: timings[k] - before.get(k, 0.0) for k in timings}
+            rounds[-1]["combination_weights"] = a
+            planned_rounds = max(planned_rounds, t + 1)
             res = RenderResult(
                 image=image.astype(np.float32), method="mrcs_progressive", seed=seed, timings=dict(timings),
                 rows=row_all.copy(), clusters=cl["assignment"],
                 representatives=np.concatenate([rd["reps"] for rd in rounds]),
                 weights=np.concatenate([a_t * rd["weights"] for a_t, rd in zip(a, rounds)]).astype(np.float32),
                 budget={"rows": int(len(row_all)), "columns": int(sum(len(rd["reps"]) for rd in rounds)),
-                        "lights": int(A.shape[1]), "round": t, "rounds": len(dc),
+                        "lights": int(A.shape[1]), "round": t, "rounds": planned_rounds,
                         "unseen_lights": cl["unseen_lights"]}, device=A.device)
             res.error_estimate, res.error_image = halves_estimate(H1, H2, image)
+            t += 1
+            state["round"] = t
             if cb is not None:
-                cb(t + 1, len(dc))
+                cb(t, planned_rounds)
                 _show_estimate(bar, res)
             yield res
 
@@ -406,184 +436,3 @@ def _show_estimate(bar, res: RenderResult) -> None:
             print(f"manylights: mrcs_progressive: {msg}", file=sys.stderr, flush=True)
         except (OSError, ValueError):
             pass
-
-
-# --------------------------------------------------------------------------------------------------
-# budgets chosen automatically (issue 14, item 3)
-# --------------------------------------------------------------------------------------------------
-#: Share of the render time given to rows (clustering information) against columns (the image):
-#: rows = ROW_TIME_SHARE / (1 - ROW_TIME_SHARE) * columns * (cost of a column / cost of a row).
-ROW_TIME_SHARE = 0.25
-#: ``render`` stops when the estimate is <= SAFETY * target_error: the estimate scatters around the truth
-#: (calibration), and stopping at the target itself left the true error above it in 25% (5%) / 6% (2%)
-#: of 16 seeds on cbox-lights 32x32 (2k lights); at 0.8 x the target, in none of them.
-SAFETY = 0.8
-
-
-def _measure_costs(A, seed: int) -> tuple[float, float]:
-    """Seconds per row and per (weighted) column on this matrix's device, from 8 of each (the first call
-    of each kind, which sets up buffers, is made and not counted)."""
-    from . import stratified_rows
-
-    m, n = A.shape
-    k = min(8, n, m)
-    rows = stratified_rows(A.scene, k, seed=_derived_seed(seed, 1 << 22))
-    cols = np.random.default_rng(_derived_seed(seed, 1 << 23)).choice(n, size=k, replace=False)
-    w = np.ones((k, 3), np.float32)
-    A.rows(rows[:1], progress=False)
-    A.weighted_sum(cols[:1], w[:1])
-    t = time.perf_counter()
-    A.rows(rows, progress=False)
-    t_row = (time.perf_counter() - t) / k
-    t = time.perf_counter()
-    A.weighted_sum(cols, w)
-    t_col = (time.perf_counter() - t) / k
-    return max(t_row, 1e-9), max(t_col, 1e-9)
-
-
-def check_targets(target_error, time_budget) -> tuple[Optional[float], Optional[float]]:
-    """(target_error, time_budget) as floats (or None), checked: at least one given, each finite and > 0.
-
-    Raises:
-        ValueError: neither given, NaN/inf, <= 0 or not a number (the message names the parameter)."""
-    if target_error is None and time_budget is None:
-        raise ValueError("give target_error (relative L2, e.g. 0.02) or time_budget (seconds) or both")
-    if target_error is not None:
-        target_error = _v.real("target_error", target_error)
-        if not target_error > 0:
-            raise ValueError(f"target_error must be a relative L2 > 0, got {target_error}")
-    if time_budget is not None:
-        time_budget = _v.real("time_budget", time_budget)
-        if not time_budget > 0:
-            raise ValueError(f"time_budget must be seconds > 0, got {time_budget}")
-    return target_error, time_budget
-
-
-def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
-           first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
-           add_emitted: bool = True, progress: bool = True, **scene_options) -> RenderResult:
-    """Render ``A``'s column sum to a target relative L2 and/or within a time budget, choosing the budget
-    (issue 14, item 3): progressive MRCS (``mrcs_progressive``) with doubling rounds, stopped when the
-    estimated relative L2 (``error_estimate``, paired representatives) is <= ``SAFETY`` (0.8) x
-    ``target_error``, or before a
-    round that would end past ``time_budget`` seconds (a round costs about the time of all earlier ones:
-    the increments double), or when the next round would need more columns than there are lights -- then
-    the brute-force image (all n columns, exact: error 0) is returned if the time budget allows.
-
-    The row:column ratio comes from the measured cost of a row against a column on this device
-    (8 of each, timed before rendering): rows get ``ROW_TIME_SHARE`` (25%) of the render time,
-    ``rows = 1/3 * columns * t_column / t_row``, at least 8 and at most ``columns`` per round.
-
-    ``A`` may also be a scene XML path: then the light counts are chosen too (issue 14 item 4,
-    ``manylights.light_budget.render_scene``; ``scene_options``: params, size, device, max_depth,
-    first_lights, max_lights, count_rows, generation_share), and ``target_error`` is the error of the
-    whole image against the converged scene.
-
-    Args:
-        A: a ``LightMatrix``, or a scene XML path (str / os.PathLike).
-        target_error: relative L2 to reach (a float > 0), or None (then time_budget is needed).
-        time_budget: seconds of rendering (> 0), or None (then target_error is needed).
-        seed: as ``mrcs_progressive``.
-        first_columns: columns of round 0 (>= 2; default min(32, n // 2), and a matrix of fewer than 4
-            lights is rendered by brute force).
-        max_rounds: at most this many rounds (>= 1).
-        rows_per_column: new rows per new column in every round (in (0, 1]) instead of the measured
-            choice: the measured costs vary from run to run, so the same seed gives the same image only
-            with this fixed (``budget['chosen']['rows_per_column']`` of a run reproduces it).
-        add_emitted, progress: as ``mrcs_progressive``.
-
-    Returns:
-        RenderResult of the last round (or method "brute_force"), with ``budget['stopped']`` ("target
-        error reached", "time budget", "max_rounds", "all lights: brute force", "all lights: time budget
-        too small for brute force") and ``budget['chosen']``: seconds_per_row, seconds_per_column,
-        rows_per_column, rounds, target_error, time_budget, and the estimate after every round
-        (``estimates``).
-
-    Raises:
-        TypeError: A is not a LightMatrix or a path; scene_options with a LightMatrix.
-        FileNotFoundError: a scene path that does not exist.
-        ValueError: neither target_error nor time_budget given, a
-            target_error or time_budget that is not a finite number > 0, an empty light matrix (n = 0),
-            first_columns < 2 or > n, max_rounds < 1, rows_per_column outside (0, 1], a negative seed.
-    """
-    if isinstance(A, (str, os.PathLike)):
-        from .light_budget import render_scene
-
-        return render_scene(A, target_error, time_budget, seed, first_columns=first_columns, max_rounds=max_rounds,
-                            rows_per_column=rows_per_column, add_emitted=add_emitted, progress=progress,
-                            **scene_options)
-    if scene_options:
-        raise TypeError(f"render: {', '.join(sorted(scene_options))} only apply to a scene path, not a LightMatrix")
-    m, n = _matrix_shape(A)
-    if n == 0:
-        raise ValueError("the light matrix has no lights (n = 0): nothing to render")
-    target_error, time_budget = check_targets(target_error, time_budget)
-    seed = _v.seed(seed)
-    max_rounds = _v.integer("max_rounds", max_rounds, 1, 64)
-    if first_columns is None:
-        first_columns = min(32, n // 2)
-        if first_columns < 2:
-            first_columns = n + 1  # no round fits: brute force below
-    else:
-        first_columns = _v.integer("first_columns", first_columns, 2, max(n, 2))
-    if rows_per_column is not None:
-        rows_per_column = _v.real("rows_per_column", rows_per_column)
-        if not 0.0 < rows_per_column <= 1.0:
-            raise ValueError(f"rows_per_column must be in (0, 1], got {rows_per_column}")
-    start = time.perf_counter()
-    t_row, t_col = _measure_costs(A, seed)
-    share = ROW_TIME_SHARE / (1.0 - ROW_TIME_SHARE)
-    per_column = min(1.0, max(share * t_col / t_row, 0.0)) if rows_per_column is None else rows_per_column
-    col_totals, row_totals = [], []
-    c_tot = r_tot = 0
-    for t in range(max_rounds):
-        dc = first_columns * 2 ** t
-        if c_tot + dc > n:
-            break
-        dr = int(min(max(8, round(per_column * dc)), m - r_tot))
-        if dr < 1:
-            break
-        c_tot += dc
-        r_tot += dr
-        col_totals.append(c_tot)
-        row_totals.append(r_tot)
-    chosen = {"seconds_per_row": t_row, "seconds_per_column": t_col, "rows_per_column": per_column,
-              "target_error": target_error, "time_budget": time_budget, "estimates": []}
-    last = None
-    stopped = "max_rounds" if len(col_totals) == max_rounds else "all lights"
-    if col_totals:
-        t_round_start = time.perf_counter()
-        for res in mrcs_progressive(A, rows=row_totals, columns=col_totals, seed=seed, add_emitted=add_emitted,
-                                    progress=progress):
-            last = res
-            chosen["estimates"].append(res.error_estimate)
-            now = time.perf_counter()
-            if target_error is not None and res.error_estimate <= SAFETY * target_error:
-                stopped = "target error reached"
-                break
-            # The next round costs about as much as all rounds so far (doubling increments).
-            if time_budget is not None and (now - start) + (now - t_round_start) > time_budget:
-                stopped = "time budget"
-                break
-    if stopped == "all lights":
-        elapsed = time.perf_counter() - start
-        # Brute force costs about n columns.
-        if time_budget is None or elapsed + n * t_col <= time_budget or last is None:
-            t = time.perf_counter()
-            image = A.column_sum(progress=progress)
-            timings = {"columns": time.perf_counter() - t}
-            if add_emitted:
-                image = image + A.emitted()
-            last = RenderResult(image=image, method="brute_force", seed=seed, timings=timings,
-                                budget={"columns": int(n), "lights": int(n)}, device=A.device)
-            last.error_estimate = 0.0
-            last.error_image = np.zeros(image.shape[:2], np.float32)
-            stopped = "all lights: brute force"
-        else:
-            stopped = "all lights: time budget too small for brute force"
-    chosen["rounds"] = len(chosen["estimates"])
-    last.budget["stopped"] = stopped
-    last.budget["chosen"] = chosen
-    last.timings["budget_choice"] = 0.0 if not chosen else max(
-        time.perf_counter() - start - sum(v for k, v in last.timings.items() if k != "budget_choice"), 0.0)
-    return last

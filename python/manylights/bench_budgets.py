@@ -227,9 +227,12 @@ def run(args) -> dict:
                          "estimate": float(res.error_estimate), "seconds": wall,
                          "rows": int(res.budget.get("rows", 0)), "columns": int(res.budget["columns"]),
                          "rounds": int(ch.get("rounds", 0)), "stopped": res.budget.get("stopped"),
-                         "rows_per_column": ch.get("rows_per_column"),
+                         "schedule_rows": ch.get("rows"), "schedule_columns": ch.get("columns"),
+                         "estimates": ch.get("estimates"), "e_rows": ch.get("e_rows"),
+                         "e_columns": ch.get("e_columns"), "rows_per_column": ch.get("rows_per_column"),
                          "seconds_per_row": ch.get("seconds_per_row"),
                          "seconds_per_column": ch.get("seconds_per_column"),
+                         "budget_choice_seconds": float(res.timings.get("budget_choice", 0.0)),
                          "fixed_seconds": f_sec, "fixed_rel_l2": f_err})
             msg = (f"target {e:.0%} seed {s}: true {runs[-1]['true']:.2%}, estimate {runs[-1]['estimate']:.2%}, "
                    f"{wall:.2f} s, {runs[-1]['columns']} columns")

@@ -10,7 +10,7 @@ light generation draws the lights, MRCS then samples the matrix of those lights)
 leaves because it has only ``n_k`` lights; ``E_mrcs`` that of MRCS against the brute force of the
 generated lights (``manylights.adaptive``). The target is split: ``E_gen <= sqrt(g) e`` with
 ``g = generation_share`` (0.5), each of the K grown kinds ``E_k <= sqrt(g / K) e`` (its share), and MRCS
-gets ``sqrt(1 - g) e`` (``adaptive.render``'s target).
+gets ``sqrt(1 - g) e`` (``auto_budget.render``'s target).
 
 Estimating E_k by halving
 -------------------------
@@ -72,7 +72,7 @@ import numpy as np
 
 from . import _validate as _v
 
-#: A kind stops growing when its estimate (6) is <= SAFETY x its share (as ``adaptive.SAFETY``).
+#: A kind stops growing when its estimate (6) is <= SAFETY x its share (as ``auto_budget.SAFETY``).
 SAFETY = 0.8
 #: Part of ``time_budget`` the count phase may use; the rest renders (MRCS).
 COUNT_TIME_SHARE = 0.25
@@ -222,7 +222,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
                  generation_share: float = 0.5, **render_options):
     """``render("scene.xml", target_error=, time_budget=)``: load the scene, choose the light counts
     (``choose_light_counts``, module doc), generate the lights at those counts (a fresh seed), then
-    ``adaptive.render`` the matrix to ``sqrt(1 - generation_share) x target_error`` within what is left of
+    ``auto_budget.render`` the matrix to ``sqrt(1 - generation_share) x target_error`` within what is left of
     ``time_budget``.
 
     Args:
@@ -234,11 +234,11 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         first_lights: first count per kind (even integer >= 2). max_lights: cap per kind (>= first_lights;
             default 65,536: the count phase renders count_rows rows of 2 x that many lights).
         count_rows: rows of the count phase (>= 1). generation_share: g in (0, 1).
-        **render_options: passed to ``adaptive.render`` (first_columns, max_rounds, rows_per_column,
+        **render_options: passed to ``auto_budget.render`` (first_columns, max_rounds, rows_per_column,
             add_emitted, progress).
 
     Returns:
-        ``adaptive.render``'s RenderResult; ``budget`` adds ``light_counts`` (per kind: count, reason,
+        ``auto_budget.render``'s RenderResult; ``budget`` adds ``light_counts`` (per kind: count, reason,
         estimates, share; estimated_generation_error, rows, seconds), ``integrator`` (type, max_depth),
         ``shadow_map_size`` (value, reason), ``glossy`` (view_samples, bsdf_samples, reason), ``estimated_total_error`` (equation (5):
         sqrt(E_gen^2 + error_estimate^2)), ``target_reached`` (that total <= target_error; None without a
@@ -253,7 +253,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
             ``generate_lights`` refuse (e.g. a scene without emitters).
     """
     from . import LightMatrix, generate_lights, load_scene
-    from .adaptive import _derived_seed, check_targets, render
+    from .adaptive import _derived_seed
+    from .auto_budget import check_targets, render
 
     target_error, time_budget = check_targets(target_error, time_budget)
     seed = _v.seed(seed)
