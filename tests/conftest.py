@@ -32,6 +32,20 @@ SCENE_CONFIGS = {
 }
 
 FAILURES = REPO / "tests" / "_failures"
+REFERENCES = REPO / "tests" / "references"
+
+
+def cbox_gi_64():
+    """cbox full GI at the size of its Mitsuba reference ``cbox-gi-64`` (64x64, noise 0.19%): (scene, reference
+    (H, W, 3) float32)."""
+    import json
+
+    import manylights as ml
+
+    meta = json.loads((REFERENCES / "cbox-gi-64.json").read_text())
+    xml, params, _ = SCENE_CONFIGS["cbox"]
+    scene = ml.load_scene(xml, size=tuple(meta["size"]), **{k: v for k, v in params.items() if k != "res"})
+    return scene, ml.read_exr(REFERENCES / "cbox-gi-64.exr")[..., :3]
 
 
 def save_failure_images(name: str, **images) -> Path:

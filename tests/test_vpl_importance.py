@@ -5,13 +5,12 @@ seeds against plain VPLs), the target equation, eps = 1 and delta-only scenes ar
 (src/lights/generate/vpl_importance_tests.rs)."""
 from __future__ import annotations
 
-import json
 
 import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import REPO, SCENE_CONFIGS
+from conftest import REPO, SCENE_CONFIGS, cbox_gi_64
 
 REFS = REPO / "tests" / "references"
 
@@ -30,10 +29,7 @@ def veach():
 
 @pytest.fixture(scope="module")
 def cbox():
-    meta = json.loads((REFS / "cbox-gi-64.json").read_text())
-    xml, params, _ = SCENE_CONFIGS["cbox"]
-    scene = ml.load_scene(xml, size=tuple(meta["size"]), **{k: v for k, v in params.items() if k != "res"})
-    return scene, ml.read_exr(REFS / "cbox-gi-64.exr")[..., :3]
+    return cbox_gi_64()
 
 
 # veach-ajar 32x18 full GI, 1000 area + 4000 indirect lights, no clamp, mean of seeds 0 and 1 (reference

@@ -5,14 +5,13 @@ and radius -> 0 = VPL are Rust tests (src/matrix/bias_compensation.rs, src/light
 MRCS with VSLs: tests/test_mrcs.py."""
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import REPO, SCENE_CONFIGS
+from conftest import REPO, SCENE_CONFIGS, cbox_gi_64
 
 REFS = REPO / "tests" / "references"
 # cbox full GI at 64x64 (reference noise 0.19%), 1024 area points + 4000 indirect lights, seeds 0 and 1:
@@ -23,10 +22,7 @@ GI_TOL = 0.006
 
 @pytest.fixture(scope="module")
 def cbox():
-    meta = json.loads((REFS / "cbox-gi-64.json").read_text())
-    xml, params, _ = SCENE_CONFIGS["cbox"]
-    scene = ml.load_scene(xml, size=tuple(meta["size"]), **{k: v for k, v in params.items() if k != "res"})
-    return scene, ml.read_exr(REFS / "cbox-gi-64.exr")[..., :3]
+    return cbox_gi_64()
 
 
 def _image(scene, lights, device="cpu"):
