@@ -101,6 +101,7 @@ def test_importance_same_seed_same_bits(cbox):
     ({"vpl_importance": True, "vpl_accept_min": -0.1}, "vpl_accept_min"),
     ({"vpl_importance": True, "vpl_accept_min": 1.5}, "vpl_accept_min"),
     ({"vpl_importance": True, "vpl_accept_min": "small"}, "vpl_accept_min"),
+    ({"vpl_importance": True, "vpl_accept_min": True}, "vpl_accept_min"),  # a bool is no probability
 ])
 def test_bad_importance_options(cbox, kwargs, match):
     scene, _ = cbox

@@ -228,11 +228,8 @@ def generate_lights(
     if not isinstance(vpl_importance, (bool, np.bool_)):
         raise ValueError(f"vpl_importance must be True or False, got {vpl_importance!r}")
     vpl_view_samples = _v.integer("vpl_view_samples", vpl_view_samples, 1, 1 << 16)
-    try:
-        vpl_accept_min = float(vpl_accept_min)
-    except (TypeError, ValueError):
-        raise ValueError(f"vpl_accept_min must be a number in (0, 1], got {vpl_accept_min!r}") from None
-    if isinstance(vpl_accept_min, bool) or not 0.0 < vpl_accept_min <= 1.0:
+    vpl_accept_min = _v.real("vpl_accept_min", vpl_accept_min, 0.0, 1.0)
+    if not vpl_accept_min > 0.0:
         raise ValueError(f"vpl_accept_min must be in (0, 1], got {vpl_accept_min}")
     return _native.generate_lights(
         scene, int(area), int(environment), int(indirect), int(max_depth), clamp, bool(env_importance), int(seed),
