@@ -46,8 +46,7 @@ mod tests {
     use super::*;
 
     fn tmp(name: &str, bytes: &[u8]) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("manylights-hdr-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::scratch_dir("hdr");
         let p = dir.join(name);
         std::fs::write(&p, bytes).unwrap();
         p

@@ -113,8 +113,7 @@ mod tests {
     use std::path::PathBuf;
 
     fn tmp(name: &str, bytes: &[u8]) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("manylights-size-policy-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::scratch_dir("size-policy");
         let p = dir.join(name);
         std::fs::write(&p, bytes).unwrap();
         p

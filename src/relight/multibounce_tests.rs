@@ -28,8 +28,7 @@ fn closed_box(rho: f32) -> (Scene, ViewSamples, RayTracer) {
         <emitter type="point"><point name="position" x="0" y="0.5" z="0"/><rgb name="intensity" value="1, 1, 1"/></emitter>
         </scene>"#
     );
-    let dir = std::env::temp_dir().join(format!("manylights-multibounce-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::testing::scratch_dir("multibounce");
     let path = dir.join(format!("closed_box_{rho}.xml"));
     std::fs::write(&path, xml).unwrap();
     let scene = load_scene(&path, &LoadOptions::default()).unwrap();

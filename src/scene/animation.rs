@@ -183,10 +183,6 @@ mod tests {
     }
 
     fn tempdir() -> PathBuf {
-        use std::sync::atomic::{AtomicU32, Ordering};
-        static N: AtomicU32 = AtomicU32::new(0);
-        let d = std::env::temp_dir().join(format!("manylights-anim-{}-{}", std::process::id(), N.fetch_add(1, Ordering::Relaxed)));
-        std::fs::create_dir_all(&d).unwrap();
-        d
+        crate::testing::scratch_dir("anim")
     }
 }

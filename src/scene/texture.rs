@@ -419,8 +419,7 @@ mod mitsuba_tests {
 
     /// The 4x3 8-bit PNG given to mitsuba: byte (x, y, c) = (37x + 101y + 91c) mod 256.
     fn small_png() -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("manylights-tex-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::scratch_dir("tex");
         let path = dir.join("small.png");
         let img = image::RgbImage::from_fn(4, 3, |x, y| {
             image::Rgb(std::array::from_fn(|c| ((x * 37 + y * 101 + c as u32 * 91) % 256) as u8))

@@ -18,6 +18,20 @@ pub fn shared_dir() -> PathBuf {
 
 pub mod scenes;
 
+/// A new, empty scratch directory for one test file: `<temp>/manylights-<tag>-<pid>-<n>` with `n` unique
+/// per call. Tests run in parallel threads of one process, so a directory per process shared by file
+/// name lets one test truncate a file another is reading (a CI failure of the EXR size-policy test);
+/// one directory per call cannot collide.
+pub fn scratch_dir(tag: &str) -> PathBuf {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("manylights-{tag}-{}-{n}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("cannot create a test scratch directory");
+    dir
+}
+
 /// Monte Carlo mean and standard error (per channel) of `m` sample weights; `None` is a zero weight.
 pub fn mean_and_std_err(m: usize, mut weight: impl FnMut() -> Option<glam::DVec3>) -> (glam::DVec3, glam::DVec3) {
     let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);

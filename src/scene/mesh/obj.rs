@@ -246,8 +246,7 @@ mod tests {
     /// not empty meshes; a file with vertices but no faces still loads.
     #[test]
     fn binary_and_empty_files_are_errors() {
-        let dir = std::env::temp_dir().join(format!("manylights-obj-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::scratch_dir("obj");
         let loc = Location::new(Path::new("scene.xml"), 7);
         for (name, bytes, want) in [
             ("png.obj", &b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR"[..], "binary data at byte 8"),

@@ -103,8 +103,7 @@ mod tests {
     use super::*;
 
     fn write(name: &str, bytes: &[u8]) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("manylights-ply-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::scratch_dir("ply");
         let p = dir.join(name);
         std::fs::write(&p, bytes).unwrap();
         p

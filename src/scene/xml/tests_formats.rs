@@ -10,10 +10,7 @@ use glam::Vec3;
 use std::path::PathBuf;
 
 fn dir(test: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("manylights-formats-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::testing::scratch_dir(&format!("formats-{test}"))
 }
 
 /// Dyadic texels (exact in EXR, RGBE and PFM): texel (x, y), channel c = ((5x + 3y + 7c) mod 16 + 1) / 16.

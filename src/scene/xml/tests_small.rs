@@ -9,8 +9,7 @@ use std::path::PathBuf;
 
 /// A fresh directory with the given files; returns the path of the first one.
 fn write(test: &str, files: &[(&str, &str)]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("manylights-xml-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = crate::testing::scratch_dir(&format!("xml-{test}"));
     for (name, text) in files {
         let p = dir.join(name);
         std::fs::create_dir_all(p.parent().unwrap()).unwrap();
