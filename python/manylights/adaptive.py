@@ -37,12 +37,16 @@ cbox-lights 32x32, 8 seeds x 4 budgets), so MRCS does not report it. Two estimat
     those pixels, ``sqrt(sum ||X_i - T_i||^2 / sum ||T_i||^2)`` (exact T_i from the full rows), and
     ``error_image`` spreads (1) at those rows to their nearest pixels. Cost: h rows, no column.
 
-Calibration (``python -m manylights.bench calibrate``, 32 px wide, 2048 lights, budgets rows:columns
-16:32, 32:64, 32:128, 64:256, 8 seeds, 6 scenes, CPU backend): estimate within a factor 2 of the true
-relative L2 against brute force in 88.0% of 192 runs for (3) (cbox-lights 97%, bounce 97%, demo 97%,
-matpreview 94%, bunny 97%, veach-ajar 47%; 96.2% without veach-ajar) and 74.0% for (4) with h = rows:
-short of the issue's 90% because of veach-ajar. Two causes there, measured on its whole 576 x 2041
-matrix (32x18 px):
+Calibration (``python -m manylights.bench calibrate``, 32 px wide, budgets rows:columns 16:32, 32:64,
+32:128, 64:256, 8 seeds, 6 scenes, CPU backend): estimate within a factor 2 of the true relative L2
+against brute force, for (3) / (4) with h = rows:
+
+- at 16,384 lights: 97.9% / 77.6% of 192 runs ((3): veach-ajar 91%, cbox-lights 97%, bounce, demo,
+  matpreview, bunny 100%);
+- at 2,048 lights: 88.0% / 74.0% ((3): cbox-lights 97%, bounce 97%, demo 97%, matpreview 94%, bunny 97%,
+  veach-ajar 47%; 96.2% without veach-ajar), short of the issue's 90% because of veach-ajar, where the
+  light count is so low that one VPL carries half of the image. Two causes there, measured on its whole
+  576 x 2041 matrix (32x18 px):
 
 (i) zero-norm lights: at 64 rows 93% of its lights have a zero reduced column. They shared ONE
     power-drawn cluster: nearly every draw landed on a light adding nothing, both halves agreed and the
