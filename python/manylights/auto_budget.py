@@ -66,7 +66,10 @@ of seeds at 5/2/1%, 1.06x / 2.30x / 1.15x (before: 1.59x / 2.22x / 1.77x, 75% at
 the variance collapses once rows and clusters catch the VPL splotches, which no local power law (step 4)
 foresees, so rounds hit the 4x cap and the last one overshoots; the estimate is not monotone over rounds
 (it rises when rows first see a splotch); each round re-clusters all rows of all lights (~1 s at 100k);
-and the halves use c/2 clusters.
+and the halves use c/2 clusters, which on veach-ajar is the largest cost: its MRCS error collapses once
+each splotch VPL has a cluster of its own (48x27 px, 8k lights, 64 rows x 1,024 columns: plain 0.35%,
+halves 9.7%, plain at 512 columns 10.8%), so rounds need about twice the cheapest fixed budget's columns
+(README, "At the issue's size").
 
 Symbols
 -------
