@@ -123,10 +123,10 @@ fn corners(scene: &Scene, m: usize, prim: u32) -> Result<([u32; 3], [DVec3; 3])>
     Ok((tri, p))
 }
 
-/// Resolve the surface point of pixel (x, y) on triangle `prim` of mesh `m`.
-fn resolve_pixel(scene: &Scene, m: usize, prim: u32, x: u32, y: u32) -> Result<Sample> {
+/// Resolve the surface point of pixel (x, y) of camera `cam` on triangle `prim` of mesh `m`.
+fn resolve_pixel(scene: &Scene, cam: &Camera, m: usize, prim: u32, x: u32, y: u32) -> Result<Sample> {
     let mesh = &scene.meshes[m];
-    let (o32, d32) = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+    let (o32, d32) = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
     let (o, d) = (o32.as_dvec3(), d32.as_dvec3());
     let (tri, p) = corners(scene, m, prim)?;
     let n_geo = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
@@ -134,7 +134,7 @@ fn resolve_pixel(scene: &Scene, m: usize, prim: u32, x: u32, y: u32) -> Result<S
     let sphere_hit = match mesh.kind {
         ShapeKind::Sphere { center, radius, flip_normals } => {
             let c = center.as_dvec3();
-            intersect_sphere(o, d, c, radius as f64, ray_t_max(&scene.camera, d32)).map(|t| {
+            intersect_sphere(o, d, c, radius as f64, ray_t_max(cam, d32)).map(|t| {
                 // Re-project onto the sphere as Mitsuba does.
                 let n = (o + d * t - c).normalize();
                 let position = c + n * radius as f64;
@@ -223,7 +223,13 @@ pub fn resolve_view_samples(scene: &Scene, ids: &[u32]) -> Result<ViewSamples> {
 /// the camera's film. Then pixels whose hit has a delta BSDF get the extra samples of their delta
 /// chains (`crate::view_chains::trace_chains` with `chains`).
 pub fn resolve_view_samples_with(scene: &Scene, ids: &[u32], chains: &ChainOptions) -> Result<ViewSamples> {
-    let (w, h) = (scene.camera.width, scene.camera.height);
+    resolve_view_samples_for(scene, &scene.camera, ids, chains)
+}
+
+/// [`resolve_view_samples_with`] through another camera than the scene's (e.g. the same view at another
+/// film size) without copying the scene: `ids` are that camera's visibility buffer.
+pub fn resolve_view_samples_for(scene: &Scene, cam: &Camera, ids: &[u32], chains: &ChainOptions) -> Result<ViewSamples> {
+    let (w, h) = (cam.width, cam.height);
     let n = w as usize * h as usize;
     if ids.len() != n {
         return Err(Error::invalid(format!("visibility buffer has {} pixels, the film {w}x{h} has {n}", ids.len())));
@@ -265,7 +271,7 @@ pub fn resolve_view_samples_with(scene: &Scene, ids: &[u32], chains: &ChainOptio
             let (m, prim) = locate_triangle(&offsets, id - 1).ok_or_else(|| {
                 Error::Gpu(format!("visibility buffer names triangle {} of {}", id - 1, offsets.last().unwrap_or(&0)))
             })?;
-            let s = resolve_pixel(scene, m, prim, i as u32 % w, i as u32 / w)?;
+            let s = resolve_pixel(scene, cam, m, prim, i as u32 % w, i as u32 / w)?;
             (*position, *normal, *geo_normal, *wi, *uv) = (s.position, s.normal, s.geo_normal, s.wi, s.uv);
             (*albedo, *shape_index, *prim_index, *bsdf) = (s.albedo, s.shape_index, s.prim_index, s.bsdf);
             Ok::<(), Error>(())
@@ -357,7 +363,11 @@ pub fn cast_visibility_cpu(scene: &Scene) -> Result<Vec<u32>> {
 ///
 /// Errors: the camera checks of `gpu::gbuffer::validate_camera` (sides up to 65,536); host memory.
 pub fn cast_visibility_traced(scene: &Scene, tracer: &crate::raytrace::RayTracer) -> Result<Vec<u32>> {
-    let cam = &scene.camera;
+    cast_visibility_traced_for(scene, &scene.camera, tracer)
+}
+
+/// [`cast_visibility_traced`] through another camera than the scene's (same scene, same tracer).
+pub fn cast_visibility_traced_for(scene: &Scene, cam: &Camera, tracer: &crate::raytrace::RayTracer) -> Result<Vec<u32>> {
     crate::gpu::gbuffer::validate_camera_for(cam, 1 << 16, "the CPU backend's G-buffer limit")?;
     crate::memory::check_view_samples_host(cam.width, cam.height)?;
     let offsets = triangle_offsets(&scene.meshes)?;
@@ -436,6 +446,30 @@ pub(crate) mod tests {
         let (cols, rows) = covered(&scene, &ids, 1);
         assert!(cols.len() > 10, "{}", cols.len());
         assert!(rows.iter().all(|&y| y < h / 2) && cols.iter().all(|&x| x > w / 4 && x < 3 * w / 4));
+    }
+
+    #[test]
+    fn another_camera_resolves_like_a_scene_with_that_camera() {
+        // The `_for` variants through a camera of another film size give, bit for bit, what the scene
+        // with that camera swapped in gives (the importance-VPL pilot view uses them instead of a copy
+        // of the scene); spheres (the analytic resolve) and triangles both.
+        for scene in [sphere_scene(false), marker_scene()] {
+            let tracer = crate::raytrace::RayTracer::new(&scene).unwrap();
+            let mut cam = scene.camera.clone();
+            (cam.width, cam.height) = (cam.width / 3 + 1, cam.height / 2 + 1);
+            let mut swapped = scene.clone();
+            swapped.camera = cam.clone();
+            let ids = cast_visibility_traced_for(&scene, &cam, &tracer).unwrap();
+            assert_eq!(ids, cast_visibility_traced(&swapped, &tracer).unwrap());
+            assert!(ids.iter().any(|&i| i != 0) && ids.len() == (cam.width * cam.height) as usize);
+            let chains = ChainOptions::default();
+            let a = resolve_view_samples_for(&scene, &cam, &ids, &chains).unwrap();
+            let b = resolve_view_samples_with(&swapped, &ids, &chains).unwrap();
+            assert_eq!((a.width, a.height, a.len()), (b.width, b.height, b.len()));
+            assert_eq!((&a.position, &a.normal, &a.wi, &a.uv, &a.shape_index), (&b.position, &b.normal, &b.wi, &b.uv, &b.shape_index));
+            // A buffer of the scene's own film size is refused for the other camera.
+            assert!(resolve_view_samples_for(&scene, &cam, &vec![0; (scene.camera.width * scene.camera.height) as usize], &chains).is_err());
+        }
     }
 
     #[test]

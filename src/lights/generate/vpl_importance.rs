@@ -138,11 +138,12 @@ impl PilotView {
         let aspect = cam.width.max(1) as f64 / cam.height.max(1) as f64;
         let w = ((n as f64 * aspect).sqrt().round() as u32).clamp(1, n as u32);
         let h = ((n as f64 / w as f64).round() as u32).max(1);
-        let mut scene = tracer.scene.clone();
-        scene.camera.width = w;
-        scene.camera.height = h;
-        let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer.rt)?;
-        let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &crate::view_chains::ChainOptions::default())?;
+        let mut cam = cam.clone();
+        (cam.width, cam.height) = (w, h);
+        let scene = &tracer.scene;
+        let ids = crate::view_resolve::cast_visibility_traced_for(scene, &cam, &tracer.rt)?;
+        let chains = crate::view_chains::ChainOptions::default();
+        let view = crate::view_resolve::resolve_view_samples_for(scene, &cam, &ids, &chains)?;
         let points = (0..view.len()).map(|i| (i, ShadingPoint::new(&view, i))).filter(|(_, sp)| sp.surface).collect();
         Ok(PilotView { view, points })
     }
