@@ -71,6 +71,11 @@ impl ViewSamples {
         self.glossy_seed = opts.seed;
         Ok(())
     }
+    /// Glossy MIS work: (samples that get BSDF samples, BSDF samples in all); (0, 0) without glossy samples.
+    pub fn glossy_work(&self) -> (usize, u64) {
+        let b = &self.bsdf_samples;
+        (b.iter().filter(|&&k| k > 0).count(), b.iter().map(|&k| k as u64).sum())
+    }
     /// Throughput of sample `i` (1 when `throughput` is empty).
     pub fn throughput_of(&self, i: usize) -> Vec3 {
         self.throughput.get(i).copied().unwrap_or(Vec3::ONE)

@@ -104,6 +104,7 @@ fn light_weights_and_densities() {
     let mut glossy = view.clone();
     glossy.set_glossy(&GlossyOptions { roughness: 0.2, bsdf_samples: 64, seed: 0 }).unwrap();
     assert_eq!(glossy.bsdf_samples, vec![64]);
+    assert_eq!(glossy.glossy_work(), (1, 64));
     let w = light_weight(&glossy, &lights, 0, p, Vec3::Z, wo, 0);
     let pb = 64.0 * bsdf_pdf(&glossy.bsdf[0], Vec3::Z, wo);
     assert!(w < 1.0 && (w - power_heuristic(q, pb)).abs() < 1e-6, "{w}");
@@ -112,4 +113,5 @@ fn light_weights_and_densities() {
     let mut rough = view.clone();
     rough.set_glossy(&GlossyOptions { roughness: 0.005, bsdf_samples: 64, seed: 0 }).unwrap();
     assert!(rough.bsdf_samples.is_empty());
+    assert_eq!(rough.glossy_work(), (0, 0));
 }

@@ -90,15 +90,14 @@ impl LightMatrix {
     fn device<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
         super::scene::device_dict(py, &self.inner.device())
     }
-    /// The visibility in use: "hybrid", "ray_traced" or "shadow_map".
     /// Glossy MIS work (src/matrix/glossy.rs): the number of view samples that get BSDF samples (their
     /// lobe's alpha is below `glossy_roughness`) and the BSDF samples they take in all; (0, 0) when none
     /// does (e.g. a diffuse-only scene: pure many-light columns).
     #[getter]
     fn glossy_work(&self) -> (usize, u64) {
-        let b = &self.inner.view.bsdf_samples;
-        (b.iter().filter(|&&k| k > 0).count(), b.iter().map(|&k| k as u64).sum())
+        self.inner.view.glossy_work()
     }
+    /// The visibility in use: "hybrid", "ray_traced" or "shadow_map".
     #[getter]
     fn visibility(&self) -> &'static str {
         match self.inner.opts.visibility {
