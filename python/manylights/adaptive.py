@@ -355,7 +355,8 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
                  state: Optional[dict] = None) -> Iterator[RenderResult]:
     """The rounds of ``mrcs_progressive``. ``plan(state)`` gives round t's (new rows, new columns), or None to
     stop, before each round; ``state`` (filled here, read by ``plan``: ``R`` (rows so far, n, 3), ``rows``,
-    ``rounds`` (per round: clustering, rows/columns, ``var`` (1) at all rows so far, the round's own timings
+    ``rounds`` (per round: clustering, rows/columns, ``var`` (1) at the combination's rows (all rows so far
+    or ``WEIGHT_ROWS`` of them, redrawn each round), the round's own timings
     ``seconds``), ``round`` (the next round's index)) lets ``render`` choose increments from what was
     rendered. Round t's seed depends only on (seed, t), so a schedule replayed as lists gives the same bits."""
     from . import stratified_rows
@@ -365,7 +366,7 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
     emitted = A.emitted()
     state = {} if state is None else state
     state.update({"R": None, "rows": np.zeros(0, np.int64), "rounds": [], "round": 0})
-    rounds = state["rounds"]  # per round: clustering, half images X1, X2, variance at all rows so far (rows, 3)
+    rounds = state["rounds"]  # per round: clustering, half images X1, X2, variance (1) at the weight rows (rows, 3)
     timings: dict = {}
     bar = progress_bar(planned_rounds, "mrcs_progressive", progress, unit="round")
     with bar as cb:

@@ -94,8 +94,8 @@ def run(args) -> dict:
     from .bench_mrcs import _display_path, _resolve_scene
 
     budgets = _budgets(args.budgets)
-    counts = [args.lights] if isinstance(args.lights, int) else list(args.lights)
-    if not counts or any(int(n) < 1 for n in counts):
+    counts = list(args.lights)
+    if any(n < 1 for n in counts):
         raise ValueError(f"--lights must be counts >= 1, got {args.lights}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -152,10 +152,10 @@ def _plot(runs, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(5.5, 5))
-    counts = sorted({x.get("lights", 0) for x in runs})
+    counts = sorted({x["lights"] for x in runs})
     for est, marker in zip(ESTIMATORS, "os"):
         for n in counts:
-            sel = [x for x in runs if x["estimator"] == est and x.get("lights", 0) == n]
+            sel = [x for x in runs if x["estimator"] == est and x["lights"] == n]
             if sel:
                 ax.scatter([x["true"] for x in sel], [x["estimate"] for x in sel], s=12, marker=marker, alpha=0.6,
                            label=f"{est}, {n} lights ({within(sel):.0%} within 2x)")
