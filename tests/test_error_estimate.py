@@ -196,3 +196,18 @@ def test_render_tiny_light_sets(small):
         res = ml.render(sub, target_error=1e-9, rows_per_column=0.5, progress=False)
         assert res.method == "brute_force" and res.budget["stopped"] == "all lights: brute force"
         np.testing.assert_array_equal(res.image, truth)
+
+
+def test_fit_columns_counts_the_rows_a_round_brings():
+    """A round cut by the time budget: the largest even Δc whose rows AND columns fit (rows_of grows with
+    Δc, as the ratio (8) makes it); None when not even the smallest round fits."""
+    def round_seconds(dc):  # 100 rows so far, rows = dc / 4 (at least 108), 10 ms a row, 1 ms a column
+        return max(max(108, dc / 4) - 100, 0) * 0.01 + dc * 0.001
+
+    # 2,000 columns bring 400 new rows: 4 s + 2 s. Fitting 3 s: dc / 4 - 100 rows and dc columns,
+    # 0.0035 dc - 1 <= 3 -> dc <= 1142.9, even: 1142.
+    assert auto_budget.fit_columns(round_seconds, 64, 2000, 3.0) == 1142
+    assert round_seconds(1142) <= 3.0 < round_seconds(1144)
+    assert auto_budget.fit_columns(round_seconds, 64, 2000, 100.0) == 2000
+    assert auto_budget.fit_columns(round_seconds, 64, 2000, round_seconds(64)) == 64
+    assert auto_budget.fit_columns(round_seconds, 64, 2000, 0.1) is None  # 64 columns take 0.144 s

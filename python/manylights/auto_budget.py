@@ -204,6 +204,18 @@ def _solve_columns(V_t: float, V_req: float, R_t: int, dc_t: int, e_r: float, e_
     return b
 
 
+def fit_columns(round_seconds, lo: int, hi: int, left: float) -> Optional[int]:
+    """The largest Δc in [lo, hi] whose round fits the time left, ``round_seconds(Δc) <= left``
+    (``round_seconds``: the new rows that Δc brings, at t_r each, plus Δc t_c; non-decreasing in Δc), by
+    bisection, rounded down to even (the halves: two columns per cluster); None when not even ``lo`` fits.
+    The new rows count: Δc columns bring ``rows_of(Δc)`` rows, so a cut round also has fewer rows."""
+    if round_seconds(lo) > left:
+        return None
+    a, b = lo, hi  # round_seconds(a) fits; the answer is in [a, b]
+    while a < b:
+        mid = (a + b + 1) // 2
+        a, b = (mid, b) if round_seconds(mid) <= left else (a, mid - 1)
+    return a - a % 2
 def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
            first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
            add_emitted: bool = True, progress: bool = True, **scene_options) -> RenderResult:
@@ -355,12 +367,16 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         if time_budget is not None:
             now = time.perf_counter()
             left = time_budget - (now - start) - (now - t_dec)
-            fit = int((left - max(rows_of(2) - R_t, 0) * t_r) / t_c)
-            if fit < dc:
-                if fit < lo:
+
+            def round_seconds(c, R_t=R_t, t_r=t_r, t_c=t_c, rows_of=rows_of):
+                return max(rows_of(c) - R_t, 0) * t_r + c * t_c
+
+            if round_seconds(dc) > left:
+                fit = fit_columns(round_seconds, lo, dc, left)
+                if fit is None:
                     stopped = "time budget"
                     break
-                dc = fit - fit % 2
+                dc = fit
                 why += f"; cut to {dc} columns by the time budget"
         dr = int(max(0, round(rows_of(dc) - R_t)))
         chosen["seconds_per_row"].append(t_r)
