@@ -211,3 +211,34 @@ def test_fit_columns_counts_the_rows_a_round_brings():
     assert auto_budget.fit_columns(round_seconds, 64, 2000, 100.0) == 2000
     assert auto_budget.fit_columns(round_seconds, 64, 2000, round_seconds(64)) == 64
     assert auto_budget.fit_columns(round_seconds, 64, 2000, 0.1) is None  # 64 columns take 0.144 s
+
+
+def test_halves_render_a_column_drawn_twice_once(small):
+    """A light drawn by both halves of its cluster is rendered once (``shared_halves``): the half images
+    equal rendering every representative, and the columns rendered are k + the clusters whose draws differ."""
+    A, truth = small
+    n = A.shape[1]
+    # 64 rows x 1,024 representatives on 2,048 lights: single-light clusters (p = 1) draw the same light twice.
+    res = ml.mrcs(A, rows=64, columns=1024, seed=5, halves=True)
+    k = res.budget["clusters"]
+    reps1, reps2 = res.representatives[:k], res.representatives[k:]
+    w1, w2 = 2 * res.weights[:k], 2 * res.weights[k:]
+    same = int(np.count_nonzero(reps1 == reps2))
+    assert same > 0
+    assert res.budget["rendered_columns"] == 2 * k - same
+    X1, X2 = A.weighted_sum(reps1, w1), A.weighted_sum(reps2, w2)
+    emitted = A.emitted()
+    np.testing.assert_allclose(res.image, 0.5 * (X1 + X2) + emitted, rtol=1e-4, atol=1e-6 * float(np.abs(truth).max()))
+    est, _ = adaptive.halves_estimate(X1, X2, 0.5 * (X1 + X2) + emitted)
+    assert res.error_estimate == pytest.approx(est, rel=1e-3)
+    # Every cluster one light: both halves draw it, each column is rendered once, the halves agree, exact.
+    cl = ml.cluster_reduced_columns(A.rows(ml.stratified_rows(A.scene, 8, seed=1), progress=False), n, seed=1)
+    reps2, w2 = adaptive.draw_representatives(cl, 7)
+    Y1, Y2, rendered = adaptive.shared_halves(A, np.asarray(cl["representatives"], np.int64),
+                                              np.asarray(cl["weights"], np.float32), reps2, w2)
+    assert rendered == n
+    np.testing.assert_array_equal(Y1, Y2)
+    assert ml.relative_l2(Y1 + emitted, truth) < 1e-5
+    # Progressive results count the columns rendered over all rounds.
+    last = list(ml.mrcs_progressive(A, rows=[16, 64], columns=[64, 1024], seed=2, progress=False))[-1]
+    assert last.budget["columns"] == 1024 and 0 < last.budget["rendered_columns"] < 1024

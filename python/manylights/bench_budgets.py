@@ -119,6 +119,7 @@ def summarize(targets, runs: list[dict], fixed: list[dict]) -> list[dict]:
                "estimate_mean": float(np.mean([x["estimate"] for x in sel])),
                "render_seconds": float(secs.mean()), "render_seconds_max": float(secs.max()),
                "columns_mean": float(np.mean([x["columns"] for x in sel])),
+               "rendered_columns_mean": float(np.mean([x.get("rendered_columns", x["columns"]) for x in sel])),
                "rows_mean": float(np.mean([x["rows"] for x in sel])), "cheapest_fixed": None, "ratio": None,
                "ratio_sweep": None}
         if best is not None:
@@ -226,6 +227,7 @@ def run(args) -> dict:
             runs.append({"target": e, "seed": s, "true": float(ml.relative_l2(res.image, truth)),
                          "estimate": float(res.error_estimate), "seconds": wall,
                          "rows": int(res.budget.get("rows", 0)), "columns": int(res.budget["columns"]),
+                         "rendered_columns": int(res.budget.get("rendered_columns", res.budget["columns"])),
                          "rounds": int(ch.get("rounds", 0)), "stopped": res.budget.get("stopped"),
                          "schedule_rows": ch.get("rows"), "schedule_columns": ch.get("columns"),
                          "estimates": ch.get("estimates"), "e_rows": ch.get("e_rows"),

@@ -95,7 +95,8 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
             (``error_estimate``, ``error_image``; ``manylights.adaptive``). 0: no estimate (None).
         halves: the error estimate from two independent half images instead: ``columns // 2`` clusters
             with two representatives each (same column count, one clustering of half the size), the
-            image is their mean (``manylights.adaptive``; calibrated in ``bench calibrate``).
+            image is their mean (``manylights.adaptive``; calibrated in ``bench calibrate``). A light both
+            draws of its cluster pick is rendered once: ``budget['rendered_columns']`` (<= columns).
         **cluster_options: passed to ``cluster_reduced_columns`` (projection_dim, sampling_fraction, ...).
 
     Returns:
@@ -156,7 +157,8 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
         res = RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
                            clusters=cl["assignment"], representatives=reps, weights=weights,
                            budget={"rows": int(len(row_indices)), "columns": int(len(reps)), "lights": int(n),
-                                   "clusters": int(len(reps) // 2), "unseen_lights": cl["unseen_lights"]},
+                                   "clusters": int(len(reps) // 2), "rendered_columns": cl["rendered_columns"],
+                                   "unseen_lights": cl["unseen_lights"]},
                            device=A.device)
         res.error_estimate, res.error_image = adaptive.halves_estimate(X1, X2, res.image)
         return res
