@@ -242,3 +242,15 @@ def test_halves_render_a_column_drawn_twice_once(small):
     # Progressive results count the columns rendered over all rounds.
     last = list(ml.mrcs_progressive(A, rows=[16, 64], columns=[64, 1024], seed=2, progress=False))[-1]
     assert last.budget["columns"] == 1024 and 0 < last.budget["rendered_columns"] < 1024
+
+
+def test_progressive_rows_buffer_equals_concatenation():
+    """``_grow_rows`` (the rows so far in a growing buffer) returns exactly the concatenated rows, C-contiguous."""
+    rng = np.random.default_rng(0)
+    state = {"R": None, "R_buffer": None}
+    blocks = [rng.random((r, 7, 3)).astype(np.float32) for r in (3, 1, 5, 0, 9)]
+    for k in range(len(blocks)):
+        got = adaptive._grow_rows(state, blocks[k])
+        np.testing.assert_array_equal(got, np.concatenate(blocks[:k + 1]))
+        assert got.flags["C_CONTIGUOUS"] and got.dtype == np.float32
+    assert len(state["R_buffer"]) >= 18

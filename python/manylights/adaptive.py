@@ -221,11 +221,12 @@ def halves_estimate(X1: np.ndarray, X2: np.ndarray, image: np.ndarray) -> tuple[
 
 
 def mrcs_halves(A, R: np.ndarray, columns: int, seed: int, power: np.ndarray, timings: dict,
-                progress: bool = False, **cluster_options) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                progress: bool = False, seen: Optional[np.ndarray] = None, **cluster_options) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The paired-representative MRCS of ``mrcs(..., halves=True)``: ``columns // 2`` clusters of the
     reduced matrix ``R``, two independent representatives each. Returns (clustering, representatives
     (2k,), weights (2k, 3) (each half's weights / 2: the image is the mean), X1, X2 (H, W, 3) float32:
-    the two half images, no emitted). ``clustering['unseen_lights']``: lights whose reduced column is 0."""
+    the two half images, no emitted). ``clustering['unseen_lights']``: lights whose reduced column is 0
+    (``seen``: (n,) bool, the lights with a non-zero element in R when the caller keeps it, else computed)."""
     from . import cluster_reduced_columns
 
     k = columns // 2
@@ -235,7 +236,9 @@ def mrcs_halves(A, R: np.ndarray, columns: int, seed: int, power: np.ndarray, ti
     cl = cluster_reduced_columns(R, k, seed=seed, power=power, **cluster_options)
     reps2, w2 = draw_representatives(cl, _derived_seed(seed, 1 << 21))
     # Lights no sampled row sees: the estimate's blind spot (module doc, the veach-ajar case).
-    cl["unseen_lights"] = int(np.count_nonzero(~np.any(np.asarray(R) != 0, axis=(0, 2) if np.ndim(R) == 3 else 0)))
+    if seen is None:
+        seen = np.any(np.asarray(R) != 0, axis=(0, 2) if np.ndim(R) == 3 else 0)
+    cl["unseen_lights"] = int(np.count_nonzero(~seen))
     timings["clustering"] = timings.get("clustering", 0.0) + time.perf_counter() - t
     t = time.perf_counter()
     reps1 = np.asarray(cl["representatives"], np.int64)
@@ -402,7 +405,8 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
     power = _light_luminance_power(A.lights)
     emitted = A.emitted()
     state = {} if state is None else state
-    state.update({"R": None, "rows": np.zeros(0, np.int64), "rounds": [], "round": 0})
+    state.update({"R": None, "rows": np.zeros(0, np.int64), "rounds": [], "round": 0, "seen": False,
+                  "R_buffer": None})
     rounds = state["rounds"]  # per round: clustering, half images X1, X2, variance (1) at the weight rows (rows, 3)
     timings: dict = {}
     bar = progress_bar(planned_rounds, "mrcs_progressive", progress, unit="round")
@@ -422,10 +426,12 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
             else:  # a round that only adds columns (render, when every pixel is a row already)
                 new_rows, R_t = np.zeros(0, np.int64), np.zeros((0,) + state["R"].shape[1:], np.float32)
             timings["rows"] = timings.get("rows", 0.0) + time.perf_counter() - t0
-            R_all = R_t if state["R"] is None else np.concatenate([state["R"], R_t])
+            R_all = _grow_rows(state, R_t)
             row_all = np.concatenate([state["rows"], new_rows])
-            state["R"], state["rows"] = R_all, row_all
-            cl, reps, weights, X1, X2 = mrcs_halves(A, R_all, c_t, s_t, power, timings, **cluster_options)
+            state["rows"] = row_all
+            state["seen"] = np.any(R_t != 0, axis=(0, 2)) | state.get("seen", False)
+            cl, reps, weights, X1, X2 = mrcs_halves(A, R_all, c_t, s_t, power, timings, seen=state["seen"],
+                                                    **cluster_options)
             t0 = time.perf_counter()
             rounds.append({"clustering": cl, "reps": reps, "weights": weights, "X1": X1, "X2": X2,
                            "new_rows": r_t, "new_columns": c_t, "total_rows": int(len(row_all))})
@@ -464,6 +470,22 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
                 cb(t, planned_rounds)
                 _show_estimate(bar, res)
             yield res
+
+
+def _grow_rows(state: dict, R_t: np.ndarray) -> np.ndarray:
+    """Append the round's rows ``R_t`` (r_t, n, 3) to the rows so far and return them all, a C-contiguous
+    (R, n, 3) view (``state['R']``) of a buffer that grows by half when full: appending by concatenation
+    copied every row rendered so far in every round (500 MB a round at 415 rows x 100k lights)."""
+    buf, have = state["R_buffer"], 0 if state["R"] is None else len(state["R"])
+    need = have + len(R_t)
+    if buf is None or need > len(buf):
+        grown = np.empty((max(need, (3 * need) // 2 if buf is not None else need),) + R_t.shape[1:], np.float32)
+        if have:
+            grown[:have] = state["R"]
+        buf = state["R_buffer"] = grown
+    buf[have:need] = R_t
+    state["R"] = buf[:need]
+    return state["R"]
 
 
 def _show_estimate(bar, res: RenderResult) -> None:
