@@ -61,15 +61,17 @@ floor of step 4 is not applied, and nothing depends on a timing: the same seed g
 
 Measured (``python -m manylights.bench budgets``, CPU, 100k lights, 8 seeds, paired time ratio against the
 cheapest fixed MRCS budget reaching e; README "At the issue's size"): cbox 128^2 true <= e in 100/100/100%
-of seeds at 5/2/1%, 1.06x / 2.30x / 1.15x (before: 1.59x / 2.22x / 1.77x, 75% at 1%); veach-ajar 128x72
-75/100/100%, 2.44x / 3.10x / 2.11x (before 88/100/-, 3.9x / 4.6x / -). Where it falls short: on veach-ajar
+of seeds at 5/2/1%, 1.12x / 1.94x / 2.01x (an earlier run of the same code: 1.14x / 2.14x / 1.71x; 2% over
+16 seeds 1.85x); veach-ajar 128x72 100/88/100%, 2.48x / 2.21x / 2.03x (earlier run 100/100/100%, 2.68x /
+2.73x / 1.79x; last session 75/100/100%, 2.44x / 3.10x / 2.11x, before the halves rendered a column drawn
+twice once and the rows so far were kept in a growing buffer). Where it falls short: on veach-ajar
 the variance collapses once rows and clusters catch the VPL splotches, which no local power law (step 4)
 foresees, so rounds hit the 4x cap and the last one overshoots; the estimate is not monotone over rounds
 (it rises when rows first see a splotch); each round re-clusters all rows of all lights (~1 s at 100k);
 and the halves use c/2 clusters, which on veach-ajar is the largest cost: its MRCS error collapses once
 each splotch VPL has a cluster of its own (48x27 px, 8k lights, 64 rows x 1,024 columns: plain 0.35%,
 halves 9.7%, plain at 512 columns 10.8%), so rounds need about twice the cheapest fixed budget's columns
-(README, "At the issue's size").
+(a light drawn by both halves is rendered once, which pays back part of it; README, "At the issue's size").
 
 Symbols
 -------
