@@ -270,15 +270,17 @@ def shared_halves(A, reps1: np.ndarray, w1: np.ndarray, reps2: np.ndarray, w2: n
         (X1, X2) (H, W, 3) float32 without emitted light, and the number of columns rendered
         (k + the clusters whose draws differ)."""
     same = reps1 == reps2
-    parts = {}
-    for key, sel, r, w in (("S", same, reps1, w1), ("D1", ~same, reps1, w1), ("D2", ~same, reps2, w2)):
-        if np.any(sel):
-            parts[key] = A.weighted_sum(r[sel], w[sel], progress=progress)
-    zero = np.zeros_like(next(iter(parts.values())))
-    S = parts.get("S", zero)
-    X1 = S + parts["D1"] if "D1" in parts else S
-    X2 = S + parts["D2"] if "D2" in parts else S.copy()
-    return X1, X2, int(len(reps1) + np.count_nonzero(~same))
+
+    def part(reps, w, sel):
+        return A.weighted_sum(reps[sel], w[sel], progress=progress) if np.any(sel) else None
+
+    S, D1, D2 = part(reps1, w1, same), part(reps1, w1, ~same), part(reps2, w2, ~same)
+    rendered = int(len(reps1) + np.count_nonzero(~same))
+    if S is None:
+        return D1, D2, rendered
+    if D1 is None:
+        return S, S.copy(), rendered
+    return S + D1, S + D2, rendered
 
 
 def attach_error_estimate(A, res: RenderResult, clustering: dict, error_rows: int,
@@ -429,7 +431,7 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
             R_all = _grow_rows(state, R_t)
             row_all = np.concatenate([state["rows"], new_rows])
             state["rows"] = row_all
-            state["seen"] = np.any(R_t != 0, axis=(0, 2)) | state.get("seen", False)
+            state["seen"] = np.any(R_t != 0, axis=(0, 2)) | state["seen"]
             cl, reps, weights, X1, X2 = mrcs_halves(A, R_all, c_t, s_t, power, timings, seen=state["seen"],
                                                     **cluster_options)
             t0 = time.perf_counter()
@@ -479,7 +481,8 @@ def _grow_rows(state: dict, R_t: np.ndarray) -> np.ndarray:
     buf, have = state["R_buffer"], 0 if state["R"] is None else len(state["R"])
     need = have + len(R_t)
     if buf is None or need > len(buf):
-        grown = np.empty((max(need, (3 * need) // 2 if buf is not None else need),) + R_t.shape[1:], np.float32)
+        capacity = need if buf is None else (3 * need) // 2
+        grown = np.empty((capacity,) + R_t.shape[1:], np.float32)
         if have:
             grown[:have] = state["R"]
         buf = state["R_buffer"] = grown

@@ -119,7 +119,7 @@ def summarize(targets, runs: list[dict], fixed: list[dict]) -> list[dict]:
                "estimate_mean": float(np.mean([x["estimate"] for x in sel])),
                "render_seconds": float(secs.mean()), "render_seconds_max": float(secs.max()),
                "columns_mean": float(np.mean([x["columns"] for x in sel])),
-               "rendered_columns_mean": float(np.mean([x.get("rendered_columns", x["columns"]) for x in sel])),
+               "rendered_columns_mean": float(np.mean([x["rendered_columns"] for x in sel])),
                "rows_mean": float(np.mean([x["rows"] for x in sel])), "cheapest_fixed": None, "ratio": None,
                "ratio_sweep": None}
         if best is not None:
