@@ -662,13 +662,13 @@ def _run_dask(client, todo: list[dict], reference_dir: str, accept) -> None:
     try:
         for f in pending:
             _, t = futures[f.key]
-            if f.status == "finished":
+            # result(), not a look at f.status: a worker that dies right after finishing a task loses its
+            # result, the future goes back to pending and dask recomputes it; result() waits for that,
+            # where the status read just after completion said "finished" or "pending" by timing (and a
+            # pending future became an error row: CI, test_killed_worker_loses_no_row).
+            try:
                 row = f.result()
-            else:
-                try:
-                    err = f.exception()
-                except Exception as e:  # noqa: BLE001  (a cancelled future)
-                    err = e
+            except Exception as err:  # noqa: BLE001  (the task raised, KilledWorker, a cancelled future)
                 row = _error_row(t, err)
             f.release()
             accept(row)
