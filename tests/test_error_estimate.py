@@ -254,3 +254,41 @@ def test_progressive_rows_buffer_equals_concatenation():
         np.testing.assert_array_equal(got, np.concatenate(blocks[:k + 1]))
         assert got.flags["C_CONTIGUOUS"] and got.dtype == np.float32
     assert len(state["R_buffer"]) >= 18
+
+
+def test_lights_seen_equals_any_over_rows_and_channels():
+    """``lights_seen`` (rows reduced first) is ``np.any(R != 0, axis=(0, 2))``, also for 2-D rows and no rows."""
+    rng = np.random.default_rng(1)
+    R = rng.random((6, 50, 3)).astype(np.float32)
+    R[R < 0.9] = 0.0
+    R[:, 7] = 0.0  # a light no row sees
+    R[2, 9, 1] = -0.5  # a negative element still counts as seen
+    seen = adaptive.lights_seen(R)
+    np.testing.assert_array_equal(seen, np.any(R != 0, axis=(0, 2)))
+    assert not seen[7] and seen[9]
+    np.testing.assert_array_equal(adaptive.lights_seen(R[:, :, 0]), np.any(R[:, :, 0] != 0, axis=0))
+    assert not adaptive.lights_seen(np.zeros((0, 50, 3), np.float32)).any()
+
+
+def test_progressive_weight_rows_drawn_once(small):
+    """The combination weights evaluate (1) at all rows while there are at most WEIGHT_ROWS, then at
+    WEIGHT_ROWS rows drawn once and kept: an earlier round's variance is not recomputed, and every round's
+    variance is (1) at those rows."""
+    A, _ = small
+    state: dict = {}
+    plan = iter([(8, 32), (72, 64), (16, 128), (16, 128)])
+    gen = adaptive._progressive(A, lambda st: next(plan, None), 4, 5, True, False, {}, state)
+    res = next(gen)
+    assert state["weight_rows"] is None and state["rounds"][0]["var"].shape == (8, 3)
+    next(gen)  # 80 rows > 48: drawn now
+    picked = state["weight_rows"].copy()
+    assert len(picked) == adaptive.WEIGHT_ROWS and len(np.unique(picked)) == adaptive.WEIGHT_ROWS
+    first = state["rounds"][0]["var"]
+    for res in gen:
+        pass
+    np.testing.assert_array_equal(state["weight_rows"], picked)
+    assert state["rounds"][0]["var"] is first  # not re-evaluated
+    R_w = np.ascontiguousarray(state["R"][picked])
+    for rd in state["rounds"]:
+        np.testing.assert_allclose(rd["var"], adaptive.row_variance(R_w, rd["clustering"]), rtol=1e-12)
+    assert res.budget["rows"] == 112 and res.budget["columns"] == 352
