@@ -449,19 +449,19 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
             rounds.append({"clustering": cl, "reps": reps, "weights": weights, "X1": X1, "X2": X2,
                            "new_rows": r_t, "new_columns": c_t, "total_rows": int(len(row_all))})
             # Combination weights from the rows only (never from the draws): every round's variance (1) at
-            # the same rows.
-            # Until there are more than WEIGHT_ROWS rows, all of them (every round re-evaluated: few rows);
-            # then WEIGHT_ROWS of them drawn once, with the seed of the round that passed it, and kept: each
-            # round's (1) is evaluated once (re-evaluating every round at new rows was O(rounds^2): 2.4 s
-            # of a 22 s veach-ajar render of 8 rounds).
+            # the same rows. Until there are more than WEIGHT_ROWS rows, all of them (every round
+            # re-evaluated: few rows); then WEIGHT_ROWS of them drawn once, with the seed of the round that
+            # passed it, and kept: each round's (1) is evaluated once (re-evaluating every round at new rows
+            # was O(rounds^2): 2.4 s of a 22 s veach-ajar render of 8 rounds).
             if len(row_all) <= WEIGHT_ROWS:
                 fresh, R_w = rounds, R_all
-            elif state["weight_rows"] is None:
-                state["weight_rows"] = np.sort(np.random.default_rng(_derived_seed(s_t, 1 << 25)).choice(
-                    len(row_all), WEIGHT_ROWS, replace=False))
-                fresh, R_w = rounds, np.ascontiguousarray(R_all[state["weight_rows"]])
             else:
-                fresh, R_w = rounds[-1:], np.ascontiguousarray(R_all[state["weight_rows"]])
+                fresh = rounds[-1:]
+                if state["weight_rows"] is None:
+                    state["weight_rows"] = np.sort(np.random.default_rng(_derived_seed(s_t, 1 << 25)).choice(
+                        len(row_all), WEIGHT_ROWS, replace=False))
+                    fresh = rounds
+                R_w = np.ascontiguousarray(R_all[state["weight_rows"]])
             for rd in fresh:
                 rd["var"] = row_variance(R_w, rd["clustering"])
             v = np.array([rd["var"].sum() for rd in rounds])
