@@ -154,21 +154,6 @@ def test_render_schedule_reproduces_the_image(small):
     assert a.budget["chosen"]["columns"] == b.budget["chosen"]["columns"]
 
 
-def test_elasticities_see_rows_and_columns(small):
-    """Equation (7) of auto_budget: with 2 training rows more rows must pay (e_r > 0); the measured
-    exponents stay in their ranges; the same seed gives the same numbers."""
-    A, _ = small
-    R = A.rows(ml.stratified_rows(A.scene, 64, seed=1), progress=False)
-    power = _light_luminance_power(A.lights)
-    e_r, e_c, info = auto_budget.elasticities(R, 64, power, seed=7)
-    assert auto_budget.E_ROWS_RANGE[0] <= e_r <= auto_budget.E_ROWS_RANGE[1]
-    assert auto_budget.E_COLUMNS_RANGE[0] <= e_c <= auto_budget.E_COLUMNS_RANGE[1]
-    assert info["train_rows"] == 32 and info["held_out_rows"] == 32
-    v1, v2, v3 = info["variance"]
-    assert v2 < v1 < v3, info  # more clusters and more rows both lower the held-out variance here
-    assert auto_budget.elasticities(R, 64, power, seed=7)[:2] == (e_r, e_c)
-
-
 def test_render_unreachable_target_falls_back_to_brute_force(small):
     A, truth = small
     res = ml.render(A, target_error=1e-9, first_columns=256, rows_per_column=0.25, progress=False)
@@ -270,25 +255,33 @@ def test_lights_seen_equals_any_over_rows_and_channels():
     assert not adaptive.lights_seen(np.zeros((0, 50, 3), np.float32)).any()
 
 
-def test_progressive_weight_rows_drawn_once(small):
-    """The combination weights evaluate (1) at all rows while there are at most WEIGHT_ROWS, then at
-    WEIGHT_ROWS rows drawn once and kept: an earlier round's variance is not recomputed, and every round's
-    variance is (1) at those rows."""
+def test_progressive_weights_from_rows_the_clustering_did_not_see(small):
+    """The combination weights: a round's v is the mean of (1) per row at its own rows (at most WEIGHT_ROWS)
+    until later rounds bring new rows, then at those held-out rows only (at most WEIGHT_ROWS of each
+    batch), each batch evaluated once; a = (1/v) / sum(1/v)."""
     A, _ = small
     state: dict = {}
-    plan = iter([(8, 32), (72, 64), (16, 128), (16, 128)])
+    plan = iter([(8, 32), (72, 64), (0, 64), (16, 128)])
     gen = adaptive._progressive(A, lambda st: next(plan, None), 4, 5, True, False, {}, state)
-    res = next(gen)
-    assert state["weight_rows"] is None and state["rounds"][0]["var"].shape == (8, 3)
-    next(gen)  # 80 rows > 48: drawn now
-    picked = state["weight_rows"].copy()
-    assert len(picked) == adaptive.WEIGHT_ROWS and len(np.unique(picked)) == adaptive.WEIGHT_ROWS
-    first = state["rounds"][0]["var"]
-    for res in gen:
-        pass
-    np.testing.assert_array_equal(state["weight_rows"], picked)
-    assert state["rounds"][0]["var"] is first  # not re-evaluated
-    R_w = np.ascontiguousarray(state["R"][picked])
-    for rd in state["rounds"]:
-        np.testing.assert_allclose(rd["var"], adaptive.row_variance(R_w, rd["clustering"]), rtol=1e-12)
-    assert res.budget["rows"] == 112 and res.budget["columns"] == 352
+    next(gen)
+    rd0 = state["rounds"][0]
+    np.testing.assert_allclose(rd0["v"], adaptive.row_variance(state["R"], rd0["clustering"]).sum() / 8, rtol=1e-12)
+    next(gen)  # 72 new rows: 48 of them held out for round 0
+    assert rd0["held_out_rows"] == adaptive.WEIGHT_ROWS
+    held = adaptive._weight_rows(72, adaptive._derived_seed(adaptive._derived_seed(5, 1), 1 << 25)) + 8
+    assert held.min() >= 8 and len(np.unique(held)) == adaptive.WEIGHT_ROWS
+    v_held = adaptive.row_variance(state["R"][held], rd0["clustering"]).sum() / adaptive.WEIGHT_ROWS
+    np.testing.assert_allclose(rd0["v"], v_held, rtol=1e-12)
+    assert rd0["v"] != rd0["own_variance"].sum() / 8  # the held-out rows replace the own rows
+    rd1 = state["rounds"][1]
+    own = adaptive._weight_rows(80, adaptive._derived_seed(adaptive._derived_seed(5, 1), (1 << 25) + 1))
+    assert len(own) == adaptive.WEIGHT_ROWS  # 80 rows so far: 48 of them
+    np.testing.assert_allclose(rd1["v"], adaptive.row_variance(state["R"][own], rd1["clustering"]).sum() / 48,
+                               rtol=1e-12)
+    next(gen)  # no new rows: nothing held out, the earlier rounds keep their v
+    assert rd0["held_out_rows"] == 48 and rd1["held_out_rows"] == 0
+    res = next(gen)  # 16 new rows, all held out for rounds 0-2
+    assert [rd["held_out_rows"] for rd in state["rounds"]] == [64, 16, 16, 0]
+    v = np.array([rd["v"] for rd in state["rounds"]])
+    np.testing.assert_allclose(state["rounds"][-1]["combination_weights"], (1 / v) / np.sum(1 / v), rtol=1e-12)
+    assert res.budget["rows"] == 96 and res.budget["columns"] == 288

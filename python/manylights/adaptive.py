@@ -77,12 +77,18 @@ Round t renders ``Δr_t`` new stratified rows (seed of round t), clusters ALL ro
 independent unbiased half estimates ``X_t1``, ``X_t2`` of ΣA given the rows. Round T returns
 
     H_h = sum_{t<=T} a_t X_th  (h = 1, 2),   image = (H_1 + H_2) / 2,
-    a_t = (1 / v_t) / sum_{t'<=T} (1 / v_t'),   v_t = sum over the rows so far of (1) for round t
+    a_t = (1 / v_t) / sum_{t'<=T} (1 / v_t'),   v_t = mean over rows of (1) for round t
 
-(all rows so far while there are at most ``WEIGHT_ROWS`` = 48; then 48 of them, drawn once with the seed of
-the round that passed 48 rows and kept, so each round's v_t is evaluated once: evaluating every round at
-every row cost 24 s of a 141 s render on veach-ajar 128x72 at 100k lights, and at 48 rows redrawn each
-round 2.4 s of a 22 s render of 8 rounds)
+where the rows are those round t's clustering did not see -- the new rows of the later rounds, at most
+``WEIGHT_ROWS`` = 48 of each round's batch (drawn with that round's seed) -- once there are any, and
+before that at most 48 of its own rows. Each (round, batch) pair is evaluated once. (1) at a
+clustering's own rows is low where those rows missed a VPL splotch: with all weights at 48 own rows, on
+veach-ajar (5%, seed 1) a round estimated at 70% kept enough weight to hold the combination at 12% after
+a round of 2,048 columns, and the schedule added one of 8,192; weighted at all rows, the same schedule
+stopped there at 2.3%. With the held-out rows, 8 seeds of a fixed ratio (``rows_per_column=0.12``)
+reached 5% in 11.0 s on the mean against 17.6 s, all 8 in both. Evaluating every round at every row
+cost 24 s of a 141 s render at 100k lights; this costs at most ``48 (t + 1)`` row evaluations in round
+t (1.1 ms each at 100k lights).
 
 The weights depend only on rows and clusterings -- never on the representative draws -- so H_1 and H_2
 stay independent and unbiased, the image is unbiased and (3) applies to it unchanged. Nothing rendered
@@ -98,8 +104,8 @@ the lists truncated), bit for bit on the same backend (tests/test_error_estimate
 
 Budgets (``render``)
 --------------------
-``render(A, target_error=, time_budget=)`` (``manylights.auto_budget``, its module doc: the elasticities
-(7), the row:column ratio (8), increments predicted from the estimate) drives these rounds through the
+``render(A, target_error=, time_budget=)`` (``manylights.auto_budget``, its module doc: the
+row:column ratio (8), increments predicted from the estimate) drives these rounds through the
 same generator, choosing each round's rows and columns from what the earlier rounds rendered.
 ``render("scene.xml", ...)`` (item 4) also chooses the light counts before that:
 ``manylights.light_budget`` (its module doc: the error split (5), the halving estimate (6)).
@@ -400,7 +406,7 @@ def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed
     return _progressive(A, lambda state: next(plan, None), len(dc), seed, add_emitted, progress, cluster_options)
 
 
-#: The combination weights of a round evaluate (1) at all rows so far, or at this many of them.
+#: The combination weights evaluate (1) at this many rows of each round's batch of new rows (or all of them).
 WEIGHT_ROWS = 48
 
 
@@ -408,8 +414,9 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
                  state: Optional[dict] = None) -> Iterator[RenderResult]:
     """The rounds of ``mrcs_progressive``. ``plan(state)`` gives round t's (new rows, new columns), or None to
     stop, before each round; ``state`` (filled here, read by ``plan``: ``R`` (rows so far, n, 3), ``rows``,
-    ``rounds`` (per round: clustering, rows/columns, ``var`` (1) at the combination's rows (all rows so far
-    or ``WEIGHT_ROWS`` of them, drawn once: ``weight_rows``), the round's own timings
+    ``rounds`` (per round: clustering, rows/columns, ``v`` the mean (1) per row behind its combination
+    weight, from ``held_out_variance`` / ``held_out_rows`` (later rounds' new rows) or, before any,
+    ``own_variance`` (its own rows), the round's own timings
     ``seconds``), ``round`` (the next round's index)) lets ``render`` choose increments from what was
     rendered. Round t's seed depends only on (seed, t), so a schedule replayed as lists gives the same bits."""
     from . import stratified_rows
@@ -419,7 +426,7 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
     emitted = A.emitted()
     state = {} if state is None else state
     state.update({"R": None, "rows": np.zeros(0, np.int64), "rounds": [], "round": 0, "seen": False,
-                  "R_buffer": None, "weight_rows": None})
+                  "R_buffer": None})
     rounds = state["rounds"]  # per round: clustering, half images X1, X2, variance (1) at the weight rows (rows, 3)
     timings: dict = {}
     bar = progress_bar(planned_rounds, "mrcs_progressive", progress, unit="round")
@@ -448,23 +455,22 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
             t0 = time.perf_counter()
             rounds.append({"clustering": cl, "reps": reps, "weights": weights, "X1": X1, "X2": X2,
                            "new_rows": r_t, "new_columns": c_t, "total_rows": int(len(row_all))})
-            # Combination weights from the rows only (never from the draws): every round's variance (1) at
-            # the same rows. Until there are more than WEIGHT_ROWS rows, all of them (every round
-            # re-evaluated: few rows); then WEIGHT_ROWS of them drawn once, with the seed of the round that
-            # passed it, and kept: each round's (1) is evaluated once (re-evaluating every round at new rows
-            # was O(rounds^2): 2.4 s of a 22 s veach-ajar render of 8 rounds).
-            if len(row_all) <= WEIGHT_ROWS:
-                fresh, R_w = rounds, R_all
-            else:
-                fresh = rounds[-1:]
-                if state["weight_rows"] is None:
-                    state["weight_rows"] = np.sort(np.random.default_rng(_derived_seed(s_t, 1 << 25)).choice(
-                        len(row_all), WEIGHT_ROWS, replace=False))
-                    fresh = rounds
-                R_w = np.ascontiguousarray(R_all[state["weight_rows"]])
-            for rd in fresh:
-                rd["var"] = row_variance(R_w, rd["clustering"])
-            v = np.array([rd["var"].sum() for rd in rounds])
+            # Combination weights from the rows only (never from the draws): v_t is the mean (1) per row
+            # at rows round t's clustering did not see (WEIGHT_ROWS of each later batch) once there are any,
+            # before that at WEIGHT_ROWS of its own rows (module doc: own rows miss the splotches).
+            n_prev = len(row_all) - len(new_rows)
+            if len(new_rows) and len(rounds) > 1:
+                held = _weight_rows(len(new_rows), _derived_seed(s_t, 1 << 25)) + n_prev
+                R_h = np.ascontiguousarray(R_all[held])
+                for rd in rounds[:-1]:
+                    rd["held_out_variance"] += float(row_variance(R_h, rd["clustering"]).sum())
+                    rd["held_out_rows"] += len(held)
+                    rd["v"] = rd["held_out_variance"] / rd["held_out_rows"]
+            own = _weight_rows(len(row_all), _derived_seed(s_t, (1 << 25) + 1))
+            rd = rounds[-1]
+            rd["own_variance"] = row_variance(np.ascontiguousarray(R_all[own]), rd["clustering"])
+            rd.update(held_out_variance=0.0, held_out_rows=0, v=float(rd["own_variance"].sum()) / max(len(own), 1))
+            v = np.array([rd["v"] for rd in rounds])
             a = (v <= 0).astype(np.float64) if np.any(v <= 0) else 1.0 / v  # exact rounds win outright
             a /= a.sum()
             H1 = sum(a_t * rd["X1"].astype(np.float64) for a_t, rd in zip(a, rounds))
@@ -490,6 +496,14 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
                 cb(t, planned_rounds)
                 _show_estimate(bar, res)
             yield res
+
+
+def _weight_rows(count: int, seed: int) -> np.ndarray:
+    """Sorted indices of the rows (1) is evaluated at for the combination weights: all ``count`` rows, or
+    ``WEIGHT_ROWS`` of them drawn without replacement (seeded)."""
+    if count <= WEIGHT_ROWS:
+        return np.arange(count)
+    return np.sort(np.random.default_rng(seed).choice(count, WEIGHT_ROWS, replace=False))
 
 
 def _grow_rows(state: dict, R_t: np.ndarray) -> np.ndarray:

@@ -10,53 +10,46 @@ per column; every later round re-times them from its own work): nothing is rende
 After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total and ``Δc_t`` new columns:
 
 1. **Stop** when ``eps_t <= SAFETY e`` (0.8 e), or when the next round would not fit the time budget.
-2. **How far each lever goes** (the scene's answer, not the cost's): the rows so far are split into two
-   interleaved halves ``T`` and ``H``; ``T`` is clustered into k = Δc_t / 2 clusters (at most
-   ``DECISION_CLUSTERS``, 256), into 2k, and ``T``'s every other row into k, and the exact variance (1)
-   (``row_variance``) of each clustering is summed over the held-out rows ``H`` (which none of them saw):
-   ``V(|T|, k)``, ``V(|T|, 2k)``, ``V(|T|/2, k)``. Their log2 ratios are the local elasticities of the
-   variance in the columns and in the rows,
-
-       e_c = log2 V(|T|, k) / V(|T|, 2k),      e_r = log2 V(|T|/2, k) / V(|T|, k)          (7)
-
-   (clamped to [0.5, 2] and [0, 2]: Monte Carlo alone gives e_c = 1; rows that add nothing give e_r = 0).
-   Only CPU work on the rendered rows (at most ``DECISION_MAX_ROWS``, 128, evenly spaced); no rendering.
-   Done while there are >= ``DECISION_ROWS`` (16) rows
-   (before that: e_c = 1, e_r = ``PRIOR_E_ROWS``); redone whenever the rows have doubled since.
-3. **Row:column ratio.** Locally ``V ~ R^-e_r Δc^-e_c``; minimising the round's cost ``ΔR t_r + Δc t_c``
-   at a fixed V (Lagrange: ``t_r = λ e_r / R``, ``t_c = λ e_c / Δc``) gives
+2. **Row:column ratio.** Locally ``V ~ R^-e_r Δc^-e_c`` (``e_r``, ``e_c``: how fast more rows and more
+   columns cut the variance); minimising the round's cost ``ΔR t_r + Δc t_c`` at a fixed V (Lagrange:
+   ``t_r = λ e_r / R``, ``t_c = λ e_c / Δc``) gives
 
        R t_r / (Δc t_c) = e_r / e_c,   i.e.   R = (e_r / e_c) (t_c / t_r) Δc                  (8)
 
-   the time on the rows (all R, rendered so far or new) against the round's new columns is the ratio of
-   what each buys. Rows already rendered are paid for: ``R = max(R_t + 8, (8))``. The measured (7) is
-   noisy where a few pixels carry the variance (veach-ajar: e_r from 0 to 2 between seeds at the same
-   rows), so (8) uses e_r / e_c within ``RATIO_RANGE`` [0.5, 2] (rows get 1/3 to 2/3 of a round's time;
-   the cheapest fixed budgets spend 40-70% on rows on cbox and veach-ajar) and step 4 e_r within [0.5, 2],
-   e_c within [1, 2].
-4. **The increment from the estimate** instead of blind doubling: the rounds' variances (1) ``v_s`` share
+   the rendering time on the rows (all R, rendered so far or new) against the round's new columns is
+   the ratio of what each buys. The exponents are not measured: ``e_r / e_c = 1``, equal rendering time
+   on the rows and on the round's columns, with ``t_r``, ``t_c`` the last round's rendering seconds per
+   row and per column. Rows already rendered are paid for: ``R = max(R_t + 8, (8))``. Why not measured:
+   an earlier version estimated e_r and e_c from held-out variances of clusterings of half the rows; on
+   veach-ajar they scattered from 0 to 2 between seeds at the same rows, cost 0.5-1.4 s a render at 100k
+   lights, and rendered no faster than the fixed ratio (8 seeds, 5%: 12.3 s without against 13.3 s
+   with). The cheapest fixed budgets of ``bench budgets`` spend about equal time on both: cbox 16:128
+   and 32:256 (a row costs ~11 columns: rows 1.4x the columns' time), veach-ajar 256:2048 (~7 columns:
+   0.8x).
+3. **The increment from the estimate** instead of blind doubling: the rounds' variances (1) ``v_s`` share
    one scale with the estimate, ``V_s = eps_t^2 v_s sum_s' 1/v_s'`` (the combination (inverse variance)
    gives ``1 / eps_t^2 = sum_s 1 / V_s``); the next round must bring the combination to
    ``(AIM SAFETY e)^2``, so alone it needs ``1 / V_new = 1 / (AIM SAFETY e)^2 - 1 / eps_t^2``, predicted by
-   ``V_new = V_t (R / R_t)^-e_r (Δc / Δc_t)^-e_c`` with R from (8); Δc solves it (bisection), at least
+   ``V_new = V_t (R / R_t)^-e_r (Δc / Δc_t)^-e_c`` with R from (8) and Monte Carlo's ``e_c = 1``,
+   ``e_r = 1/2`` (``E_COLUMNS``, ``E_ROWS``; cautious where the variance collapses faster, as on
+   veach-ajar); Δc solves it (bisection), at least
    ``max(c_0, C_t / 2)`` (every round re-clusters all rows: small rounds do not pay) and at most
    ``GROWTH`` (4) x the columns so far (predictions from small rounds run far: on veach-ajar 16x and 8x
-   caps ended 5% renders at 0.3-1.3% with 6,500-11,300 columns); the round after the pilot brings the
-   rows to ``DECISION_ROWS`` so that (7) can be measured. AIM = 0.85 is the margin: a seed that lands
+   caps ended 5% renders at 0.3-1.3% with 6,500-11,300 columns). AIM = 0.85 is the margin: a seed that lands
    just above the stop adds a round of what the estimate says is missing (at least half the columns so
    far), not a blind doubling.
-   A round also costs its overhead ``t_0`` (clustering, combination, (7): about a second at 100k lights
+   A round also costs its overhead ``t_0`` (clustering, combination: up to a second at 100k lights
    whatever its size), so it gets at least ``t_0 / t_c`` columns: that at most doubles the round, and a
    further round (another ``t_0``) gets unlikely (on cbox 128^2 a round's clustering of 100k lights costs
    0.4-1 s, its 16-200 columns 0.1-1.5 s). Without a target (time budget only) each round doubles the columns,
    cut to what the time left allows.
-5. **All lights**: when the next round would pass n columns, brute force (exact; said in ``stopped``).
+4. **All lights**: when the next round would pass n columns, brute force (exact; said in ``stopped``).
 
 Every round stays the unbiased round of ``mrcs_progressive`` (weights from rows only), so the estimate is
 (3) unchanged, and the schedule is reported: ``budget['chosen']['rows']`` / ``['columns']`` (cumulative
 per round) replayed by ``mrcs_progressive(A, rows=..., columns=..., seed=seed)`` give the image bit for bit.
 With ``rows_per_column=`` given, (8) is replaced by ``ΔR = max(8, rows_per_column Δc)``, the overhead
-floor of step 4 is not applied, and nothing depends on a timing: the same seed gives the same image
+floor of step 3 is not applied, and nothing depends on a timing: the same seed gives the same image
 (with a time budget, where it stops still does).
 
 Measured (``python -m manylights.bench budgets``, CPU, 100k lights, 8 seeds, paired time ratio against the
@@ -65,7 +58,7 @@ of seeds at 5/2/1%, 1.12x / 1.94x / 2.01x (an earlier run of the same code: 1.14
 16 seeds 1.85x); veach-ajar 128x72 100/88/100%, 2.48x / 2.21x / 2.03x (earlier run 100/100/100%, 2.68x /
 2.73x / 1.79x; last session 75/100/100%, 2.44x / 3.10x / 2.11x, before the halves rendered a column drawn
 twice once and the rows so far were kept in a growing buffer). Where it falls short: on veach-ajar
-the variance collapses once rows and clusters catch the VPL splotches, which no local power law (step 4)
+the variance collapses once rows and clusters catch the VPL splotches, which no local power law (step 3)
 foresees, so rounds hit the 4x cap and the last one overshoots; the estimate is not monotone over rounds
 (it rises when rows first see a splotch); each round re-clusters all rows of all lights (~1 s at 100k);
 and the halves use c/2 clusters, which on veach-ajar is the largest cost: its MRCS error collapses once
@@ -79,9 +72,9 @@ Symbols
 |---|---|
 | ``e``, ``eps_t`` | target relative L2, the combined estimate (3) after round t |
 | ``R_t``, ``C_t``, ``Δc_t``, ``ΔR`` | rows so far, columns so far, round t's new columns, next round's new rows |
-| ``t_r``, ``t_c`` | measured seconds per row (its share of the clustering included) and per column, last round |
-| ``e_r``, ``e_c`` | elasticities (7) of the variance in rows and columns |
-| ``V_s``, ``v_s`` | round s's variance alone (relative^2) and its variance (1) summed over the rows |
+| ``t_r``, ``t_c`` | measured rendering seconds per row and per column, last round (a time budget also counts a row's share of the clustering) |
+| ``e_r``, ``e_c`` | exponents of the variance in rows and columns (``V ~ R^-e_r Δc^-e_c``) |
+| ``V_s``, ``v_s`` | round s's variance alone (relative^2) and its mean variance (1) per row (its combination weight's) |
 | ``SAFETY``, ``AIM``, ``GROWTH`` | stop at 0.8 e; aim rounds at 0.85 x that; at most 4x the columns so far per round |
 """
 from __future__ import annotations
@@ -94,8 +87,8 @@ from typing import Optional
 import numpy as np
 
 from . import _validate as _v
-from .adaptive import _derived_seed, _progressive, row_variance
-from .mrcs import RenderResult, _light_luminance_power, _matrix_shape
+from .adaptive import _progressive
+from .mrcs import RenderResult, _matrix_shape
 
 #: ``render`` stops when the estimate is <= SAFETY * target_error: the estimate scatters around the truth
 #: (calibration), and stopping at the target itself left the true error above it in 25% (5%) / 6% (2%)
@@ -108,22 +101,9 @@ AIM = 0.85
 GROWTH = 4
 #: Rows of the pilot round (round 0) and the fewest new rows of any later round.
 FIRST_ROWS = 8
-#: The elasticities (7) are measured from this many rows on; before, e_c = 1 and e_r = PRIOR_E_ROWS.
-DECISION_ROWS = 16
-PRIOR_E_ROWS = 0.5
-#: The clusterings of (7) use at most this many clusters and rows (their cost stays a small share of a
-#: round: on all rows so far, up to 933, they took 25 s of a 141 s render on veach-ajar 128x72 at 100k
-#: lights; a uniform subset of the lights instead measured e_r = 0 where more rows clearly paid).
-DECISION_CLUSTERS = 256
-DECISION_MAX_ROWS = 128
-E_COLUMNS_RANGE = (0.5, 2.0)
-E_ROWS_RANGE = (0.0, 2.0)
-#: e_r / e_c in (8) is kept in this range (rows get 1/3 to 2/3 of a round's time): the cheapest fixed
-#: budgets of bench budgets spend 40-70% of their time on rows on cbox and veach-ajar.
-RATIO_RANGE = (0.5, 2.0)
-#: The exponents of the prediction (step 4), clamped: at least Monte Carlo's 1 for the columns.
-PREDICT_E_ROWS = (0.5, 2.0)
-PREDICT_E_COLUMNS = (1.0, 2.0)
+#: Exponents of the prediction (step 3): Monte Carlo's 1 for the columns, 1/2 for the rows.
+E_COLUMNS = 1.0
+E_ROWS = 0.5
 
 
 def check_targets(target_error, time_budget) -> tuple[Optional[float], Optional[float]]:
@@ -144,47 +124,16 @@ def check_targets(target_error, time_budget) -> tuple[Optional[float], Optional[
     return target_error, time_budget
 
 
-def elasticities(R: np.ndarray, k: int, power: np.ndarray, seed: int) -> tuple[float, float, dict]:
-    """Equation (7): (e_r, e_c, details) from the rendered rows ``R`` (r, n, 3), clusters ``k``: cluster
-    the even rows into k and 2k clusters and their every other row into k, each evaluated by the exact
-    variance (1) at the odd (held-out) rows. Clamped to ``E_ROWS_RANGE`` / ``E_COLUMNS_RANGE``; a zero
-    variance (held-out rows all exact) counts as the range's top."""
-    from . import cluster_reduced_columns
-
-    n = R.shape[1]
-    k = int(max(1, min(k, DECISION_CLUSTERS, n)))
-    if len(R) > DECISION_MAX_ROWS:  # evenly spaced rows (each round's rows are stratified over the image)
-        R = R[np.linspace(0, len(R) - 1, DECISION_MAX_ROWS).round().astype(np.int64)]
-    T, H = np.ascontiguousarray(R[0::2]), np.ascontiguousarray(R[1::2])
-
-    def var(rows, c, stream):
-        cl = cluster_reduced_columns(rows, c, seed=_derived_seed(seed, stream), power=power)
-        return float(row_variance(H, cl).sum())
-
-    v1 = var(T, k, 1 << 24)
-    v2 = var(T, min(2 * k, R.shape[1]), (1 << 24) + 1)
-    v3 = var(np.ascontiguousarray(T[0::2]), k, (1 << 24) + 2)
-
-    def log2_ratio(a, b, lo, hi):
-        if b <= 0.0:
-            return hi if a > 0.0 else lo
-        return float(np.clip(math.log2(max(a, 1e-300) / b), lo, hi))
-
-    e_c = log2_ratio(v1, v2, *E_COLUMNS_RANGE)
-    e_r = log2_ratio(v3, v1, *E_ROWS_RANGE)
-    return e_r, e_c, {"clusters": k, "train_rows": int(len(T)), "held_out_rows": int(len(H)),
-                      "variance": [v1, v2, v3]}
-
-
-def _round_costs(rd: dict) -> tuple[float, float, float]:
-    """(seconds per row, seconds per column, seconds of overhead) of one finished round from its own
-    timings: a row costs its rendering plus its share of the round's clustering (which reads every row so
-    far: it grows with the rows, ~n R projections), a column its rendering; the overhead is what the round
-    spent beside rendering (clustering, combination)."""
+def _round_costs(rd: dict) -> tuple[float, float, float, float]:
+    """(rendering seconds per row, seconds per row with its share of the clustering, seconds per column,
+    seconds of overhead) of one finished round from its own timings. The clustering reads every row so
+    far (~n R projections), so a row also costs its share of it; the overhead is what the round spent
+    beside rendering (clustering, combination)."""
     sec = rd["seconds"]
-    t_r = sec.get("rows", 0.0) / max(rd["new_rows"], 1) + sec.get("clustering", 0.0) / max(rd["total_rows"], 1)
+    t_row = sec.get("rows", 0.0) / max(rd["new_rows"], 1)
+    t_r = t_row + sec.get("clustering", 0.0) / max(rd["total_rows"], 1)
     t_c = sec.get("columns", 0.0) / max(rd["new_columns"], 1)
-    return max(t_r, 1e-9), max(t_c, 1e-9), sec.get("clustering", 0.0) + sec.get("combination", 0.0)
+    return max(t_row, 1e-9), max(t_r, 1e-9), max(t_c, 1e-9), sec.get("clustering", 0.0) + sec.get("combination", 0.0)
 
 
 def _solve_columns(V_t: float, V_req: float, R_t: int, dc_t: int, e_r: float, e_c: float, rows_of, lo: int,
@@ -222,8 +171,8 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
            first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
            add_emitted: bool = True, progress: bool = True, **scene_options) -> RenderResult:
     """Render ``A``'s column sum to a target relative L2 and/or within a time budget, choosing the budget
-    (issue 14, item 3; the schedule, equations (7) and (8): this module's doc): progressive MRCS rounds,
-    the row:column ratio from the rendered rows (which lever cuts the variance more per second), each
+    (issue 14, item 3; the schedule and the ratio (8): this module's doc): progressive MRCS rounds,
+    the row:column ratio from the measured cost of a row against a column (equal rendering time), each
     round's columns predicted from the estimate, stopped when the estimated relative L2
     (``error_estimate``, paired representatives) is <= ``SAFETY`` (0.8) x ``target_error``, or when the
     next round would not fit ``time_budget``, or when it would need more columns than there are lights --
@@ -252,7 +201,7 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         too small for brute force") and ``budget['chosen']``: ``rows`` and ``columns`` (cumulative per
         round: ``mrcs_progressive(A, rows=, columns=, seed=seed)`` reproduces the image), per round
         ``estimates``, ``seconds_per_row`` / ``seconds_per_column`` / ``overhead_seconds`` (measured),
-        ``e_rows`` / ``e_columns`` (7) and ``rows_per_column`` (new rows per new column) behind each
+        and ``rows_per_column`` (new rows per new column) behind each
         next round, and ``why`` (a
         sentence per round); target_error, time_budget, rounds.
 
@@ -288,9 +237,8 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         if not 0.0 < rows_per_column <= 1.0:
             raise ValueError(f"rows_per_column must be in (0, 1], got {rows_per_column}")
     start = time.perf_counter()
-    power = _light_luminance_power(A.lights)
     chosen = {"target_error": target_error, "time_budget": time_budget, "rows": [], "columns": [], "estimates": [],
-              "seconds_per_row": [], "seconds_per_column": [], "overhead_seconds": [], "e_rows": [], "e_columns": [],
+              "seconds_per_row": [], "seconds_per_column": [], "overhead_seconds": [],
               "rows_per_column": [],
               "why": [], "given_rows_per_column": rows_per_column}
     decision_seconds = 0.0
@@ -301,7 +249,6 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
     state: dict = {}
     last = None
     stopped = "all lights"
-    decided_at, e_r, e_c = 0, PRIOR_E_ROWS, 1.0
 
     def plan(_state):
         return pending.pop() if pending else None
@@ -322,39 +269,23 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
             stopped = "max_rounds"
             break
         R_t, C_t, dc_t = int(res.budget["rows"]), int(res.budget["columns"]), int(len(rd["reps"]))
-        # (7): the elasticities from the rows, when there are enough and they doubled since the last look.
-        t_dec0 = time.perf_counter()
-        decision_seconds_last = 0.0
-        if R_t >= DECISION_ROWS and R_t >= 2 * decided_at:
-            e_r, e_c, _ = elasticities(state["R"], dc_t // 2, power, _derived_seed(seed, len(state["rounds"])))
-            decided_at = R_t
-            decision_seconds_last = time.perf_counter() - t_dec0
-        t_r, t_c, t_0 = _round_costs(rd)
-        t_0 += decision_seconds_last
-        measured = decided_at > 0
-        # The measured (7) is noisy where a few pixels carry the variance (veach-ajar: e_r from 0 to 2 between
-        # seeds at the same rows): the ratio (8) uses it within RATIO_RANGE, the prediction within the
-        # PREDICT_* ranges.
-        p_r, p_c = float(np.clip(e_r, *PREDICT_E_ROWS)), float(np.clip(e_c, *PREDICT_E_COLUMNS))
+        t_row, t_r, t_c, t_0 = _round_costs(rd)
         if rows_per_column is None:
-            ratio = float(np.clip(e_r / e_c, *RATIO_RANGE)) * t_c / t_r  # (8): total rows per new column
-            # Until (7) is measured, the next round brings the rows to DECISION_ROWS to measure it.
-            floor = R_t + FIRST_ROWS if measured else max(R_t + FIRST_ROWS, DECISION_ROWS)
+            ratio = t_c / t_row  # (8) with e_r / e_c = 1: total rows per new column
 
-            def rows_of(dc, floor=floor, ratio=ratio):
-                return min(m, max(floor, ratio * dc))
+            def rows_of(dc, R_t=R_t, ratio=ratio):
+                return min(m, max(R_t + FIRST_ROWS, ratio * dc))
         else:
             def rows_of(dc, R_t=R_t):
                 return min(m, R_t + max(FIRST_ROWS, round(rows_per_column * dc)))
         lo, hi = max(first_columns, C_t // 2), max(first_columns, GROWTH * C_t)
         if target_error is not None and 0.0 < eps < math.inf:
-            v = np.array([r["var"].sum() for r in state["rounds"]], np.float64)
+            v = np.array([r["v"] for r in state["rounds"]], np.float64)
             V_t = eps * eps * float(v[-1] * np.sum(1.0 / v)) if np.all(v > 0) else eps * eps
             goal = AIM * SAFETY * target_error
             V_req = 1.0 / (1.0 / goal ** 2 - 1.0 / eps ** 2)
-            dc = _solve_columns(V_t, V_req, R_t, dc_t, p_r, p_c, rows_of, lo, hi)
-            why = (f"estimate {eps:.3%} > {SAFETY:g} x target: {dc} columns predicted to bring it to "
-                   f"{goal:.3%} (e_r {e_r:.2f}, e_c {e_c:.2f})")
+            dc = _solve_columns(V_t, V_req, R_t, dc_t, E_ROWS, E_COLUMNS, rows_of, lo, hi)
+            why = f"estimate {eps:.3%} > {SAFETY:g} x target: {dc} columns predicted to bring it to {goal:.3%}"
             # A round costs its overhead t_0 whatever its size: buy at least as many columns as t_0 pays
             # for (the round costs at most 2x, and another round, t_0 again, becomes unlikely). A timing:
             # not with rows_per_column given (then nothing depends on one).
@@ -381,11 +312,9 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
                 dc = fit
                 why += f"; cut to {dc} columns by the time budget"
         dr = int(max(0, round(rows_of(dc) - R_t)))
-        chosen["seconds_per_row"].append(t_r)
+        chosen["seconds_per_row"].append(t_row)
         chosen["seconds_per_column"].append(t_c)
         chosen["overhead_seconds"].append(t_0)
-        chosen["e_rows"].append(e_r)
-        chosen["e_columns"].append(e_c)
         chosen["rows_per_column"].append(dr / dc)
         chosen["why"].append(why)
         decision_seconds += time.perf_counter() - t_dec
