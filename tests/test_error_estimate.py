@@ -138,6 +138,20 @@ def test_render_to_target_error_and_time_budget(small):
     assert res.budget["stopped"] == "time budget" and res.budget["round"] == 0
 
 
+def test_render_rows_at_equal_rendering_time(small):
+    """(8) of auto_budget with e_r / e_c = 1: each round's rows so far cost as much rendering time as its
+    new columns at the previous round's measured seconds per row and per column (at least 8 new rows)."""
+    A, _ = small
+    res = ml.render(A, target_error=0.01, seed=2, progress=False)
+    ch = res.budget["chosen"]
+    assert len(ch["rows"]) >= 3, ch
+    for i in range(len(ch["rows"]) - 1):
+        R_t, dc = ch["rows"][i], ch["columns"][i + 1] - ch["columns"][i]
+        want = min(A.shape[0], max(R_t + 8, ch["seconds_per_column"][i] / ch["seconds_per_row"][i] * dc))
+        assert ch["rows"][i + 1] == R_t + round(want - R_t), (i, ch)
+        assert ch["rows_per_column"][i] == (ch["rows"][i + 1] - R_t) / dc
+
+
 def test_render_schedule_reproduces_the_image(small):
     """The reported schedule replayed by mrcs_progressive gives the image bit for bit, whether the ratio
     was measured (8) or given; with rows_per_column given, render itself repeats bit for bit."""

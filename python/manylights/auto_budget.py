@@ -17,22 +17,28 @@ After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total
        R t_r / (Δc t_c) = e_r / e_c,   i.e.   R = (e_r / e_c) (t_c / t_r) Δc                  (8)
 
    the rendering time on the rows (all R, rendered so far or new) against the round's new columns is
-   the ratio of what each buys. The exponents are not measured: ``e_r / e_c = 1``, equal rendering time
-   on the rows and on the round's columns, with ``t_r``, ``t_c`` the last round's rendering seconds per
-   row and per column. Rows already rendered are paid for: ``R = max(R_t + 8, (8))``. Why not measured:
-   an earlier version estimated e_r and e_c from held-out variances of clusterings of half the rows; on
-   veach-ajar they scattered from 0 to 2 between seeds at the same rows, cost 0.5-1.4 s a render at 100k
-   lights, and rendered no faster than the fixed ratio (8 seeds, 5%: 12.3 s without against 13.3 s
-   with). The cheapest fixed budgets of ``bench budgets`` spend about equal time on both: cbox 16:128
-   and 32:256 (a row costs ~11 columns: rows 1.4x the columns' time), veach-ajar 256:2048 (~7 columns:
-   0.8x).
+   the ratio of what each buys. The ratio uses no measured exponents: ``e_r / e_c = 1``, equal
+   rendering time on the rows and on the round's columns, with ``t_r``, ``t_c`` the last round's
+   rendering seconds per row and per column. Rows already rendered are paid for:
+   ``R = max(R_t + 8, (8))``. Why not measured: an earlier version estimated e_r and e_c from held-out
+   variances of clusterings of half the rows; on veach-ajar they scattered from 0 to 2 between seeds at
+   the same rows, cost 0.5-1.4 s a render at 100k lights, and bought nothing visible (5%, one 8-seed
+   pass each: 12.3 s at the fixed ratio, 13.9 s with them; passes of the same code differ by more).
+   The cheapest fixed budgets of ``bench budgets`` spend about equal time on both: cbox 16:128 and
+   32:256 (a row costs ~11 columns: rows 1.4x the columns' time), veach-ajar 256:2048 (~7 columns:
+   0.9x).
 3. **The increment from the estimate** instead of blind doubling: the rounds' variances (1) ``v_s`` share
    one scale with the estimate, ``V_s = eps_t^2 v_s sum_s' 1/v_s'`` (the combination (inverse variance)
    gives ``1 / eps_t^2 = sum_s 1 / V_s``); the next round must bring the combination to
    ``(AIM SAFETY e)^2``, so alone it needs ``1 / V_new = 1 / (AIM SAFETY e)^2 - 1 / eps_t^2``, predicted by
    ``V_new = V_t (R / R_t)^-e_r (Δc / Δc_t)^-e_c`` with R from (8) and Monte Carlo's ``e_c = 1``,
-   ``e_r = 1/2`` (``E_COLUMNS``, ``E_ROWS``; cautious where the variance collapses faster, as on
-   veach-ajar); Δc solves it (bisection), at least
+   ``e_r = 1/2`` (``E_COLUMNS``, ``E_ROWS``). Where the variance collapses faster (veach-ajar, once the
+   clusters catch the VPL splotches) this asks for too much: after the round of 4,000 columns 1% renders
+   took the 4x cap and ended at 0.06% (true, mean) with 18,222 columns where the cheapest fixed budget
+   has 8,192. An exponent from the last two rounds' estimates (``[ln(V_{t-1} / V_t) - e_r ln(R_t /
+   R_{t-1})] / ln(Δc_t / Δc_{t-1})`` in [1, 2]) was tried in the same bench: 5% 2.12x with one seed of 8
+   stopping at 2,636 columns and 6.0% true, 2% 1.97x, 8/8, 1% worse (the first six seeds 45 s on the
+   mean against 36 s; one went to 41,792 columns): not kept. Δc solves it (bisection), at least
    ``max(c_0, C_t / 2)`` (every round re-clusters all rows: small rounds do not pay) and at most
    ``GROWTH`` (4) x the columns so far (predictions from small rounds run far: on veach-ajar 16x and 8x
    caps ended 5% renders at 0.3-1.3% with 6,500-11,300 columns). AIM = 0.85 is the margin: a seed that lands
@@ -54,17 +60,16 @@ floor of step 3 is not applied, and nothing depends on a timing: the same seed g
 
 Measured (``python -m manylights.bench budgets``, CPU, 100k lights, 8 seeds, paired time ratio against the
 cheapest fixed MRCS budget reaching e; README "At the issue's size"): cbox 128^2 true <= e in 100/100/100%
-of seeds at 5/2/1%, 1.12x / 1.94x / 2.01x (an earlier run of the same code: 1.14x / 2.14x / 1.71x; 2% over
-16 seeds 1.85x); veach-ajar 128x72 100/88/100%, 2.48x / 2.21x / 2.03x (earlier run 100/100/100%, 2.68x /
-2.73x / 1.79x; last session 75/100/100%, 2.44x / 3.10x / 2.11x, before the halves rendered a column drawn
-twice once and the rows so far were kept in a growing buffer). Where it falls short: on veach-ajar
-the variance collapses once rows and clusters catch the VPL splotches, which no local power law (step 3)
-foresees, so rounds hit the 4x cap and the last one overshoots; the estimate is not monotone over rounds
-(it rises when rows first see a splotch); each round re-clusters all rows of all lights (~1 s at 100k);
-and the halves use c/2 clusters, which on veach-ajar is the largest cost: its MRCS error collapses once
-each splotch VPL has a cluster of its own (48x27 px, 8k lights, 64 rows x 1,024 columns: plain 0.35%,
-halves 9.7%, plain at 512 columns 10.8%), so rounds need about twice the cheapest fixed budget's columns
-(a light drawn by both halves is rendered once, which pays back part of it; README, "At the issue's size").
+of seeds at 5/2/1%, 1.04x / 1.86x / 1.80x (last bench, with the elasticities and the weights at own
+rows: 1.12x / 1.94x / 2.01x); veach-ajar 128x72 100/88/100%, 2.17x / 2.14x / 2.58x (last bench
+100/88/100%, 2.48x / 2.21x / 2.03x). Where it falls short: on veach-ajar the variance collapses once rows
+and clusters catch the VPL splotches, which no local power law (step 3) foresees, so rounds hit the 4x
+cap and the last one overshoots (1%: 18,222 columns on the mean, true 0.06%, against the fixed 8,192);
+each round re-clusters all rows of all lights (~1 s at 100k); and the halves use c/2 clusters, which on
+veach-ajar is the largest cost: its MRCS error collapses once each splotch VPL has a cluster of its own
+(48x27 px, 8k lights, 64 rows x 1,024 columns: plain 0.35%, halves 9.7%, plain at 512 columns 10.8%), so
+rounds need about twice the cheapest fixed budget's columns (a light drawn by both halves is rendered
+once, which pays back part of it).
 
 Symbols
 -------
