@@ -1018,6 +1018,8 @@ cases_for("mrcs_progressive", [
     ("NaN rounds", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=2, rounds=float("nan")), ["rounds"]),
     ("one column per round", lambda c: c.ml.mrcs_progressive(c.A, rows=4, columns=1, rounds=2), ["2 new columns"]),
     ("decreasing columns", lambda c: c.ml.mrcs_progressive(c.A, rows=[4, 8], columns=[4, 2]), ["increasing"]),
+    ("repeated columns", lambda c: c.ml.mrcs_progressive(c.A, rows=[4, 8], columns=[4, 4]), ["strictly increasing"]),
+    ("decreasing rows", lambda c: c.ml.mrcs_progressive(c.A, rows=[8, 4], columns=[2, 4]), ["rows", "non-decreasing"]),
     ("empty columns", lambda c: c.ml.mrcs_progressive(c.A, rows=[], columns=[]), ["at least one"]),
     ("rounds do not match the list", lambda c: c.ml.mrcs_progressive(c.A, rows=[4, 8], columns=[2, 4], rounds=3),
      ["rounds"]),

@@ -150,6 +150,9 @@ def test_render_rows_at_equal_rendering_time(small):
         want = min(A.shape[0], max(R_t + 8, ch["seconds_per_column"][i] / ch["seconds_per_row"][i] * dc))
         assert ch["rows"][i + 1] == R_t + round(want - R_t), (i, ch)
         assert ch["rows_per_column"][i] == (ch["rows"][i + 1] - R_t) / dc
+    ratio_rounds = [i for i in range(len(ch["rows"]) - 1) if ch["seconds_per_column"][i] / ch["seconds_per_row"][i]
+                    * (ch["columns"][i + 1] - ch["columns"][i]) > ch["rows"][i] + 8]
+    assert ratio_rounds, ch  # the ratio, not the 8-row floor, set some round's rows
 
 
 def test_render_schedule_reproduces_the_image(small):
@@ -270,32 +273,57 @@ def test_lights_seen_equals_any_over_rows_and_channels():
 
 
 def test_progressive_weights_from_rows_the_clustering_did_not_see(small):
-    """The combination weights: a round's v is the mean of (1) per row at its own rows (at most WEIGHT_ROWS)
-    until later rounds bring new rows, then at those held-out rows only (at most WEIGHT_ROWS of each
-    batch), each batch evaluated once; a = (1/v) / sum(1/v)."""
+    """The combination weights: a round's v is the mean of (1) per row at its own rows (at most WEIGHT_ROWS
+    of all rows so far) until later rounds bring new rows, then the running mean at those held-out rows
+    (at most WEIGHT_ROWS of each batch), each batch evaluated once; a = (1/v) / sum(1/v)."""
     A, _ = small
+    W = adaptive.WEIGHT_ROWS
     state: dict = {}
     plan = iter([(8, 32), (72, 64), (0, 64), (16, 128)])
     gen = adaptive._progressive(A, lambda st: next(plan, None), 4, 5, True, False, {}, state)
     next(gen)
     rd0 = state["rounds"][0]
     np.testing.assert_allclose(rd0["v"], adaptive.row_variance(state["R"], rd0["clustering"]).sum() / 8, rtol=1e-12)
-    next(gen)  # 72 new rows: 48 of them held out for round 0
-    assert rd0["held_out_rows"] == adaptive.WEIGHT_ROWS
-    held = adaptive._weight_rows(72, adaptive._derived_seed(adaptive._derived_seed(5, 1), 1 << 25)) + 8
-    assert held.min() >= 8 and len(np.unique(held)) == adaptive.WEIGHT_ROWS
-    v_held = adaptive.row_variance(state["R"][held], rd0["clustering"]).sum() / adaptive.WEIGHT_ROWS
-    np.testing.assert_allclose(rd0["v"], v_held, rtol=1e-12)
-    assert rd0["v"] != rd0["own_variance"].sum() / 8  # the held-out rows replace the own rows
+    own0 = rd0["v"]
+    next(gen)  # 72 new rows: W of them held out for round 0
+    s1 = adaptive._derived_seed(5, 1)
+    np.testing.assert_array_equal(state["rows"][8:], ml.stratified_rows(A.scene, 72, seed=s1))
+    held1 = np.sort(np.random.default_rng(adaptive._derived_seed(s1, 1 << 25)).choice(72, W, replace=False)) + 8
+    v1 = adaptive.row_variance(state["R"][held1], rd0["clustering"]).sum()
+    assert rd0["held_out_rows"] == W and v1 > 0
+    np.testing.assert_allclose(rd0["v"], v1 / W, rtol=1e-12)
+    assert rd0["v"] != own0  # the held-out rows replace the own rows
     rd1 = state["rounds"][1]
-    own = adaptive._weight_rows(80, adaptive._derived_seed(adaptive._derived_seed(5, 1), (1 << 25) + 1))
-    assert len(own) == adaptive.WEIGHT_ROWS  # 80 rows so far: 48 of them
-    np.testing.assert_allclose(rd1["v"], adaptive.row_variance(state["R"][own], rd1["clustering"]).sum() / 48,
+    own1 = np.sort(np.random.default_rng(adaptive._derived_seed(s1, (1 << 25) + 1)).choice(80, W, replace=False))
+    np.testing.assert_allclose(rd1["v"], adaptive.row_variance(state["R"][own1], rd1["clustering"]).sum() / W,
                                rtol=1e-12)
     next(gen)  # no new rows: nothing held out, the earlier rounds keep their v
-    assert rd0["held_out_rows"] == 48 and rd1["held_out_rows"] == 0
-    res = next(gen)  # 16 new rows, all held out for rounds 0-2
-    assert [rd["held_out_rows"] for rd in state["rounds"]] == [64, 16, 16, 0]
+    assert rd0["held_out_rows"] == W and rd1["held_out_rows"] == 0
+    np.testing.assert_allclose(rd0["v"], v1 / W, rtol=1e-12)
+    res = next(gen)  # 16 new rows (at 80..95), all held out for rounds 0-2
+    assert [rd["held_out_rows"] for rd in state["rounds"]] == [W + 16, 16, 16, 0]
+    v3 = adaptive.row_variance(state["R"][80:96], rd0["clustering"]).sum()
+    np.testing.assert_allclose(rd0["v"], (v1 + v3) / (W + 16), rtol=1e-12)  # a running mean over batches
     v = np.array([rd["v"] for rd in state["rounds"]])
     np.testing.assert_allclose(state["rounds"][-1]["combination_weights"], (1 / v) / np.sum(1 / v), rtol=1e-12)
     assert res.budget["rows"] == 96 and res.budget["columns"] == 288
+
+
+def test_round_variance_zero_held_out_is_not_exact():
+    """A held-out variance of 0 (e.g. background rows) keeps the own rows' v; only 0 at both is exact."""
+    own = np.array([[1.0, 2.0, 3.0], [0.0, 0.0, 2.0]])
+    assert adaptive.round_variance({"own_variance": own, "held_out_variance": 0.0, "held_out_rows": 0}) == 4.0
+    assert adaptive.round_variance({"own_variance": own, "held_out_variance": 0.0, "held_out_rows": 8}) == 4.0
+    assert adaptive.round_variance({"own_variance": own, "held_out_variance": 6.0, "held_out_rows": 8}) == 0.75
+    assert adaptive.round_variance({"own_variance": 0 * own, "held_out_variance": 0.0, "held_out_rows": 8}) == 0.0
+
+
+def test_progressive_round_without_new_rows(small):
+    """Cumulative rows may repeat (a round of columns only, as render's once every pixel is a row); they may
+    not fall."""
+    A, _ = small
+    res = list(ml.mrcs_progressive(A, rows=[8, 16, 16], columns=[32, 64, 128], seed=2, progress=False))
+    assert [r.budget["rows"] for r in res] == [8, 16, 16]
+    assert [r.budget["columns"] for r in res] == [32, 64, 128] and res[-1].error_estimate > 0
+    with pytest.raises(ValueError, match="non-decreasing"):
+        ml.mrcs_progressive(A, rows=[16, 8], columns=[32, 64])

@@ -81,7 +81,9 @@ independent unbiased half estimates ``X_t1``, ``X_t2`` of ΣA given the rows. Ro
 
 where the rows are those round t's clustering did not see -- the new rows of the later rounds, at most
 ``WEIGHT_ROWS`` = 48 of each round's batch (drawn with that round's seed) -- once there are any, and
-before that at most 48 of its own rows. Each (round, batch) pair is evaluated once. (1) at a
+before that (or while their variance is 0) at most 48 of its own rows. Each (round, batch) pair is
+evaluated once. Rows of different rounds are stratified with different seeds, so a held-out row is
+almost always a pixel the clustering did not see (it repeats one with probability ~R/m). (1) at a
 clustering's own rows is low where those rows missed a VPL splotch: with all weights at 48 own rows, on
 veach-ajar (5%, seed 1) a round estimated at 70% kept enough weight to hold the combination at 12% after
 a round of 2,048 columns, and the schedule added one of 8,192; weighted at all rows, the same schedule
@@ -332,14 +334,16 @@ def _derived_seed(seed: int, stream: int) -> int:
 # --------------------------------------------------------------------------------------------------
 # progressive MRCS
 # --------------------------------------------------------------------------------------------------
-def _schedule(name: str, value, rounds: Optional[int], limit: int, what: str) -> list[int]:
-    """Per-round increments from an int (first round, doubling) or a list of cumulative totals."""
+def _schedule(name: str, value, rounds: Optional[int], limit: int, what: str, strict: bool = True) -> list[int]:
+    """Per-round increments from an int (first round, doubling) or a list of cumulative totals (strictly
+    increasing, or non-decreasing with ``strict=False``)."""
     if isinstance(value, (list, tuple, np.ndarray)):
         totals = [_v.integer(f"{name}[{k}]", v, 1, limit) for k, v in enumerate(value)]
         if not totals:
             raise ValueError(f"{name} must list at least one cumulative total, got []")
-        if any(b <= a for a, b in zip(totals, totals[1:])):
-            raise ValueError(f"{name} must be strictly increasing cumulative totals per round, got {list(totals)}")
+        if any(b < a or (strict and b == a) for a, b in zip(totals, totals[1:])):
+            order = "strictly increasing" if strict else "non-decreasing"
+            raise ValueError(f"{name} must be {order} cumulative totals per round, got {list(totals)}")
         if rounds is not None and rounds != len(totals):
             raise ValueError(f"rounds = {rounds} does not match the {len(totals)} totals given in {name}")
         return [b - a for a, b in zip([0] + totals[:-1], totals)]
@@ -362,7 +366,8 @@ def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed
     Args:
         A: a ``LightMatrix`` (either backend).
         rows: the first round's new rows (int; round t adds ``rows * 2**t``) or the cumulative row totals
-            per round (strictly increasing list, one per round).
+            per round (non-decreasing list, one per round, the first >= 1: a round may add no rows, as
+            ``render`` does once every pixel is a row).
         columns: the first round's clusters = representative columns (int; round t adds
             ``columns * 2**t``) or the cumulative column totals per round (list).
         rounds: number of rounds (needed when both are ints; must match the lists' length otherwise).
@@ -395,7 +400,7 @@ def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed
     if rounds is not None:
         rounds = _v.integer("rounds", rounds, 1, 64)
     dc = _schedule("columns", columns, rounds, n, "lights")
-    dr = _schedule("rows", rows, len(dc) if rounds is None else rounds, m, "pixels (view samples)")
+    dr = _schedule("rows", rows, len(dc) if rounds is None else rounds, m, "pixels (view samples)", strict=False)
     if len(dr) != len(dc):
         raise ValueError(f"rows give {len(dr)} rounds and columns {len(dc)}: give the same number")
     if sum(dc) > n:
@@ -406,7 +411,8 @@ def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed
     return _progressive(A, lambda state: next(plan, None), len(dc), seed, add_emitted, progress, cluster_options)
 
 
-#: The combination weights evaluate (1) at this many rows of each round's batch of new rows (or all of them).
+#: The combination weights evaluate (1) at this many rows of each round's batch of new rows (held out for the
+#: earlier rounds) and at this many of all rows so far (the new round's own); at all of them when fewer.
 WEIGHT_ROWS = 48
 
 
@@ -427,7 +433,7 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
     state = {} if state is None else state
     state.update({"R": None, "rows": np.zeros(0, np.int64), "rounds": [], "round": 0, "seen": False,
                   "R_buffer": None})
-    rounds = state["rounds"]  # per round: clustering, half images X1, X2, variance (1) at the weight rows (rows, 3)
+    rounds = state["rounds"]  # per round: clustering, half images X1, X2, v (round_variance) and its parts
     timings: dict = {}
     bar = progress_bar(planned_rounds, "mrcs_progressive", progress, unit="round")
     with bar as cb:
@@ -456,8 +462,9 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
             rounds.append({"clustering": cl, "reps": reps, "weights": weights, "X1": X1, "X2": X2,
                            "new_rows": r_t, "new_columns": c_t, "total_rows": int(len(row_all))})
             # Combination weights from the rows only (never from the draws): v_t is the mean (1) per row
-            # at rows round t's clustering did not see (WEIGHT_ROWS of each later batch) once there are any,
-            # before that at WEIGHT_ROWS of its own rows (module doc: own rows miss the splotches).
+            # at rows round t's clustering did not see (WEIGHT_ROWS of each later batch) once there are any
+            # (and their variance is > 0), before that at WEIGHT_ROWS of all rows so far (its own rows;
+            # module doc: own rows miss the splotches).
             n_prev = len(row_all) - len(new_rows)
             if len(new_rows) and len(rounds) > 1:
                 held = _weight_rows(len(new_rows), _derived_seed(s_t, 1 << 25)) + n_prev
@@ -465,11 +472,11 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
                 for rd in rounds[:-1]:
                     rd["held_out_variance"] += float(row_variance(R_h, rd["clustering"]).sum())
                     rd["held_out_rows"] += len(held)
-                    rd["v"] = rd["held_out_variance"] / rd["held_out_rows"]
             own = _weight_rows(len(row_all), _derived_seed(s_t, (1 << 25) + 1))
-            rd = rounds[-1]
-            rd["own_variance"] = row_variance(np.ascontiguousarray(R_all[own]), rd["clustering"])
-            rd.update(held_out_variance=0.0, held_out_rows=0, v=float(rd["own_variance"].sum()) / max(len(own), 1))
+            rounds[-1].update(own_variance=row_variance(np.ascontiguousarray(R_all[own]), rounds[-1]["clustering"]),
+                              held_out_variance=0.0, held_out_rows=0)
+            for rd in rounds:
+                rd["v"] = round_variance(rd)
             v = np.array([rd["v"] for rd in rounds])
             a = (v <= 0).astype(np.float64) if np.any(v <= 0) else 1.0 / v  # exact rounds win outright
             a /= a.sum()
@@ -496,6 +503,17 @@ def _progressive(A, plan, planned_rounds: int, seed: int, add_emitted: bool, pro
                 cb(t, planned_rounds)
                 _show_estimate(bar, res)
             yield res
+
+
+def round_variance(rd: dict) -> float:
+    """v_t of the combination weights (module doc): the mean variance (1) per row (channels summed) at the
+    held-out rows ``rd['held_out_variance'] / rd['held_out_rows']`` when that is > 0, else at the round's
+    own rows (``rd['own_variance']``, (rows, 3)). A held-out variance of 0 (e.g. a few background rows)
+    does not make a round exact; only 0 at both does (then it wins the combination outright)."""
+    if rd["held_out_rows"] > 0 and rd["held_out_variance"] > 0.0:
+        return rd["held_out_variance"] / rd["held_out_rows"]
+    own = rd["own_variance"]
+    return float(own.sum()) / max(len(own), 1)
 
 
 def _weight_rows(count: int, seed: int) -> np.ndarray:

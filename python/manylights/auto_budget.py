@@ -5,8 +5,9 @@ inverse-variance combination).
 Schedule
 --------
 Round 0 is a pilot of ``r_0 = 8`` rows and ``c_0 = 32`` columns. Its OWN rows, columns and clustering are
-timed (``t_r`` seconds per row plus its share of the clustering, which reads every row so far, ``t_c``
-per column; every later round re-times them from its own work): nothing is rendered only to time it.
+timed (``t_r`` rendering seconds per row, ``t_c`` per column; a time budget also counts a row's share of
+the clustering, which reads every row so far; every later round re-times them from its own work):
+nothing is rendered only to time it.
 After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total and ``Δc_t`` new columns:
 
 1. **Stop** when ``eps_t <= SAFETY e`` (0.8 e), or when the next round would not fit the time budget.
@@ -19,7 +20,10 @@ After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total
    the rendering time on the rows (all R, rendered so far or new) against the round's new columns is
    the ratio of what each buys. The ratio uses no measured exponents: ``e_r / e_c = 1``, equal
    rendering time on the rows and on the round's columns, with ``t_r``, ``t_c`` the last round's
-   rendering seconds per row and per column. Rows already rendered are paid for:
+   rendering seconds per row and per column. That is an empirical choice, not (8) at the prediction's
+   exponents of step 3 (which would give rows half the columns' time): it is what the cheapest fixed
+   budgets spend (below), and the blind spot of rows (adaptive's doc) makes rows worth more than a
+   power law says. Rows already rendered are paid for:
    ``R = max(R_t + 8, (8))``. Why not measured: an earlier version estimated e_r and e_c from held-out
    variances of clusterings of half the rows; on veach-ajar they scattered from 0 to 2 between seeds at
    the same rows, cost 0.5-1.4 s a render at 100k lights, and bought nothing visible (5%, one 8-seed
@@ -28,8 +32,10 @@ After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total
    32:256 (a row costs ~11 columns: rows 1.4x the columns' time), veach-ajar 256:2048 (~7 columns:
    0.9x).
 3. **The increment from the estimate** instead of blind doubling: the rounds' variances (1) ``v_s`` share
-   one scale with the estimate, ``V_s = eps_t^2 v_s sum_s' 1/v_s'`` (the combination (inverse variance)
-   gives ``1 / eps_t^2 = sum_s 1 / V_s``); the next round must bring the combination to
+   one scale with the estimate (nearly: the newest round's v is at its own rows, the others' at held-out
+   rows, so V_t reads low where own rows miss a splotch), ``V_s = eps_t^2 v_s sum_s' 1/v_s'`` (the
+   combination (inverse variance) gives ``1 / eps_t^2 = sum_s 1 / V_s``); the next round must bring the
+   combination to
    ``(AIM SAFETY e)^2``, so alone it needs ``1 / V_new = 1 / (AIM SAFETY e)^2 - 1 / eps_t^2``, predicted by
    ``V_new = V_t (R / R_t)^-e_r (Δc / Δc_t)^-e_c`` with R from (8) and Monte Carlo's ``e_c = 1``,
    ``e_r = 1/2`` (``E_COLUMNS``, ``E_ROWS``). Where the variance collapses faster (veach-ajar, once the
@@ -77,9 +83,9 @@ Symbols
 |---|---|
 | ``e``, ``eps_t`` | target relative L2, the combined estimate (3) after round t |
 | ``R_t``, ``C_t``, ``Δc_t``, ``ΔR`` | rows so far, columns so far, round t's new columns, next round's new rows |
-| ``t_r``, ``t_c`` | measured rendering seconds per row and per column, last round (a time budget also counts a row's share of the clustering) |
+| ``t_r``, ``t_c`` | measured rendering seconds per row and per column, last round (see Schedule) |
 | ``e_r``, ``e_c`` | exponents of the variance in rows and columns (``V ~ R^-e_r Δc^-e_c``) |
-| ``V_s``, ``v_s`` | round s's variance alone (relative^2) and its mean variance (1) per row (its combination weight's) |
+| ``V_s``, ``v_s`` | round s's variance alone (relative^2), its mean variance (1) per row (``round_variance``) |
 | ``SAFETY``, ``AIM``, ``GROWTH`` | stop at 0.8 e; aim rounds at 0.85 x that; at most 4x the columns so far per round |
 """
 from __future__ import annotations
@@ -205,10 +211,10 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
         error reached", "time budget", "max_rounds", "all lights: brute force", "all lights: time budget
         too small for brute force") and ``budget['chosen']``: ``rows`` and ``columns`` (cumulative per
         round: ``mrcs_progressive(A, rows=, columns=, seed=seed)`` reproduces the image), per round
-        ``estimates``, ``seconds_per_row`` / ``seconds_per_column`` / ``overhead_seconds`` (measured),
-        and ``rows_per_column`` (new rows per new column) behind each
-        next round, and ``why`` (a
-        sentence per round); target_error, time_budget, rounds.
+        ``estimates``, ``seconds_per_row`` (rendering only; older results included the clustering's
+        share) / ``seconds_per_column`` / ``overhead_seconds`` (measured) and ``rows_per_column`` (new
+        rows per new column) behind each next round, ``why`` (a sentence per round); target_error,
+        time_budget, rounds.
 
     Raises:
         TypeError: A is not a LightMatrix or a path; scene_options with a LightMatrix.
