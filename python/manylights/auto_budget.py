@@ -76,6 +76,10 @@ veach-ajar is the largest cost: its MRCS error collapses once each splotch VPL h
 (48x27 px, 8k lights, 64 rows x 1,024 columns: plain 0.35%, halves 9.7%, plain at 512 columns 10.8%), so
 rounds need about twice the cheapest fixed budget's columns (a light drawn by both halves is rendered
 once, which pays back part of it).
+Rows at half the columns' time (``e_r / e_c`` = 1/2) instead of equal time, measured later on another
+machine (veach-ajar, 8 seeds): 5% 14.6 s and 2% 26.6 s (7/8 each) against 12.2 s (6/8) and 16.7 s (7/8) at
+equal time, 1% 1.68x the fixed 512:8192 on 6 seeds (6/6): rows pay for the blind spot while they are few,
+little once they are many; not kept (README, "Measured since").
 
 Symbols
 -------
