@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 export XDG_RUNTIME_DIR ?= /tmp/manylights-runtime
 export HOME ?= /root
 
-.PHONY: all setup system venv build demo test test-rust test-python bench clean fuzz fuzz-tools fuzz-cmin fuzz-add-image
+.PHONY: all setup system venv build demo test test-rust test-python lint bench clean fuzz fuzz-tools fuzz-cmin fuzz-add-image
 
 all: build
 
@@ -39,7 +39,11 @@ test-rust: setup
 test-python: build
 	$(PY) -m pytest -q tests
 
-test: build test-rust test-python
+# Style: ruff (pyproject.toml: pyflakes, pycodestyle's errors, sorted imports) over the package and the tests.
+lint: venv
+	$(VENV)/bin/ruff check python tests
+
+test: lint build test-rust test-python
 
 bench: build
 	$(PY) -m manylights.bench --help

@@ -1440,6 +1440,7 @@ NOT_COVERED: dict[str, str] = {
     "RenderResult": "a dataclass that only holds results (no validation of its own)",
     "TensorClustering": "a dataclass that only holds results; made by cluster_tensor (covered)",
     "KMeansResult": "a dataclass that only holds results; made by kmeans (covered)",
+    "AnimationLights": "a container of the per-frame LightSets that generate_animation_lights makes (covered)",
     "scenes.available": "takes no arguments",
     "scenes.animated": "takes no arguments",
     "Animation.gbuffers": "takes no arguments (the device is the Animation's, checked when it is made)",

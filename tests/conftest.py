@@ -65,7 +65,7 @@ def save_failure_images(name: str, **images) -> Path:
 @pytest.fixture(scope="session")
 def mitsuba_ref():
     """The reference module with Mitsuba imported (skips nothing: Mitsuba is a test dependency)."""
-    from manylights import reference
+    from manylights.testing import mitsuba as reference
 
     reference.mitsuba()
     return reference

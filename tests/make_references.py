@@ -25,7 +25,7 @@ sys.path.insert(0, str(HERE))
 from conftest import SCENES  # noqa: E402
 
 import manylights as ml  # noqa: E402
-from manylights import reference  # noqa: E402
+from manylights.testing import mitsuba as reference  # noqa: E402
 
 OUT = HERE / "references"
 

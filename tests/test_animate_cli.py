@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights import __main__ as cli
-from manylights import bench
+import manylights.cli as cli
+from manylights.bench import __main__ as bench
 
 iio = pytest.importorskip("imageio.v3")
 

@@ -9,7 +9,7 @@ import pytest
 
 import manylights as ml
 import manylights.scenes
-from manylights import reference
+from manylights.testing import mitsuba as reference
 
 BOUNCE = ml.scenes.scene_path("bounce")
 

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from manylights import bench
+from manylights.bench import __main__ as bench
 
 
 def test_backends_benchmark_writes_both_devices(tmp_path):

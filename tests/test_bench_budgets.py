@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from manylights import bench_budgets
+from manylights.bench import budgets as bench_budgets
 
 
 def test_budgets_bench_runs_and_its_ratios_come_from_its_numbers(tmp_path):

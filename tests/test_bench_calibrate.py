@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from manylights import bench_calibrate
+from manylights.bench import calibrate as bench_calibrate
 
 
 def test_calibrate_bench_keeps_light_counts_apart(tmp_path):

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from manylights import bench_compare
+from manylights.bench import compare as bench_compare
 
 
 def test_compare_puts_every_renderer_on_one_chart(tmp_path):
@@ -56,7 +56,7 @@ def test_light_models_side_by_side_record_their_model(tmp_path):
 
     import manylights as ml
     from manylights.scenes import scene_path
-    from manylights.sweep_worker import light_counts
+    from manylights.distributed.worker import light_counts
 
     scene = ml.load_scene(scene_path("cbox"), size=(16, 16))
     lights = ml.generate_lights(scene, **light_counts(scene, {"total": 400, "seed": 0}))
@@ -92,7 +92,7 @@ def test_light_models_side_by_side_record_their_model(tmp_path):
 
 def test_light_model_settings_are_checked(tmp_path):
     import manylights as ml
-    from manylights import bench_light_models as blm
+    from manylights.bench import light_models as blm
 
     with pytest.raises(ValueError, match="bias compensation applies to clamped VPLs"):
         ml.sweep("cbox", light_models={"x": {"lights": {"indirect_kind": "vsl"}, "bias_compensation": {"spp": 1}}},

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights import bench_relight as br
+from manylights.bench import relight as br
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights import bench, bench_vs_mitsuba as bvm
+from manylights.bench import __main__ as bench
+from manylights.bench import vs_mitsuba as bvm
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 

@@ -21,11 +21,11 @@ import pytest
 from conftest import REPO, SCENES as SHARED_SCENES
 
 import manylights as ml
-from manylights import bench
+from manylights.bench import lights as bench_lights
 from manylights.scenes import SCENES_DIR, animated, available, resolve, scene_path
 
 PRODUCT_FILES = sorted(
-    [*(REPO / "python" / "manylights").glob("*.py"), *(REPO / "notebooks").glob("*.ipynb"), REPO / "Makefile",
+    [*(REPO / "python" / "manylights").rglob("*.py"), *(REPO / "notebooks").glob("*.ipynb"), REPO / "Makefile",
      *(REPO / "scripts").glob("*"), REPO / "README.md", REPO / "pyproject.toml"]
 )
 NOTEBOOKS = sorted((REPO / "notebooks").glob("*.ipynb"))
@@ -49,7 +49,7 @@ def named_scenes() -> dict[str, set[str]]:
     for nb in NOTEBOOKS:
         for m in re.finditer(r'scene_path\(\\?"([\w.-]+)\\?"\)', nb.read_text()):
             add(m.group(1), nb.name)
-    for name, (bundled, _, _) in bench.LIGHT_SCENES.items():
+    for name, (bundled, _, _) in bench_lights.LIGHT_SCENES.items():
         add(bundled, "bench lights")
     add("demo", "CLI demo")
     for name in animated():
@@ -118,7 +118,7 @@ def test_no_shared_lookup_in_product():
                     continue  # the README says where the *test suite* finds its extra scenes
                 if f.name == "Makefile" and pat == r"/tmp/":
                     continue  # XDG_RUNTIME_DIR default, not a data path
-                if f.name == "reference.py" and "shared/docs" in text.splitlines()[line - 1]:
+                if f.name == "mitsuba.py" and "shared/docs" in text.splitlines()[line - 1]:
                     continue  # a docstring citing the conventions document
                 bad.append(f"{f.relative_to(REPO)}:{line}: {m.group(0)}")
     assert not bad, bad

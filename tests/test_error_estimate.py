@@ -1,10 +1,13 @@
-"""Issue 14: the MRCS error estimate without the reference, and progressive MRCS (manylights.adaptive)."""
+"""Issue 14: the MRCS error estimate without the reference, and progressive MRCS (manylights.renderers.estimates, manylights.renderers.progressive)."""
 import numpy as np
 import pytest
 
 import manylights as ml
-from manylights import adaptive, auto_budget
-from manylights.mrcs import _light_luminance_power
+from manylights.renderers import budget as auto_budget
+from manylights.renderers import estimates as adaptive
+from manylights.renderers import progressive
+from manylights._utils.seeds import derived_seed
+from manylights.renderers.result import light_luminance_power as _light_luminance_power
 from conftest import SCENE_CONFIGS
 
 BUDGETS = [(16, 32), (32, 64), (32, 128), (64, 256)]
@@ -252,7 +255,7 @@ def test_progressive_rows_buffer_equals_concatenation():
     state = {"R": None, "R_buffer": None}
     blocks = [rng.random((r, 7, 3)).astype(np.float32) for r in (3, 1, 5, 0, 9)]
     for k in range(len(blocks)):
-        got = adaptive._grow_rows(state, blocks[k])
+        got = progressive._grow_rows(state, blocks[k])
         np.testing.assert_array_equal(got, np.concatenate(blocks[:k + 1]))
         assert got.flags["C_CONTIGUOUS"] and got.dtype == np.float32
     assert len(state["R_buffer"]) >= 18
@@ -277,24 +280,24 @@ def test_progressive_weights_from_rows_the_clustering_did_not_see(small):
     of all rows so far) until later rounds bring new rows, then the running mean at those held-out rows
     (at most WEIGHT_ROWS of each batch), each batch evaluated once; a = (1/v) / sum(1/v)."""
     A, _ = small
-    W = adaptive.WEIGHT_ROWS
+    W = progressive.WEIGHT_ROWS
     state: dict = {}
     plan = iter([(8, 32), (72, 64), (0, 64), (16, 128)])
-    gen = adaptive._progressive(A, lambda st: next(plan, None), 4, 5, True, False, {}, state)
+    gen = progressive.progressive_rounds(A, lambda st: next(plan, None), 4, 5, True, False, {}, state)
     next(gen)
     rd0 = state["rounds"][0]
     np.testing.assert_allclose(rd0["v"], adaptive.row_variance(state["R"], rd0["clustering"]).sum() / 8, rtol=1e-12)
     own0 = rd0["v"]
     next(gen)  # 72 new rows: W of them held out for round 0
-    s1 = adaptive._derived_seed(5, 1)
+    s1 = derived_seed(5, 1)
     np.testing.assert_array_equal(state["rows"][8:], ml.stratified_rows(A.scene, 72, seed=s1))
-    held1 = np.sort(np.random.default_rng(adaptive._derived_seed(s1, 1 << 25)).choice(72, W, replace=False)) + 8
+    held1 = np.sort(np.random.default_rng(derived_seed(s1, 1 << 25)).choice(72, W, replace=False)) + 8
     v1 = adaptive.row_variance(state["R"][held1], rd0["clustering"]).sum()
     assert rd0["held_out_rows"] == W and v1 > 0
     np.testing.assert_allclose(rd0["v"], v1 / W, rtol=1e-12)
     assert rd0["v"] != own0  # the held-out rows replace the own rows
     rd1 = state["rounds"][1]
-    own1 = np.sort(np.random.default_rng(adaptive._derived_seed(s1, (1 << 25) + 1)).choice(80, W, replace=False))
+    own1 = np.sort(np.random.default_rng(derived_seed(s1, (1 << 25) + 1)).choice(80, W, replace=False))
     np.testing.assert_allclose(rd1["v"], adaptive.row_variance(state["R"][own1], rd1["clustering"]).sum() / W,
                                rtol=1e-12)
     next(gen)  # no new rows: nothing held out, the earlier rounds keep their v
@@ -312,10 +315,10 @@ def test_progressive_weights_from_rows_the_clustering_did_not_see(small):
 def test_round_variance_zero_held_out_is_not_exact():
     """A held-out variance of 0 (e.g. background rows) keeps the own rows' v; only 0 at both is exact."""
     own = np.array([[1.0, 2.0, 3.0], [0.0, 0.0, 2.0]])
-    assert adaptive.round_variance({"own_variance": own, "held_out_variance": 0.0, "held_out_rows": 0}) == 4.0
-    assert adaptive.round_variance({"own_variance": own, "held_out_variance": 0.0, "held_out_rows": 8}) == 4.0
-    assert adaptive.round_variance({"own_variance": own, "held_out_variance": 6.0, "held_out_rows": 8}) == 0.75
-    assert adaptive.round_variance({"own_variance": 0 * own, "held_out_variance": 0.0, "held_out_rows": 8}) == 0.0
+    assert progressive.round_variance({"own_variance": own, "held_out_variance": 0.0, "held_out_rows": 0}) == 4.0
+    assert progressive.round_variance({"own_variance": own, "held_out_variance": 0.0, "held_out_rows": 8}) == 4.0
+    assert progressive.round_variance({"own_variance": own, "held_out_variance": 6.0, "held_out_rows": 8}) == 0.75
+    assert progressive.round_variance({"own_variance": 0 * own, "held_out_variance": 0.0, "held_out_rows": 8}) == 0.0
 
 
 def test_progressive_round_without_new_rows(small):

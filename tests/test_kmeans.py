@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights.kmeans import COS_30_DEG
+from manylights.renderers.kmeans import COS_30_DEG
 
 # Relative agreement of two objectives computed from the same assignment (f32 partial sums vs f64, and
 # CPU/GPU centroids that differ by ~1e-7 of the bounding box).

@@ -1,12 +1,12 @@
-"""Issue 14 item 4: ``ml.render("scene.xml", target_error=...)`` picks the light counts (manylights.light_budget)."""
+"""Issue 14 item 4: ``ml.render("scene.xml", target_error=...)`` picks the light counts (manylights.renderers.light_budget)."""
 import math
 
 import numpy as np
 import pytest
 
 import manylights as ml
-from manylights import light_budget
-from manylights.adaptive import _derived_seed
+from manylights.renderers import light_budget
+from manylights._utils.seeds import derived_seed as _derived_seed
 from conftest import REPO
 
 CBOX_LIGHTS = REPO / "scenes" / "cbox-lights" / "scene.xml"
@@ -75,7 +75,7 @@ def test_a_tighter_target_grows_the_vpls():
 def test_delta_lights_only(tmp_path):
     """Only delta lights and direct light only: nothing to generate, the exact image of the 3 lights.
     The same scene under path tracing: its delta lights' indirect light still needs VPLs."""
-    from manylights import reference
+    from manylights.testing import mitsuba as reference
 
     xml = reference.scene_variant(CBOX_LIGHTS, tmp_path, keep_emitters=DELTA_EMITTERS)
     direct = ml.render(xml, target_error=0.02, max_depth=2, **OPTS)

@@ -21,7 +21,7 @@ def _scene(tmp_path, body, *, version="3.0.0", w=32, h=32, sensor=True, name="sc
 
 
 def _mi():
-    from manylights import reference
+    from manylights.testing import mitsuba as reference
 
     return reference.mitsuba()
 

@@ -150,7 +150,7 @@ def test_benchmark_writes_json_and_chart(tmp_path):
     stage timings, the reference is cached for a second run, and the chart is written."""
     import json
 
-    from manylights import bench
+    from manylights.bench import __main__ as bench
 
     argv = ["mrcs", "--scene", str(SCENE_CONFIGS["cbox"][0]), "--lights", "400", "--res", "16",
             "--columns", "8", "24", "--ratios", "1:1", "1:3", "--seeds", "2", "--out", str(tmp_path)]

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights import relight_cli
-from manylights.__main__ import main
+from manylights.cli import relight as relight_cli
+from manylights.cli import main
 
 BOX = Path(__file__).parent / "data" / "relight_box.xml"
 SPOT = "spot:pos=-0.4,0.9,0.3;target=0.1,-1,-0.2;intensity=3,3,2;cutoff=30;beam=20"

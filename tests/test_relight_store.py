@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights import relight_store
+from manylights.relight import store as relight_store
 
 BOX = Path(__file__).parent / "data" / "relight_box.xml"
 
@@ -274,7 +274,7 @@ def test_nan_lights_never_reach_relight(box, rel, tmp_path):
     with pytest.raises(ValueError, match="intensity"):
         ml.LightSet.from_arrays(box, kind=1, position=[[0, 0.9, 0]], direction=[[0, -1, 0]],
                                 intensity=[[float("nan"), 1, 1]], cutoff_angle=0.5, beam_width=0.3)
-    from manylights import relight_cli
+    from manylights.cli import relight as relight_cli
 
     with pytest.raises(ValueError, match="finite"):
         relight_cli.placement(box, [{"type": "point", "pos": [0, 0, 0], "intensity": float("nan")}])

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
+from manylights.testing import mitsuba as ml_reference
 from conftest import save_failure_images
 
 SIZE = (48, 48)
@@ -118,7 +119,7 @@ def test_textured_spot_matches_mitsuba(which, mitsuba_ref, tmp_path):
 
 def mitsuba_spot_power(texture_xml, n=512):
     """Mean of Mitsuba's spot `sample_ray` weights over an n x n midpoint grid of its direction sample."""
-    mi = ml.reference.mitsuba()
+    mi = ml_reference.mitsuba()
     props = SPOT.format(up="1, 0, 0.3", texture=texture_xml)
     scene = mi.load_string(f'<scene version="3.0.0">{props}</scene>')
     emitter = scene.emitters()[0]
@@ -164,7 +165,7 @@ def test_vpls_from_a_textured_spot_carry_the_texture(tmp_path):
     vpl = np.asarray(lights.kind) == 4
     assert vpl.sum() > 500
     # uv of each VPL as the spot sees it (Mitsuba's direction_to_uv; local frame of the lookat).
-    mi = ml.reference.mitsuba()
+    mi = ml_reference.mitsuba()
     t = mi.ScalarTransform4f().look_at(origin=[0.3, 2.2, 0.8], target=[-0.2, 0, -0.6], up=[0, 0, 1])
     m = np.array(t.matrix, dtype=np.float64)
     inv = np.linalg.inv(m)

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 import manylights as ml
-from manylights import sweep_worker
+from manylights.distributed import worker as sweep_worker
 from manylights.scenes import scene_path
 
 # The acceptance sweep: 2 scenes x 2 methods x 2 budgets x 2 seeds (tiny scenes, a few hundred lights).
@@ -218,7 +218,7 @@ def test_light_counts_split():
 def test_bench_mrcs_on_two_workers_equals_in_process(tmp_path):
     """`python -m manylights.bench mrcs --workers 2` runs its renders on ml.sweep's LocalCluster and records
     the errors the in-process run (--workers 0) records; the rows are in the Parquet file beside the JSON."""
-    from manylights import bench
+    from manylights.bench import __main__ as bench
 
     argv = ["mrcs", "--scene", "demo", "--lights", "200", "--res", "16", "--columns", "8", "24", "--ratios", "1:1",
             "1:3", "--seeds", "2", "--device", "cpu", "--reference-dir", str(tmp_path / "refs")]

@@ -77,7 +77,7 @@ def test_gpu_reconstruction_stays_on_the_gpu_and_equals_the_cpu_accumulation():
     """On the GPU backend the representatives are rendered, scaled, carried through the mappings and
     accumulated on the GPU, chunk by chunk, read back once per chunk (Sec. 5); the result equals the CPU
     accumulation of the same GPU columns (measured 1e-7) across chunk boundaries and a moving camera."""
-    from manylights import tensor as tz
+    from manylights.animation import tensor_clusters as tz
     fr = ml.scenes.animation_frames("bounce", count=40)[:5]
     anim = ml.load_animation(BOUNCE, frames=fr, res=16)
     L = ml.generate_animation_lights(anim, seed=0, area=32, environment=32, indirect=32, photons=0)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights import video
+from manylights.io import video
 
 iio = pytest.importorskip("imageio.v3")
 

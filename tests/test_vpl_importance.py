@@ -125,8 +125,8 @@ def test_delta_lights_without_indirect_unchanged():
 def test_bench_light_models_name_the_importance_models():
     """``bench compare --light-models vpl+is vsl+is``: the models pass the sweep's settings check and reach
     ``generate_lights`` as ``vpl_importance=True``; a bad value is refused by name."""
-    from manylights import bench_light_models as blm
-    from manylights.sweep import _light_models
+    from manylights.bench import light_models as blm
+    from manylights.distributed.specs import parse_light_models as _light_models
 
     models = _light_models({k: blm.MODELS[k][0] for k in ("vpl+is", "vsl+is")})
     assert [m["lights"] for m in models] == [{"vpl_importance": True},

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validate import finite, numeric_array
+from ._utils.validate import finite, numeric_array, real
 
 
 def _pair(image, reference) -> tuple[np.ndarray, np.ndarray]:
@@ -38,8 +38,6 @@ def fraction_within(image, reference, rel: float = 0.02, abs_: float = 1e-3) -> 
 
     Raises:
         ValueError: different shapes, empty images, NaN/inf values, or a negative / NaN tolerance."""
-    from ._validate import real
-
     rel, abs_ = real("rel", rel, 0.0), real("abs_", abs_, 0.0)
     a, b = _pair(image, reference)
     d = np.abs(a - b)

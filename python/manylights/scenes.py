@@ -13,6 +13,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ._utils import validate as _v
+
 #: The repository's ``scenes/`` folder (the package lives in ``<repo>/python/manylights``).
 SCENES_DIR = Path(__file__).resolve().parents[2] / "scenes"
 
@@ -111,8 +113,6 @@ def animation_frames(name: str, count: int = 40) -> list[dict]:
     Raises:
         ValueError: an unknown animated scene (the message lists them) or count not an integer >= 1.
     """
-    from . import _validate as _v
-
     if name not in _ANIMATIONS:
         raise ValueError(f"no bundled animated scene {name!r}; animated scenes: {', '.join(sorted(_ANIMATIONS))}")
     return _ANIMATIONS[name](_v.integer("count", count, 1, 1_000_000))

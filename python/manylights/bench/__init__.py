@@ -1,0 +1,35 @@
+"""Full-size benchmark figures: ``python -m manylights.bench <subcommand>``, one module per subcommand.
+
+The library never imports this package; it runs from a clone (the benchmarks read ``scenes/`` and the stored
+Mitsuba references in ``tests/references``; ``common``).
+
+Subcommands:
+    lights   issue 3's many-light figures: full global illumination of ``cbox`` (128x128) and
+             ``veach-ajar`` (64x36) with area + indirect lights against the stored Mitsuba references
+             (tests/references/*-gi.exr), the VPL clamp on and off, and a sweep over the number of VPLs N_i.
+             Prints a table, writes ``<out>/lights.json`` and ``<out>/lights.png`` (error vs N_i).
+
+    python -m manylights.bench lights --scene cbox --lights 100000
+    python -m manylights.bench lights --scene all --lights 100000 --engine oracle
+
+    mrcs     error against time for MRCS and its baselines (``bench.mrcs``).
+    compare  power sampling, instant radiosity, MRCS and clustered visibility on one error-against-time
+             chart per scene, and clustered visibility over light x view cluster counts (``bench.compare``).
+    backends the CPU backend against the GPU backend: ms per column, weighted column and row (``bench.backends``).
+    tensor   tensor clustering against per-frame MRCS on an animation: error and flicker against shadow maps
+             per frame, speed-up over brute force (``bench.tensor``).
+    relight  direct-to-indirect relighting: error against Mitsuba vs kept wavelet coefficients (the paper's
+             Figure 3), on-the-fly culling, precompute time and memory, relights per second (``bench.relight``).
+    calibrate the MRCS error estimate (``error_estimate``) against the true relative L2 over scenes x
+             budgets x seeds: table, JSON and scatter plot (``bench.calibrate``).
+    budgets  ml.render(A, target_error=e) against the cheapest fixed MRCS budget reaching e: share of seeds
+             at or below e, time ratio; JSON + chart (``bench.budgets``).
+    vs-mitsuba time to 5/2/1% relative L2 of a converged Mitsuba reference: MRCS on the CPU and GPU backends
+             against Mitsuba's path tracer (``bench.vs_mitsuba``).
+
+Engines: ``cpu`` (default) renders ``column_sum() + emitted()`` on the CPU backend (exact rays); ``gpu``
+renders the same on the GPU backend (``ray_traced`` visibility by default: on a software
+GPU it is faster than shadow maps for these small images); ``oracle`` sums rows of the exact CPU oracle
+(``row_exact``) plus ``emitted()`` -- the same matrix (tests/test_lights.py checks GPU = oracle to 1e-7),
+~50x faster on a machine without a hardware GPU.
+"""

@@ -1,0 +1,186 @@
+"""``python -m manylights.bench compare``: every many-light renderer of the project on one error-against-time
+chart per scene, and the clustered-visibility paper's cluster-count study (its Figures 7, 9 and 11).
+
+Two ``ml.sweep`` runs against the brute-force image of the scene's light matrix (rendered once, cached by
+content hash under ``--reference-dir``):
+
+1. power sampling and instant radiosity at each column count, MRCS at rows = columns / 3, and clustered
+   visibility (GPU fuzzy K-means, F = ``--fuzzy``) at each ``LIGHTxVIEW`` pair of ``--clusters``; every one
+   at ``--seeds`` seeds. Chart ``compare-<scene>.png``: relative L2 (mean, error bars = std over seeds)
+   against seconds, log-log, brute force's time as a vertical line.
+2. clustered visibility over the grid ``--grid-light`` x ``--grid-view`` (light clusters x view clusters):
+   chart ``compare-<scene>-clusters.png``, error and time against both counts (the paper's study of K_vpl
+   and K_sp).
+
+``compare-<scene>.json`` holds every record (method, budget, seconds per stage, error mean and std); the
+rows stay in Parquet files beside it (a stopped run resumes). ``--workers`` / ``--scheduler`` run the
+renders on Dask as ``bench mrcs`` does. ``--light-models vpl vpl+bc vsl no-mis`` charts the light models and
+estimator options of issue 13 instead (``bench.light_models``), against the scene's Mitsuba reference.
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import manylights as ml
+
+from . import light_models
+from .common import display_path, finish_loglog, method_records, ok_rows, resolve_scene, settings_tag
+from .dask_options import add_dask_arguments, check_dask_arguments
+
+COLORS = {"power_sampling": "C0", "instant_radiosity": "C1", "mrcs": "C2", "clustered_visibility": "C3"}
+
+
+def _pair(text: str) -> tuple[int, int]:
+    """``"300x2400"`` -> (300, 2400): light clusters x view clusters."""
+    try:
+        a, b = text.lower().split("x")
+        pair = (int(a), int(b))
+    except ValueError:
+        raise ValueError(f"--clusters takes LIGHTxVIEW pairs such as 300x2400, got {text!r}") from None
+    if min(pair) < 1:
+        raise ValueError(f"--clusters counts must be >= 1, got {text!r}")
+    return pair
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("compare", help="all renderers on one error-against-time chart + the cluster-count study")
+    p.add_argument("--scene", required=True, help="scene XML, or a bundled scene's name (cbox, veach-ajar, demo)")
+    p.add_argument("--lights", type=int, default=20_000, help="total generated lights (area + indirect)")
+    p.add_argument("--res", type=int, default=64, help="image width (height follows the film's aspect)")
+    p.add_argument("--columns", type=int, nargs="+", default=[100, 300, 900],
+                   help="column budgets of power sampling, instant radiosity and MRCS (rows = columns / 3)")
+    p.add_argument("--clusters", nargs="+", default=["100x100", "300x400", "1000x1600"],
+                   help="clustered visibility: LIGHTxVIEW cluster pairs")
+    p.add_argument("--fuzzy", type=int, default=6, help="clustered visibility's F (view clusters per sample)")
+    p.add_argument("--grid-light", type=int, nargs="*", default=[100, 300, 1000], help="light clusters of the study")
+    p.add_argument("--grid-view", type=int, nargs="*", default=[50, 200, 800], help="view clusters of the study")
+    p.add_argument("--seeds", type=int, default=8)
+    p.add_argument("--device", default="auto", choices=["auto", "cpu", "gpu"])
+    p.add_argument("--light-models", nargs="+", default=None, metavar="MODEL",
+                   help="instead of the renderers: the light models / options side by side (bench.light_models: "
+                        "vpl, vpl+bc, vsl, no-mis), power sampling and MRCS per model, compare-<scene>-lightmodels.*")
+    p.add_argument("--truth", default="auto",
+                   help="with --light-models: the image errors are measured against: auto (the scene's Mitsuba "
+                        "reference in tests/references when one matches scene and size, else brute force), none "
+                        "(each model's brute force) or an EXR / .npy path")
+    p.add_argument("--max-depth", type=int, default=None,
+                   help="with --light-models: Mitsuba max_depth of lights and matrix (default: the reference's, else 5)")
+    p.add_argument("--out", default="out/bench")
+    add_dask_arguments(p)
+    p.set_defaults(run=run)
+
+
+def run(args) -> dict:
+    check_dask_arguments(args)
+    if args.fuzzy < 1:
+        raise ValueError(f"--fuzzy must be >= 1, got {args.fuzzy}")
+    pairs = [_pair(c) for c in args.clusters]
+    path = resolve_scene(args.scene)
+    film = ml.load_scene(path)
+    if args.light_models is not None:
+        return light_models.run(args, path, film)
+    size = (args.res, max(1, round(args.res * film.height / film.width)))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = f"compare-{path.parent.name}"
+    tag = settings_tag(args)
+    common = dict(seeds=list(range(args.seeds)), lights=args.lights, client=args.scheduler, workers=args.workers,
+                  reference_dir=args.reference_dir or out / "references", device=args.device)
+    scene = [(str(path), {"size": size})]
+    print(f"{path}: {size[0]}x{size[1]}, {args.lights} lights, {args.seeds} seeds", flush=True)
+    t = time.perf_counter()
+    base = ml.sweep(scene, methods=["power_sampling", "instant_radiosity"], budgets=[(1, c) for c in args.columns],
+                    out=out / f"{stem}-baselines-{tag}.parquet", **common)
+    mrcs = ml.sweep(scene, methods=["mrcs"], budgets=[(max(1, c // 3), c) for c in args.columns],
+                    out=out / f"{stem}-mrcs-{tag}.parquet", **common)
+    # clustered_visibility reads a budget as (view clusters, light clusters).
+    grid = [(v, l) for l in args.grid_light for v in args.grid_view]
+    cv_budgets = list(dict.fromkeys([(v, l) for l, v in pairs] + grid))
+    cv = ml.sweep(scene, methods=["clustered_visibility"], budgets=cv_budgets,
+                  options={"clustered_visibility": {"fuzzy": args.fuzzy}},
+                  out=out / f"{stem}-clustered-{tag}.parquet", **common)
+    wall = time.perf_counter() - t
+    import pandas as pd
+
+    df = pd.concat([base, mrcs, cv], ignore_index=True)
+    ok = ok_rows(df)
+    first = ok.iloc[0]
+    t_brute = float(first["reference_seconds"])
+    records = (method_records(ok, "power_sampling", ["columns"]) + method_records(ok, "instant_radiosity", ["columns"])
+               + method_records(ok, "mrcs", ["rows", "columns"]))
+    cv_records = method_records(ok, "clustered_visibility", ["columns", "rows"])
+    for r in cv_records:
+        r["budget"] = {"light_clusters": r["budget"]["columns"], "view_clusters": r["budget"]["rows"],
+                       "fuzzy": args.fuzzy}
+    on_chart = {(l, v) for l, v in pairs}
+    records += [r for r in cv_records if (r["budget"]["light_clusters"], r["budget"]["view_clusters"]) in on_chart]
+    for r in records:
+        print(f"  {r['method']:<21s} {json.dumps(r['budget']):<58s} {r['seconds']:8.3f} s   "
+              f"rel L2 {r['rel_l2_mean']:.4f} +- {r['rel_l2_std']:.4f}", flush=True)
+    study = [r for r in cv_records if r["budget"]["light_clusters"] in args.grid_light
+             and r["budget"]["view_clusters"] in args.grid_view]
+    summary = {"scene": display_path(path), "size": list(size), "lights": int(first["lights"]),
+               "device": {"kind": first["device"], "name": first["adapter"]}, "brute_force_seconds": t_brute,
+               "seeds": args.seeds, "fuzzy": args.fuzzy, "workers": args.workers, "scheduler": args.scheduler,
+               "sweep_wall_seconds": wall, "records": records, "cluster_study": study}
+    summary["speedup_at_2pct"] = {}
+    for method in COLORS:
+        good = [r for r in records if r["method"] == method and r["rel_l2_mean"] <= 0.02]
+        if good:
+            best = min(good, key=lambda r: r["seconds"])
+            summary["speedup_at_2pct"][method] = {"speedup": t_brute / best["seconds"], **best["budget"],
+                                                  "rel_l2": best["rel_l2_mean"], "seconds": best["seconds"]}
+    print(f"brute force {t_brute:.2f} s; speed-up at <= 2% error: "
+          + ", ".join(f"{m} {v['speedup']:.1f}x" for m, v in summary["speedup_at_2pct"].items()), flush=True)
+    (out / f"{stem}.json").write_text(json.dumps(summary, indent=2) + "\n")
+    title = f"{path.parent.name}: {summary['lights']} lights, {size[0]}x{size[1]}, {args.seeds} seeds"
+    _chart(records, t_brute, out / f"{stem}.png", title)
+    if study:
+        _study_chart(study, args.grid_light, args.grid_view, out / f"{stem}-clusters.png", title)
+    print(f"wrote {out / (stem + '.json')}, {out / (stem + '.png')}"
+          + (f", {out / (stem + '-clusters.png')}" if study else ""))
+    return summary
+
+
+def _chart(records, t_brute: float, png: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    for method, color in COLORS.items():
+        rs = sorted((r for r in records if r["method"] == method), key=lambda r: r["seconds"])
+        if rs:
+            ax.errorbar([r["seconds"] for r in rs], [r["rel_l2_mean"] for r in rs],
+                        yerr=[r["rel_l2_std"] for r in rs], marker="o", capsize=3, color=color,
+                        label=method.replace("_", " ") + (" (1:3)" if method == "mrcs" else ""))
+    ax.axvline(t_brute, color="k", linestyle=":", linewidth=1, label=f"brute force ({t_brute:.1f} s)")
+    ax.axhline(0.02, color="grey", linestyle="--", linewidth=1, label="2%")
+    finish_loglog(fig, ax, png, "time (s)", "relative L2 error vs brute force", title, 8)
+
+
+def _study_chart(study, lights: list, views: list, png: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for ax, key, label in [(axes[0], "rel_l2_mean", "relative L2"), (axes[1], "seconds", "seconds")]:
+        for l in lights:
+            rs = sorted((r for r in study if r["budget"]["light_clusters"] == l), key=lambda r: r["budget"]["view_clusters"])
+            ax.plot([r["budget"]["view_clusters"] for r in rs], [r[key] for r in rs], marker="o",
+                    label=f"{l} light clusters")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("view clusters")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"clustered visibility: {title}")
+    fig.tight_layout()
+    fig.savefig(png, dpi=120)
+    plt.close(fig)

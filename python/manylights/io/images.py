@@ -1,0 +1,39 @@
+"""Image files: float32 OpenEXR and 8-bit sRGB PNG."""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .. import _native
+from .._native import read_exr
+from .._utils import validate as _v
+
+__all__ = ["read_exr", "write_exr", "write_png", "as_image"]
+
+
+def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Write an (H, W, 3) image as float32 RGB OpenEXR.
+
+    Raises:
+        ValueError: a shape other than (H, W, 3) or an empty image. TypeError: a non-numeric array.
+        OSError: the file cannot be written (named)."""
+    _native.write_exr(str(path), as_image(image))
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0) -> None:
+    """Write an (H, W, 3) linear image as 8-bit sRGB PNG, scaled by 2**exposure and clamped.
+
+    Raises:
+        ValueError: a bad shape, an empty image or a non-finite exposure. TypeError: a non-numeric array.
+        OSError: the file cannot be written (named)."""
+    _native.write_png(str(path), as_image(image), _v.real("exposure", exposure))
+
+
+def as_image(image) -> np.ndarray:
+    a = _v.numeric_array("image", image)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"image must have shape (H, W, 3), got {a.shape}")
+    if a.size == 0:
+        raise ValueError(f"image is empty: shape {a.shape}")
+    return a

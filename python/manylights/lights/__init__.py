@@ -1,0 +1,1 @@
+"""Lights of a scene: generation of the many-light columns (``generate``) and gather clouds (``gather``)."""

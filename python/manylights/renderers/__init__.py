@@ -1,0 +1,2 @@
+"""Renderers of a light matrix, each returning a ``RenderResult`` (``result``): brute force, MRCS and its
+clustering, error estimates, progressive rounds, budgets, baselines, clustered visibility, K-means, anti-aliasing."""

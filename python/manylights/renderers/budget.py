@@ -1,0 +1,313 @@
+"""Budgets chosen automatically: ``ml.render(A, target_error=e)`` / ``time_budget=s`` (issue 14, item 3) on
+top of progressive MRCS (``manylights.renderers.estimates``: rounds, the paired-representative estimate (3), the
+inverse-variance combination).
+
+Schedule
+--------
+Round 0 is a pilot of ``r_0 = 8`` rows and ``c_0 = 32`` columns. Its OWN rows, columns and clustering are
+timed (``t_r`` rendering seconds per row, ``t_c`` per column; a time budget also counts a row's share of
+the clustering, which reads every row so far; every later round re-times them from its own work):
+nothing is rendered only to time it.
+After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total and ``Δc_t`` new columns:
+
+1. **Stop** when ``eps_t <= SAFETY e`` (0.8 e), or when the next round would not fit the time budget.
+2. **Row:column ratio.** Locally ``V ~ R^-e_r Δc^-e_c`` (``e_r``, ``e_c``: how fast more rows and more
+   columns cut the variance); minimising the round's cost ``ΔR t_r + Δc t_c`` at a fixed V (Lagrange:
+   ``t_r = λ e_r / R``, ``t_c = λ e_c / Δc``) gives
+
+       R t_r / (Δc t_c) = e_r / e_c,   i.e.   R = (e_r / e_c) (t_c / t_r) Δc                  (8)
+
+   the rendering time on the rows (all R, rendered so far or new) against the round's new columns is
+   the ratio of what each buys. The ratio uses no measured exponents: ``e_r / e_c = 1``, equal
+   rendering time on the rows and on the round's columns, with ``t_r``, ``t_c`` the last round's
+   rendering seconds per row and per column. That is an empirical choice, not (8) at the prediction's
+   exponents of step 3 (which would give rows half the columns' time): it is what the cheapest fixed
+   budgets spend (below), and the blind spot of rows (adaptive's doc) makes rows worth more than a
+   power law says. Rows already rendered are paid for:
+   ``R = max(R_t + 8, (8))``. Why not measured: an earlier version estimated e_r and e_c from held-out
+   variances of clusterings of half the rows; on veach-ajar they scattered from 0 to 2 between seeds at
+   the same rows, cost 0.5-1.4 s a render at 100k lights, and bought nothing visible (5%, one 8-seed
+   pass each: 12.3 s at the fixed ratio, 13.9 s with them; passes of the same code differ by more).
+   The cheapest fixed budgets of ``bench budgets`` spend about equal time on both: cbox 16:128 and
+   32:256 (a row costs ~11 columns: rows 1.4x the columns' time), veach-ajar 256:2048 (~7 columns:
+   0.9x).
+3. **The increment from the estimate** instead of blind doubling: the rounds' variances (1) ``v_s`` share
+   one scale with the estimate (nearly: the newest round's v is at its own rows, the others' at held-out
+   rows, so V_t reads low where own rows miss a splotch), ``V_s = eps_t^2 v_s sum_s' 1/v_s'`` (the
+   combination (inverse variance) gives ``1 / eps_t^2 = sum_s 1 / V_s``); the next round must bring the
+   combination to
+   ``(AIM SAFETY e)^2``, so alone it needs ``1 / V_new = 1 / (AIM SAFETY e)^2 - 1 / eps_t^2``, predicted by
+   ``V_new = V_t (R / R_t)^-e_r (Δc / Δc_t)^-e_c`` with R from (8) and Monte Carlo's ``e_c = 1``,
+   ``e_r = 1/2`` (``E_COLUMNS``, ``E_ROWS``). Where the variance collapses faster (veach-ajar, once the
+   clusters catch the VPL splotches) this asks for too much: after the round of 4,000 columns 1% renders
+   took the 4x cap and ended at 0.06% (true, mean) with 18,222 columns where the cheapest fixed budget
+   has 8,192. An exponent from the last two rounds' estimates (``[ln(V_{t-1} / V_t) - e_r ln(R_t /
+   R_{t-1})] / ln(Δc_t / Δc_{t-1})`` in [1, 2]) was tried in the same bench: 5% 2.12x with one seed of 8
+   stopping at 2,636 columns and 6.0% true, 2% 1.97x, 8/8, 1% worse (the first six seeds 45 s on the
+   mean against 36 s; one went to 41,792 columns): not kept. Δc solves it (bisection), at least
+   ``max(c_0, C_t / 2)`` (every round re-clusters all rows: small rounds do not pay) and at most
+   ``GROWTH`` (4) x the columns so far (predictions from small rounds run far: on veach-ajar 16x and 8x
+   caps ended 5% renders at 0.3-1.3% with 6,500-11,300 columns). AIM = 0.85 is the margin: a seed that lands
+   just above the stop adds a round of what the estimate says is missing (at least half the columns so
+   far), not a blind doubling.
+   A round also costs its overhead ``t_0`` (clustering, combination: up to a second at 100k lights
+   whatever its size), so it gets at least ``t_0 / t_c`` columns: that at most doubles the round, and a
+   further round (another ``t_0``) gets unlikely (on cbox 128^2 a round's clustering of 100k lights costs
+   0.4-1 s, its 16-200 columns 0.1-1.5 s). Without a target (time budget only) each round doubles the columns,
+   cut to what the time left allows.
+4. **All lights**: when the next round would pass n columns, brute force (exact; said in ``stopped``).
+
+Every round stays the unbiased round of ``mrcs_progressive`` (weights from rows only), so the estimate is
+(3) unchanged, and the schedule is reported: ``budget['chosen']['rows']`` / ``['columns']`` (cumulative
+per round) replayed by ``mrcs_progressive(A, rows=..., columns=..., seed=seed)`` give the image bit for bit.
+With ``rows_per_column=`` given, (8) is replaced by ``ΔR = max(8, rows_per_column Δc)``, the overhead
+floor of step 3 is not applied, and nothing depends on a timing: the same seed gives the same image
+(with a time budget, where it stops still does).
+
+Measured (``python -m manylights.bench budgets``, CPU, 100k lights, 8 seeds, paired time ratio against the
+cheapest fixed MRCS budget reaching e; README "At the issue's size"): cbox 128^2 true <= e in 100/100/100%
+of seeds at 5/2/1%, 1.04x / 1.86x / 1.80x (last bench, with the elasticities and the weights at own
+rows: 1.12x / 1.94x / 2.01x); veach-ajar 128x72 100/88/100%, 2.17x / 2.14x / 2.58x (last bench
+100/88/100%, 2.48x / 2.21x / 2.03x). Where it falls short: on veach-ajar the variance collapses once rows
+and clusters catch the VPL splotches, which no local power law (step 3) foresees, so rounds hit the 4x
+cap and the last one overshoots (1%: 18,222 columns on the mean, true 0.06%, against the fixed 8,192);
+each round re-clusters all rows of all lights (~1 s at 100k); and the halves use c/2 clusters, which on
+veach-ajar is the largest cost: its MRCS error collapses once each splotch VPL has a cluster of its own
+(48x27 px, 8k lights, 64 rows x 1,024 columns: plain 0.35%, halves 9.7%, plain at 512 columns 10.8%), so
+rounds need about twice the cheapest fixed budget's columns (a light drawn by both halves is rendered
+once, which pays back part of it).
+Rows at half the columns' time (``e_r / e_c`` = 1/2) instead of equal time, measured later on another
+machine (veach-ajar, 8 seeds): 5% 14.6 s and 2% 26.6 s (7/8 each) against 12.2 s (6/8) and 16.7 s (7/8) at
+equal time, 1% 1.68x the fixed 512:8192 on 6 seeds (6/6): rows pay for the blind spot while they are few,
+little once they are many; not kept (README, "Measured since").
+
+Symbols
+-------
+| here | meaning |
+|---|---|
+| ``e``, ``eps_t`` | target relative L2, the combined estimate (3) after round t |
+| ``R_t``, ``C_t``, ``Δc_t``, ``ΔR`` | rows so far, columns so far, round t's new columns, next round's new rows |
+| ``t_r``, ``t_c`` | measured rendering seconds per row and per column, last round (see Schedule) |
+| ``e_r``, ``e_c`` | exponents of the variance in rows and columns (``V ~ R^-e_r Δc^-e_c``) |
+| ``V_s``, ``v_s`` | round s's variance alone (relative^2), its mean variance (1) per row (``round_variance``) |
+| ``SAFETY``, ``AIM``, ``GROWTH`` | stop at 0.8 e; aim rounds at 0.85 x that; at most 4x the columns so far per round |
+"""
+from __future__ import annotations
+
+import math
+import time
+from typing import Optional
+
+import numpy as np
+
+from .._utils import validate as _v
+from .progressive import progressive_rounds
+from .result import RenderResult, matrix_shape
+
+#: ``render`` stops when the estimate is <= SAFETY * target_error: the estimate scatters around the truth
+#: (calibration), and stopping at the target itself left the true error above it in 25% (5%) / 6% (2%)
+#: of 16 seeds on cbox-lights 32x32 (2k lights); at 0.8 x the target, in none of them.
+SAFETY = 0.8
+#: A predicted round aims at AIM x SAFETY x target (margin for the prediction's error).
+AIM = 0.85
+#: At most this many times the columns so far in one round (a pilot of 8 rows predicts poorly: 20-60% at
+#: 8:32 on cbox-lights 32x32 and 1.2-2.6% after 16x columns; later rounds on veach-ajar overshoot too).
+GROWTH = 4
+#: Rows of the pilot round (round 0) and the fewest new rows of any later round.
+FIRST_ROWS = 8
+#: Exponents of the prediction (step 3): Monte Carlo's 1 for the columns, 1/2 for the rows.
+E_COLUMNS = 1.0
+E_ROWS = 0.5
+
+
+def check_targets(target_error, time_budget) -> tuple[Optional[float], Optional[float]]:
+    """(target_error, time_budget) as floats (or None), checked: at least one given, each finite and > 0.
+
+    Raises:
+        ValueError: neither given, NaN/inf, <= 0 or not a number (the message names the parameter)."""
+    if target_error is None and time_budget is None:
+        raise ValueError("give target_error (relative L2, e.g. 0.02) or time_budget (seconds) or both")
+    if target_error is not None:
+        target_error = _v.real("target_error", target_error)
+        if not target_error > 0:
+            raise ValueError(f"target_error must be a relative L2 > 0, got {target_error}")
+    if time_budget is not None:
+        time_budget = _v.real("time_budget", time_budget)
+        if not time_budget > 0:
+            raise ValueError(f"time_budget must be seconds > 0, got {time_budget}")
+    return target_error, time_budget
+
+
+def _round_costs(rd: dict) -> tuple[float, float, float, float]:
+    """(rendering seconds per row, seconds per row with its share of the clustering, seconds per column,
+    seconds of overhead) of one finished round from its own timings. The clustering reads every row so
+    far (~n R projections), so a row also costs its share of it; the overhead is what the round spent
+    beside rendering (clustering, combination)."""
+    sec = rd["seconds"]
+    t_row = sec.get("rows", 0.0) / max(rd["new_rows"], 1)
+    t_r = t_row + sec.get("clustering", 0.0) / max(rd["total_rows"], 1)
+    t_c = sec.get("columns", 0.0) / max(rd["new_columns"], 1)
+    return max(t_row, 1e-9), max(t_r, 1e-9), max(t_c, 1e-9), sec.get("clustering", 0.0) + sec.get("combination", 0.0)
+
+
+def _solve_columns(V_t: float, V_req: float, R_t: int, dc_t: int, e_r: float, e_c: float, rows_of, lo: int,
+                   hi: int) -> int:
+    """The least Δc in [lo, hi] with ``V_t (rows_of(Δc) / R_t)^-e_r (Δc / dc_t)^-e_c <= V_req`` (bisection in
+    log Δc; hi when none is)."""
+    def pred(dc):
+        return V_t * (rows_of(dc) / R_t) ** (-e_r) * (dc / dc_t) ** (-e_c)
+
+    if pred(hi) > V_req:
+        return hi
+    if pred(lo) <= V_req:
+        return lo
+    a, b = lo, hi
+    while b - a > max(1, a // 64):
+        mid = int(math.sqrt(a * b))
+        mid = min(max(mid, a + 1), b - 1)
+        a, b = (a, mid) if pred(mid) <= V_req else (mid, b)
+    return b
+
+
+def fit_columns(round_seconds, lo: int, hi: int, left: float) -> Optional[int]:
+    """The largest Δc in [lo, hi] whose round fits the time left, ``round_seconds(Δc) <= left``
+    (``round_seconds``: the new rows that Δc brings, at t_r each, plus Δc t_c; non-decreasing in Δc), by
+    bisection, rounded down to even (the halves: two columns per cluster); None when not even ``lo`` fits.
+    The new rows count: Δc columns bring ``rows_of(Δc)`` rows, so a cut round also has fewer rows."""
+    if round_seconds(lo) > left:
+        return None
+    a, b = lo, hi  # round_seconds(a) fits; the answer is in [a, b]
+    while a < b:
+        mid = (a + b + 1) // 2
+        a, b = (mid, b) if round_seconds(mid) <= left else (a, mid - 1)
+    return a - a % 2
+def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
+                  first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
+                  add_emitted: bool = True, progress: bool = True) -> RenderResult:
+    """``render`` of a ``LightMatrix`` (its doc: arguments, result, errors): progressive MRCS rounds with the
+    budget chosen from the estimates and the measured costs (this module's doc)."""
+    m, n = matrix_shape(A)
+    if n == 0:
+        raise ValueError("the light matrix has no lights (n = 0): nothing to render")
+    target_error, time_budget = check_targets(target_error, time_budget)
+    seed = _v.seed(seed)
+    max_rounds = _v.integer("max_rounds", max_rounds, 1, 64)
+    if first_columns is None:
+        first_columns = min(32, n // 2)
+        if first_columns < 2:
+            first_columns = n + 1  # no round fits: brute force below
+    else:
+        first_columns = _v.integer("first_columns", first_columns, 2, max(n, 2))
+    if rows_per_column is not None:
+        rows_per_column = _v.real("rows_per_column", rows_per_column)
+        if not 0.0 < rows_per_column <= 1.0:
+            raise ValueError(f"rows_per_column must be in (0, 1], got {rows_per_column}")
+    start = time.perf_counter()
+    chosen = {"target_error": target_error, "time_budget": time_budget, "rows": [], "columns": [], "estimates": [],
+              "seconds_per_row": [], "seconds_per_column": [], "overhead_seconds": [],
+              "rows_per_column": [],
+              "why": [], "given_rows_per_column": rows_per_column}
+    decision_seconds = 0.0
+    pending: list = []
+    if first_columns <= n:
+        r0 = FIRST_ROWS if rows_per_column is None else max(FIRST_ROWS, round(rows_per_column * first_columns))
+        pending.append((min(r0, m), first_columns))
+    state: dict = {}
+    last = None
+    stopped = "all lights"
+
+    def plan(_state):
+        return pending.pop() if pending else None
+
+    gen = progressive_rounds(A, plan, max_rounds, seed, add_emitted, progress, {}, state) if pending else iter(())
+    for res in gen:
+        last = res
+        t_dec = time.perf_counter()
+        rd = state["rounds"][-1]
+        eps = float(res.error_estimate)
+        chosen["estimates"].append(eps)
+        chosen["rows"].append(int(res.budget["rows"]))
+        chosen["columns"].append(int(res.budget["columns"]))
+        if target_error is not None and eps <= SAFETY * target_error:
+            stopped = "target error reached"
+            break
+        if len(state["rounds"]) >= max_rounds:
+            stopped = "max_rounds"
+            break
+        R_t, C_t, dc_t = int(res.budget["rows"]), int(res.budget["columns"]), int(len(rd["reps"]))
+        t_row, t_r, t_c, t_0 = _round_costs(rd)
+        if rows_per_column is None:
+            ratio = t_c / t_row  # (8) with e_r / e_c = 1: total rows per new column
+
+            def rows_of(dc, R_t=R_t, ratio=ratio):
+                return min(m, max(R_t + FIRST_ROWS, ratio * dc))
+        else:
+            def rows_of(dc, R_t=R_t):
+                return min(m, R_t + max(FIRST_ROWS, round(rows_per_column * dc)))
+        lo, hi = max(first_columns, C_t // 2), max(first_columns, GROWTH * C_t)
+        if target_error is not None and 0.0 < eps < math.inf:
+            v = np.array([r["v"] for r in state["rounds"]], np.float64)
+            V_t = eps * eps * float(v[-1] * np.sum(1.0 / v)) if np.all(v > 0) else eps * eps
+            goal = AIM * SAFETY * target_error
+            V_req = 1.0 / (1.0 / goal ** 2 - 1.0 / eps ** 2)
+            dc = _solve_columns(V_t, V_req, R_t, dc_t, E_ROWS, E_COLUMNS, rows_of, lo, hi)
+            why = f"estimate {eps:.3%} > {SAFETY:g} x target: {dc} columns predicted to bring it to {goal:.3%}"
+            # A round costs its overhead t_0 whatever its size: buy at least as many columns as t_0 pays
+            # for (the round costs at most 2x, and another round, t_0 again, becomes unlikely). A timing:
+            # not with rows_per_column given (then nothing depends on one).
+            floor_dc = min(hi, int(t_0 / t_c)) if rows_per_column is None else 0
+            if floor_dc > dc:
+                dc = floor_dc
+                why += f"; raised to {dc} columns, the round's overhead {t_0:.2f} s in columns"
+        else:
+            dc = max(lo, C_t)
+            why = f"doubling the columns to {C_t + dc} (no target to predict from)"
+        dc += dc % 2
+        if time_budget is not None:
+            now = time.perf_counter()
+            left = time_budget - (now - start) - (now - t_dec)
+
+            def round_seconds(c, R_t=R_t, t_r=t_r, t_c=t_c, rows_of=rows_of):
+                return max(rows_of(c) - R_t, 0) * t_r + c * t_c
+
+            if round_seconds(dc) > left:
+                fit = fit_columns(round_seconds, lo, dc, left)
+                if fit is None:
+                    stopped = "time budget"
+                    break
+                dc = fit
+                why += f"; cut to {dc} columns by the time budget"
+        dr = int(max(0, round(rows_of(dc) - R_t)))
+        chosen["seconds_per_row"].append(t_row)
+        chosen["seconds_per_column"].append(t_c)
+        chosen["overhead_seconds"].append(t_0)
+        chosen["rows_per_column"].append(dr / dc)
+        chosen["why"].append(why)
+        decision_seconds += time.perf_counter() - t_dec
+        if C_t + dc > n:
+            stopped = "all lights"
+            break
+        pending.append((dr, dc))
+    getattr(gen, "close", lambda: None)()
+    if stopped == "all lights":
+        elapsed = time.perf_counter() - start
+        t_col = chosen["seconds_per_column"][-1] if chosen["seconds_per_column"] else 0.0
+        # Brute force costs about n columns.
+        if time_budget is None or elapsed + n * t_col <= time_budget or last is None:
+            t = time.perf_counter()
+            image = A.column_sum(progress=progress)
+            timings = {"columns": time.perf_counter() - t}
+            if add_emitted:
+                image = image + A.emitted()
+            last = RenderResult(image=image, method="brute_force", seed=seed, timings=timings,
+                                budget={"columns": int(n), "lights": int(n)}, device=A.device)
+            last.error_estimate = 0.0
+            last.error_image = np.zeros(image.shape[:2], np.float32)
+            stopped = "all lights: brute force"
+        else:
+            stopped = "all lights: time budget too small for brute force"
+    chosen["rounds"] = len(chosen["estimates"])
+    last.budget["stopped"] = stopped
+    last.budget["chosen"] = chosen
+    last.timings["budget_choice"] = decision_seconds
+    return last

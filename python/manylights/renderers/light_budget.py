@@ -1,0 +1,312 @@
+"""Light counts chosen automatically: ``ml.render("scene.xml", target_error=0.02)`` end to end (issue 14,
+item 4, "model no more than the scene needs").
+
+A scene XML becomes an image in two stages whose errors add in quadrature (they are independent: the
+light generation draws the lights, MRCS then samples the matrix of those lights):
+
+    E_total^2 ~= E_gen^2 + E_mrcs^2,   E_gen^2 = sum_k E_k^2                                   (5)
+
+``E_k`` is the relative L2 (against the converged image of the scene's light transport) that light kind k
+leaves because it has only ``n_k`` lights; ``E_mrcs`` that of MRCS against the brute force of the
+generated lights (``manylights.renderers.estimates``). The target is split: ``E_gen <= sqrt(g) e`` with
+``g = generation_share`` (0.5), each of the K grown kinds ``E_k <= sqrt(g / K) e`` (its share), and MRCS
+gets ``sqrt(1 - g) e`` (``auto_budget.render``'s target).
+
+Estimating E_k by halving
+-------------------------
+Kind k at count n is generated twice, independently (seeds from (seed, kind, count, half)), with n/2
+lights each: two unbiased estimates ``S_k^a``, ``S_k^b`` of that kind's light. On h stratified rows (exact
+pixel values of those lights: ``LightMatrix.rows``, the whole row is known) as in (3) of
+``manylights.renderers.estimates``:
+
+    E_k(n) = || S_k^a - S_k^b ||_rows / 2 / || T ||_rows,   T = sum of all kinds at the rows + emitted  (6)
+
+the error of the mean of two n/2 sets; the image is then rendered with ONE fresh set of n lights (its own
+seed), which is at least as good (area points and environment directions are stratified: n strata beat
+two independent sets of n/2; VPLs are equal in distribution), so (6) is a conservative estimate of what
+the picked count leaves -- of its VARIANCE: the VPLs' geometry-term clamp (``generate_lights``' clamp)
+removes energy deterministically, which no comparison of two draws can see (veach-ajar 64x36: estimate
+11-13% at 65,536 VPLs, 20-25% against Mitsuba; README). Growth: every kind starts at ``first_lights``
+and each kind whose estimate is above ``SAFETY`` x its share doubles (recomputed at the new count) until
+it is below, or ``max_lights`` is reached, or the count phase has used its part of ``time_budget`` (a
+quarter); a kind whose lights add nothing at any row stops at once (estimate 0). With only a time budget
+the kind of the largest estimate doubles first.
+
+Which kinds exist (``budget['light_counts'][kind]['reason']``):
+
+- ``delta``: the scene's point, spot and directional emitters, one light each, exact (never grown);
+- ``area``: oriented points on area emitters, only if the scene has ``area`` emitters;
+- ``environment``: directions of ``envmap`` / ``constant`` emitters, only if it has them;
+- ``indirect``: VPLs, only if the integrator asks for indirect light (``max_depth`` -1 or > 2; the
+  loader's ``Scene.integrator``, the XML's first top-level ``<integrator>``: ``path``/``volpath`` with their ``max_depth`` (default -1),
+  ``direct`` = 2; ``max_depth=`` overrides). A scene with only delta lights still gets VPLs when the
+  integrator asks for indirect light (its delta lights' light bounces); "no VPLs" needs both only delta
+  lights (or any lights) AND ``max_depth`` 2.
+- glossy work: the ``LightMatrix``'s glossy MIS (src/matrix/glossy.rs) gives BSDF samples only to view
+  samples whose lobe is narrower than ``glossy_roughness``; a diffuse-only scene gets none. Reported, not
+  chosen, in ``budget['glossy']`` (``LightMatrix.glossy_work``).
+- shadow-map resolution (``budget['shadow_map_size']``): the CPU backend has no shadow maps (exact rays);
+  the GPU backend's default ``hybrid`` visibility redoes every uncertain shadow-map test with an exact
+  ray, so the resolution changes the cost, not the image (README: 512^2 and 1024^2 give the same image
+  to 1e-4): the default 512 is kept and the reason says so. (A ``shadow_map``-only resolution search is
+  not built.)
+
+Symbols
+-------
+| here | meaning |
+|---|---|
+| ``e`` | ``target_error``, relative L2 of the whole image |
+| ``g`` | ``generation_share`` (0.5): share of e^2 for the light counts |
+| ``n_k``, ``E_k`` | lights of kind k, its estimated error (6) (``estimates``: (count, E_k) per step) |
+| ``S_k^a``, ``S_k^b`` | the kind's two half sets' values at the count rows |
+| ``h`` | ``count_rows``: stratified rows of the count phase |
+"""
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from .._utils import validate as _v
+from .._utils.seeds import derived_seed
+from ..lights.generate import generate_lights
+from ..matrix.light_matrix import LightMatrix
+from ..matrix.rows import stratified_rows
+from ..scene import load_scene
+from .budget import check_targets, render_matrix
+
+#: A kind stops growing when its estimate (6) is <= SAFETY x its share (as ``auto_budget.SAFETY``).
+SAFETY = 0.8
+#: Part of ``time_budget`` the count phase may use; the rest renders (MRCS).
+COUNT_TIME_SHARE = 0.25
+KINDS = ("area", "environment", "indirect")
+_STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5}
+
+
+def integrator_depth(scene) -> tuple[str, int]:
+    """The scene's top-level ``<integrator>`` as (type, max_depth), from the loader (``Scene.integrator``,
+    which resolved ``$name`` values, ``<include>`` and version upgrades): a path tracer's ``max_depth``
+    (Mitsuba's default -1), 2 for ``direct``; no integrator: Mitsuba's default ``path``, -1.
+
+    Raises:
+        ValueError: an integrator without a path depth (e.g. ``aov``): give ``max_depth=`` (names the file
+            and line)."""
+    integ = scene.integrator
+    if integ is None:
+        return "path", -1
+    if integ["max_depth"] is None:
+        raise ValueError(f"{integ['file']}:{integ['line']}: integrator type {integ['type']!r} has no path depth "
+                         "(not path, volpath or direct): give max_depth=")
+    return integ["type"], int(integ["max_depth"])
+
+
+def _kind_lights(scene, kind: str, count: int, max_depth: int, seed: int, delta: int):
+    """``count`` lights of one kind (without the scene's ``delta`` delta lights, which every call adds)."""
+    args = {"area": 0, "environment": 0, "indirect": 0, kind: int(count)}
+    L = generate_lights(scene, **args, max_depth=max_depth if kind == "indirect" else 5, seed=seed)
+    return L[delta:]
+
+
+def _row_sums(scene, lights, rows, matrix_options) -> np.ndarray:
+    """(h, 3) float64 exact values of the lights' column sum at the rows."""
+    if len(lights) == 0:
+        return np.zeros((len(rows), 3))
+    return LightMatrix(scene, lights, **matrix_options).rows(rows, progress=False).sum(axis=1, dtype=np.float64)
+
+
+def choose_light_counts(scene, target_error: Optional[float], time_budget: Optional[float], seed: int, *,
+                        max_depth: int, first_lights: int = 256, max_lights: int = 1 << 16,
+                        count_rows: int = 256, generation_share: float = 0.5, matrix_options=None) -> dict:
+    """The light counts of a loaded scene by halving, equation (6) of the module doc.
+
+    Args:
+        scene: a loaded Scene. target_error: relative L2 of the whole image (> 0) or None (then the
+            counts grow, largest estimate first, while the count phase's time lasts). time_budget: seconds
+            (> 0) or None; the count phase may use ``COUNT_TIME_SHARE`` of it. seed: seeds every light set
+            and the rows. max_depth: the integrator's (2 = direct light only: no VPLs).
+        first_lights: the first count of each kind (even, >= 2). max_lights: no kind grows past it.
+        count_rows: stratified rows h for (6) (capped at the pixel count). generation_share: g of (5).
+        matrix_options: ``LightMatrix`` keyword arguments (device, max_depth, ...).
+
+    Returns:
+        dict kind -> {"count", "reason", "estimates": [(count, E_k), ...], "share"} for "delta", "area",
+        "environment", "indirect", plus "estimated_generation_error" (sqrt sum E_k^2 at the picked counts),
+        "rows", "seconds".
+    """
+    t0 = time.perf_counter()
+    matrix_options = dict(matrix_options or {})
+    delta_lights = generate_lights(scene, area=0, environment=0, indirect=0, seed=seed)
+    d = len(delta_lights)
+    types = {e["type"] for e in scene.emitters}
+    present = {"area": "area" in types, "environment": bool(types & {"envmap", "constant"}),
+               "indirect": max_depth != 2}
+    h = min(count_rows, scene.width * scene.height)
+    rows = stratified_rows(scene, h, seed=derived_seed(seed, _STREAM["rows"]))
+    out: dict = {"delta": {"count": d, "reason": "the scene's point/spot/directional emitters: one exact light each"}}
+    active = [k for k in KINDS if present[k]]
+    for k in KINDS:
+        if not present[k]:
+            out[k] = {"count": 0, "estimates": [], "reason": {
+                "area": "no area emitters in the scene",
+                "environment": "no envmap or constant emitter in the scene",
+                "indirect": f"the integrator asks for direct light only (max_depth {max_depth})"}[k]}
+    share = float(np.sqrt(generation_share / max(len(active), 1))) * target_error if target_error else None
+    base = _row_sums(scene, delta_lights, rows, matrix_options)
+    emitted_rows = LightMatrix(scene, delta_lights, **matrix_options).emitted().reshape(-1, 3)[rows]
+    halves: dict = {}  # kind -> (count, S_a, S_b)
+
+    def measure(k: str, n: int) -> None:
+        # Two independent sets of n/2 lights, seeds from (seed, kind, count, half).
+        s = [_row_sums(scene, _kind_lights(scene, k, n // 2, max_depth,
+                                           derived_seed(seed, 1000 * _STREAM[k] + 2 * n + half), d),
+                       rows, matrix_options) for half in (0, 1)]
+        halves[k] = (n, s[0], s[1])
+
+    def estimates() -> dict:
+        total = base + emitted_rows + sum(0.5 * (sa + sb) for _, sa, sb in halves.values())
+        den = float(np.linalg.norm(total))
+        return {k: (0.0 if den == 0 else float(np.linalg.norm(0.5 * (sa - sb))) / den)
+                for k, (_, sa, sb) in halves.items()}
+
+    for k in active:
+        out[k] = {"count": first_lights, "estimates": [], "share": share}
+        measure(k, first_lights)
+    growing = set(active)
+    count_time = None if time_budget is None else COUNT_TIME_SHARE * time_budget
+    while growing:
+        est = estimates()
+        for k in sorted(growing):
+            out[k]["estimates"].append((halves[k][0], est[k]))
+        done = []
+        for k in sorted(growing):
+            n = halves[k][0]
+            if est[k] == 0.0:
+                out[k]["reason"] = f"its {n} lights add nothing at any of the {h} rows (estimate 0)"
+                done.append(k)
+            elif share is not None and est[k] <= SAFETY * share:
+                out[k]["reason"] = f"estimated error {est[k]:.2%} <= {SAFETY} x its share {share:.2%}"
+                done.append(k)
+            elif 2 * n > max_lights:
+                out[k]["reason"] = f"max_lights {max_lights} reached (estimate {est[k]:.2%})"
+                done.append(k)
+        growing -= set(done)
+        if not growing:
+            break
+        spent = time.perf_counter() - t0
+        # The next step costs about as much as everything so far (counts double).
+        if count_time is not None and 2 * spent > count_time:
+            for k in growing:
+                out[k]["reason"] = f"the count phase's share of time_budget ({count_time:.3g} s) is spent " \
+                                   f"(estimate {est[k]:.2%})"
+            break
+        # With a target, double every kind above its share; with only a time budget, the largest first.
+        grow = sorted(growing) if share is not None else [max(sorted(growing), key=lambda k: est[k])]
+        for k in grow:
+            measure(k, 2 * halves[k][0])
+    est = estimates()
+    for k in active:
+        out[k]["count"] = halves[k][0]
+    out["estimated_generation_error"] = float(np.sqrt(sum(v * v for v in est.values())))
+    out["rows"] = int(h)
+    out["seconds"] = time.perf_counter() - t0
+    return out
+
+
+def render_scene(path, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
+                 params: Optional[dict] = None, size=None, device: str = "auto", max_depth: Optional[int] = None,
+                 first_lights: int = 256, max_lights: int = 1 << 16, count_rows: int = 256,
+                 generation_share: float = 0.5, **render_options):
+    """``render("scene.xml", target_error=, time_budget=)``: load the scene, choose the light counts
+    (``choose_light_counts``, module doc), generate the lights at those counts (a fresh seed), then
+    ``auto_budget.render`` the matrix to ``sqrt(1 - generation_share) x target_error`` within what is left of
+    ``time_budget``.
+
+    Args:
+        path: the scene's XML file (str or path).
+        target_error, time_budget, seed: as ``render`` (at least one of the first two).
+        params: the XML's ``<default>`` parameters (``{"res": 32}``), as ``load_scene``'s keywords.
+        size: (width, height) overriding the film. device: ``LightMatrix`` device.
+        max_depth: the integrator's max_depth (-1 or >= 2); None = read from the XML (module doc).
+        first_lights: first count per kind (even integer >= 2). max_lights: cap per kind (>= first_lights;
+            default 65,536: the count phase renders count_rows rows of 2 x that many lights).
+        count_rows: rows of the count phase (>= 1). generation_share: g in (0, 1).
+        **render_options: passed to ``auto_budget.render`` (first_columns, max_rounds, rows_per_column,
+            add_emitted, progress).
+
+    Returns:
+        ``auto_budget.render``'s RenderResult; ``budget`` adds ``light_counts`` (per kind: count, reason,
+        estimates, share; estimated_generation_error, rows, seconds), ``integrator`` (type, max_depth),
+        ``shadow_map_size`` (value, reason), ``glossy`` (view_samples, bsdf_samples, reason), ``estimated_total_error`` (equation (5):
+        sqrt(E_gen^2 + error_estimate^2)), ``target_reached`` (that total <= target_error; None without a
+        target); ``timings['light_counts']`` and ``timings['lights']``.
+        ``error_estimate`` stays the MRCS estimate against the brute force of the generated lights.
+
+    Raises:
+        FileNotFoundError: the scene file does not exist. ValueError: neither target_error nor time_budget,
+            a target_error or time_budget that is not a finite number > 0 (checked before loading), bad
+            first_lights / max_lights / count_rows / generation_share / max_depth, an integrator type
+            other than path/volpath/direct without max_depth=, and what ``load_scene`` and
+            ``generate_lights`` refuse (e.g. a scene without emitters).
+    """
+    target_error, time_budget = check_targets(target_error, time_budget)
+    seed = _v.seed(seed)
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a scene XML path (str or os.PathLike), got {type(path).__name__}")
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"scene file not found: {p}")
+    first_lights = _v.integer("first_lights", first_lights, 2, 1 << 30)
+    if first_lights % 2:
+        raise ValueError(f"first_lights must be even (two halves), got {first_lights}")
+    max_lights = _v.integer("max_lights", max_lights, first_lights, 1 << 30)
+    count_rows = _v.integer("count_rows", count_rows, 1, 1 << 30)
+    generation_share = _v.real("generation_share", generation_share)
+    if not 0.0 < generation_share < 1.0:
+        raise ValueError(f"generation_share must be in (0, 1), got {generation_share}")
+    t_start = time.perf_counter()
+    params = dict(params or {})
+    if max_depth is not None:
+        max_depth = _v.integer("max_depth", max_depth, -1, 1 << 20)
+        if max_depth in (0, 1):
+            raise ValueError(f"max_depth must be -1 or >= 2 (Mitsuba's path depth), got {max_depth}")
+    scene = load_scene(p, size=size, **params)  # malformed XML: SceneError naming file and line
+    if max_depth is None:
+        integ, max_depth = integrator_depth(scene)
+    else:
+        integ = "given"
+    matrix_options = {"device": device, "max_depth": max_depth}
+    counts = choose_light_counts(scene, target_error, time_budget, seed, max_depth=max_depth,
+                                 first_lights=first_lights, max_lights=max_lights, count_rows=count_rows,
+                                 generation_share=generation_share, matrix_options=matrix_options)
+    t = time.perf_counter()
+    n = {k: counts[k]["count"] for k in KINDS}
+    lights = generate_lights(scene, area=n["area"], environment=n["environment"], indirect=n["indirect"],
+                             max_depth=max_depth if n["indirect"] else 5, seed=derived_seed(seed, _STREAM["final"]))
+    A = LightMatrix(scene, lights, **matrix_options)
+    t_lights = time.perf_counter() - t
+    left = None if time_budget is None else max(time_budget - (time.perf_counter() - t_start), 1e-3)
+    res = render_matrix(A, None if target_error is None else float(np.sqrt(1.0 - generation_share)) * target_error,
+                 left, seed, **render_options)
+    res.budget["light_counts"] = counts
+    res.budget["integrator"] = {"type": integ, "max_depth": max_depth}
+    if A.device.get("kind") == "gpu":
+        res.budget["shadow_map_size"] = {"value": A.shadow_map_size, "reason": (
+            "hybrid visibility (default): every uncertain shadow-map test is an exact ray, so the size "
+            "changes the cost, not the image; the default is kept")}
+    else:
+        res.budget["shadow_map_size"] = {"value": None,
+                                         "reason": "the CPU backend casts exact shadow rays: no shadow maps"}
+    views, samples = A.glossy_work
+    res.budget["glossy"] = {"view_samples": views, "bsdf_samples": samples, "reason": (
+        f"glossy MIS: {views} view samples below glossy_roughness get {samples} BSDF samples in all"
+        if views else "no view sample's lobe is below glossy_roughness: pure many-light columns, no glossy work")}
+    total = float(np.hypot(counts["estimated_generation_error"], res.error_estimate))
+    res.budget["estimated_total_error"] = total
+    # Halving sees the light generation's variance, not the VPL clamp's bias (module doc).
+    res.budget["target_reached"] = None if target_error is None else bool(total <= target_error)
+    res.timings["light_counts"] = counts["seconds"]
+    res.timings["lights"] = t_lights
+    return res
