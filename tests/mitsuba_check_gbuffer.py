@@ -6,8 +6,9 @@ then: python tests/mitsuba_check_gbuffer.py /tmp/gbuffer_dump
 import os
 import sys
 import tempfile
-import numpy as np
+
 import mitsuba as mi
+import numpy as np
 
 mi.set_variant("scalar_rgb")
 

@@ -30,6 +30,6 @@ Subcommands:
 Engines: ``cpu`` (default) renders ``column_sum() + emitted()`` on the CPU backend (exact rays); ``gpu``
 renders the same on the GPU backend (``ray_traced`` visibility by default: on a software
 GPU it is faster than shadow maps for these small images); ``oracle`` sums rows of the exact CPU oracle
-(``row_exact``) plus ``emitted()`` -- the same matrix (tests/test_lights.py checks GPU = oracle to 1e-7),
+(``row_exact``) plus ``emitted()`` -- the same matrix (tests/lights/test_lights.py checks GPU = oracle to 1e-7),
 ~50x faster on a machine without a hardware GPU.
 """

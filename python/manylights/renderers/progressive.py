@@ -33,7 +33,7 @@ run of the same total where clustering converges faster than that (each round st
 Seeding: round 0 uses ``seed`` itself, so round 0 IS ``mrcs(A, rows=r_0, columns=c_0, seed=seed,
 halves=True)``; round t >= 1 uses a seed derived from (seed, t) only. A run stopped after round k
 therefore returns exactly the image of a fresh run whose schedule ends at round k (``rounds=k+1``, or
-the lists truncated), bit for bit on the same backend (tests/test_error_estimate.py).
+the lists truncated), bit for bit on the same backend (tests/renderers/test_error_estimate.py).
 
 Budgets (``render``)
 --------------------

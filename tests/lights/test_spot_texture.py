@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights.testing import mitsuba as ml_reference
 from conftest import save_failure_images
+from manylights.testing import mitsuba as ml_reference
 
 SIZE = (48, 48)
-# Bit-identical regime (same f32 formulas at the same points), as tests/test_materials.py: the exact
+# Bit-identical regime (same f32 formulas at the same points), as tests/scene/test_materials.py: the exact
 # oracle measures ~1e-6, and so do the GPU columns (1.0-1.1e-6) since the falloff uses `acos_precise`
 # (shaders/common/light.wgsl; the driver's acos put them at 2.2e-4).
 EXACT_REL_L2 = 1e-4

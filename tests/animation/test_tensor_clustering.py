@@ -140,7 +140,9 @@ def test_tensor_clustering_flickers_less_than_per_frame_mrcs(moving):
     R = moving
     f = R.shape[2]
     exact = R.sum(axis=1)
-    anim = lambda e: np.transpose(e, (1, 0, 2))[:, :, None, :]  # (r, f, 3) -> (f, r, 1, 3)
+    def anim(e):  # (r, f, 3) -> (f, r, 1, 3)
+        return np.transpose(e, (1, 0, 2))[:, :, None, :]
+
     for per_frame in (10, 20):
         tensor = np.mean([ml.flicker(anim(ml.cluster_tensor(R, per_frame * f, seed=s, init_clusters=20).estimate(R)),
                                      anim(exact)) for s in range(3)])
@@ -159,7 +161,8 @@ def test_full_images_tensor_at_half_the_budget_of_per_frame_mrcs(moving_full):
     R, A = moving_full
     f = R.shape[2]
     exact = A.sum(axis=1)
-    anim = lambda e: np.transpose(e, (1, 0, 2)).reshape(f, 32, 32, 3)  # (m, f, 3) -> (f, H, W, 3)
+    def anim(e):  # (m, f, 3) -> (f, H, W, 3)
+        return np.transpose(e, (1, 0, 2)).reshape(f, 32, 32, 3)
 
     def score(est):
         return ml.relative_l2_per_frame(anim(est), anim(exact)).mean(), ml.flicker(anim(est), anim(exact))

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights.renderers import light_budget
-from manylights._utils.seeds import derived_seed as _derived_seed
 from conftest import REPO
+from manylights._utils.seeds import derived_seed as _derived_seed
+from manylights.renderers import light_budget
 
 CBOX_LIGHTS = REPO / "scenes" / "cbox-lights" / "scene.xml"
 CBOX = REPO / "scenes" / "cbox" / "scene.xml"

@@ -18,9 +18,8 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from conftest import REPO, SCENES as SHARED_SCENES
-
-import manylights as ml
+from conftest import REPO
+from conftest import SCENES as SHARED_SCENES
 from manylights.bench import lights as bench_lights
 from manylights.scenes import SCENES_DIR, animated, available, resolve, scene_path
 

@@ -8,13 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import manylights as ml
 # The scene's spot plus a point and a directional light, and the dense product T g + direct (the gather
 # cloud as VPLs through the CPU light matrix): the same helpers as the CPU tests.
 from test_relight import _dense, _lights
 
-BOX = Path(__file__).parent / "data" / "relight_box.xml"
-GLOSSY_BOX = Path(__file__).parent / "data" / "relight_glossy_box.xml"
+import manylights as ml
+
+BOX = Path(__file__).parents[1] / "data" / "relight_box.xml"
+GLOSSY_BOX = Path(__file__).parents[1] / "data" / "relight_glossy_box.xml"
 
 
 @pytest.fixture(scope="module")

@@ -3,12 +3,12 @@ import numpy as np
 import pytest
 
 import manylights as ml
+from conftest import SCENE_CONFIGS
+from manylights._utils.seeds import derived_seed
 from manylights.renderers import budget as auto_budget
 from manylights.renderers import estimates as adaptive
 from manylights.renderers import progressive
-from manylights._utils.seeds import derived_seed
 from manylights.renderers.result import light_luminance_power as _light_luminance_power
-from conftest import SCENE_CONFIGS
 
 BUDGETS = [(16, 32), (32, 64), (32, 128), (64, 256)]
 SEEDS = 8

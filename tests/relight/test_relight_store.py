@@ -5,7 +5,6 @@ damaged, truncated and foreign files are refused; a failed save leaves no file b
 from __future__ import annotations
 
 import json
-import os
 import re
 import zipfile
 from pathlib import Path
@@ -16,7 +15,7 @@ import pytest
 import manylights as ml
 from manylights.relight import store as relight_store
 
-BOX = Path(__file__).parent / "data" / "relight_box.xml"
+BOX = Path(__file__).parents[1] / "data" / "relight_box.xml"
 
 
 @pytest.fixture(scope="module")
@@ -284,7 +283,7 @@ def test_nan_lights_never_reach_relight(box, rel, tmp_path):
 
 def test_glossy_and_photon_matrices_round_trip(tmp_path):
     """The glossy F_g rows with their k_g and the photon-mapped M (3 channels) travel with the file."""
-    scene = ml.load_scene(Path(__file__).parent / "data" / "relight_glossy_box.xml", res=16)
+    scene = ml.load_scene(Path(__file__).parents[1] / "data" / "relight_glossy_box.xml", res=16)
     rel = ml.DirectToIndirect(scene, gather=4**4, final_gather_coefficients=32, bounces=3, multibounce="photons",
                               photons_per_sample=8, photon_neighbours=32)
     assert rel.stats["glossy_pixels"] > 0 and rel.stats["photons"] > 0

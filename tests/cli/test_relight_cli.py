@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from manylights.cli import relight as relight_cli
 from manylights.cli import main
+from manylights.cli import relight as relight_cli
 
-BOX = Path(__file__).parent / "data" / "relight_box.xml"
+BOX = Path(__file__).parents[1] / "data" / "relight_box.xml"
 SPOT = "spot:pos=-0.4,0.9,0.3;target=0.1,-1,-0.2;intensity=3,3,2;cutoff=30;beam=20"
 POINT = "point:pos=0.3,0.6,0.2;intensity=0.5"
 OPTS = ["--res", "16", "--gather", "64", "--coefficients", "16"]

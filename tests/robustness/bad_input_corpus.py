@@ -3,7 +3,7 @@ and truncated / foreign files for every file reader. Each case must raise a Pyth
 listed kinds whose message names the problem; a pyo3 ``PanicException`` (a ``BaseException``), an
 abort, a hang or a return counts as a failure.
 
-Run by ``tests/test_bad_input.py`` in a child process (``python tests/bad_input_corpus.py OUT_DIR``)
+Run by ``tests/robustness/test_bad_input.py`` in a child process (``python tests/robustness/bad_input_corpus.py OUT_DIR``)
 that reports one JSON line per case as it goes, so that an abort or a hang is pinned to its case and
 the remaining cases run in a fresh child.
 """
@@ -11,18 +11,17 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import struct
 import sys
 import traceback
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 @dataclass
@@ -934,7 +933,7 @@ cases_for("DirectToIndirect.gather_irradiance", [
     ("not a LightSet", lambda c: _d2i(c).gather_irradiance(None), ["LightSet"]),
 ], raises=("ValueError", "TypeError"))
 
-# Saving and loading a precomputation (tests/test_relight_store.py has the scene-change cases).
+# Saving and loading a precomputation (tests/relight/test_relight_store.py has the scene-change cases).
 _d2i_file = lambda c: c._get("d2i_file", lambda: _d2i(c).save(c.tmp / "d2i.npz"))  # noqa: E731
 
 
@@ -1505,7 +1504,7 @@ def run(out_dir: Path, only: list[str] | None = None) -> None:
         print(json.dumps({"start": c.id}), flush=True)
         try:
             r = c.fn(ctx)
-        except BaseException as e:  # noqa: B902  (PanicException is a BaseException: that is the point)
+        except BaseException as e:  # PanicException is a BaseException: that is the point
             res = _classify(e, c)
             if res["verdict"] != "ok":
                 res["traceback"] = traceback.format_exc()[-3000:]

@@ -15,7 +15,7 @@ import pytest
 
 import manylights as ml
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[1]
 XML = HERE / "data" / "nearfield_panel.xml"
 REF = HERE / "references" / "nearfield-panel-direct"
 SIZE = (64, 64)

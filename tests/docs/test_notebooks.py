@@ -1,7 +1,5 @@
 """Every notebook in notebooks/ runs top to bottom (outputs are not stored), from a temporary folder with
 ../shared hidden: the notebooks use the scenes bundled in scenes/ only."""
-import os
-from pathlib import Path
 
 import nbformat
 import pytest

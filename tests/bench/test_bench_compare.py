@@ -55,8 +55,8 @@ def test_light_models_side_by_side_record_their_model(tmp_path):
     import pandas as pd
 
     import manylights as ml
-    from manylights.scenes import scene_path
     from manylights.distributed.worker import light_counts
+    from manylights.scenes import scene_path
 
     scene = ml.load_scene(scene_path("cbox"), size=(16, 16))
     lights = ml.generate_lights(scene, **light_counts(scene, {"total": 400, "seed": 0}))

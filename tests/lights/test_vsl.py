@@ -2,7 +2,7 @@
 compensation of the VPL clamp (LightMatrix.bias_compensation): cbox full GI accuracy against Mitsuba,
 the compensation's effect, LightSet plumbing and bad input. Unbiasedness of the compensation, GPU = CPU
 and radius -> 0 = VPL are Rust tests (src/matrix/bias_compensation.rs, src/lights/generate/vsl_tests.rs);
-MRCS with VSLs: tests/test_mrcs.py."""
+MRCS with VSLs: tests/renderers/test_mrcs.py."""
 from __future__ import annotations
 
 import math
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import REPO, SCENE_CONFIGS, cbox_gi_64
+from conftest import REPO, cbox_gi_64
 
 REFS = REPO / "tests" / "references"
 # cbox full GI at 64x64 (reference noise 0.19%), 1024 area points + 4000 indirect lights, seeds 0 and 1:

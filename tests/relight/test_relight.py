@@ -12,7 +12,7 @@ import pytest
 
 import manylights as ml
 
-BOX = Path(__file__).parent / "data" / "relight_box.xml"
+BOX = Path(__file__).parents[1] / "data" / "relight_box.xml"
 
 
 @pytest.fixture(scope="module")
@@ -168,7 +168,7 @@ def test_multibounce_against_mitsuba(box, mitsuba_ref, multibounce):
         assert (s["photons"] > 0) == (multibounce == "photons")
 
 
-GLOSSY_BOX = Path(__file__).parent / "data" / "relight_glossy_box.xml"
+GLOSSY_BOX = Path(__file__).parents[1] / "data" / "relight_glossy_box.xml"
 
 
 def test_glossy_final_gather_against_mitsuba(mitsuba_ref):

@@ -3,13 +3,12 @@ import ast
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import REPO, SCENE_CONFIGS
+from conftest import REPO
 
 
 def test_exr_round_trip_and_png(tmp_path):

@@ -6,10 +6,10 @@ uniform on the sphere (half of them below the horizon) are evaluated by mitsuba 
 """
 import zlib
 
+import mitsuba as mi  # a test dependency: missing it must fail, not skip
 import numpy as np
 import pytest
 
-import mitsuba as mi  # a test dependency: missing it must fail, not skip
 import manylights._native as native
 
 # Max relative difference allowed (task requirement: matches Mitsuba to 0.1%).

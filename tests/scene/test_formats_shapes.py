@@ -87,7 +87,7 @@ def _write_serialized(path, meshes):
 
 
 def test_serialized_matches_mitsuba_vertex_buffers(tmp_path, mitsuba_ref):
-    mi = mitsuba_ref.mitsuba()
+    mitsuba_ref.mitsuba()
     rng = np.random.default_rng(3)
     # A bumpy 6x6 grid: sub-mesh 0 single precision without normals (recomputed), sub-mesh 1 double
     # precision with normals, uvs and colours (skipped).

@@ -21,7 +21,7 @@ import pytest
 import manylights as ml
 from conftest import SCENES
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[1]
 XML = HERE / "data" / "veach_plates.xml"
 REFS = HERE / "references"
 SIZE = (64, 48)
