@@ -48,6 +48,12 @@ test: lint build test-rust test-python
 bench: build
 	$(PY) -m manylights.bench --help
 
+# Regenerate tests/regression/figures.json, the timing-independent figures the test suite guards
+# (tests/regression/README.md): run it and commit the file with any change that moves a figure.
+.PHONY: figures
+figures: build
+	$(PY) tests/regression/figures.py --write
+
 clean:
 	rm -rf target $(VENV) fuzz/target
 
