@@ -6,7 +6,7 @@ use crate::gpu::GpuContext;
 use crate::lights::LightSet;
 use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
 use crate::scene::{Emitter, Param};
-use crate::view_resolve::test_scenes::{cornell_scene, quad, sphere_mesh};
+use crate::testing::view_scenes::{cornell_scene, quad, sphere_mesh};
 use crate::view_resolve::{cast_visibility_cpu, resolve_view_samples_with};
 use std::sync::Arc;
 

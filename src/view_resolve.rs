@@ -392,11 +392,8 @@ pub fn view_samples_cpu_reference(scene: &Scene) -> Result<ViewSamples> {
 }
 
 #[cfg(test)]
-pub(crate) mod test_scenes;
-
-#[cfg(test)]
 pub(crate) mod tests {
-    use super::test_scenes::*;
+    use crate::testing::view_scenes::*;
     use super::*;
 
     #[test]

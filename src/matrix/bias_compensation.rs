@@ -262,7 +262,7 @@ impl super::LightMatrix {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lights::generate::test_scenes::furnace_box;
+    use crate::testing::light_scenes::furnace_box;
     use crate::lights::{generate_lights, GenerateOptions};
     use crate::matrix::reference::CpuReference;
     use crate::testing::scenes::cast_view;

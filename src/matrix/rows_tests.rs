@@ -1,10 +1,11 @@
 //! GPU rows against the CPU ray-cast reference and against GPU columns, on the open box of
-//! `lights::generate::test_scenes` with point, spot and directional emitters added and generated
+//! `testing::light_scenes` with point, spot and directional emitters added and generated
 //! oriented points, environment directionals and VPLs; the stratification.
 use super::*;
 use crate::error::Location;
 use crate::gpu::GpuContext;
-use crate::lights::generate::{generate_lights, test_scenes, GenerateOptions};
+use crate::lights::generate::{generate_lights, GenerateOptions};
+use crate::testing::light_scenes;
 use crate::lights::{LightKind, LightSet};
 use crate::matrix::reference::CpuReference;
 use crate::matrix::{ColumnOptions, LightMatrix};
@@ -22,11 +23,11 @@ const MIN_MATCH_FRACTION: f64 = 0.99;
 const RAY_TRACED_REL_TOL: f32 = 1e-5;
 
 fn lit_box(size: u32) -> Scene {
-    let mut scene = test_scenes::open_box(size);
+    let mut scene = light_scenes::open_box(size);
     let loc = Location::default();
     scene.emitters.push(Emitter::Point { position: Vec3::new(0.3, 0.6, 0.2), intensity: Vec3::new(1.0, 0.8, 0.6), loc: loc.clone() });
     scene.emitters.push(Emitter::Spot {
-        world_from_light: test_scenes::lookat(Vec3::new(-0.5, 0.8, 0.5), Vec3::new(0.1, -1.0, -0.3), Vec3::Y),
+        world_from_light: light_scenes::lookat(Vec3::new(-0.5, 0.8, 0.5), Vec3::new(0.1, -1.0, -0.3), Vec3::Y),
         intensity: Vec3::splat(2.0),
         cutoff_angle: 40f32.to_radians(),
         beam_width: 25f32.to_radians(),

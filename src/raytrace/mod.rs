@@ -31,8 +31,6 @@
 //! local `si.wi`), `b1`, `b2` barycentrics of vertices 1 and 2.
 mod bvh;
 mod intersect;
-#[cfg(test)]
-mod test_scenes;
 
 use crate::error::{Error, Result};
 use crate::scene::{Mesh, Scene, ShapeKind};
@@ -263,7 +261,7 @@ fn ray_is_valid(o: Vec3, d: Vec3) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::test_scenes;
+    use crate::testing::raytrace_scenes;
     use super::*;
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg32;
@@ -336,9 +334,9 @@ mod tests {
     #[test]
     fn bvh_matches_brute_force_on_shared_scenes() {
         for (name, scene, n) in [
-            ("cbox", test_scenes::cbox(true), 100_000),
-            ("cbox+spheres", test_scenes::cbox_spheres(), 100_000),
-            ("bunny", test_scenes::bunny(), 12_000),
+            ("cbox", raytrace_scenes::cbox(true), 100_000),
+            ("cbox+spheres", raytrace_scenes::cbox_spheres(), 100_000),
+            ("bunny", raytrace_scenes::bunny(), 12_000),
         ] {
             let (disagree, hits) = count_disagreements(&scene, n, 1);
             let agreement = 1.0 - disagree as f64 / n as f64;
@@ -351,7 +349,7 @@ mod tests {
     #[test]
     fn loaded_shared_scenes_match_brute_force() {
         use crate::scene::{load_scene, LoadOptions};
-        let dir = test_scenes::scenes_dir();
+        let dir = raytrace_scenes::scenes_dir();
         for (name, n) in [("cbox", 20_000), ("cbox-lights", 20_000), ("bunny", 3_000), ("matpreview", 2_000), ("veach-ajar", 3_000)] {
             let scene = load_scene(&dir.join(name).join("scene.xml"), &LoadOptions::default()).unwrap();
             let spheres = scene.meshes.iter().filter(|m| matches!(m.kind, ShapeKind::Sphere { .. })).count();
@@ -363,7 +361,7 @@ mod tests {
         }
         // The hand-built test scenes are the same geometry as the XML files.
         let loaded = load_scene(&dir.join("bunny/scene.xml"), &LoadOptions::default()).unwrap();
-        let (lo, hi) = (loaded.bounds(), test_scenes::bunny().bounds());
+        let (lo, hi) = (loaded.bounds(), raytrace_scenes::bunny().bounds());
         assert!((lo.0 - hi.0).abs().max_element() < 1e-4 && (lo.1 - hi.1).abs().max_element() < 1e-4, "{lo:?} vs {hi:?}");
     }
 
@@ -371,7 +369,7 @@ mod tests {
     fn sphere_interactions_are_analytic() {
         let (c, r) = (Vec3::new(3.0, -2.0, 1.5), 0.75);
         for flip in [false, true] {
-            let rt = RayTracer::new(&test_scenes::scene(vec![test_scenes::sphere(c, r, flip)])).unwrap();
+            let rt = RayTracer::new(&raytrace_scenes::scene(vec![raytrace_scenes::sphere(c, r, flip)])).unwrap();
             assert_eq!(rt.num_primitives(), 1, "a sphere is one analytic primitive");
             let mut rng = Pcg32::seed_from_u64(5);
             let mut off_tessellation = 0;
@@ -404,7 +402,7 @@ mod tests {
             assert!(off_tessellation > 10_000, "{off_tessellation}");
         }
         // Closed-form case: uv of the +y pole direction is (0.25, 0.5).
-        let rt = RayTracer::new(&test_scenes::scene(vec![test_scenes::sphere(Vec3::ZERO, 1.0, false)])).unwrap();
+        let rt = RayTracer::new(&raytrace_scenes::scene(vec![raytrace_scenes::sphere(Vec3::ZERO, 1.0, false)])).unwrap();
         let si = rt.intersect(Vec3::new(0.0, 5.0, 0.0), -Vec3::Y, 0.0, f32::INFINITY).unwrap();
         assert_eq!((si.t, si.p, si.n_g), (4.0, Vec3::Y, Vec3::Y));
         assert!((si.uv - Vec2::new(0.25, 0.5)).length() < 1e-6);
@@ -412,7 +410,7 @@ mod tests {
 
     #[test]
     fn triangle_interaction_fields() {
-        let mut m = test_scenes::sphere(Vec3::ZERO, 1.0, false);
+        let mut m = raytrace_scenes::sphere(Vec3::ZERO, 1.0, false);
         m.kind = ShapeKind::Obj;
         m.positions = vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0)];
         m.indices = vec![[0, 1, 2]];
@@ -420,20 +418,20 @@ mod tests {
         m.uvs = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 4.0)];
         m.face_normals = false;
         let o = Vec3::new(0.5, 1.0, 3.0);
-        let si = RayTracer::new(&test_scenes::scene(vec![m.clone()])).unwrap().intersect(o, -Vec3::Z * 2.0, 0.0, 10.0).unwrap();
+        let si = RayTracer::new(&raytrace_scenes::scene(vec![m.clone()])).unwrap().intersect(o, -Vec3::Z * 2.0, 0.0, 10.0).unwrap();
         // b1 = 0.25, b2 = 0.5, b0 = 0.25.
         assert_eq!((si.t, si.p, si.n_g, si.wi, si.mesh, si.prim), (1.5, Vec3::new(0.5, 1.0, 0.0), Vec3::Z, Vec3::Z, 0, 0));
         assert!((si.n_s - Vec3::new(0.25, 0.5, 0.25).normalize()).length() < 1e-6);
         assert!((si.uv - Vec2::new(0.25, 2.0)).length() < 1e-6);
         m.face_normals = true;
         m.uvs.clear();
-        let si = RayTracer::new(&test_scenes::scene(vec![m])).unwrap().intersect(o, -Vec3::Z, 0.0, 10.0).unwrap();
+        let si = RayTracer::new(&raytrace_scenes::scene(vec![m])).unwrap().intersect(o, -Vec3::Z, 0.0, 10.0).unwrap();
         assert_eq!((si.n_s, si.uv), (Vec3::Z, Vec2::new(0.25, 0.5)));
     }
 
     #[test]
     fn cbox_floor_sees_the_light_without_self_shadowing() {
-        let rt = RayTracer::new(&test_scenes::cbox(false)).unwrap();
+        let rt = RayTracer::new(&raytrace_scenes::cbox(false)).unwrap();
         let light = Vec3::new(278.0, 548.3, 279.5);
         let n_light = -Vec3::Y;
         let mut rng = Pcg32::seed_from_u64(3);
@@ -460,7 +458,7 @@ mod tests {
 
     #[test]
     fn spawned_rays_do_not_hit_their_own_triangle() {
-        let scene = test_scenes::bunny();
+        let scene = raytrace_scenes::bunny();
         let rt = RayTracer::new(&scene).unwrap();
         let mut rng = Pcg32::seed_from_u64(9);
         let (mut tested, mut self_hits) = (0, 0);
@@ -487,7 +485,7 @@ mod tests {
 
     #[test]
     fn occlusion_is_symmetric_and_consistent_with_closest_hits() {
-        let scene = test_scenes::cbox_spheres();
+        let scene = raytrace_scenes::cbox_spheres();
         let rt = RayTracer::new(&scene).unwrap();
         let hits: Vec<SurfaceInteraction> = rt.intersect_batch(&random_rays(&scene, 40_000, 4)).into_iter().flatten().collect();
         let pairs: Vec<_> = hits.chunks_exact(2).map(|h| (h[0].p, h[0].n_g, h[1].p, h[1].n_g)).collect();
@@ -533,18 +531,18 @@ mod tests {
 
     #[test]
     fn invalid_meshes_are_errors() {
-        let mut s = test_scenes::scene(vec![test_scenes::sphere(Vec3::ZERO, 1.0, false)]);
+        let mut s = raytrace_scenes::scene(vec![raytrace_scenes::sphere(Vec3::ZERO, 1.0, false)]);
         s.meshes[0].kind = ShapeKind::Obj;
         s.meshes[0].indices[3] = [0, 1, 6];
         let msg = RayTracer::new(&s).err().expect("bad index").to_string();
         assert!(msg.contains("triangle 3 has vertex indices [0, 1, 6], but the mesh has 6 vertices"), "{msg}");
-        let s = test_scenes::scene(vec![test_scenes::sphere(Vec3::ZERO, -1.0, false)]);
+        let s = raytrace_scenes::scene(vec![raytrace_scenes::sphere(Vec3::ZERO, -1.0, false)]);
         let msg = RayTracer::new(&s).err().expect("bad radius").to_string();
         assert!(msg.contains("radius > 0, got center [0, 0, 0], radius -1"), "{msg}");
         // An empty scene and degenerate rays are fine.
-        let rt = RayTracer::new(&test_scenes::scene(vec![])).unwrap();
+        let rt = RayTracer::new(&raytrace_scenes::scene(vec![])).unwrap();
         assert!(rt.intersect(Vec3::ZERO, Vec3::X, 0.0, 1.0).is_none() && !rt.occluded(Vec3::ZERO, Vec3::Y, Vec3::X));
-        let rt = RayTracer::new(&test_scenes::cbox(true)).unwrap();
+        let rt = RayTracer::new(&raytrace_scenes::cbox(true)).unwrap();
         assert!(rt.intersect(Vec3::splat(200.0), Vec3::ZERO, 0.0, f32::INFINITY).is_none());
         assert!(rt.intersect(Vec3::splat(200.0), Vec3::new(f32::NAN, 0.0, 1.0), 0.0, f32::INFINITY).is_none());
     }
@@ -554,7 +552,7 @@ mod tests {
     #[test]
     #[ignore]
     fn benchmark_bunny() {
-        let scene = test_scenes::bunny();
+        let scene = raytrace_scenes::bunny();
         let t0 = std::time::Instant::now();
         let rt = RayTracer::new(&scene).unwrap();
         println!("bunny: {} primitives, BVH build {:.1} ms", rt.num_primitives(), t0.elapsed().as_secs_f64() * 1e3);

@@ -1,5 +1,7 @@
-//! Test-only helpers shared by the unit tests of every module: where the shared scenes are, and
-//! (`scenes`) hand-made scene builders and CPU-cast view samples.
+//! Test-only helpers shared by the unit tests of every module: where the shared scenes are, and the
+//! scenes the tests build: `scenes` (hand-made meshes, cameras and CPU-cast view samples),
+//! `light_scenes` (closed and open boxes for light generation and the light matrix), `view_scenes`
+//! (G-buffer and view-sample scenes) and `raytrace_scenes` (geometry of the shared cbox and bunny).
 use std::path::{Path, PathBuf};
 
 /// Where the shared scenes are: `$MANYLIGHTS_SHARED`, then `<manifest>/../shared` (CI: `shared/` beside
@@ -16,7 +18,10 @@ pub fn shared_dir() -> PathBuf {
         .expect("shared scenes not found: set MANYLIGHTS_SHARED to the folder holding scenes/")
 }
 
+pub mod light_scenes;
+pub mod raytrace_scenes;
 pub mod scenes;
+pub mod view_scenes;
 
 /// A new, empty scratch directory for one test file: `<temp>/manylights-<tag>-<pid>-<n>` with `n` unique
 /// per call. Tests run in parallel threads of one process, so a directory per process shared by file

@@ -1,7 +1,7 @@
 //! G-buffer tests: the GPU visibility buffer against a brute-force CPU ray cast at every pixel centre.
 use super::*;
 use crate::gpu::scene_buffers::{locate_triangle, triangle_offsets};
-use crate::view_resolve::test_scenes::*;
+use crate::testing::view_scenes::*;
 use crate::view_resolve::{cast_visibility_cpu, intersect_triangle_plane, view_samples_cpu_reference};
 use glam::{DVec3, Vec3};
 

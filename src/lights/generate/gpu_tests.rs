@@ -1,7 +1,7 @@
 //! GPU columns against the CPU ray-cast reference (`matrix::reference::CpuReference`) for every generated
 //! light kind (oriented points, environment directionals, VPLs on diffuse, roughplastic and
-//! roughconductor surfaces) on the open box of `test_scenes`.
-use super::test_scenes::open_box;
+//! roughconductor surfaces) on the open box of `testing::light_scenes`.
+use crate::testing::light_scenes::open_box;
 use super::*;
 use crate::gpu::GpuContext;
 use crate::lights::LightKind;

@@ -1,7 +1,7 @@
 //! Particle tracing through `principled` and `blendbsdf` surfaces: the flux carried from bounce to
 //! bounce is unbiased (principled reflection sampled with `shading::principled::sample`, transmission
 //! leaving the box; a blend's BSDF picked with its weight).
-use super::test_scenes::{box_faces, furnace_box, square_camera};
+use crate::testing::light_scenes::{box_faces, furnace_box, square_camera};
 use super::*;
 use crate::error::Location;
 use crate::lights::LightKind;

@@ -39,8 +39,6 @@ mod vpl_importance_tests;
 #[cfg(test)]
 mod gpu_tests;
 #[cfg(test)]
-pub(crate) mod test_scenes;
-#[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod material_tests;

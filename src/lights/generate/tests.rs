@@ -2,7 +2,7 @@
 //! stratification, determinism, conventions and bad input.
 use super::environment::{envmap_radiance, Environment};
 use super::sampling::equal_area_cells;
-use super::test_scenes::{furnace_box, open_box, quad};
+use crate::testing::light_scenes::{furnace_box, open_box, quad};
 use super::*;
 use crate::error::Location;
 use crate::lights::LightKind;

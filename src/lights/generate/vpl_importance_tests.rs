@@ -1,7 +1,7 @@
 //! VPL importance sampling (`vpl_importance`): the tau equation, unbiasedness of the image (z-test over
 //! seeds against plain VPLs, on the occluded open box with a render view finer than the pilot view),
 //! lower variance, determinism, eps = 1 = every candidate, bad options.
-use super::test_scenes::{furnace_box, open_box};
+use crate::testing::light_scenes::{furnace_box, open_box};
 use super::vpl::Tracer;
 use super::vpl_importance::{p_accept, solve_tau, trace_importance, PilotView};
 use super::*;
@@ -161,7 +161,7 @@ fn bad_importance_options_are_refused() {
     }
     // A camera that sees no surface: a clear error, not a silent image.
     let mut sky = open_box(8);
-    sky.camera = super::test_scenes::square_camera(8, glam::Vec3::new(0.0, 0.0, 3.4), glam::Vec3::new(0.0, 0.0, 10.0));
+    sky.camera = crate::testing::light_scenes::square_camera(8, glam::Vec3::new(0.0, 0.0, 3.4), glam::Vec3::new(0.0, 0.0, 10.0));
     let opts = GenerateOptions { indirect: 100, vpl_importance: Some(VplImportance::default()), ..Default::default() };
     let err = generate_lights(&sky, &opts).unwrap_err().to_string();
     assert!(err.contains("vpl_importance") && err.contains("no surface"), "{err}");
