@@ -17,9 +17,6 @@ pub mod shading;
 #[cfg(test)]
 pub(crate) mod testing;
 pub mod view;
-pub mod view_chains;
-pub mod view_features;
-pub mod view_resolve;
 
 #[cfg(feature = "python")]
 pub mod py;

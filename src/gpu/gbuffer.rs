@@ -1,6 +1,6 @@
 //! G-buffer as a visibility buffer: rasterise the scene at pixel centres into an `R32Uint` target
 //! holding `global triangle id + 1` (0 = background), read it back, then resolve every pixel exactly on
-//! the CPU (`crate::view_resolve`) into [`ViewSamples`].
+//! the CPU (`crate::view::resolve`) into [`ViewSamples`].
 //!
 //! Implementation details:
 //! - Camera: Mitsuba's perspective sensor. In its frame (left, up, forward) a point (x, y, z) lands at
@@ -413,15 +413,15 @@ impl GBufferPass {
 }
 
 /// The deep framebuffer of `scene` seen from its camera: rasterised visibility at pixel centres on the
-/// GPU, resolved exactly on the CPU (see `crate::view_resolve`).
+/// GPU, resolved exactly on the CPU (see `crate::view::resolve`).
 pub fn render_view_samples(ctx: &GpuContext, scene: &Scene) -> Result<ViewSamples> {
-    render_view_samples_with(ctx, scene, &crate::view_chains::ChainOptions::default())
+    render_view_samples_with(ctx, scene, &crate::view::chains::ChainOptions::default())
 }
 
-/// As [`render_view_samples`], following delta BSDF chains with `chains` (`crate::view_chains`).
-pub fn render_view_samples_with(ctx: &GpuContext, scene: &Scene, chains: &crate::view_chains::ChainOptions) -> Result<ViewSamples> {
+/// As [`render_view_samples`], following delta BSDF chains with `chains` (`crate::view::chains`).
+pub fn render_view_samples_with(ctx: &GpuContext, scene: &Scene, chains: &crate::view::chains::ChainOptions) -> Result<ViewSamples> {
     let ids = render_visibility(ctx, scene)?;
-    crate::view_resolve::resolve_view_samples_with(scene, &ids, chains)
+    crate::view::resolve::resolve_view_samples_with(scene, &ids, chains)
 }
 
 /// As [`render_view_samples`], reusing geometry already uploaded with `SceneGeometry::upload(device,
@@ -431,7 +431,7 @@ pub fn render_view_samples_with_geometry(ctx: &GpuContext, scene: &Scene, geomet
         return Err(Error::invalid("the uploaded geometry belongs to another scene (triangle counts differ)"));
     }
     let ids = GBufferPass::cached(&ctx.device)?.render_visibility(ctx, scene, geometry)?;
-    crate::view_resolve::resolve_view_samples(scene, &ids)
+    crate::view::resolve::resolve_view_samples(scene, &ids)
 }
 
 /// Only the visibility buffer of `scene` (global triangle id + 1 per pixel, 0 = background).

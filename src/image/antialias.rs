@@ -3,7 +3,7 @@
 //! Pellacini, Bala, "Direct-to-Indirect Transfer for Cinematic Relighting", SIGGRAPH 2006, Sec. 3.6).
 //!
 //! Shading is computed once per pixel (any renderer's image). A deep framebuffer (DFB: position, normal,
-//! diffuse albedo, the 9-vectors of `crate::view_features`) is rendered at `factor` x the resolution;
+//! diffuse albedo, the 9-vectors of `crate::view::features`) is rendered at `factor` x the resolution;
 //! each high-resolution sample copies the colour of its nearest neighbour, in the 9-D metric, among the
 //! 3x3 low-resolution pixels around the one containing it; each low-resolution pixel is then the box
 //! filter (mean) of its `factor^2` high-resolution samples. High-resolution pixel (X, Y) lies in
@@ -20,7 +20,7 @@
 //! environment-lit background from bleeding onto silhouettes and vice versa.
 use crate::error::{Error, Result};
 use crate::scene::Scene;
-use crate::view_features::{distance2, DeepFeatures};
+use crate::view::features::{distance2, DeepFeatures};
 use rayon::prelude::*;
 
 /// Most accepted upsampling factor (a 16x16 DFB per pixel is already far past the paper's 3x3).
@@ -145,7 +145,7 @@ fn nearest_low_pixel(low: &DeepFeatures, high: &DeepFeatures, hi: usize, lx: usi
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::view_features::DIM;
+    use crate::view::features::DIM;
 
     /// A DFB of a vertical edge at x = `edge` (film units of the low-resolution image): surface A
     /// (normal +z, albedo 0.2) left of it, surface B (normal +x, albedo 0.8) right of it, or background

@@ -9,7 +9,7 @@
 //!   along the pixel-centre camera ray `Camera::ray(x + 0.5, y + 0.5)`, looked up by
 //!   `lights::generate::environment::Environment` (Mitsuba's lat-long lookup, MITSUBA_CONVENTIONS.md).
 //! - Delta lights (point, spot, directional) are invisible to the camera, as in Mitsuba.
-//! - Emission seen through delta BSDF chains (mirrors, glass: `crate::view_chains`) is added per pixel
+//! - Emission seen through delta BSDF chains (mirrors, glass: `crate::view::chains`) is added per pixel
 //!   from `ViewSamples::chain_emitted`, computed when the chains were traced.
 //!
 //! Bad input gives zero contributions, never NaN: non-finite or negative area radiance counts as 0

@@ -2,7 +2,7 @@
 //! Rendering Many-Light Animations", EGSR 2008, Sec. 4.4 and 5).
 //!
 //! The mapping M(k -> l) gives, for each pixel of frame l, its nearest neighbour among the pixels of
-//! frame k in the 9-D deep framebuffer (`crate::view_features`: position, normal, albedo, scaled). As a
+//! frame k in the 9-D deep framebuffer (`crate::view::features`: position, normal, albedo, scaled). As a
 //! sparse m x m matrix it has one 1 per row, so `M(k -> l) x` is an image rendered in frame k moved into
 //! frame l: we store it as an index array, `source[i]` = the pixel of frame k whose value pixel i of
 //! frame l takes, and apply it as a gather (CPU: [`PixelMapping::apply`], rayon; GPU:
@@ -27,7 +27,7 @@
 //!
 //! Symbols: m = pixels per frame, `source` = the index array (one `u32` per pixel of the destination).
 use crate::error::{Error, Result};
-use crate::view_features::{DeepFeatures, DIM};
+use crate::view::features::{DeepFeatures, DIM};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
 use rayon::prelude::*;
@@ -169,7 +169,7 @@ impl PixelMapping {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::view_features::DeepMetric;
+    use crate::view::features::DeepMetric;
     use rand::{RngExt, SeedableRng};
 
     fn random_features(w: u32, h: u32, seed: u64, hole: usize) -> DeepFeatures {
@@ -196,7 +196,7 @@ mod tests {
             }
             let best = (0..(w * h) as usize)
                 .filter(|&j| a.valid[j])
-                .min_by(|&x, &y| crate::view_features::distance2(&a.features[x], &b.features[i]).total_cmp(&crate::view_features::distance2(&a.features[y], &b.features[i])))
+                .min_by(|&x, &y| crate::view::features::distance2(&a.features[x], &b.features[i]).total_cmp(&crate::view::features::distance2(&a.features[y], &b.features[i])))
                 .unwrap();
             assert_eq!(map.source[i], best as u32, "pixel {i}");
             assert_ne!(map.source[i], 5, "a pixel without surface is no source");

@@ -20,7 +20,7 @@
 //! `gpu::bvh::RAYS_PER_INVOCATION` lights so that an invocation's loops stay below Mesa 22.3's 65,535
 //! iterations even if every ray takes the most steps.
 //!
-//! Delta BSDF chains (`crate::view_chains`): a pixel may own several view samples (its camera hit plus
+//! Delta BSDF chains (`crate::view::chains`): a pixel may own several view samples (its camera hit plus
 //! the surfaces seen through mirrors and glass, each with its chain's RGB throughput). The matrix rows
 //! are pixels: A(i, j) = sum over pixel i's samples k of throughput_k * (light j's direct light at k).
 //! The GPU shades every sample (throughput applied in the shader) and the per-sample results are summed
@@ -295,7 +295,7 @@ impl LightMatrix {
 
     /// Rows `is` (pixel indices `y * width + x`, any order, repeats allowed) as r * n * 3 floats,
     /// `[row][light][rgb]`, with the default `RowOptions`; `progress(rows_done, r)` as it goes. A pixel
-    /// with delta-chain samples (`crate::view_chains`) has the sum of its samples' rows.
+    /// with delta-chain samples (`crate::view::chains`) has the sum of its samples' rows.
     pub fn rows(&self, is: &[usize], progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
         Ok(self.rows_timed(is, &RowOptions::default(), progress)?.0)
     }

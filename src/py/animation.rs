@@ -9,7 +9,7 @@ use crate::gpu::mapping::apply_chain_gpu;
 use crate::matrix::backend::{Chosen, Device};
 use crate::matrix::mapping::{PixelMapping, NO_SOURCE};
 use crate::view::ViewSamples;
-use crate::view_features::DeepMetric;
+use crate::view::features::DeepMetric;
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use std::sync::{Arc, Mutex, Weak};
@@ -170,7 +170,7 @@ fn hires_view(py: Python<'_>, scene: &Scene, factor: u32, chosen: &Chosen) -> Py
         }
     }
     let hi = Arc::new(crate::image::antialias::scaled_scene(&scene.inner, factor)?);
-    let chains = crate::view_chains::ChainOptions::default();
+    let chains = crate::view::chains::ChainOptions::default();
     let v = match chosen {
         Chosen::Gpu(ctx) => {
             let ctx = ctx.clone();
@@ -180,8 +180,8 @@ fn hires_view(py: Python<'_>, scene: &Scene, factor: u32, chosen: &Chosen) -> Py
             // The high-resolution scene has the same geometry: the scene's own BVH serves it.
             let tracer = scene.tracer(py)?;
             super::signals::detach(py, move || -> crate::error::Result<ViewSamples> {
-                let ids = crate::view_resolve::cast_visibility_traced(&hi, &tracer)?;
-                crate::view_resolve::resolve_view_samples_with(&hi, &ids, &chains)
+                let ids = crate::view::resolve::cast_visibility_traced(&hi, &tracer)?;
+                crate::view::resolve::resolve_view_samples_with(&hi, &ids, &chains)
             })?
         }
     };
@@ -216,7 +216,7 @@ pub fn antialias<'py>(
     let data: Vec<f32> = image.as_array().iter().copied().collect();
     let dev = self::device(device)?;
     let chosen = py.detach(move || dev.choose())?;
-    let low = scene.view_samples_on(py, crate::view_chains::ChainOptions::default(), &chosen)?;
+    let low = scene.view_samples_on(py, crate::view::chains::ChainOptions::default(), &chosen)?;
     let high = hires_view(py, &scene, factor, &chosen)?;
     let metric = DeepMetric::for_diagonal(scene.inner.diagonal());
     let channels = shape[2];

@@ -48,7 +48,7 @@ impl LightMatrix {
         if !(16..=8192).contains(&shadow_map_size) {
             return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
         }
-        let chains = crate::view_chains::ChainOptions::with_max_depth(max_depth)?;
+        let chains = crate::view::chains::ChainOptions::with_max_depth(max_depth)?;
         let visibility = visibility.map(Visibility::parse).transpose()?;
         let mut device = Device::parse(device)?.with_env()?;
         if device == Device::Auto && visibility.is_some_and(|v| v != Visibility::RayTraced) {

@@ -5,7 +5,7 @@ use crate::matrix::backend::{Chosen, Device, DeviceInfo};
 use crate::raytrace::RayTracer;
 use crate::scene::{self, Bsdf, Emitter, LoadOptions, Param, ShapeKind};
 use crate::view::ViewSamples;
-use crate::view_chains::ChainOptions;
+use crate::view::chains::ChainOptions;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -41,7 +41,7 @@ impl Scene {
 
     /// The view samples with delta chains followed by `chains`, computed once per options and cached:
     /// visibility at pixel centres rasterised on the GPU, or ray cast through the BVH for the CPU
-    /// backend (`view_resolve::cast_visibility_traced`), then resolved exactly on the CPU. A cached
+    /// backend (`view::resolve::cast_visibility_traced`), then resolved exactly on the CPU. A cached
     /// entry serves both devices (so matrices of one Scene on either backend share their rows).
     pub fn view_samples_on(&self, py: Python<'_>, chains: ChainOptions, chosen: &Chosen) -> PyResult<Arc<ViewSamples>> {
         if let Some((_, v)) = self.view.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(o, _)| *o == chains) {
@@ -56,8 +56,8 @@ impl Scene {
             Chosen::Cpu => {
                 let tracer = self.tracer(py)?;
                 super::signals::detach(py, move || -> crate::error::Result<ViewSamples> {
-                    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer)?;
-                    crate::view_resolve::resolve_view_samples_with(&scene, &ids, &chains)
+                    let ids = crate::view::resolve::cast_visibility_traced(&scene, &tracer)?;
+                    crate::view::resolve::resolve_view_samples_with(&scene, &ids, &chains)
                 })?
             }
         };

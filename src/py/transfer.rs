@@ -13,7 +13,7 @@ use crate::relight::relight::{self as core, RelightStats};
 use crate::relight::transfer::{NearField, Transfer, TransferOptions};
 use crate::raytrace::RayTracer;
 use crate::view::ViewSamples;
-use crate::view_chains::ChainOptions;
+use crate::view::chains::ChainOptions;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

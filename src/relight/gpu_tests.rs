@@ -4,7 +4,7 @@ use crate::raytrace::RayTracer;
 use crate::relight::haar;
 use crate::relight::transfer::TransferOptions;
 use crate::scene::{load_scene, LoadOptions};
-use crate::view_chains::ChainOptions;
+use crate::view::chains::ChainOptions;
 use glam::Vec3;
 use std::time::Instant;
 
@@ -323,8 +323,8 @@ fn bench_relight() {
         let (w, h) = size.split_once('x').map(|(a, b)| (a.parse().unwrap(), b.parse().unwrap())).unwrap();
         let scene = load_scene(&path, &LoadOptions { size: Some((w, h)), ..Default::default() }).unwrap();
         let tracer = RayTracer::new(&scene).unwrap();
-        let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
-        let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &ChainOptions::default()).unwrap();
+        let ids = crate::view::resolve::cast_visibility_traced(&scene, &tracer).unwrap();
+        let view = crate::view::resolve::resolve_view_samples_with(&scene, &ids, &ChainOptions::default()).unwrap();
         let (scene, view, tracer) = (Arc::new(scene), Arc::new(view), Arc::new(tracer));
         for bounces in bounce_counts.split(',').map(|b| b.parse::<u32>().unwrap()) {
             let t0 = Instant::now();

@@ -1,7 +1,7 @@
 use super::*;
 use crate::relight::transfer::{Transfer, TransferOptions};
 use crate::scene::{load_scene, LoadOptions};
-use crate::view_chains::ChainOptions;
+use crate::view::chains::ChainOptions;
 use crate::view::ViewSamples;
 
 /// A closed 2 m box of grey diffuse walls (albedo `rho`, every normal inward) seen from inside.
@@ -33,8 +33,8 @@ fn closed_box(rho: f32) -> (Scene, ViewSamples, RayTracer) {
     std::fs::write(&path, xml).unwrap();
     let scene = load_scene(&path, &LoadOptions::default()).unwrap();
     let tracer = RayTracer::new(&scene).unwrap();
-    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
-    let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &ChainOptions::default()).unwrap();
+    let ids = crate::view::resolve::cast_visibility_traced(&scene, &tracer).unwrap();
+    let view = crate::view::resolve::resolve_view_samples_with(&scene, &ids, &ChainOptions::default()).unwrap();
     (scene, view, tracer)
 }
 

@@ -70,8 +70,8 @@ pub fn scene_view_tracer(path: &Path, size: u32) -> (crate::scene::Scene, crate:
     let opts = crate::scene::LoadOptions { size: Some((size, size)), ..Default::default() };
     let scene = crate::scene::load_scene(path, &opts).unwrap();
     let tracer = crate::raytrace::RayTracer::new(&scene).unwrap();
-    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
-    let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &crate::view_chains::ChainOptions::default()).unwrap();
+    let ids = crate::view::resolve::cast_visibility_traced(&scene, &tracer).unwrap();
+    let view = crate::view::resolve::resolve_view_samples_with(&scene, &ids, &crate::view::chains::ChainOptions::default()).unwrap();
     (scene, view, tracer)
 }
 

@@ -111,6 +111,6 @@ pub fn cast_view(scene: &Scene) -> ViewSamples {
             v.uv.push(Vec2::ZERO);
         }
     }
-    crate::view_resolve::append_blend_records(scene, &mut v);
+    crate::view::resolve::append_blend_records(scene, &mut v);
     v
 }

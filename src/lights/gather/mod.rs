@@ -49,7 +49,7 @@
 //!   `roughness[i]`: the microfacet alpha of that glossy lobe (sqrt(alpha_u alpha_v); principled's
 //!   `roughness`), 0 without one.
 //! - `bsdf`: the BSDF resolved at the sample (`shading::bsdf::resolve_records`), one record per sample
-//!   then the second records of blended samples (linked as in `view_resolve::append_blend_records`), for
+//!   then the second records of blended samples (linked as in `view::resolve::append_blend_records`), for
 //!   exact evaluation by `shading::bsdf::eval_records` or the GPU passes.
 //!
 //! Re-evaluation (`GatherCloud::on`): a cloud made on one scene is evaluated on another scene with the

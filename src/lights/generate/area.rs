@@ -22,7 +22,7 @@
 //!
 //! Textured radiance (`Emitter::Area::texture`): each light takes L at its own uv (mesh uvs
 //! interpolated, or (b1, b2) without uvs; spheres (phi / 2pi, theta / pi) of the world direction from the
-//! centre, as `view_resolve`), I0 = L(uv) A_e / n_e, which keeps each emitter's lights an unbiased
+//! centre, as `view::resolve`), I0 = L(uv) A_e / n_e, which keeps each emitter's lights an unbiased
 //! stratified estimate of its emission. The emitter's `radiance` used to split the counts (and to pick
 //! emitters for particles) is then the mean of L over 4096 stratified surface points; particles carry
 //! L at their own uv.

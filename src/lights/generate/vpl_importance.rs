@@ -141,9 +141,9 @@ impl PilotView {
         let mut cam = cam.clone();
         (cam.width, cam.height) = (w, h);
         let scene = &tracer.scene;
-        let ids = crate::view_resolve::cast_visibility_traced_for(scene, &cam, &tracer.rt)?;
-        let chains = crate::view_chains::ChainOptions::default();
-        let view = crate::view_resolve::resolve_view_samples_for(scene, &cam, &ids, &chains)?;
+        let ids = crate::view::resolve::cast_visibility_traced_for(scene, &cam, &tracer.rt)?;
+        let chains = crate::view::chains::ChainOptions::default();
+        let view = crate::view::resolve::resolve_view_samples_for(scene, &cam, &ids, &chains)?;
         let points = (0..view.len()).map(|i| (i, ShadingPoint::new(&view, i))).filter(|(_, sp)| sp.surface).collect();
         Ok(PilotView { view, points })
     }

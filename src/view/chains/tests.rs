@@ -7,7 +7,7 @@ use crate::lights::LightSet;
 use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
 use crate::scene::{Emitter, Param};
 use crate::testing::view_scenes::{cornell_scene, quad, sphere_mesh};
-use crate::view_resolve::{cast_visibility_cpu, resolve_view_samples_with};
+use crate::view::resolve::{cast_visibility_cpu, resolve_view_samples_with};
 use std::sync::Arc;
 
 fn close(a: Vec3, b: Vec3, tol: f32) -> bool {

@@ -336,5 +336,4 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
 }
 
 #[cfg(test)]
-#[path = "view_chains_tests.rs"]
 mod tests;

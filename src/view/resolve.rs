@@ -24,7 +24,7 @@ use crate::gpu::scene_buffers::{locate_triangle, triangle_offsets};
 use crate::scene::{Camera, Scene, ShapeKind};
 use crate::shading::GpuBsdf;
 use crate::view::ViewSamples;
-use crate::view_chains::ChainOptions;
+use crate::view::chains::ChainOptions;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -221,7 +221,7 @@ pub fn resolve_view_samples(scene: &Scene, ids: &[u32]) -> Result<ViewSamples> {
 /// Turn a visibility buffer into view samples. `ids[y * width + x]` = global triangle id + 1 (0 =
 /// background) over `scene.meshes` (see `gpu::scene_buffers`); `ids.len()` must be `width * height` of
 /// the camera's film. Then pixels whose hit has a delta BSDF get the extra samples of their delta
-/// chains (`crate::view_chains::trace_chains` with `chains`).
+/// chains (`crate::view::chains::trace_chains` with `chains`).
 pub fn resolve_view_samples_with(scene: &Scene, ids: &[u32], chains: &ChainOptions) -> Result<ViewSamples> {
     resolve_view_samples_for(scene, &scene.camera, ids, chains)
 }
@@ -276,7 +276,7 @@ pub fn resolve_view_samples_for(scene: &Scene, cam: &Camera, ids: &[u32], chains
             (*albedo, *shape_index, *prim_index, *bsdf) = (s.albedo, s.shape_index, s.prim_index, s.bsdf);
             Ok::<(), Error>(())
         })?;
-    crate::view_chains::trace_chains(scene, &mut out, chains)?;
+    crate::view::chains::trace_chains(scene, &mut out, chains)?;
     // After the chains: the blend records of every sample (extra ones too) go after all samples.
     append_blend_records(scene, &mut out);
     Ok(out)

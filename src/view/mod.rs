@@ -1,5 +1,5 @@
 //! View samples: the deep framebuffer, one surface point per pixel centre, plus the surfaces seen
-//! through delta BSDF chains (mirrors, glass, smooth plastic's specular layer; `crate::view_chains`).
+//! through delta BSDF chains (mirrors, glass, smooth plastic's specular layer; `crate::view::chains`).
 //!
 //! Produced by `crate::gpu::gbuffer` (rasterised visibility at pixel centres, then resolved exactly on the
 //! CPU from the camera ray and the hit triangle / analytic sphere). Samples `0 .. width * height` are the
@@ -8,6 +8,10 @@
 //! delta chains; each belongs to the pixel `extra_pixel[k - width * height]` and carries the RGB
 //! `throughput` of its chain. A row of the light matrix is a pixel: the throughput-weighted sum of the
 //! pixel's samples (`ViewSamples::fold`). Without delta BSDFs there are no extra samples.
+pub mod chains;
+pub mod features;
+pub mod resolve;
+
 use crate::shading::GpuBsdf;
 use glam::{Vec2, Vec3};
 
@@ -33,7 +37,7 @@ pub struct ViewSamples {
     pub prim_index: Vec<i32>,
     /// The BSDF resolved at the point (`crate::shading::bsdf::resolve`): record i for sample i; past
     /// `len()`, the second records of blended samples (`blendbsdf`, linked from their first record; see
-    /// `crate::view_resolve::append_blend_records`). Evaluate with `shading::bsdf::eval_records`.
+    /// `crate::view::resolve::append_blend_records`). Evaluate with `shading::bsdf::eval_records`.
     pub bsdf: Vec<GpuBsdf>,
     /// RGB throughput of each sample: the product of the delta BSDF weights of its chain (Fresnel,
     /// specular reflectance / transmittance, eta^2 radiance scaling). Empty = 1 for every sample.
