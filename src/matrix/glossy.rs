@@ -314,5 +314,4 @@ pub fn bsdf_image(scene: &Scene, tracer: &RayTracer, view: &ViewSamples, lights:
 }
 
 #[cfg(test)]
-#[path = "glossy_tests.rs"]
 mod tests;

@@ -368,5 +368,4 @@ pub fn stratified_blocks(width: u32, height: u32, r: usize) -> Vec<(usize, usize
 }
 
 #[cfg(test)]
-#[path = "rows_tests.rs"]
 mod tests;

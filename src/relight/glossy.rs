@@ -307,5 +307,4 @@ pub fn add_glossy(rows: &[SparseRow], color: &[Vec3], image_norms: &[f32], bw: &
 }
 
 #[cfg(test)]
-#[path = "glossy_tests.rs"]
 mod tests;

@@ -462,5 +462,4 @@ pub fn choose_device(device: Device) -> Result<Chosen> {
 }
 
 #[cfg(test)]
-#[path = "gpu_tests.rs"]
 mod tests;

@@ -250,5 +250,4 @@ impl ClusterHierarchy {
 }
 
 #[cfg(test)]
-#[path = "hierarchy_tests.rs"]
 mod tests;

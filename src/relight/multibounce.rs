@@ -247,5 +247,4 @@ pub fn apply(t: &Transfer, b1: &[Vec3]) -> Result<Vec<Vec3>> {
 }
 
 #[cfg(test)]
-#[path = "multibounce_tests.rs"]
 mod tests;

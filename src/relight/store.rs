@@ -538,5 +538,4 @@ fn texture_keys(scene: &Scene, tex: &[usize], out: &mut Vec<u8>) {
 }
 
 #[cfg(test)]
-#[path = "store_tests.rs"]
 mod tests;

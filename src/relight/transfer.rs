@@ -534,5 +534,4 @@ impl RowContext<'_> {
 }
 
 #[cfg(test)]
-#[path = "transfer_tests.rs"]
 mod tests;

@@ -164,11 +164,4 @@ fn read_integrator(doc: &parse::Document, node: usize) -> Result<Integrator> {
 }
 
 #[cfg(test)]
-#[path = "xml/tests.rs"]
 mod tests;
-#[cfg(test)]
-#[path = "xml/tests_small.rs"]
-mod tests_small;
-#[cfg(test)]
-#[path = "xml/tests_formats.rs"]
-mod tests_formats;

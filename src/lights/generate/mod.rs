@@ -35,15 +35,7 @@ pub mod sampling;
 pub mod vpl;
 pub mod vpl_importance;
 #[cfg(test)]
-mod vpl_importance_tests;
-#[cfg(test)]
-mod gpu_tests;
-#[cfg(test)]
 mod tests;
-#[cfg(test)]
-mod material_tests;
-#[cfg(test)]
-mod vsl_tests;
 
 pub use vpl_importance::VplImportance;
 

@@ -1,5 +1,9 @@
 //! CPU tests of light generation: power conservation (area exact, environment integrals, VPL furnace),
 //! stratification, determinism, conventions and bad input.
+mod gpu;
+mod material;
+mod vsl;
+
 use super::environment::{envmap_radiance, Environment};
 use super::sampling::equal_area_cells;
 use crate::testing::light_scenes::{furnace_box, open_box, quad};

@@ -298,3 +298,6 @@ pub(crate) fn trace_importance(tracer: &Tracer, opts: &GenerateOptions, imp: &Vp
     log::info!("vpl_importance: {stats:?}");
     Ok((out, stats))
 }
+
+#[cfg(test)]
+mod tests;

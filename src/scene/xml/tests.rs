@@ -3,6 +3,9 @@
 //! `mi.traverse(sensor)["x_fov"]`, `sensor.world_transform()`).
 // Reference numbers are pasted verbatim from Mitsuba's printouts (f32 values printed as f64).
 #![allow(clippy::excessive_precision)]
+mod formats;
+mod small;
+
 use super::*;
 use crate::scene::{Bsdf, Emitter, MicrofacetDistribution, Param, ShapeKind, Texture};
 use glam::{Vec3, Vec4};

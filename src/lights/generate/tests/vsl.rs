@@ -1,7 +1,7 @@
 //! Virtual spherical lights (`lights::vsl`) as generated lights: radius -> 0 gives the unclamped VPL
 //! column, the GPU column pass equals the CPU reference (near field included), bad radii are refused.
 use crate::testing::light_scenes::open_box;
-use super::*;
+use crate::lights::generate::*;
 use crate::gpu::GpuContext;
 use crate::lights::LightKind;
 use crate::matrix::reference::CpuReference;

@@ -1,7 +1,7 @@
 //! Small hand-written scenes: parameters, includes, references, defaults, and every refusal.
 // Reference numbers are pasted verbatim from Mitsuba's printouts (f32 values printed as f64).
 #![allow(clippy::excessive_precision)]
-use super::*;
+use crate::scene::xml::*;
 use crate::error::Error;
 use crate::scene::{Bsdf, Emitter, MicrofacetDistribution, Param, ShapeKind};
 use glam::Vec3;

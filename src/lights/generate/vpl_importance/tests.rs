@@ -2,9 +2,9 @@
 //! seeds against plain VPLs, on the occluded open box with a render view finer than the pilot view),
 //! lower variance, determinism, eps = 1 = every candidate, bad options.
 use crate::testing::light_scenes::{furnace_box, open_box};
-use super::vpl::Tracer;
-use super::vpl_importance::{p_accept, solve_tau, trace_importance, PilotView};
-use super::*;
+use crate::lights::generate::vpl::Tracer;
+use super::{p_accept, solve_tau, trace_importance, PilotView};
+use crate::lights::generate::*;
 use crate::cpu::{shade, ShadingPoint};
 use crate::lights::LightKind;
 use crate::raytrace::RayTracer;

@@ -2,7 +2,7 @@
 //! light kind (oriented points, environment directionals, VPLs on diffuse, roughplastic and
 //! roughconductor surfaces) on the open box of `testing::light_scenes`.
 use crate::testing::light_scenes::open_box;
-use super::*;
+use crate::lights::generate::*;
 use crate::gpu::GpuContext;
 use crate::lights::LightKind;
 use crate::matrix::reference::CpuReference;

@@ -2,7 +2,7 @@
 //! padding of tiny environment maps, against mitsuba 3.9.1 (scalar_rgb): `mi.traverse(envmap)["data"]`
 //! shapes and `envmap.eval(si)` values printed by `mi.load_dict({"type": "envmap", ...})`.
 #![allow(clippy::excessive_precision, clippy::type_complexity)]
-use super::*;
+use crate::scene::xml::*;
 use crate::error::Error;
 use crate::lights::generate::environment::envmap_radiance;
 use crate::scene::{Emitter, Texture};

@@ -2,7 +2,7 @@
 //! bounce is unbiased (principled reflection sampled with `shading::principled::sample`, transmission
 //! leaving the box; a blend's BSDF picked with its weight).
 use crate::testing::light_scenes::{box_faces, furnace_box, square_camera};
-use super::*;
+use crate::lights::generate::*;
 use crate::error::Location;
 use crate::lights::LightKind;
 use crate::scene::principled::Principled;
