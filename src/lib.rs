@@ -1,4 +1,6 @@
 //! manylights: many-light rendering research core (Rust), with Python bindings behind the `python` feature.
+//!
+//! Tests: the tests of `foo` are `#[cfg(test)] mod tests;` in `foo/tests.rs` (`dir/tests.rs` for `dir/mod.rs`; topics in `tests/*.rs`).
 pub mod error;
 #[doc(hidden)]
 pub mod fuzzing;
