@@ -1,5 +1,6 @@
 //! Batch BSDF evaluation on the GPU: `bsdf_eval` of `shaders/common/bsdf.wgsl` for N (bsdf, wi, wo)
 //! triples, read back to the host. Used to check the WGSL twin against `shading::bsdf::eval` and Mitsuba.
+use crate::gpu::shaders;
 use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
@@ -10,16 +11,6 @@ use wgpu::util::DeviceExt;
 
 /// Threads per workgroup (mirrored in `shaders/bsdf_eval.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
-
-/// The assembled module: common BSDF code, then the pass.
-pub const BSDF_EVAL_WGSL: &str =
-    concat!(
-        include_str!("../../shaders/common/bsdf.wgsl"),
-        "\n",
-        include_str!("../../shaders/common/principled.wgsl"),
-        "\n",
-        include_str!("../../shaders/bsdf_eval.wgsl")
-    );
 
 /// Uniforms. Keep in sync with `BsdfEvalParams` in `shaders/bsdf_eval.wgsl`.
 #[repr(C)]
@@ -41,7 +32,7 @@ impl BsdfEvalPass {
         let (pipeline, bind_group_layout) = compute_pipeline(
             device,
             "BsdfEvalPass",
-            BSDF_EVAL_WGSL,
+            shaders::BSDF_EVAL,
             &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false)],
         );
         BsdfEvalPass { pipeline, bind_group_layout }

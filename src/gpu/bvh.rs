@@ -17,6 +17,7 @@
 //!
 //! Storage: nodes are 32 bytes and primitives 48 bytes, each array one storage binding; scenes whose
 //! arrays exceed the device's binding limit (128 MiB on Mesa: about 2.8M primitives) are an error.
+use crate::gpu::shaders;
 use super::columns::{dispatch_size, storage_buffer};
 use super::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
@@ -266,10 +267,6 @@ pub struct OcclusionResult {
     pub steps: u32,
 }
 
-/// The WGSL module of `OccludedPass`.
-pub const OCCLUDED_WGSL: &str =
-    concat!(include_str!("../../shaders/common/bvh.wgsl"), include_str!("../../shaders/occluded.wgsl"));
-
 /// Batch shadow-ray queries against a `GpuBvh`, one thread per query (tests, and callers that want
 /// exact GPU visibility of arbitrary segments).
 pub struct OccludedPass {
@@ -279,7 +276,7 @@ pub struct OccludedPass {
 
 impl OccludedPass {
     pub fn new(device: &wgpu::Device) -> OccludedPass {
-        let (pipeline, bind_group_layout) = compute_pipeline(device, "OccludedPass", OCCLUDED_WGSL, &[
+        let (pipeline, bind_group_layout) = compute_pipeline(device, "OccludedPass", shaders::OCCLUDED, &[
             uniform(0),
             storage(1, true),
             storage(2, true),

@@ -17,6 +17,7 @@
 //! column), representatives (4 B per view cluster), the visibility matrix (4 B per word) and the
 //! accumulator (16 B per sample). A backend made with shadow-map-only visibility has no BVH; one is
 //! built and uploaded here then.
+use crate::gpu::shaders;
 use super::bvh::GpuBvh;
 use super::columns::{dispatch_size, storage_buffer, GpuLight};
 use super::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
@@ -57,17 +58,6 @@ pub struct ClusteredParams {
     pub _pad: [u32; 3],
 }
 
-/// The WGSL module: the shared snippets, then the pass.
-pub const CLUSTERED_VISIBILITY_WGSL: &str = concat!(
-    include_str!("../../shaders/common/bsdf.wgsl"),
-    include_str!("../../shaders/common/principled.wgsl"),
-    include_str!("../../shaders/common/light.wgsl"),
-    include_str!("../../shaders/common/glossy.wgsl"),
-    include_str!("../../shaders/common/bvh.wgsl"),
-    include_str!("../../shaders/common/view_sample.wgsl"),
-    include_str!("../../shaders/clustered_visibility.wgsl"),
-);
-
 /// The compiled pipeline.
 pub struct ClusteredVisibilityPass {
     pub pipeline: wgpu::ComputePipeline,
@@ -79,7 +69,7 @@ impl ClusteredVisibilityPass {
         let mut entries = vec![uniform(0)];
         entries.extend((1..=10).map(|b| storage(b, true)));
         entries.extend((11..=13).map(|b| storage(b, false)));
-        let (pipeline, bind_group_layout) = compute_pipeline(device, "ClusteredVisibilityPass", CLUSTERED_VISIBILITY_WGSL, &entries);
+        let (pipeline, bind_group_layout) = compute_pipeline(device, "ClusteredVisibilityPass", shaders::CLUSTERED_VISIBILITY, &entries);
         ClusteredVisibilityPass { pipeline, bind_group_layout }
     }
 }

@@ -12,6 +12,7 @@
 //! (a) adds `sum_j w_j column_j` to a GPU-resident RGBA f32 accumulator (read back once at the end),
 //! (b) optionally writes the individual columns (`[j][i][rgb]` f32) for readback; the caller keeps that
 //!     buffer under the 128 MiB storage-binding limit by sizing batches.
+use crate::gpu::shaders;
 use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
 use crate::lights::{LightKind, LightSet};
 use crate::view::ViewSamples;
@@ -138,9 +139,6 @@ pub struct ColumnParams {
     pub _pad1: f32,
 }
 
-/// The WGSL module of the pass.
-pub const COLUMNS_WGSL: &str = crate::gpu::shaders::COLUMNS;
-
 /// View samples on the GPU: geometry and throughput (80 B each) and BSDFs (80 B each), separate bindings, plus the
 /// rough-plastic tables the BSDFs index (`crate::shading::bsdf::roughplastic_table_buffer`).
 pub struct ViewBuffers {
@@ -223,7 +221,7 @@ pub fn dispatch_size(num_samples: u32) -> (u32, u32, u32) {
 
 impl ColumnsPass {
     pub fn new(device: &wgpu::Device) -> ColumnsPass {
-        let (pipeline, bind_group_layout) = compute_pipeline(device, "ColumnsPass", COLUMNS_WGSL, &[
+        let (pipeline, bind_group_layout) = compute_pipeline(device, "ColumnsPass", shaders::COLUMNS, &[
             uniform(0),
             storage(1, true),
             storage(2, true),

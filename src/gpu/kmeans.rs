@@ -2,6 +2,7 @@
 //! assignment of the F nearest centroids (grid shells, then exhaustive chunks for points left unresolved),
 //! fixed-point atomic reduction, centroid update and the Eq. 10 fuzzy weights. The algorithm and its
 //! paper are documented in `crate::cluster::kmeans`; this file only owns pipelines, buffers and dispatches.
+use crate::gpu::shaders;
 use super::GpuContext;
 use crate::cluster::kmeans::{bounds, Quantiser};
 use crate::error::{Error, Result};
@@ -20,9 +21,6 @@ pub const DEFAULT_BUDGET: u32 = 24_576;
 pub const MAX_GRID_CELLS: usize = 1 << 18;
 /// Words per cluster in the sums buffer (count + 6 sums of two words), as SUM_WORDS in the WGSL.
 pub const SUM_WORDS: usize = 13;
-
-/// `shaders/kmeans.wgsl` (no shared snippets).
-pub const KMEANS_WGSL: &str = include_str!("../../shaders/kmeans.wgsl");
 
 /// Uniforms. Keep in sync with `Params` in `shaders/kmeans.wgsl` (112 bytes).
 #[repr(C)]
@@ -122,7 +120,7 @@ impl KMeansPass {
     pub fn new(device: &wgpu::Device) -> KMeansPass {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("KMeansPass::module"),
-            source: wgpu::ShaderSource::Wgsl(KMEANS_WGSL.into()),
+            source: wgpu::ShaderSource::Wgsl(shaders::KMEANS.into()),
         });
         let mut entries = vec![uniform(0), storage(1, true)];
         entries.extend((2..12).map(|b| storage(b, false)));

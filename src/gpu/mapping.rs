@@ -8,6 +8,7 @@
 //! A mapping is uploaded once ([`upload_mapping`]) and used by any number of dispatches;
 //! [`MappingPass::encode`] records one gather into an encoder, so a chain k -> k+1 -> k+2 is a sequence
 //! of dispatches ping-ponging two buffers with no readback ([`apply_chain_gpu`]).
+use crate::gpu::shaders;
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
@@ -17,9 +18,6 @@ use wgpu::util::DeviceExt;
 
 /// Threads per workgroup (mirrored in `shaders/mapping.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
-
-/// `shaders/mapping.wgsl` (no shared snippets).
-pub const MAPPING_WGSL: &str = include_str!("../../shaders/mapping.wgsl");
 
 /// Uniforms. Keep in sync with `MappingParams` in `shaders/mapping.wgsl` (32 bytes).
 #[repr(C)]
@@ -57,7 +55,7 @@ impl MappingPass {
         let (pipeline, bind_group_layout) = compute_pipeline(
             device,
             "MappingPass",
-            MAPPING_WGSL,
+            shaders::MAPPING,
             &[uniform(0), storage(1, true), storage(2, true), storage(3, false)],
         );
         MappingPass { pipeline, bind_group_layout }

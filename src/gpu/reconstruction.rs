@@ -22,6 +22,7 @@
 //!
 //! Symbols: f frames of the stretch, P pixels, m view samples of a frame (P + delta-chain extras), c
 //! representatives, k0 a representative's frame, Rec the c x f (RGB) reconstruction matrix.
+use crate::gpu::shaders;
 use super::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
@@ -34,9 +35,6 @@ pub const WORKGROUP_SIZE: u32 = 64;
 
 /// Columns per batch: bounds the shader's loop over a batch (far below Mesa's 65,535-iteration cut).
 pub const MAX_BATCH: usize = 256;
-
-/// `shaders/reconstruction.wgsl`.
-pub const RECONSTRUCTION_WGSL: &str = include_str!("../../shaders/reconstruction.wgsl");
 
 /// Uniforms. Keep in sync with `Params` in `shaders/reconstruction.wgsl` (48 bytes).
 #[repr(C)]
@@ -67,7 +65,7 @@ impl ReconstructionPass {
         let (pipeline, bind_group_layout) = compute_pipeline(
             device,
             "ReconstructionPass",
-            RECONSTRUCTION_WGSL,
+            shaders::RECONSTRUCTION,
             &[
                 uniform(0),
                 storage(1, true),

@@ -13,6 +13,7 @@
 //! output once and adds in the CPU's order (`relight::relight`), so both devices give the same sums up to
 //! rounding. On-the-fly culling zeroes the culled lights' coefficients (`cull`), which keeps the result of
 //! the image-based form; it does not skip their work as the scatter would.
+use crate::gpu::shaders;
 use crate::gpu::columns::dispatch_size;
 use crate::gpu::pipeline::{storage, uniform};
 
@@ -33,9 +34,6 @@ pub struct RelightParams {
     pub dispatch_width: u32,
     pub epsilon: f32,
 }
-
-/// The WGSL module.
-pub const RELIGHT_WGSL: &str = include_str!("../../shaders/relight.wgsl");
 
 /// One kernel: its pipeline, bind group layout and the bindings it uses (in layout order).
 pub struct Kernel {
@@ -115,7 +113,7 @@ impl RelightPasses {
     pub fn new(device: &wgpu::Device) -> RelightPasses {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("RelightPasses::module"),
-            source: wgpu::ShaderSource::Wgsl(RELIGHT_WGSL.into()),
+            source: wgpu::ShaderSource::Wgsl(shaders::RELIGHT.into()),
         });
         RelightPasses {
             // src, dst, coeffs

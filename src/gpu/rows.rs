@@ -13,6 +13,7 @@
 //! Deviation from the paper: visibility is the hybrid of `columns.wgsl` (cube map where its 2x2
 //! footprint is unambiguous, the exact BVH ray of the column pass elsewhere), so rows equal columns up
 //! to the (rare) cases where a certain-looking map disagrees with the ray; see `row_map_decide`.
+use crate::gpu::shaders;
 use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
 use super::columns::{storage_buffer, ViewBuffers};
 use crate::gpu::shadow::GpuShadowLayer;
@@ -59,9 +60,6 @@ pub struct GpuRowInfo {
     pub _pad0: [u32; 2],
 }
 
-/// The WGSL module of the pass.
-pub const ROWS_WGSL: &str = crate::gpu::shaders::ROWS;
-
 /// Per-dispatch inputs.
 pub struct RowsInputs<'a> {
     pub params: RowParams,
@@ -91,7 +89,7 @@ pub struct RowsPass {
 
 impl RowsPass {
     pub fn new(device: &wgpu::Device) -> RowsPass {
-        let (pipeline, bind_group_layout) = compute_pipeline(device, "RowsPass", ROWS_WGSL, &[
+        let (pipeline, bind_group_layout) = compute_pipeline(device, "RowsPass", shaders::ROWS, &[
             uniform(0),
             storage(1, true),
             storage(2, true),

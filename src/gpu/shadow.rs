@@ -14,6 +14,7 @@
 //! Depth comparisons happen in the layer's own projected depth: the column pass offsets the shaded point
 //! in world space (normal offset + slope-scaled depth bias, in units of the layer's world-space texel
 //! size) and compares its projected depth with the stored one. Biases are in `ColumnOptions`.
+use crate::gpu::shaders;
 use crate::lights::{LightKind, LightSet};
 use crate::gpu::scene_buffers::SceneGeometry;
 use glam::{Mat4, Vec3};
@@ -205,15 +206,11 @@ pub struct ShadowMapPass {
     pub bind_group_layout: wgpu::BindGroupLayout,
 }
 
-/// The WGSL module of the pass.
-pub const SHADOW_WGSL: &str =
-    concat!(include_str!("../../shaders/common/shadow_layer.wgsl"), include_str!("../../shaders/shadow.wgsl"));
-
 impl ShadowMapPass {
     pub fn new(device: &wgpu::Device) -> ShadowMapPass {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("ShadowMapPass::module"),
-            source: wgpu::ShaderSource::Wgsl(SHADOW_WGSL.into()),
+            source: wgpu::ShaderSource::Wgsl(shaders::SHADOW.into()),
         });
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("ShadowMapPass::bind_group_layout"),

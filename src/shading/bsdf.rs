@@ -63,9 +63,6 @@ pub const FLAG_BLEND: u32 = 8;
 
 const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 
-/// The WGSL twin (no entry points; needs `fn bsdf_table(i: u32) -> f32` from the including module).
-pub const BSDF_WGSL: &str = include_str!("../../shaders/common/bsdf.wgsl");
-
 /// Resolve scene BSDF `index` at texture coordinate `uv` (textures evaluated there).
 pub fn resolve(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: Vec2) -> GpuBsdf {
     let mut b = GpuBsdf { diffuse: [0.0; 3], kind: KIND_NONE, specular: [0.0; 3], flags: 0, eta: [0.0; 3],

@@ -37,9 +37,6 @@ use std::f32::consts::PI;
 
 const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 
-/// The WGSL twin (functions only; needs `bsdf.wgsl` for the microfacet and Fresnel helpers).
-pub const PRINCIPLED_WGSL: &str = include_str!("../../shaders/common/principled.wgsl");
-
 /// Mitsuba's relative IOR of a principled BSDF: `eta` if given, else from `specular` (default 0.5);
 /// `has_spec_trans`: the file gives `spec_trans` (and not as the float 0).
 pub fn principled_eta(eta: Option<f32>, specular: Option<f32>, has_spec_trans: bool) -> f32 {

@@ -20,7 +20,7 @@ fn struct_sizes_and_wgsl() {
     assert_eq!(std::mem::size_of::<GpuBvhNode>(), 32);
     assert_eq!(std::mem::size_of::<GpuPrimitive>(), 48);
     assert_eq!(std::mem::size_of::<OcclusionQuery>(), 48);
-    let module = crate::gpu::shaders::validate_wgsl("occluded.wgsl", OCCLUDED_WGSL).unwrap();
+    let module = crate::gpu::shaders::validate_wgsl("occluded.wgsl", shaders::OCCLUDED).unwrap();
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).unwrap();
     for (name, size) in [("BvhNode", 32), ("BvhPrim", 48), ("OcclusionQuery", 48)] {
@@ -33,13 +33,13 @@ fn struct_sizes_and_wgsl() {
         (INVOCATION_BUDGET, "const BVH_INVOCATION_BUDGET: u32 = 61440u;"),
         (STACK_SIZE, "const BVH_STACK_SIZE: u32 = 48u;"),
     ] {
-        assert!(OCCLUDED_WGSL.contains(wgsl) && wgsl.contains(&format!(" {rust}u;")), "{wgsl}");
+        assert!(shaders::OCCLUDED.contains(wgsl) && wgsl.contains(&format!(" {rust}u;")), "{wgsl}");
     }
     // The WGSL literals are Mitsuba's epsilons exactly.
     assert_eq!(8.940696716308594e-5_f32, crate::raytrace::RAY_EPSILON);
     assert_eq!(8.940696716308594e-4_f32, crate::raytrace::SHADOW_EPSILON);
-    assert!(OCCLUDED_WGSL.contains("const RAY_EPSILON: f32 = 8.940696716308594e-5;"));
-    assert!(OCCLUDED_WGSL.contains("const SHADOW_EPSILON: f32 = 8.940696716308594e-4;"));
+    assert!(shaders::OCCLUDED.contains("const RAY_EPSILON: f32 = 8.940696716308594e-5;"));
+    assert!(shaders::OCCLUDED.contains("const SHADOW_EPSILON: f32 = 8.940696716308594e-4;"));
 }
 
 /// Random queries of four kinds: free segments between points of the (enlarged) bounds, shadow rays from

@@ -10,7 +10,7 @@ fn struct_sizes() {
 
 #[test]
 fn columns_wgsl_validates_and_layouts_match() {
-    crate::gpu::shaders::assert_struct_sizes("columns.wgsl", COLUMNS_WGSL, &[
+    crate::gpu::shaders::assert_struct_sizes("columns.wgsl", shaders::COLUMNS, &[
         ("Light", 256),
         ("ViewSample", 80),
         ("ColumnParams", 48),

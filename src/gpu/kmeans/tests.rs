@@ -2,7 +2,7 @@ use super::*;
 
 #[test]
 fn wgsl_validates_and_params_match() {
-    let module = crate::gpu::shaders::assert_struct_sizes("kmeans.wgsl", KMEANS_WGSL, &[("Params", 112), ("Point", 32)]);
+    let module = crate::gpu::shaders::assert_struct_sizes("kmeans.wgsl", shaders::KMEANS, &[("Params", 112), ("Point", 32)]);
     assert_eq!(std::mem::size_of::<GpuKMeansParams>(), 112);
     assert_eq!(std::mem::size_of::<GpuPoint>(), 32);
     let entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();

@@ -3,7 +3,7 @@ use crate::matrix::mapping::NO_SOURCE;
 
 #[test]
 fn wgsl_validates_and_params_match() {
-    crate::gpu::shaders::assert_struct_sizes("mapping.wgsl", MAPPING_WGSL, &[("MappingParams", 32)]);
+    crate::gpu::shaders::assert_struct_sizes("mapping.wgsl", shaders::MAPPING, &[("MappingParams", 32)]);
     assert_eq!(std::mem::size_of::<MappingParams>(), 32);
 }
 

@@ -2,7 +2,7 @@ use super::*;
 
 #[test]
 fn relight_wgsl_validates_and_layouts_match() {
-    let module = crate::gpu::shaders::assert_struct_sizes("relight.wgsl", RELIGHT_WGSL, &[("RelightParams", 32)]);
+    let module = crate::gpu::shaders::assert_struct_sizes("relight.wgsl", shaders::RELIGHT, &[("RelightParams", 32)]);
     assert_eq!(std::mem::size_of::<RelightParams>(), 32);
     let entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
     for name in ["haar_level", "cull", "product", "product_rgb", "finish_bounce", "combine", "combine_glossy"] {

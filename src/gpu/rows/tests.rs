@@ -8,7 +8,7 @@ fn struct_sizes() {
 
 #[test]
 fn rows_wgsl_validates_and_layouts_match() {
-    crate::gpu::shaders::assert_struct_sizes("rows.wgsl", ROWS_WGSL, &[
+    crate::gpu::shaders::assert_struct_sizes("rows.wgsl", shaders::ROWS, &[
         ("RowParams", 48),
         ("RowInfo", 32),
         ("Light", 256),
@@ -16,8 +16,8 @@ fn rows_wgsl_validates_and_layouts_match() {
         ("ShadowLayer", 256),
     ]);
     // The WGSL mirrors of the Rust constants.
-    assert!(ROWS_WGSL.contains(&format!("const WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;")));
-    assert!(ROWS_WGSL.contains("const ROW_NO_MAP: u32 = 0xffffffffu;"));
+    assert!(shaders::ROWS.contains(&format!("const WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;")));
+    assert!(shaders::ROWS.contains("const ROW_NO_MAP: u32 = 0xffffffffu;"));
 }
 
 #[test]

@@ -7,7 +7,7 @@ fn layer_struct_is_256_bytes() {
 
 #[test]
 fn shadow_wgsl_validates() {
-    let module = naga::front::wgsl::parse_str(SHADOW_WGSL).expect("shadow.wgsl parses");
+    let module = naga::front::wgsl::parse_str(shaders::SHADOW).expect("shadow.wgsl parses");
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
         .expect("shadow.wgsl validates");

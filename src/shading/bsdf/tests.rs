@@ -7,7 +7,7 @@ fn gpu_bsdf_is_80_bytes() {
 
 #[test]
 fn wgsl_parses_and_validates() {
-    let src = crate::gpu::bsdf_eval::BSDF_EVAL_WGSL;
+    let src = crate::gpu::shaders::BSDF_EVAL;
     let module = naga::front::wgsl::parse_str(src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(src)));
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
