@@ -67,9 +67,9 @@ fn valid_name(name: &str) -> bool {
     !name.is_empty()
         && name.len() <= 64
         && name != "scene.xml"
-        && name.split('/').all(|c| {
-            !c.is_empty() && c != "." && c != ".." && c.bytes().all(|b| b.is_ascii_alphanumeric() || b"._-".contains(&b))
-        })
+        && name
+            .split('/')
+            .all(|c| !c.is_empty() && c != "." && c != ".." && c.bytes().all(|b| b.is_ascii_alphanumeric() || b"._-".contains(&b)))
 }
 
 fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
@@ -145,8 +145,7 @@ pub fn ply(data: &[u8]) -> Result<mesh::WorldMesh> {
 /// Reads bytes as a bitmap file with extension `ext` (`texture::load_bitmap`, sRGB decoding on).
 pub fn image(data: &[u8], ext: &str) -> Result<(u32, u32, Vec<Vec3>)> {
     let path = write(&scratch(false), &format!("t.{ext}"), data);
-    let (w, h, px) =
-        crate::memory::with_thread_limit(MEMORY_LIMIT, || texture::load_bitmap(&path, &Location::new("fuzz.xml", 1), false))?;
+    let (w, h, px) = crate::memory::with_thread_limit(MEMORY_LIMIT, || texture::load_bitmap(&path, &Location::new("fuzz.xml", 1), false))?;
     assert_eq!(px.len(), w as usize * h as usize, "load_bitmap returned {} texels for {w}x{h}", px.len());
     Ok((w, h, px))
 }

@@ -93,10 +93,7 @@ pub fn enabled() -> bool {
 /// submission meanwhile (gfx-rs/wgpu#9958), so it is not used. Without a checker the wait is direct.
 pub fn wait_gpu(device: &wgpu::Device, submission: Option<wgpu::SubmissionIndex>, what: &str) -> Result<()> {
     let blocking = |device: &wgpu::Device, submission| {
-        device
-            .poll(wgpu::PollType::Wait { submission_index: submission, timeout: None })
-            .map(|_| ())
-            .map_err(|e| e.to_string())
+        device.poll(wgpu::PollType::Wait { submission_index: submission, timeout: None }).map(|_| ()).map_err(|e| e.to_string())
     };
     if !enabled() || rayon::current_thread_index().is_some() {
         return blocking(device, submission).map_err(|e| Error::Gpu(format!("waiting for {what} failed: {e}")));

@@ -44,9 +44,8 @@ pub fn available_host_bytes() -> Result<Option<u64>> {
         (a, c) => a.or(c),
     };
     if let Ok(v) = std::env::var("MANYLIGHTS_MEMORY_LIMIT") {
-        let limit = parse_bytes(&v).ok_or_else(|| {
-            Error::invalid(format!("MANYLIGHTS_MEMORY_LIMIT must be a byte count such as 2000000000 or 2G, got {v:?}"))
-        })?;
+        let limit = parse_bytes(&v)
+            .ok_or_else(|| Error::invalid(format!("MANYLIGHTS_MEMORY_LIMIT must be a byte count such as 2000000000 or 2G, got {v:?}")))?;
         avail = Some(avail.map_or(limit, |a| a.min(limit)));
     }
     if let Some(limit) = THREAD_LIMIT.with(|l| l.get()) {
@@ -145,10 +144,7 @@ pub fn check_host(what: &str, bytes: u128) -> Result<()> {
 
 fn check_host_against(what: &str, bytes: u128, available: Option<u64>) -> Result<()> {
     if bytes > isize::MAX as u128 {
-        return Err(Error::OutOfMemory(format!(
-            "{what} needs {} of host memory, more than this process can address",
-            fmt_bytes(bytes)
-        )));
+        return Err(Error::OutOfMemory(format!("{what} needs {} of host memory, more than this process can address", fmt_bytes(bytes))));
     }
     if let Some(avail) = available {
         if bytes > avail as u128 {

@@ -32,14 +32,7 @@ pub fn alpha(features: &Features) -> Vec<f64> {
     }
     // rho_i . T for all i: the product R^T T.
     let mut dots = Mat::<f64>::zeros(m, 1);
-    matmul(
-        dots.as_mut(),
-        Accum::Replace,
-        features.as_mat().transpose(),
-        MatRef::from_column_major_slice(&total, d, 1),
-        1.0,
-        Par::Seq,
-    );
+    matmul(dots.as_mut(), Accum::Replace, features.as_mat().transpose(), MatRef::from_column_major_slice(&total, d, 1), 1.0, Par::Seq);
     (0..m).map(|i| (features.norm[i] * norm_sum - dots[(i, 0)]).max(0.0)).collect()
 }
 

@@ -1,9 +1,9 @@
 //! Batch BSDF evaluation on the GPU: `bsdf_eval` of `shaders/common/bsdf.wgsl` for N (bsdf, wi, wo)
 //! triples, read back to the host. Used to check the WGSL twin against `shading::bsdf::eval` and Mitsuba.
-use crate::gpu::shaders;
-use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
+use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
+use crate::gpu::shaders;
 use crate::shading::GpuBsdf;
 use glam::Vec3;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -70,8 +70,7 @@ pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], broadcast: bool, tabl
     let pass = BsdfEvalPass::shared(ctx);
     let device = &ctx.device;
     let params = BsdfEvalParams { count: n as u32, broadcast: broadcast as u32, _pad: [0; 2] };
-    let directions: Vec<[f32; 4]> =
-        wi.iter().zip(wo).flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
+    let directions: Vec<[f32; 4]> = wi.iter().zip(wo).flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
     let tables: &[f32] = if tables.is_empty() { &[0.0] } else { tables };
     let init = |label, contents: &[u8], usage| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
@@ -90,13 +89,20 @@ pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], broadcast: bool, tabl
     let gx = groups.min(ctx.limits.max_compute_workgroups_per_dimension.max(1));
     let gy = groups.div_ceil(gx);
     let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("BsdfEvalPass::encoder") });
-    encode_dispatch(device, &mut enc, "BsdfEvalPass", (&pass.pipeline, &pass.bind_group_layout), &[
-        params_buf.as_entire_binding(),
-        bsdf_buf.as_entire_binding(),
-        dir_buf.as_entire_binding(),
-        table_buf.as_entire_binding(),
-        out_buf.as_entire_binding(),
-    ], (gx, gy));
+    encode_dispatch(
+        device,
+        &mut enc,
+        "BsdfEvalPass",
+        (&pass.pipeline, &pass.bind_group_layout),
+        &[
+            params_buf.as_entire_binding(),
+            bsdf_buf.as_entire_binding(),
+            dir_buf.as_entire_binding(),
+            table_buf.as_entire_binding(),
+            out_buf.as_entire_binding(),
+        ],
+        (gx, gy),
+    );
     ctx.queue.submit(Some(enc.finish()));
     let out: Vec<[f32; 4]> = ctx.read_buffer(&out_buf, 0, n)?;
     Ok(out.into_iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())

@@ -17,12 +17,12 @@
 //! column), representatives (4 B per view cluster), the visibility matrix (4 B per word) and the
 //! accumulator (16 B per sample). A backend made with shadow-map-only visibility has no BVH; one is
 //! built and uploaded here then.
-use crate::gpu::shaders;
 use super::bvh::GpuBvh;
 use super::columns::{dispatch_size, storage_buffer, GpuLight};
 use super::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use crate::cluster::visibility::{seconds, words_per_row, ClusteredImage, ClusteredShading, VisibilityMatrix};
 use crate::error::{Error, Result};
+use crate::gpu::shaders;
 use crate::matrix::gpu::GpuBackend;
 use crate::matrix::Visibility;
 use std::time::Instant;
@@ -101,10 +101,7 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     ];
     for (what, bytes) in sizes {
         if bytes > backend.max_binding {
-            return Err(Error::invalid(format!(
-                "{what} need {bytes} bytes, above the {}-byte storage binding limit",
-                backend.max_binding
-            )));
+            return Err(Error::invalid(format!("{what} need {bytes} bytes, above the {}-byte storage binding limit", backend.max_binding)));
         }
     }
     crate::memory::check_gpu(ctx, "clustered visibility buffers", sizes.iter().map(|s| s.1 as u128).sum(), false)?;
@@ -124,7 +121,8 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     let reps_buf = storage_buffer(device, "ClusteredVisibility::representatives", &reps, usage);
     let clusters_buf = storage_buffer(device, "ClusteredVisibility::membership_clusters", &job.membership.clusters, usage);
     let weights_buf = storage_buffer(device, "ClusteredVisibility::membership_weights", &job.membership.weights, usage);
-    let vis_buf = storage_buffer(device, "ClusteredVisibility::visibility", &vec![0u32; k_view * words], usage | wgpu::BufferUsages::COPY_SRC);
+    let vis_buf =
+        storage_buffer(device, "ClusteredVisibility::visibility", &vec![0u32; k_view * words], usage | wgpu::BufferUsages::COPY_SRC);
     let accum = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("ClusteredVisibility::accum"),
         size: (m as u64 * 16).max(16),
@@ -151,22 +149,29 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
         let params = ClusteredParams { dispatch_width: width, ..params };
         let params_buf = storage_buffer(device, "ClusteredVisibility::params", &[params], wgpu::BufferUsages::UNIFORM);
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-        encode_dispatch(device, &mut encoder, "ClusteredVisibilityPass", (&pass.pipeline, &pass.bind_group_layout), &[
-            params_buf.as_entire_binding(),
-            backend.view_buffers.samples.as_entire_binding(),
-            backend.view_buffers.bsdfs.as_entire_binding(),
-            backend.view_buffers.bsdf_tables.as_entire_binding(),
-            lights_buf.as_entire_binding(),
-            spot_buf.as_entire_binding(),
-            bvh.nodes.as_entire_binding(),
-            bvh.primitives.as_entire_binding(),
-            reps_buf.as_entire_binding(),
-            clusters_buf.as_entire_binding(),
-            weights_buf.as_entire_binding(),
-            vis_buf.as_entire_binding(),
-            accum.as_entire_binding(),
-            gave_up_buf.as_entire_binding(),
-        ], (gx, gy));
+        encode_dispatch(
+            device,
+            &mut encoder,
+            "ClusteredVisibilityPass",
+            (&pass.pipeline, &pass.bind_group_layout),
+            &[
+                params_buf.as_entire_binding(),
+                backend.view_buffers.samples.as_entire_binding(),
+                backend.view_buffers.bsdfs.as_entire_binding(),
+                backend.view_buffers.bsdf_tables.as_entire_binding(),
+                lights_buf.as_entire_binding(),
+                spot_buf.as_entire_binding(),
+                bvh.nodes.as_entire_binding(),
+                bvh.primitives.as_entire_binding(),
+                reps_buf.as_entire_binding(),
+                clusters_buf.as_entire_binding(),
+                weights_buf.as_entire_binding(),
+                vis_buf.as_entire_binding(),
+                accum.as_entire_binding(),
+                gave_up_buf.as_entire_binding(),
+            ],
+            (gx, gy),
+        );
         let submission = ctx.queue.submit(Some(encoder.finish()));
         crate::interrupt::wait_gpu(device, Some(submission), label)
     };

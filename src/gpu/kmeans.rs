@@ -2,11 +2,11 @@
 //! assignment of the F nearest centroids (grid shells, then exhaustive chunks for points left unresolved),
 //! fixed-point atomic reduction, centroid update and the Eq. 10 fuzzy weights. The algorithm and its
 //! paper are documented in `crate::cluster::kmeans`; this file only owns pipelines, buffers and dispatches.
-use crate::gpu::shaders;
 use super::GpuContext;
 use crate::cluster::kmeans::{bounds, Quantiser};
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{storage, uniform};
+use crate::gpu::shaders;
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
 
@@ -124,10 +124,8 @@ impl KMeansPass {
         });
         let mut entries = vec![uniform(0), storage(1, true)];
         entries.extend((2..12).map(|b| storage(b, false)));
-        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("KMeansPass::bind_group_layout"),
-            entries: &entries,
-        });
+        let bind_group_layout = device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("KMeansPass::bind_group_layout"), entries: &entries });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("KMeansPass::pipeline_layout"),
             bind_group_layouts: &[Some(&bind_group_layout)],
@@ -370,4 +368,3 @@ impl KMeansBuffers {
 
 #[cfg(test)]
 mod tests;
-

@@ -8,10 +8,10 @@
 //! A mapping is uploaded once ([`upload_mapping`]) and used by any number of dispatches;
 //! [`MappingPass::encode`] records one gather into an encoder, so a chain k -> k+1 -> k+2 is a sequence
 //! of dispatches ping-ponging two buffers with no readback ([`apply_chain_gpu`]).
-use crate::gpu::shaders;
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
+use crate::gpu::shaders;
 use crate::matrix::mapping::PixelMapping;
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
@@ -52,12 +52,8 @@ pub struct MappingPass {
 
 impl MappingPass {
     pub fn new(device: &wgpu::Device) -> MappingPass {
-        let (pipeline, bind_group_layout) = compute_pipeline(
-            device,
-            "MappingPass",
-            shaders::MAPPING,
-            &[uniform(0), storage(1, true), storage(2, true), storage(3, false)],
-        );
+        let (pipeline, bind_group_layout) =
+            compute_pipeline(device, "MappingPass", shaders::MAPPING, &[uniform(0), storage(1, true), storage(2, true), storage(3, false)]);
         MappingPass { pipeline, bind_group_layout }
     }
 
@@ -167,14 +163,11 @@ pub fn apply_chain_gpu(ctx: &GpuContext, maps: &[&PixelMapping], images: &[f32])
     for (a, b) in sources.iter().zip(&scratch) {
         let (mut from, mut to) = (a, b);
         for index in &index_bufs {
-            pass.encode(ctx, &mut enc, &MappingInputs {
-                source: from,
-                mapping: index,
-                target: to,
-                num_pixels: m as u32,
-                weight: [1.0; 3],
-                accumulate: false,
-            });
+            pass.encode(
+                ctx,
+                &mut enc,
+                &MappingInputs { source: from, mapping: index, target: to, num_pixels: m as u32, weight: [1.0; 3], accumulate: false },
+            );
             std::mem::swap(&mut from, &mut to);
         }
     }

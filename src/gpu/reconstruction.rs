@@ -22,10 +22,10 @@
 //!
 //! Symbols: f frames of the stretch, P pixels, m view samples of a frame (P + delta-chain extras), c
 //! representatives, k0 a representative's frame, Rec the c x f (RGB) reconstruction matrix.
-use crate::gpu::shaders;
 use super::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
+use crate::gpu::shaders;
 use crate::matrix::LightMatrix;
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
@@ -184,7 +184,10 @@ pub fn reconstruct(
     if frame_bytes > max_binding {
         return Err(Error::invalid(format!("one frame of {p} RGBA f32 pixels exceeds the storage binding limit")));
     }
-    crate::memory::check_host(&format!("tensor reconstruction: {f} frames x {p} pixels x RGB float32"), crate::memory::product(&[f as u64, p as u64, 12]))?;
+    crate::memory::check_host(
+        &format!("tensor reconstruction: {f} frames x {p} pixels x RGB float32"),
+        crate::memory::product(&[f as u64, p as u64, 12]),
+    )?;
     let windows: Vec<(usize, usize)> = (0..f).step_by(per_window).map(|a| (a, (a + per_window).min(f))).collect();
     let accs: Vec<wgpu::Buffer> = windows
         .iter()
@@ -235,7 +238,8 @@ pub fn reconstruct(
                 })
                 .collect();
             // Target frames this batch serves.
-            let served: Vec<usize> = (0..f).filter(|&k| batch.iter().any(|&c| rec[(c * f + k) * 3..(c * f + k) * 3 + 3].iter().any(|&v| v != 0.0))).collect();
+            let served: Vec<usize> =
+                (0..f).filter(|&k| batch.iter().any(|&c| rec[(c * f + k) * 3..(c * f + k) * 3 + 3].iter().any(|&v| v != 0.0))).collect();
             let (Some(&lo), Some(&hi)) = (served.first(), served.last()) else {
                 return Ok(());
             };

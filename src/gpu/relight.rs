@@ -13,9 +13,9 @@
 //! output once and adds in the CPU's order (`relight::relight`), so both devices give the same sums up to
 //! rounding. On-the-fly culling zeroes the culled lights' coefficients (`cull`), which keeps the result of
 //! the image-based form; it does not skip their work as the scatter would.
-use crate::gpu::shaders;
 use crate::gpu::columns::dispatch_size;
 use crate::gpu::pipeline::{storage, uniform};
+use crate::gpu::shaders;
 
 /// Most coefficients of one row that one invocation of `product` sums (the host splits longer rows over
 /// dispatches): far below Mesa 22.3's 65,535 loop iterations per invocation.
@@ -58,10 +58,8 @@ pub struct RelightPasses {
 const WRITABLE: [u32; 7] = [2, 3, 5, 6, 10, 12, 15];
 
 fn kernel(device: &wgpu::Device, module: &wgpu::ShaderModule, name: &'static str, bindings: &[u32]) -> Kernel {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
-        .iter()
-        .map(|&b| if b == 0 { uniform(0) } else { storage(b, !WRITABLE.contains(&b)) })
-        .collect();
+    let entries: Vec<wgpu::BindGroupLayoutEntry> =
+        bindings.iter().map(|&b| if b == 0 { uniform(0) } else { storage(b, !WRITABLE.contains(&b)) }).collect();
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(&format!("RelightPasses::{name}::bind_group_layout")),
         entries: &entries,
@@ -85,7 +83,14 @@ fn kernel(device: &wgpu::Device, module: &wgpu::ShaderModule, name: &'static str
 impl Kernel {
     /// Record one dispatch of `threads` threads with `params` and `buffers` (one per binding of the
     /// kernel after the uniform, in order).
-    pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, params: &RelightParams, threads: u32, buffers: &[&wgpu::Buffer]) {
+    pub fn encode(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        params: &RelightParams,
+        threads: u32,
+        buffers: &[&wgpu::Buffer],
+    ) {
         assert_eq!(buffers.len() + 1, self.bindings.len(), "RelightPasses::{}: wrong number of buffers", self.name);
         let (gx, gy, dispatch_width) = dispatch_size(threads);
         let params = RelightParams { dispatch_width, ..*params };
@@ -150,7 +155,13 @@ impl RelightPasses {
             let src = if level == 0 { image } else { scratch[(level + 1) % 2] };
             let dst = scratch[level % 2];
             let h = size / 2;
-            self.haar_level.encode(device, encoder, &RelightParams { side, size, num_rows: h * h, ..Default::default() }, h * h, &[src, dst, coeffs]);
+            self.haar_level.encode(
+                device,
+                encoder,
+                &RelightParams { side, size, num_rows: h * h, ..Default::default() },
+                h * h,
+                &[src, dst, coeffs],
+            );
             size = h;
             level += 1;
         }

@@ -13,9 +13,9 @@
 //! Deviation from the paper: visibility is the hybrid of `columns.wgsl` (cube map where its 2x2
 //! footprint is unambiguous, the exact BVH ray of the column pass elsewhere), so rows equal columns up
 //! to the (rare) cases where a certain-looking map disagrees with the ray; see `row_map_decide`.
-use crate::gpu::shaders;
-use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
 use super::columns::{storage_buffer, ViewBuffers};
+use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
+use crate::gpu::shaders;
 use crate::gpu::shadow::GpuShadowLayer;
 
 /// Threads per workgroup (along lights); mirrored in `rows.wgsl`.
@@ -86,24 +86,28 @@ pub struct RowsPass {
     pub bind_group_layout: wgpu::BindGroupLayout,
 }
 
-
 impl RowsPass {
     pub fn new(device: &wgpu::Device) -> RowsPass {
-        let (pipeline, bind_group_layout) = compute_pipeline(device, "RowsPass", shaders::ROWS, &[
-            uniform(0),
-            storage(1, true),
-            storage(2, true),
-            storage(3, true),
-            storage(4, true),
-            storage(5, true),
-            depth_array(6),
-            storage(7, false),
-            storage(8, true),
-            storage(9, true),
-            storage(10, true),
-            storage(11, false),
-            storage(12, true),
-        ]);
+        let (pipeline, bind_group_layout) = compute_pipeline(
+            device,
+            "RowsPass",
+            shaders::ROWS,
+            &[
+                uniform(0),
+                storage(1, true),
+                storage(2, true),
+                storage(3, true),
+                storage(4, true),
+                storage(5, true),
+                depth_array(6),
+                storage(7, false),
+                storage(8, true),
+                storage(9, true),
+                storage(10, true),
+                storage(11, false),
+                storage(12, true),
+            ],
+        );
         RowsPass { pipeline, bind_group_layout }
     }
 
@@ -111,21 +115,28 @@ impl RowsPass {
     pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &RowsInputs) {
         let params = storage_buffer(device, "RowsPass::params", &[inputs.params], wgpu::BufferUsages::UNIFORM);
         let gx = (inputs.params.num_lights).div_ceil(WORKGROUP_SIZE).max(1);
-        encode_dispatch(device, encoder, "RowsPass", (&self.pipeline, &self.bind_group_layout), &[
-            params.as_entire_binding(),
-            inputs.view.samples.as_entire_binding(),
-            inputs.view.bsdfs.as_entire_binding(),
-            inputs.lights.as_entire_binding(),
-            inputs.rows.as_entire_binding(),
-            inputs.layers.as_entire_binding(),
-            wgpu::BindingResource::TextureView(inputs.cube_maps),
-            inputs.out_rows.as_entire_binding(),
-            inputs.view.bsdf_tables.as_entire_binding(),
-            inputs.bvh_nodes.as_entire_binding(),
-            inputs.bvh_prims.as_entire_binding(),
-            inputs.stats.as_entire_binding(),
-            inputs.spot_textures.as_entire_binding(),
-        ], (gx, inputs.params.num_rows.max(1)));
+        encode_dispatch(
+            device,
+            encoder,
+            "RowsPass",
+            (&self.pipeline, &self.bind_group_layout),
+            &[
+                params.as_entire_binding(),
+                inputs.view.samples.as_entire_binding(),
+                inputs.view.bsdfs.as_entire_binding(),
+                inputs.lights.as_entire_binding(),
+                inputs.rows.as_entire_binding(),
+                inputs.layers.as_entire_binding(),
+                wgpu::BindingResource::TextureView(inputs.cube_maps),
+                inputs.out_rows.as_entire_binding(),
+                inputs.view.bsdf_tables.as_entire_binding(),
+                inputs.bvh_nodes.as_entire_binding(),
+                inputs.bvh_prims.as_entire_binding(),
+                inputs.stats.as_entire_binding(),
+                inputs.spot_textures.as_entire_binding(),
+            ],
+            (gx, inputs.params.num_rows.max(1)),
+        );
     }
 }
 

@@ -21,10 +21,7 @@ pub fn triangle_offsets(meshes: &[Mesh]) -> Result<Vec<u32>> {
         total += m.indices.len() as u64;
         // Three vertices per triangle must be addressable by a u32 `vertex_index`.
         if total * 3 > u32::MAX as u64 {
-            return Err(Error::invalid(format!(
-                "scene has too many triangles for one vertex buffer: {total} (at most {})",
-                u32::MAX / 3
-            )));
+            return Err(Error::invalid(format!("scene has too many triangles for one vertex buffer: {total} (at most {})", u32::MAX / 3)));
         }
         offsets.push(total as u32);
     }
@@ -54,11 +51,7 @@ pub fn unshared_positions(meshes: &[Mesh]) -> Result<Vec<[f32; 3]>> {
                 let p: Vec3 = *m.positions.get(v as usize).ok_or_else(|| {
                     Error::scene(
                         &m.loc,
-                        format!(
-                            "mesh {:?}: triangle {t} uses vertex {v}, but the mesh has {} vertices",
-                            m.id,
-                            m.positions.len()
-                        ),
+                        format!("mesh {:?}: triangle {t} uses vertex {v}, but the mesh has {} vertices", m.id, m.positions.len()),
                     )
                 })?;
                 out.push(p.to_array());
@@ -101,9 +94,7 @@ impl SceneGeometry {
         let size = (positions.len() as u64) * Self::VERTEX_STRIDE;
         let max = device.limits().max_buffer_size;
         if size > max {
-            return Err(Error::Gpu(format!(
-                "scene vertex buffer needs {size} bytes ({num_triangles} triangles), the device allows {max}"
-            )));
+            return Err(Error::Gpu(format!("scene vertex buffer needs {size} bytes ({num_triangles} triangles), the device allows {max}")));
         }
         let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("SceneGeometry::vertex_buffer"),

@@ -50,8 +50,7 @@ pub const KMEANS: &str = include_str!("../../shaders/kmeans.wgsl");
 /// `shaders/mapping.wgsl` (no shared snippets): the pixel-mapping pass (`gpu::mapping`).
 pub const MAPPING: &str = include_str!("../../shaders/mapping.wgsl");
 /// `shaders/occluded.wgsl`: batch shadow-ray queries (`gpu::bvh::OccludedPass`); the BVH snippet, then the pass.
-pub const OCCLUDED: &str =
-    concat!(include_str!("../../shaders/common/bvh.wgsl"), include_str!("../../shaders/occluded.wgsl"));
+pub const OCCLUDED: &str = concat!(include_str!("../../shaders/common/bvh.wgsl"), include_str!("../../shaders/occluded.wgsl"));
 /// `shaders/reconstruction.wgsl` (no shared snippets): tensor clustering's reconstruction (`gpu::reconstruction`).
 pub const RECONSTRUCTION: &str = include_str!("../../shaders/reconstruction.wgsl");
 /// `shaders/relight.wgsl` (no shared snippets): the relighting kernels (`gpu::relight`).
@@ -59,8 +58,7 @@ pub const RELIGHT: &str = include_str!("../../shaders/relight.wgsl");
 /// `shaders/rows.wgsl`: light rows (`gpu::rows`).
 pub const ROWS: &str = light_pass!("../../shaders/rows.wgsl");
 /// `shaders/shadow.wgsl`: the shadow-map depth pass (`gpu::shadow`); the shadow-layer snippet, then the pass.
-pub const SHADOW: &str =
-    concat!(include_str!("../../shaders/common/shadow_layer.wgsl"), include_str!("../../shaders/shadow.wgsl"));
+pub const SHADOW: &str = concat!(include_str!("../../shaders/common/shadow_layer.wgsl"), include_str!("../../shaders/shadow.wgsl"));
 
 /// `shaders/common/bsdf.wgsl` alone, the WGSL twin of `shading::bsdf` (no entry points; needs
 /// `fn bsdf_table(i: u32) -> f32` from the including module).
@@ -72,8 +70,8 @@ pub const COMMON_PRINCIPLED: &str = include_str!("../../shaders/common/principle
 /// Parse and validate a WGSL module with naga (all capabilities a downlevel device may lack are
 /// refused), so broken shaders fail in `cargo test` on machines without a GPU. `name` labels errors.
 pub fn validate_wgsl(name: &str, source: &str) -> Result<naga::Module> {
-    let module = naga::front::wgsl::parse_str(source)
-        .map_err(|e| Error::Gpu(format!("{name}: WGSL parse error: {}", e.emit_to_string(source))))?;
+    let module =
+        naga::front::wgsl::parse_str(source).map_err(|e| Error::Gpu(format!("{name}: WGSL parse error: {}", e.emit_to_string(source))))?;
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
         .validate(&module)
         .map_err(|e| Error::Gpu(format!("{name}: WGSL validation error: {}", e.emit_to_string(source))))?;

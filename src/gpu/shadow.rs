@@ -14,9 +14,9 @@
 //! Depth comparisons happen in the layer's own projected depth: the column pass offsets the shaded point
 //! in world space (normal offset + slope-scaled depth bias, in units of the layer's world-space texel
 //! size) and compares its projected depth with the stored one. Biases are in `ColumnOptions`.
+use crate::gpu::scene_buffers::SceneGeometry;
 use crate::gpu::shaders;
 use crate::lights::{LightKind, LightSet};
-use crate::gpu::scene_buffers::SceneGeometry;
 use glam::{Mat4, Vec3};
 
 /// Depth format of the shadow-map array.
@@ -40,14 +40,7 @@ pub struct GpuShadowLayer {
 
 /// The 6 cube face directions and up vectors, in the order of `cube_face()` in the WGSL.
 pub fn cube_face_dirs() -> [(Vec3, Vec3); 6] {
-    [
-        (Vec3::X, Vec3::Y),
-        (Vec3::NEG_X, Vec3::Y),
-        (Vec3::Y, Vec3::Z),
-        (Vec3::NEG_Y, Vec3::Z),
-        (Vec3::Z, Vec3::Y),
-        (Vec3::NEG_Z, Vec3::Y),
-    ]
+    [(Vec3::X, Vec3::Y), (Vec3::NEG_X, Vec3::Y), (Vec3::Y, Vec3::Z), (Vec3::NEG_Y, Vec3::Z), (Vec3::Z, Vec3::Y), (Vec3::NEG_Z, Vec3::Y)]
 }
 
 /// True when light j's shadow map is a cube (6 layers).
@@ -113,13 +106,7 @@ fn orthographic_rh(left: f32, right: f32, bottom: f32, top: f32, near: f32, far:
 }
 
 fn layer(view_proj: Mat4, texel_scale: f32, is_ortho: bool) -> GpuShadowLayer {
-    GpuShadowLayer {
-        view_proj: view_proj.to_cols_array_2d(),
-        texel_scale,
-        is_ortho: is_ortho as u32,
-        _pad0: [0; 2],
-        _pad1: [[0.0; 4]; 11],
-    }
+    GpuShadowLayer { view_proj: view_proj.to_cols_array_2d(), texel_scale, is_ortho: is_ortho as u32, _pad0: [0; 2], _pad1: [[0.0; 4]; 11] }
 }
 
 /// The layers (1 or 6) of light j's shadow map at `resolution` texels per side.
@@ -148,10 +135,7 @@ pub fn light_layers(lights: &LightSet, j: usize, resolution: u32) -> Vec<GpuShad
                 vec![layer(proj * view, 2.0 * half_fov.tan() / res, false)]
             } else {
                 let proj = perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, near, far);
-                cube_face_dirs()
-                    .iter()
-                    .map(|(dir, up)| layer(proj * look_at_rh(pos, pos + *dir, *up), 2.0 / res, false))
-                    .collect()
+                cube_face_dirs().iter().map(|(dir, up)| layer(proj * look_at_rh(pos, pos + *dir, *up), 2.0 / res, false)).collect()
             }
         }
     }

@@ -74,10 +74,7 @@ pub fn antialias(image: &[f32], channels: usize, low: &DeepFeatures, high: &Deep
         )));
     }
     if channels == 0 || image.len() != w * h * channels {
-        return Err(Error::invalid(format!(
-            "antialias: image has {} values, expected {w}x{h} pixels x {channels} channels",
-            image.len()
-        )));
+        return Err(Error::invalid(format!("antialias: image has {} values, expected {w}x{h} pixels x {channels} channels", image.len())));
     }
     let hw = w * f;
     let inv = 1.0 / (f * f) as f32;

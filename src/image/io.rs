@@ -29,10 +29,7 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
         let (w, ht, c) = (h.layer_size.width() as u64, h.layer_size.height() as u64, h.channels.list.len() as u64);
         crate::image::size_policy::check(path, "EXR layer", w, ht, 0, 0)?;
         if (w * ht).saturating_mul(c) > MAX_EXR_SAMPLES {
-            return Err(Error::io(
-                path,
-                format!("EXR layer of {w}x{ht} pixels and {c} channels is larger than supported (2^30 samples)"),
-            ));
+            return Err(Error::io(path, format!("EXR layer of {w}x{ht} pixels and {c} channels is larger than supported (2^30 samples)")));
         }
         let stored: u64 = h.channels.list.iter().map(|ch| ch.sample_type.bytes_per_sample() as u64).sum();
         crate::image::size_policy::check(path, "EXR layer", w, ht, stored + 2 * crate::image::size_policy::TEXEL_BYTES, 0)?;
@@ -41,12 +38,7 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     let layer = &image.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
     let channel = |name: &str| -> Option<Vec<f32>> {
-        layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.to_string() == name)
-            .map(|c| c.sample_data.values_as_f32().collect())
+        layer.channel_data.list.iter().find(|c| c.name.to_string() == name).map(|c| c.sample_data.values_as_f32().collect())
     };
     let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
     let pixels: Vec<[f32; 3]> = if let (Some(r), Some(g), Some(b)) = (channel("R"), channel("G"), channel("B")) {
@@ -64,11 +56,7 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
 
 fn check_len(path: &Path, w: u32, h: u32, n: usize) -> Result<()> {
     if n != w as usize * h as usize {
-        return Err(Error::invalid(format!(
-            "{}: image of {w}x{h} needs {} pixels, got {n}",
-            path.display(),
-            w as usize * h as usize
-        )));
+        return Err(Error::invalid(format!("{}: image of {w}x{h} needs {} pixels, got {n}", path.display(), w as usize * h as usize)));
     }
     Ok(())
 }

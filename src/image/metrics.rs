@@ -41,8 +41,7 @@ pub fn mae(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     if a.is_empty() {
         return 0.0;
     }
-    a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).abs())).sum::<f64>()
-        / (3 * a.len()) as f64
+    a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).abs())).sum::<f64>() / (3 * a.len()) as f64
 }
 
 /// Largest absolute channel difference.
@@ -57,10 +56,7 @@ pub fn relative_mse(a: &[[f32; 3]], b: &[[f32; 3]], eps: f64) -> f64 {
     if a.is_empty() {
         return 0.0;
     }
-    a.iter()
-        .zip(b)
-        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + eps)))
-        .sum::<f64>()
+    a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + eps))).sum::<f64>()
         / (3 * a.len()) as f64
 }
 
@@ -71,11 +67,7 @@ pub fn fraction_within(a: &[[f32; 3]], b: &[[f32; 3]], rel: f64, abs: f64) -> f6
     if a.is_empty() {
         return 1.0;
     }
-    let ok = a
-        .iter()
-        .zip(b)
-        .filter(|(x, y)| (0..3).all(|c| (x[c] as f64 - y[c] as f64).abs() <= abs + rel * (y[c] as f64).abs()))
-        .count();
+    let ok = a.iter().zip(b).filter(|(x, y)| (0..3).all(|c| (x[c] as f64 - y[c] as f64).abs() <= abs + rel * (y[c] as f64).abs())).count();
     ok as f64 / a.len() as f64
 }
 

@@ -42,9 +42,7 @@ pub fn check(path: &Path, what: &str, width: u64, height: u64, bytes_per_pixel: 
     if pixels > MAX_PIXELS as u128 {
         return Err(Error::io(
             path,
-            format!(
-                "{what} of {width}x{height} pixels is larger than supported (at most {MAX_PIXELS} pixels, 16384x16384)"
-            ),
+            format!("{what} of {width}x{height} pixels is larger than supported (at most {MAX_PIXELS} pixels, 16384x16384)"),
         ));
     }
     let bytes = crate::memory::product(&[width, height, bytes_per_pixel]).saturating_add(extra_bytes as u128);

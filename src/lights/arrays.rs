@@ -141,7 +141,8 @@ impl LightSet {
             if intensity.min_element() < 0.0 {
                 return Err(Error::invalid(format!("intensity[{j}] must be >= 0, got {:?}", intensity.to_array())));
             }
-            let (mut position, mut direction, mut normal, mut geo, mut incident) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+            let (mut position, mut direction, mut normal, mut geo, mut incident) =
+                (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
             let (mut cutoff, mut beam) = (0.0f32, 0.0f32);
             let mut bsdf: GpuBsdf = bytemuck::Zeroable::zeroed();
             if kind != LightKind::Directional {
@@ -164,10 +165,7 @@ impl LightSet {
                     let words: [u32; 20] = bytemuck::cast(bsdf);
                     let floats_ok = words.iter().enumerate().all(|(w, &b)| w == 3 || w == 7 || f32::from_bits(b).is_finite());
                     if bsdf.kind == crate::shading::bsdf::KIND_NONE || !floats_ok {
-                        return Err(Error::invalid(format!(
-                            "bsdf[{j}] is not a valid BSDF (kind {}, finite values required)",
-                            bsdf.kind
-                        )));
+                        return Err(Error::invalid(format!("bsdf[{j}] is not a valid BSDF (kind {}, finite values required)", bsdf.kind)));
                     }
                 }
             }

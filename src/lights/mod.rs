@@ -47,14 +47,14 @@
 //! shear or non-uniform scale (which would distort Mitsuba's cone) is an error.
 //!
 //! Rust twin of `shaders/common/light.wgsl` (`light_emitted`), used by the CPU reference.
-pub mod arrays;
 pub mod animated;
+pub mod arrays;
 pub mod gather;
+pub mod generate;
 pub mod patch;
 pub mod photon_map;
-pub mod vsl;
-pub mod generate;
 pub mod spot_texture;
+pub mod vsl;
 
 pub use arrays::LightArrays;
 pub use generate::{generate_lights, GenerateOptions, VplImportance, VslOptions};
@@ -161,10 +161,7 @@ impl LightSet {
                         || x.dot(z).abs() > tol * s
                         || y.dot(z).abs() > tol * s
                     {
-                        return Err(Error::scene(
-                            loc,
-                            format!("spot to_world must be a rotation with uniform scale, got {m:?}"),
-                        ));
+                        return Err(Error::scene(loc, format!("spot to_world must be a rotation with uniform scale, got {m:?}")));
                     }
                     let position = world_from_light.w_axis.truncate();
                     let r = set.push_spot(position, z / s, *intensity, *cutoff_angle, *beam_width);

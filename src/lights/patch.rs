@@ -49,10 +49,7 @@ pub fn quad_area(c: &[Vec3; 4]) -> f32 {
 /// Checks light j's patch: all zero (none), or finite corners of a quadrilateral of positive area.
 pub fn check(j: usize, c: &[Vec3; 4]) -> Result<()> {
     if c.iter().any(|v| !v.is_finite()) {
-        return Err(Error::invalid(format!(
-            "patch[{j}] must have finite corners, got {:?}",
-            c.map(|v| v.to_array())
-        )));
+        return Err(Error::invalid(format!("patch[{j}] must have finite corners, got {:?}", c.map(|v| v.to_array()))));
     }
     if !is_none(c) && !(quad_area(c) > 0.0) {
         return Err(Error::invalid(format!(

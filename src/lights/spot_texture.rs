@@ -37,10 +37,7 @@ pub struct SpotTexture {
 impl SpotTexture {
     /// Mitsuba's `direction_to_uv` for local (x, y, z).
     pub fn uv(&self, local: Vec3) -> Vec2 {
-        Vec2::new(
-            0.5 + 0.5 * local.x / (local.z * self.tan_cutoff),
-            0.5 + 0.5 * local.y / (local.z * self.tan_cutoff),
-        )
+        Vec2::new(0.5 + 0.5 * local.x / (local.z * self.tan_cutoff), 0.5 + 0.5 * local.y / (local.z * self.tan_cutoff))
     }
 
     /// Texture value for the world direction `v` leaving the light (spot axis `axis`, unit).

@@ -141,7 +141,9 @@ pub fn cap_shade(lights: &super::LightSet, j: usize, p: Vec3, wo: Vec3, receiver
 /// Checks a user radius scale: finite and > 0.
 pub fn check_scale(scale: f32) -> Result<()> {
     if !(scale > 0.0 && scale.is_finite()) {
-        return Err(Error::invalid(format!("vsl_radius_scale must be finite and > 0 (times the distance to the k-th nearest VPL), got {scale}")));
+        return Err(Error::invalid(format!(
+            "vsl_radius_scale must be finite and > 0 (times the distance to the k-th nearest VPL), got {scale}"
+        )));
     }
     Ok(())
 }

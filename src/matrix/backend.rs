@@ -140,9 +140,9 @@ impl Device {
             return Ok(self);
         }
         match std::env::var(DEVICE_ENV) {
-            Ok(v) if !v.trim().is_empty() => Device::parse(&v).map_err(|_| {
-                Error::invalid(format!("{DEVICE_ENV} must be 'auto', 'gpu' or 'cpu', got {v:?}"))
-            }),
+            Ok(v) if !v.trim().is_empty() => {
+                Device::parse(&v).map_err(|_| Error::invalid(format!("{DEVICE_ENV} must be 'auto', 'gpu' or 'cpu', got {v:?}")))
+            }
             _ => Ok(Device::Auto),
         }
     }

@@ -210,7 +210,13 @@ impl Compensator<'_> {
 ///
 /// Errors: `InvalidParameter` for `spp` = 0 or a set holding virtual spherical lights (they are not
 /// clamped: compensation applies to point VPLs). Zero everywhere for an infinite clamp or no VPLs.
-pub fn bias_compensation(scene: &Scene, tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, opts: &BiasCompensationOptions) -> Result<Vec<f32>> {
+pub fn bias_compensation(
+    scene: &Scene,
+    tracer: &RayTracer,
+    view: &ViewSamples,
+    lights: &LightSet,
+    opts: &BiasCompensationOptions,
+) -> Result<Vec<f32>> {
     if opts.spp == 0 {
         return Err(Error::invalid("spp must be >= 1 BSDF samples per view sample, got 0"));
     }
@@ -232,9 +238,7 @@ pub fn bias_compensation(scene: &Scene, tracer: &RayTracer, view: &ViewSamples, 
         }
         let mut rng = stream(opts.seed, STREAM_BIAS, i as u64);
         let b = view.bsdf[i];
-        let second = (b.flags & FLAG_BLEND != 0)
-            .then(|| view.bsdf.get(b.extra[3].to_bits() as usize).map(|s| (*s, b.extra[2])))
-            .flatten();
+        let second = (b.flags & FLAG_BLEND != 0).then(|| view.bsdf.get(b.extra[3].to_bits() as usize).map(|s| (*s, b.extra[2]))).flatten();
         let mut first = b;
         if second.is_some() {
             first.flags &= !FLAG_BLEND;

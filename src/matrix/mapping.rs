@@ -101,11 +101,7 @@ impl PixelMapping {
                 self.width, self.height, next.width, next.height
             )));
         }
-        let source = next
-            .source
-            .iter()
-            .map(|&j| if j == NO_SOURCE { NO_SOURCE } else { self.source[j as usize] })
-            .collect();
+        let source = next.source.iter().map(|&j| if j == NO_SOURCE { NO_SOURCE } else { self.source[j as usize] }).collect();
         Ok(PixelMapping { width: self.width, height: self.height, source })
     }
 
@@ -122,10 +118,7 @@ impl PixelMapping {
     pub fn validate(&self) -> Result<()> {
         let m = self.num_pixels();
         if m != self.width as usize * self.height as usize {
-            return Err(Error::invalid(format!(
-                "pixel mapping has {m} entries but {}x{} pixels",
-                self.width, self.height
-            )));
+            return Err(Error::invalid(format!("pixel mapping has {m} entries but {}x{} pixels", self.width, self.height)));
         }
         if let Some((i, &s)) = self.source.iter().enumerate().find(|(_, &s)| s != NO_SOURCE && s as usize >= m) {
             return Err(Error::invalid(format!(

@@ -70,9 +70,7 @@ impl Visibility {
             "shadow_map" => Ok(Visibility::ShadowMap),
             "hybrid" => Ok(Visibility::Hybrid),
             "ray_traced" => Ok(Visibility::RayTraced),
-            _ => Err(Error::invalid(format!(
-                "visibility must be 'shadow_map', 'hybrid' or 'ray_traced', got '{name}'"
-            ))),
+            _ => Err(Error::invalid(format!("visibility must be 'shadow_map', 'hybrid' or 'ray_traced', got '{name}'"))),
         }
     }
 }
@@ -121,7 +119,6 @@ impl Default for ColumnOptions {
         }
     }
 }
-
 
 /// The light matrix of a scene, its view samples and a light set, computed by one backend
 /// (`backend::Backend`: the GPU's `gpu::GpuBackend` or the CPU's `crate::cpu::CpuBackend`). Validates
@@ -200,7 +197,13 @@ impl LightMatrix {
     }
 
     /// `with_device` for a device name ("auto", "gpu", "cpu"; `MANYLIGHTS_DEVICE` replaces "auto").
-    pub fn on_device(device: Device, scene: Arc<Scene>, view: Arc<ViewSamples>, lights: Arc<LightSet>, opts: ColumnOptions) -> Result<LightMatrix> {
+    pub fn on_device(
+        device: Device,
+        scene: Arc<Scene>,
+        view: Arc<ViewSamples>,
+        lights: Arc<LightSet>,
+        opts: ColumnOptions,
+    ) -> Result<LightMatrix> {
         LightMatrix::with_device(&device.choose()?, scene, view, lights, opts, None)
     }
 
@@ -327,8 +330,15 @@ fn check_view(view: &ViewSamples) -> Result<()> {
         return Err(Error::invalid(format!(
             "view samples are inconsistent: {}x{} = {wh} pixels, {} extra samples, shape_index {m}, position {}, \
              normal {}, geo_normal {}, wi {}, bsdf {}, throughput {}",
-            view.width, view.height, view.extra_pixel.len(), view.position.len(), view.normal.len(),
-            view.geo_normal.len(), view.wi.len(), view.bsdf.len(), view.throughput.len()
+            view.width,
+            view.height,
+            view.extra_pixel.len(),
+            view.position.len(),
+            view.normal.len(),
+            view.geo_normal.len(),
+            view.wi.len(),
+            view.bsdf.len(),
+            view.throughput.len()
         )));
     }
     Ok(())

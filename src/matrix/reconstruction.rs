@@ -95,7 +95,15 @@ pub fn accumulate(
 }
 
 /// acc[k](i) += sum over the group of scale(r) * column_r(idx(i)).
-fn add_frame(acc: &mut [f32], m: usize, k: usize, idx: &[u32], group: &[usize], columns: &[f32], scale: &(dyn Fn(usize) -> [f32; 3] + Sync)) {
+fn add_frame(
+    acc: &mut [f32],
+    m: usize,
+    k: usize,
+    idx: &[u32],
+    group: &[usize],
+    columns: &[f32],
+    scale: &(dyn Fn(usize) -> [f32; 3] + Sync),
+) {
     let active: Vec<(usize, [f32; 3])> = group.iter().map(|&r| (r, scale(r))).filter(|(_, s)| *s != [0.0; 3]).collect();
     if active.is_empty() {
         return;
@@ -139,7 +147,6 @@ pub(crate) fn check_inputs(f: usize, m: usize, source: &[u32], rec: &[f32], forw
     }
     Ok(())
 }
-
 
 fn check(ok: bool, msg: impl FnOnce() -> String) -> Result<()> {
     if ok {

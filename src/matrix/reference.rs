@@ -23,11 +23,7 @@ pub struct CpuReference {
 
 impl CpuReference {
     pub fn new(scene: &Scene) -> CpuReference {
-        let triangles = scene
-            .meshes
-            .iter()
-            .flat_map(|m| m.indices.iter().map(move |t| t.map(|v| m.positions[v as usize])))
-            .collect();
+        let triangles = scene.meshes.iter().flat_map(|m| m.indices.iter().map(move |t| t.map(|v| m.positions[v as usize]))).collect();
         CpuReference { triangles, epsilon: 1e-5 * scene.diagonal().max(1e-6) }
     }
 
@@ -87,7 +83,8 @@ impl CpuReference {
         let n = view.normal[i];
         let (s, t) = coordinate_system(n);
         let local = |v: Vec3| Vec3::new(v.dot(s), v.dot(t), v.dot(n));
-        let f = lights.shade_receiver(j, p, wo, radiance, |w| crate::shading::bsdf::eval_records(&view.bsdf, i, local(view.wi[i]), local(w)));
+        let f =
+            lights.shade_receiver(j, p, wo, radiance, |w| crate::shading::bsdf::eval_records(&view.bsdf, i, local(view.wi[i]), local(w)));
         let vis = self.visible(p, view.geo_normal[i], wo, dist);
         (if vis { f } else { Vec3::ZERO }, vis)
     }

@@ -4,8 +4,8 @@ use crate::gpu::GpuContext;
 use crate::matrix::backend::{Chosen, Device, DeviceInfo};
 use crate::raytrace::RayTracer;
 use crate::scene::{self, Bsdf, Emitter, LoadOptions, Param, ShapeKind};
-use crate::view::ViewSamples;
 use crate::view::chains::ChainOptions;
+use crate::view::ViewSamples;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -330,13 +330,9 @@ impl Scene {
         // The camera's own hits (samples 0 .. H * W; delta-chain samples follow them).
         let m = h * w;
         let d = PyDict::new(py);
-        for (name, data) in [
-            ("position", &v.position),
-            ("normal", &v.normal),
-            ("geo_normal", &v.geo_normal),
-            ("wi", &v.wi),
-            ("albedo", &v.albedo),
-        ] {
+        for (name, data) in
+            [("position", &v.position), ("normal", &v.normal), ("geo_normal", &v.geo_normal), ("wi", &v.wi), ("albedo", &v.albedo)]
+        {
             d.set_item(name, vec3_array(py, &data[..m])?.reshape(vec![h, w, 3])?)?;
         }
         let uv: Vec<f32> = v.uv[..m].iter().flat_map(|p| p.to_array()).collect();
@@ -445,4 +441,3 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(device_info, m)?)?;
     Ok(())
 }
-

@@ -88,8 +88,7 @@ impl WatertightRay {
         let mut w = bx * ay - by * ax;
         if u == 0.0 || v == 0.0 || w == 0.0 {
             // Exactly on an edge in f32: decide in double precision (the paper's fallback).
-            let (ax, ay, bx, by, cx, cy) =
-                (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+            let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
             u = (cx * by - cy * bx) as f32;
             v = (ax * cy - ay * cx) as f32;
             w = (bx * ay - by * ax) as f32;

@@ -1,5 +1,5 @@
-use crate::testing::raytrace_scenes;
 use super::*;
+use crate::testing::raytrace_scenes;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 
@@ -245,7 +245,11 @@ fn occlusion_is_symmetric_and_consistent_with_closest_hits() {
     let ba: Vec<_> = facing.iter().map(|&(p, _, q, nq)| (q, nq, p)).collect();
     let (vab, vba) = (rt.visible_batch(&ab), rt.visible_batch(&ba));
     let differ = vab.iter().zip(&vba).filter(|(a, b)| a != b).count();
-    println!("occlusion: {} pairs, {visible} visible; one-sided a->b vs b->a differ on {differ} of {} non-grazing", pairs.len(), facing.len());
+    println!(
+        "occlusion: {} pairs, {visible} visible; one-sided a->b vs b->a differ on {differ} of {} non-grazing",
+        pairs.len(),
+        facing.len()
+    );
     // They differ where an occluder lies within `SHADOW_EPSILON * dist` of the endpoint that is not
     // offset (corners such as floor/box edges): Mitsuba's one-sided form skips it from one end only.
     assert!(differ as f64 <= ONE_SIDED_ASYMMETRY * facing.len() as f64);
@@ -294,7 +298,8 @@ fn benchmark_bunny() {
     let rt = RayTracer::new(&scene).unwrap();
     println!("bunny: {} primitives, BVH build {:.1} ms", rt.num_primitives(), t0.elapsed().as_secs_f64() * 1e3);
     // Camera of bunny/scene.xml: lookat, fov 28.8415 on the smaller (vertical) axis, 960x720.
-    let (origin, target, up) = (Vec3::new(3.69558, -3.46243, 3.25463), Vec3::new(3.04072, -2.85176, 2.80939), Vec3::new(-0.317366, 0.312466, 0.895346));
+    let (origin, target, up) =
+        (Vec3::new(3.69558, -3.46243, 3.25463), Vec3::new(3.04072, -2.85176, 2.80939), Vec3::new(-0.317366, 0.312466, 0.895346));
     let dir = (target - origin).normalize();
     let left = up.cross(dir).normalize();
     let up = dir.cross(left);

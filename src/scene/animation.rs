@@ -52,7 +52,11 @@ pub fn check_topology(frames: &[&Scene]) -> Result<()> {
         if s.meshes.len() != first.meshes.len() {
             return Err(Error::scene(
                 &Location::new(&s.path, 0),
-                format!("frame {k}: the scene has {} shapes but frame 0 has {} (shapes may move or deform, not appear or vanish)", s.meshes.len(), first.meshes.len()),
+                format!(
+                    "frame {k}: the scene has {} shapes but frame 0 has {} (shapes may move or deform, not appear or vanish)",
+                    s.meshes.len(),
+                    first.meshes.len()
+                ),
             ));
         }
         for (i, (a, b)) in first.meshes.iter().zip(&s.meshes).enumerate() {
@@ -66,19 +70,30 @@ pub fn check_topology(frames: &[&Scene]) -> Result<()> {
             if a.indices.len() != b.indices.len() {
                 return Err(Error::scene(
                     &b.loc,
-                    format!("{what} has {} triangles but {} in frame 0 (meshes may deform, not change topology)", b.indices.len(), a.indices.len()),
+                    format!(
+                        "{what} has {} triangles but {} in frame 0 (meshes may deform, not change topology)",
+                        b.indices.len(),
+                        a.indices.len()
+                    ),
                 ));
             }
             if a.positions.len() != b.positions.len() {
                 return Err(Error::scene(
                     &b.loc,
-                    format!("{what} has {} vertices but {} in frame 0 (meshes may deform, not change topology)", b.positions.len(), a.positions.len()),
+                    format!(
+                        "{what} has {} vertices but {} in frame 0 (meshes may deform, not change topology)",
+                        b.positions.len(),
+                        a.positions.len()
+                    ),
                 ));
             }
             if let Some(t) = a.indices.iter().zip(&b.indices).position(|(x, y)| x != y) {
                 return Err(Error::scene(
                     &b.loc,
-                    format!("{what}: triangle {t} has vertices {:?} but {:?} in frame 0 (same triangle count, different connectivity)", b.indices[t], a.indices[t]),
+                    format!(
+                        "{what}: triangle {t} has vertices {:?} but {:?} in frame 0 (same triangle count, different connectivity)",
+                        b.indices[t], a.indices[t]
+                    ),
                 ));
             }
         }

@@ -34,8 +34,8 @@ pub mod shapes;
 use crate::error::{Error, Location, Result};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
-pub use obj::load_obj;
 pub use cylinder::{cylinder, cylinder_to_world, CYLINDER_SEGMENTS};
+pub use obj::load_obj;
 pub use ply::load_ply;
 pub use serialized::load_serialized;
 pub use shapes::{cube, disk, rectangle, sphere, DISK_SEGMENTS, SPHERE_PHI_SEGMENTS, SPHERE_THETA_SEGMENTS};
@@ -62,13 +62,7 @@ pub type WorldMesh = (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>);
 /// Returns (positions, normals, uvs, indices), all in world space.
 /// Errors: `Error::Scene` for non-finite positions/normals, zero-length normals, indices out of range, or
 /// attribute arrays whose length differs from the vertex count.
-pub fn finalize(
-    data: MeshData,
-    world_from_local: Mat4,
-    face_normals: bool,
-    flip_normals: bool,
-    loc: &Location,
-) -> Result<WorldMesh> {
+pub fn finalize(data: MeshData, world_from_local: Mat4, face_normals: bool, flip_normals: bool, loc: &Location) -> Result<WorldMesh> {
     let normal_from_local = Mat3::from_mat4(world_from_local).inverse().transpose();
     finalize_with_normal_matrix(data, world_from_local, normal_from_local, face_normals, flip_normals, loc)
 }
@@ -99,10 +93,7 @@ pub fn finalize_with_normal_matrix(
     }
     for (t, tri) in indices.iter().enumerate() {
         if let Some(&bad) = tri.iter().find(|&&i| i as usize >= n) {
-            return Err(Error::scene(
-                loc,
-                format!("triangle {t} {tri:?} references vertex {bad}, but the mesh has {n} vertices"),
-            ));
+            return Err(Error::scene(loc, format!("triangle {t} {tri:?} references vertex {bad}, but the mesh has {n} vertices")));
         }
     }
 

@@ -88,10 +88,7 @@ pub fn load_bitmap(path: &Path, loc: &Location, raw: bool) -> Result<(u32, u32, 
 
 /// RGB texels of interleaved samples with `channels` per pixel (1 or 2: grey replicated).
 fn texels<T: Copy>(samples: &[T], channels: usize, f: impl Fn(T) -> f32) -> Vec<Vec3> {
-    samples
-        .chunks_exact(channels)
-        .map(|p| if channels < 3 { Vec3::splat(f(p[0])) } else { Vec3::new(f(p[0]), f(p[1]), f(p[2])) })
-        .collect()
+    samples.chunks_exact(channels).map(|p| if channels < 3 { Vec3::splat(f(p[0])) } else { Vec3::new(f(p[0]), f(p[1]), f(p[2])) }).collect()
 }
 
 /// Decodes a PNG or JPEG (`image` crate) after checking its declared size against the texture size
@@ -250,9 +247,7 @@ fn checker_is_color0(uv: Vec2) -> bool {
 /// Evaluates an RGB texture at a surface uv (Mitsuba's `Texture::eval` in RGB variants).
 pub fn eval(tex: &Texture, uv: Vec2) -> Vec3 {
     match tex {
-        Texture::Bitmap { width, height, data, filter, wrap, to_uv: m, .. } => {
-            lookup(*width, *height, data, *filter, *wrap, to_uv(m, uv))
-        }
+        Texture::Bitmap { width, height, data, filter, wrap, to_uv: m, .. } => lookup(*width, *height, data, *filter, *wrap, to_uv(m, uv)),
         Texture::Checkerboard { color0, color1, to_uv: m } => {
             if checker_is_color0(to_uv(m, uv)) {
                 *color0

@@ -71,10 +71,7 @@ pub fn tokenize(value: &str) -> Vec<&str> {
 
 /// Parses one floating-point number (surrounding whitespace allowed); the error names the value.
 pub fn parse_f64(value: &str, what: &str, loc: &Location) -> Result<f64> {
-    value
-        .trim()
-        .parse::<f64>()
-        .map_err(|_| Error::scene(loc, format!("could not parse {what} \"{value}\" as a number")))
+    value.trim().parse::<f64>().map_err(|_| Error::scene(loc, format!("could not parse {what} \"{value}\" as a number")))
 }
 
 /// Parses a list of numbers ("1 2 3", "1, 2, 3").
@@ -97,10 +94,7 @@ fn xyz(tag: &str, attrs: &[(String, String)], default: f64, loc: &Location) -> R
         return match v.len() {
             1 => Ok(DVec3::splat(v[0])),
             3 => Ok(DVec3::new(v[0], v[1], v[2])),
-            n => Err(Error::scene(
-                loc,
-                format!("<{tag}> value=\"{value}\" must have exactly 1 or 3 numbers, got {n}"),
-            )),
+            n => Err(Error::scene(loc, format!("<{tag}> value=\"{value}\" must have exactly 1 or 3 numbers, got {n}"))),
         };
     }
     let mut out = DVec3::splat(default);
@@ -155,10 +149,7 @@ pub fn look_at(origin: DVec3, target: DVec3, up: DVec3, loc: &Location) -> Resul
     let new_up = dir.cross(left);
     let m = DMat4::from_cols(left.extend(0.0), new_up.extend(0.0), dir.extend(0.0), origin.extend(1.0));
     if m.to_cols_array().iter().any(|x| !x.is_finite()) {
-        return Err(Error::scene(
-            loc,
-            format!("invalid lookat transformation (origin {origin}, target {target}, up {up})"),
-        ));
+        return Err(Error::scene(loc, format!("invalid lookat transformation (origin {origin}, target {target}, up {up})")));
     }
     Ok(m)
 }
@@ -190,15 +181,13 @@ pub fn apply_op(m: Affine, tag: &str, attrs: &[(String, String)], loc: &Location
             if axis == DVec3::ZERO {
                 return Err(Error::scene(loc, "<rotate>: rotation axis cannot be zero"));
             }
-            let angle = attr(attrs, "angle")
-                .ok_or_else(|| Error::scene(loc, "<rotate>: missing attribute \"angle\""))?;
+            let angle = attr(attrs, "angle").ok_or_else(|| Error::scene(loc, "<rotate>: missing attribute \"angle\""))?;
             let r = rotate(axis, parse_f64(angle, "<rotate> angle", loc)?);
             Affine { matrix: r, inverse_transpose: r }
         }
         "matrix" => {
             check_attrs(tag, attrs, &["value"], loc)?;
-            let value = attr(attrs, "value")
-                .ok_or_else(|| Error::scene(loc, "<matrix>: missing attribute \"value\""))?;
+            let value = attr(attrs, "value").ok_or_else(|| Error::scene(loc, "<matrix>: missing attribute \"value\""))?;
             let v = parse_list(value, "<matrix> value", loc)?;
             let n = match v.len() {
                 16 => 4,
@@ -218,10 +207,10 @@ pub fn apply_op(m: Affine, tag: &str, attrs: &[(String, String)], loc: &Location
         }
         "lookat" => {
             check_attrs(tag, attrs, &["origin", "target", "up"], loc)?;
-            let origin = vec3_attr(tag, attrs, "origin", loc)?
-                .ok_or_else(|| Error::scene(loc, "<lookat>: missing attribute \"origin\""))?;
-            let target = vec3_attr(tag, attrs, "target", loc)?
-                .ok_or_else(|| Error::scene(loc, "<lookat>: missing attribute \"target\""))?;
+            let origin =
+                vec3_attr(tag, attrs, "origin", loc)?.ok_or_else(|| Error::scene(loc, "<lookat>: missing attribute \"origin\""))?;
+            let target =
+                vec3_attr(tag, attrs, "target", loc)?.ok_or_else(|| Error::scene(loc, "<lookat>: missing attribute \"target\""))?;
             let up = vec3_attr(tag, attrs, "up", loc)?.unwrap_or(DVec3::ZERO);
             Affine::from_matrix(look_at(origin, target, up, loc)?)
         }
@@ -240,11 +229,7 @@ pub fn to_f32(m: &DMat4) -> glam::Mat4 {
 /// A `to_uv` transform as a 2D affine map (Mitsuba's `Transform4f::extract`).
 pub fn to_uv_matrix(m: &DMat4) -> Mat3 {
     let m = m.as_mat4();
-    Mat3::from_cols(
-        Vec3::new(m.x_axis.x, m.x_axis.y, 0.0),
-        Vec3::new(m.y_axis.x, m.y_axis.y, 0.0),
-        Vec3::new(m.w_axis.x, m.w_axis.y, 1.0),
-    )
+    Mat3::from_cols(Vec3::new(m.x_axis.x, m.x_axis.y, 0.0), Vec3::new(m.y_axis.x, m.y_axis.y, 0.0), Vec3::new(m.w_axis.x, m.w_axis.y, 1.0))
 }
 
 /// Mitsuba's `has_scale`: rows of the linear part not orthonormal within 1e-3.

@@ -65,8 +65,17 @@ const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 
 /// Resolve scene BSDF `index` at texture coordinate `uv` (textures evaluated there).
 pub fn resolve(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: Vec2) -> GpuBsdf {
-    let mut b = GpuBsdf { diffuse: [0.0; 3], kind: KIND_NONE, specular: [0.0; 3], flags: 0, eta: [0.0; 3],
-        alpha_u: 0.0, k: [0.0; 3], alpha_v: 0.0, extra: [0.0; 4] };
+    let mut b = GpuBsdf {
+        diffuse: [0.0; 3],
+        kind: KIND_NONE,
+        specular: [0.0; 3],
+        flags: 0,
+        eta: [0.0; 3],
+        alpha_u: 0.0,
+        k: [0.0; 3],
+        alpha_v: 0.0,
+        extra: [0.0; 4],
+    };
     let Some(bsdf) = bsdfs.get(index) else { return b };
     let rgb = |p: &Param| eval_param(textures, p, uv).to_array();
     match bsdf {
@@ -158,10 +167,13 @@ pub fn resolve_records(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: V
         Some(Bsdf::TwoSided { front, .. }) if *front != index && matches!(bsdfs.get(*front), Some(Bsdf::Blend { .. })) => {
             let (mut a, b) = resolve_records(bsdfs, textures, *front, uv);
             a.flags |= FLAG_TWOSIDED;
-            (a, b.map(|mut b| {
-                b.flags |= FLAG_TWOSIDED;
-                b
-            }))
+            (
+                a,
+                b.map(|mut b| {
+                    b.flags |= FLAG_TWOSIDED;
+                    b
+                }),
+            )
         }
         _ => (resolve(bsdfs, textures, index, uv), None),
     }
@@ -290,7 +302,11 @@ pub fn microfacet_d(ggx: bool, alpha_u: f32, alpha_v: f32, m: Vec3) -> f32 {
     } else {
         (-(sx * sx + sy * sy) / cos_theta_2).exp() / (std::f32::consts::PI * alpha_uv * cos_theta_2 * cos_theta_2)
     };
-    if result * m.z > 1e-20 { result } else { 0.0 }
+    if result * m.z > 1e-20 {
+        result
+    } else {
+        0.0
+    }
 }
 
 /// `MicrofacetDistribution::smith_g1`.
@@ -302,7 +318,11 @@ pub(crate) fn smith_g1(ggx: bool, alpha_u: f32, alpha_v: f32, v: Vec3, m: Vec3) 
     } else {
         let a = 1.0 / tan_theta_alpha_2.sqrt();
         let a_sqr = a * a;
-        if a >= 1.6 { 1.0 } else { (3.535 * a + 2.181 * a_sqr) / (1.0 + 2.276 * a + 2.577 * a_sqr) }
+        if a >= 1.6 {
+            1.0
+        } else {
+            (3.535 * a + 2.181 * a_sqr) / (1.0 + 2.276 * a + 2.577 * a_sqr)
+        }
     };
     if xy_alpha_2 == 0.0 {
         result = 1.0;
@@ -367,17 +387,35 @@ pub(crate) fn test_sets() -> Vec<(&'static str, Vec<Bsdf>, usize)> {
     let two = |b: Bsdf| (vec![b, Bsdf::TwoSided { front: 0, back: 0 }], 1);
     let (eta, k) = (Vec3::new(1.65746, 0.880369, 0.521229), Vec3::new(9.22387, 6.26952, 4.837));
     let rc = |distribution, a: f32| Bsdf::RoughConductor {
-        distribution, alpha_u: Param::Value(Vec3::splat(a)), alpha_v: Param::Value(Vec3::splat(a)), eta, k,
+        distribution,
+        alpha_u: Param::Value(Vec3::splat(a)),
+        alpha_v: Param::Value(Vec3::splat(a)),
+        eta,
+        k,
         specular_reflectance: v(1.0, 1.0, 1.0),
     };
     let rp = |distribution, alpha, nonlinear| Bsdf::RoughPlastic {
-        diffuse_reflectance: v(0.940, 0.271, 0.361), specular_reflectance: v(1.0, 1.0, 1.0), distribution, alpha,
-        int_ior: 1.9, ext_ior: 1.000277, nonlinear,
+        diffuse_reflectance: v(0.940, 0.271, 0.361),
+        specular_reflectance: v(1.0, 1.0, 1.0),
+        distribution,
+        alpha,
+        int_ior: 1.9,
+        ext_ior: 1.000277,
+        nonlinear,
     };
     let mut sets = vec![
         ("diffuse", vec![Bsdf::Diffuse { reflectance: v(0.725, 0.71, 0.68) }], 0),
-        ("plastic", vec![Bsdf::Plastic { diffuse_reflectance: v(0.940, 0.271, 0.361), specular_reflectance: v(1.0, 1.0, 1.0),
-            int_ior: 1.9, ext_ior: 1.000277, nonlinear: false }], 0),
+        (
+            "plastic",
+            vec![Bsdf::Plastic {
+                diffuse_reflectance: v(0.940, 0.271, 0.361),
+                specular_reflectance: v(1.0, 1.0, 1.0),
+                int_ior: 1.9,
+                ext_ior: 1.000277,
+                nonlinear: false,
+            }],
+            0,
+        ),
         ("roughplastic_ggx", vec![rp(Ggx, 0.1, false)], 0),
         ("roughplastic_beckmann_nonlinear", vec![rp(Beckmann, 0.3, true)], 0),
         ("roughconductor_beckmann", vec![rc(Beckmann, 0.25)], 0),
@@ -411,15 +449,21 @@ pub(crate) fn test_sets() -> Vec<(&'static str, Vec<Bsdf>, usize)> {
     sets.push(("principled_clearcoat", vec![principled(0.0, 0.0, 0.9, 0.0)], 0));
     sets.push(("principled_spec_trans", vec![principled(0.1, 0.7, 0.3, 0.0)], 0));
     // blendbsdf: diffuse + rough conductor with weight 0.3; twosided(blend(principled, roughplastic)).
-    sets.push(("blend_diffuse_roughconductor", vec![
-        Bsdf::Diffuse { reflectance: v(0.2, 0.6, 0.3) }, rc(Ggx, 0.2),
-        Bsdf::Blend { weight: s(0.3), first: 0, second: 1 },
-    ], 2));
-    sets.push(("twosided_blend_principled_roughplastic", vec![
-        principled(0.3, 0.0, 0.5, 0.5), rp(Ggx, 0.2, false),
-        Bsdf::Blend { weight: s(0.6), first: 0, second: 1 },
-        Bsdf::TwoSided { front: 2, back: 2 },
-    ], 3));
+    sets.push((
+        "blend_diffuse_roughconductor",
+        vec![Bsdf::Diffuse { reflectance: v(0.2, 0.6, 0.3) }, rc(Ggx, 0.2), Bsdf::Blend { weight: s(0.3), first: 0, second: 1 }],
+        2,
+    ));
+    sets.push((
+        "twosided_blend_principled_roughplastic",
+        vec![
+            principled(0.3, 0.0, 0.5, 0.5),
+            rp(Ggx, 0.2, false),
+            Bsdf::Blend { weight: s(0.6), first: 0, second: 1 },
+            Bsdf::TwoSided { front: 2, back: 2 },
+        ],
+        3,
+    ));
     sets
 }
 

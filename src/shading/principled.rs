@@ -80,7 +80,11 @@ fn lerp3(a: Vec3, b: Vec3, t: Vec3) -> Vec3 {
 
 /// x with the sign bit of y applied (drjit `mulsign`).
 fn mulsign(x: Vec3, y: f32) -> Vec3 {
-    if y.is_sign_negative() { -x } else { x }
+    if y.is_sign_negative() {
+        -x
+    } else {
+        x
+    }
 }
 
 fn schlick_weight(cos_i: f32) -> f32 {
@@ -109,7 +113,11 @@ fn gtr1_d(alpha: f32, m: Vec3) -> f32 {
     let cos_theta = m.z;
     let alpha2 = alpha * alpha;
     let result = (alpha2 - 1.0) / (PI * alpha2.ln() * (1.0 + (alpha2 - 1.0) * cos_theta * cos_theta));
-    if result * cos_theta > 1e-20 { result } else { 0.0 }
+    if result * cos_theta > 1e-20 {
+        result
+    } else {
+        0.0
+    }
 }
 
 fn smith_ggx1(v: Vec3, wh: Vec3, alpha: f32) -> f32 {
@@ -283,7 +291,11 @@ fn lobe_probabilities(p: &Params, cos_theta_i: f32) -> [f32; 4] {
         [0.0, f, if bsdf > 0.0 { 1.0 - f } else { 0.0 }, 0.0]
     };
     let total: f32 = probs.iter().sum();
-    if total > 0.0 { probs.map(|x| x / total) } else { [0.0, 1.0, 0.0, 0.0] }
+    if total > 0.0 {
+        probs.map(|x| x / total)
+    } else {
+        [0.0, 1.0, 0.0, 0.0]
+    }
 }
 
 /// GGX normal with density D(m) cos(theta_m) for an isotropic alpha.

@@ -1,6 +1,6 @@
 //! Hand-made scenes for the light-generation tests (no files needed).
 use crate::error::Location;
-use crate::scene::{Bsdf, EnvMap, Emitter, MicrofacetDistribution, Mesh, Param, Scene};
+use crate::scene::{Bsdf, Emitter, EnvMap, Mesh, MicrofacetDistribution, Param, Scene};
 use glam::{Mat4, Vec3};
 
 pub use crate::testing::scenes::{lookat, quad, square_camera};

@@ -7,10 +7,8 @@ use std::path::{Path, PathBuf};
 /// Where the shared scenes are: `$MANYLIGHTS_SHARED`, then `<manifest>/../shared` (CI: `shared/` beside
 /// the checkout); the folder must contain `scenes/`.
 pub fn shared_dir() -> PathBuf {
-    let candidates = [
-        std::env::var("MANYLIGHTS_SHARED").ok().map(PathBuf::from),
-        Some(Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared")),
-    ];
+    let candidates =
+        [std::env::var("MANYLIGHTS_SHARED").ok().map(PathBuf::from), Some(Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"))];
     candidates
         .into_iter()
         .flatten()

@@ -54,15 +54,7 @@ fn bsdfs() -> Vec<Bsdf> {
 }
 
 fn scene(camera: Camera, meshes: Vec<Mesh>) -> Scene {
-    Scene {
-        path: "test_scene.xml".into(),
-        integrator: None,
-        camera,
-        meshes,
-        bsdfs: bsdfs(),
-        textures: vec![],
-        emitters: vec![],
-    }
+    Scene { path: "test_scene.xml".into(), integrator: None, camera, meshes, bsdfs: bsdfs(), textures: vec![], emitters: vec![] }
 }
 
 /// Open box [-1,1]^3 (back, floor, ceiling, left, right walls) with a tilted smooth-shaded block and
@@ -120,11 +112,7 @@ pub fn cornell_scene(w: u32, h: u32, s: f32, gap: f32) -> Scene {
 pub fn sphere_scene(flip_normals: bool) -> Scene {
     let meshes = vec![
         sphere_mesh("sphere", Vec3::ZERO, 1.0, flip_normals, 0),
-        quad(
-            "floor",
-            [Vec3::new(-4., -1., 4.), Vec3::new(4., -1., 4.), Vec3::new(4., -1., -4.), Vec3::new(-4., -1., -4.)],
-            1,
-        ),
+        quad("floor", [Vec3::new(-4., -1., 4.), Vec3::new(4., -1., 4.), Vec3::new(4., -1., -4.), Vec3::new(-4., -1., -4.)], 1),
     ];
     let cam = camera(look_at(Vec3::new(0.7, 1.2, 3.5), Vec3::ZERO, Vec3::Y), 50.0, 0.01, 1e4, 80, 52);
     scene(cam, meshes)
@@ -134,16 +122,8 @@ pub fn sphere_scene(flip_normals: bool) -> Scene {
 /// quad at x in [1, 2], z = 5 (on the camera's left), mesh 1 one at y in [1, 2] (above). 48x32 film.
 pub fn marker_scene() -> Scene {
     let meshes = vec![
-        quad(
-            "left_marker",
-            [Vec3::new(1., -0.5, 5.), Vec3::new(2., -0.5, 5.), Vec3::new(2., 0.5, 5.), Vec3::new(1., 0.5, 5.)],
-            0,
-        ),
-        quad(
-            "up_marker",
-            [Vec3::new(-0.5, 1., 5.), Vec3::new(0.5, 1., 5.), Vec3::new(0.5, 2., 5.), Vec3::new(-0.5, 2., 5.)],
-            0,
-        ),
+        quad("left_marker", [Vec3::new(1., -0.5, 5.), Vec3::new(2., -0.5, 5.), Vec3::new(2., 0.5, 5.), Vec3::new(1., 0.5, 5.)], 0),
+        quad("up_marker", [Vec3::new(-0.5, 1., 5.), Vec3::new(0.5, 1., 5.), Vec3::new(0.5, 2., 5.), Vec3::new(-0.5, 2., 5.)], 0),
     ];
     scene(camera(Mat4::IDENTITY, 60.0, 0.01, 1e4, 48, 32), meshes)
 }

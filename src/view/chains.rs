@@ -151,7 +151,8 @@ fn branches(delta: Delta, twosided: bool, wi: Vec3, n: Vec3) -> Vec<(Vec3, Vec3)
             }
             let w = match delta {
                 Delta::Conductor { eta, k, specular } => {
-                    specular * Vec3::new(fresnel_conductor(c, eta.x, k.x), fresnel_conductor(c, eta.y, k.y), fresnel_conductor(c, eta.z, k.z))
+                    specular
+                        * Vec3::new(fresnel_conductor(c, eta.x, k.x), fresnel_conductor(c, eta.y, k.y), fresnel_conductor(c, eta.z, k.z))
                 }
                 Delta::Plastic { eta, specular } => specular * fresnel(c, eta),
                 Delta::Dielectric { .. } => unreachable!(),
@@ -263,9 +264,7 @@ impl Tracer<'_> {
 pub fn scene_has_delta(scene: &Scene) -> bool {
     scene.bsdfs.iter().any(|b| match b {
         Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => true,
-        Bsdf::Plastic { specular_reflectance, .. } => {
-            !matches!(specular_reflectance, crate::scene::Param::Value(v) if *v == Vec3::ZERO)
-        }
+        Bsdf::Plastic { specular_reflectance, .. } => !matches!(specular_reflectance, crate::scene::Param::Value(v) if *v == Vec3::ZERO),
         _ => false,
     })
 }
@@ -299,7 +298,8 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
         return Ok(ChainStats::default());
     }
     let rt = RayTracer::new(scene)?;
-    let tracer = Tracer { scene, rt: &rt, env: Environment::from_scene(scene), area: crate::matrix::emitted::AreaRadiance::new(scene), opts: *opts };
+    let tracer =
+        Tracer { scene, rt: &rt, env: Environment::from_scene(scene), area: crate::matrix::emitted::AreaRadiance::new(scene), opts: *opts };
     let results: Vec<(usize, PixelChains)> = starts
         .par_iter()
         .with_min_len(16)

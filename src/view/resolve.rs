@@ -23,8 +23,8 @@ use crate::error::{Error, Result};
 use crate::gpu::scene_buffers::{locate_triangle, triangle_offsets};
 use crate::scene::{Camera, Scene, ShapeKind};
 use crate::shading::GpuBsdf;
-use crate::view::ViewSamples;
 use crate::view::chains::ChainOptions;
+use crate::view::ViewSamples;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -110,14 +110,16 @@ impl Sample {
 
 fn corners(scene: &Scene, m: usize, prim: u32) -> Result<([u32; 3], [DVec3; 3])> {
     let mesh = &scene.meshes[m];
-    let tri = *mesh.indices.get(prim as usize).ok_or_else(|| {
-        Error::invalid(format!("mesh {:?} has {} triangles, asked for {prim}", mesh.id, mesh.indices.len()))
-    })?;
+    let tri = *mesh
+        .indices
+        .get(prim as usize)
+        .ok_or_else(|| Error::invalid(format!("mesh {:?} has {} triangles, asked for {prim}", mesh.id, mesh.indices.len())))?;
     let mut p = [DVec3::ZERO; 3];
     for k in 0..3 {
-        let v = mesh.positions.get(tri[k] as usize).ok_or_else(|| {
-            Error::scene(&mesh.loc, format!("mesh {:?}: vertex index {} out of range", mesh.id, tri[k]))
-        })?;
+        let v = mesh
+            .positions
+            .get(tri[k] as usize)
+            .ok_or_else(|| Error::scene(&mesh.loc, format!("mesh {:?}: vertex index {} out of range", mesh.id, tri[k])))?;
         p[k] = v.as_dvec3();
     }
     Ok((tri, p))
@@ -144,10 +146,7 @@ fn resolve_pixel(scene: &Scene, cam: &Camera, m: usize, prim: u32, x: u32, y: u3
                 if phi < 0.0 {
                     phi += 2.0 * std::f64::consts::PI;
                 }
-                let uv = Vec2::new(
-                    (phi / (2.0 * std::f64::consts::PI)) as f32,
-                    (theta / std::f64::consts::PI) as f32,
-                );
+                let uv = Vec2::new((phi / (2.0 * std::f64::consts::PI)) as f32, (theta / std::f64::consts::PI) as f32);
                 let n = if flip_normals { -n } else { n };
                 (position, n, n, uv)
             })
@@ -268,9 +267,8 @@ pub fn resolve_view_samples_for(scene: &Scene, cam: &Camera, ids: &[u32], chains
             if id == 0 {
                 return Ok(());
             }
-            let (m, prim) = locate_triangle(&offsets, id - 1).ok_or_else(|| {
-                Error::Gpu(format!("visibility buffer names triangle {} of {}", id - 1, offsets.last().unwrap_or(&0)))
-            })?;
+            let (m, prim) = locate_triangle(&offsets, id - 1)
+                .ok_or_else(|| Error::Gpu(format!("visibility buffer names triangle {} of {}", id - 1, offsets.last().unwrap_or(&0))))?;
             let s = resolve_pixel(scene, cam, m, prim, i as u32 % w, i as u32 / w)?;
             (*position, *normal, *geo_normal, *wi, *uv) = (s.position, s.normal, s.geo_normal, s.wi, s.uv);
             (*albedo, *shape_index, *prim_index, *bsdf) = (s.albedo, s.shape_index, s.prim_index, s.bsdf);
@@ -319,9 +317,7 @@ pub fn cast_visibility_cpu(scene: &Scene) -> Result<Vec<u32>> {
         .iter()
         .enumerate()
         .filter_map(|(m, mesh)| match mesh.kind {
-            ShapeKind::Sphere { center, radius, .. } if !mesh.indices.is_empty() => {
-                Some((offsets[m], center.as_dvec3(), radius as f64))
-            }
+            ShapeKind::Sphere { center, radius, .. } if !mesh.indices.is_empty() => Some((offsets[m], center.as_dvec3(), radius as f64)),
             _ => None,
         })
         .collect();

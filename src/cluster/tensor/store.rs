@@ -29,43 +29,41 @@ impl ChunkStore {
         let mut scalar = vec![0.0f32; n * fc * r];
         let mut squares = vec![[0.0f64; 4]; n * fc];
         let one_channel = tensor.channels() == 1;
-        scalar.par_chunks_mut(LIGHT_BLOCK * fc * r).zip(squares.par_chunks_mut(LIGHT_BLOCK * fc)).enumerate().for_each(
-            |(b, (out, sq))| {
-                let j0 = b * LIGHT_BLOCK;
-                let lights = sq.len() / fc;
-                let mut element = |i: usize, jj: usize, kk: usize| {
-                    let c: [f64; 3] = std::array::from_fn(|ch| tensor.channel(i, j0 + jj, start + kk, ch));
-                    let s = if one_channel { c[0] } else { (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt() };
-                    let s32 = s as f32;
-                    out[(jj * fc + kk) * r + i] = s32;
-                    let acc = &mut sq[jj * fc + kk];
-                    for ch in 0..3 {
-                        acc[ch] += c[ch] * c[ch];
-                    }
-                    acc[3] += (s32 as f64) * (s32 as f64);
-                };
-                // Read the tensor in its memory order (lights innermost for frame-major data, frames innermost
-                // otherwise); every pair's sums still run over the rows in order, so both layouts give
-                // bit-identical stores.
-                if tensor.is_frame_major() {
-                    for kk in 0..fc {
-                        for i in 0..r {
-                            for jj in 0..lights {
-                                element(i, jj, kk);
-                            }
-                        }
-                    }
-                } else {
+        scalar.par_chunks_mut(LIGHT_BLOCK * fc * r).zip(squares.par_chunks_mut(LIGHT_BLOCK * fc)).enumerate().for_each(|(b, (out, sq))| {
+            let j0 = b * LIGHT_BLOCK;
+            let lights = sq.len() / fc;
+            let mut element = |i: usize, jj: usize, kk: usize| {
+                let c: [f64; 3] = std::array::from_fn(|ch| tensor.channel(i, j0 + jj, start + kk, ch));
+                let s = if one_channel { c[0] } else { (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt() };
+                let s32 = s as f32;
+                out[(jj * fc + kk) * r + i] = s32;
+                let acc = &mut sq[jj * fc + kk];
+                for ch in 0..3 {
+                    acc[ch] += c[ch] * c[ch];
+                }
+                acc[3] += (s32 as f64) * (s32 as f64);
+            };
+            // Read the tensor in its memory order (lights innermost for frame-major data, frames innermost
+            // otherwise); every pair's sums still run over the rows in order, so both layouts give
+            // bit-identical stores.
+            if tensor.is_frame_major() {
+                for kk in 0..fc {
                     for i in 0..r {
                         for jj in 0..lights {
-                            for kk in 0..fc {
-                                element(i, jj, kk);
-                            }
+                            element(i, jj, kk);
                         }
                     }
                 }
-            },
-        );
+            } else {
+                for i in 0..r {
+                    for jj in 0..lights {
+                        for kk in 0..fc {
+                            element(i, jj, kk);
+                        }
+                    }
+                }
+            }
+        });
         let weight = squares.iter().map(|s| s[3].sqrt()).collect();
         let channel_norm = squares.iter().map(|s| [s[0].sqrt(), s[1].sqrt(), s[2].sqrt()]).collect();
         ChunkStore { num_rows: r, num_lights: n, num_frames: fc, first_frame: start, scalar, weight, channel_norm }

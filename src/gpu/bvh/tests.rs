@@ -50,7 +50,9 @@ fn random_queries(scene: &Scene, tracer: &RayTracer, n: usize, seed: u64) -> Vec
     let (lo, hi) = scene.bounds();
     let (c, h) = ((lo + hi) * 0.5, (hi - lo) * 0.55);
     let verts: Vec<Vec3> = scene.meshes.iter().flat_map(|m| m.positions.iter().copied()).collect();
-    let point = |rng: &mut Pcg32| c + h * Vec3::new(rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0);
+    let point = |rng: &mut Pcg32| {
+        c + h * Vec3::new(rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0)
+    };
     let unit = |rng: &mut Pcg32| loop {
         let v = Vec3::new(rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0);
         if v.length_squared() > 1e-4 && v.length_squared() <= 1.0 {
@@ -160,7 +162,8 @@ fn contact_edge_rays_are_free() {
     let bvh = GpuBvh::upload(&ctx.device, &scene, 1 << 27).unwrap();
     let lights = crate::lights::LightSet::from_scene(&scene).unwrap();
     let q = lights.position[0];
-    let cases = [(Vec3::new(1.0, 1.0, 0.8998124), Vec3::new(-1.0, 0.0, 0.0)), (Vec3::new(0.99999964, 1.0, 0.89981294), Vec3::new(0.0, -1.0, 0.0))];
+    let cases =
+        [(Vec3::new(1.0, 1.0, 0.8998124), Vec3::new(-1.0, 0.0, 0.0)), (Vec3::new(0.99999964, 1.0, 0.89981294), Vec3::new(0.0, -1.0, 0.0))];
     let qs: Vec<OcclusionQuery> = cases.iter().map(|&(p, n)| OcclusionQuery::to_point(p, n, q)).collect();
     let gpu = OccludedPass::new(&ctx.device).run(&ctx, &bvh, &qs).unwrap();
     for ((p, n), g) in cases.iter().zip(gpu) {

@@ -3,12 +3,11 @@ use super::*;
 #[test]
 fn wgsl_validates_and_layouts_match() {
     assert_eq!(std::mem::size_of::<ClusteredParams>(), 48);
-    crate::gpu::shaders::assert_struct_sizes("clustered_visibility.wgsl", shaders::CLUSTERED_VISIBILITY, &[
-        ("ClusteredParams", 48),
-        ("Light", 256),
-        ("ViewSample", 80),
-        ("Bsdf", 80),
-    ]);
+    crate::gpu::shaders::assert_struct_sizes(
+        "clustered_visibility.wgsl",
+        shaders::CLUSTERED_VISIBILITY,
+        &[("ClusteredParams", 48), ("Light", 256), ("ViewSample", 80), ("Bsdf", 80)],
+    );
 }
 
 #[test]

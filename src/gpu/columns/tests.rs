@@ -10,13 +10,11 @@ fn struct_sizes() {
 
 #[test]
 fn columns_wgsl_validates_and_layouts_match() {
-    crate::gpu::shaders::assert_struct_sizes("columns.wgsl", shaders::COLUMNS, &[
-        ("Light", 256),
-        ("ViewSample", 80),
-        ("ColumnParams", 48),
-        ("Bsdf", 80),
-        ("ShadowLayer", 256),
-    ]);
+    crate::gpu::shaders::assert_struct_sizes(
+        "columns.wgsl",
+        shaders::COLUMNS,
+        &[("Light", 256), ("ViewSample", 80), ("ColumnParams", 48), ("Bsdf", 80), ("ShadowLayer", 256)],
+    );
 }
 
 #[test]

@@ -256,7 +256,9 @@ fn sphere_enlargement_encloses() {
 #[ignore]
 fn dump_scenes_for_mitsuba() {
     use std::fmt::Write;
-    let root = std::env::var("MANYLIGHTS_GBUFFER_DUMP").map(std::path::PathBuf::from).unwrap_or_else(|_| std::env::temp_dir().join("gbuffer_dump"));
+    let root = std::env::var("MANYLIGHTS_GBUFFER_DUMP")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|_| std::env::temp_dir().join("gbuffer_dump"));
     for (name, scene) in [("sphere", sphere_scene(false)), ("cornell_cbox", cornell_scene(128, 96, 278.0, 0.01))] {
         let dir = root.join(name);
         std::fs::create_dir_all(&dir).unwrap();

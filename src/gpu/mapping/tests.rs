@@ -43,7 +43,11 @@ fn weighted_accumulation_on_the_gpu() {
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     let pass = MappingPass::shared(&ctx);
     for weight in [[0.5, 2.0, -1.0], [1.0, 1.0, 1.0]] {
-        pass.encode(&ctx, &mut enc, &MappingInputs { source: src, mapping: &index, target, num_pixels: m as u32, weight, accumulate: true });
+        pass.encode(
+            &ctx,
+            &mut enc,
+            &MappingInputs { source: src, mapping: &index, target, num_pixels: m as u32, weight, accumulate: true },
+        );
     }
     ctx.queue.submit(Some(enc.finish()));
     let got: Vec<[f32; 4]> = ctx.read_buffer(target, 0, m).unwrap();

@@ -8,13 +8,11 @@ fn struct_sizes() {
 
 #[test]
 fn rows_wgsl_validates_and_layouts_match() {
-    crate::gpu::shaders::assert_struct_sizes("rows.wgsl", shaders::ROWS, &[
-        ("RowParams", 48),
-        ("RowInfo", 32),
-        ("Light", 256),
-        ("ViewSample", 80),
-        ("ShadowLayer", 256),
-    ]);
+    crate::gpu::shaders::assert_struct_sizes(
+        "rows.wgsl",
+        shaders::ROWS,
+        &[("RowParams", 48), ("RowInfo", 32), ("Light", 256), ("ViewSample", 80), ("ShadowLayer", 256)],
+    );
     // The WGSL mirrors of the Rust constants.
     assert!(shaders::ROWS.contains(&format!("const WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;")));
     assert!(shaders::ROWS.contains("const ROW_NO_MAP: u32 = 0xffffffffu;"));

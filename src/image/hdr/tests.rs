@@ -60,5 +60,8 @@ fn huge_declared_size_is_refused_before_allocating() {
     let e = crate::memory::with_thread_limit(10 << 20, || read_hdr(&p)).unwrap_err();
     assert!(matches!(e, Error::OutOfMemory(_)), "{e:?}");
     let msg = e.to_string();
-    assert!(msg.contains("big.hdr\" (Radiance RGBE (.hdr) image of 1000x1000 pixels) needs 12.0 MB") && msg.contains("10.5 MB is available"), "{msg}");
+    assert!(
+        msg.contains("big.hdr\" (Radiance RGBE (.hdr) image of 1000x1000 pixels) needs 12.0 MB") && msg.contains("10.5 MB is available"),
+        "{msg}"
+    );
 }

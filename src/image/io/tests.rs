@@ -8,8 +8,7 @@ fn tmp(name: &str) -> std::path::PathBuf {
 #[test]
 fn exr_round_trip_is_exact() {
     let (w, h) = (5u32, 3u32);
-    let px: Vec<[f32; 3]> =
-        (0..w * h).map(|i| [i as f32 * 0.1, -(i as f32) * 1e-3, 1e6 + i as f32 * std::f32::consts::PI]).collect();
+    let px: Vec<[f32; 3]> = (0..w * h).map(|i| [i as f32 * 0.1, -(i as f32) * 1e-3, 1e6 + i as f32 * std::f32::consts::PI]).collect();
     let p = tmp("rt.exr");
     write_exr(&p, w, h, &px).unwrap();
     let (w2, h2, back) = read_exr(&p).unwrap();

@@ -164,9 +164,12 @@ fn normal_images_load_bit_exactly() {
     let srgb8 = |b: u8| crate::scene::texture::srgb_to_linear(b as f32 * (1.0f32 / 255.0));
     let codes8: Vec<u8> = (0..6 * 4).map(|i| (i * 37 % 256) as u8).collect();
     let codes16: Vec<u16> = (0..6 * 4).map(|i| (i * 9973 % 65536) as u16).collect();
-    for (channels, color) in [(1, image::ExtendedColorType::L8), (2, image::ExtendedColorType::La8),
-        (3, image::ExtendedColorType::Rgb8), (4, image::ExtendedColorType::Rgba8)]
-    {
+    for (channels, color) in [
+        (1, image::ExtendedColorType::L8),
+        (2, image::ExtendedColorType::La8),
+        (3, image::ExtendedColorType::Rgb8),
+        (4, image::ExtendedColorType::Rgba8),
+    ] {
         let p = tmp(&format!("c{channels}.png"), b"");
         image::save_buffer(&p, &codes8[..6 * channels], 3, 2, color).unwrap();
         let (w, h, px) = load_bitmap(&p, &Location::default(), false).unwrap();
@@ -177,11 +180,9 @@ fn normal_images_load_bit_exactly() {
             assert_eq!(t.to_array(), want, "{channels} channels, texel {i}");
         }
     }
-    let half = |c: u16| {
-        crate::scene::texture::round_to_half(crate::scene::texture::srgb_to_linear(c as f32 / 65535.0))
-    };
-    for (channels, color) in [(1, image::ColorType::L16), (2, image::ColorType::La16),
-        (3, image::ColorType::Rgb16), (4, image::ColorType::Rgba16)]
+    let half = |c: u16| crate::scene::texture::round_to_half(crate::scene::texture::srgb_to_linear(c as f32 / 65535.0));
+    for (channels, color) in
+        [(1, image::ColorType::L16), (2, image::ColorType::La16), (3, image::ColorType::Rgb16), (4, image::ColorType::Rgba16)]
     {
         let p = tmp(&format!("s{channels}.png"), b"");
         let bytes: Vec<u8> = codes16[..6 * channels].iter().flat_map(|c| c.to_ne_bytes()).collect();

@@ -55,8 +55,17 @@ pub struct AreaEmitter {
 pub enum AreaShape {
     /// Triangles (p0, p1, p2, emitting normal), their vertex uvs, the cumulative area after each, and
     /// each one's triangle index in the mesh (degenerate triangles are left out).
-    Triangles { triangles: Vec<([Vec3; 3], Vec3)>, uvs: Vec<[Vec2; 3]>, cdf: Vec<f64>, tri: Vec<u32> },
-    Sphere { center: Vec3, radius: f32, flip: bool },
+    Triangles {
+        triangles: Vec<([Vec3; 3], Vec3)>,
+        uvs: Vec<[Vec2; 3]>,
+        cdf: Vec<f64>,
+        tri: Vec<u32>,
+    },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        flip: bool,
+    },
 }
 
 impl AreaEmitter {
@@ -200,11 +209,7 @@ pub fn area_emitters(scene: &Scene) -> Vec<AreaEmitter> {
                 acc += 0.5 * area2 as f64;
                 tri.push(t as u32);
                 triangles.push((p, n));
-                uvs.push(if m.uvs.len() == m.positions.len() {
-                    [m.uvs[i0], m.uvs[i1], m.uvs[i2]]
-                } else {
-                    [Vec2::ZERO, Vec2::X, Vec2::Y]
-                });
+                uvs.push(if m.uvs.len() == m.positions.len() { [m.uvs[i0], m.uvs[i1], m.uvs[i2]] } else { [Vec2::ZERO, Vec2::X, Vec2::Y] });
                 cdf.push(acc);
             }
             AreaShape::Triangles { triangles, uvs, cdf, tri }

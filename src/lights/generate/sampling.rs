@@ -16,8 +16,8 @@
 //! - principled: `shading::principled::sample` (a mixture with an exact pdf; reflection from both
 //!   sides and glossy transmission, importance-mode weights).
 use crate::shading::bsdf::{
-    eval, fresnel, fresnel_conductor, microfacet_d, FLAG_GGX, FLAG_TWOSIDED, KIND_DIFFUSE, KIND_PLASTIC,
-    KIND_PRINCIPLED, KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC, KIND_SMOOTH,
+    eval, fresnel, fresnel_conductor, microfacet_d, FLAG_GGX, FLAG_TWOSIDED, KIND_DIFFUSE, KIND_PLASTIC, KIND_PRINCIPLED,
+    KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC, KIND_SMOOTH,
 };
 use crate::shading::GpuBsdf;
 use glam::{Vec2, Vec3};
@@ -237,7 +237,11 @@ pub fn sample_bsdf(b: &GpuBsdf, wi_in: Vec3, rng: &mut Pcg32) -> Option<BsdfSamp
             } else {
                 let f = fresnel(wi.z, b.eta[0]);
                 let (sm, dm) = (f * mean(b.specular), (1.0 - f) * mean(b.diffuse));
-                if sm + dm > 0.0 { (sm / (sm + dm)).clamp(0.1, 0.9) } else { 0.5 }
+                if sm + dm > 0.0 {
+                    (sm / (sm + dm)).clamp(0.1, 0.9)
+                } else {
+                    0.5
+                }
             };
             let wo = if u0 < p_spec { reflect(wi, sample_microfacet(ggx, alpha, u1, u2)) } else { cosine_hemisphere(u1, u2) };
             if !(wo.z > 0.0) {

@@ -2,10 +2,12 @@ use super::*;
 
 #[test]
 fn nearest_matches_brute_force() {
-    let pts: Vec<Vec3> = (0..500).map(|i| {
-        let f = i as f32;
-        Vec3::new((f * 0.37).sin() * 3.0, (f * 0.11).cos() * 2.0, (f * 0.05).fract())
-    }).collect();
+    let pts: Vec<Vec3> = (0..500)
+        .map(|i| {
+            let f = i as f32;
+            Vec3::new((f * 0.37).sin() * 3.0, (f * 0.11).cos() * 2.0, (f * 0.05).fract())
+        })
+        .collect();
     let map = PhotonMap::new(&pts);
     for q in [Vec3::ZERO, Vec3::new(1.0, -1.0, 0.5), Vec3::splat(10.0)] {
         let (mut got, r2) = map.nearest(q, 16);

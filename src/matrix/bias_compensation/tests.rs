@@ -1,7 +1,7 @@
 use super::*;
-use crate::testing::light_scenes::furnace_box;
 use crate::lights::{generate_lights, GenerateOptions};
 use crate::matrix::reference::CpuReference;
+use crate::testing::light_scenes::furnace_box;
 use crate::testing::scenes::cast_view;
 
 /// Sum over the image of every VPL column (the indirect light) of `lights`.

@@ -57,7 +57,10 @@ fn samples_follow_their_pdf() {
             let mean = sum / n as f64;
             let sd = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
             let exact = 2.0 * std::f64::consts::PI * (1.0 - cos_c as f64);
-            assert!((mean - exact).abs() < 4.0 * sd + 1e-3 * exact, "alpha {alpha} ggx {ggx} cone {half_angle}: {mean} vs {exact} (sd {sd})");
+            assert!(
+                (mean - exact).abs() < 4.0 * sd + 1e-3 * exact,
+                "alpha {alpha} ggx {ggx} cone {half_angle}: {mean} vs {exact} (sd {sd})"
+            );
             rng = rng2;
         }
     }

@@ -26,7 +26,10 @@ fn nearest_matches_brute_force_and_is_identity_on_equal_frames() {
         }
         let best = (0..(w * h) as usize)
             .filter(|&j| a.valid[j])
-            .min_by(|&x, &y| crate::view::features::distance2(&a.features[x], &b.features[i]).total_cmp(&crate::view::features::distance2(&a.features[y], &b.features[i])))
+            .min_by(|&x, &y| {
+                crate::view::features::distance2(&a.features[x], &b.features[i])
+                    .total_cmp(&crate::view::features::distance2(&a.features[y], &b.features[i]))
+            })
             .unwrap();
         assert_eq!(map.source[i], best as u32, "pixel {i}");
         assert_ne!(map.source[i], 5, "a pixel without surface is no source");

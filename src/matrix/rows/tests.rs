@@ -5,11 +5,11 @@ use super::*;
 use crate::error::Location;
 use crate::gpu::GpuContext;
 use crate::lights::generate::{generate_lights, GenerateOptions};
-use crate::testing::light_scenes;
 use crate::lights::{LightKind, LightSet};
 use crate::matrix::reference::CpuReference;
 use crate::matrix::{ColumnOptions, LightMatrix};
 use crate::scene::{Emitter, Scene};
+use crate::testing::light_scenes;
 use glam::Vec3;
 use std::sync::Arc;
 
@@ -106,7 +106,10 @@ fn gpu_rows_match_cpu_ray_casting_for_every_light_kind() {
         }
     }
     let frac = ok as f64 / total as f64;
-    eprintln!("rows vs CPU: {ok}/{total} = {:.3}% entries within tolerance ({lit} lit, {shadowed} shadowed); per kind {per_kind:?}", 100.0 * frac);
+    eprintln!(
+        "rows vs CPU: {ok}/{total} = {:.3}% entries within tolerance ({lit} lit, {shadowed} shadowed); per kind {per_kind:?}",
+        100.0 * frac
+    );
     eprintln!("visibility: {:?}; timings {timings:?}", matrix.visibility_stats().unwrap());
     assert!(lit > total / 10 && shadowed > total / 50, "the rows must see light and shadow: {lit}, {shadowed}");
     assert!(frac >= MIN_MATCH_FRACTION, "only {frac} of entries match");
@@ -145,7 +148,10 @@ fn rows_agree_with_columns() {
             }
         }
         let frac = ok as f64 / total as f64;
-        eprintln!("{visibility:?}: rows vs columns {ok}/{total} channels agree (worst relative {worst:.2e}); {:?}", matrix.visibility_stats().unwrap());
+        eprintln!(
+            "{visibility:?}: rows vs columns {ok}/{total} channels agree (worst relative {worst:.2e}); {:?}",
+            matrix.visibility_stats().unwrap()
+        );
         match visibility {
             Visibility::RayTraced => assert_eq!(ok, total, "exact rays: rows and columns must agree"),
             _ => assert!(frac >= MIN_MATCH_FRACTION, "hybrid: only {frac} agree"),
@@ -232,7 +238,9 @@ fn row_argument_errors_are_clear() {
 
 #[test]
 fn stratified_rows_one_per_block_and_reproducible() {
-    for (w, h, r) in [(128u32, 128u32, 300usize), (128, 72, 300), (13, 5, 7), (64, 64, 64), (10, 1, 10), (3, 40, 17), (5, 5, 25), (100, 80, 1)] {
+    for (w, h, r) in
+        [(128u32, 128u32, 300usize), (128, 72, 300), (13, 5, 7), (64, 64, 64), (10, 1, 10), (3, 40, 17), (5, 5, 25), (100, 80, 1)]
+    {
         let blocks = stratified_blocks(w, h, r);
         assert_eq!(blocks.len(), r);
         // The blocks partition the image.

@@ -57,7 +57,13 @@ fn sphere_matches_closed_form() {
             None
         } else {
             let (t0, t1) = ((-b - disc.sqrt()) / (2.0 * a), (-b + disc.sqrt()) / (2.0 * a));
-            if t0 > 0.0 { Some(t0) } else if t1 > 0.0 { Some(t1) } else { None }
+            if t0 > 0.0 {
+                Some(t0)
+            } else if t1 > 0.0 {
+                Some(t1)
+            } else {
+                None
+            }
         };
         let got = intersect_sphere(center, radius, o, d, 0.0, f32::INFINITY);
         match (expected, got) {

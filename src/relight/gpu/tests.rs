@@ -27,7 +27,8 @@ fn lights(scene: &Scene) -> Arc<LightSet> {
     s.push_directional(Vec3::new(0.1, -0.3, 1.0).normalize(), Vec3::new(0.5, 0.5, 0.6)).unwrap();
     s.push_oriented_point(Vec3::new(278.0, 540.0, 279.0), -Vec3::Y, Vec3::new(2e5, 2e5, 2e5)).unwrap();
     // A VPL on the floor with a diffuse BSDF, clamped as the light matrix clamps VPLs.
-    let bsdf = crate::shading::GpuBsdf { diffuse: [0.6, 0.5, 0.4], kind: crate::shading::bsdf::KIND_DIFFUSE, ..bytemuck::Zeroable::zeroed() };
+    let bsdf =
+        crate::shading::GpuBsdf { diffuse: [0.6, 0.5, 0.4], kind: crate::shading::bsdf::KIND_DIFFUSE, ..bytemuck::Zeroable::zeroed() };
     s.push_vpl(Vec3::new(480.0, 5.0, 100.0), Vec3::Y, Vec3::Y, Vec3::new(0.0, 1.0, 0.2).normalize(), Vec3::splat(3e5), bsdf).unwrap();
     s.vpl_clamp = 1e-3;
     Arc::new(s)
@@ -53,7 +54,17 @@ fn gpu_relight_equals_cpu_relight_with_exact_rays() {
     let l = lights(&scene);
     let mut one_bounce = Vec::new();
     for (bounces, multibounce) in [(1, Multibounce::Photons), (2, Multibounce::Gather), (3, Multibounce::Photons)] {
-        let opts = TransferOptions { gather: 256, coefficients: 256, threshold: 0.0, bounces, multibounce_coefficients: 256, multibounce, photons_per_sample: 16, photon_neighbours: 50, ..Default::default() };
+        let opts = TransferOptions {
+            gather: 256,
+            coefficients: 256,
+            threshold: 0.0,
+            bounces,
+            multibounce_coefficients: 256,
+            multibounce,
+            photons_per_sample: 16,
+            photon_neighbours: 50,
+            ..Default::default()
+        };
         let t = Transfer::new(&scene, &view, &tracer, &opts, &mut |_, _| {}).unwrap();
         assert_eq!(t.photon_rows.is_empty(), bounces < 3, "bounces {bounces}: photon rows");
         assert_eq!(t.bounce_rows.is_empty(), bounces != 2, "bounces {bounces}: gather-to-gather rows");
@@ -105,7 +116,16 @@ fn gpu_relight_applies_glossy_rows_as_the_cpu() {
     let l = Arc::new(LightSet::from_scene(&scene).unwrap());
     let col = ColumnOptions { visibility: Visibility::RayTraced, ..Default::default() };
     for bounces in [1, 3] {
-        let opts = TransferOptions { gather: 256, coefficients: 64, bounces, multibounce_coefficients: 64, multibounce: Multibounce::Photons, photons_per_sample: 16, photon_neighbours: 50, ..Default::default() };
+        let opts = TransferOptions {
+            gather: 256,
+            coefficients: 64,
+            bounces,
+            multibounce_coefficients: 64,
+            multibounce: Multibounce::Photons,
+            photons_per_sample: 16,
+            photon_neighbours: 50,
+            ..Default::default()
+        };
         let t = Transfer::new(&scene, &view, &tracer, &opts, &mut |_, _| {}).unwrap();
         assert!(t.glossy_pixels >= 20 && t.glossy_rows.len() == 256, "{} glossy pixels", t.glossy_pixels);
         assert_eq!(t.photon_rows.is_empty(), bounces == 1);
@@ -196,14 +216,20 @@ fn gpu_haar_equals_cpu_haar() {
     let passes = RelightPasses::new(device);
     for side in [2u32, 8, 64] {
         let n = (side * side) as usize;
-        let img: Vec<[f32; 4]> = (0..n).map(|i| {
-            let x = i as f32;
-            [(x * 0.37).sin() + 1.5, (x * 0.11).cos() * 3.0, 1.0 / (1.0 + x), 0.0]
-        }).collect();
+        let img: Vec<[f32; 4]> = (0..n)
+            .map(|i| {
+                let x = i as f32;
+                [(x * 0.37).sin() + 1.5, (x * 0.11).cos() * 3.0, 1.0 / (1.0 + x), 0.0]
+            })
+            .collect();
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
         let image = storage_buffer(device, "test::image", &img, usage);
         let zeros = vec![[0f32; 4]; n];
-        let (s0, s1, coeffs) = (storage_buffer(device, "s0", &zeros, usage), storage_buffer(device, "s1", &zeros, usage), storage_buffer(device, "c", &zeros, usage));
+        let (s0, s1, coeffs) = (
+            storage_buffer(device, "s0", &zeros, usage),
+            storage_buffer(device, "s1", &zeros, usage),
+            storage_buffer(device, "c", &zeros, usage),
+        );
         let mut enc = device.create_command_encoder(&Default::default());
         passes.encode_haar(device, &mut enc, side, &image, [&s0, &s1], &coeffs);
         ctx.queue.submit(Some(enc.finish()));
@@ -270,7 +296,10 @@ fn sparse_products_split_over_chunks_and_parts() {
     let rgb: Vec<SparseRow> = rows
         .iter()
         .enumerate()
-        .map(|(r, row)| SparseRow { index: row.index.clone(), value: row.value.iter().flat_map(|&v| [v, -0.5 * v, v * (1.0 + r as f32)]).collect() })
+        .map(|(r, row)| SparseRow {
+            index: row.index.clone(),
+            value: row.value.iter().flat_map(|&v| [v, -0.5 * v, v * (1.0 + r as f32)]).collect(),
+        })
         .collect();
     let want: Vec<[f32; 3]> = rgb
         .iter()
@@ -340,7 +369,8 @@ fn bench_relight() {
             let spot = |k: usize| {
                 let mut s = LightSet::new(c, r);
                 let x = 30.0 * k as f32 - 100.0;
-                s.push_spot(Vec3::new(278.0 + x, 530.0, 279.0), Vec3::new(-0.002 * x, -1.0, 0.1).normalize(), Vec3::splat(4e5), 0.6, 0.45).unwrap();
+                s.push_spot(Vec3::new(278.0 + x, 530.0, 279.0), Vec3::new(-0.002 * x, -1.0, 0.1).normalize(), Vec3::splat(4e5), 0.6, 0.45)
+                    .unwrap();
                 Arc::new(s)
             };
             let g = GpuRelight::new(ctx(), scene.clone(), view.clone(), &t, ColumnOptions::default()).unwrap();

@@ -101,10 +101,8 @@ fn culling_nothing_reproduces_the_dense_product() {
     let n = side * side;
     let t: Vec<Vec<f32>> = (0..rows).map(|r| random_image(side, 1, 100 + r as u64).iter().map(|v| v.abs()).collect()).collect();
     let g = random_image(side, channels, 5).iter().map(|v| v.abs()).collect::<Vec<f32>>();
-    let dense: Vec<[f64; 3]> = t
-        .iter()
-        .map(|row| std::array::from_fn(|ch| (0..n).map(|j| row[j] as f64 * g[j * channels + ch] as f64).sum()))
-        .collect();
+    let dense: Vec<[f64; 3]> =
+        t.iter().map(|row| std::array::from_fn(|ch| (0..n).map(|j| row[j] as f64 * g[j * channels + ch] as f64).sum())).collect();
     let mut gw = g.clone();
     forward(&mut gw, side, channels).unwrap();
     let product = |keep: usize| -> Vec<[f64; 3]> {
@@ -164,10 +162,7 @@ fn area_weighting_picks_by_magnitude_times_support() {
 /// Transport-weighted culling: |g_j| * ||column j|| < epsilon is dropped; epsilon = 0 keeps all.
 #[test]
 fn wavelet_light_culling_uses_light_times_image_norm() {
-    let rows = vec![
-        SparseRow { index: vec![0, 2], value: vec![3.0, 1.0] },
-        SparseRow { index: vec![0, 3], value: vec![4.0, 0.5] },
-    ];
+    let rows = vec![SparseRow { index: vec![0, 2], value: vec![3.0, 1.0] }, SparseRow { index: vec![0, 3], value: vec![4.0, 0.5] }];
     let norms = column_norms(&rows, 4, 1).unwrap();
     assert_eq!(norms, vec![5.0, 0.0, 1.0, 0.5]);
     let light = [[0.1, 0.0, 0.0], [9.0, 9.0, 9.0], [0.0, 0.6, 0.8], [2.0, 0.0, 0.0]].concat();

@@ -91,7 +91,8 @@ fn two_means_groups_separated_clusters() {
     // against 29.1 for cutting both rods across).
     let dir = Vec3::new(1.0, 1.0, 0.0).normalize();
     let off = Vec3::new(1.0, -1.0, 0.0).normalize() * 10.0;
-    let p: Vec<Vec3> = (0..64).map(|i| dir * (((i / 2) as f32 / 31.0 - 0.5) * 14.0) + off * (i % 2) as f32 + jitter(&mut rng, 0.05)).collect();
+    let p: Vec<Vec3> =
+        (0..64).map(|i| dir * (((i / 2) as f32 / 31.0 - 0.5) * 14.0) + off * (i % 2) as f32 + jitter(&mut rng, 0.05)).collect();
     let xs_a: Vec<f32> = p.iter().step_by(2).map(|q| q.x).collect();
     let xs_b: Vec<f32> = p.iter().skip(1).step_by(2).map(|q| q.x).collect();
     assert!(xs_a.iter().cloned().fold(f32::MIN, f32::max) > xs_b.iter().cloned().fold(f32::MAX, f32::min), "ranges overlap");

@@ -78,7 +78,14 @@ fn photon_rows_sum_to_the_closed_box_series() {
         assert!((m - want).abs() < 0.04 * want, "bounces {bounces}: median {m} vs {want}");
         assert!(mean < want * 1.01 && mean > 0.88 * want, "bounces {bounces}: mean {mean} vs {want}");
         if bounces == 2 {
-            let g = Transfer::new(&scene, &view, &tracer, &TransferOptions { bounces, multibounce: Multibounce::Gather, ..base.clone() }, &mut |_, _| {}).unwrap();
+            let g = Transfer::new(
+                &scene,
+                &view,
+                &tracer,
+                &TransferOptions { bounces, multibounce: Multibounce::Gather, ..base.clone() },
+                &mut |_, _| {},
+            )
+            .unwrap();
             let mg = median(added(&g));
             eprintln!("gather: median {mg}");
             assert!((mg - want).abs() < 0.04 * want, "gather: median {mg} vs {want}");
@@ -128,8 +135,22 @@ fn photon_noise_falls_as_photons_grow() {
 fn bad_photon_options_are_refused() {
     let (scene, view, tracer) = closed_box(0.5);
     for opts in [
-        TransferOptions { gather: 16, coefficients: 4, bounces: 2, multibounce_coefficients: 4, photons_per_sample: 0, ..Default::default() },
-        TransferOptions { gather: 16, coefficients: 4, bounces: 2, multibounce_coefficients: 4, photon_neighbours: 0, ..Default::default() },
+        TransferOptions {
+            gather: 16,
+            coefficients: 4,
+            bounces: 2,
+            multibounce_coefficients: 4,
+            photons_per_sample: 0,
+            ..Default::default()
+        },
+        TransferOptions {
+            gather: 16,
+            coefficients: 4,
+            bounces: 2,
+            multibounce_coefficients: 4,
+            photon_neighbours: 0,
+            ..Default::default()
+        },
         TransferOptions {
             gather: 16,
             coefficients: 4,

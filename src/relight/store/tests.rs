@@ -13,7 +13,16 @@ fn transfer(bounces: u32) -> (Scene, Transfer) {
 
 fn transfer_with(bounces: u32, multibounce: crate::relight::Multibounce) -> (Scene, Transfer) {
     let (scene, view, tracer) = setup();
-    let opts = TransferOptions { gather: 64, coefficients: 20, bounces, multibounce_coefficients: 10, multibounce, photons_per_sample: 8, photon_neighbours: 16, ..Default::default() };
+    let opts = TransferOptions {
+        gather: 64,
+        coefficients: 20,
+        bounces,
+        multibounce_coefficients: 10,
+        multibounce,
+        photons_per_sample: 8,
+        photon_neighbours: 16,
+        ..Default::default()
+    };
     let t = Transfer::new(&scene, &view, &tracer, &opts, &mut |_, _| {}).unwrap();
     (scene, t)
 }

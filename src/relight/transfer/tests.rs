@@ -12,7 +12,8 @@ fn exact_gather_rows_invert_to_the_per_sample_transfer() {
     let (scene, view, tracer) = setup();
     let opts = TransferOptions { gather: 64, coefficients: 64, threshold: 0.0, near_field: NearField::Point, ..Default::default() };
     let t = Transfer::new(&scene, &view, &tracer, &opts, &mut |_, _| {}).unwrap();
-    let disc = Transfer::new(&scene, &view, &tracer, &TransferOptions { near_field: NearField::Disc, ..opts.clone() }, &mut |_, _| {}).unwrap();
+    let disc =
+        Transfer::new(&scene, &view, &tracer, &TransferOptions { near_field: NearField::Disc, ..opts.clone() }, &mut |_, _| {}).unwrap();
     let side = t.hierarchy.side();
     let mut nonzero = 0;
     for i in 0..view.num_pixels() {

@@ -4,8 +4,10 @@ use std::path::PathBuf;
 
 fn write(dir: &std::path::Path, name: &str, body: &str) -> PathBuf {
     let p = dir.join(name);
-    std::fs::write(&p, format!(
-        r#"<scene version="3.0.0">
+    std::fs::write(
+        &p,
+        format!(
+            r#"<scene version="3.0.0">
                 <default name="x" value="0"/>
                 <sensor type="perspective"><float name="fov" value="40"/>
                   <transform name="to_world"><lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
@@ -14,7 +16,9 @@ fn write(dir: &std::path::Path, name: &str, body: &str) -> PathBuf {
                 <emitter type="point"><point name="position" x="$x" y="1" z="2"/></emitter>
                 {body}
             </scene>"#
-    )).unwrap();
+        ),
+    )
+    .unwrap();
     p
 }
 
@@ -59,10 +63,14 @@ fn film_size_and_emitters_must_match() {
     assert!(e.contains("frame 1") && e.contains("film is 4x4 but frame 0's is 8x6"), "{e}");
 
     let b = dir.join("b.xml");
-    std::fs::write(&b, std::fs::read_to_string(&a).unwrap().replace(
-        r#"<emitter type="point"><point name="position" x="$x" y="1" z="2"/></emitter>"#,
-        r#"<emitter type="directional"><vector name="direction" x="$x" y="-1" z="0"/></emitter>"#,
-    )).unwrap();
+    std::fs::write(
+        &b,
+        std::fs::read_to_string(&a).unwrap().replace(
+            r#"<emitter type="point"><point name="position" x="$x" y="1" z="2"/></emitter>"#,
+            r#"<emitter type="directional"><vector name="direction" x="$x" y="-1" z="0"/></emitter>"#,
+        ),
+    )
+    .unwrap();
     let e = check_topology(&[&f0, &f0, &load(&b, "0")]).unwrap_err().to_string();
     assert!(e.contains("frame 2: emitter 0 is a 'directional' but a 'point' in frame 0"), "{e}");
 }

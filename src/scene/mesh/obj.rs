@@ -70,10 +70,7 @@ fn parse_obj(text: &str, path: &Path) -> Result<MeshData> {
                 let [x, y, z] = parse_floats::<3>(rest, line_no, path, line)?;
                 let p = Vec3::new(x, y, z);
                 if !p.is_finite() {
-                    return Err(Error::scene(
-                        &at(line_no),
-                        format!("vertex {} has a non-finite position {p}", vertices.len() + 1),
-                    ));
+                    return Err(Error::scene(&at(line_no), format!("vertex {} has a non-finite position {p}", vertices.len() + 1)));
                 }
                 vertices.push(p);
             }
@@ -117,12 +114,7 @@ fn parse_obj(text: &str, path: &Path) -> Result<MeshData> {
         }
     }
 
-    let mut data = MeshData {
-        positions: Vec::with_capacity(keys.len()),
-        normals: Vec::new(),
-        uvs: Vec::new(),
-        indices,
-    };
+    let mut data = MeshData { positions: Vec::with_capacity(keys.len()), normals: Vec::new(), uvs: Vec::new(), indices };
     let mut missing_uv = 0usize;
     let mut missing_normal = 0usize;
     for &(key, line_no) in &keys {
@@ -134,10 +126,7 @@ fn parse_obj(text: &str, path: &Path) -> Result<MeshData> {
             ));
         }
         if key[2] as usize > normals.len() {
-            return Err(Error::scene(
-                &at(line_no),
-                format!("reference to invalid normal {} (the file has {})", key[2], normals.len()),
-            ));
+            return Err(Error::scene(&at(line_no), format!("reference to invalid normal {} (the file has {})", key[2], normals.len())));
         }
         if !texcoords.is_empty() {
             if key[1] == 0 {

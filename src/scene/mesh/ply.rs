@@ -34,10 +34,7 @@ pub fn load_ply(path: &Path, loc: &Location) -> Result<MeshData> {
     })?;
     let file_loc = Location::new(path, 0);
 
-    let vertices = ply
-        .payload
-        .get("vertex")
-        .ok_or_else(|| Error::scene(&file_loc, "PLY file has no \"vertex\" element"))?;
+    let vertices = ply.payload.get("vertex").ok_or_else(|| Error::scene(&file_loc, "PLY file has no \"vertex\" element"))?;
     let vertex_def = &ply.header.elements["vertex"];
     let has = |name: &str| vertex_def.properties.contains_key(name);
     for c in ["x", "y", "z"] {
@@ -46,17 +43,15 @@ pub fn load_ply(path: &Path, loc: &Location) -> Result<MeshData> {
         }
     }
     let has_normals = has("nx") && has("ny") && has("nz");
-    let uv_names = [("u", "v"), ("texture_u", "texture_v"), ("s", "t")]
-        .into_iter()
-        .find(|(u, v)| has(u) && has(v));
+    let uv_names = [("u", "v"), ("texture_u", "texture_v"), ("s", "t")].into_iter().find(|(u, v)| has(u) && has(v));
 
     let mut data = MeshData::default();
     data.positions.reserve(vertices.len());
     for (i, el) in vertices.iter().enumerate() {
         let get = |name: &str| -> Result<f32> {
-            el.get(name).and_then(Property::to_f32_lossy).ok_or_else(|| {
-                Error::scene(&file_loc, format!("PLY vertex {i}: property \"{name}\" is missing or a list"))
-            })
+            el.get(name)
+                .and_then(Property::to_f32_lossy)
+                .ok_or_else(|| Error::scene(&file_loc, format!("PLY vertex {i}: property \"{name}\" is missing or a list")))
         };
         let p = Vec3::new(get("x")?, get("y")?, get("z")?);
         if !p.is_finite() {
@@ -79,9 +74,10 @@ pub fn load_ply(path: &Path, loc: &Location) -> Result<MeshData> {
             .ok_or_else(|| Error::scene(&file_loc, "PLY face element has no vertex_index/vertex_indices property"))?;
         data.indices.reserve(faces.len());
         for (f, el) in faces.iter().enumerate() {
-            let list = el.get(list_name).and_then(Property::to_u32_list).ok_or_else(|| {
-                Error::scene(&file_loc, format!("PLY face {f}: \"{list_name}\" is not a list of non-negative integers"))
-            })?;
+            let list = el
+                .get(list_name)
+                .and_then(Property::to_u32_list)
+                .ok_or_else(|| Error::scene(&file_loc, format!("PLY face {f}: \"{list_name}\" is not a list of non-negative integers")))?;
             if list.len() < 3 {
                 return Err(Error::scene(&file_loc, format!("PLY face {f} has {} indices {list:?}", list.len())));
             }
@@ -90,8 +86,7 @@ pub fn load_ply(path: &Path, loc: &Location) -> Result<MeshData> {
             }
         }
     }
-    let unknown: Vec<&str> =
-        ply.header.elements.keys().map(String::as_str).filter(|n| *n != "vertex" && *n != "face").collect();
+    let unknown: Vec<&str> = ply.header.elements.keys().map(String::as_str).filter(|n| *n != "vertex" && *n != "face").collect();
     if !unknown.is_empty() {
         log::warn!("{}: skipping unknown PLY elements {unknown:?}", path.display());
     }

@@ -76,7 +76,8 @@ fn parse(bytes: &[u8], shape_index: i64) -> std::result::Result<MeshData, String
         } else {
             u32::from_le_bytes(entry.try_into().unwrap_or_default()) as u64
         };
-        let offset = usize::try_from(offset).ok().filter(|&o| o + 4 <= n).ok_or(format!("mesh offset {offset} is past the end of the file"))?;
+        let offset =
+            usize::try_from(offset).ok().filter(|&o| o + 4 <= n).ok_or(format!("mesh offset {offset} is past the end of the file"))?;
         if u16_at(bytes, offset)? != FORMAT_ID || u16_at(bytes, offset + 2)? != version {
             return Err(format!("no sub-mesh header at offset {offset}"));
         }

@@ -167,12 +167,7 @@ fn finalize_transforms_positions_and_normals() {
 #[test]
 fn recomputed_normals_are_angle_weighted() {
     // Vertex 0 of a "tent": face A (in z=0, angle 90 deg at v0) and face B (in x=0, angle 45 deg at v0).
-    let positions = vec![
-        Vec3::ZERO,
-        Vec3::new(1., 0., 0.),
-        Vec3::new(0., 1., 0.),
-        Vec3::new(0., 1., 1.),
-    ];
+    let positions = vec![Vec3::ZERO, Vec3::new(1., 0., 0.), Vec3::new(0., 1., 0.), Vec3::new(0., 1., 1.)];
     // A: (0,1,2) normal +z, angle pi/2 at v0. B: (0,2,3) normal cross((0,1,0),(0,1,1)) = (1,0,0), angle pi/4.
     let n = angle_weighted_normals(&positions, &[[0, 1, 2], [0, 2, 3]]);
     let pi = std::f32::consts::PI;

@@ -43,11 +43,7 @@ fn checkerboard_rule() {
     assert_eq!(eval(&t, Vec2::new(-0.25, 0.25)).x, 0.2);
     assert_eq!(eval(&t, Vec2::new(0.5, 0.5)).x, 0.4); // > 0.5 is strict
     assert_eq!(eval_1(&t, Vec2::new(0.25, 0.25)), 0.2); // Mitsuba's inverted eval_1
-    let scaled = Texture::Checkerboard {
-        color0: Vec3::X,
-        color1: Vec3::Y,
-        to_uv: Mat3::from_scale(Vec2::new(4.0, 4.0)),
-    };
+    let scaled = Texture::Checkerboard { color0: Vec3::X, color1: Vec3::Y, to_uv: Mat3::from_scale(Vec2::new(4.0, 4.0)) };
     assert_eq!(eval(&scaled, Vec2::new(0.2, 0.05)), Vec3::Y); // uv' = (0.8, 0.2)
 }
 

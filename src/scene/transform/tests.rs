@@ -18,18 +18,18 @@ fn document_order_last_times_first() {
     let m = apply_op(m, "translate", &a(&[("value", "1, 0, 0")]), &loc()).unwrap().matrix;
     // Scale first, then translate.
     assert_eq!(m.transform_point3(DVec3::new(1.0, 1.0, 1.0)), DVec3::new(3.0, 2.0, 2.0));
-    let s = mat( "scale", &a(&[("value", "1 2 3")]), &loc()).unwrap();
+    let s = mat("scale", &a(&[("value", "1 2 3")]), &loc()).unwrap();
     assert_eq!(s.transform_point3(DVec3::ONE), DVec3::new(1.0, 2.0, 3.0));
-    let s = mat( "scale", &a(&[("x", "0.3"), ("z", "2")]), &loc()).unwrap();
+    let s = mat("scale", &a(&[("x", "0.3"), ("z", "2")]), &loc()).unwrap();
     assert_eq!(s.transform_point3(DVec3::ONE), DVec3::new(0.3, 1.0, 2.0));
 }
 
 #[test]
 fn rotate_is_right_handed_degrees() {
-    let m = mat( "rotate", &a(&[("y", "1"), ("angle", "90")]), &loc()).unwrap();
+    let m = mat("rotate", &a(&[("y", "1"), ("angle", "90")]), &loc()).unwrap();
     let p = m.transform_point3(DVec3::X);
     assert!((p - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-12, "{p}");
-    let m = mat( "rotate", &a(&[("value", "0 0 1"), ("angle", "90")]), &loc()).unwrap();
+    let m = mat("rotate", &a(&[("value", "0 0 1"), ("angle", "90")]), &loc()).unwrap();
     assert!((m.transform_point3(DVec3::X) - DVec3::Y).length() < 1e-12);
 }
 
@@ -59,8 +59,7 @@ fn rotate_keeps_a_non_unit_axis_as_mitsuba() {
     assert_rows(&t.matrix, want, "matrix");
     assert_rows(&t.inverse_transpose, want, "normal matrix");
     // lookat with a non-orthogonal up: mi.ScalarTransform4d().look_at([1,2,3], [0,0,0], [0,0.5,1]).
-    let t = apply_op(Affine::IDENTITY, "lookat", &a(&[("origin", "1 2 3"), ("target", "0 0 0"), ("up", "0 0.5 1")]), &loc())
-        .unwrap();
+    let t = apply_op(Affine::IDENTITY, "lookat", &a(&[("origin", "1 2 3"), ("target", "0 0 0"), ("up", "0 0.5 1")]), &loc()).unwrap();
     assert_rows(
         &t.matrix,
         [
@@ -81,27 +80,17 @@ fn rotate_keeps_a_non_unit_axis_as_mitsuba() {
 
 #[test]
 fn matrix_row_major_and_3x3() {
-    let m = mat(
-        "matrix",
-        &a(&[("value", "1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1")]),
-        &loc(),
-    )
-    .unwrap();
+    let m = mat("matrix", &a(&[("value", "1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1")]), &loc()).unwrap();
     assert_eq!(m.transform_point3(DVec3::ZERO), DVec3::new(5.0, 6.0, 7.0));
-    let m = mat( "matrix", &a(&[("value", "0 -1 0 1 0 0 0 0 1")]), &loc()).unwrap();
+    let m = mat("matrix", &a(&[("value", "0 -1 0 1 0 0 0 0 1")]), &loc()).unwrap();
     assert_eq!(m.transform_point3(DVec3::X), DVec3::Y);
-    let e = mat( "matrix", &a(&[("value", "1 2 3")]), &loc()).unwrap_err();
+    let e = mat("matrix", &a(&[("value", "1 2 3")]), &loc()).unwrap_err();
     assert!(e.to_string().contains("t.xml:3") && e.to_string().contains("got 3"), "{e}");
 }
 
 #[test]
 fn lookat_columns() {
-    let m = mat(
-        "lookat",
-        &a(&[("origin", "0, 0, 3.9"), ("target", "0, 0, 0"), ("up", "0, 1, 0")]),
-        &loc(),
-    )
-    .unwrap();
+    let m = mat("lookat", &a(&[("origin", "0, 0, 3.9"), ("target", "0, 0, 0"), ("up", "0, 1, 0")]), &loc()).unwrap();
     assert_eq!(m.x_axis, DVec4::new(-1.0, 0.0, 0.0, 0.0)); // left
     assert_eq!(m.y_axis, DVec4::new(0.0, 1.0, 0.0, 0.0));
     assert_eq!(m.z_axis, DVec4::new(0.0, 0.0, -1.0, 0.0));
@@ -114,11 +103,11 @@ fn lookat_columns() {
 
 #[test]
 fn bad_values_name_the_value() {
-    let e = mat( "translate", &a(&[("x", "1O")]), &loc()).unwrap_err();
+    let e = mat("translate", &a(&[("x", "1O")]), &loc()).unwrap_err();
     assert!(e.to_string().contains("\"1O\""), "{e}");
-    let e = mat( "rotate", &a(&[("angle", "3")]), &loc()).unwrap_err();
+    let e = mat("rotate", &a(&[("angle", "3")]), &loc()).unwrap_err();
     assert!(e.to_string().contains("axis cannot be zero"), "{e}");
-    let e = mat( "skew", &a(&[]), &loc()).unwrap_err();
+    let e = mat("skew", &a(&[]), &loc()).unwrap_err();
     assert!(e.to_string().contains("<skew>"), "{e}");
 }
 

@@ -83,11 +83,7 @@ impl Spectrum {
             return Err(format!("non-finite number {v} in a spectrum"));
         }
         if let Some(i) = (1..wavelengths.len()).find(|&i| wavelengths[i] <= wavelengths[i - 1]) {
-            return Err(format!(
-                "wavelengths must be strictly increasing ({} nm follows {} nm)",
-                wavelengths[i],
-                wavelengths[i - 1]
-            ));
+            return Err(format!("wavelengths must be strictly increasing ({} nm follows {} nm)", wavelengths[i], wavelengths[i - 1]));
         }
         Ok(Spectrum { wavelengths, values })
     }
@@ -148,11 +144,7 @@ fn table(t: &[f32; CIE_SAMPLES], x: f64) -> f64 {
 /// CIE XYZ to linear sRGB (Rec. 709 primaries, D65 white), with Mitsuba's f32 coefficients.
 pub fn xyz_to_srgb(xyz: DVec3) -> DVec3 {
     #[allow(clippy::excessive_precision)]
-    const M: [[f32; 3]; 3] = [
-        [3.240479, -1.537150, -0.498535],
-        [-0.969256, 1.875991, 0.041556],
-        [0.055648, -0.204043, 1.057311],
-    ];
+    const M: [[f32; 3]; 3] = [[3.240479, -1.537150, -0.498535], [-0.969256, 1.875991, 0.041556], [0.055648, -0.204043, 1.057311]];
     let row = |r: [f32; 3]| r[0] as f64 * xyz.x + r[1] as f64 * xyz.y + r[2] as f64 * xyz.z;
     DVec3::new(row(M[0]), row(M[1]), row(M[2]))
 }

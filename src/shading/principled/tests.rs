@@ -3,8 +3,20 @@ use crate::shading::bsdf::KIND_PRINCIPLED;
 use bytemuck::Zeroable;
 
 /// A principled record as `bsdf::resolve` builds it.
-pub(crate) fn record(base: [f32; 3], metallic: f32, spec_tint: f32, spec_trans: f32, eta: f32, sheen: f32,
-    sheen_tint: f32, clearcoat: f32, clearcoat_gloss: f32, flatness: f32, roughness: f32, anisotropic: f32) -> GpuBsdf {
+pub(crate) fn record(
+    base: [f32; 3],
+    metallic: f32,
+    spec_tint: f32,
+    spec_trans: f32,
+    eta: f32,
+    sheen: f32,
+    sheen_tint: f32,
+    clearcoat: f32,
+    clearcoat_gloss: f32,
+    flatness: f32,
+    roughness: f32,
+    anisotropic: f32,
+) -> GpuBsdf {
     let mut b = GpuBsdf::zeroed();
     b.kind = KIND_PRINCIPLED;
     b.diffuse = base;

@@ -71,7 +71,11 @@ fn options_are_checked() {
 /// small area light (the poster).
 fn mirror_glass_scene() -> Scene {
     let mut scene = cornell_scene(32, 32, 1.0, 0.05);
-    scene.bsdfs.push(Bsdf::Conductor { eta: Vec3::new(0.2, 0.9, 1.1), k: Vec3::new(3.9, 2.4, 2.2), specular_reflectance: Param::Value(Vec3::ONE) });
+    scene.bsdfs.push(Bsdf::Conductor {
+        eta: Vec3::new(0.2, 0.9, 1.1),
+        k: Vec3::new(3.9, 2.4, 2.2),
+        specular_reflectance: Param::Value(Vec3::ONE),
+    });
     let mirror = scene.bsdfs.len() - 1;
     scene.bsdfs.push(Bsdf::Dielectric { int_ior: 1.5, ext_ior: 1.0 });
     let glass = scene.bsdfs.len() - 1;
@@ -217,7 +221,8 @@ fn gpu_tensor_reconstruction_folds_chain_samples_like_the_cpu() {
     let cols = a.columns(&js).unwrap();
     let mut cpu = vec![0f32; f * p * 3];
     crate::matrix::reconstruction::accumulate(&mut cpu, f, p, &cols, &source, &rec, &fw, &bw).unwrap();
-    let (num, den) = cpu.iter().zip(&gpu.frames).fold((0f64, 0f64), |(n, d), (&c, &g)| (n + ((c - g) as f64).powi(2), d + (c as f64).powi(2)));
+    let (num, den) =
+        cpu.iter().zip(&gpu.frames).fold((0f64, 0f64), |(n, d), (&c, &g)| (n + ((c - g) as f64).powi(2), d + (c as f64).powi(2)));
     assert!(den > 0.0 && (num / den).sqrt() < 1e-6, "relative L2 {}", (num / den).sqrt());
     assert!(gpu.columns_seconds > 0.0 && gpu.reconstruction_seconds > 0.0);
     // A light out of range and a matrix on the CPU are named errors.

@@ -1,5 +1,5 @@
-use crate::testing::view_scenes::*;
 use super::*;
+use crate::testing::view_scenes::*;
 
 #[test]
 fn triangle_hit_barycentrics() {
@@ -123,7 +123,11 @@ fn textured_albedo_follows_uv() {
         let expect = if (uv.x.fract() > 0.5) == (uv.y.fract() > 0.5) { c0 } else { c1 };
         assert_eq!(v.albedo[i], expect, "pixel {i} uv {uv}");
         assert_eq!(v.bsdf[i].kind, crate::shading::bsdf::KIND_DIFFUSE);
-        if expect == c0 { n0 += 1 } else { n1 += 1 }
+        if expect == c0 {
+            n0 += 1
+        } else {
+            n1 += 1
+        }
     }
     assert!(n0 > 50 && n1 > 50, "{n0} {n1}");
     // Two-sided red wall: albedo of the nested diffuse, two-sided flag set.

@@ -10,12 +10,8 @@ fn direct_cost(store: &ChunkStore, cl: &Cluster) -> f64 {
         for &(j2, k2) in &pairs {
             let (w1, w2) = (store.weight(j, k), store.weight(j2, k2));
             if w1 > 0.0 && w2 > 0.0 {
-                let d: f64 = store
-                    .column(j, k)
-                    .iter()
-                    .zip(store.column(j2, k2))
-                    .map(|(&a, &b)| (a as f64 / w1 - b as f64 / w2).powi(2))
-                    .sum();
+                let d: f64 =
+                    store.column(j, k).iter().zip(store.column(j2, k2)).map(|(&a, &b)| (a as f64 / w1 - b as f64 / w2).powi(2)).sum();
                 total += 0.5 * w1 * w2 * d;
             }
         }

@@ -8,9 +8,7 @@ fn slabs_are_the_unfolded_tensor_and_weights_the_column_norms() {
     let data: Vec<f32> = (0..r * n * f * 3).map(|v| ((v * 7919) % 23) as f32 * 0.1).collect();
     let t = ReducedTensor::new(&data, r, n, f, 3).unwrap();
     let store = ChunkStore::build(&t, 1, 4);
-    let scalar = |i: usize, j: usize, k: usize| {
-        (0..3).map(|ch| t.channel(i, j, k, ch).powi(2)).sum::<f64>().sqrt()
-    };
+    let scalar = |i: usize, j: usize, k: usize| (0..3).map(|ch| t.channel(i, j, k, ch).powi(2)).sum::<f64>().sqrt();
     let slabs = store.slabs();
     assert_eq!(slabs.num_rows(), r * 3);
     for j in 0..n {

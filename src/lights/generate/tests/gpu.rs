@@ -1,12 +1,12 @@
 //! GPU columns against the CPU ray-cast reference (`matrix::reference::CpuReference`) for every generated
 //! light kind (oriented points, environment directionals, VPLs on diffuse, roughplastic and
 //! roughconductor surfaces) on the open box of `testing::light_scenes`.
-use crate::testing::light_scenes::open_box;
-use crate::lights::generate::*;
 use crate::gpu::GpuContext;
+use crate::lights::generate::*;
 use crate::lights::LightKind;
 use crate::matrix::reference::CpuReference;
 use crate::matrix::{ColumnOptions, LightMatrix};
+use crate::testing::light_scenes::open_box;
 use crate::testing::scenes::cast_view;
 use std::sync::Arc;
 
@@ -30,10 +30,11 @@ fn gpu_columns_match_cpu_for_generated_lights() {
     for kind in [LightKind::OrientedPoint, LightKind::Directional] {
         js.extend((0..lights.len()).filter(|&j| lights.kind[j] == kind).take(4));
     }
-    for bsdf_kind in [crate::shading::bsdf::KIND_DIFFUSE, crate::shading::bsdf::KIND_ROUGHPLASTIC, crate::shading::bsdf::KIND_ROUGHCONDUCTOR] {
-        let vpls: Vec<usize> = (0..lights.len())
-            .filter(|&j| lights.kind[j] == LightKind::Vpl && lights.bsdf[j].kind == bsdf_kind)
-            .collect();
+    for bsdf_kind in
+        [crate::shading::bsdf::KIND_DIFFUSE, crate::shading::bsdf::KIND_ROUGHPLASTIC, crate::shading::bsdf::KIND_ROUGHCONDUCTOR]
+    {
+        let vpls: Vec<usize> =
+            (0..lights.len()).filter(|&j| lights.kind[j] == LightKind::Vpl && lights.bsdf[j].kind == bsdf_kind).collect();
         assert!(vpls.len() >= 2, "need VPLs on BSDF kind {bsdf_kind}, got {}", vpls.len());
         js.extend(vpls.iter().step_by(vpls.len() / 2).take(2));
     }
@@ -78,7 +79,9 @@ fn gpu_columns_match_cpu_for_generated_lights() {
         }
         eprintln!(
             "light {j} ({:?}, bsdf kind {}): {:.3}% of pixels within tolerance, {lit} lit, max {scale:.3e}",
-            l.kind[j], l.bsdf[j].kind, 100.0 * frac
+            l.kind[j],
+            l.bsdf[j].kind,
+            100.0 * frac
         );
         assert!(lit > m / 20, "light {j}: only {lit} lit pixels");
         assert!(col.iter().all(|v| v.is_finite()));

@@ -1,13 +1,13 @@
 //! Particle tracing through `principled` and `blendbsdf` surfaces: the flux carried from bounce to
 //! bounce is unbiased (principled reflection sampled with `shading::principled::sample`, transmission
 //! leaving the box; a blend's BSDF picked with its weight).
-use crate::testing::light_scenes::{box_faces, furnace_box, square_camera};
-use crate::lights::generate::*;
 use crate::error::Location;
+use crate::lights::generate::*;
 use crate::lights::LightKind;
 use crate::scene::principled::Principled;
 use crate::scene::{Bsdf, Emitter, Param, Scene};
 use crate::shading::principled::eval_mode;
+use crate::testing::light_scenes::{box_faces, furnace_box, square_camera};
 use glam::Vec3;
 
 /// A closed box of one-sided principled walls (spec_trans 0.5: half the light leaves through the walls)
@@ -89,7 +89,11 @@ fn principled_box_second_bounce_flux_is_unbiased() {
 /// particle count).
 #[test]
 fn blend_furnace_power_is_unbiased() {
-    let mut scene = furnace_box(0.8, vec![Emitter::Point { position: Vec3::new(0.1, 0.2, -0.3), intensity: Vec3::ONE, loc: Location::default() }], false);
+    let mut scene = furnace_box(
+        0.8,
+        vec![Emitter::Point { position: Vec3::new(0.1, 0.2, -0.3), intensity: Vec3::ONE, loc: Location::default() }],
+        false,
+    );
     scene.bsdfs = vec![
         Bsdf::Diffuse { reflectance: Param::Value(Vec3::splat(0.8)) },
         Bsdf::Diffuse { reflectance: Param::Value(Vec3::splat(0.4)) },
@@ -123,12 +127,16 @@ fn blend_furnace_power_is_unbiased() {
 /// + rho^3) in expectation (max_depth 5); the oriented point lights sum to pi A mean(L) too.
 #[test]
 fn textured_area_furnace_power_is_unbiased() {
-    use crate::scene::{Texture, vec2};
+    use crate::scene::{vec2, Texture};
     let rho = 0.6f64;
     let mut scene = furnace_box(rho as f32, vec![], true);
     let light = scene.meshes.len() - 1;
     scene.meshes[light].uvs = vec![vec2(0.0, 0.0), vec2(1.0, 0.0), vec2(1.0, 1.0), vec2(0.0, 1.0)];
-    scene.textures.push(Texture::Checkerboard { color0: Vec3::new(4.0, 1.0, 0.0), color1: Vec3::new(0.0, 1.0, 2.0), to_uv: glam::Mat3::IDENTITY });
+    scene.textures.push(Texture::Checkerboard {
+        color0: Vec3::new(4.0, 1.0, 0.0),
+        color1: Vec3::new(0.0, 1.0, 2.0),
+        to_uv: glam::Mat3::IDENTITY,
+    });
     if let Emitter::Area { texture, .. } = &mut scene.emitters[0] {
         *texture = Some(0);
     }

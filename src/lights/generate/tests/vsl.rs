@@ -1,11 +1,11 @@
 //! Virtual spherical lights (`lights::vsl`) as generated lights: radius -> 0 gives the unclamped VPL
 //! column, the GPU column pass equals the CPU reference (near field included), bad radii are refused.
-use crate::testing::light_scenes::open_box;
-use crate::lights::generate::*;
 use crate::gpu::GpuContext;
+use crate::lights::generate::*;
 use crate::lights::LightKind;
 use crate::matrix::reference::CpuReference;
 use crate::matrix::{ColumnOptions, LightMatrix};
+use crate::testing::light_scenes::open_box;
 use crate::testing::scenes::cast_view;
 use glam::Vec3;
 use std::sync::Arc;
@@ -56,7 +56,8 @@ fn vsl_generation_sets_radii_and_refuses_bad_scales() {
         assert_eq!(vsl.vsl_radius[j] > 0.0, vsl.kind[j] == LightKind::Vpl, "light {j}");
         assert_eq!(vpl.vsl_radius[j], 0.0);
     }
-    let twice = generate_lights(&scene, &GenerateOptions { vsl: Some(VslOptions { scale: 2.0, ..Default::default() }), ..base.clone() }).unwrap();
+    let twice =
+        generate_lights(&scene, &GenerateOptions { vsl: Some(VslOptions { scale: 2.0, ..Default::default() }), ..base.clone() }).unwrap();
     let j = vpl_indices(&vsl)[7];
     assert!((twice.vsl_radius[j] - 2.0 * vsl.vsl_radius[j]).abs() <= 1e-6 * twice.vsl_radius[j]);
     for bad in [0.0f32, f32::NAN, -0.5, f32::INFINITY] {
@@ -76,18 +77,33 @@ fn vsl_generation_sets_radii_and_refuses_bad_scales() {
 fn gpu_vsl_columns_match_cpu() {
     let size = 64u32;
     let scene = open_box(size);
-    let opts = GenerateOptions { area: 8, indirect: 400, seed: 11, vsl: Some(VslOptions { scale: 3.0, ..Default::default() }), ..Default::default() };
+    let opts = GenerateOptions {
+        area: 8,
+        indirect: 400,
+        seed: 11,
+        vsl: Some(VslOptions { scale: 3.0, ..Default::default() }),
+        ..Default::default()
+    };
     let lights = generate_lights(&scene, &opts).unwrap();
     let view = cast_view(&scene);
     let reference = CpuReference::new(&scene);
     let mut js = Vec::new();
-    for bsdf_kind in [crate::shading::bsdf::KIND_DIFFUSE, crate::shading::bsdf::KIND_ROUGHPLASTIC, crate::shading::bsdf::KIND_ROUGHCONDUCTOR] {
+    for bsdf_kind in
+        [crate::shading::bsdf::KIND_DIFFUSE, crate::shading::bsdf::KIND_ROUGHPLASTIC, crate::shading::bsdf::KIND_ROUGHCONDUCTOR]
+    {
         let v: Vec<usize> = vpl_indices(&lights).into_iter().filter(|&j| lights.bsdf[j].kind == bsdf_kind).collect();
         assert!(v.len() >= 2, "need VSLs on BSDF kind {bsdf_kind}");
         js.extend(v.iter().step_by(v.len() / 2).take(2));
     }
     let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
-    let matrix = LightMatrix::new(ctx, Arc::new(scene), Arc::new(view), Arc::new(lights), ColumnOptions { shadow_resolution: 512, ..Default::default() }).unwrap();
+    let matrix = LightMatrix::new(
+        ctx,
+        Arc::new(scene),
+        Arc::new(view),
+        Arc::new(lights),
+        ColumnOptions { shadow_resolution: 512, ..Default::default() },
+    )
+    .unwrap();
     let gpu = matrix.columns(&js).unwrap();
     let m = (size * size) as usize;
     let (l, v) = (&matrix.lights, &matrix.view);

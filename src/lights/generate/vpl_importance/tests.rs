@@ -1,13 +1,13 @@
 //! VPL importance sampling (`vpl_importance`): the tau equation, unbiasedness of the image (z-test over
 //! seeds against plain VPLs, on the occluded open box with a render view finer than the pilot view),
 //! lower variance, determinism, eps = 1 = every candidate, bad options.
-use crate::testing::light_scenes::{furnace_box, open_box};
-use crate::lights::generate::vpl::Tracer;
 use super::{p_accept, solve_tau, trace_importance, PilotView};
-use crate::lights::generate::*;
 use crate::cpu::{shade, ShadingPoint};
+use crate::lights::generate::vpl::Tracer;
+use crate::lights::generate::*;
 use crate::lights::LightKind;
 use crate::raytrace::RayTracer;
+use crate::testing::light_scenes::{furnace_box, open_box};
 use crate::testing::scenes::cast_view;
 use crate::view::ViewSamples;
 use rayon::prelude::*;

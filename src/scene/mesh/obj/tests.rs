@@ -22,7 +22,8 @@ fn face_forms_and_dedup() {
     assert!(d.normals.is_empty() && d.uvs.is_empty());
 
     // v//vn, pentagon; the same position with two normals gives two vertices.
-    let d = parse("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv -1 0 0\nvn 0 0 1\nvn 0 1 0\nf 1//1 2//1 3//1 4//1 5//1\nf 1//2 2//2 3//2\n").unwrap();
+    let d =
+        parse("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv -1 0 0\nvn 0 0 1\nvn 0 1 0\nf 1//1 2//1 3//1 4//1 5//1\nf 1//2 2//2 3//2\n").unwrap();
     assert_eq!(d.indices, vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [5, 6, 7]]);
     assert_eq!(d.positions.len(), 8);
     assert_eq!(d.normals[5], Vec3::Y);

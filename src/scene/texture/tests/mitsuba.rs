@@ -3,7 +3,17 @@
 use crate::scene::texture::*;
 use glam::Mat3;
 
-const UVS: [[f32; 2]; 9] = [[0.10000000149011612, 0.20000000298023224], [0.5, 0.5], [0.9136999845504761, 0.042100001126527786], [0.0, 0.0], [1.0, 1.0], [-0.30000001192092896, 1.7000000476837158], [0.3333300054073334, 0.666670024394989], [0.9990000128746033, 0.0010000000474974513], [2.5999999046325684, -1.2000000476837158]];
+const UVS: [[f32; 2]; 9] = [
+    [0.10000000149011612, 0.20000000298023224],
+    [0.5, 0.5],
+    [0.9136999845504761, 0.042100001126527786],
+    [0.0, 0.0],
+    [1.0, 1.0],
+    [-0.30000001192092896, 1.7000000476837158],
+    [0.3333300054073334, 0.666670024394989],
+    [0.9990000128746033, 0.0010000000474974513],
+    [2.5999999046325684, -1.2000000476837158],
+];
 #[rustfmt::skip]
 const SMALL_PNG: [(&str, &str, [[f32; 3]; 9]); 6] = [
     ("bilinear", "repeat", [[0.03260252624750137, 0.1856197863817215, 0.3840978741645813], [0.34142130613327026, 0.39328643679618835, 0.09070300310850143], [0.13123542070388794, 0.4173920750617981, 0.3402618169784546], [0.19762378931045532, 0.2524685263633728, 0.3913253843784332], [0.19762378931045532, 0.2524685263633728, 0.3913253843784332], [0.20934097468852997, 0.12432949990034103, 0.4703649580478668], [0.5256116390228271, 0.4004656970500946, 0.1970415860414505], [0.19614195823669434, 0.2545692026615143, 0.39081913232803345], [0.12447448819875717, 0.14302986860275269, 0.5244898200035095]]),
@@ -24,7 +34,11 @@ const VEACH_JPEGS: [(&str, &str, &str, [[f32; 3]; 9]); 6] = [
 ];
 
 fn filter_of(s: &str) -> FilterType {
-    if s == "nearest" { FilterType::Nearest } else { FilterType::Bilinear }
+    if s == "nearest" {
+        FilterType::Nearest
+    } else {
+        FilterType::Bilinear
+    }
 }
 
 fn wrap_of(s: &str) -> WrapMode {
@@ -44,9 +58,7 @@ fn texture(path: &Path, filter: FilterType, wrap: WrapMode, to_uv: Mat3) -> Text
 fn small_png() -> std::path::PathBuf {
     let dir = crate::testing::scratch_dir("tex");
     let path = dir.join("small.png");
-    let img = image::RgbImage::from_fn(4, 3, |x, y| {
-        image::Rgb(std::array::from_fn(|c| ((x * 37 + y * 101 + c as u32 * 91) % 256) as u8))
-    });
+    let img = image::RgbImage::from_fn(4, 3, |x, y| image::Rgb(std::array::from_fn(|c| ((x * 37 + y * 101 + c as u32 * 91) % 256) as u8)));
     img.save(&path).unwrap();
     path
 }
@@ -107,13 +119,9 @@ fn veach_ajar_jpegs_match_mitsuba() {
 #[test]
 fn veach_ajar_checkerboard_matches_mitsuba() {
     // color0 0.8, color1 0.2, to_uv scale(20, 80); mitsuba 3.9.1 eval (and eval_1 for the first 8).
-    let t = Texture::Checkerboard {
-        color0: Vec3::splat(0.8),
-        color1: Vec3::splat(0.2),
-        to_uv: Mat3::from_scale(Vec2::new(20.0, 80.0)),
-    };
-    let uvs = UVS[..8].iter().map(|u| Vec2::from_array(*u))
-        .chain([Vec2::new(0.01, 0.01), Vec2::new(0.026, 0.003), Vec2::new(0.026, 0.0068)]);
+    let t = Texture::Checkerboard { color0: Vec3::splat(0.8), color1: Vec3::splat(0.2), to_uv: Mat3::from_scale(Vec2::new(20.0, 80.0)) };
+    let uvs =
+        UVS[..8].iter().map(|u| Vec2::from_array(*u)).chain([Vec2::new(0.01, 0.01), Vec2::new(0.026, 0.003), Vec2::new(0.026, 0.0068)]);
     let want = [0.8, 0.8, 0.8, 0.8, 0.8, 0.8, 0.2, 0.2, 0.2, 0.2, 0.8];
     for (k, (uv, w)) in uvs.zip(want).enumerate() {
         assert_eq!(eval(&t, uv), Vec3::splat(w), "uv {uv}");

@@ -2,9 +2,9 @@
 //! padding of tiny environment maps, against mitsuba 3.9.1 (scalar_rgb): `mi.traverse(envmap)["data"]`
 //! shapes and `envmap.eval(si)` values printed by `mi.load_dict({"type": "envmap", ...})`.
 #![allow(clippy::excessive_precision, clippy::type_complexity)]
-use crate::scene::xml::*;
 use crate::error::Error;
 use crate::lights::generate::environment::envmap_radiance;
+use crate::scene::xml::*;
 use crate::scene::{Emitter, Texture};
 use glam::Vec3;
 use std::path::PathBuf;
@@ -50,8 +50,16 @@ fn load(d: &std::path::Path, body: &str) -> Result<Scene> {
 }
 
 const DIRS: [[f32; 3]; 10] = [
-    [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0],
-    [0.3, 0.5, -0.8], [-0.6, -0.2, 0.4], [0.9, 0.1, 0.2], [0.05, 0.99, 0.1],
+    [0.0, 1.0, 0.0],
+    [0.0, -1.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [-1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [0.0, 0.0, -1.0],
+    [0.3, 0.5, -0.8],
+    [-0.6, -0.2, 0.4],
+    [0.9, 0.1, 0.2],
+    [0.05, 0.99, 0.1],
 ];
 
 /// (width, height) of the file, Mitsuba's data tensor (H, W + 2) and `eval` toward each of `DIRS`.
@@ -159,7 +167,8 @@ fn instances_compose_transforms_and_name_meshes() {
     assert_eq!(ids, ["shape_0", "a/r", "instance_2/r"]);
     let rect = crate::scene::mesh::rectangle().positions;
     for (p, q) in rect.iter().zip(&s.meshes[1].positions) {
-        assert!((*q - (*p + Vec3::X) * 2.0).length() < 1e-6, "{q} vs 2 ({p} + x)"); // instance * shape
+        assert!((*q - (*p + Vec3::X) * 2.0).length() < 1e-6, "{q} vs 2 ({p} + x)");
+        // instance * shape
     }
     for (p, q) in rect.iter().zip(&s.meshes[2].positions) {
         let want = Vec3::new(-p.y, p.x + 1.0, p.z);

@@ -1,8 +1,8 @@
 //! Small hand-written scenes: parameters, includes, references, defaults, and every refusal.
 // Reference numbers are pasted verbatim from Mitsuba's printouts (f32 values printed as f64).
 #![allow(clippy::excessive_precision)]
-use crate::scene::xml::*;
 use crate::error::Error;
+use crate::scene::xml::*;
 use crate::scene::{Bsdf, Emitter, MicrofacetDistribution, Param, ShapeKind};
 use glam::Vec3;
 use std::path::PathBuf;
@@ -78,8 +78,10 @@ fn defaults_and_parameters_everywhere() {
 
 #[test]
 fn include_with_own_defaults_and_nesting() {
-    let main = scene(r#"<include filename="inc/a.xml"/>
-<shape type="rectangle"><ref id="m"/></shape>"#);
+    let main = scene(
+        r#"<include filename="inc/a.xml"/>
+<shape type="rectangle"><ref id="m"/></shape>"#,
+    );
     let a = r#"<scene version="3.0.0"><default name="q" value="0.7"/><include filename="b.xml"/></scene>"#;
     let b = r#"<scene version="3.0.0"><bsdf type="diffuse" id="m"><float name="reflectance" value="$q"/></bsdf></scene>"#;
     let path = write("include", &[("scene.xml", &main), ("inc/a.xml", a), ("inc/b.xml", b)]);
@@ -244,8 +246,10 @@ fn spheres() {
 #[test]
 fn meshes_from_search_paths() {
     let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
-    let text = scene(r#"<path value="data"/>
-<shape type="obj"><string name="filename" value="quad.obj"/><transform name="to_world"><translate z="2"/></transform></shape>"#);
+    let text = scene(
+        r#"<path value="data"/>
+<shape type="obj"><string name="filename" value="quad.obj"/><transform name="to_world"><translate z="2"/></transform></shape>"#,
+    );
     let path = write("path", &[("scene.xml", &text), ("data/quad.obj", obj)]);
     let s = load_scene(&path, &LoadOptions::default()).unwrap();
     assert_eq!(s.meshes[0].indices.len(), 2);
@@ -259,7 +263,11 @@ fn refusals_name_file_and_line() {
     assert_err(load_str("hair", "<bsdf type=\"hair\"/>"), 4, &["bsdf", "\"hair\""]);
     assert_err(load_str("curve", "<shape type=\"bsplinecurve\"/>"), 4, &["shape", "\"bsplinecurve\""]);
     assert_err(load_str("projector", &format!("{RECT}\n<emitter type=\"projector\"/>")), 5, &["emitter", "\"projector\""]);
-    assert_err(load_str("serialized", "<shape type=\"serialized\"><string name=\"filename\" value=\"a.serialized\"/></shape>"), 4, &["a.serialized", "not found"]);
+    assert_err(
+        load_str("serialized", "<shape type=\"serialized\"><string name=\"filename\" value=\"a.serialized\"/></shape>"),
+        4,
+        &["a.serialized", "not found"],
+    );
     assert_err(
         load_str("missing-mesh", "<shape type=\"ply\">\n  <string name=\"filename\" value=\"nope.ply\"/></shape>"),
         5,
@@ -279,19 +287,45 @@ fn refusals_name_file_and_line() {
         5,
         &["\"700:1, 400:2\"", "strictly increasing"],
     );
-    assert_err(load_str("unref", "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n<float name=\"foo\" value=\"1\"/></bsdf></shape>"), 5, &["foo", "diffuse"]);
-    assert_err(load_str("badrgb", "<shape type=\"rectangle\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.1 0.2\"/></bsdf></shape>"), 4, &["0.1 0.2"]);
-    assert_err(load_str("ior", "<shape type=\"rectangle\"><bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"glas\"/></bsdf></shape>"), 4, &["\"glas\"", "bk7"]);
     assert_err(
-        load_str("range", "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n<rgb name=\"reflectance\" value=\"1.5, -0.2, 0.3\"/></bsdf></shape>"),
+        load_str("unref", "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n<float name=\"foo\" value=\"1\"/></bsdf></shape>"),
+        5,
+        &["foo", "diffuse"],
+    );
+    assert_err(
+        load_str("badrgb", "<shape type=\"rectangle\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.1 0.2\"/></bsdf></shape>"),
+        4,
+        &["0.1 0.2"],
+    );
+    assert_err(
+        load_str("ior", "<shape type=\"rectangle\"><bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"glas\"/></bsdf></shape>"),
+        4,
+        &["\"glas\"", "bk7"],
+    );
+    assert_err(
+        load_str(
+            "range",
+            "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n<rgb name=\"reflectance\" value=\"1.5, -0.2, 0.3\"/></bsdf></shape>",
+        ),
         5,
         &["[1.5, -0.2, 0.3]", "[0, 1]"],
     );
-    assert_err(load_str("twice", "<shape type=\"sphere\"><float name=\"radius\" value=\"1\"/>\n<float name=\"radius\" value=\"2\"/></shape>"), 5, &["\"radius\" is given twice"]);
-    assert_err(load_str("disk-fn", "<shape type=\"disk\"><boolean name=\"face_normals\" value=\"true\"/></shape>"), 4, &["face_normals", "disk"]);
+    assert_err(
+        load_str("twice", "<shape type=\"sphere\"><float name=\"radius\" value=\"1\"/>\n<float name=\"radius\" value=\"2\"/></shape>"),
+        5,
+        &["\"radius\" is given twice"],
+    );
+    assert_err(
+        load_str("disk-fn", "<shape type=\"disk\"><boolean name=\"face_normals\" value=\"true\"/></shape>"),
+        4,
+        &["face_normals", "disk"],
+    );
     assert!(load_str("rect-fn", "<shape type=\"rectangle\"><boolean name=\"face_normals\" value=\"true\"/></shape>").is_ok());
     assert_err(
-        load_str("shared-area", "<shape type=\"rectangle\"><emitter type=\"area\" id=\"a\"/></shape>\n<shape type=\"rectangle\"><ref id=\"a\"/></shape>"),
+        load_str(
+            "shared-area",
+            "<shape type=\"rectangle\"><emitter type=\"area\" id=\"a\"/></shape>\n<shape type=\"rectangle\"><ref id=\"a\"/></shape>",
+        ),
         5,
         &["already attached"],
     );
@@ -321,17 +355,26 @@ fn the_integrator_and_its_path_depth() {
     assert_eq!(depth(path, &[]), Some(("path".into(), Some(6), 6)));
     assert_eq!(depth(path, &[("d", "3")]), Some(("path".into(), Some(3), 6)));
     assert_eq!(depth(r#"<integrator type="volpath"/>"#, &[]), Some(("volpath".into(), Some(-1), 5)));
-    assert_eq!(depth(r#"<integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>"#, &[]),
-        Some(("direct".into(), Some(2), 5)));
-    assert_eq!(depth(r#"<integrator type="aov"><string name="aovs" value="nn:sh_normal"/></integrator>"#, &[]),
-        Some(("aov".into(), None, 5)));
+    assert_eq!(
+        depth(r#"<integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>"#, &[]),
+        Some(("direct".into(), Some(2), 5))
+    );
+    assert_eq!(
+        depth(r#"<integrator type="aov"><string name="aovs" value="nn:sh_normal"/></integrator>"#, &[]),
+        Some(("aov".into(), None, 5))
+    );
     // Only the first top-level integrator counts (Mitsuba renders with the first).
     assert_eq!(depth("<integrator type=\"direct\"/>\n<integrator type=\"path\"/>", &[]), Some(("direct".into(), Some(2), 5)));
     let bad = |test: &str, body: &str| load_str(test, &format!("{RECT}\n{body}"));
-    assert_err(bad("int-depth", r#"<integrator type="path"><integer name="max_depth" value="-2"/></integrator>"#), 5,
-        &["max_depth", "-2"]);
-    assert_err(bad("float-depth", r#"<integrator type="path"><float name="max_depth" value="3"/></integrator>"#), 5,
-        &["max_depth", "<integer>"]);
-    assert_err(bad("undef-depth", r#"<integrator type="path"><integer name="max_depth" value="$d"/></integrator>"#), 5,
-        &["undefined parameter $d"]);
+    assert_err(bad("int-depth", r#"<integrator type="path"><integer name="max_depth" value="-2"/></integrator>"#), 5, &["max_depth", "-2"]);
+    assert_err(
+        bad("float-depth", r#"<integrator type="path"><float name="max_depth" value="3"/></integrator>"#),
+        5,
+        &["max_depth", "<integer>"],
+    );
+    assert_err(
+        bad("undef-depth", r#"<integrator type="path"><integer name="max_depth" value="$d"/></integrator>"#),
+        5,
+        &["undefined parameter $d"],
+    );
 }
