@@ -34,6 +34,7 @@ demo: build
 	$(PY) -m manylights demo
 
 test-rust: setup
+	cargo fmt --check
 	cargo test --release
 
 test-python: build
