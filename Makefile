@@ -34,6 +34,7 @@ demo: build
 	$(PY) -m manylights demo
 
 test-rust: setup
+	cargo fmt --check
 	cargo test --release
 
 test-python: build
@@ -59,7 +60,7 @@ clean:
 
 # Fuzzing (cargo-fuzz + libFuzzer, fuzz/README.md): `make fuzz` runs every target for FUZZ_SECONDS, reading the
 # committed corpus fuzz/corpus/T and adding new inputs to fuzz/corpus-raw/T (not committed); findings go to
-# fuzz/artifacts/T. Not part of `make test` (which replays the committed corpus: src/fuzzing.rs). Needs a
+# fuzz/artifacts/T. Not part of `make test` (which replays the committed corpus: src/fuzzing/tests.rs). Needs a
 # nightly toolchain (else RUSTC_BOOTSTRAP=1 on stable). `make fuzz-cmin` merges corpus-raw into the
 # minimised committed corpus. `make fuzz-add-image EXT=hdr` adds a target for another image format.
 CARGO_FUZZ_VERSION := 0.13.2

@@ -93,10 +93,7 @@ pub fn enabled() -> bool {
 /// submission meanwhile (gfx-rs/wgpu#9958), so it is not used. Without a checker the wait is direct.
 pub fn wait_gpu(device: &wgpu::Device, submission: Option<wgpu::SubmissionIndex>, what: &str) -> Result<()> {
     let blocking = |device: &wgpu::Device, submission| {
-        device
-            .poll(wgpu::PollType::Wait { submission_index: submission, timeout: None })
-            .map(|_| ())
-            .map_err(|e| e.to_string())
+        device.poll(wgpu::PollType::Wait { submission_index: submission, timeout: None }).map(|_| ()).map_err(|e| e.to_string())
     };
     if !enabled() || rayon::current_thread_index().is_some() {
         return blocking(device, submission).map_err(|e| Error::Gpu(format!("waiting for {what} failed: {e}")));
@@ -123,14 +120,4 @@ pub fn wait_gpu(device: &wgpu::Device, submission: Option<wgpu::SubmissionIndex>
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn chunked_map_keeps_order_and_values() {
-        let v = par_map_chunked(10_001, 1000, |i| i * 3).unwrap();
-        assert_eq!(v.len(), 10_001);
-        assert!(v.iter().enumerate().all(|(i, &x)| x == 3 * i));
-        assert!(par_map_chunked(0, 10, |i| i).unwrap().is_empty());
-    }
-}
+mod tests;

@@ -1,15 +1,17 @@
 //! manylights: many-light rendering research core (Rust), with Python bindings behind the `python` feature.
+//!
+//! Tests: the tests of `foo` are `#[cfg(test)] mod tests;` in `foo/tests.rs` (`dir/tests.rs` for `dir/mod.rs`; topics in `tests/*.rs`).
+pub mod cluster;
+pub mod cpu;
 pub mod error;
 #[doc(hidden)]
 pub mod fuzzing;
 pub mod gpu;
 pub mod image;
 pub mod interrupt;
-pub mod memory;
 pub mod lights;
-pub mod cluster;
-pub mod cpu;
 pub mod matrix;
+pub mod memory;
 pub mod raytrace;
 pub mod relight;
 pub mod scene;
@@ -17,9 +19,6 @@ pub mod shading;
 #[cfg(test)]
 pub(crate) mod testing;
 pub mod view;
-pub mod view_chains;
-pub mod view_features;
-pub mod view_resolve;
 
 #[cfg(feature = "python")]
 pub mod py;

@@ -44,9 +44,8 @@ pub fn available_host_bytes() -> Result<Option<u64>> {
         (a, c) => a.or(c),
     };
     if let Ok(v) = std::env::var("MANYLIGHTS_MEMORY_LIMIT") {
-        let limit = parse_bytes(&v).ok_or_else(|| {
-            Error::invalid(format!("MANYLIGHTS_MEMORY_LIMIT must be a byte count such as 2000000000 or 2G, got {v:?}"))
-        })?;
+        let limit = parse_bytes(&v)
+            .ok_or_else(|| Error::invalid(format!("MANYLIGHTS_MEMORY_LIMIT must be a byte count such as 2000000000 or 2G, got {v:?}")))?;
         avail = Some(avail.map_or(limit, |a| a.min(limit)));
     }
     if let Some(limit) = THREAD_LIMIT.with(|l| l.get()) {
@@ -145,10 +144,7 @@ pub fn check_host(what: &str, bytes: u128) -> Result<()> {
 
 fn check_host_against(what: &str, bytes: u128, available: Option<u64>) -> Result<()> {
     if bytes > isize::MAX as u128 {
-        return Err(Error::OutOfMemory(format!(
-            "{what} needs {} of host memory, more than this process can address",
-            fmt_bytes(bytes)
-        )));
+        return Err(Error::OutOfMemory(format!("{what} needs {} of host memory, more than this process can address", fmt_bytes(bytes))));
     }
     if let Some(avail) = available {
         if bytes > avail as u128 {
@@ -197,50 +193,4 @@ pub fn gpu_alloc<T>(device: &wgpu::Device, what: &str, alloc: impl FnOnce() -> T
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn meminfo_parsing_and_refusals() {
-        let text = "MemTotal:       16000000 kB\nMemFree:  100 kB\nMemAvailable:    8000000 kB\n";
-        assert_eq!(meminfo_field(text, "MemAvailable:"), Some(8_000_000 * 1024));
-        assert_eq!(meminfo_field(text, "Nope:"), None);
-        assert!(check_host_against("x", 1000, Some(1000)).is_ok());
-        let e = check_host_against("rows (900 x 100000 lights x RGB float32)", 1_080_000_000, Some(500_000_000)).unwrap_err();
-        assert!(matches!(e, Error::OutOfMemory(_)));
-        let msg = e.to_string();
-        assert!(msg.contains("rows (900 x 100000") && msg.contains("1.08 GB") && msg.contains("500.0 MB"), "{msg}");
-        let e = check_host_against("huge", product(&[u64::MAX, 4]), None).unwrap_err().to_string();
-        assert!(e.contains("address"), "{e}");
-        assert_eq!(product(&[3, 4, 5]), 60);
-        assert_eq!(parse_bytes("64M"), Some(64 << 20));
-        assert_eq!(parse_bytes("2GiB"), Some(2 << 30));
-        assert_eq!(parse_bytes("1000"), Some(1000));
-        assert_eq!(parse_bytes("abc"), None);
-    }
-
-    #[test]
-    fn thread_limit_bounds_this_thread_only() {
-        let outer = available_host_bytes().unwrap();
-        let inner = with_thread_limit(1 << 20, || {
-            let here = available_host_bytes().unwrap();
-            let nested = with_thread_limit(1 << 30, || available_host_bytes().unwrap());
-            let other = std::thread::spawn(|| available_host_bytes().unwrap()).join().unwrap();
-            let e = check_host("a 2 MiB test buffer", 2 << 20).unwrap_err();
-            assert!(matches!(e, Error::OutOfMemory(_)) && e.to_string().contains("1.0 MB is available"), "{e}");
-            (here, nested, other.is_none_or(|o| o > 1 << 20))
-        });
-        assert_eq!(inner, (Some(1 << 20), Some(1 << 20), true));
-        let after = available_host_bytes().unwrap();
-        assert_eq!(after.is_some(), outer.is_some());
-        assert!(after.is_none_or(|a| a > 1 << 20), "{after:?}");
-    }
-
-    #[test]
-    fn available_memory_is_known_on_linux() {
-        if cfg!(target_os = "linux") {
-            let a = available_host_bytes().unwrap().expect("/proc/meminfo");
-            assert!(a > 1 << 20, "{a}");
-        }
-    }
-}
+mod tests;

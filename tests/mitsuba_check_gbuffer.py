@@ -1,4 +1,4 @@
-"""Compare the G-buffers of the hand-built test scenes (src/view_resolve/test_scenes.rs) with Mitsuba
+"""Compare the G-buffers of the hand-built test scenes (src/testing/view_scenes.rs) with Mitsuba
 3.9.1's aov integrator at pixel centres. Dump them first:
   MANYLIGHTS_GBUFFER_DUMP=/tmp/gbuffer_dump cargo test --release -- --ignored dump_scenes_for_mitsuba
 then: python tests/mitsuba_check_gbuffer.py /tmp/gbuffer_dump

@@ -76,8 +76,8 @@ pub mod representatives;
 pub mod sampling;
 pub mod splitting;
 pub mod tensor;
-pub mod visibility;
 pub mod variance;
+pub mod visibility;
 
 #[cfg(test)]
 mod tests;
@@ -223,9 +223,7 @@ pub fn cluster_reduced_columns(reduced: ReducedMatrix, num_clusters: usize, opts
         return Err(Error::invalid("num_clusters must be at least 1, got 0"));
     }
     if num_clusters > n {
-        return Err(Error::invalid(format!(
-            "num_clusters ({num_clusters}) must not exceed the number of columns (lights) {n}"
-        )));
+        return Err(Error::invalid(format!("num_clusters ({num_clusters}) must not exceed the number of columns (lights) {n}")));
     }
     if opts.projection_dim == 0 {
         return Err(Error::invalid("projection_dim must be at least 1, got 0"));
@@ -252,8 +250,7 @@ pub fn cluster_reduced_columns(reduced: ReducedMatrix, num_clusters: usize, opts
     let mut rng_rep = phase_rng(opts.seed, 3);
     let (clusters, representatives, weights) = if m == 0 {
         let strata = representatives::strata(&zero, num_clusters);
-        let picks: Vec<(u32, [f32; 3])> =
-            strata.iter().map(|s| representatives::pick_by_power(s, opts.power, &mut rng_rep)).collect();
+        let picks: Vec<(u32, [f32; 3])> = strata.iter().map(|s| representatives::pick_by_power(s, opts.power, &mut rng_rep)).collect();
         let (reps, w) = picks.into_iter().unzip();
         (strata, reps, w)
     } else if !zero.is_empty() && num_clusters == 1 {

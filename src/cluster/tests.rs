@@ -164,13 +164,16 @@ fn unbiasedness(s: &Synthetic, num_clusters: usize, seeds: usize, power: Option<
         .collect();
     let nb = truth.len();
     let mean: Vec<f64> = (0..nb).map(|b| samples.iter().map(|x| x[b]).sum::<f64>() / seeds as f64).collect();
-    let sd: Vec<f64> = (0..nb)
-        .map(|b| (samples.iter().map(|x| (x[b] - mean[b]).powi(2)).sum::<f64>() / (seeds - 1) as f64).sqrt())
-        .collect();
+    let sd: Vec<f64> =
+        (0..nb).map(|b| (samples.iter().map(|x| (x[b] - mean[b]).powi(2)).sum::<f64>() / (seeds - 1) as f64).sqrt()).collect();
     let z: Vec<f64> = (0..nb)
         .map(|b| {
             let se = sd[b] / (seeds as f64).sqrt();
-            if se > 1e-9 * truth[b].abs() { (mean[b] - truth[b]) / se } else { (mean[b] - truth[b]) / (1e-6 * truth[b].abs() + 1e-30) }
+            if se > 1e-9 * truth[b].abs() {
+                (mean[b] - truth[b]) / se
+            } else {
+                (mean[b] - truth[b]) / (1e-6 * truth[b].abs() + 1e-30)
+            }
         })
         .collect();
     // RMS over blocks and groups of (group mean - truth) / sd: should be ~ 1/sqrt(group).
@@ -213,9 +216,8 @@ fn estimator_is_unbiased_over_full_columns() {
     let reduced = s.reduced_data();
     let stats = columns::column_stats(&ReducedMatrix::new(&reduced, 300, 2000, 3).unwrap());
     let zero = stats.norm.iter().filter(|&&v| v == 0.0).count();
-    let zero_full_nonzero = (0..s.num_lights)
-        .filter(|&l| stats.norm[l] == 0.0 && (0..s.num_points).any(|p| s.full[(p * s.num_lights + l) * 3] > 0.0))
-        .count();
+    let zero_full_nonzero =
+        (0..s.num_lights).filter(|&l| stats.norm[l] == 0.0 && (0..s.num_points).any(|p| s.full[(p * s.num_lights + l) * 3] > 0.0)).count();
     eprintln!("zero-norm reduced columns: {zero}, of which non-zero in the full matrix: {zero_full_nonzero}");
     assert!(zero_full_nonzero >= 20, "the test matrix must exercise zero-norm columns that do contribute");
     let (z, shrink) = unbiasedness(&s, 60, 256, Some(&s.power), &reduced);

@@ -98,10 +98,16 @@ fn choosing_devices() {
     assert!(!Device::Gpu.choose().unwrap().is_cpu());
     // Shadow maps exist only on the GPU.
     let p = pair(16);
-    let e = LightMatrix::with_device(&Chosen::Cpu, p.cpu.scene.clone(), p.cpu.view.clone(), p.cpu.lights.clone(), ColumnOptions::default(), None)
-        .err()
-        .expect("hybrid visibility on the CPU must be refused")
-        .to_string();
+    let e = LightMatrix::with_device(
+        &Chosen::Cpu,
+        p.cpu.scene.clone(),
+        p.cpu.view.clone(),
+        p.cpu.lights.clone(),
+        ColumnOptions::default(),
+        None,
+    )
+    .err()
+    .expect("hybrid visibility on the CPU must be refused")
+    .to_string();
     assert!(e.contains("only the GPU backend") && e.contains("ray_traced"), "{e}");
 }
-

@@ -1,8 +1,9 @@
 //! Batch BSDF evaluation on the GPU: `bsdf_eval` of `shaders/common/bsdf.wgsl` for N (bsdf, wi, wo)
 //! triples, read back to the host. Used to check the WGSL twin against `shading::bsdf::eval` and Mitsuba.
-use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
+use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
+use crate::gpu::shaders;
 use crate::shading::GpuBsdf;
 use glam::Vec3;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -10,16 +11,6 @@ use wgpu::util::DeviceExt;
 
 /// Threads per workgroup (mirrored in `shaders/bsdf_eval.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
-
-/// The assembled module: common BSDF code, then the pass.
-pub const BSDF_EVAL_WGSL: &str =
-    concat!(
-        include_str!("../../shaders/common/bsdf.wgsl"),
-        "\n",
-        include_str!("../../shaders/common/principled.wgsl"),
-        "\n",
-        include_str!("../../shaders/bsdf_eval.wgsl")
-    );
 
 /// Uniforms. Keep in sync with `BsdfEvalParams` in `shaders/bsdf_eval.wgsl`.
 #[repr(C)]
@@ -41,7 +32,7 @@ impl BsdfEvalPass {
         let (pipeline, bind_group_layout) = compute_pipeline(
             device,
             "BsdfEvalPass",
-            BSDF_EVAL_WGSL,
+            shaders::BSDF_EVAL,
             &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false)],
         );
         BsdfEvalPass { pipeline, bind_group_layout }
@@ -79,8 +70,7 @@ pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], broadcast: bool, tabl
     let pass = BsdfEvalPass::shared(ctx);
     let device = &ctx.device;
     let params = BsdfEvalParams { count: n as u32, broadcast: broadcast as u32, _pad: [0; 2] };
-    let directions: Vec<[f32; 4]> =
-        wi.iter().zip(wo).flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
+    let directions: Vec<[f32; 4]> = wi.iter().zip(wo).flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
     let tables: &[f32] = if tables.is_empty() { &[0.0] } else { tables };
     let init = |label, contents: &[u8], usage| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
@@ -99,54 +89,24 @@ pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], broadcast: bool, tabl
     let gx = groups.min(ctx.limits.max_compute_workgroups_per_dimension.max(1));
     let gy = groups.div_ceil(gx);
     let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("BsdfEvalPass::encoder") });
-    encode_dispatch(device, &mut enc, "BsdfEvalPass", (&pass.pipeline, &pass.bind_group_layout), &[
-        params_buf.as_entire_binding(),
-        bsdf_buf.as_entire_binding(),
-        dir_buf.as_entire_binding(),
-        table_buf.as_entire_binding(),
-        out_buf.as_entire_binding(),
-    ], (gx, gy));
+    encode_dispatch(
+        device,
+        &mut enc,
+        "BsdfEvalPass",
+        (&pass.pipeline, &pass.bind_group_layout),
+        &[
+            params_buf.as_entire_binding(),
+            bsdf_buf.as_entire_binding(),
+            dir_buf.as_entire_binding(),
+            table_buf.as_entire_binding(),
+            out_buf.as_entire_binding(),
+        ],
+        (gx, gy),
+    );
     ctx.queue.submit(Some(enc.finish()));
     let out: Vec<[f32; 4]> = ctx.read_buffer(&out_buf, 0, n)?;
     Ok(out.into_iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::shading::bsdf::{eval_records, link_blend, random_directions, resolve_records, roughplastic_table_buffer, test_sets};
-
-    /// WGSL vs Rust: relative difference with an absolute floor of 1e-6 (values below it are
-    /// rounding noise of zero-or-tiny lobes).
-    const RTOL: f32 = 1e-3;
-    const ATOL: f32 = 1e-6;
-
-    #[test]
-    fn wgsl_matches_rust() {
-        let ctx = GpuContext::new().expect("a GPU adapter (software is fine) must exist in tests");
-        let dirs = random_directions(4000, 11);
-        let (wi, wo): (Vec<Vec3>, Vec<Vec3>) = dirs.chunks(2).map(|p| (p[0], p[1])).unzip();
-        for (name, bsdfs, i) in test_sets() {
-            let (mut b, second) = resolve_records(&bsdfs, &[], i, glam::Vec2::ZERO);
-            let mut records = vec![b];
-            if let Some(s) = second {
-                link_blend(&mut b, 1);
-                records = vec![b, s];
-            }
-            let tables = roughplastic_table_buffer(&bsdfs);
-            let gpu = eval_batch_gpu(&ctx, &records, true, &tables, &wi, &wo).unwrap();
-            let mut worst = 0.0f32;
-            let mut nonzero = 0;
-            for j in 0..wi.len() {
-                let cpu = eval_records(&records, 0, wi[j], wo[j]);
-                nonzero += (cpu.max_element() > 0.0) as usize;
-                let rel = ((gpu[j] - cpu).abs() / (cpu.abs().max(Vec3::splat(ATOL)))).max_element();
-                let rel = if (gpu[j] - cpu).abs().max_element() <= ATOL { 0.0 } else { rel };
-                worst = worst.max(rel);
-            }
-            println!("{name}: max rel diff WGSL vs Rust {worst:.3e} ({nonzero} nonzero of {})", wi.len());
-            assert!(worst < RTOL, "{name}: {worst}");
-            assert!(nonzero > 200, "{name}: only {nonzero} nonzero values");
-        }
-    }
-}
+mod tests;

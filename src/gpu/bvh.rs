@@ -21,6 +21,7 @@ use super::columns::{dispatch_size, storage_buffer};
 use super::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
+use crate::gpu::shaders;
 use crate::scene::{Scene, ShapeKind};
 use glam::{Vec3, Vec3A};
 use obvhs::aabb::Aabb;
@@ -94,14 +95,7 @@ fn scene_primitives(scene: &Scene) -> Result<Vec<GpuPrimitive>> {
             if !center.is_finite() || !(radius > 0.0 && radius.is_finite()) {
                 return Err(at(format!("sphere needs a finite center and a radius > 0, got {center}, {radius}")));
             }
-            prims.push(GpuPrimitive {
-                v0: center.to_array(),
-                kind: PRIM_SPHERE,
-                v1: [radius, 0.0, 0.0],
-                _pad0: 0,
-                v2: [0.0; 3],
-                _pad1: 0,
-            });
+            prims.push(GpuPrimitive { v0: center.to_array(), kind: PRIM_SPHERE, v1: [radius, 0.0, 0.0], _pad0: 0, v2: [0.0; 3], _pad1: 0 });
             continue;
         }
         let n = mesh.positions.len();
@@ -113,14 +107,7 @@ fn scene_primitives(scene: &Scene) -> Result<Vec<GpuPrimitive>> {
             if !(v0.is_finite() && v1.is_finite() && v2.is_finite()) {
                 return Err(at(format!("triangle {k} has a non-finite vertex ({v0}, {v1}, {v2})")));
             }
-            prims.push(GpuPrimitive {
-                v0: v0.to_array(),
-                kind: PRIM_TRIANGLE,
-                v1: v1.to_array(),
-                _pad0: 0,
-                v2: v2.to_array(),
-                _pad1: 0,
-            });
+            prims.push(GpuPrimitive { v0: v0.to_array(), kind: PRIM_TRIANGLE, v1: v1.to_array(), _pad0: 0, v2: v2.to_array(), _pad1: 0 });
         }
     }
     Ok(prims)
@@ -172,9 +159,7 @@ impl PackedBvh {
             }
         }
         if depth > STACK_SIZE {
-            return Err(Error::invalid(format!(
-                "the scene's BVH is {depth} levels deep; the GPU traversal stack holds {STACK_SIZE}"
-            )));
+            return Err(Error::invalid(format!("the scene's BVH is {depth} levels deep; the GPU traversal stack holds {STACK_SIZE}")));
         }
         Ok(PackedBvh { nodes, primitives, depth })
     }
@@ -203,10 +188,9 @@ impl GpuBvh {
 
     /// Uploads a packed BVH.
     pub fn from_packed(device: &wgpu::Device, packed: &PackedBvh, max_binding: u64) -> Result<GpuBvh> {
-        for (what, bytes) in [
-            ("nodes", std::mem::size_of_val(packed.nodes.as_slice())),
-            ("primitives", std::mem::size_of_val(packed.primitives.as_slice())),
-        ] {
+        for (what, bytes) in
+            [("nodes", std::mem::size_of_val(packed.nodes.as_slice())), ("primitives", std::mem::size_of_val(packed.primitives.as_slice()))]
+        {
             if bytes as u64 > max_binding {
                 return Err(Error::invalid(format!(
                     "the scene's BVH {what} need {bytes} bytes, above the {max_binding}-byte storage binding limit"
@@ -266,10 +250,6 @@ pub struct OcclusionResult {
     pub steps: u32,
 }
 
-/// The WGSL module of `OccludedPass`.
-pub const OCCLUDED_WGSL: &str =
-    concat!(include_str!("../../shaders/common/bvh.wgsl"), include_str!("../../shaders/occluded.wgsl"));
-
 /// Batch shadow-ray queries against a `GpuBvh`, one thread per query (tests, and callers that want
 /// exact GPU visibility of arbitrary segments).
 pub struct OccludedPass {
@@ -279,13 +259,12 @@ pub struct OccludedPass {
 
 impl OccludedPass {
     pub fn new(device: &wgpu::Device) -> OccludedPass {
-        let (pipeline, bind_group_layout) = compute_pipeline(device, "OccludedPass", OCCLUDED_WGSL, &[
-            uniform(0),
-            storage(1, true),
-            storage(2, true),
-            storage(3, true),
-            storage(4, false),
-        ]);
+        let (pipeline, bind_group_layout) = compute_pipeline(
+            device,
+            "OccludedPass",
+            shaders::OCCLUDED,
+            &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false)],
+        );
         OccludedPass { pipeline, bind_group_layout }
     }
 
@@ -304,15 +283,21 @@ impl OccludedPass {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let mut encoder =
-                device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("OccludedPass::encoder") });
-            encode_dispatch(device, &mut encoder, "OccludedPass", (&self.pipeline, &self.bind_group_layout), &[
-                params.as_entire_binding(),
-                bvh.nodes.as_entire_binding(),
-                bvh.primitives.as_entire_binding(),
-                query_buf.as_entire_binding(),
-                results.as_entire_binding(),
-            ], (gx, gy));
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("OccludedPass::encoder") });
+            encode_dispatch(
+                device,
+                &mut encoder,
+                "OccludedPass",
+                (&self.pipeline, &self.bind_group_layout),
+                &[
+                    params.as_entire_binding(),
+                    bvh.nodes.as_entire_binding(),
+                    bvh.primitives.as_entire_binding(),
+                    query_buf.as_entire_binding(),
+                    results.as_entire_binding(),
+                ],
+                (gx, gy),
+            );
             ctx.queue.submit(Some(encoder.finish()));
             let raw = ctx.read_buffer::<u32>(&results, 0, chunk.len())?;
             out.extend(raw.iter().map(|&r| OcclusionResult { occluded: r & 3 == 1, gave_up: r & 3 == 2, steps: r >> 2 }));

@@ -22,6 +22,7 @@ use super::columns::{dispatch_size, storage_buffer, GpuLight};
 use super::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use crate::cluster::visibility::{seconds, words_per_row, ClusteredImage, ClusteredShading, VisibilityMatrix};
 use crate::error::{Error, Result};
+use crate::gpu::shaders;
 use crate::matrix::gpu::GpuBackend;
 use crate::matrix::Visibility;
 use std::time::Instant;
@@ -57,17 +58,6 @@ pub struct ClusteredParams {
     pub _pad: [u32; 3],
 }
 
-/// The WGSL module: the shared snippets, then the pass.
-pub const CLUSTERED_VISIBILITY_WGSL: &str = concat!(
-    include_str!("../../shaders/common/bsdf.wgsl"),
-    include_str!("../../shaders/common/principled.wgsl"),
-    include_str!("../../shaders/common/light.wgsl"),
-    include_str!("../../shaders/common/glossy.wgsl"),
-    include_str!("../../shaders/common/bvh.wgsl"),
-    include_str!("../../shaders/common/view_sample.wgsl"),
-    include_str!("../../shaders/clustered_visibility.wgsl"),
-);
-
 /// The compiled pipeline.
 pub struct ClusteredVisibilityPass {
     pub pipeline: wgpu::ComputePipeline,
@@ -79,7 +69,7 @@ impl ClusteredVisibilityPass {
         let mut entries = vec![uniform(0)];
         entries.extend((1..=10).map(|b| storage(b, true)));
         entries.extend((11..=13).map(|b| storage(b, false)));
-        let (pipeline, bind_group_layout) = compute_pipeline(device, "ClusteredVisibilityPass", CLUSTERED_VISIBILITY_WGSL, &entries);
+        let (pipeline, bind_group_layout) = compute_pipeline(device, "ClusteredVisibilityPass", shaders::CLUSTERED_VISIBILITY, &entries);
         ClusteredVisibilityPass { pipeline, bind_group_layout }
     }
 }
@@ -111,10 +101,7 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     ];
     for (what, bytes) in sizes {
         if bytes > backend.max_binding {
-            return Err(Error::invalid(format!(
-                "{what} need {bytes} bytes, above the {}-byte storage binding limit",
-                backend.max_binding
-            )));
+            return Err(Error::invalid(format!("{what} need {bytes} bytes, above the {}-byte storage binding limit", backend.max_binding)));
         }
     }
     crate::memory::check_gpu(ctx, "clustered visibility buffers", sizes.iter().map(|s| s.1 as u128).sum(), false)?;
@@ -134,7 +121,8 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     let reps_buf = storage_buffer(device, "ClusteredVisibility::representatives", &reps, usage);
     let clusters_buf = storage_buffer(device, "ClusteredVisibility::membership_clusters", &job.membership.clusters, usage);
     let weights_buf = storage_buffer(device, "ClusteredVisibility::membership_weights", &job.membership.weights, usage);
-    let vis_buf = storage_buffer(device, "ClusteredVisibility::visibility", &vec![0u32; k_view * words], usage | wgpu::BufferUsages::COPY_SRC);
+    let vis_buf =
+        storage_buffer(device, "ClusteredVisibility::visibility", &vec![0u32; k_view * words], usage | wgpu::BufferUsages::COPY_SRC);
     let accum = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("ClusteredVisibility::accum"),
         size: (m as u64 * 16).max(16),
@@ -161,22 +149,29 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
         let params = ClusteredParams { dispatch_width: width, ..params };
         let params_buf = storage_buffer(device, "ClusteredVisibility::params", &[params], wgpu::BufferUsages::UNIFORM);
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-        encode_dispatch(device, &mut encoder, "ClusteredVisibilityPass", (&pass.pipeline, &pass.bind_group_layout), &[
-            params_buf.as_entire_binding(),
-            backend.view_buffers.samples.as_entire_binding(),
-            backend.view_buffers.bsdfs.as_entire_binding(),
-            backend.view_buffers.bsdf_tables.as_entire_binding(),
-            lights_buf.as_entire_binding(),
-            spot_buf.as_entire_binding(),
-            bvh.nodes.as_entire_binding(),
-            bvh.primitives.as_entire_binding(),
-            reps_buf.as_entire_binding(),
-            clusters_buf.as_entire_binding(),
-            weights_buf.as_entire_binding(),
-            vis_buf.as_entire_binding(),
-            accum.as_entire_binding(),
-            gave_up_buf.as_entire_binding(),
-        ], (gx, gy));
+        encode_dispatch(
+            device,
+            &mut encoder,
+            "ClusteredVisibilityPass",
+            (&pass.pipeline, &pass.bind_group_layout),
+            &[
+                params_buf.as_entire_binding(),
+                backend.view_buffers.samples.as_entire_binding(),
+                backend.view_buffers.bsdfs.as_entire_binding(),
+                backend.view_buffers.bsdf_tables.as_entire_binding(),
+                lights_buf.as_entire_binding(),
+                spot_buf.as_entire_binding(),
+                bvh.nodes.as_entire_binding(),
+                bvh.primitives.as_entire_binding(),
+                reps_buf.as_entire_binding(),
+                clusters_buf.as_entire_binding(),
+                weights_buf.as_entire_binding(),
+                vis_buf.as_entire_binding(),
+                accum.as_entire_binding(),
+                gave_up_buf.as_entire_binding(),
+            ],
+            (gx, gy),
+        );
         let submission = ctx.queue.submit(Some(encoder.finish()));
         crate::interrupt::wait_gpu(device, Some(submission), label)
     };
@@ -213,24 +208,4 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn wgsl_validates_and_layouts_match() {
-        assert_eq!(std::mem::size_of::<ClusteredParams>(), 48);
-        crate::gpu::shaders::assert_struct_sizes("clustered_visibility.wgsl", CLUSTERED_VISIBILITY_WGSL, &[
-            ("ClusteredParams", 48),
-            ("Light", 256),
-            ("ViewSample", 80),
-            ("Bsdf", 80),
-        ]);
-    }
-
-    #[test]
-    fn shading_loops_stay_below_mesas_limit() {
-        for f in 1..=crate::cluster::visibility::MAX_FUZZINESS {
-            assert!(lights_per_dispatch(f) * (f + 1) <= 65_535, "F = {f}");
-        }
-    }
-}
+mod tests;

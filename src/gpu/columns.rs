@@ -13,6 +13,7 @@
 //! (b) optionally writes the individual columns (`[j][i][rgb]` f32) for readback; the caller keeps that
 //!     buffer under the 128 MiB storage-binding limit by sizing batches.
 use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
+use crate::gpu::shaders;
 use crate::lights::{LightKind, LightSet};
 use crate::view::ViewSamples;
 use wgpu::util::DeviceExt;
@@ -138,9 +139,6 @@ pub struct ColumnParams {
     pub _pad1: f32,
 }
 
-/// The WGSL module of the pass.
-pub const COLUMNS_WGSL: &str = crate::gpu::shaders::COLUMNS;
-
 /// View samples on the GPU: geometry and throughput (80 B each) and BSDFs (80 B each), separate bindings, plus the
 /// rough-plastic tables the BSDFs index (`crate::shading::bsdf::roughplastic_table_buffer`).
 pub struct ViewBuffers {
@@ -171,7 +169,12 @@ impl ViewBuffers {
 
     /// Buffers of any shading points: `samples[i]` shaded with `bsdfs[i]` (blended BSDFs' second records
     /// after the first `samples.len()`), `bsdf_tables` the rough-plastic tables they index.
-    pub fn from_parts(device: &wgpu::Device, samples: &[GpuViewSample], bsdfs: &[crate::shading::GpuBsdf], bsdf_tables: &[f32]) -> ViewBuffers {
+    pub fn from_parts(
+        device: &wgpu::Device,
+        samples: &[GpuViewSample],
+        bsdfs: &[crate::shading::GpuBsdf],
+        bsdf_tables: &[f32],
+    ) -> ViewBuffers {
         let pad = |bytes: &[u8]| if bytes.is_empty() { vec![0u8; 256] } else { bytes.to_vec() };
         let samples_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ViewBuffers::samples"),
@@ -212,7 +215,6 @@ pub struct ColumnsPass {
     pub bind_group_layout: wgpu::BindGroupLayout,
 }
 
-
 /// Workgroup counts (x, y) and threads per row for `num_samples` threads.
 pub fn dispatch_size(num_samples: u32) -> (u32, u32, u32) {
     let groups = num_samples.div_ceil(WORKGROUP_SIZE).max(1);
@@ -223,44 +225,56 @@ pub fn dispatch_size(num_samples: u32) -> (u32, u32, u32) {
 
 impl ColumnsPass {
     pub fn new(device: &wgpu::Device) -> ColumnsPass {
-        let (pipeline, bind_group_layout) = compute_pipeline(device, "ColumnsPass", COLUMNS_WGSL, &[
-            uniform(0),
-            storage(1, true),
-            storage(2, true),
-            storage(3, true),
-            storage(4, true),
-            storage(5, true),
-            depth_array(6),
-            storage(7, false),
-            storage(8, false),
-            storage(9, true),
-            storage(10, true),
-            storage(11, true),
-            storage(12, false),
-            storage(13, true),
-        ]);
+        let (pipeline, bind_group_layout) = compute_pipeline(
+            device,
+            "ColumnsPass",
+            shaders::COLUMNS,
+            &[
+                uniform(0),
+                storage(1, true),
+                storage(2, true),
+                storage(3, true),
+                storage(4, true),
+                storage(5, true),
+                depth_array(6),
+                storage(7, false),
+                storage(8, false),
+                storage(9, true),
+                storage(10, true),
+                storage(11, true),
+                storage(12, false),
+                storage(13, true),
+            ],
+        );
         ColumnsPass { pipeline, bind_group_layout }
     }
 
     /// Dispatch one thread per view sample.
     pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &ColumnsInputs) {
         let (gx, gy, _) = dispatch_size(inputs.view.num_samples);
-        encode_dispatch(device, encoder, "ColumnsPass", (&self.pipeline, &self.bind_group_layout), &[
-            inputs.params.as_entire_binding(),
-            inputs.view.samples.as_entire_binding(),
-            inputs.view.bsdfs.as_entire_binding(),
-            inputs.lights.as_entire_binding(),
-            inputs.layers.as_entire_binding(),
-            inputs.weights.as_entire_binding(),
-            wgpu::BindingResource::TextureView(inputs.shadow_maps),
-            inputs.accum.as_entire_binding(),
-            inputs.columns.as_entire_binding(),
-            inputs.view.bsdf_tables.as_entire_binding(),
-            inputs.bvh_nodes.as_entire_binding(),
-            inputs.bvh_prims.as_entire_binding(),
-            inputs.stats.as_entire_binding(),
-            inputs.spot_textures.as_entire_binding(),
-        ], (gx, gy));
+        encode_dispatch(
+            device,
+            encoder,
+            "ColumnsPass",
+            (&self.pipeline, &self.bind_group_layout),
+            &[
+                inputs.params.as_entire_binding(),
+                inputs.view.samples.as_entire_binding(),
+                inputs.view.bsdfs.as_entire_binding(),
+                inputs.lights.as_entire_binding(),
+                inputs.layers.as_entire_binding(),
+                inputs.weights.as_entire_binding(),
+                wgpu::BindingResource::TextureView(inputs.shadow_maps),
+                inputs.accum.as_entire_binding(),
+                inputs.columns.as_entire_binding(),
+                inputs.view.bsdf_tables.as_entire_binding(),
+                inputs.bvh_nodes.as_entire_binding(),
+                inputs.bvh_prims.as_entire_binding(),
+                inputs.stats.as_entire_binding(),
+                inputs.spot_textures.as_entire_binding(),
+            ],
+            (gx, gy),
+        );
     }
 }
 
@@ -274,32 +288,4 @@ pub fn storage_buffer<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, data
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn struct_sizes() {
-        assert_eq!(std::mem::size_of::<GpuLight>(), 256);
-        assert_eq!(std::mem::size_of::<GpuViewSample>(), 80);
-        assert_eq!(std::mem::size_of::<ColumnParams>(), 48);
-        assert_eq!(std::mem::size_of::<crate::shading::GpuBsdf>(), 80);
-    }
-
-    #[test]
-    fn columns_wgsl_validates_and_layouts_match() {
-        crate::gpu::shaders::assert_struct_sizes("columns.wgsl", COLUMNS_WGSL, &[
-            ("Light", 256),
-            ("ViewSample", 80),
-            ("ColumnParams", 48),
-            ("Bsdf", 80),
-            ("ShadowLayer", 256),
-        ]);
-    }
-
-    #[test]
-    fn dispatch_covers_large_images() {
-        let (gx, gy, w) = dispatch_size(4096 * 4096);
-        assert!(gx <= 65_535 && (gx * gy * WORKGROUP_SIZE) as u64 >= 4096 * 4096 && w == gx * WORKGROUP_SIZE);
-        assert_eq!(dispatch_size(100), (2, 1, 128));
-    }
-}
+mod tests;

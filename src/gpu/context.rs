@@ -95,15 +95,9 @@ impl GpuContext {
                 adapters.remove(i)
             }
             name => {
-                let i = adapters
-                    .iter()
-                    .position(|a| a.get_info().name.to_lowercase().contains(name))
-                    .ok_or_else(|| {
-                        Error::GpuUnavailable(format!(
-                            "MANYLIGHTS_ADAPTER={name:?} matches no adapter; found: {}",
-                            names(&adapters)
-                        ))
-                    })?;
+                let i = adapters.iter().position(|a| a.get_info().name.to_lowercase().contains(name)).ok_or_else(|| {
+                    Error::GpuUnavailable(format!("MANYLIGHTS_ADAPTER={name:?} matches no adapter; found: {}", names(&adapters)))
+                })?;
                 adapters.remove(i)
             }
         };
@@ -115,8 +109,7 @@ impl GpuContext {
         limits.max_buffer_size = adapter_limits.max_buffer_size;
         limits.max_texture_array_layers = adapter_limits.max_texture_array_layers;
         limits.max_texture_dimension_2d = adapter_limits.max_texture_dimension_2d;
-        limits.max_storage_buffers_per_shader_stage =
-            adapter_limits.max_storage_buffers_per_shader_stage.min(16);
+        limits.max_storage_buffers_per_shader_stage = adapter_limits.max_storage_buffers_per_shader_stage.min(16);
         limits.max_compute_workgroup_storage_size = adapter_limits.max_compute_workgroup_storage_size;
         limits.max_compute_invocations_per_workgroup = adapter_limits.max_compute_invocations_per_workgroup;
         limits.max_compute_workgroup_size_x = adapter_limits.max_compute_workgroup_size_x;
@@ -187,9 +180,7 @@ impl GpuContext {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("GpuContext::read_buffer"),
-        });
+        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("GpuContext::read_buffer") });
         enc.copy_buffer_to_buffer(src, offset, &staging, 0, size);
         self.queue.submit(Some(enc.finish()));
         let slice = staging.slice(..);
@@ -201,9 +192,7 @@ impl GpuContext {
         rx.recv()
             .map_err(|e| Error::Gpu(format!("buffer map callback lost: {e}")))?
             .map_err(|e| Error::Gpu(format!("mapping a buffer for readback failed: {e}")))?;
-        let data = slice
-            .get_mapped_range()
-            .map_err(|e| Error::Gpu(format!("reading a mapped buffer failed: {e:?}")))?;
+        let data = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("reading a mapped buffer failed: {e:?}")))?;
         out.extend_from_slice(bytemuck::cast_slice::<u8, T>(&data));
         drop(data);
         staging.unmap();
@@ -227,23 +216,4 @@ fn names(adapters: &[wgpu::Adapter]) -> String {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn creates_a_device_and_reads_back() {
-        let ctx = GpuContext::new().expect("a GPU adapter (software is fine) must exist in tests");
-        assert!(!ctx.summary.name.is_empty());
-        let data: Vec<u32> = (0..1000).collect();
-        let buf = wgpu::util::DeviceExt::create_buffer_init(
-            &ctx.device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("test"),
-                contents: bytemuck::cast_slice(&data),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            },
-        );
-        let back: Vec<u32> = ctx.read_buffer(&buf, 0, 1000).unwrap();
-        assert_eq!(back, data);
-    }
-}
+mod tests;

@@ -1,6 +1,6 @@
 //! G-buffer as a visibility buffer: rasterise the scene at pixel centres into an `R32Uint` target
 //! holding `global triangle id + 1` (0 = background), read it back, then resolve every pixel exactly on
-//! the CPU (`crate::view_resolve`) into [`ViewSamples`].
+//! the CPU (`crate::view::resolve`) into [`ViewSamples`].
 //!
 //! Implementation details:
 //! - Camera: Mitsuba's perspective sensor. In its frame (left, up, forward) a point (x, y, z) lands at
@@ -80,19 +80,13 @@ pub fn validate_camera(camera: &Camera, max_dim: u32) -> Result<()> {
 pub fn validate_camera_for(camera: &Camera, max_dim: u32, limit: &str) -> Result<()> {
     let bad = |what: String| Err(Error::scene(&camera.loc, what));
     if camera.width == 0 || camera.height == 0 || camera.width > max_dim || camera.height > max_dim {
-        return bad(format!(
-            "film size {}x{} unsupported: each side must be in 1..={max_dim} ({limit})",
-            camera.width, camera.height
-        ));
+        return bad(format!("film size {}x{} unsupported: each side must be in 1..={max_dim} ({limit})", camera.width, camera.height));
     }
     if !(camera.fov_x > 0.0 && camera.fov_x < std::f32::consts::PI) {
         return bad(format!("fov_x must be in (0, pi) radians, got {}", camera.fov_x));
     }
     if !(camera.near_clip > 0.0 && camera.near_clip.is_finite() && camera.far_clip > camera.near_clip) {
-        return bad(format!(
-            "clip range must satisfy 0 < near_clip < far_clip, got near {} far {}",
-            camera.near_clip, camera.far_clip
-        ));
+        return bad(format!("clip range must satisfy 0 < near_clip < far_clip, got near {} far {}", camera.near_clip, camera.far_clip));
     }
     if !camera.world_from_camera.is_finite() {
         return bad("camera to_world has non-finite entries".to_string());
@@ -139,8 +133,7 @@ pub fn sphere_enlargement(mesh: &Mesh, center: glam::Vec3, radius: f32) -> f32 {
     let c = center.as_dvec3();
     let mut scale: f64 = 1.0;
     for tri in &mesh.indices {
-        let p: Vec<glam::DVec3> =
-            tri.iter().filter_map(|&v| mesh.positions.get(v as usize)).map(|p| p.as_dvec3()).collect();
+        let p: Vec<glam::DVec3> = tri.iter().filter_map(|&v| mesh.positions.get(v as usize)).map(|p| p.as_dvec3()).collect();
         if p.len() != 3 {
             continue;
         }
@@ -181,10 +174,7 @@ impl GBufferPass {
         };
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("GBufferPass::bind_group_layout"),
-            entries: &[
-                uniform(0, false, std::mem::size_of::<GBufferUniforms>()),
-                uniform(1, true, std::mem::size_of::<SphereUniforms>()),
-            ],
+            entries: &[uniform(0, false, std::mem::size_of::<GBufferUniforms>()), uniform(1, true, std::mem::size_of::<SphereUniforms>())],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("GBufferPass::pipeline_layout"),
@@ -201,11 +191,7 @@ impl GBufferPass {
                     compilation_options: Default::default(),
                     buffers: &[Some(SceneGeometry::VERTEX_LAYOUT)],
                 },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    cull_mode: None,
-                    ..Default::default()
-                },
+                primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, cull_mode: None, ..Default::default() },
                 depth_stencil: Some(wgpu::DepthStencilState {
                     format: DEPTH_FORMAT,
                     depth_write_enabled: Some(true),
@@ -218,11 +204,7 @@ impl GBufferPass {
                     module: &module,
                     entry_point: Some(fs),
                     compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: ID_FORMAT,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
+                    targets: &[Some(wgpu::ColorTargetState { format: ID_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })],
                 }),
                 multiview_mask: None,
                 cache: None,
@@ -285,8 +267,7 @@ impl GBufferPass {
                         scale: [sphere_enlargement(mesh, center, radius), 0.0, 0.0, 0.0],
                     };
                     let start = slot as usize * stride;
-                    sphere_bytes[start..start + std::mem::size_of::<SphereUniforms>()]
-                        .copy_from_slice(bytemuck::bytes_of(&u));
+                    sphere_bytes[start..start + std::mem::size_of::<SphereUniforms>()].copy_from_slice(bytemuck::bytes_of(&u));
                     sphere_bytes.resize(sphere_bytes.len() + stride, 0);
                     draws.push((Some(slot), range));
                 }
@@ -331,18 +312,12 @@ impl GBufferPass {
                 view_formats: &[],
             })
         };
-        let ids = texture(
-            "GBufferPass::ids",
-            ID_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        );
+        let ids = texture("GBufferPass::ids", ID_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
         let depth = texture("GBufferPass::depth", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
         let ids_view = ids.create_view(&Default::default());
         let depth_view = depth.create_view(&Default::default());
 
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("GBufferPass::encoder"),
-        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("GBufferPass::encoder") });
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("GBufferPass::render_pass"),
@@ -387,12 +362,7 @@ impl GBufferPass {
             mapped_at_creation: false,
         });
         encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: &ids,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
+            wgpu::TexelCopyTextureInfo { texture: &ids, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
             wgpu::TexelCopyBufferInfo {
                 buffer: &readback,
                 layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: Some(h) },
@@ -413,15 +383,15 @@ impl GBufferPass {
 }
 
 /// The deep framebuffer of `scene` seen from its camera: rasterised visibility at pixel centres on the
-/// GPU, resolved exactly on the CPU (see `crate::view_resolve`).
+/// GPU, resolved exactly on the CPU (see `crate::view::resolve`).
 pub fn render_view_samples(ctx: &GpuContext, scene: &Scene) -> Result<ViewSamples> {
-    render_view_samples_with(ctx, scene, &crate::view_chains::ChainOptions::default())
+    render_view_samples_with(ctx, scene, &crate::view::chains::ChainOptions::default())
 }
 
-/// As [`render_view_samples`], following delta BSDF chains with `chains` (`crate::view_chains`).
-pub fn render_view_samples_with(ctx: &GpuContext, scene: &Scene, chains: &crate::view_chains::ChainOptions) -> Result<ViewSamples> {
+/// As [`render_view_samples`], following delta BSDF chains with `chains` (`crate::view::chains`).
+pub fn render_view_samples_with(ctx: &GpuContext, scene: &Scene, chains: &crate::view::chains::ChainOptions) -> Result<ViewSamples> {
     let ids = render_visibility(ctx, scene)?;
-    crate::view_resolve::resolve_view_samples_with(scene, &ids, chains)
+    crate::view::resolve::resolve_view_samples_with(scene, &ids, chains)
 }
 
 /// As [`render_view_samples`], reusing geometry already uploaded with `SceneGeometry::upload(device,
@@ -431,7 +401,7 @@ pub fn render_view_samples_with_geometry(ctx: &GpuContext, scene: &Scene, geomet
         return Err(Error::invalid("the uploaded geometry belongs to another scene (triangle counts differ)"));
     }
     let ids = GBufferPass::cached(&ctx.device)?.render_visibility(ctx, scene, geometry)?;
-    crate::view_resolve::resolve_view_samples(scene, &ids)
+    crate::view::resolve::resolve_view_samples(scene, &ids)
 }
 
 /// Only the visibility buffer of `scene` (global triangle id + 1 per pixel, 0 = background).

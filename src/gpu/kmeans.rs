@@ -6,6 +6,7 @@ use super::GpuContext;
 use crate::cluster::kmeans::{bounds, Quantiser};
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{storage, uniform};
+use crate::gpu::shaders;
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
 
@@ -20,9 +21,6 @@ pub const DEFAULT_BUDGET: u32 = 24_576;
 pub const MAX_GRID_CELLS: usize = 1 << 18;
 /// Words per cluster in the sums buffer (count + 6 sums of two words), as SUM_WORDS in the WGSL.
 pub const SUM_WORDS: usize = 13;
-
-/// `shaders/kmeans.wgsl` (no shared snippets).
-pub const KMEANS_WGSL: &str = include_str!("../../shaders/kmeans.wgsl");
 
 /// Uniforms. Keep in sync with `Params` in `shaders/kmeans.wgsl` (112 bytes).
 #[repr(C)]
@@ -122,14 +120,12 @@ impl KMeansPass {
     pub fn new(device: &wgpu::Device) -> KMeansPass {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("KMeansPass::module"),
-            source: wgpu::ShaderSource::Wgsl(KMEANS_WGSL.into()),
+            source: wgpu::ShaderSource::Wgsl(shaders::KMEANS.into()),
         });
         let mut entries = vec![uniform(0), storage(1, true)];
         entries.extend((2..12).map(|b| storage(b, false)));
-        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("KMeansPass::bind_group_layout"),
-            entries: &entries,
-        });
+        let bind_group_layout = device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("KMeansPass::bind_group_layout"), entries: &entries });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("KMeansPass::pipeline_layout"),
             bind_group_layouts: &[Some(&bind_group_layout)],
@@ -371,32 +367,4 @@ impl KMeansBuffers {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn wgsl_validates_and_params_match() {
-        let module = crate::gpu::shaders::assert_struct_sizes("kmeans.wgsl", KMEANS_WGSL, &[("Params", 112), ("Point", 32)]);
-        assert_eq!(std::mem::size_of::<GpuKMeansParams>(), 112);
-        assert_eq!(std::mem::size_of::<GpuPoint>(), 32);
-        let entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
-        for name in ENTRY_POINTS {
-            assert!(entries.contains(&name), "missing entry point {name}");
-        }
-    }
-
-    #[test]
-    fn grid_sizes_follow_the_target_and_flat_boxes() {
-        let g = Grid::new([0.0; 3], [1.0, 1.0, 1.0], 1000);
-        assert!(g.num_cells() <= 1000 && g.num_cells() >= 700, "{g:?}");
-        assert!(g.dims.iter().all(|&d| d == g.dims[0]));
-        // A flat (planar) box: one cell across the flat axis, about the target over the plane.
-        let g = Grid::new([0.0; 3], [2.0, 1.0, 0.0], 200);
-        assert_eq!(g.dims[2], 1);
-        assert!(g.num_cells() <= 200 && g.num_cells() >= 140, "{g:?}");
-        assert!(g.dims[0] as f32 * g.h >= 2.0 && g.dims[1] as f32 * g.h >= 1.0);
-        assert_eq!(Grid::new([1.0; 3], [1.0; 3], 50).dims, [1, 1, 1]);
-        assert!(Grid::new([0.0; 3], [1.0; 3], 1 << 30).num_cells() <= MAX_GRID_CELLS);
-    }
-}
-
+mod tests;

@@ -29,11 +29,7 @@ fn buffer_entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLay
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
         count: None,
     }
 }
@@ -50,10 +46,8 @@ pub fn compute_pipeline(
         label: Some(&format!("{owner}::module")),
         source: wgpu::ShaderSource::Wgsl(wgsl.into()),
     });
-    let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(&format!("{owner}::bind_group_layout")),
-        entries,
-    });
+    let bind_group_layout =
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(&format!("{owner}::bind_group_layout")), entries });
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(&format!("{owner}::pipeline_layout")),
         bind_group_layouts: &[Some(&bind_group_layout)],
@@ -80,20 +74,12 @@ pub fn encode_dispatch(
     resources: &[wgpu::BindingResource],
     groups: (u32, u32),
 ) {
-    let entries: Vec<wgpu::BindGroupEntry> = resources
-        .iter()
-        .enumerate()
-        .map(|(k, resource)| wgpu::BindGroupEntry { binding: k as u32, resource: resource.clone() })
-        .collect();
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(&format!("{owner}::bind_group")),
-        layout,
-        entries: &entries,
-    });
-    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some(&format!("{owner}::dispatch")),
-        timestamp_writes: None,
-    });
+    let entries: Vec<wgpu::BindGroupEntry> =
+        resources.iter().enumerate().map(|(k, resource)| wgpu::BindGroupEntry { binding: k as u32, resource: resource.clone() }).collect();
+    let bind_group =
+        device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(&format!("{owner}::bind_group")), layout, entries: &entries });
+    let mut pass =
+        encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(&format!("{owner}::dispatch")), timestamp_writes: None });
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, &bind_group, &[]);
     pass.dispatch_workgroups(groups.0, groups.1, 1);

@@ -25,6 +25,7 @@
 use super::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
+use crate::gpu::shaders;
 use crate::matrix::LightMatrix;
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
@@ -34,9 +35,6 @@ pub const WORKGROUP_SIZE: u32 = 64;
 
 /// Columns per batch: bounds the shader's loop over a batch (far below Mesa's 65,535-iteration cut).
 pub const MAX_BATCH: usize = 256;
-
-/// `shaders/reconstruction.wgsl`.
-pub const RECONSTRUCTION_WGSL: &str = include_str!("../../shaders/reconstruction.wgsl");
 
 /// Uniforms. Keep in sync with `Params` in `shaders/reconstruction.wgsl` (48 bytes).
 #[repr(C)]
@@ -67,7 +65,7 @@ impl ReconstructionPass {
         let (pipeline, bind_group_layout) = compute_pipeline(
             device,
             "ReconstructionPass",
-            RECONSTRUCTION_WGSL,
+            shaders::RECONSTRUCTION,
             &[
                 uniform(0),
                 storage(1, true),
@@ -186,7 +184,10 @@ pub fn reconstruct(
     if frame_bytes > max_binding {
         return Err(Error::invalid(format!("one frame of {p} RGBA f32 pixels exceeds the storage binding limit")));
     }
-    crate::memory::check_host(&format!("tensor reconstruction: {f} frames x {p} pixels x RGB float32"), crate::memory::product(&[f as u64, p as u64, 12]))?;
+    crate::memory::check_host(
+        &format!("tensor reconstruction: {f} frames x {p} pixels x RGB float32"),
+        crate::memory::product(&[f as u64, p as u64, 12]),
+    )?;
     let windows: Vec<(usize, usize)> = (0..f).step_by(per_window).map(|a| (a, (a + per_window).min(f))).collect();
     let accs: Vec<wgpu::Buffer> = windows
         .iter()
@@ -237,7 +238,8 @@ pub fn reconstruct(
                 })
                 .collect();
             // Target frames this batch serves.
-            let served: Vec<usize> = (0..f).filter(|&k| batch.iter().any(|&c| rec[(c * f + k) * 3..(c * f + k) * 3 + 3].iter().any(|&v| v != 0.0))).collect();
+            let served: Vec<usize> =
+                (0..f).filter(|&k| batch.iter().any(|&c| rec[(c * f + k) * 3..(c * f + k) * 3 + 3].iter().any(|&v| v != 0.0))).collect();
             let (Some(&lo), Some(&hi)) = (served.first(), served.last()) else {
                 return Ok(());
             };

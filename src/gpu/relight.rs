@@ -15,6 +15,7 @@
 //! the image-based form; it does not skip their work as the scatter would.
 use crate::gpu::columns::dispatch_size;
 use crate::gpu::pipeline::{storage, uniform};
+use crate::gpu::shaders;
 
 /// Most coefficients of one row that one invocation of `product` sums (the host splits longer rows over
 /// dispatches): far below Mesa 22.3's 65,535 loop iterations per invocation.
@@ -33,9 +34,6 @@ pub struct RelightParams {
     pub dispatch_width: u32,
     pub epsilon: f32,
 }
-
-/// The WGSL module.
-pub const RELIGHT_WGSL: &str = include_str!("../../shaders/relight.wgsl");
 
 /// One kernel: its pipeline, bind group layout and the bindings it uses (in layout order).
 pub struct Kernel {
@@ -60,10 +58,8 @@ pub struct RelightPasses {
 const WRITABLE: [u32; 7] = [2, 3, 5, 6, 10, 12, 15];
 
 fn kernel(device: &wgpu::Device, module: &wgpu::ShaderModule, name: &'static str, bindings: &[u32]) -> Kernel {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
-        .iter()
-        .map(|&b| if b == 0 { uniform(0) } else { storage(b, !WRITABLE.contains(&b)) })
-        .collect();
+    let entries: Vec<wgpu::BindGroupLayoutEntry> =
+        bindings.iter().map(|&b| if b == 0 { uniform(0) } else { storage(b, !WRITABLE.contains(&b)) }).collect();
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(&format!("RelightPasses::{name}::bind_group_layout")),
         entries: &entries,
@@ -87,7 +83,14 @@ fn kernel(device: &wgpu::Device, module: &wgpu::ShaderModule, name: &'static str
 impl Kernel {
     /// Record one dispatch of `threads` threads with `params` and `buffers` (one per binding of the
     /// kernel after the uniform, in order).
-    pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, params: &RelightParams, threads: u32, buffers: &[&wgpu::Buffer]) {
+    pub fn encode(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        params: &RelightParams,
+        threads: u32,
+        buffers: &[&wgpu::Buffer],
+    ) {
         assert_eq!(buffers.len() + 1, self.bindings.len(), "RelightPasses::{}: wrong number of buffers", self.name);
         let (gx, gy, dispatch_width) = dispatch_size(threads);
         let params = RelightParams { dispatch_width, ..*params };
@@ -115,7 +118,7 @@ impl RelightPasses {
     pub fn new(device: &wgpu::Device) -> RelightPasses {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("RelightPasses::module"),
-            source: wgpu::ShaderSource::Wgsl(RELIGHT_WGSL.into()),
+            source: wgpu::ShaderSource::Wgsl(shaders::RELIGHT.into()),
         });
         RelightPasses {
             // src, dst, coeffs
@@ -152,7 +155,13 @@ impl RelightPasses {
             let src = if level == 0 { image } else { scratch[(level + 1) % 2] };
             let dst = scratch[level % 2];
             let h = size / 2;
-            self.haar_level.encode(device, encoder, &RelightParams { side, size, num_rows: h * h, ..Default::default() }, h * h, &[src, dst, coeffs]);
+            self.haar_level.encode(
+                device,
+                encoder,
+                &RelightParams { side, size, num_rows: h * h, ..Default::default() },
+                h * h,
+                &[src, dst, coeffs],
+            );
             size = h;
             level += 1;
         }
@@ -160,22 +169,4 @@ impl RelightPasses {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn relight_wgsl_validates_and_layouts_match() {
-        let module = crate::gpu::shaders::assert_struct_sizes("relight.wgsl", RELIGHT_WGSL, &[("RelightParams", 32)]);
-        assert_eq!(std::mem::size_of::<RelightParams>(), 32);
-        let entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
-        for name in ["haar_level", "cull", "product", "product_rgb", "finish_bounce", "combine", "combine_glossy"] {
-            assert!(entries.contains(&name), "missing entry point {name}: {entries:?}");
-        }
-        // Every read_write global is in WRITABLE and vice versa (the layouts' access modes).
-        for (_, var) in module.global_variables.iter() {
-            let (Some(binding), naga::AddressSpace::Storage { access }) = (&var.binding, var.space) else { continue };
-            let writable = access.contains(naga::StorageAccess::STORE);
-            assert_eq!(writable, WRITABLE.contains(&binding.binding), "binding {}", binding.binding);
-        }
-    }
-}
+mod tests;

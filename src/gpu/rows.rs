@@ -13,8 +13,9 @@
 //! Deviation from the paper: visibility is the hybrid of `columns.wgsl` (cube map where its 2x2
 //! footprint is unambiguous, the exact BVH ray of the column pass elsewhere), so rows equal columns up
 //! to the (rare) cases where a certain-looking map disagrees with the ray; see `row_map_decide`.
-use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
 use super::columns::{storage_buffer, ViewBuffers};
+use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
+use crate::gpu::shaders;
 use crate::gpu::shadow::GpuShadowLayer;
 
 /// Threads per workgroup (along lights); mirrored in `rows.wgsl`.
@@ -59,9 +60,6 @@ pub struct GpuRowInfo {
     pub _pad0: [u32; 2],
 }
 
-/// The WGSL module of the pass.
-pub const ROWS_WGSL: &str = crate::gpu::shaders::ROWS;
-
 /// Per-dispatch inputs.
 pub struct RowsInputs<'a> {
     pub params: RowParams,
@@ -88,24 +86,28 @@ pub struct RowsPass {
     pub bind_group_layout: wgpu::BindGroupLayout,
 }
 
-
 impl RowsPass {
     pub fn new(device: &wgpu::Device) -> RowsPass {
-        let (pipeline, bind_group_layout) = compute_pipeline(device, "RowsPass", ROWS_WGSL, &[
-            uniform(0),
-            storage(1, true),
-            storage(2, true),
-            storage(3, true),
-            storage(4, true),
-            storage(5, true),
-            depth_array(6),
-            storage(7, false),
-            storage(8, true),
-            storage(9, true),
-            storage(10, true),
-            storage(11, false),
-            storage(12, true),
-        ]);
+        let (pipeline, bind_group_layout) = compute_pipeline(
+            device,
+            "RowsPass",
+            shaders::ROWS,
+            &[
+                uniform(0),
+                storage(1, true),
+                storage(2, true),
+                storage(3, true),
+                storage(4, true),
+                storage(5, true),
+                depth_array(6),
+                storage(7, false),
+                storage(8, true),
+                storage(9, true),
+                storage(10, true),
+                storage(11, false),
+                storage(12, true),
+            ],
+        );
         RowsPass { pipeline, bind_group_layout }
     }
 
@@ -113,21 +115,28 @@ impl RowsPass {
     pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &RowsInputs) {
         let params = storage_buffer(device, "RowsPass::params", &[inputs.params], wgpu::BufferUsages::UNIFORM);
         let gx = (inputs.params.num_lights).div_ceil(WORKGROUP_SIZE).max(1);
-        encode_dispatch(device, encoder, "RowsPass", (&self.pipeline, &self.bind_group_layout), &[
-            params.as_entire_binding(),
-            inputs.view.samples.as_entire_binding(),
-            inputs.view.bsdfs.as_entire_binding(),
-            inputs.lights.as_entire_binding(),
-            inputs.rows.as_entire_binding(),
-            inputs.layers.as_entire_binding(),
-            wgpu::BindingResource::TextureView(inputs.cube_maps),
-            inputs.out_rows.as_entire_binding(),
-            inputs.view.bsdf_tables.as_entire_binding(),
-            inputs.bvh_nodes.as_entire_binding(),
-            inputs.bvh_prims.as_entire_binding(),
-            inputs.stats.as_entire_binding(),
-            inputs.spot_textures.as_entire_binding(),
-        ], (gx, inputs.params.num_rows.max(1)));
+        encode_dispatch(
+            device,
+            encoder,
+            "RowsPass",
+            (&self.pipeline, &self.bind_group_layout),
+            &[
+                params.as_entire_binding(),
+                inputs.view.samples.as_entire_binding(),
+                inputs.view.bsdfs.as_entire_binding(),
+                inputs.lights.as_entire_binding(),
+                inputs.rows.as_entire_binding(),
+                inputs.layers.as_entire_binding(),
+                wgpu::BindingResource::TextureView(inputs.cube_maps),
+                inputs.out_rows.as_entire_binding(),
+                inputs.view.bsdf_tables.as_entire_binding(),
+                inputs.bvh_nodes.as_entire_binding(),
+                inputs.bvh_prims.as_entire_binding(),
+                inputs.stats.as_entire_binding(),
+                inputs.spot_textures.as_entire_binding(),
+            ],
+            (gx, inputs.params.num_rows.max(1)),
+        );
     }
 }
 
@@ -143,39 +152,4 @@ pub fn row_cube_layers(scene_center: glam::Vec3, scene_radius: f32, center: glam
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn struct_sizes() {
-        assert_eq!(std::mem::size_of::<RowParams>(), 48);
-        assert_eq!(std::mem::size_of::<GpuRowInfo>(), 32);
-    }
-
-    #[test]
-    fn rows_wgsl_validates_and_layouts_match() {
-        crate::gpu::shaders::assert_struct_sizes("rows.wgsl", ROWS_WGSL, &[
-            ("RowParams", 48),
-            ("RowInfo", 32),
-            ("Light", 256),
-            ("ViewSample", 80),
-            ("ShadowLayer", 256),
-        ]);
-        // The WGSL mirrors of the Rust constants.
-        assert!(ROWS_WGSL.contains(&format!("const WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;")));
-        assert!(ROWS_WGSL.contains("const ROW_NO_MAP: u32 = 0xffffffffu;"));
-    }
-
-    #[test]
-    fn row_cube_faces_look_along_their_axes() {
-        let c = glam::Vec3::new(0.2, -0.1, 0.3);
-        let layers = row_cube_layers(glam::Vec3::ZERO, 2.0, c, 64);
-        assert_eq!(layers.len(), 6);
-        for (f, (dir, _)) in crate::gpu::shadow::cube_face_dirs().iter().enumerate() {
-            let m = glam::Mat4::from_cols_array_2d(&layers[f].view_proj);
-            let clip = m * (c + *dir * 1.5).extend(1.0);
-            let ndc = clip.truncate() / clip.w;
-            assert!(ndc.x.abs() < 1e-5 && ndc.y.abs() < 1e-5 && ndc.z > 0.0 && ndc.z < 1.0, "face {f}: {ndc:?}");
-        }
-    }
-}
+mod tests;

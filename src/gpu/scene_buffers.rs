@@ -21,10 +21,7 @@ pub fn triangle_offsets(meshes: &[Mesh]) -> Result<Vec<u32>> {
         total += m.indices.len() as u64;
         // Three vertices per triangle must be addressable by a u32 `vertex_index`.
         if total * 3 > u32::MAX as u64 {
-            return Err(Error::invalid(format!(
-                "scene has too many triangles for one vertex buffer: {total} (at most {})",
-                u32::MAX / 3
-            )));
+            return Err(Error::invalid(format!("scene has too many triangles for one vertex buffer: {total} (at most {})", u32::MAX / 3)));
         }
         offsets.push(total as u32);
     }
@@ -54,11 +51,7 @@ pub fn unshared_positions(meshes: &[Mesh]) -> Result<Vec<[f32; 3]>> {
                 let p: Vec3 = *m.positions.get(v as usize).ok_or_else(|| {
                     Error::scene(
                         &m.loc,
-                        format!(
-                            "mesh {:?}: triangle {t} uses vertex {v}, but the mesh has {} vertices",
-                            m.id,
-                            m.positions.len()
-                        ),
+                        format!("mesh {:?}: triangle {t} uses vertex {v}, but the mesh has {} vertices", m.id, m.positions.len()),
                     )
                 })?;
                 out.push(p.to_array());
@@ -101,9 +94,7 @@ impl SceneGeometry {
         let size = (positions.len() as u64) * Self::VERTEX_STRIDE;
         let max = device.limits().max_buffer_size;
         if size > max {
-            return Err(Error::Gpu(format!(
-                "scene vertex buffer needs {size} bytes ({num_triangles} triangles), the device allows {max}"
-            )));
+            return Err(Error::Gpu(format!("scene vertex buffer needs {size} bytes ({num_triangles} triangles), the device allows {max}")));
         }
         let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("SceneGeometry::vertex_buffer"),
@@ -132,58 +123,4 @@ impl SceneGeometry {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::error::Location;
-    use crate::scene::ShapeKind;
-
-    fn mesh(n_tris: usize) -> Mesh {
-        let positions: Vec<Vec3> = (0..n_tris * 3).map(|i| Vec3::new(i as f32, 2.0 * i as f32, -(i as f32))).collect();
-        Mesh {
-            id: format!("m{n_tris}"),
-            kind: ShapeKind::Obj,
-            normals: vec![],
-            uvs: vec![],
-            // Reverse each triangle's corners so the test sees the index order is honoured.
-            indices: (0..n_tris as u32).map(|t| [3 * t + 2, 3 * t + 1, 3 * t]).collect(),
-            positions,
-            face_normals: true,
-            bsdf: 0,
-            emitter: None,
-            loc: Location::default(),
-        }
-    }
-
-    #[test]
-    fn offsets_and_locate() {
-        let meshes = vec![mesh(2), mesh(0), mesh(3)];
-        let off = triangle_offsets(&meshes).unwrap();
-        assert_eq!(off, vec![0, 2, 2, 5]);
-        assert_eq!(locate_triangle(&off, 0), Some((0, 0)));
-        assert_eq!(locate_triangle(&off, 1), Some((0, 1)));
-        // The empty mesh 1 never owns a triangle.
-        assert_eq!(locate_triangle(&off, 2), Some((2, 0)));
-        assert_eq!(locate_triangle(&off, 4), Some((2, 2)));
-        assert_eq!(locate_triangle(&off, 5), None);
-        assert_eq!(locate_triangle(&[0], 0), None);
-    }
-
-    #[test]
-    fn unshared_positions_follow_indices() {
-        let meshes = vec![mesh(1), mesh(2)];
-        let p = unshared_positions(&meshes).unwrap();
-        assert_eq!(p.len(), 9);
-        assert_eq!(p[0], [2.0, 4.0, -2.0]);
-        assert_eq!(p[2], [0.0, 0.0, 0.0]);
-        // Mesh 1, triangle 1, corner 0 = vertex 5.
-        assert_eq!(p[6], [5.0, 10.0, -5.0]);
-    }
-
-    #[test]
-    fn bad_index_is_an_error() {
-        let mut m = mesh(1);
-        m.indices[0][1] = 7;
-        let e = unshared_positions(&[m]).unwrap_err().to_string();
-        assert!(e.contains("vertex 7") && e.contains("3 vertices"), "{e}");
-    }
-}
+mod tests;

@@ -14,8 +14,9 @@
 //! Depth comparisons happen in the layer's own projected depth: the column pass offsets the shaded point
 //! in world space (normal offset + slope-scaled depth bias, in units of the layer's world-space texel
 //! size) and compares its projected depth with the stored one. Biases are in `ColumnOptions`.
-use crate::lights::{LightKind, LightSet};
 use crate::gpu::scene_buffers::SceneGeometry;
+use crate::gpu::shaders;
+use crate::lights::{LightKind, LightSet};
 use glam::{Mat4, Vec3};
 
 /// Depth format of the shadow-map array.
@@ -39,14 +40,7 @@ pub struct GpuShadowLayer {
 
 /// The 6 cube face directions and up vectors, in the order of `cube_face()` in the WGSL.
 pub fn cube_face_dirs() -> [(Vec3, Vec3); 6] {
-    [
-        (Vec3::X, Vec3::Y),
-        (Vec3::NEG_X, Vec3::Y),
-        (Vec3::Y, Vec3::Z),
-        (Vec3::NEG_Y, Vec3::Z),
-        (Vec3::Z, Vec3::Y),
-        (Vec3::NEG_Z, Vec3::Y),
-    ]
+    [(Vec3::X, Vec3::Y), (Vec3::NEG_X, Vec3::Y), (Vec3::Y, Vec3::Z), (Vec3::NEG_Y, Vec3::Z), (Vec3::Z, Vec3::Y), (Vec3::NEG_Z, Vec3::Y)]
 }
 
 /// True when light j's shadow map is a cube (6 layers).
@@ -112,13 +106,7 @@ fn orthographic_rh(left: f32, right: f32, bottom: f32, top: f32, near: f32, far:
 }
 
 fn layer(view_proj: Mat4, texel_scale: f32, is_ortho: bool) -> GpuShadowLayer {
-    GpuShadowLayer {
-        view_proj: view_proj.to_cols_array_2d(),
-        texel_scale,
-        is_ortho: is_ortho as u32,
-        _pad0: [0; 2],
-        _pad1: [[0.0; 4]; 11],
-    }
+    GpuShadowLayer { view_proj: view_proj.to_cols_array_2d(), texel_scale, is_ortho: is_ortho as u32, _pad0: [0; 2], _pad1: [[0.0; 4]; 11] }
 }
 
 /// The layers (1 or 6) of light j's shadow map at `resolution` texels per side.
@@ -147,10 +135,7 @@ pub fn light_layers(lights: &LightSet, j: usize, resolution: u32) -> Vec<GpuShad
                 vec![layer(proj * view, 2.0 * half_fov.tan() / res, false)]
             } else {
                 let proj = perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, near, far);
-                cube_face_dirs()
-                    .iter()
-                    .map(|(dir, up)| layer(proj * look_at_rh(pos, pos + *dir, *up), 2.0 / res, false))
-                    .collect()
+                cube_face_dirs().iter().map(|(dir, up)| layer(proj * look_at_rh(pos, pos + *dir, *up), 2.0 / res, false)).collect()
             }
         }
     }
@@ -205,15 +190,11 @@ pub struct ShadowMapPass {
     pub bind_group_layout: wgpu::BindGroupLayout,
 }
 
-/// The WGSL module of the pass.
-pub const SHADOW_WGSL: &str =
-    concat!(include_str!("../../shaders/common/shadow_layer.wgsl"), include_str!("../../shaders/shadow.wgsl"));
-
 impl ShadowMapPass {
     pub fn new(device: &wgpu::Device) -> ShadowMapPass {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("ShadowMapPass::module"),
-            source: wgpu::ShaderSource::Wgsl(SHADOW_WGSL.into()),
+            source: wgpu::ShaderSource::Wgsl(shaders::SHADOW.into()),
         });
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("ShadowMapPass::bind_group_layout"),
@@ -305,35 +286,4 @@ impl ShadowMapPass {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn layer_struct_is_256_bytes() {
-        assert_eq!(std::mem::size_of::<GpuShadowLayer>() as u64, SHADOW_LAYER_STRIDE);
-    }
-
-    #[test]
-    fn shadow_wgsl_validates() {
-        let module = naga::front::wgsl::parse_str(SHADOW_WGSL).expect("shadow.wgsl parses");
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-            .validate(&module)
-            .expect("shadow.wgsl validates");
-    }
-
-    #[test]
-    fn cube_faces_cover_their_major_axis() {
-        // A point along each face's direction projects to the centre of that face, depth in (0, 1).
-        let mut set = LightSet::new(Vec3::ZERO, 2.0);
-        set.push_point(Vec3::new(0.1, 0.2, 0.3), Vec3::ONE).unwrap();
-        let layers = light_layers(&set, 0, 256);
-        assert_eq!(layers.len(), 6);
-        for (f, (dir, _)) in cube_face_dirs().iter().enumerate() {
-            let m = Mat4::from_cols_array_2d(&layers[f].view_proj);
-            let c = m * (set.position[0] + *dir * 0.7).extend(1.0);
-            let ndc = c.truncate() / c.w;
-            assert!(ndc.x.abs() < 1e-5 && ndc.y.abs() < 1e-5 && ndc.z > 0.0 && ndc.z < 1.0, "face {f}: {ndc:?}");
-            assert!((c.w - 0.7).abs() < 1e-5);
-        }
-    }
-}
+mod tests;

@@ -29,10 +29,7 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
         let (w, ht, c) = (h.layer_size.width() as u64, h.layer_size.height() as u64, h.channels.list.len() as u64);
         crate::image::size_policy::check(path, "EXR layer", w, ht, 0, 0)?;
         if (w * ht).saturating_mul(c) > MAX_EXR_SAMPLES {
-            return Err(Error::io(
-                path,
-                format!("EXR layer of {w}x{ht} pixels and {c} channels is larger than supported (2^30 samples)"),
-            ));
+            return Err(Error::io(path, format!("EXR layer of {w}x{ht} pixels and {c} channels is larger than supported (2^30 samples)")));
         }
         let stored: u64 = h.channels.list.iter().map(|ch| ch.sample_type.bytes_per_sample() as u64).sum();
         crate::image::size_policy::check(path, "EXR layer", w, ht, stored + 2 * crate::image::size_policy::TEXEL_BYTES, 0)?;
@@ -41,12 +38,7 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     let layer = &image.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
     let channel = |name: &str| -> Option<Vec<f32>> {
-        layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.to_string() == name)
-            .map(|c| c.sample_data.values_as_f32().collect())
+        layer.channel_data.list.iter().find(|c| c.name.to_string() == name).map(|c| c.sample_data.values_as_f32().collect())
     };
     let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
     let pixels: Vec<[f32; 3]> = if let (Some(r), Some(g), Some(b)) = (channel("R"), channel("G"), channel("B")) {
@@ -64,11 +56,7 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
 
 fn check_len(path: &Path, w: u32, h: u32, n: usize) -> Result<()> {
     if n != w as usize * h as usize {
-        return Err(Error::invalid(format!(
-            "{}: image of {w}x{h} needs {} pixels, got {n}",
-            path.display(),
-            w as usize * h as usize
-        )));
+        return Err(Error::invalid(format!("{}: image of {w}x{h} needs {} pixels, got {n}", path.display(), w as usize * h as usize)));
     }
     Ok(())
 }
@@ -103,49 +91,4 @@ pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], expo
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn tmp(name: &str) -> std::path::PathBuf {
-        let dir = crate::testing::scratch_dir("image");
-        dir.join(name)
-    }
-
-    #[test]
-    fn exr_round_trip_is_exact() {
-        let (w, h) = (5u32, 3u32);
-        let px: Vec<[f32; 3]> =
-            (0..w * h).map(|i| [i as f32 * 0.1, -(i as f32) * 1e-3, 1e6 + i as f32 * std::f32::consts::PI]).collect();
-        let p = tmp("rt.exr");
-        write_exr(&p, w, h, &px).unwrap();
-        let (w2, h2, back) = read_exr(&p).unwrap();
-        assert_eq!((w2, h2), (w, h));
-        assert_eq!(back, px);
-        assert!(write_exr(&p, 4, 4, &px).is_err());
-    }
-
-    #[test]
-    fn reads_piz_half_exr_of_shared_scene() {
-        // bunny/textures/museum.exr: PIZ-compressed half RGB(A), as in the shared scenes.
-        let p = crate::scene::mesh::shared_dir().join("scenes/bunny/textures/museum.exr");
-        let (w, h, px) = read_exr(&p).unwrap();
-        assert_eq!(px.len(), (w * h) as usize);
-        assert!(px.iter().all(|c| c.iter().all(|v| v.is_finite() && *v >= 0.0)));
-        let mean: f64 = px.iter().map(|c| c[1] as f64).sum::<f64>() / px.len() as f64;
-        assert!(mean > 0.0);
-    }
-
-    #[test]
-    fn png_write_encodes_srgb() {
-        let p = tmp("w.png");
-        let px = [[0.0, 0.5, 1.0], [0.21586, 2.0, -1.0], [0.0031308, 0.25, f32::NAN], [1.0, 1.0, 1.0]];
-        write_png(&p, 2, 2, &px, 0.0).unwrap();
-        let img = image::open(&p).unwrap().to_rgb8();
-        assert_eq!(img.dimensions(), (2, 2));
-        assert_eq!(img.get_pixel(0, 0).0, [0, 188, 255]);
-        assert_eq!(img.get_pixel(1, 0).0, [128, 255, 0]);
-        assert_eq!(img.get_pixel(0, 1).0, [10, 137, 0]);
-        write_png(&p, 2, 2, &px, -1.0).unwrap();
-        assert_eq!(image::open(&p).unwrap().to_rgb8().get_pixel(1, 1).0, [188, 188, 188]);
-    }
-}
+mod tests;

@@ -41,8 +41,7 @@ pub fn mae(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     if a.is_empty() {
         return 0.0;
     }
-    a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).abs())).sum::<f64>()
-        / (3 * a.len()) as f64
+    a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).abs())).sum::<f64>() / (3 * a.len()) as f64
 }
 
 /// Largest absolute channel difference.
@@ -57,10 +56,7 @@ pub fn relative_mse(a: &[[f32; 3]], b: &[[f32; 3]], eps: f64) -> f64 {
     if a.is_empty() {
         return 0.0;
     }
-    a.iter()
-        .zip(b)
-        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + eps)))
-        .sum::<f64>()
+    a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + eps))).sum::<f64>()
         / (3 * a.len()) as f64
 }
 
@@ -71,35 +67,9 @@ pub fn fraction_within(a: &[[f32; 3]], b: &[[f32; 3]], rel: f64, abs: f64) -> f6
     if a.is_empty() {
         return 1.0;
     }
-    let ok = a
-        .iter()
-        .zip(b)
-        .filter(|(x, y)| (0..3).all(|c| (x[c] as f64 - y[c] as f64).abs() <= abs + rel * (y[c] as f64).abs()))
-        .count();
+    let ok = a.iter().zip(b).filter(|(x, y)| (0..3).all(|c| (x[c] as f64 - y[c] as f64).abs() <= abs + rel * (y[c] as f64).abs())).count();
     ok as f64 / a.len() as f64
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn metrics_on_known_values() {
-        let b = [[1.0, 2.0, 2.0], [0.0, 0.0, 0.0]];
-        let a = [[1.0, 2.0, 2.0], [0.0, 0.0, 3.0]];
-        assert_eq!(relative_l2(&a, &b), 1.0); // ||(0,0,0,0,0,3)|| / ||(1,2,2)|| = 3 / 3
-        assert_eq!(mse(&a, &b), 1.5);
-        assert_eq!(rmse(&a, &b), 1.5f64.sqrt());
-        assert_eq!(mae(&a, &b), 0.5);
-        assert_eq!(max_abs_error(&a, &b), 3.0);
-        assert_eq!(fraction_within(&a, &b, 0.0, 0.0), 0.5);
-        assert_eq!(fraction_within(&a, &b, 0.0, 3.0), 1.0);
-        let c = [[1.1, 2.0, 2.0], [0.0, 0.0, 0.0]];
-        assert_eq!(fraction_within(&c, &b, 0.05, 0.0), 0.5); // |1.1 - 1| > 0.05
-        assert_eq!(fraction_within(&c, &b, 0.11, 0.0), 1.0);
-        assert!((relative_mse(&c, &b, 0.01) - 0.1f32.powi(2) as f64 / 1.01 / 6.0).abs() < 1e-7);
-        assert_eq!(relative_l2(&b, &b), 0.0);
-        let nan = [[f32::NAN, 2.0, 2.0], [0.0, 0.0, 0.0]];
-        assert_eq!(fraction_within(&nan, &b, 1.0, 1.0), 0.5);
-    }
-}
+mod tests;

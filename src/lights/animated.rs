@@ -32,10 +32,10 @@
 //!
 //! Symbols: f frames, k a frame, j a light, E irradiance (W/m^2), Phi flux (W), A area (m^2), k_d diffuse
 //! reflectance, L_e emitted radiance, n_e the points of emitter e.
+use super::gather::{GatherCloud, GatherOptions};
 use super::generate::area::{area_emitters, area_lights_tied, emitting_normal, sphere_uv, AreaEmitter, SurfaceTie};
 use super::generate::environment::Environment;
 use super::generate::{default_clamp, vpl, GenerateOptions, MAX_LIGHTS};
-use super::gather::{GatherCloud, GatherOptions};
 use super::{scene_sphere, LightKind, LightSet};
 use crate::error::{Error, Result};
 use crate::raytrace::{offset_p, RayTracer};
@@ -230,7 +230,11 @@ pub fn generate_animation_lights(frames: &[&Scene], opts: &AnimationLightOptions
             let cloud = if k == 0 { cloud0.clone() } else { cloud0.on(scene).map_err(|e| frame_error(k, e))? };
             let rt = RayTracer::new(scene)?;
             let direct = set.clone();
-            let photons = if opts.photons > 0 { photon_irradiance(scene, &cloud, &gather_lights, opts)? } else { vec![Vec3::ZERO; gather_lights.len()] };
+            let photons = if opts.photons > 0 {
+                photon_irradiance(scene, &cloud, &gather_lights, opts)?
+            } else {
+                vec![Vec3::ZERO; gather_lights.len()]
+            };
             let flux: Vec<Vec3> = crate::interrupt::par_map_chunked(gather_lights.len(), 256, |a| {
                 let i = gather_lights[a];
                 let (p, n, n_g) = (cloud.position[i], cloud.normal[i], cloud.geo_normal[i]);
@@ -267,7 +271,17 @@ fn frame_error(k: usize, e: Error) -> Error {
 fn photon_irradiance(scene: &Scene, cloud: &GatherCloud, chosen: &[usize], opts: &AnimationLightOptions) -> Result<Vec<Vec3>> {
     let areas = area_emitters(scene);
     let env = Environment::from_scene(scene);
-    let gen = GenerateOptions { area: 0, environment: 0, indirect: opts.photons, max_depth: opts.max_depth, clamp: None, env_importance: false, seed: opts.seed ^ 0x7068_6f74, vsl: None, vpl_importance: None };
+    let gen = GenerateOptions {
+        area: 0,
+        environment: 0,
+        indirect: opts.photons,
+        max_depth: opts.max_depth,
+        clamp: None,
+        env_importance: false,
+        seed: opts.seed ^ 0x7068_6f74,
+        vsl: None,
+        vpl_importance: None,
+    };
     let photons = vpl::trace_photons(scene, &areas, env.as_ref(), &gen)?;
     if photons.is_empty() {
         return Ok(vec![Vec3::ZERO; chosen.len()]);

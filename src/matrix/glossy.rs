@@ -219,7 +219,11 @@ pub fn light_weight(view: &ViewSamples, lights: &LightSet, i: usize, p: Vec3, wi
 #[inline]
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+    if a2 + b2 > 0.0 {
+        a2 / (a2 + b2)
+    } else {
+        0.0
+    }
 }
 
 /// The light densities BSDF rays meet: 1 / A_j per mesh (0 = the light set holds no MIS sample of it)
@@ -314,5 +318,4 @@ pub fn bsdf_image(scene: &Scene, tracer: &RayTracer, view: &ViewSamples, lights:
 }
 
 #[cfg(test)]
-#[path = "glossy_tests.rs"]
 mod tests;

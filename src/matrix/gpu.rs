@@ -8,11 +8,10 @@ use super::backend::{Backend, DeviceInfo};
 use super::rows::{RowOptions, TimedRows};
 use super::{ColumnOptions, Visibility, VisibilityStats};
 use crate::error::{Error, Result};
-use crate::gpu::columns::{
-    dispatch_size, storage_buffer, ColumnParams, ColumnsInputs, ColumnsPass, GpuLight, ViewBuffers,
-    MAX_LIGHTS_PER_DISPATCH,
-};
 use crate::gpu::bvh::{GpuBvh, RAYS_PER_INVOCATION};
+use crate::gpu::columns::{
+    dispatch_size, storage_buffer, ColumnParams, ColumnsInputs, ColumnsPass, GpuLight, ViewBuffers, MAX_LIGHTS_PER_DISPATCH,
+};
 use crate::gpu::scene_buffers::SceneGeometry;
 use crate::gpu::shadow::{layer_count, light_layers, uses_cube, ShadowAtlas, ShadowMapPass};
 use crate::gpu::GpuContext;
@@ -113,11 +112,8 @@ impl GpuBackend {
         let what = format!("shadow maps: {max_layers} layers of {res}^2 texels (shadow_map_size = {res})");
         crate::memory::check_gpu(&ctx, &what, crate::memory::product(&[max_layers as u64, res, res, 4]), false)?;
         let atlas = crate::memory::gpu_alloc(device, &what, || ShadowAtlas::new(device, opts.shadow_resolution, max_layers))?;
-        let bvh = if opts.visibility == Visibility::ShadowMap {
-            GpuBvh::empty(device)?
-        } else {
-            GpuBvh::upload(device, &scene, max_binding)?
-        };
+        let bvh =
+            if opts.visibility == Visibility::ShadowMap { GpuBvh::empty(device)? } else { GpuBvh::upload(device, &scene, max_binding)? };
         let stats = storage_buffer::<u32>(
             device,
             "LightMatrix::stats",
@@ -187,12 +183,7 @@ impl GpuBackend {
             gpu_lights.push(GpuLight::new(&self.lights, j, batch.layers[k], uses_cube(&self.lights, j), self.spot_texture_offsets[j]));
             layers.extend(light_layers(&self.lights, j, res));
         }
-        let layers_buf = storage_buffer(
-            device,
-            "LightMatrix::layers",
-            &layers,
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
-        );
+        let layers_buf = storage_buffer(device, "LightMatrix::layers", &layers, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE);
         let lights_buf = storage_buffer(device, "LightMatrix::lights", &gpu_lights, wgpu::BufferUsages::STORAGE);
         (lights_buf, layers_buf, gpu_lights.len())
     }
@@ -279,8 +270,7 @@ impl GpuBackend {
         columns: Option<&wgpu::Buffer>,
     ) -> wgpu::SubmissionIndex {
         let (lights_buf, layers_buf, n) = self.batch_buffers(js, batch);
-        let mut encoder =
-            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::batch") });
+        let mut encoder = self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::batch") });
         self.encode_shadow_maps(&mut encoder, &layers_buf, batch);
         self.encode_columns(&mut encoder, &self.view_buffers, (&lights_buf, &layers_buf, n), weights, accum, columns);
         self.ctx.queue.submit(Some(encoder.finish()))
@@ -358,9 +348,7 @@ impl GpuBackend {
         let column_bytes = (m as u64 * 12).max(4);
         let max_columns = (self.max_binding.min(128 << 20) / column_bytes) as usize;
         if max_columns == 0 {
-            return Err(Error::invalid(format!(
-                "one column of {m} view samples ({column_bytes} bytes) exceeds the storage binding limit"
-            )));
+            return Err(Error::invalid(format!("one column of {m} view samples ({column_bytes} bytes) exceeds the storage binding limit")));
         }
         crate::memory::check_host(
             &format!("columns: {} columns x {m} view samples x RGB float32", js.len()),
@@ -409,9 +397,7 @@ impl GpuBackend {
         let column_bytes = (m as u64 * 12).max(4);
         let fit = (self.max_binding.min(128 << 20) / column_bytes) as usize;
         if fit == 0 {
-            return Err(Error::invalid(format!(
-                "one column of {m} view samples ({column_bytes} bytes) exceeds the storage binding limit"
-            )));
+            return Err(Error::invalid(format!("one column of {m} view samples ({column_bytes} bytes) exceeds the storage binding limit")));
         }
         let batches = self.batches(js, fit.min(max_columns.max(1)));
         let largest = batches.iter().map(|b| b.end - b.start).max().unwrap_or(0);
@@ -434,12 +420,7 @@ impl GpuBackend {
     /// `sum_k weights[k] * A(:, js[k])` with RGB weights, rendering only the listed columns (repeats add
     /// up): the reconstruction of clustered renderers (representatives and their weights). H * W * 3
     /// floats; `progress(done, k)` after each batch. Indices and weights are validated by `LightMatrix`.
-    pub(crate) fn weighted_sum(
-        &self,
-        js: &[usize],
-        weights: &[[f32; 3]],
-        progress: &mut dyn FnMut(usize, usize),
-    ) -> Result<Vec<f32>> {
+    pub(crate) fn weighted_sum(&self, js: &[usize], weights: &[[f32; 3]], progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
         let w4: Vec<[f32; 4]> = weights.iter().map(|v| [v[0], v[1], v[2], 0.0]).collect();
         let m = self.view.len();
         let accum = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {

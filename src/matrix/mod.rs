@@ -20,7 +20,7 @@
 //! `gpu::bvh::RAYS_PER_INVOCATION` lights so that an invocation's loops stay below Mesa 22.3's 65,535
 //! iterations even if every ray takes the most steps.
 //!
-//! Delta BSDF chains (`crate::view_chains`): a pixel may own several view samples (its camera hit plus
+//! Delta BSDF chains (`crate::view::chains`): a pixel may own several view samples (its camera hit plus
 //! the surfaces seen through mirrors and glass, each with its chain's RGB throughput). The matrix rows
 //! are pixels: A(i, j) = sum over pixel i's samples k of throughput_k * (light j's direct light at k).
 //! The GPU shades every sample (throughput applied in the shader) and the per-sample results are summed
@@ -70,9 +70,7 @@ impl Visibility {
             "shadow_map" => Ok(Visibility::ShadowMap),
             "hybrid" => Ok(Visibility::Hybrid),
             "ray_traced" => Ok(Visibility::RayTraced),
-            _ => Err(Error::invalid(format!(
-                "visibility must be 'shadow_map', 'hybrid' or 'ray_traced', got '{name}'"
-            ))),
+            _ => Err(Error::invalid(format!("visibility must be 'shadow_map', 'hybrid' or 'ray_traced', got '{name}'"))),
         }
     }
 }
@@ -121,7 +119,6 @@ impl Default for ColumnOptions {
         }
     }
 }
-
 
 /// The light matrix of a scene, its view samples and a light set, computed by one backend
 /// (`backend::Backend`: the GPU's `gpu::GpuBackend` or the CPU's `crate::cpu::CpuBackend`). Validates
@@ -200,7 +197,13 @@ impl LightMatrix {
     }
 
     /// `with_device` for a device name ("auto", "gpu", "cpu"; `MANYLIGHTS_DEVICE` replaces "auto").
-    pub fn on_device(device: Device, scene: Arc<Scene>, view: Arc<ViewSamples>, lights: Arc<LightSet>, opts: ColumnOptions) -> Result<LightMatrix> {
+    pub fn on_device(
+        device: Device,
+        scene: Arc<Scene>,
+        view: Arc<ViewSamples>,
+        lights: Arc<LightSet>,
+        opts: ColumnOptions,
+    ) -> Result<LightMatrix> {
         LightMatrix::with_device(&device.choose()?, scene, view, lights, opts, None)
     }
 
@@ -295,7 +298,7 @@ impl LightMatrix {
 
     /// Rows `is` (pixel indices `y * width + x`, any order, repeats allowed) as r * n * 3 floats,
     /// `[row][light][rgb]`, with the default `RowOptions`; `progress(rows_done, r)` as it goes. A pixel
-    /// with delta-chain samples (`crate::view_chains`) has the sum of its samples' rows.
+    /// with delta-chain samples (`crate::view::chains`) has the sum of its samples' rows.
     pub fn rows(&self, is: &[usize], progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
         Ok(self.rows_timed(is, &RowOptions::default(), progress)?.0)
     }
@@ -327,8 +330,15 @@ fn check_view(view: &ViewSamples) -> Result<()> {
         return Err(Error::invalid(format!(
             "view samples are inconsistent: {}x{} = {wh} pixels, {} extra samples, shape_index {m}, position {}, \
              normal {}, geo_normal {}, wi {}, bsdf {}, throughput {}",
-            view.width, view.height, view.extra_pixel.len(), view.position.len(), view.normal.len(),
-            view.geo_normal.len(), view.wi.len(), view.bsdf.len(), view.throughput.len()
+            view.width,
+            view.height,
+            view.extra_pixel.len(),
+            view.position.len(),
+            view.normal.len(),
+            view.geo_normal.len(),
+            view.wi.len(),
+            view.bsdf.len(),
+            view.throughput.len()
         )));
     }
     Ok(())

@@ -23,11 +23,7 @@ pub struct CpuReference {
 
 impl CpuReference {
     pub fn new(scene: &Scene) -> CpuReference {
-        let triangles = scene
-            .meshes
-            .iter()
-            .flat_map(|m| m.indices.iter().map(move |t| t.map(|v| m.positions[v as usize])))
-            .collect();
+        let triangles = scene.meshes.iter().flat_map(|m| m.indices.iter().map(move |t| t.map(|v| m.positions[v as usize]))).collect();
         CpuReference { triangles, epsilon: 1e-5 * scene.diagonal().max(1e-6) }
     }
 
@@ -87,7 +83,8 @@ impl CpuReference {
         let n = view.normal[i];
         let (s, t) = coordinate_system(n);
         let local = |v: Vec3| Vec3::new(v.dot(s), v.dot(t), v.dot(n));
-        let f = lights.shade_receiver(j, p, wo, radiance, |w| crate::shading::bsdf::eval_records(&view.bsdf, i, local(view.wi[i]), local(w)));
+        let f =
+            lights.shade_receiver(j, p, wo, radiance, |w| crate::shading::bsdf::eval_records(&view.bsdf, i, local(view.wi[i]), local(w)));
         let vis = self.visible(p, view.geo_normal[i], wo, dist);
         (if vis { f } else { Vec3::ZERO }, vis)
     }
@@ -99,17 +96,4 @@ impl CpuReference {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn coordinate_system_is_orthonormal_and_right_handed() {
-        for n in [Vec3::Z, -Vec3::Z, Vec3::new(0.3, -0.5, 0.8).normalize(), Vec3::new(-0.6, 0.8, -0.0)] {
-            let (s, t) = coordinate_system(n);
-            assert!(s.dot(t).abs() < 1e-6 && s.dot(n).abs() < 1e-6 && t.dot(n).abs() < 1e-6);
-            assert!((s.cross(t) - n).length() < 1e-5, "{n:?}");
-        }
-        // Mitsuba's values for n = (0, 0, 1): s = (1, 0, 0), t = (0, 1, 0).
-        assert_eq!(coordinate_system(Vec3::Z), (Vec3::X, Vec3::Y));
-    }
-}
+mod tests;

@@ -134,10 +134,20 @@ impl GpuBackend {
             &format!("rows: {r} rows x {n} lights x RGB float32"),
             crate::memory::product(&[r as u64, n as u64, 12]),
         )?;
-        crate::memory::check_gpu(&self.ctx, &format!("rows: {n} lights (256 bytes each on the GPU)"), crate::memory::product(&[n as u64, LIGHT_BYTES]), false)?;
+        crate::memory::check_gpu(
+            &self.ctx,
+            &format!("rows: {n} lights (256 bytes each on the GPU)"),
+            crate::memory::product(&[n as u64, LIGHT_BYTES]),
+            false,
+        )?;
         if self.opts.visibility != Visibility::RayTraced {
             let res = opts.resolution as u64;
-            crate::memory::check_gpu(&self.ctx, &format!("rows: a {res}^2 cube depth map (shadow_map_size = {res})"), crate::memory::product(&[24, res, res]), false)?;
+            crate::memory::check_gpu(
+                &self.ctx,
+                &format!("rows: a {res}^2 cube depth map (shadow_map_size = {res})"),
+                crate::memory::product(&[24, res, res]),
+                false,
+            )?;
         }
         let device = &self.ctx.device;
         let pass = self.rows_pass.get_or_init(|| RowsPass::new(device));
@@ -161,22 +171,18 @@ impl GpuBackend {
         let res = opts.resolution;
         let cube_bytes = 24 * res as u64 * res as u64;
         let rendered = self.opts.visibility != Visibility::RayTraced;
-        let per_batch = if rendered {
-            ((opts.memory_budget / cube_bytes) as usize).clamp(1, MAX_CUBES_PER_BATCH)
-        } else {
-            MAX_CUBES_PER_BATCH
-        };
+        let per_batch =
+            if rendered { ((opts.memory_budget / cube_bytes) as usize).clamp(1, MAX_CUBES_PER_BATCH) } else { MAX_CUBES_PER_BATCH };
         let surface = |i: usize| self.view.shape_index[i] >= 0;
-        let most_cubes = if rendered { is.chunks(per_batch).map(|c| c.iter().filter(|&&i| surface(i)).count()).max().unwrap_or(0) } else { 0 };
+        let most_cubes =
+            if rendered { is.chunks(per_batch).map(|c| c.iter().filter(|&&i| surface(i)).count()).max().unwrap_or(0) } else { 0 };
         let rows_per_chunk = ((out_limit / row_bytes) as usize).min(per_batch).max(1);
         // The cube atlas and the output buffer are kept for the next call (allocating hundreds of MiB
         // costs as much as evaluating tens of rows on a software adapter); a larger call grows them.
         let (atlas_res, atlas_layers) = if most_cubes > 0 { (res, 6 * most_cubes as u32) } else { (1, 1) };
         let out_size = (rows_per_chunk.min(r) as u64 * row_bytes).max(16);
         let mut scratch_guard = self.row_scratch.lock().unwrap_or_else(|e| e.into_inner());
-        let fits = |s: &RowScratch| {
-            s.atlas.resolution == atlas_res && s.atlas.num_layers >= atlas_layers && s.out_buf.size() >= out_size
-        };
+        let fits = |s: &RowScratch| s.atlas.resolution == atlas_res && s.atlas.num_layers >= atlas_layers && s.out_buf.size() >= out_size;
         if !scratch_guard.as_ref().is_some_and(fits) {
             let (layers, size) = match scratch_guard.as_ref() {
                 Some(s) if s.atlas.resolution == atlas_res => (s.atlas.num_layers.max(atlas_layers), s.out_buf.size().max(out_size)),
@@ -227,12 +233,8 @@ impl GpuBackend {
                 // The binding needs one whole layer even when no row has a cube.
                 layers.push(bytemuck::Zeroable::zeroed());
             }
-            let layers_buf = storage_buffer(
-                device,
-                "LightMatrix::row_layers",
-                &layers,
-                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
-            );
+            let layers_buf =
+                storage_buffer(device, "LightMatrix::row_layers", &layers, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE);
             let rows_buf = storage_buffer(device, "LightMatrix::row_infos", &infos, wgpu::BufferUsages::STORAGE);
             if num_layers > 0 {
                 let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::row_cubes") });
@@ -320,9 +322,7 @@ pub fn stratified_rows(width: u32, height: u32, r: usize, seed: u64) -> Result<V
     use rand::{RngExt, SeedableRng};
     let m = width as usize * height as usize;
     if r == 0 || r > m {
-        return Err(Error::invalid(format!(
-            "the number of rows must be in [1, {m}] (view samples of a {width}x{height} image), got {r}"
-        )));
+        return Err(Error::invalid(format!("the number of rows must be in [1, {m}] (view samples of a {width}x{height} image), got {r}")));
     }
     // r comes from the caller: refuse a count whose index vectors cannot be allocated (an allocation
     // failure would abort the process).
@@ -368,5 +368,4 @@ pub fn stratified_blocks(width: u32, height: u32, r: usize) -> Vec<(usize, usize
 }
 
 #[cfg(test)]
-#[path = "rows_tests.rs"]
 mod tests;

@@ -99,8 +99,8 @@ fn compare(gpu: &[f32], cpu: &[f32], view: &ViewSamples, scale: f32) -> (f64, us
                     if xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h {
                         let k = yy as usize * w + xx as usize;
                         near_shadow_edge |= lit[k] != lit[i];
-                        near_geometric_edge |= view.shape_index[k] != view.shape_index[i]
-                            || view.geo_normal[k].dot(view.geo_normal[i]) < 0.99;
+                        near_geometric_edge |=
+                            view.shape_index[k] != view.shape_index[i] || view.geo_normal[k].dot(view.geo_normal[i]) < 0.99;
                     }
                 }
             }
@@ -236,11 +236,7 @@ fn many_lights_sum_matches_cpu_across_batches() {
                 texture: None,
                 loc: loc.clone(),
             },
-            1 => Emitter::Directional {
-                direction: Vec3::new(rnd() - 0.5, -1.0, rnd() - 0.5).normalize(),
-                irradiance: i,
-                loc: loc.clone(),
-            },
+            1 => Emitter::Directional { direction: Vec3::new(rnd() - 0.5, -1.0, rnd() - 0.5).normalize(), irradiance: i, loc: loc.clone() },
             _ => Emitter::Point { position: p, intensity: i, loc: loc.clone() },
         });
     }
@@ -278,11 +274,7 @@ fn many_lights_sum_matches_cpu_across_batches() {
 #[ignore]
 fn bench_time_per_column() {
     let loc = Location::default();
-    for (name, make) in [
-        ("point (cube, 6 faces)", 0),
-        ("spot (1 map)", 1),
-        ("directional (1 ortho map)", 2),
-    ] {
+    for (name, make) in [("point (cube, 6 faces)", 0), ("spot (1 map)", 1), ("directional (1 ortho map)", 2)] {
         let emitters: Vec<Emitter> = (0..12)
             .map(|k| {
                 let p = Vec3::new(-0.6 + 0.1 * k as f32, 0.8, 0.2);
@@ -296,7 +288,11 @@ fn bench_time_per_column() {
                         texture: None,
                         loc: loc.clone(),
                     },
-                    _ => Emitter::Directional { direction: Vec3::new(0.05 * k as f32, -1.0, -0.3).normalize(), irradiance: Vec3::ONE, loc: loc.clone() },
+                    _ => Emitter::Directional {
+                        direction: Vec3::new(0.05 * k as f32, -1.0, -0.3).normalize(),
+                        irradiance: Vec3::ONE,
+                        loc: loc.clone(),
+                    },
                 }
             })
             .collect();
@@ -330,7 +326,14 @@ fn bias_sweep() {
     let m = (size * size) as usize;
     for res in [256u32, 512, 1024] {
         for (no, db, sb) in [(1.0, 0.0, 0.0), (1.0, 0.5, 0.0), (1.0, 0.25, 0.1), (1.5, 0.25, 0.1), (0.75, 0.25, 0.1), (1.0, 0.25, 0.25)] {
-            let opts = ColumnOptions { visibility: Visibility::ShadowMap, shadow_resolution: res, normal_offset: no, depth_bias: db, slope_bias: sb, ..Default::default() };
+            let opts = ColumnOptions {
+                visibility: Visibility::ShadowMap,
+                shadow_resolution: res,
+                normal_offset: no,
+                depth_bias: db,
+                slope_bias: sb,
+                ..Default::default()
+            };
             let mat = LightMatrix::new(ctx.clone(), scene.clone(), view.clone(), lights.clone(), opts).unwrap();
             let gpu = mat.columns(&[0, 1, 2]).unwrap();
             let mut line = format!("res {res} normal {no} depth {db} slope {sb}:");

@@ -8,8 +8,8 @@ use crate::error::Error;
 use crate::gpu::mapping::apply_chain_gpu;
 use crate::matrix::backend::{Chosen, Device};
 use crate::matrix::mapping::{PixelMapping, NO_SOURCE};
+use crate::view::features::DeepMetric;
 use crate::view::ViewSamples;
-use crate::view_features::DeepMetric;
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use std::sync::{Arc, Mutex, Weak};
@@ -51,12 +51,9 @@ fn mapping_from(a: &PyReadonlyArrayDyn<'_, i64>, what: &str) -> PyResult<PixelMa
         if v == -1 {
             source.push(NO_SOURCE);
         } else if v < 0 || v as u64 >= m as u64 {
-            return Err(Error::invalid(format!(
-                "{what}[{}, {}] = {v} is not a pixel index in [0, {m}) or -1 (no source)",
-                i / w,
-                i % w
-            ))
-            .into());
+            return Err(
+                Error::invalid(format!("{what}[{}, {}] = {v} is not a pixel index in [0, {m}) or -1 (no source)", i / w, i % w)).into()
+            );
         } else {
             source.push(v as u32);
         }
@@ -89,13 +86,11 @@ pub fn pixel_mapping<'py>(
 pub fn compose_mappings<'py>(py: Python<'py>, mappings: Vec<PyReadonlyArrayDyn<'py, i64>>) -> PyResult<Bound<'py, PyArrayDyn<i64>>> {
     let first = mappings.first().ok_or_else(|| Error::invalid("compose_mappings needs at least one mapping, got 0"))?;
     if let Some((k, m)) = mappings.iter().enumerate().find(|(_, m)| m.shape() != first.shape()) {
-        return Err(Error::invalid(format!("mappings[{k}] is {} but mappings[0] is {} (H x W)", dims(m.shape()), dims(first.shape()))).into());
+        return Err(
+            Error::invalid(format!("mappings[{k}] is {} but mappings[0] is {} (H x W)", dims(m.shape()), dims(first.shape()))).into()
+        );
     }
-    let maps = mappings
-        .iter()
-        .enumerate()
-        .map(|(k, a)| mapping_from(a, &format!("mappings[{k}]")))
-        .collect::<PyResult<Vec<_>>>()?;
+    let maps = mappings.iter().enumerate().map(|(k, a)| mapping_from(a, &format!("mappings[{k}]"))).collect::<PyResult<Vec<_>>>()?;
     let first = &maps[0];
     let refs: Vec<&PixelMapping> = maps.iter().collect();
     let out = PixelMapping::chain(first.width, first.height, &refs)?;
@@ -115,12 +110,7 @@ pub fn apply_mapping<'py>(
 ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
     let first = mappings.first().ok_or_else(|| Error::invalid("apply_mapping needs a mapping, got an empty chain"))?;
     if let Some((k, m)) = mappings.iter().enumerate().find(|(_, m)| m.shape() != first.shape()) {
-        return Err(Error::invalid(format!(
-            "mapping[{k}] is {} but mapping[0] is {} (H x W)",
-            dims(m.shape()),
-            dims(first.shape())
-        ))
-        .into());
+        return Err(Error::invalid(format!("mapping[{k}] is {} but mapping[0] is {} (H x W)", dims(m.shape()), dims(first.shape()))).into());
     }
     let maps = mappings
         .iter()
@@ -170,7 +160,7 @@ fn hires_view(py: Python<'_>, scene: &Scene, factor: u32, chosen: &Chosen) -> Py
         }
     }
     let hi = Arc::new(crate::image::antialias::scaled_scene(&scene.inner, factor)?);
-    let chains = crate::view_chains::ChainOptions::default();
+    let chains = crate::view::chains::ChainOptions::default();
     let v = match chosen {
         Chosen::Gpu(ctx) => {
             let ctx = ctx.clone();
@@ -180,8 +170,8 @@ fn hires_view(py: Python<'_>, scene: &Scene, factor: u32, chosen: &Chosen) -> Py
             // The high-resolution scene has the same geometry: the scene's own BVH serves it.
             let tracer = scene.tracer(py)?;
             super::signals::detach(py, move || -> crate::error::Result<ViewSamples> {
-                let ids = crate::view_resolve::cast_visibility_traced(&hi, &tracer)?;
-                crate::view_resolve::resolve_view_samples_with(&hi, &ids, &chains)
+                let ids = crate::view::resolve::cast_visibility_traced(&hi, &tracer)?;
+                crate::view::resolve::resolve_view_samples_with(&hi, &ids, &chains)
             })?
         }
     };
@@ -216,7 +206,7 @@ pub fn antialias<'py>(
     let data: Vec<f32> = image.as_array().iter().copied().collect();
     let dev = self::device(device)?;
     let chosen = py.detach(move || dev.choose())?;
-    let low = scene.view_samples_on(py, crate::view_chains::ChainOptions::default(), &chosen)?;
+    let low = scene.view_samples_on(py, crate::view::chains::ChainOptions::default(), &chosen)?;
     let high = hires_view(py, &scene, factor, &chosen)?;
     let metric = DeepMetric::for_diagonal(scene.inner.diagonal());
     let channels = shape[2];

@@ -2,7 +2,7 @@
 //! wrapper with argument checks is `manylights.clustered_shading` (python/manylights/clustered.py).
 use super::matrix::LightMatrix;
 use super::util::array;
-use crate::cluster::visibility::{Membership, LightClustering, ViewClustering};
+use crate::cluster::visibility::{LightClustering, Membership, ViewClustering};
 use crate::error::Error;
 use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;

@@ -199,9 +199,18 @@ pub fn cluster_view_samples_py<'py>(
     let pts = triples("points", &points)?;
     let nrm = normals_or_zero(Some(normals), "normals", pts.len(), "points")?;
     if k < 1 {
-        return Err(Error::invalid(format!("cluster_view_samples: k must be in [1, {}] (the number of view samples), got {k}", pts.len())).into());
+        return Err(
+            Error::invalid(format!("cluster_view_samples: k must be in [1, {}] (the number of view samples), got {k}", pts.len())).into()
+        );
     }
-    let params = KMeansParams { k: k as usize, max_iterations: count("iterations", iterations)?, tolerance: 0.0, cos_threshold, use_grid: grid, seed };
+    let params = KMeansParams {
+        k: k as usize,
+        max_iterations: count("iterations", iterations)?,
+        tolerance: 0.0,
+        cos_threshold,
+        use_grid: grid,
+        seed,
+    };
     let (gamma, f) = (count("gamma", gamma)?, count("f", f)?);
     let chosen = Device::parse(device)?;
     let t = std::time::Instant::now();

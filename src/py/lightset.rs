@@ -16,8 +16,21 @@ use std::sync::Arc;
 const BSDF_WORDS: usize = std::mem::size_of::<GpuBsdf>() / 4;
 /// Keyword arguments of `from_arrays`.
 const KEYS: [&str; 15] = [
-    "kind", "position", "direction", "normal", "geo_normal", "incident", "intensity", "power", "cutoff_angle",
-    "beam_width", "bsdf", "albedo", "vpl_clamp", "patch", "vsl_radius",
+    "kind",
+    "position",
+    "direction",
+    "normal",
+    "geo_normal",
+    "incident",
+    "intensity",
+    "power",
+    "cutoff_angle",
+    "beam_width",
+    "bsdf",
+    "albedo",
+    "vpl_clamp",
+    "patch",
+    "vsl_radius",
 ];
 
 /// A set of lights (struct of arrays); numpy views via the properties.
@@ -201,10 +214,15 @@ impl LightSet {
     }
 }
 
-
 /// `obj` as a C-contiguous numpy array of `dtype` with its shape; ValueError naming `name` for
 /// non-numeric input (strings, objects, complex numbers).
-fn numeric<'py>(py: Python<'py>, name: &str, obj: &Bound<'py, PyAny>, dtype: &str, ints_only: bool) -> PyResult<(Bound<'py, PyAny>, Vec<usize>)> {
+fn numeric<'py>(
+    py: Python<'py>,
+    name: &str,
+    obj: &Bound<'py, PyAny>,
+    dtype: &str,
+    ints_only: bool,
+) -> PyResult<(Bound<'py, PyAny>, Vec<usize>)> {
     let np = py.import("numpy")?;
     let a = np.call_method1("asarray", (obj,)).map_err(|e| Error::invalid(format!("{name} must be a numeric array: {e}")))?;
     let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
@@ -264,7 +282,9 @@ fn from_arrays_impl(py: Python<'_>, scene: &Scene, kwargs: Option<&Bound<'_, PyD
     }
     let get = |k: &str| -> PyResult<Option<Bound<'_, PyAny>>> { Ok(kw.get_item(k)?.filter(|v| !v.is_none())) };
     // n: from kind when it is an array, else from the first per-light array given.
-    let kind_obj = get("kind")?.ok_or_else(|| Error::invalid("from_arrays needs kind= (int or (n,) ints: 0 point, 1 spot, 2 directional, 3 oriented point, 4 VPL)"))?;
+    let kind_obj = get("kind")?.ok_or_else(|| {
+        Error::invalid("from_arrays needs kind= (int or (n,) ints: 0 point, 1 spot, 2 directional, 3 oriented point, 4 VPL)")
+    })?;
     let (kind_arr, kind_shape) = numeric(py, "kind", &kind_obj, "int64", true)?;
     let kind_vals: Vec<i64> = kind_arr.call_method0("ravel")?.call_method0("tolist")?.extract()?;
     let n = match kind_shape.as_slice() {
@@ -278,11 +298,15 @@ fn from_arrays_impl(py: Python<'_>, scene: &Scene, kwargs: Option<&Bound<'_, PyD
                     break;
                 }
             }
-            n.ok_or_else(|| Error::invalid("kind is a scalar and no per-light array (position, direction, normal, intensity, power) gives n"))?
+            n.ok_or_else(|| {
+                Error::invalid("kind is a scalar and no per-light array (position, direction, normal, intensity, power) gives n")
+            })?
         }
         _ => return Err(Error::invalid(format!("kind must have shape (n,) or be a scalar, got {}", shape_str(&kind_shape))).into()),
     };
-    let kind: Vec<i32> = if kind_shape.is_empty() { vec![kind_vals[0].clamp(i32::MIN as i64, i32::MAX as i64) as i32; n] } else {
+    let kind: Vec<i32> = if kind_shape.is_empty() {
+        vec![kind_vals[0].clamp(i32::MIN as i64, i32::MAX as i64) as i32; n]
+    } else {
         kind_vals.iter().map(|&k| k.clamp(i32::MIN as i64, i32::MAX as i64) as i32).collect()
     };
     let v3 = |k: &str| -> PyResult<Option<Vec<Vec3>>> { get(k)?.map(|v| vec3s(py, k, &v, n, false)).transpose() };
@@ -315,7 +339,11 @@ fn from_arrays_impl(py: Python<'_>, scene: &Scene, kwargs: Option<&Bound<'_, PyD
         (Some(b), None) => {
             let (a, shape) = numeric(py, "bsdf", &b, "uint32", true)?;
             if shape != [n, BSDF_WORDS] {
-                return Err(Error::invalid(format!("bsdf must have shape (n, {BSDF_WORDS}) = ({n}, {BSDF_WORDS}) uint32 (a LightSet's bsdf), got {}", shape_str(&shape))).into());
+                return Err(Error::invalid(format!(
+                    "bsdf must have shape (n, {BSDF_WORDS}) = ({n}, {BSDF_WORDS}) uint32 (a LightSet's bsdf), got {}",
+                    shape_str(&shape)
+                ))
+                .into());
             }
             let words: Vec<u32> = a.call_method0("ravel")?.call_method0("tolist")?.extract()?;
             arrays.bsdf = Some(words.chunks_exact(BSDF_WORDS).map(|w| bytemuck::pod_read_unaligned(bytemuck::cast_slice(w))).collect());
@@ -405,7 +433,10 @@ fn light_indices(key: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<usize>> {
     match kind.as_str() {
         "b" => {
             if shape != [n] {
-                return Err(PyIndexError::new_err(format!("a boolean mask must have shape ({n},) for {n} lights, got {}", shape_str(&shape))));
+                return Err(PyIndexError::new_err(format!(
+                    "a boolean mask must have shape ({n},) for {n} lights, got {}",
+                    shape_str(&shape)
+                )));
             }
             let m: Vec<bool> = a.call_method0("tolist")?.extract()?;
             Ok(m.iter().enumerate().filter(|(_, &b)| b).map(|(j, _)| j).collect())

@@ -1,11 +1,11 @@
 //! `scene_lights` and `LightMatrix` (the `LightSet` class is in `lightset.rs`, re-exported here).
+pub use super::lightset::LightSet;
 use super::scene::Scene;
 use super::signals::{self, progress_callback};
-pub use super::lightset::LightSet;
 use super::util::array;
 use crate::error::Error;
-use crate::matrix::backend::Device;
 use crate::lights;
+use crate::matrix::backend::Device;
 use crate::matrix::{ColumnOptions, LightMatrix as CoreMatrix, Visibility};
 use numpy::{PyArrayDyn, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -48,7 +48,7 @@ impl LightMatrix {
         if !(16..=8192).contains(&shadow_map_size) {
             return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
         }
-        let chains = crate::view_chains::ChainOptions::with_max_depth(max_depth)?;
+        let chains = crate::view::chains::ChainOptions::with_max_depth(max_depth)?;
         let visibility = visibility.map(Visibility::parse).transpose()?;
         let mut device = Device::parse(device)?.with_env()?;
         if device == Device::Auto && visibility.is_some_and(|v| v != Visibility::RayTraced) {
@@ -199,7 +199,14 @@ impl LightMatrix {
     /// Kollig-Keller compensation of the VPL clamp (`matrix::bias_compensation`), (H, W, 3) float32.
     /// `max_depth` < 0 = unlimited; `light_samples` = 0 traces every light at each path vertex.
     #[pyo3(signature = (max_depth=-1, spp=1, light_samples=64, seed=0))]
-    fn bias_compensation<'py>(&self, py: Python<'py>, max_depth: i64, spp: u32, light_samples: usize, seed: u64) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    fn bias_compensation<'py>(
+        &self,
+        py: Python<'py>,
+        max_depth: i64,
+        spp: u32,
+        light_samples: usize,
+        seed: u64,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
         let opts = crate::matrix::bias_compensation::BiasCompensationOptions {
             max_depth: if max_depth < 0 { u32::MAX } else { u32::try_from(max_depth).unwrap_or(u32::MAX) },

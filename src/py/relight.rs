@@ -17,7 +17,14 @@ fn image(name: &str, a: &PyReadonlyArrayDyn<'_, f32>) -> PyResult<(Vec<f32>, usi
     let data: Vec<f32> = a.as_array().iter().copied().collect();
     if let Some(k) = data.iter().position(|v| !v.is_finite()) {
         let (px, ch) = (k / channels, k % channels);
-        return Err(Error::invalid(format!("{name}[{}, {}{}] is not finite: {}", px / side, px % side, if shape.len() == 3 { format!(", {ch}") } else { String::new() }, data[k])).into());
+        return Err(Error::invalid(format!(
+            "{name}[{}, {}{}] is not finite: {}",
+            px / side,
+            px % side,
+            if shape.len() == 3 { format!(", {ch}") } else { String::new() },
+            data[k]
+        ))
+        .into());
     }
     haar::check_image(data.len(), side, channels)?;
     Ok((data, side, channels, shape))

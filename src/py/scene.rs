@@ -4,8 +4,8 @@ use crate::gpu::GpuContext;
 use crate::matrix::backend::{Chosen, Device, DeviceInfo};
 use crate::raytrace::RayTracer;
 use crate::scene::{self, Bsdf, Emitter, LoadOptions, Param, ShapeKind};
+use crate::view::chains::ChainOptions;
 use crate::view::ViewSamples;
-use crate::view_chains::ChainOptions;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -41,7 +41,7 @@ impl Scene {
 
     /// The view samples with delta chains followed by `chains`, computed once per options and cached:
     /// visibility at pixel centres rasterised on the GPU, or ray cast through the BVH for the CPU
-    /// backend (`view_resolve::cast_visibility_traced`), then resolved exactly on the CPU. A cached
+    /// backend (`view::resolve::cast_visibility_traced`), then resolved exactly on the CPU. A cached
     /// entry serves both devices (so matrices of one Scene on either backend share their rows).
     pub fn view_samples_on(&self, py: Python<'_>, chains: ChainOptions, chosen: &Chosen) -> PyResult<Arc<ViewSamples>> {
         if let Some((_, v)) = self.view.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(o, _)| *o == chains) {
@@ -56,8 +56,8 @@ impl Scene {
             Chosen::Cpu => {
                 let tracer = self.tracer(py)?;
                 super::signals::detach(py, move || -> crate::error::Result<ViewSamples> {
-                    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer)?;
-                    crate::view_resolve::resolve_view_samples_with(&scene, &ids, &chains)
+                    let ids = crate::view::resolve::cast_visibility_traced(&scene, &tracer)?;
+                    crate::view::resolve::resolve_view_samples_with(&scene, &ids, &chains)
                 })?
             }
         };
@@ -330,13 +330,9 @@ impl Scene {
         // The camera's own hits (samples 0 .. H * W; delta-chain samples follow them).
         let m = h * w;
         let d = PyDict::new(py);
-        for (name, data) in [
-            ("position", &v.position),
-            ("normal", &v.normal),
-            ("geo_normal", &v.geo_normal),
-            ("wi", &v.wi),
-            ("albedo", &v.albedo),
-        ] {
+        for (name, data) in
+            [("position", &v.position), ("normal", &v.normal), ("geo_normal", &v.geo_normal), ("wi", &v.wi), ("albedo", &v.albedo)]
+        {
             d.set_item(name, vec3_array(py, &data[..m])?.reshape(vec![h, w, 3])?)?;
         }
         let uv: Vec<f32> = v.uv[..m].iter().flat_map(|p| p.to_array()).collect();
@@ -445,4 +441,3 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(device_info, m)?)?;
     Ok(())
 }
-

@@ -1,6 +1,6 @@
 //! `cluster_tensor`: tensor clustering of the reduced tensor (src/cluster/tensor).
 use super::util::array;
-use crate::cluster::tensor::{self, Representative, ReducedTensor, TensorOptions};
+use crate::cluster::tensor::{self, ReducedTensor, Representative, TensorOptions};
 use crate::error::Error;
 use numpy::{PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -42,9 +42,7 @@ pub fn cluster_tensor_py<'py>(
         "max" => Representative::MaxWeight,
         "sampled" => Representative::Sampled,
         "centroid" => Representative::Centroid,
-        other => {
-            return Err(Error::invalid(format!("representative must be 'max', 'sampled' or 'centroid', got {other:?}")).into())
-        }
+        other => return Err(Error::invalid(format!("representative must be 'max', 'sampled' or 'centroid', got {other:?}")).into()),
     };
     let data = match slices.as_slice() {
         Ok(s) if slices.is_c_contiguous() => Cow::Borrowed(s),
@@ -52,11 +50,8 @@ pub fn cluster_tensor_py<'py>(
     };
     let opts = TensorOptions { seed, chunk, init_clusters, projection_dim, representative, color_averaging, time_weight, first_chunk };
     let result = super::signals::detach(py, || {
-        let t = if frame_major {
-            ReducedTensor::frame_major(&data, r, n, f, channels)?
-        } else {
-            ReducedTensor::new(&data, r, n, f, channels)?
-        };
+        let t =
+            if frame_major { ReducedTensor::frame_major(&data, r, n, f, channels)? } else { ReducedTensor::new(&data, r, n, f, channels)? };
         tensor::cluster_tensor(t, columns, &opts)
     })?;
     let c = result.num_clusters();

@@ -8,12 +8,12 @@ use super::util::{array, vec3_array};
 use crate::error::Error;
 use crate::matrix::backend::{Chosen, Device, DeviceInfo};
 use crate::matrix::{ColumnOptions, Visibility};
+use crate::raytrace::RayTracer;
 use crate::relight::gpu::{choose_device, GpuRelight};
 use crate::relight::relight::{self as core, RelightStats};
 use crate::relight::transfer::{NearField, Transfer, TransferOptions};
-use crate::raytrace::RayTracer;
+use crate::view::chains::ChainOptions;
 use crate::view::ViewSamples;
-use crate::view_chains::ChainOptions;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -39,7 +39,14 @@ impl DirectToIndirect {
 
     /// Wraps a transfer rebuilt for `scene` (`transfer_store`): the view samples, BVH and relighting
     /// device are made as `new` makes them.
-    pub(crate) fn from_transfer(py: Python<'_>, scene: &Scene, inner: Transfer, device: &str, visibility: Option<&str>, shadow_map_size: u32) -> PyResult<Self> {
+    pub(crate) fn from_transfer(
+        py: Python<'_>,
+        scene: &Scene,
+        inner: Transfer,
+        device: &str,
+        visibility: Option<&str>,
+        shadow_map_size: u32,
+    ) -> PyResult<Self> {
         let (chosen, columns) = relight_device(py, device, visibility, shadow_map_size)?;
         let view = scene.view_samples_on(py, ChainOptions::default(), &Chosen::Cpu)?;
         let tracer = scene.tracer(py)?;

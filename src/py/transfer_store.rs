@@ -18,12 +18,7 @@ fn transfer_arrays<'py>(py: Python<'py>, rel: &Bound<'py, PyAny>) -> PyResult<Ve
         Ok(r) => r.clone(),
         Err(_) => match rel.getattr("_t").ok().and_then(|t| t.cast_into::<DirectToIndirect>().ok()) {
             Some(r) => r,
-            None => {
-                return Err(PyTypeError::new_err(format!(
-                    "rel must be a manylights DirectToIndirect, got {}",
-                    rel.get_type().name()?
-                )))
-            }
+            None => return Err(PyTypeError::new_err(format!("rel must be a manylights DirectToIndirect, got {}", rel.get_type().name()?))),
         },
     };
     let mut out = Vec::new();
@@ -122,4 +117,3 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(transfer_scene_hash, m)?)?;
     Ok(())
 }
-

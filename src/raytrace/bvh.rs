@@ -34,12 +34,8 @@ pub(crate) struct Primitive {
 impl Boundable for Primitive {
     fn aabb(&self) -> Aabb {
         match self.geometry {
-            Geometry::Triangle([p0, p1, p2]) => {
-                Aabb::new(p0.min(p1).min(p2).into(), p0.max(p1).max(p2).into())
-            }
-            Geometry::Sphere { center, radius } => {
-                Aabb::new((center - Vec3::splat(radius)).into(), (center + Vec3::splat(radius)).into())
-            }
+            Geometry::Triangle([p0, p1, p2]) => Aabb::new(p0.min(p1).min(p2).into(), p0.max(p1).max(p2).into()),
+            Geometry::Sphere { center, radius } => Aabb::new((center - Vec3::splat(radius)).into(), (center + Vec3::splat(radius)).into()),
         }
     }
 }
@@ -120,9 +116,7 @@ impl SceneBvh {
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let wt = WatertightRay::new(o, d);
         let ray = obvhs_ray(o, d, t_min, t_max);
-        !bvh.ray_traverse_miss(ray, |ray, index| {
-            self.intersect_primitive(&wt, d, index, ray.tmin, ray.tmax).map_or(f32::INFINITY, |h| h.0)
-        })
+        !bvh.ray_traverse_miss(ray, |ray, index| self.intersect_primitive(&wt, d, index, ray.tmin, ray.tmax).map_or(f32::INFINITY, |h| h.0))
     }
 
     /// Closest hit by testing every primitive (the reference for tests); ties go to the lower index.
@@ -143,13 +137,8 @@ impl SceneBvh {
     #[inline]
     fn intersect_primitive(&self, wt: &WatertightRay, d: Vec3, index: usize, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
         match self.primitives[index].geometry {
-            Geometry::Triangle([p0, p1, p2]) => {
-                wt.intersect_triangle(p0, p1, p2, t_min, t_max).map(|h| (h.t, h.b1, h.b2))
-            }
-            Geometry::Sphere { center, radius } => {
-                intersect_sphere(center, radius, wt.o, d, t_min, t_max).map(|t| (t, 0.0, 0.0))
-            }
+            Geometry::Triangle([p0, p1, p2]) => wt.intersect_triangle(p0, p1, p2, t_min, t_max).map(|h| (h.t, h.b1, h.b2)),
+            Geometry::Sphere { center, radius } => intersect_sphere(center, radius, wt.o, d, t_min, t_max).map(|t| (t, 0.0, 0.0)),
         }
     }
 }
-

@@ -194,7 +194,11 @@ impl Gather<'_> {
             return 0.0;
         }
         let v = glossy_eval(lobes, sp.wi_local, wo).element_sum() / (3.0 * wo.z.abs());
-        if v.is_finite() { v.max(0.0) } else { 0.0 }
+        if v.is_finite() {
+            v.max(0.0)
+        } else {
+            0.0
+        }
     }
 
     /// Fills the dense row F_g(i, .) (sample order); returns (rays, links).
@@ -234,14 +238,27 @@ impl Gather<'_> {
                     continue;
                 }
             }
-            let r = if members.len() == 1 { members[0] as usize } else { members[representative(self.opts.seed, depth, c, members.len())] as usize };
+            let r = if members.len() == 1 {
+                members[0] as usize
+            } else {
+                members[representative(self.opts.seed, depth, c, members.len())] as usize
+            };
             links += 1;
             let f = self.brdf(sp, lobes, self.emit_position[r]);
             if f <= 0.0 {
                 continue;
             }
             let area = self.opts.near_field.patch_area(self.cloud.area[r]);
-            let (g, tested) = geometry_patch(tracer, sp, twosided, self.emit_position[r], self.emit_normal[r], self.cloud.geo_normal[r], self.opts.clamp, area);
+            let (g, tested) = geometry_patch(
+                tracer,
+                sp,
+                twosided,
+                self.emit_position[r],
+                self.emit_normal[r],
+                self.cloud.geo_normal[r],
+                self.opts.clamp,
+                area,
+            );
             rays += tested as u64;
             if g > 0.0 {
                 for &m in members {
@@ -268,7 +285,14 @@ fn representative(seed: u64, depth: u32, c: usize, size: usize) -> usize {
 /// times image norm (`image_norms` of F_g^w) is below `epsilon` (Sec. 3.5). Returns the lights culled.
 ///
 /// Errors: `InvalidParameter` for mismatched sizes; `Interrupted`.
-pub fn add_glossy(rows: &[SparseRow], color: &[Vec3], image_norms: &[f32], bw: &[f32], epsilon: f32, out: &mut [[f32; 3]]) -> Result<usize> {
+pub fn add_glossy(
+    rows: &[SparseRow],
+    color: &[Vec3],
+    image_norms: &[f32],
+    bw: &[f32],
+    epsilon: f32,
+    out: &mut [[f32; 3]],
+) -> Result<usize> {
     if rows.is_empty() {
         return Ok(0);
     }
@@ -307,5 +331,4 @@ pub fn add_glossy(rows: &[SparseRow], color: &[Vec3], image_norms: &[f32], bw: &
 }
 
 #[cfg(test)]
-#[path = "glossy_tests.rs"]
 mod tests;

@@ -39,8 +39,8 @@ use crate::gpu::columns::{storage_buffer, GpuViewSample, ViewBuffers, VIEW_FLAG_
 use crate::gpu::relight::{RelightParams, RelightPasses, ROW_CHUNK};
 use crate::gpu::GpuContext;
 use crate::lights::LightSet;
-use crate::matrix::gpu::GpuBackend;
 use crate::matrix::backend::{Chosen, Device};
+use crate::matrix::gpu::GpuBackend;
 use crate::matrix::ColumnOptions;
 use crate::scene::Scene;
 use crate::shading::GpuBsdf;
@@ -115,7 +115,14 @@ impl SparseParts {
 
     /// Record `partial[r] = sum_k value * lights[index]` for every row (RGB rows: each value times its
     /// channel), chunk by chunk.
-    fn encode(&self, device: &wgpu::Device, enc: &mut wgpu::CommandEncoder, passes: &RelightPasses, lights: &wgpu::Buffer, partial: &wgpu::Buffer) {
+    fn encode(
+        &self,
+        device: &wgpu::Device,
+        enc: &mut wgpu::CommandEncoder,
+        passes: &RelightPasses,
+        lights: &wgpu::Buffer,
+        partial: &wgpu::Buffer,
+    ) {
         for (first_row, rows, longest, start, index, value) in &self.parts {
             let mut first = 0;
             loop {
@@ -233,7 +240,8 @@ impl GpuRelight {
         let device = &ctx.device;
         let max_binding = (ctx.limits.max_storage_buffer_binding_size as u64).min(ctx.limits.max_buffer_size);
         // Bytes per coefficient: a u32 index and one f32 value (RGB rows: three).
-        let coefficients = t.coefficients_kept() + t.bounce_coefficients_kept() + t.glossy_coefficients_kept() + 2 * t.photon_coefficients_kept();
+        let coefficients =
+            t.coefficients_kept() + t.bounce_coefficients_kept() + t.glossy_coefficients_kept() + 2 * t.photon_coefficients_kept();
         let bytes = crate::memory::product(&[coefficients as u64, 8]);
         crate::memory::check_gpu(&ctx, "the transfer's sparse rows", bytes, false)?;
 
@@ -260,7 +268,12 @@ impl GpuRelight {
 
         let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
         let vec4s = |label: &str, count: usize| {
-            device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: (count as u64 * 16).max(16), usage: rw, mapped_at_creation: false })
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: (count as u64 * 16).max(16),
+                usage: rw,
+                mapped_at_creation: false,
+            })
         };
         let k_d_image: Vec<glam::Vec3> = order.iter().map(|&g| c.k_d[g]).collect();
         let mut extra_start = vec![0u32; pixels + 1];
@@ -286,7 +299,12 @@ impl GpuRelight {
                 norms: storage_buffer(device, "GpuRelight::glossy_norms", &t.glossy_image_norms, usage),
                 wavelet_lights: vec4s("GpuRelight::glossy_wavelet_lights", n),
                 partial: vec4s("GpuRelight::partial_glossy", pixels),
-                counters: device.create_buffer(&wgpu::BufferDescriptor { label: Some("GpuRelight::glossy_counters"), size: 8, usage: rw, mapped_at_creation: false }),
+                counters: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("GpuRelight::glossy_counters"),
+                    size: 8,
+                    usage: rw,
+                    mapped_at_creation: false,
+                }),
             })
         };
         let buffers = Buffers {
@@ -309,7 +327,12 @@ impl GpuRelight {
                 usage: rw,
                 mapped_at_creation: false,
             }),
-            counters: device.create_buffer(&wgpu::BufferDescriptor { label: Some("GpuRelight::counters"), size: 8, usage: rw, mapped_at_creation: false }),
+            counters: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("GpuRelight::counters"),
+                size: 8,
+                usage: rw,
+                mapped_at_creation: false,
+            }),
             rows: SparseParts::upload(device, &rows, 1, max_binding, "final-gather rows")?,
             bounce_rows: SparseParts::upload(device, &bounce_rows, 1, max_binding, "gather-to-gather rows")?,
             photon_rows: SparseParts::upload(device, &photon_rows, 3, max_binding, "photon-mapped multiple-bounce rows")?,
@@ -388,7 +411,13 @@ impl GpuRelight {
             for _ in 0..self.bounce_passes {
                 self.haar(&mut enc, &b.current);
                 b.bounce_rows.encode(device, &mut enc, &self.passes, &b.coeffs, &b.partial_gather);
-                self.passes.finish_bounce.encode(device, &mut enc, &finish, n, &[&b.current, &b.partial_gather, &b.gather_k_d, &b.gather_accum]);
+                self.passes.finish_bounce.encode(
+                    device,
+                    &mut enc,
+                    &finish,
+                    n,
+                    &[&b.current, &b.partial_gather, &b.gather_k_d, &b.gather_accum],
+                );
             }
             self.submit(enc, "the bounce passes")?;
         } else if !b.photon_rows.is_empty() {
@@ -396,7 +425,13 @@ impl GpuRelight {
             let mut enc = self.encoder();
             self.haar(&mut enc, &b.gather_accum);
             b.photon_rows.encode(device, &mut enc, &self.passes, &b.coeffs, &b.partial_gather);
-            self.passes.finish_bounce.encode(device, &mut enc, &finish, n, &[&b.current, &b.partial_gather, &b.gather_k_d, &b.gather_accum]);
+            self.passes.finish_bounce.encode(
+                device,
+                &mut enc,
+                &finish,
+                n,
+                &[&b.current, &b.partial_gather, &b.gather_k_d, &b.gather_accum],
+            );
             self.submit(enc, "the photon-mapped multiple bounces")?;
         }
         stats.seconds_bounces = t0.elapsed().as_secs_f64();
@@ -424,7 +459,13 @@ impl GpuRelight {
             self.passes.combine_glossy.encode(device, &mut enc, &p, self.pixels, &bufs);
             enc.copy_buffer_to_buffer(&g.counters, 4, &b.image, tail + 8, 4);
         } else {
-            self.passes.combine.encode(device, &mut enc, &p, self.pixels, &[&b.partial_pixels, &b.albedo, &b.view_accum, &b.extra_start, &b.image]);
+            self.passes.combine.encode(
+                device,
+                &mut enc,
+                &p,
+                self.pixels,
+                &[&b.partial_pixels, &b.albedo, &b.view_accum, &b.extra_start, &b.image],
+            );
         }
         self.submit(enc, "the transfer product")?;
         stats.seconds_transfer = t0.elapsed().as_secs_f64();
@@ -462,5 +503,4 @@ pub fn choose_device(device: Device) -> Result<Chosen> {
 }
 
 #[cfg(test)]
-#[path = "gpu_tests.rs"]
 mod tests;

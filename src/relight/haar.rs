@@ -213,5 +213,4 @@ pub fn cull_wavelet_lights(light: &[f32], channels: usize, image_norms: &[f32], 
 }
 
 #[cfg(test)]
-#[path = "haar_tests.rs"]
 mod tests;

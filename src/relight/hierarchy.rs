@@ -162,10 +162,7 @@ impl ClusterHierarchy {
             return Err(Error::invalid(format!("the scene diagonal must be finite and > 0, got {diagonal}")));
         }
         if let Some(i) = (0..n).find(|&i| !positions[i].is_finite() || !normals[i].is_finite()) {
-            return Err(Error::invalid(format!(
-                "gather sample {i} has a non-finite position {} or normal {}",
-                positions[i], normals[i]
-            )));
+            return Err(Error::invalid(format!("gather sample {i} has a non-finite position {} or normal {}", positions[i], normals[i])));
         }
         let scale = (k_weight / diagonal) as f64;
         let f: Vec<Feature> = positions
@@ -250,5 +247,4 @@ impl ClusterHierarchy {
 }
 
 #[cfg(test)]
-#[path = "hierarchy_tests.rs"]
 mod tests;

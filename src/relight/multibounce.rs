@@ -226,11 +226,7 @@ pub fn photon_rows(
 pub fn apply(t: &Transfer, b1: &[Vec3]) -> Result<Vec<Vec3>> {
     let n = t.cloud.len();
     if b1.len() != n || t.photon_rows.len() != n {
-        return Err(Error::invalid(format!(
-            "{} radiance values and {} photon rows for {n} gather samples",
-            b1.len(),
-            t.photon_rows.len()
-        )));
+        return Err(Error::invalid(format!("{} radiance values and {} photon rows for {n} gather samples", b1.len(), t.photon_rows.len())));
     }
     let flat: Vec<f32> = b1.iter().flat_map(|v| v.to_array()).collect();
     let mut bw = t.hierarchy.to_image(&flat, 3);
@@ -247,5 +243,4 @@ pub fn apply(t: &Transfer, b1: &[Vec3]) -> Result<Vec<Vec3>> {
 }
 
 #[cfg(test)]
-#[path = "multibounce_tests.rs"]
 mod tests;

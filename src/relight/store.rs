@@ -177,10 +177,7 @@ struct Reader {
 
 impl Reader {
     fn take(&mut self, name: &str, shape: &[usize]) -> Result<Data> {
-        let a = self
-            .arrays
-            .remove(name)
-            .ok_or_else(|| Error::invalid(format!("the saved transfer has no array '{name}'")))?;
+        let a = self.arrays.remove(name).ok_or_else(|| Error::invalid(format!("the saved transfer has no array '{name}'")))?;
         if a.shape != shape {
             return Err(Error::invalid(format!("array '{name}' has shape {:?}, expected {shape:?}", a.shape)));
         }
@@ -538,5 +535,4 @@ fn texture_keys(scene: &Scene, tex: &[usize], out: &mut Vec<u8>) {
 }
 
 #[cfg(test)]
-#[path = "store_tests.rs"]
 mod tests;

@@ -233,7 +233,16 @@ pub fn geometry(tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, q: Vec3, 
 /// a few patch sizes (relative change area / (pi d^2)). `area` = 0 is `geometry`.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn geometry_patch(tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, q: Vec3, n_s: Vec3, n_g: Vec3, clamp: f32, area: f32) -> (f32, bool) {
+pub fn geometry_patch(
+    tracer: &RayTracer,
+    sp: &ShadingPoint,
+    twosided: bool,
+    q: Vec3,
+    n_s: Vec3,
+    n_g: Vec3,
+    clamp: f32,
+    area: f32,
+) -> (f32, bool) {
     if !sp.surface {
         return (0.0, false);
     }
@@ -287,7 +296,13 @@ impl Transfer {
     /// Errors: `InvalidParameter` for n_g not a power of 4, coefficients outside 1 ..= n_g, a negative or
     /// non-finite threshold, a clamp that is not > 0; what `GatherCloud::new` and the hierarchy raise;
     /// `Interrupted`.
-    pub fn new(scene: &Scene, view: &ViewSamples, tracer: &RayTracer, opts: &TransferOptions, progress: &mut dyn FnMut(usize, usize)) -> Result<Transfer> {
+    pub fn new(
+        scene: &Scene,
+        view: &ViewSamples,
+        tracer: &RayTracer,
+        opts: &TransferOptions,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<Transfer> {
         crate::lights::gather::gather_levels(opts.gather)?;
         if !(1..=opts.gather).contains(&opts.coefficients) {
             return Err(Error::invalid(format!(
@@ -320,14 +335,20 @@ impl Transfer {
         let t2 = Instant::now();
         let n = cloud.len();
         let emit_position: Vec<Vec3> = (0..n).map(|g| offset_p(cloud.position[g], cloud.geo_normal[g], cloud.geo_normal[g])).collect();
-        let emit_normal: Vec<Vec3> = (0..n)
-            .map(|g| if cloud.normal[g].dot(cloud.geo_normal[g]) > 0.0 { cloud.normal[g] } else { cloud.geo_normal[g] })
-            .collect();
+        let emit_normal: Vec<Vec3> =
+            (0..n).map(|g| if cloud.normal[g].dot(cloud.geo_normal[g]) > 0.0 { cloud.normal[g] } else { cloud.geo_normal[g] }).collect();
         // Bounds of every cluster's emitting points, per depth (Morton order).
         let levels = hierarchy.levels;
         let bounds: Vec<Vec<(Vec3, Vec3)>> = (0..=levels).map(|d| hierarchy.cluster_bounds(d, &emit_position)).collect();
         let pixels = view.num_pixels();
-        let ctx = RowContext { cloud: &cloud, hierarchy: &hierarchy, bounds: &bounds, emit_position: &emit_position, emit_normal: &emit_normal, opts };
+        let ctx = RowContext {
+            cloud: &cloud,
+            hierarchy: &hierarchy,
+            bounds: &bounds,
+            emit_position: &emit_position,
+            emit_normal: &emit_normal,
+            opts,
+        };
         // Progress counts the pixels' rows, then the gather samples' rows of the bounce pass.
         let total = pixels + if opts.bounces > 1 { n } else { 0 };
         let (rows, mut shadow_rays, mut links) = ctx.rows(
@@ -518,9 +539,22 @@ impl RowContext<'_> {
                 }
                 continue;
             }
-            let r = if members.len() == 1 { members[0] as usize } else { members[representative(self.opts.seed, depth, c, members.len())] as usize };
+            let r = if members.len() == 1 {
+                members[0] as usize
+            } else {
+                members[representative(self.opts.seed, depth, c, members.len())] as usize
+            };
             let area = self.opts.near_field.patch_area(self.cloud.area[r]);
-            let (g, tested) = geometry_patch(tracer, sp, twosided, self.emit_position[r], self.emit_normal[r], self.cloud.geo_normal[r], self.opts.clamp, area);
+            let (g, tested) = geometry_patch(
+                tracer,
+                sp,
+                twosided,
+                self.emit_position[r],
+                self.emit_normal[r],
+                self.cloud.geo_normal[r],
+                self.opts.clamp,
+                area,
+            );
             rays += tested as u64;
             links += 1;
             if g > 0.0 {
@@ -534,5 +568,4 @@ impl RowContext<'_> {
 }
 
 #[cfg(test)]
-#[path = "transfer_tests.rs"]
 mod tests;

@@ -65,7 +65,11 @@ pub enum ShapeKind {
     Cube,
     /// Analytic in Mitsuba: `Mesh` holds a fine tessellation for rasterisation and shadow maps; exact
     /// intersections (G-buffer, ray tracing) use `center` and `radius` (world space).
-    Sphere { center: Vec3, radius: f32, flip_normals: bool },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        flip_normals: bool,
+    },
     Disk,
     /// Mitsuba's `serialized` mesh.
     Serialized,
@@ -116,10 +120,15 @@ pub enum MicrofacetDistribution {
 /// BSDFs as Mitsuba defines them (RGB variants). Evaluation lives in `crate::shading::bsdf`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Bsdf {
-    Diffuse { reflectance: Param },
+    Diffuse {
+        reflectance: Param,
+    },
     /// Wraps another BSDF (index into `Scene::bsdfs`); one nested BSDF serves both sides
     /// (Mitsuba's second child, for a different back side, is kept as `back`).
-    TwoSided { front: usize, back: usize },
+    TwoSided {
+        front: usize,
+        back: usize,
+    },
     RoughPlastic {
         diffuse_reflectance: Param,
         specular_reflectance: Param,
@@ -148,14 +157,25 @@ pub enum Bsdf {
         specular_reflectance: Param,
     },
     /// Smooth conductor: no contribution from point lights.
-    Conductor { eta: Vec3, k: Vec3, specular_reflectance: Param },
+    Conductor {
+        eta: Vec3,
+        k: Vec3,
+        specular_reflectance: Param,
+    },
     /// Smooth dielectric: no contribution from point lights.
-    Dielectric { int_ior: f32, ext_ior: f32 },
+    Dielectric {
+        int_ior: f32,
+        ext_ior: f32,
+    },
     /// Mitsuba's `principled` (`crate::shading::principled`); `eta` resolved from `eta` / `specular`.
     Principled(Box<crate::scene::principled::Principled>),
     /// Mitsuba's `blendbsdf`: `(1 - w) f_first + w f_second`, w = clip(weight, 0, 1) (`eval_1` of a
     /// texture); indices into `Scene::bsdfs`, neither a blend (nested blends are refused on load).
-    Blend { weight: ScalarParam, first: usize, second: usize },
+    Blend {
+        weight: ScalarParam,
+        first: usize,
+        second: usize,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -185,7 +205,11 @@ pub enum Texture {
         to_uv: Mat3,
         loc: Location,
     },
-    Checkerboard { color0: Vec3, color1: Vec3, to_uv: Mat3 },
+    Checkerboard {
+        color0: Vec3,
+        color1: Vec3,
+        to_uv: Mat3,
+    },
 }
 
 /// A lat-long environment map (`envmap`).
@@ -202,17 +226,43 @@ pub struct EnvMap {
 #[derive(Debug, Clone)]
 pub enum Emitter {
     /// `intensity` in W/sr.
-    Point { position: Vec3, intensity: Vec3, loc: Location },
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+        loc: Location,
+    },
     /// Emits along local +z of `world_from_light`. Angles in radians.
     /// `texture`: index into `Scene::textures` of a projected texture (`crate::lights::spot_texture`).
-    Spot { world_from_light: Mat4, intensity: Vec3, cutoff_angle: f32, beam_width: f32, texture: Option<usize>, loc: Location },
+    Spot {
+        world_from_light: Mat4,
+        intensity: Vec3,
+        cutoff_angle: f32,
+        beam_width: f32,
+        texture: Option<usize>,
+        loc: Location,
+    },
     /// `direction`: unit vector the light travels along (world). `irradiance` in W/m^2.
-    Directional { direction: Vec3, irradiance: Vec3, loc: Location },
+    Directional {
+        direction: Vec3,
+        irradiance: Vec3,
+        loc: Location,
+    },
     /// Emits `radiance` from the +normal side of `Scene::meshes[mesh]`; with `texture` (index into
     /// `Scene::textures`) the radiance is that texture at the surface uv instead (`radiance` unused).
-    Area { mesh: usize, radiance: Vec3, texture: Option<usize>, loc: Location },
-    EnvMap { map: EnvMap, loc: Location },
-    Constant { radiance: Vec3, loc: Location },
+    Area {
+        mesh: usize,
+        radiance: Vec3,
+        texture: Option<usize>,
+        loc: Location,
+    },
+    EnvMap {
+        map: EnvMap,
+        loc: Location,
+    },
+    Constant {
+        radiance: Vec3,
+        loc: Location,
+    },
 }
 
 impl Scene {
@@ -253,12 +303,8 @@ impl Camera {
         let tx = (self.fov_x * 0.5).tan();
         let ty = tx * self.height as f32 / self.width as f32;
         let o = self.principal_point_offset;
-        let d_local = Vec3::new(
-            (1.0 - 2.0 * (px / self.width as f32 + o.x)) * tx,
-            (1.0 - 2.0 * (py / self.height as f32 + o.y)) * ty,
-            1.0,
-        )
-        .normalize();
+        let d_local = Vec3::new((1.0 - 2.0 * (px / self.width as f32 + o.x)) * tx, (1.0 - 2.0 * (py / self.height as f32 + o.y)) * ty, 1.0)
+            .normalize();
         let d = self.world_from_camera.transform_vector3(d_local).normalize();
         let o = self.origin();
         (o + d * (self.near_clip / d_local.z), d)

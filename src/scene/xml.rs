@@ -21,11 +21,11 @@
 //! sphere transforms, a scene without shapes or without a sensor. Only the first sensor is used (others
 //! are checked).
 //! Scene-level emitters come first in document order, then the area emitters of shapes in shape order.
+mod blend;
 mod cie;
 mod instancing;
 mod materials;
 mod parse;
-mod blend;
 mod plugins;
 mod principled;
 mod props;
@@ -129,15 +129,7 @@ pub fn load_scene_with_warnings(path: &Path, opts: &LoadOptions) -> Result<(Scen
     }
     let mut emitters = b.emitters;
     emitters.extend(b.area_emitters);
-    let scene = Scene {
-        path: path.to_path_buf(),
-        camera,
-        meshes: b.meshes,
-        bsdfs: b.bsdfs,
-        textures: b.textures,
-        emitters,
-        integrator,
-    };
+    let scene = Scene { path: path.to_path_buf(), camera, meshes: b.meshes, bsdfs: b.bsdfs, textures: b.textures, emitters, integrator };
     Ok((scene, b.warnings))
 }
 
@@ -164,11 +156,4 @@ fn read_integrator(doc: &parse::Document, node: usize) -> Result<Integrator> {
 }
 
 #[cfg(test)]
-#[path = "xml/tests.rs"]
 mod tests;
-#[cfg(test)]
-#[path = "xml/tests_small.rs"]
-mod tests_small;
-#[cfg(test)]
-#[path = "xml/tests_formats.rs"]
-mod tests_formats;

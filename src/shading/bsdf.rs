@@ -63,13 +63,19 @@ pub const FLAG_BLEND: u32 = 8;
 
 const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 
-/// The WGSL twin (no entry points; needs `fn bsdf_table(i: u32) -> f32` from the including module).
-pub const BSDF_WGSL: &str = include_str!("../../shaders/common/bsdf.wgsl");
-
 /// Resolve scene BSDF `index` at texture coordinate `uv` (textures evaluated there).
 pub fn resolve(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: Vec2) -> GpuBsdf {
-    let mut b = GpuBsdf { diffuse: [0.0; 3], kind: KIND_NONE, specular: [0.0; 3], flags: 0, eta: [0.0; 3],
-        alpha_u: 0.0, k: [0.0; 3], alpha_v: 0.0, extra: [0.0; 4] };
+    let mut b = GpuBsdf {
+        diffuse: [0.0; 3],
+        kind: KIND_NONE,
+        specular: [0.0; 3],
+        flags: 0,
+        eta: [0.0; 3],
+        alpha_u: 0.0,
+        k: [0.0; 3],
+        alpha_v: 0.0,
+        extra: [0.0; 4],
+    };
     let Some(bsdf) = bsdfs.get(index) else { return b };
     let rgb = |p: &Param| eval_param(textures, p, uv).to_array();
     match bsdf {
@@ -161,10 +167,13 @@ pub fn resolve_records(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: V
         Some(Bsdf::TwoSided { front, .. }) if *front != index && matches!(bsdfs.get(*front), Some(Bsdf::Blend { .. })) => {
             let (mut a, b) = resolve_records(bsdfs, textures, *front, uv);
             a.flags |= FLAG_TWOSIDED;
-            (a, b.map(|mut b| {
-                b.flags |= FLAG_TWOSIDED;
-                b
-            }))
+            (
+                a,
+                b.map(|mut b| {
+                    b.flags |= FLAG_TWOSIDED;
+                    b
+                }),
+            )
         }
         _ => (resolve(bsdfs, textures, index, uv), None),
     }
@@ -293,7 +302,11 @@ pub fn microfacet_d(ggx: bool, alpha_u: f32, alpha_v: f32, m: Vec3) -> f32 {
     } else {
         (-(sx * sx + sy * sy) / cos_theta_2).exp() / (std::f32::consts::PI * alpha_uv * cos_theta_2 * cos_theta_2)
     };
-    if result * m.z > 1e-20 { result } else { 0.0 }
+    if result * m.z > 1e-20 {
+        result
+    } else {
+        0.0
+    }
 }
 
 /// `MicrofacetDistribution::smith_g1`.
@@ -305,7 +318,11 @@ pub(crate) fn smith_g1(ggx: bool, alpha_u: f32, alpha_v: f32, v: Vec3, m: Vec3) 
     } else {
         let a = 1.0 / tan_theta_alpha_2.sqrt();
         let a_sqr = a * a;
-        if a >= 1.6 { 1.0 } else { (3.535 * a + 2.181 * a_sqr) / (1.0 + 2.276 * a + 2.577 * a_sqr) }
+        if a >= 1.6 {
+            1.0
+        } else {
+            (3.535 * a + 2.181 * a_sqr) / (1.0 + 2.276 * a + 2.577 * a_sqr)
+        }
     };
     if xy_alpha_2 == 0.0 {
         result = 1.0;
@@ -370,17 +387,35 @@ pub(crate) fn test_sets() -> Vec<(&'static str, Vec<Bsdf>, usize)> {
     let two = |b: Bsdf| (vec![b, Bsdf::TwoSided { front: 0, back: 0 }], 1);
     let (eta, k) = (Vec3::new(1.65746, 0.880369, 0.521229), Vec3::new(9.22387, 6.26952, 4.837));
     let rc = |distribution, a: f32| Bsdf::RoughConductor {
-        distribution, alpha_u: Param::Value(Vec3::splat(a)), alpha_v: Param::Value(Vec3::splat(a)), eta, k,
+        distribution,
+        alpha_u: Param::Value(Vec3::splat(a)),
+        alpha_v: Param::Value(Vec3::splat(a)),
+        eta,
+        k,
         specular_reflectance: v(1.0, 1.0, 1.0),
     };
     let rp = |distribution, alpha, nonlinear| Bsdf::RoughPlastic {
-        diffuse_reflectance: v(0.940, 0.271, 0.361), specular_reflectance: v(1.0, 1.0, 1.0), distribution, alpha,
-        int_ior: 1.9, ext_ior: 1.000277, nonlinear,
+        diffuse_reflectance: v(0.940, 0.271, 0.361),
+        specular_reflectance: v(1.0, 1.0, 1.0),
+        distribution,
+        alpha,
+        int_ior: 1.9,
+        ext_ior: 1.000277,
+        nonlinear,
     };
     let mut sets = vec![
         ("diffuse", vec![Bsdf::Diffuse { reflectance: v(0.725, 0.71, 0.68) }], 0),
-        ("plastic", vec![Bsdf::Plastic { diffuse_reflectance: v(0.940, 0.271, 0.361), specular_reflectance: v(1.0, 1.0, 1.0),
-            int_ior: 1.9, ext_ior: 1.000277, nonlinear: false }], 0),
+        (
+            "plastic",
+            vec![Bsdf::Plastic {
+                diffuse_reflectance: v(0.940, 0.271, 0.361),
+                specular_reflectance: v(1.0, 1.0, 1.0),
+                int_ior: 1.9,
+                ext_ior: 1.000277,
+                nonlinear: false,
+            }],
+            0,
+        ),
         ("roughplastic_ggx", vec![rp(Ggx, 0.1, false)], 0),
         ("roughplastic_beckmann_nonlinear", vec![rp(Beckmann, 0.3, true)], 0),
         ("roughconductor_beckmann", vec![rc(Beckmann, 0.25)], 0),
@@ -414,15 +449,21 @@ pub(crate) fn test_sets() -> Vec<(&'static str, Vec<Bsdf>, usize)> {
     sets.push(("principled_clearcoat", vec![principled(0.0, 0.0, 0.9, 0.0)], 0));
     sets.push(("principled_spec_trans", vec![principled(0.1, 0.7, 0.3, 0.0)], 0));
     // blendbsdf: diffuse + rough conductor with weight 0.3; twosided(blend(principled, roughplastic)).
-    sets.push(("blend_diffuse_roughconductor", vec![
-        Bsdf::Diffuse { reflectance: v(0.2, 0.6, 0.3) }, rc(Ggx, 0.2),
-        Bsdf::Blend { weight: s(0.3), first: 0, second: 1 },
-    ], 2));
-    sets.push(("twosided_blend_principled_roughplastic", vec![
-        principled(0.3, 0.0, 0.5, 0.5), rp(Ggx, 0.2, false),
-        Bsdf::Blend { weight: s(0.6), first: 0, second: 1 },
-        Bsdf::TwoSided { front: 2, back: 2 },
-    ], 3));
+    sets.push((
+        "blend_diffuse_roughconductor",
+        vec![Bsdf::Diffuse { reflectance: v(0.2, 0.6, 0.3) }, rc(Ggx, 0.2), Bsdf::Blend { weight: s(0.3), first: 0, second: 1 }],
+        2,
+    ));
+    sets.push((
+        "twosided_blend_principled_roughplastic",
+        vec![
+            principled(0.3, 0.0, 0.5, 0.5),
+            rp(Ggx, 0.2, false),
+            Bsdf::Blend { weight: s(0.6), first: 0, second: 1 },
+            Bsdf::TwoSided { front: 2, back: 2 },
+        ],
+        3,
+    ));
     sets
 }
 
@@ -445,82 +486,4 @@ pub(crate) fn random_directions(n: usize, seed: u64) -> Vec<Vec3> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn gpu_bsdf_is_80_bytes() {
-        assert_eq!(std::mem::size_of::<GpuBsdf>(), 80);
-    }
-
-    #[test]
-    fn wgsl_parses_and_validates() {
-        let src = crate::gpu::bsdf_eval::BSDF_EVAL_WGSL;
-        let module = naga::front::wgsl::parse_str(src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(src)));
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-            .validate(&module)
-            .unwrap_or_else(|e| panic!("{e:?}"));
-        let ty = module.types.iter().find(|(_, t)| t.name.as_deref() == Some("Bsdf")).expect("struct Bsdf").1;
-        match &ty.inner {
-            naga::TypeInner::Struct { span, members } => {
-                assert_eq!(*span, 80);
-                let offsets: Vec<u32> = members.iter().map(|m| m.offset).collect();
-                assert_eq!(offsets, [0, 12, 16, 28, 32, 44, 48, 60, 64]);
-            }
-            other => panic!("{other:?}"),
-        }
-    }
-
-    #[test]
-    fn known_values() {
-        let sets = test_sets();
-        let (_, bsdfs, i) = &sets[0];
-        let b = resolve(bsdfs, &[], *i, Vec2::ZERO);
-        let wo = Vec3::new(0.6, 0.0, 0.8);
-        let got = eval(&b, Vec3::Z, wo);
-        assert!((got - Vec3::new(0.725, 0.71, 0.68) * 0.8 / std::f32::consts::PI).abs().max_element() < 1e-7);
-        // One-sided: below the surface is black; twosided mirrors it.
-        assert_eq!(eval(&b, -Vec3::Z, -wo), Vec3::ZERO);
-        let (_, bsdfs, i) = &sets[5];
-        let b = resolve(bsdfs, &[], *i, Vec2::ZERO);
-        assert_eq!(eval(&b, -Vec3::Z, -wo), eval(&b, Vec3::Z, wo));
-        assert_eq!(eval(&b, -Vec3::Z, wo), Vec3::ZERO);
-        // mi.fresnel_diffuse_reflectance(1 / 1.9) (Egan-Hilgeman) and (1.9) (d'Eon-Irving), mitsuba 3.9.1.
-        assert!((fresnel_diffuse_reflectance(1.0 / 1.9) - 0.7637073).abs() < 1e-6);
-        assert!((fresnel_diffuse_reflectance(1.9) - 0.1474841).abs() < 1e-6);
-    }
-
-    #[test]
-    fn reciprocal_and_energy_bounded() {
-        // f(wi, wo) = f(wo, wi) for diffuse and rough conductors; the cosine-weighted albedo is <= 1 for all.
-        let dirs = random_directions(4000, 7);
-        for (name, bsdfs, i) in test_sets() {
-            let b = resolve(&bsdfs, &[], i, Vec2::ZERO);
-            let reciprocal = matches!(b.kind, KIND_DIFFUSE | KIND_ROUGHCONDUCTOR);
-            for pair in dirs.chunks(2) {
-                let (wi, wo) = (pair[0], pair[1]);
-                let (f, r) = (eval(&b, wi, wo), eval(&b, wo, wi));
-                assert!(f.is_finite() && f.min_element() >= 0.0, "{name}: {f}");
-                if reciprocal && wi.z.abs() > 0.05 && wo.z.abs() > 0.05 {
-                    let (a, c) = (f / wo.z.abs(), r / wi.z.abs());
-                    assert!((a - c).abs().max_element() <= 1e-4 * a.max_element().max(1e-3), "{name}: {a} vs {c}");
-                }
-            }
-            // Albedo for wi at 60 degrees by stratified sampling of the hemisphere (uniform pdf 1 / 2pi).
-            let wi = Vec3::new(0.866, 0.0, 0.5);
-            let n = 256;
-            let mut sum = Vec3::ZERO;
-            for a in 0..n {
-                for c in 0..n {
-                    let z = (a as f32 + 0.5) / n as f32;
-                    let phi = 2.0 * std::f32::consts::PI * (c as f32 + 0.5) / n as f32;
-                    let r = (1.0 - z * z).sqrt();
-                    sum += eval(&b, wi, Vec3::new(r * phi.cos(), r * phi.sin(), z));
-                }
-            }
-            let albedo = sum * 2.0 * std::f32::consts::PI / (n * n) as f32;
-            assert!(albedo.max_element() < 1.0, "{name}: albedo {albedo}");
-            assert!(albedo.min_element() > 0.01, "{name}: albedo {albedo}");
-        }
-    }
-}
+mod tests;

@@ -1,14 +1,14 @@
-//! Test-only helpers shared by the unit tests of every module: where the shared scenes are, and
-//! (`scenes`) hand-made scene builders and CPU-cast view samples.
+//! Test-only helpers shared by the unit tests of every module: where the shared scenes are, and the
+//! scenes the tests build: `scenes` (hand-made meshes, cameras and CPU-cast view samples),
+//! `light_scenes` (closed and open boxes for light generation and the light matrix), `view_scenes`
+//! (G-buffer and view-sample scenes) and `raytrace_scenes` (geometry of the shared cbox and bunny).
 use std::path::{Path, PathBuf};
 
 /// Where the shared scenes are: `$MANYLIGHTS_SHARED`, then `<manifest>/../shared` (CI: `shared/` beside
 /// the checkout); the folder must contain `scenes/`.
 pub fn shared_dir() -> PathBuf {
-    let candidates = [
-        std::env::var("MANYLIGHTS_SHARED").ok().map(PathBuf::from),
-        Some(Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared")),
-    ];
+    let candidates =
+        [std::env::var("MANYLIGHTS_SHARED").ok().map(PathBuf::from), Some(Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"))];
     candidates
         .into_iter()
         .flatten()
@@ -16,7 +16,10 @@ pub fn shared_dir() -> PathBuf {
         .expect("shared scenes not found: set MANYLIGHTS_SHARED to the folder holding scenes/")
 }
 
+pub mod light_scenes;
+pub mod raytrace_scenes;
 pub mod scenes;
+pub mod view_scenes;
 
 /// A new, empty scratch directory for one test file: `<temp>/manylights-<tag>-<pid>-<n>` with `n` unique
 /// per call. Tests run in parallel threads of one process, so a directory per process shared by file
@@ -65,8 +68,8 @@ pub fn scene_view_tracer(path: &Path, size: u32) -> (crate::scene::Scene, crate:
     let opts = crate::scene::LoadOptions { size: Some((size, size)), ..Default::default() };
     let scene = crate::scene::load_scene(path, &opts).unwrap();
     let tracer = crate::raytrace::RayTracer::new(&scene).unwrap();
-    let ids = crate::view_resolve::cast_visibility_traced(&scene, &tracer).unwrap();
-    let view = crate::view_resolve::resolve_view_samples_with(&scene, &ids, &crate::view_chains::ChainOptions::default()).unwrap();
+    let ids = crate::view::resolve::cast_visibility_traced(&scene, &tracer).unwrap();
+    let view = crate::view::resolve::resolve_view_samples_with(&scene, &ids, &crate::view::chains::ChainOptions::default()).unwrap();
     (scene, view, tracer)
 }
 

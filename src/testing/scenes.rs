@@ -95,8 +95,14 @@ pub fn cast_view(scene: &Scene) -> ViewSamples {
                     let mesh = &scene.meshes[s];
                     let [p0, p1, p2] = mesh.indices[p].map(|i| mesh.positions[i as usize]);
                     let ng = (p1 - p0).cross(p2 - p0).normalize();
-                    (o + d * t, mesh.normals[mesh.indices[p][0] as usize], ng, s as i32, p as i32,
-                        resolve(&scene.bsdfs, &scene.textures, mesh.bsdf, Vec2::ZERO))
+                    (
+                        o + d * t,
+                        mesh.normals[mesh.indices[p][0] as usize],
+                        ng,
+                        s as i32,
+                        p as i32,
+                        resolve(&scene.bsdfs, &scene.textures, mesh.bsdf, Vec2::ZERO),
+                    )
                 }
                 None => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, -1, -1, bytemuck::Zeroable::zeroed()),
             };
@@ -111,6 +117,6 @@ pub fn cast_view(scene: &Scene) -> ViewSamples {
             v.uv.push(Vec2::ZERO);
         }
     }
-    crate::view_resolve::append_blend_records(scene, &mut v);
+    crate::view::resolve::append_blend_records(scene, &mut v);
     v
 }

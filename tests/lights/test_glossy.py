@@ -8,7 +8,7 @@ Against converged Mitsuba 3.9.1 pixel-centre references (``path`` max_depth=2):
   / 0.02 / 0.005) under four sphere lights of radius 0.9 / 0.3 / 0.1 / 0.033, 64 x 48. The error is measured
   on the pixels that see no emitter (the spheres' own radiance is exact in both).
 - ``matpreview-full-direct``: matpreview with its full smooth plastic (the specular coat reached by the
-  delta chains, ``view_chains``), 64 x 48, 4,096 environment lights.
+  delta chains, ``view::chains``), 64 x 48, 4,096 environment lights.
 """
 from __future__ import annotations
 

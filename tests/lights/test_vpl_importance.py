@@ -2,7 +2,7 @@
 EG 2010 short paper; src/lights/generate/vpl_importance.rs). Accuracy against Mitsuba on veach-ajar (where
 the light comes through the ajar door) and cbox, determinism, bad input. Unbiasedness (a z-test over
 seeds against plain VPLs), the target equation, eps = 1 and delta-only scenes are Rust tests
-(src/lights/generate/vpl_importance_tests.rs)."""
+(src/lights/generate/vpl_importance/tests.rs)."""
 from __future__ import annotations
 
 import numpy as np

@@ -16,7 +16,7 @@ frame, exactly as ``mitsuba.load_file(path, **params)`` animates, or from one XM
 Pixel mappings: ``anim.mapping(k, l)`` is M(k -> l) of the paper, the nearest neighbour of each pixel of
 frame l among the pixels of frame k in the 9-D deep framebuffer ``(K / d * position, normal, albedo)``,
 d = frame 0's bounding-box diagonal, K = 30 (the weights of Eq. 9 of Hašan et al. 2006, which the 2008
-paper does not state; see ``src/view_features.rs``), found with a kd-tree. Between non-adjacent frames it
+paper does not state; see ``src/view/features.rs``), found with a kd-tree. Between non-adjacent frames it
 is the chain of adjacent mappings (forward for l > k, backward for l < k), composed. Pixels of frame l
 that see no surface map to -1 (they take 0: columns of the light matrix are 0 there); background pixels
 of frame k are no source.

@@ -36,7 +36,13 @@ pub fn eq10_weights(row: &[(bool, f32)]) -> Vec<f32> {
         .map(|e| match (used(e), zeros) {
             (false, _) => 0.0,
             (true, 0) => (1.0 / e.1.sqrt()) / total,
-            (true, z) => if e.1 == 0.0 { 1.0 / z as f32 } else { 0.0 },
+            (true, z) => {
+                if e.1 == 0.0 {
+                    1.0 / z as f32
+                } else {
+                    0.0
+                }
+            }
         })
         .collect()
 }
@@ -76,15 +82,19 @@ pub(crate) fn membership_from_lists(f: usize, lists: Vec<Vec<(bool, f32, u32)>>)
 ///
 /// Errors: `InvalidParameter` for F outside [1, min(k, 16)], no points or centroids, length mismatches,
 /// non-finite values, zero normals with the threshold on, a threshold outside [-1, 1].
-pub fn fuzzy_membership(points: &[[f32; 3]], normals: &[[f32; 3]], centroids: &[[f32; 3]], centroid_normals: &[[f32; 3]], f: usize, cos_threshold: Option<f32>) -> Result<FuzzyMembership> {
+pub fn fuzzy_membership(
+    points: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    centroids: &[[f32; 3]],
+    centroid_normals: &[[f32; 3]],
+    f: usize,
+    cos_threshold: Option<f32>,
+) -> Result<FuzzyMembership> {
     let normals = check_points(points, normals, cos_threshold, "fuzzy membership")?;
     let cn = check_centroids(centroids, centroid_normals, cos_threshold)?;
     check_f(f, centroids.len())?;
     crate::interrupt::check()?;
-    let lists: Vec<Vec<(bool, f32, u32)>> = points
-        .par_iter()
-        .zip(normals.par_iter())
-        .map(|(p, np)| nearest_f(p, np, centroids, &cn, f, cos_threshold))
-        .collect();
+    let lists: Vec<Vec<(bool, f32, u32)>> =
+        points.par_iter().zip(normals.par_iter()).map(|(p, np)| nearest_f(p, np, centroids, &cn, f, cos_threshold)).collect();
     Ok(membership_from_lists(f, lists))
 }

@@ -22,7 +22,13 @@ pub fn kmeans_gpu(ctx: &GpuContext, points: &[[f32; 3]], normals: &[[f32; 3]], p
 }
 
 /// [`kmeans_gpu`] with the grid search's loop budget overridden (tests force the exhaustive fallback).
-pub(crate) fn kmeans_gpu_with_budget(ctx: &GpuContext, points: &[[f32; 3]], normals: &[[f32; 3]], p: &KMeansParams, budget: Option<u32>) -> Result<KMeansResult> {
+pub(crate) fn kmeans_gpu_with_budget(
+    ctx: &GpuContext,
+    points: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    p: &KMeansParams,
+    budget: Option<u32>,
+) -> Result<KMeansResult> {
     let t0 = Instant::now();
     let normals = check_points(points, normals, p.cos_threshold, "kmeans")?;
     check_params(points.len(), p)?;

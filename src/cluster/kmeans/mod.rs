@@ -263,7 +263,14 @@ pub fn bounds(points: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
 
 /// Candidate key (inadmissible, squared distance, index) of centroid `c` for a point: Eq. 7.
 #[inline]
-pub(crate) fn candidate(p: &[f32; 3], np: &[f32; 3], c: usize, cp: &[f32; 3], cn: &[f32; 3], cos_threshold: Option<f32>) -> (bool, f32, u32) {
+pub(crate) fn candidate(
+    p: &[f32; 3],
+    np: &[f32; 3],
+    c: usize,
+    cp: &[f32; 3],
+    cn: &[f32; 3],
+    cos_threshold: Option<f32>,
+) -> (bool, f32, u32) {
     let d = [p[0] - cp[0], p[1] - cp[1], p[2] - cp[2]];
     let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     let inadmissible = match cos_threshold {
@@ -286,7 +293,14 @@ pub(crate) fn key_less(a: (bool, f32, u32), b: (bool, f32, u32)) -> bool {
 
 /// The `f` best candidates of one point over all centroids, nearest first (exhaustive; Alg. 2's
 /// insertion into a sorted list).
-pub(crate) fn nearest_f(p: &[f32; 3], np: &[f32; 3], centroids: &[[f32; 3]], centroid_normals: &[[f32; 3]], f: usize, cos_threshold: Option<f32>) -> Vec<(bool, f32, u32)> {
+pub(crate) fn nearest_f(
+    p: &[f32; 3],
+    np: &[f32; 3],
+    centroids: &[[f32; 3]],
+    centroid_normals: &[[f32; 3]],
+    f: usize,
+    cos_threshold: Option<f32>,
+) -> Vec<(bool, f32, u32)> {
     let mut list: Vec<(bool, f32, u32)> = Vec::with_capacity(f + 1);
     for (c, (cp, cn)) in centroids.iter().zip(centroid_normals).enumerate() {
         let cand = candidate(p, np, c, cp, cn, cos_threshold);
@@ -393,7 +407,14 @@ pub struct ViewSampleClustering {
 /// View-sample clustering as the paper does it: K-means on the subset [`downsample_indices`] picks with
 /// factor `gamma` (lowered to `max(1, m / k)` when the subset would hold fewer than k points), then the
 /// F nearest clusters of every view sample with Eq. 10 weights (Alg. 2).
-pub fn cluster_view_samples(device: KMeansDevice, points: &[[f32; 3]], normals: &[[f32; 3]], gamma: usize, p: &KMeansParams, f: usize) -> Result<ViewSampleClustering> {
+pub fn cluster_view_samples(
+    device: KMeansDevice,
+    points: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    gamma: usize,
+    p: &KMeansParams,
+    f: usize,
+) -> Result<ViewSampleClustering> {
     if gamma == 0 {
         return Err(Error::invalid("cluster_view_samples: gamma must be >= 1, got 0"));
     }

@@ -50,7 +50,11 @@ fn min_gap(points: &[[f32; 3]], normals: &[[f32; 3]], r: &KMeansResult, cos: Opt
         .zip(&normals)
         .map(|(p, n)| {
             let l = nearest_f(p, n, &r.centroids, &r.centroid_normals, 2, cos);
-            if l[0].0 != l[1].0 { f32::INFINITY } else { l[1].1.sqrt() - l[0].1.sqrt() }
+            if l[0].0 != l[1].0 {
+                f32::INFINITY
+            } else {
+                l[1].1.sqrt() - l[0].1.sqrt()
+            }
         })
         .fold(f32::INFINITY, f32::min)
 }
@@ -168,7 +172,9 @@ fn grid_assignment_equals_exhaustive() {
     let flat: Vec<[f32; 3]> = pts.iter().map(|p| [p[0], p[1], 0.0]).collect();
     let flat_n: Vec<[f32; 3]> = nrm.iter().map(|n| [0.0, 0.0, n[2].signum()]).collect();
     for cos in [None, Some(DEFAULT_COS_THRESHOLD)] {
-        for (p, n, c, cn) in [(&pts, &nrm, &cts[..], &cns[..]), (&bp, &bn, &bp[..300], &bn[..300]), (&flat, &flat_n, &flat[..500], &flat_n[..500])] {
+        for (p, n, c, cn) in
+            [(&pts, &nrm, &cts[..], &cns[..]), (&bp, &bn, &bp[..300], &bn[..300]), (&flat, &flat_n, &flat[..500], &flat_n[..500])]
+        {
             let ex = fuzzy_membership_gpu_with_budget(&ctx, p, n, c, cn, 6, cos, false, None).unwrap();
             let grid = fuzzy_membership_gpu_with_budget(&ctx, p, n, c, cn, 6, cos, true, None).unwrap();
             let starved = fuzzy_membership_gpu_with_budget(&ctx, p, n, c, cn, 6, cos, true, Some(8)).unwrap();

@@ -109,7 +109,14 @@ impl<'a> ReducedTensor<'a> {
         Self::with_layout(data, num_rows, num_lights, num_frames, channels, true)
     }
 
-    fn with_layout(data: &'a [f32], num_rows: usize, num_lights: usize, num_frames: usize, channels: usize, frame_major: bool) -> Result<Self> {
+    fn with_layout(
+        data: &'a [f32],
+        num_rows: usize,
+        num_lights: usize,
+        num_frames: usize,
+        channels: usize,
+        frame_major: bool,
+    ) -> Result<Self> {
         if num_rows == 0 || num_lights == 0 || num_frames == 0 {
             return Err(Error::invalid(format!(
                 "reduced tensor must have at least one row, light and frame, got shape ({num_rows}, {num_lights}, {num_frames})"
@@ -129,11 +136,7 @@ impl<'a> ReducedTensor<'a> {
                 data.len()
             )));
         }
-        let strides = if frame_major {
-            [num_lights, 1, num_rows * num_lights]
-        } else {
-            [num_lights * num_frames, num_frames, 1]
-        };
+        let strides = if frame_major { [num_lights, 1, num_rows * num_lights] } else { [num_lights * num_frames, num_frames, 1] };
         if let Some(at) = data.iter().position(|v| !v.is_finite()) {
             let (element, channel) = (at / channels, at % channels);
             let (row, light, frame) = if frame_major {

@@ -29,43 +29,41 @@ impl ChunkStore {
         let mut scalar = vec![0.0f32; n * fc * r];
         let mut squares = vec![[0.0f64; 4]; n * fc];
         let one_channel = tensor.channels() == 1;
-        scalar.par_chunks_mut(LIGHT_BLOCK * fc * r).zip(squares.par_chunks_mut(LIGHT_BLOCK * fc)).enumerate().for_each(
-            |(b, (out, sq))| {
-                let j0 = b * LIGHT_BLOCK;
-                let lights = sq.len() / fc;
-                let mut element = |i: usize, jj: usize, kk: usize| {
-                    let c: [f64; 3] = std::array::from_fn(|ch| tensor.channel(i, j0 + jj, start + kk, ch));
-                    let s = if one_channel { c[0] } else { (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt() };
-                    let s32 = s as f32;
-                    out[(jj * fc + kk) * r + i] = s32;
-                    let acc = &mut sq[jj * fc + kk];
-                    for ch in 0..3 {
-                        acc[ch] += c[ch] * c[ch];
-                    }
-                    acc[3] += (s32 as f64) * (s32 as f64);
-                };
-                // Read the tensor in its memory order (lights innermost for frame-major data, frames innermost
-                // otherwise); every pair's sums still run over the rows in order, so both layouts give
-                // bit-identical stores.
-                if tensor.is_frame_major() {
-                    for kk in 0..fc {
-                        for i in 0..r {
-                            for jj in 0..lights {
-                                element(i, jj, kk);
-                            }
-                        }
-                    }
-                } else {
+        scalar.par_chunks_mut(LIGHT_BLOCK * fc * r).zip(squares.par_chunks_mut(LIGHT_BLOCK * fc)).enumerate().for_each(|(b, (out, sq))| {
+            let j0 = b * LIGHT_BLOCK;
+            let lights = sq.len() / fc;
+            let mut element = |i: usize, jj: usize, kk: usize| {
+                let c: [f64; 3] = std::array::from_fn(|ch| tensor.channel(i, j0 + jj, start + kk, ch));
+                let s = if one_channel { c[0] } else { (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt() };
+                let s32 = s as f32;
+                out[(jj * fc + kk) * r + i] = s32;
+                let acc = &mut sq[jj * fc + kk];
+                for ch in 0..3 {
+                    acc[ch] += c[ch] * c[ch];
+                }
+                acc[3] += (s32 as f64) * (s32 as f64);
+            };
+            // Read the tensor in its memory order (lights innermost for frame-major data, frames innermost
+            // otherwise); every pair's sums still run over the rows in order, so both layouts give
+            // bit-identical stores.
+            if tensor.is_frame_major() {
+                for kk in 0..fc {
                     for i in 0..r {
                         for jj in 0..lights {
-                            for kk in 0..fc {
-                                element(i, jj, kk);
-                            }
+                            element(i, jj, kk);
                         }
                     }
                 }
-            },
-        );
+            } else {
+                for i in 0..r {
+                    for jj in 0..lights {
+                        for kk in 0..fc {
+                            element(i, jj, kk);
+                        }
+                    }
+                }
+            }
+        });
         let weight = squares.iter().map(|s| s[3].sqrt()).collect();
         let channel_norm = squares.iter().map(|s| [s[0].sqrt(), s[1].sqrt(), s[2].sqrt()]).collect();
         ChunkStore { num_rows: r, num_lights: n, num_frames: fc, first_frame: start, scalar, weight, channel_norm }
@@ -109,45 +107,4 @@ impl ScalarColumns for Slabs<'_> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::cluster::columns::project;
-    use rand::SeedableRng;
-
-    #[test]
-    fn slabs_are_the_unfolded_tensor_and_weights_the_column_norms() {
-        let (r, n, f) = (3, 4, 5);
-        let data: Vec<f32> = (0..r * n * f * 3).map(|v| ((v * 7919) % 23) as f32 * 0.1).collect();
-        let t = ReducedTensor::new(&data, r, n, f, 3).unwrap();
-        let store = ChunkStore::build(&t, 1, 4);
-        let scalar = |i: usize, j: usize, k: usize| {
-            (0..3).map(|ch| t.channel(i, j, k, ch).powi(2)).sum::<f64>().sqrt()
-        };
-        let slabs = store.slabs();
-        assert_eq!(slabs.num_rows(), r * 3);
-        for j in 0..n {
-            for kk in 0..3 {
-                let mut sq = 0.0;
-                let mut ch_sq = [0.0f64; 3];
-                for i in 0..r {
-                    // Row kk * r + i of reshape(permute(R, 1, 3, 2), r f, n) (Matlab's column-major order).
-                    assert!((slabs.scalar(kk * r + i, j) - scalar(i, j, 1 + kk)).abs() < 1e-6);
-                    assert_eq!(store.column(j, kk)[i], scalar(i, j, 1 + kk) as f32);
-                    sq += scalar(i, j, 1 + kk).powi(2);
-                    for ch in 0..3 {
-                        ch_sq[ch] += t.channel(i, j, 1 + kk, ch).powi(2);
-                    }
-                }
-                assert!((store.weight(j, kk) - sq.sqrt()).abs() < 1e-5);
-                for ch in 0..3 {
-                    assert!((store.channel_norm(j, kk)[ch] - ch_sq[ch].sqrt()).abs() < 1e-9);
-                }
-            }
-        }
-        // Below projection_dim the features are the slabs themselves.
-        let features = project(&slabs, &[2, 0], 50, &mut rand_pcg::Pcg64::seed_from_u64(0));
-        assert_eq!(features.dim, r * 3);
-        assert_eq!(features.column(0)[4], slabs.scalar(4, 2));
-        assert_eq!(features.column(1)[7], slabs.scalar(7, 0));
-    }
-}
+mod tests;

@@ -137,11 +137,8 @@ fn chunk_budgets_are_proportional_to_frames() {
     let opts = TensorOptions { chunk: 4, init_clusters: 5, ..Default::default() };
     let c = cluster_tensor(t, 23, &opts).unwrap();
     check_partition(&c, 23);
-    let per_chunk: Vec<usize> = c
-        .chunks
-        .iter()
-        .map(|ch| c.frames.iter().filter(|&&(k0, _)| (ch.frames.0..ch.frames.1).contains(&(k0 as usize))).count())
-        .collect();
+    let per_chunk: Vec<usize> =
+        c.chunks.iter().map(|ch| c.frames.iter().filter(|&&(k0, _)| (ch.frames.0..ch.frames.1).contains(&(k0 as usize))).count()).collect();
     assert_eq!(per_chunk, vec![9, 9, 5]);
     assert_eq!(c.chunks.iter().map(|ch| ch.budget).collect::<Vec<_>>(), vec![9, 9, 5]);
     for ch in &c.chunks {

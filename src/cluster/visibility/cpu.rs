@@ -76,7 +76,9 @@ pub fn shade(view: &ViewSamples, job: &ClusteredShading, vis: &VisibilityMatrix)
                 for c in 0..lights.len() {
                     let Some((wo, radiance, _)) = lights.emitted(c, sp.p, sp.n) else { continue };
                     let local = Vec3::new(wo.dot(sp.s), wo.dot(sp.t), wo.dot(sp.n));
-                    let receiver = |w: Vec3| crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, Vec3::new(w.dot(sp.s), w.dot(sp.t), w.dot(sp.n)));
+                    let receiver = |w: Vec3| {
+                        crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, Vec3::new(w.dot(sp.s), w.dot(sp.t), w.dot(sp.n)))
+                    };
                     let mut v = lights.shade_receiver(c, sp.p, wo, radiance, receiver) * sp.throughput;
                     if !view.bsdf_samples.is_empty() {
                         v *= crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, local, c);
@@ -106,12 +108,5 @@ pub fn render(tracer: &RayTracer, view: &ViewSamples, job: &ClusteredShading) ->
     let visibility_seconds = seconds(t0);
     let t1 = Instant::now();
     let image = shade(view, job, &visibility)?;
-    Ok(ClusteredImage {
-        image,
-        visibility,
-        rays: job.rays(),
-        gave_up: 0,
-        visibility_seconds,
-        shading_seconds: seconds(t1),
-    })
+    Ok(ClusteredImage { image, visibility, rays: job.rays(), gave_up: 0, visibility_seconds, shading_seconds: seconds(t1) })
 }

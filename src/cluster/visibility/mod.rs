@@ -113,10 +113,7 @@ impl LightClustering {
     /// Checks lengths, labels and centroids against `n` lights.
     pub fn validate(&self, n: usize) -> Result<()> {
         if self.assignment.len() != n {
-            return Err(Error::invalid(format!(
-                "light labels must have one entry per light ({n}), got {}",
-                self.assignment.len()
-            )));
+            return Err(Error::invalid(format!("light labels must have one entry per light ({n}), got {}", self.assignment.len())));
         }
         let k = self.centroids.len();
         if k == 0 {
@@ -140,10 +137,7 @@ impl ViewClustering {
             return Err(Error::invalid("view centroids must hold at least one cluster, got 0"));
         }
         if self.normals.len() != k {
-            return Err(Error::invalid(format!(
-                "view normals must have one entry per view centroid ({k}), got {}",
-                self.normals.len()
-            )));
+            return Err(Error::invalid(format!("view normals must have one entry per view centroid ({k}), got {}", self.normals.len())));
         }
         for (c, v) in self.centroids.iter().enumerate() {
             check_finite3("view centroid", c, v)?;
@@ -174,9 +168,7 @@ impl ViewClustering {
         }
         for (i, row) in mb.weights.chunks_exact(f).enumerate() {
             if let Some((c, w)) = row.iter().enumerate().find(|(_, w)| !(w.is_finite() && **w >= 0.0)) {
-                return Err(Error::invalid(format!(
-                    "membership weights must be finite and >= 0, got {w} (view sample {i}, column {c})"
-                )));
+                return Err(Error::invalid(format!("membership weights must be finite and >= 0, got {w} (view sample {i}, column {c})")));
             }
             let s: f32 = row.iter().sum();
             if (s - 1.0).abs() > WEIGHT_SUM_TOLERANCE {
@@ -324,7 +316,12 @@ impl ClusteredShading {
     /// Errors: `InvalidParameter` naming the offending value (labels out of range, wrong shapes,
     /// non-finite centroids, normals or weights, rows of weights not summing to 1, F out of range, no
     /// lights).
-    pub fn new(lights: &LightSet, view: &ViewSamples, light_clustering: &LightClustering, view_clustering: &ViewClustering) -> Result<ClusteredShading> {
+    pub fn new(
+        lights: &LightSet,
+        view: &ViewSamples,
+        light_clustering: &LightClustering,
+        view_clustering: &ViewClustering,
+    ) -> Result<ClusteredShading> {
         if lights.is_empty() {
             return Err(Error::invalid("the light set is empty: nothing to cluster"));
         }

@@ -11,7 +11,11 @@ use std::sync::Arc;
 use crate::testing::backend_pair as pair;
 
 fn finite_or_zero(v: Vec3) -> [f32; 3] {
-    if v.is_finite() { v.to_array() } else { [0.0; 3] }
+    if v.is_finite() {
+        v.to_array()
+    } else {
+        [0.0; 3]
+    }
 }
 
 /// Every light its own label, centroid = its position.

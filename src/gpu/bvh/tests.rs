@@ -20,7 +20,7 @@ fn struct_sizes_and_wgsl() {
     assert_eq!(std::mem::size_of::<GpuBvhNode>(), 32);
     assert_eq!(std::mem::size_of::<GpuPrimitive>(), 48);
     assert_eq!(std::mem::size_of::<OcclusionQuery>(), 48);
-    let module = crate::gpu::shaders::validate_wgsl("occluded.wgsl", OCCLUDED_WGSL).unwrap();
+    let module = crate::gpu::shaders::validate_wgsl("occluded.wgsl", shaders::OCCLUDED).unwrap();
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).unwrap();
     for (name, size) in [("BvhNode", 32), ("BvhPrim", 48), ("OcclusionQuery", 48)] {
@@ -33,13 +33,13 @@ fn struct_sizes_and_wgsl() {
         (INVOCATION_BUDGET, "const BVH_INVOCATION_BUDGET: u32 = 61440u;"),
         (STACK_SIZE, "const BVH_STACK_SIZE: u32 = 48u;"),
     ] {
-        assert!(OCCLUDED_WGSL.contains(wgsl) && wgsl.contains(&format!(" {rust}u;")), "{wgsl}");
+        assert!(shaders::OCCLUDED.contains(wgsl) && wgsl.contains(&format!(" {rust}u;")), "{wgsl}");
     }
     // The WGSL literals are Mitsuba's epsilons exactly.
     assert_eq!(8.940696716308594e-5_f32, crate::raytrace::RAY_EPSILON);
     assert_eq!(8.940696716308594e-4_f32, crate::raytrace::SHADOW_EPSILON);
-    assert!(OCCLUDED_WGSL.contains("const RAY_EPSILON: f32 = 8.940696716308594e-5;"));
-    assert!(OCCLUDED_WGSL.contains("const SHADOW_EPSILON: f32 = 8.940696716308594e-4;"));
+    assert!(shaders::OCCLUDED.contains("const RAY_EPSILON: f32 = 8.940696716308594e-5;"));
+    assert!(shaders::OCCLUDED.contains("const SHADOW_EPSILON: f32 = 8.940696716308594e-4;"));
 }
 
 /// Random queries of four kinds: free segments between points of the (enlarged) bounds, shadow rays from
@@ -50,7 +50,9 @@ fn random_queries(scene: &Scene, tracer: &RayTracer, n: usize, seed: u64) -> Vec
     let (lo, hi) = scene.bounds();
     let (c, h) = ((lo + hi) * 0.5, (hi - lo) * 0.55);
     let verts: Vec<Vec3> = scene.meshes.iter().flat_map(|m| m.positions.iter().copied()).collect();
-    let point = |rng: &mut Pcg32| c + h * Vec3::new(rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0);
+    let point = |rng: &mut Pcg32| {
+        c + h * Vec3::new(rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0)
+    };
     let unit = |rng: &mut Pcg32| loop {
         let v = Vec3::new(rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0, rng.random::<f32>() * 2.0 - 1.0);
         if v.length_squared() > 1e-4 && v.length_squared() <= 1.0 {
@@ -160,7 +162,8 @@ fn contact_edge_rays_are_free() {
     let bvh = GpuBvh::upload(&ctx.device, &scene, 1 << 27).unwrap();
     let lights = crate::lights::LightSet::from_scene(&scene).unwrap();
     let q = lights.position[0];
-    let cases = [(Vec3::new(1.0, 1.0, 0.8998124), Vec3::new(-1.0, 0.0, 0.0)), (Vec3::new(0.99999964, 1.0, 0.89981294), Vec3::new(0.0, -1.0, 0.0))];
+    let cases =
+        [(Vec3::new(1.0, 1.0, 0.8998124), Vec3::new(-1.0, 0.0, 0.0)), (Vec3::new(0.99999964, 1.0, 0.89981294), Vec3::new(0.0, -1.0, 0.0))];
     let qs: Vec<OcclusionQuery> = cases.iter().map(|&(p, n)| OcclusionQuery::to_point(p, n, q)).collect();
     let gpu = OccludedPass::new(&ctx.device).run(&ctx, &bvh, &qs).unwrap();
     for ((p, n), g) in cases.iter().zip(gpu) {

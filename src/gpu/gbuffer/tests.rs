@@ -1,8 +1,8 @@
 //! G-buffer tests: the GPU visibility buffer against a brute-force CPU ray cast at every pixel centre.
 use super::*;
 use crate::gpu::scene_buffers::{locate_triangle, triangle_offsets};
-use crate::view_resolve::test_scenes::*;
-use crate::view_resolve::{cast_visibility_cpu, intersect_triangle_plane, view_samples_cpu_reference};
+use crate::testing::view_scenes::*;
+use crate::view::resolve::{cast_visibility_cpu, intersect_triangle_plane, view_samples_cpu_reference};
 use glam::{DVec3, Vec3};
 
 /// Share of pixels allowed to see another surface than the CPU caster (pixel centres on edges).
@@ -106,7 +106,7 @@ fn check_scene(name: &str, scene: &Scene) -> Comparison {
     let gpu_ids = render_visibility(&ctx, scene).unwrap();
     let cpu_ids = cast_visibility_cpu(scene).unwrap();
     assert_gpu_hits_are_real(scene, &gpu_ids, &cpu_ids);
-    let gpu = crate::view_resolve::resolve_view_samples(scene, &gpu_ids).unwrap();
+    let gpu = crate::view::resolve::resolve_view_samples(scene, &gpu_ids).unwrap();
     let cpu = view_samples_cpu_reference(scene).unwrap();
     let c = compare(scene, &gpu, &cpu);
     eprintln!(
@@ -181,10 +181,10 @@ fn orientation_on_gpu() {
     let scene = marker_scene();
     let (w, h) = (scene.camera.width, scene.camera.height);
     let ids = render_visibility(&ctx(), &scene).unwrap();
-    let (cols, rows) = crate::view_resolve::tests::covered(&scene, &ids, 0);
+    let (cols, rows) = crate::view::resolve::tests::covered(&scene, &ids, 0);
     assert!(cols.len() > 10 && cols.iter().all(|&x| x < w / 2), "left marker in columns {cols:?}");
     assert!(rows.iter().all(|&y| y > h / 4 && y < 3 * h / 4));
-    let (cols, rows) = crate::view_resolve::tests::covered(&scene, &ids, 1);
+    let (cols, rows) = crate::view::resolve::tests::covered(&scene, &ids, 1);
     assert!(rows.len() > 10 && rows.iter().all(|&y| y < h / 2), "up marker in rows {rows:?}");
     assert!(cols.iter().all(|&x| x > w / 4 && x < 3 * w / 4));
     assert_eq!(ids, cast_visibility_cpu(&scene).unwrap());
@@ -256,7 +256,9 @@ fn sphere_enlargement_encloses() {
 #[ignore]
 fn dump_scenes_for_mitsuba() {
     use std::fmt::Write;
-    let root = std::env::var("MANYLIGHTS_GBUFFER_DUMP").map(std::path::PathBuf::from).unwrap_or_else(|_| std::env::temp_dir().join("gbuffer_dump"));
+    let root = std::env::var("MANYLIGHTS_GBUFFER_DUMP")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|_| std::env::temp_dir().join("gbuffer_dump"));
     for (name, scene) in [("sphere", sphere_scene(false)), ("cornell_cbox", cornell_scene(128, 96, 278.0, 0.01))] {
         let dir = root.join(name);
         std::fs::create_dir_all(&dir).unwrap();
@@ -370,7 +372,7 @@ fn timing_large_frame() {
     let t0 = std::time::Instant::now();
     let ids = render_visibility(&ctx, &scene).unwrap();
     let t1 = std::time::Instant::now();
-    let v = crate::view_resolve::resolve_view_samples(&scene, &ids).unwrap();
+    let v = crate::view::resolve::resolve_view_samples(&scene, &ids).unwrap();
     let t2 = std::time::Instant::now();
     eprintln!(
         "{}x{}, {tris} triangles ({}): visibility {:.1} ms, resolve {:.1} ms, {} background",

@@ -49,7 +49,7 @@
 //!   `roughness[i]`: the microfacet alpha of that glossy lobe (sqrt(alpha_u alpha_v); principled's
 //!   `roughness`), 0 without one.
 //! - `bsdf`: the BSDF resolved at the sample (`shading::bsdf::resolve_records`), one record per sample
-//!   then the second records of blended samples (linked as in `view_resolve::append_blend_records`), for
+//!   then the second records of blended samples (linked as in `view::resolve::append_blend_records`), for
 //!   exact evaluation by `shading::bsdf::eval_records` or the GPU passes.
 //!
 //! Re-evaluation (`GatherCloud::on`): a cloud made on one scene is evaluated on another scene with the
@@ -61,16 +61,15 @@
 //! Determinism: one `sampling::stream` (family `STREAM_GATHER`) per seed, consumed depth-first; the
 //! same scene and seed give a bit-identical cloud.
 use super::generate::sampling::stream;
-use stratify::{scene_regions, stratify, Region};
 use crate::error::{Error, Result};
 use crate::scene::{Mesh, Scene, ShapeKind};
 use crate::shading::bsdf::{
-    link_blend, resolve_records, FLAG_BLEND, KIND_DIFFUSE, KIND_PLASTIC, KIND_PRINCIPLED, KIND_ROUGHCONDUCTOR,
-    KIND_ROUGHPLASTIC,
+    link_blend, resolve_records, FLAG_BLEND, KIND_DIFFUSE, KIND_PLASTIC, KIND_PRINCIPLED, KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC,
 };
 use crate::shading::GpuBsdf;
 use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;
+use stratify::{scene_regions, stratify, Region};
 
 /// `triangle[i]` of a sample on an analytic sphere.
 pub const SPHERE_TRIANGLE: u32 = u32::MAX;
@@ -175,9 +174,10 @@ fn sphere_direction(c: Vec2) -> Vec3 {
 
 /// The triangle's vertex indices, checked against the mesh.
 fn triangle_vertices(m: &Mesh, shape: usize, tri: usize) -> Result<[usize; 3]> {
-    let idx = m.indices.get(tri).ok_or_else(|| {
-        Error::scene(&m.loc, format!("shape {shape} ('{}'): no triangle {tri} (it has {})", m.id, m.indices.len()))
-    })?;
+    let idx = m
+        .indices
+        .get(tri)
+        .ok_or_else(|| Error::scene(&m.loc, format!("shape {shape} ('{}'): no triangle {tri} (it has {})", m.id, m.indices.len())))?;
     let v = idx.map(|i| i as usize);
     if let Some(&bad) = v.iter().find(|&&i| i >= m.positions.len()) {
         return Err(Error::scene(

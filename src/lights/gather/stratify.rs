@@ -149,7 +149,13 @@ pub(super) fn stratify(regions: &mut [Region], n: usize, rng: &mut Pcg32) -> Vec
             hi_c = hi_c.max(r.centroid());
         }
         let ext = hi_c - lo_c;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
         // Stable sort: equal centroids keep their (deterministic) order.
         set.sort_by(|a, b| a.centroid()[axis].total_cmp(&b.centroid()[axis]));
         // Split where the cumulative area is closest to half (each side non-empty).
@@ -193,13 +199,7 @@ pub(super) fn scene_regions(scene: &Scene, include_emitters: bool) -> Result<Vec
             let world = [m.positions[i0], m.positions[i1], m.positions[i2]];
             let area = 0.5 * (world[1] - world[0]).as_dvec3().cross((world[2] - world[0]).as_dvec3()).length();
             if area > 0.0 && area.is_finite() {
-                regions.push(Region::Triangle {
-                    shape: s as u32,
-                    tri: t as u32,
-                    corners: [Vec2::ZERO, Vec2::X, Vec2::Y],
-                    world,
-                    area,
-                });
+                regions.push(Region::Triangle { shape: s as u32, tri: t as u32, corners: [Vec2::ZERO, Vec2::X, Vec2::Y], world, area });
             }
         }
     }

@@ -134,7 +134,13 @@ fn samples_are_stratified_inside_a_surface() {
 /// samples: sigma 10.6; measured over 40 seeds: at most 1 off), and positions lie on the sphere.
 #[test]
 fn sphere_samples_are_uniform() {
-    let mut m = crate::testing::scenes::mesh("ball", ShapeKind::Sphere { center: Vec3::new(1.0, 2.0, 3.0), radius: 0.5, flip_normals: true }, vec![Vec3::ZERO; 3], vec![[0, 1, 2]], 0);
+    let mut m = crate::testing::scenes::mesh(
+        "ball",
+        ShapeKind::Sphere { center: Vec3::new(1.0, 2.0, 3.0), radius: 0.5, flip_normals: true },
+        vec![Vec3::ZERO; 3],
+        vec![[0, 1, 2]],
+        0,
+    );
     m.face_normals = false;
     let mut scene = bare_scene(vec![m]);
     scene.bsdfs = vec![Bsdf::Diffuse { reflectance: Param::Value(Vec3::splat(0.5)) }];
@@ -177,7 +183,10 @@ fn on_follows_moved_geometry() {
     let scene = load("cbox-lights");
     let c = cloud(&scene, 1024, 5);
     let same = c.on(&scene).unwrap();
-    assert_eq!((same.position.clone(), same.normal.clone(), same.area.clone(), same.k_d.clone()), (c.position.clone(), c.normal.clone(), c.area.clone(), c.k_d.clone()));
+    assert_eq!(
+        (same.position.clone(), same.normal.clone(), same.area.clone(), same.k_d.clone()),
+        (c.position.clone(), c.normal.clone(), c.area.clone(), c.k_d.clone())
+    );
 
     let rigid = Mat4::from_rotation_translation(Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1), Vec3::new(0.5, -2.0, 3.0));
     let moved = c.on(&transform_scene(&scene, rigid)).unwrap();
@@ -260,24 +269,55 @@ fn on_rejects_a_different_topology() {
 fn coefficients_per_material() {
     let v = |r: f32, g: f32, b: f32| Param::Value(Vec3::new(r, g, b));
     let s = |x: f32| Param::Value(Vec3::splat(x));
-    let checker = Texture::Checkerboard { color0: Vec3::new(0.1, 0.2, 0.3), color1: Vec3::new(0.9, 0.8, 0.7), to_uv: Mat3::from_scale(glam::Vec2::splat(4.0)) };
+    let checker = Texture::Checkerboard {
+        color0: Vec3::new(0.1, 0.2, 0.3),
+        color1: Vec3::new(0.9, 0.8, 0.7),
+        to_uv: Mat3::from_scale(glam::Vec2::splat(4.0)),
+    };
     let bsdfs = vec![
         Bsdf::Diffuse { reflectance: Param::Texture(0) },
-        Bsdf::RoughPlastic { diffuse_reflectance: v(0.3, 0.6, 0.4), specular_reflectance: v(0.9, 0.9, 1.0), distribution: MicrofacetDistribution::Ggx, alpha: 0.2, int_ior: 1.5, ext_ior: 1.0, nonlinear: false },
-        Bsdf::RoughConductor { distribution: MicrofacetDistribution::Beckmann, alpha_u: s(0.1), alpha_v: s(0.4), eta: Vec3::splat(0.2), k: Vec3::splat(3.0), specular_reflectance: v(1.0, 0.8, 0.6) },
+        Bsdf::RoughPlastic {
+            diffuse_reflectance: v(0.3, 0.6, 0.4),
+            specular_reflectance: v(0.9, 0.9, 1.0),
+            distribution: MicrofacetDistribution::Ggx,
+            alpha: 0.2,
+            int_ior: 1.5,
+            ext_ior: 1.0,
+            nonlinear: false,
+        },
+        Bsdf::RoughConductor {
+            distribution: MicrofacetDistribution::Beckmann,
+            alpha_u: s(0.1),
+            alpha_v: s(0.4),
+            eta: Vec3::splat(0.2),
+            k: Vec3::splat(3.0),
+            specular_reflectance: v(1.0, 0.8, 0.6),
+        },
         Bsdf::Dielectric { int_ior: 1.5, ext_ior: 1.0 },
         Bsdf::Blend { weight: s(0.25), first: 0, second: 2 },
         Bsdf::Principled(Box::new(Principled {
-            base_color: v(0.5, 0.4, 0.2), roughness: s(0.3), anisotropic: s(0.0), metallic: s(0.5), spec_tint: s(0.0),
-            spec_trans: s(0.2), sheen: s(0.0), sheen_tint: s(0.0), clearcoat: s(0.0), clearcoat_gloss: s(0.0), flatness: s(0.0), eta: 1.5,
+            base_color: v(0.5, 0.4, 0.2),
+            roughness: s(0.3),
+            anisotropic: s(0.0),
+            metallic: s(0.5),
+            spec_tint: s(0.0),
+            spec_trans: s(0.2),
+            sheen: s(0.0),
+            sheen_tint: s(0.0),
+            clearcoat: s(0.0),
+            clearcoat_gloss: s(0.0),
+            flatness: s(0.0),
+            eta: 1.5,
         })),
         Bsdf::Plastic { diffuse_reflectance: v(0.2, 0.3, 0.4), specular_reflectance: s(1.0), int_ior: 1.5, ext_ior: 1.0, nonlinear: false },
     ];
-    let meshes: Vec<_> = (0..bsdfs.len()).map(|b| {
-        let mut q = quad(Vec3::new(b as f32 * 1.5, 0.0, 0.0), Vec3::X, Vec3::Z, b, "q");
-        q.uvs = vec![glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE, glam::Vec2::Y];
-        q
-    }).collect();
+    let meshes: Vec<_> = (0..bsdfs.len())
+        .map(|b| {
+            let mut q = quad(Vec3::new(b as f32 * 1.5, 0.0, 0.0), Vec3::X, Vec3::Z, b, "q");
+            q.uvs = vec![glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE, glam::Vec2::Y];
+            q
+        })
+        .collect();
     let mut scene = bare_scene(meshes);
     scene.bsdfs = bsdfs;
     scene.textures = vec![checker.clone()];
@@ -304,8 +344,8 @@ fn coefficients_per_material() {
                 let second = c.bsdf[i].extra[3].to_bits() as usize;
                 assert!(second >= c.len() && c.bsdf[second].kind == KIND_ROUGHCONDUCTOR);
                 let (wi, wo) = (Vec3::new(0.3, 0.1, 0.9).normalize(), Vec3::new(-0.2, 0.4, 0.8).normalize());
-                let direct = crate::shading::bsdf::eval(&c.bsdf[i], wi, wo) * 0.75
-                    + crate::shading::bsdf::eval(&c.bsdf[second], wi, wo) * 0.25;
+                let direct =
+                    crate::shading::bsdf::eval(&c.bsdf[i], wi, wo) * 0.75 + crate::shading::bsdf::eval(&c.bsdf[second], wi, wo) * 0.25;
                 assert!(close(crate::shading::bsdf::eval_records(&c.bsdf, i, wi, wo), direct));
             }
             5 => assert!(close(kd, Vec3::new(0.5, 0.4, 0.2) * 0.4) && close(kg, Vec3::new(0.75, 0.7, 0.6)) && (a - 0.3).abs() < 1e-7),
@@ -346,8 +386,6 @@ fn bad_input_is_an_error() {
     // n = 1 is a 1 x 1 gather image.
     assert_eq!(cloud(&scene, 1, 0).len(), 1);
 }
-
-
 
 /// Tensor clustering's indirect lights need not be a power of 4: any count is stratified the same way.
 #[test]

@@ -22,7 +22,7 @@
 //!
 //! Textured radiance (`Emitter::Area::texture`): each light takes L at its own uv (mesh uvs
 //! interpolated, or (b1, b2) without uvs; spheres (phi / 2pi, theta / pi) of the world direction from the
-//! centre, as `view_resolve`), I0 = L(uv) A_e / n_e, which keeps each emitter's lights an unbiased
+//! centre, as `view::resolve`), I0 = L(uv) A_e / n_e, which keeps each emitter's lights an unbiased
 //! stratified estimate of its emission. The emitter's `radiance` used to split the counts (and to pick
 //! emitters for particles) is then the mean of L over 4096 stratified surface points; particles carry
 //! L at their own uv.
@@ -55,8 +55,17 @@ pub struct AreaEmitter {
 pub enum AreaShape {
     /// Triangles (p0, p1, p2, emitting normal), their vertex uvs, the cumulative area after each, and
     /// each one's triangle index in the mesh (degenerate triangles are left out).
-    Triangles { triangles: Vec<([Vec3; 3], Vec3)>, uvs: Vec<[Vec2; 3]>, cdf: Vec<f64>, tri: Vec<u32> },
-    Sphere { center: Vec3, radius: f32, flip: bool },
+    Triangles {
+        triangles: Vec<([Vec3; 3], Vec3)>,
+        uvs: Vec<[Vec2; 3]>,
+        cdf: Vec<f64>,
+        tri: Vec<u32>,
+    },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        flip: bool,
+    },
 }
 
 impl AreaEmitter {
@@ -200,11 +209,7 @@ pub fn area_emitters(scene: &Scene) -> Vec<AreaEmitter> {
                 acc += 0.5 * area2 as f64;
                 tri.push(t as u32);
                 triangles.push((p, n));
-                uvs.push(if m.uvs.len() == m.positions.len() {
-                    [m.uvs[i0], m.uvs[i1], m.uvs[i2]]
-                } else {
-                    [Vec2::ZERO, Vec2::X, Vec2::Y]
-                });
+                uvs.push(if m.uvs.len() == m.positions.len() { [m.uvs[i0], m.uvs[i1], m.uvs[i2]] } else { [Vec2::ZERO, Vec2::X, Vec2::Y] });
                 cdf.push(acc);
             }
             AreaShape::Triangles { triangles, uvs, cdf, tri }

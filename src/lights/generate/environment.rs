@@ -115,8 +115,7 @@ impl Environment {
                 _ => {}
             }
         }
-        let samples_per_texel =
-            (LOOKUP_BUDGET / texels.max(1) as f32).sqrt().clamp(MIN_SAMPLES_PER_TEXEL, MAX_SAMPLES_PER_TEXEL).floor();
+        let samples_per_texel = (LOOKUP_BUDGET / texels.max(1) as f32).sqrt().clamp(MIN_SAMPLES_PER_TEXEL, MAX_SAMPLES_PER_TEXEL).floor();
         (!sources.is_empty()).then_some(Environment { sources, texel_angle, samples_per_texel })
     }
 

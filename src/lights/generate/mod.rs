@@ -32,20 +32,10 @@
 pub mod area;
 pub mod environment;
 pub mod sampling;
-pub mod vpl;
-pub mod vpl_importance;
-#[cfg(test)]
-mod vpl_importance_tests;
-#[cfg(test)]
-mod gpu_tests;
-#[cfg(test)]
-pub(crate) mod test_scenes;
 #[cfg(test)]
 mod tests;
-#[cfg(test)]
-mod material_tests;
-#[cfg(test)]
-mod vsl_tests;
+pub mod vpl;
+pub mod vpl_importance;
 
 pub use vpl_importance::VplImportance;
 
@@ -100,7 +90,17 @@ impl Default for VslOptions {
 
 impl Default for GenerateOptions {
     fn default() -> Self {
-        GenerateOptions { area: 4096, environment: 0, indirect: 0, max_depth: 5, clamp: None, env_importance: false, seed: 0, vsl: None, vpl_importance: None }
+        GenerateOptions {
+            area: 4096,
+            environment: 0,
+            indirect: 0,
+            max_depth: 5,
+            clamp: None,
+            env_importance: false,
+            seed: 0,
+            vsl: None,
+            vpl_importance: None,
+        }
     }
 }
 

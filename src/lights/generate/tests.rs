@@ -1,12 +1,16 @@
 //! CPU tests of light generation: power conservation (area exact, environment integrals, VPL furnace),
 //! stratification, determinism, conventions and bad input.
+mod gpu;
+mod material;
+mod vsl;
+
 use super::environment::{envmap_radiance, Environment};
 use super::sampling::equal_area_cells;
-use super::test_scenes::{furnace_box, open_box, quad};
 use super::*;
 use crate::error::Location;
 use crate::lights::LightKind;
-use crate::scene::{Bsdf, EnvMap, Emitter, Mesh, Param, ShapeKind};
+use crate::scene::{Bsdf, Emitter, EnvMap, Mesh, Param, ShapeKind};
+use crate::testing::light_scenes::{furnace_box, open_box, quad};
 use glam::{Mat4, Vec3};
 use std::f64::consts::PI;
 
@@ -49,7 +53,12 @@ fn two_area_scene() -> Scene {
         emitter: Some(1),
         loc: Location::default(),
     };
-    scene.emitters.push(Emitter::Area { mesh: scene.meshes.len(), radiance: Vec3::new(5.0, 4.0, 0.5), texture: None, loc: Location::default() });
+    scene.emitters.push(Emitter::Area {
+        mesh: scene.meshes.len(),
+        radiance: Vec3::new(5.0, 4.0, 0.5),
+        texture: None,
+        loc: Location::default(),
+    });
     scene.meshes.push(sphere);
     scene
 }
@@ -327,7 +336,10 @@ fn degenerate_emitters_contribute_nothing() {
     scene.meshes.push(black);
     let set = generate_lights(&scene, &GenerateOptions { area: 100, indirect: 200, ..Default::default() }).unwrap();
     assert_eq!(count(&set, LightKind::OrientedPoint), 100);
-    assert!((0..set.len()).filter(|&j| set.kind[j] == LightKind::OrientedPoint).all(|j| set.position[j].y > 0.79), "all on the real emitter");
+    assert!(
+        (0..set.len()).filter(|&j| set.kind[j] == LightKind::OrientedPoint).all(|j| set.position[j].y > 0.79),
+        "all on the real emitter"
+    );
     assert!((0..set.len()).all(|j| set.power(j).is_finite() && set.intensity[j].is_finite()));
     // An environment that is black: no lights, no NaN.
     let mut scene = furnace_box(0.5, vec![], false);

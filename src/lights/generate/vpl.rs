@@ -34,8 +34,8 @@
 use super::area::AreaEmitter;
 use super::environment::{EnvSampler, Environment};
 use super::sampling::{
-    cosine_hemisphere, has_smooth_lobe_only, sample_bsdf, stream, to_local, to_world, uniform, uniform_cone,
-    uniform_sphere, STREAM_PARTICLE, STREAM_PILOT,
+    cosine_hemisphere, has_smooth_lobe_only, sample_bsdf, stream, to_local, to_world, uniform, uniform_cone, uniform_sphere,
+    STREAM_PARTICLE, STREAM_PILOT,
 };
 use super::GenerateOptions;
 use crate::error::Result;
@@ -214,14 +214,7 @@ pub(crate) fn walk(
             }
             phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
             if depth <= max_depth && depth >= min_depth {
-                store(Vpl {
-                    position: offset_p(hit.p, n_g, w_in),
-                    n_s,
-                    n_g,
-                    incident: w_in,
-                    flux: phi_vpl,
-                    bsdf: b,
-                });
+                store(Vpl { position: offset_p(hit.p, n_g, w_in), n_s, n_g, incident: w_in, flux: phi_vpl, bsdf: b });
             }
         }
         if depth >= max_depth {
@@ -272,7 +265,13 @@ pub fn trace_photons(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environm
 
 /// Particle tracing storing a record at every hit with bounce index in [min_depth, max_depth - 2];
 /// with `opts.vpl_importance`, the VPLs are importance sampled by the camera (`vpl_importance`).
-fn trace_particles(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environment>, opts: &GenerateOptions, min_depth: u32) -> Result<LightSet> {
+fn trace_particles(
+    scene: &Scene,
+    areas: &[AreaEmitter],
+    env: Option<&Environment>,
+    opts: &GenerateOptions,
+    min_depth: u32,
+) -> Result<LightSet> {
     let (center, radius) = scene_sphere(scene);
     if opts.indirect == 0 || opts.max_depth < 3 {
         return Ok(LightSet::new(center, radius));
@@ -289,7 +288,13 @@ fn trace_particles(scene: &Scene, areas: &[AreaEmitter], env: Option<&Environmen
 impl<'a> Tracer<'a> {
     /// The particle sources of the scene (area, environment, delta emitters, chosen by power); `None`
     /// when nothing emits (or the scene has no extent).
-    pub(crate) fn new(scene: &'a Scene, areas: &'a [AreaEmitter], env: Option<&'a Environment>, opts: &GenerateOptions, min_depth: u32) -> Result<Option<Tracer<'a>>> {
+    pub(crate) fn new(
+        scene: &'a Scene,
+        areas: &'a [AreaEmitter],
+        env: Option<&'a Environment>,
+        opts: &GenerateOptions,
+        min_depth: u32,
+    ) -> Result<Option<Tracer<'a>>> {
         let (center, radius) = scene_sphere(scene);
         let delta = LightSet::from_scene(scene)?;
         let mut sources: Vec<(Source, Vec3)> = Vec::new();
@@ -316,7 +321,13 @@ impl<'a> Tracer<'a> {
             return Ok(None);
         }
         let mut acc = 0.0;
-        let cdf: Vec<f64> = weights.iter().map(|w| { acc += w; acc }).collect();
+        let cdf: Vec<f64> = weights
+            .iter()
+            .map(|w| {
+                acc += w;
+                acc
+            })
+            .collect();
         let prob: Vec<f32> = weights.iter().map(|w| (w / total) as f32).collect();
         Ok(Some(Tracer {
             scene,

@@ -93,10 +93,7 @@ impl VplImportance {
     /// `vpl_accept_min` (NaN or outside (0, 1]).
     pub fn check(&self) -> Result<()> {
         if !(1..=MAX_VIEW_SAMPLES).contains(&self.view_samples) {
-            return Err(Error::invalid(format!(
-                "vpl_view_samples must be in 1..={MAX_VIEW_SAMPLES}, got {}",
-                self.view_samples
-            )));
+            return Err(Error::invalid(format!("vpl_view_samples must be in 1..={MAX_VIEW_SAMPLES}, got {}", self.view_samples)));
         }
         if !(self.accept_min > 0.0 && self.accept_min <= 1.0) {
             return Err(Error::invalid(format!("vpl_accept_min must be in (0, 1], got {}", self.accept_min)));
@@ -141,9 +138,9 @@ impl PilotView {
         let mut cam = cam.clone();
         (cam.width, cam.height) = (w, h);
         let scene = &tracer.scene;
-        let ids = crate::view_resolve::cast_visibility_traced_for(scene, &cam, &tracer.rt)?;
-        let chains = crate::view_chains::ChainOptions::default();
-        let view = crate::view_resolve::resolve_view_samples_for(scene, &cam, &ids, &chains)?;
+        let ids = crate::view::resolve::cast_visibility_traced_for(scene, &cam, &tracer.rt)?;
+        let chains = crate::view::chains::ChainOptions::default();
+        let view = crate::view::resolve::resolve_view_samples_for(scene, &cam, &ids, &chains)?;
         let points = (0..view.len()).map(|i| (i, ShadingPoint::new(&view, i))).filter(|(_, sp)| sp.surface).collect();
         Ok(PilotView { view, points })
     }
@@ -237,7 +234,19 @@ pub(crate) fn trace_importance(tracer: &Tracer, opts: &GenerateOptions, imp: &Vp
         phis.extend(r?);
     }
     if phis.is_empty() {
-        return Ok((out, ImportanceStats { view_samples: pilot_view.len(), tau: 0.0, phi_v: 0.0, candidates_per_particle: 0.0, acceptance: 0.0, particles: 0, candidates: 0, accepted: 0 }));
+        return Ok((
+            out,
+            ImportanceStats {
+                view_samples: pilot_view.len(),
+                tau: 0.0,
+                phi_v: 0.0,
+                candidates_per_particle: 0.0,
+                acceptance: 0.0,
+                particles: 0,
+                candidates: 0,
+                accepted: 0,
+            },
+        ));
     }
     let eps = imp.accept_min as f64;
     let Some(tau) = solve_tau(&phis, n_pilot, eps) else {
@@ -298,3 +307,6 @@ pub(crate) fn trace_importance(tracer: &Tracer, opts: &GenerateOptions, imp: &Vp
     log::info!("vpl_importance: {stats:?}");
     Ok((out, stats))
 }
+
+#[cfg(test)]
+mod tests;

@@ -52,7 +52,10 @@ impl Builder<'_> {
             [r] if self.doc.nodes[r.node].class == "shape" && self.doc.nodes[r.node].plugin == "shapegroup" => r.node,
             [r] => {
                 let n = &self.doc.nodes[r.node];
-                return Err(Error::scene(&r.loc, format!("only a shapegroup can be specified in an instance, got <{} type=\"{}\">", n.class, n.plugin)));
+                return Err(Error::scene(
+                    &r.loc,
+                    format!("only a shapegroup can be specified in an instance, got <{} type=\"{}\">", n.class, n.plugin),
+                ));
             }
             [] => return Err(Error::scene(&loc, "an instance needs a reference to a shapegroup")),
             [_, r, ..] => return Err(Error::scene(&r.loc, "only a single shapegroup can be specified per instance")),

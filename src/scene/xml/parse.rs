@@ -120,18 +120,13 @@ struct Parser {
     includes: usize,
 }
 
-const OBJECT_CLASSES: &[&str] = &[
-    "shape", "bsdf", "texture", "emitter", "sensor", "film", "sampler", "integrator", "rfilter", "medium",
-    "phase", "volume", "spectrum",
-];
+const OBJECT_CLASSES: &[&str] =
+    &["shape", "bsdf", "texture", "emitter", "sensor", "film", "sampler", "integrator", "rfilter", "medium", "phase", "volume", "spectrum"];
 
 /// Reads `path` and everything it includes.
 pub fn parse_document(path: &Path, params: &[(String, String)]) -> Result<Document> {
     let mut parser = Parser {
-        params: params
-            .iter()
-            .map(|(k, v)| Param { key: format!("${k}"), value: v.clone(), used: false })
-            .collect(),
+        params: params.iter().map(|(k, v)| Param { key: format!("${k}"), value: v.clone(), used: false }).collect(),
         nodes: Vec::new(),
         ids: HashMap::new(),
         path_dirs: Vec::new(),
@@ -141,8 +136,7 @@ pub fn parse_document(path: &Path, params: &[(String, String)]) -> Result<Docume
     };
     parser.sort_params();
     parser.parse_file(path, &Location::new(path, 0), None, 0)?;
-    let unused: Vec<String> =
-        parser.params.iter().filter(|p| !p.used).map(|p| format!("{}={}", p.key, p.value)).collect();
+    let unused: Vec<String> = parser.params.iter().filter(|p| !p.used).map(|p| format!("{}={}", p.key, p.value)).collect();
     if !unused.is_empty() {
         return Err(Error::scene(
             &Location::new(path, 0),
@@ -196,9 +190,8 @@ impl Parser {
             return Err(Error::FileNotFound { loc: include_loc.clone(), path: path.to_path_buf() });
         }
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let doc = roxmltree::Document::parse(&text).map_err(|e| {
-            Error::scene(&Location::new(path, e.pos().row), format!("malformed XML: {e}"))
-        })?;
+        let doc = roxmltree::Document::parse(&text)
+            .map_err(|e| Error::scene(&Location::new(path, e.pos().row), format!("malformed XML: {e}")))?;
         let root = doc.root_element();
         let loc = Location::new(path, line_of(&doc, root));
         if root.tag_name().name() != "scene" {
@@ -256,10 +249,7 @@ impl Parser {
                 let bytes = value.as_bytes();
                 for (i, b) in bytes.iter().enumerate() {
                     if *b == b'$' && (i == 0 || bytes[i - 1] != b'\\') {
-                        let name: String = value[i + 1..]
-                            .chars()
-                            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-                            .collect();
+                        let name: String = value[i + 1..].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
                         return Err(Error::scene(
                             &Location::new(path, line_of(doc, node)),
                             format!(
@@ -306,10 +296,7 @@ impl Parser {
         let is_object = OBJECT_CLASSES.contains(&tag.as_str()) && (tag != "spectrum" || get("type").is_some());
         if !is_object && tag != "transform" {
             if let Some(c) = node.children().find(|c| c.is_element()) {
-                return Err(Error::scene(
-                    &loc,
-                    format!("<{}> element cannot occur as child of a property <{tag}>", c.tag_name().name()),
-                ));
+                return Err(Error::scene(&loc, format!("<{}> element cannot occur as child of a property <{tag}>", c.tag_name().name())));
             }
         }
         if is_object {
@@ -325,10 +312,7 @@ impl Parser {
             let id = get("id");
             if let Some(id) = &id {
                 if let Some(prev) = self.ids.insert(id.clone(), idx) {
-                    return Err(Error::scene(
-                        &loc,
-                        format!("duplicate id \"{id}\" (previous declaration at {})", self.nodes[prev].loc),
-                    ));
+                    return Err(Error::scene(&loc, format!("duplicate id \"{id}\" (previous declaration at {})", self.nodes[prev].loc)));
                 }
             }
             self.nodes.push(Node {
@@ -383,10 +367,9 @@ impl Parser {
                 }
                 let v = value("path")?;
                 // Not found anywhere: Mitsuba fails too ("<path>: folder ... not found").
-                let dir = self.resolve_path_element(&v, path).ok_or_else(|| Error::FileNotFound {
-                    loc: loc.clone(),
-                    path: path.parent().unwrap_or(Path::new("")).join(&v),
-                })?;
+                let dir = self
+                    .resolve_path_element(&v, path)
+                    .ok_or_else(|| Error::FileNotFound { loc: loc.clone(), path: path.parent().unwrap_or(Path::new("")).join(&v) })?;
                 self.path_dirs.push(dir);
                 return Ok(());
             }
@@ -424,9 +407,11 @@ impl Parser {
             "integer" => {
                 check(&["name", "value"], &["name", "value"])?;
                 let v = value("integer")?;
-                Value::Int(v.trim().parse::<i64>().map_err(|_| {
-                    Error::scene(&loc, format!("could not parse integer value \"{v}\" of <integer name=\"{name}\">"))
-                })?)
+                Value::Int(
+                    v.trim()
+                        .parse::<i64>()
+                        .map_err(|_| Error::scene(&loc, format!("could not parse integer value \"{v}\" of <integer name=\"{name}\">")))?,
+                )
             }
             "boolean" => {
                 check(&["name", "value"], &["name", "value"])?;

@@ -168,7 +168,10 @@ impl<'a> Builder<'a> {
     /// A colour that must be constant (emitters, checkerboard colours).
     fn constant_color(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Vec3> {
         if let Some(r) = p.named_object(name)? {
-            return Err(Error::scene(&r.loc, format!("\"{name}\" of {} must be a constant colour (textures are not supported here)", p.what())));
+            return Err(Error::scene(
+                &r.loc,
+                format!("\"{name}\" of {} must be a constant colour (textures are not supported here)", p.what()),
+            ));
         }
         Ok(p.color_prop(name)?.unwrap_or(Vec3::splat(default)))
     }
@@ -241,7 +244,10 @@ impl<'a> Builder<'a> {
                 let int_ior = self.ior(&mut p, "int_ior", "polypropylene")?;
                 let ext_ior = self.ior(&mut p, "ext_ior", "air")?;
                 if int_ior < 0.0 || ext_ior < 0.0 || int_ior == ext_ior {
-                    return Err(Error::scene(p.loc(), format!("{kind}: int_ior ({int_ior}) and ext_ior ({ext_ior}) must be positive and differ")));
+                    return Err(Error::scene(
+                        p.loc(),
+                        format!("{kind}: int_ior ({int_ior}) and ext_ior ({ext_ior}) must be positive and differ"),
+                    ));
                 }
                 let diffuse_reflectance = self.param(&mut p, "diffuse_reflectance", 0.5)?;
                 let specular_reflectance = self.param(&mut p, "specular_reflectance", 1.0)?;
@@ -284,7 +290,10 @@ impl<'a> Builder<'a> {
                 let int_ior = self.ior(&mut p, "int_ior", "bk7")?;
                 let ext_ior = self.ior(&mut p, "ext_ior", "air")?;
                 if int_ior < 0.0 || ext_ior < 0.0 || int_ior == ext_ior {
-                    return Err(Error::scene(p.loc(), format!("dielectric: int_ior ({int_ior}) and ext_ior ({ext_ior}) must be positive and differ")));
+                    return Err(Error::scene(
+                        p.loc(),
+                        format!("dielectric: int_ior ({int_ior}) and ext_ior ({ext_ior}) must be positive and differ"),
+                    ));
                 }
                 for n in ["specular_reflectance", "specular_transmittance"] {
                     if let Param::Value(v) = self.param(&mut p, n, 1.0)? {
@@ -359,7 +368,10 @@ impl<'a> Builder<'a> {
                 if !(uniform && orthogonal) || l[0] == 0.0 {
                     return Err(Error::scene(
                         &loc,
-                        format!("sphere: to_world must be a similarity (uniform scale, no shear); axis lengths {:.6}, {:.6}, {:.6}", l[0], l[1], l[2]),
+                        format!(
+                            "sphere: to_world must be a similarity (uniform scale, no shear); axis lengths {:.6}, {:.6}, {:.6}",
+                            l[0], l[1], l[2]
+                        ),
                     ));
                 }
                 let mirrored = glam::DMat3::from_mat4(m).determinant() < 0.0;
@@ -425,18 +437,15 @@ impl<'a> Builder<'a> {
             _ => glam::DMat3::from_mat4(to_world_affine.inverse_transpose),
         };
         let world_from_local: Mat4 = transform::to_f32(&world_from_local);
-        let (positions, normals, uvs, indices) = mesh::finalize_with_normal_matrix(
-            data,
-            world_from_local,
-            normal_from_local.as_mat3(),
-            face_normals,
-            flip_normals,
-            &loc,
-        )?;
+        let (positions, normals, uvs, indices) =
+            mesh::finalize_with_normal_matrix(data, world_from_local, normal_from_local.as_mat3(), face_normals, flip_normals, &loc)?;
         if indices.is_empty() {
             if let Some(r) = &emitter_node {
                 // Mitsuba fails too ("DiscreteDistribution: no probability mass found").
-                return Err(Error::scene(&r.loc, format!("area emitter on a degenerate shape \"{id}\" ({loc}): all its triangles have zero area")));
+                return Err(Error::scene(
+                    &r.loc,
+                    format!("area emitter on a degenerate shape \"{id}\" ({loc}): all its triangles have zero area"),
+                ));
             }
             self.warnings.push(format!("{loc}: shape \"{id}\": all triangles have zero area; the shape adds nothing (as in Mitsuba)"));
         }
@@ -576,10 +585,8 @@ impl<'a> Builder<'a> {
         if near_clip <= 0.0 || near_clip >= far_clip {
             return Err(Error::scene(&loc, format!("near_clip ({near_clip}) must be > 0 and < far_clip ({far_clip})")));
         }
-        let principal_point_offset = glam::Vec2::new(
-            p.float("principal_point_offset_x", 0.0)? as f32,
-            p.float("principal_point_offset_y", 0.0)? as f32,
-        );
+        let principal_point_offset =
+            glam::Vec2::new(p.float("principal_point_offset_x", 0.0)? as f32, p.float("principal_point_offset_y", 0.0)? as f32);
         if !principal_point_offset.is_finite() {
             return Err(Error::scene(&loc, format!("principal_point_offset {principal_point_offset} must be finite")));
         }
@@ -648,9 +655,10 @@ fn parse_fov(p: &mut Props, aspect: f64) -> Result<f64> {
         None => {
             let f = p.string("focal_length")?.map(|(s, _)| s).unwrap_or("50mm");
             let v = f.strip_suffix("mm").unwrap_or(f);
-            let v: f64 = v.trim().parse().map_err(|_| {
-                Error::scene(&loc, format!("could not parse focal_length \"{f}\" (must be of the form <x>mm)"))
-            })?;
+            let v: f64 = v
+                .trim()
+                .parse()
+                .map_err(|_| Error::scene(&loc, format!("could not parse focal_length \"{f}\" (must be of the form <x>mm)")))?;
             (2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * v)).atan().to_degrees(), "diagonal".to_string())
         }
     };

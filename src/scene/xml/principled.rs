@@ -14,8 +14,8 @@ impl Builder<'_> {
     pub(super) fn principled(&mut self, p: &mut Props) -> Result<Bsdf> {
         p.ignore(&["main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"]);
         // Mitsuba's get_flag: given, and not the float 0.
-        let has_spec_trans = p.has("spec_trans")
-            && !p.node.props.iter().any(|q| q.name == "spec_trans" && matches!(q.value, Value::Float(v) if v == 0.0));
+        let has_spec_trans =
+            p.has("spec_trans") && !p.node.props.iter().any(|q| q.name == "spec_trans" && matches!(q.value, Value::Float(v) if v == 0.0));
         let base_color = self.param(p, "base_color", 0.5)?;
         let mut scalar = |s: &mut Self, name: &str, default: f32| s.unbounded_param(p, name, default);
         let roughness = scalar(self, "roughness", 0.5)?;

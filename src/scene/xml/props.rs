@@ -72,15 +72,7 @@ impl<'a> Props<'a> {
     }
 
     fn type_error(&self, p: &Prop, expected: &str) -> Error {
-        Error::scene(
-            &p.loc,
-            format!(
-                "property \"{}\" of {} must be {expected}, got <{}>",
-                p.name,
-                self.what(),
-                p.value.type_name()
-            ),
-        )
+        Error::scene(&p.loc, format!("property \"{}\" of {} must be {expected}, got <{}>", p.name, self.what(), p.value.type_name()))
     }
 
     pub fn opt_float(&mut self, name: &str) -> Result<Option<f64>> {
@@ -180,9 +172,7 @@ impl<'a> Props<'a> {
 
     fn resolve(&self, child: &Child) -> Result<ObjectRef> {
         match child {
-            Child::Object { name, node } => {
-                Ok(ObjectRef { node: *node, name: name.clone(), loc: self.doc.nodes[*node].loc.clone() })
-            }
+            Child::Object { name, node } => Ok(ObjectRef { node: *node, name: name.clone(), loc: self.doc.nodes[*node].loc.clone() }),
             Child::Ref { name, id, loc } => match self.doc.ids.get(id) {
                 Some(&node) => Ok(ObjectRef { node, name: name.clone(), loc: loc.clone() }),
                 None => Err(Error::scene(loc, format!("<ref id=\"{id}\">: no object with this id"))),

@@ -83,11 +83,7 @@ impl Spectrum {
             return Err(format!("non-finite number {v} in a spectrum"));
         }
         if let Some(i) = (1..wavelengths.len()).find(|&i| wavelengths[i] <= wavelengths[i - 1]) {
-            return Err(format!(
-                "wavelengths must be strictly increasing ({} nm follows {} nm)",
-                wavelengths[i],
-                wavelengths[i - 1]
-            ));
+            return Err(format!("wavelengths must be strictly increasing ({} nm follows {} nm)", wavelengths[i], wavelengths[i - 1]));
         }
         Ok(Spectrum { wavelengths, values })
     }
@@ -148,45 +144,10 @@ fn table(t: &[f32; CIE_SAMPLES], x: f64) -> f64 {
 /// CIE XYZ to linear sRGB (Rec. 709 primaries, D65 white), with Mitsuba's f32 coefficients.
 pub fn xyz_to_srgb(xyz: DVec3) -> DVec3 {
     #[allow(clippy::excessive_precision)]
-    const M: [[f32; 3]; 3] = [
-        [3.240479, -1.537150, -0.498535],
-        [-0.969256, 1.875991, 0.041556],
-        [0.055648, -0.204043, 1.057311],
-    ];
+    const M: [[f32; 3]; 3] = [[3.240479, -1.537150, -0.498535], [-0.969256, 1.875991, 0.041556], [0.055648, -0.204043, 1.057311]];
     let row = |r: [f32; 3]| r[0] as f64 * xyz.x + r[1] as f64 * xyz.y + r[2] as f64 * xyz.z;
     DVec3::new(row(M[0]), row(M[1]), row(M[2]))
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn parse_forms_and_errors() {
-        assert_eq!(Spectrum::parse(" 0.5 ").unwrap().uniform(), Some(0.5));
-        let s = Spectrum::parse("400:0.1, 500:0.2 600:0.3").unwrap();
-        assert_eq!((s.wavelengths.clone(), s.values.clone()), (vec![400.0, 500.0, 600.0], vec![0.1, 0.2, 0.3]));
-        for (bad, msg) in [
-            ("400:0.1", "at least two"),
-            ("500:0.1, 400:0.2", "strictly increasing"),
-            ("400:0.1, 500", "wavelength:value"),
-            ("400:x, 500:1", "\"x\""),
-            ("abc", "\"abc\""),
-            ("0.1 0.2", "wavelength:value"),
-        ] {
-            let e = Spectrum::parse(bad).unwrap_err();
-            assert!(e.contains(msg), "{bad}: {e}");
-        }
-    }
-
-    #[test]
-    fn values_as_mitsuba_computes_them() {
-        // mitsuba 3.9.1 scalar_rgb: diffuse reflectance / area radiance of these spectra (mi.traverse).
-        let flat = Spectrum::parse("360:1, 830:1").unwrap();
-        let r = flat.to_rgb(SpectrumUse::Reflectance);
-        assert!((r - DVec3::ONE).abs().max_element() < 2e-3, "{r}"); // D65-weighted flat = white (clamped)
-        let e = Spectrum::parse("0.5").unwrap().to_rgb(SpectrumUse::Emission);
-        assert!((e - DVec3::new(0.6023970, 0.4741455, 0.4544580)).abs().max_element() < 1e-6, "{e}");
-        assert_eq!(Spectrum::parse("0.5").unwrap().to_rgb(SpectrumUse::Reflectance), DVec3::splat(0.5));
-    }
-}
+mod tests;

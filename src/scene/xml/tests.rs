@@ -3,6 +3,9 @@
 //! `mi.traverse(sensor)["x_fov"]`, `sensor.world_transform()`).
 // Reference numbers are pasted verbatim from Mitsuba's printouts (f32 values printed as f64).
 #![allow(clippy::excessive_precision)]
+mod formats;
+mod small;
+
 use super::*;
 use crate::scene::{Bsdf, Emitter, MicrofacetDistribution, Param, ShapeKind, Texture};
 use glam::{Vec3, Vec4};
@@ -198,9 +201,24 @@ fn matpreview() {
     let s = load("matpreview");
     assert_eq!(tris(&s), vec![512, 3936, 57152]);
     assert_eq!(s.meshes.iter().map(|m| m.kind.clone()).collect::<Vec<_>>(), vec![ShapeKind::Ply; 3]);
-    assert_bbox(&s, 0, [-7.1978607177734375, -5.460068702697754, -0.012071399949491024], [5.1473188400268555, 7.94972562789917, 6.847081661224365]);
-    assert_bbox(&s, 1, [-0.9272717833518982, -0.927271842956543, -0.0058960989117622375], [0.9272717833518982, 0.927271842956543, 1.7120825052261353]);
-    assert_bbox(&s, 2, [-1.059389591217041, -1.0803329944610596, 0.014029961079359055], [1.0803346633911133, 1.0593897104263306, 1.9155144691467285]);
+    assert_bbox(
+        &s,
+        0,
+        [-7.1978607177734375, -5.460068702697754, -0.012071399949491024],
+        [5.1473188400268555, 7.94972562789917, 6.847081661224365],
+    );
+    assert_bbox(
+        &s,
+        1,
+        [-0.9272717833518982, -0.927271842956543, -0.0058960989117622375],
+        [0.9272717833518982, 0.927271842956543, 1.7120825052261353],
+    );
+    assert_bbox(
+        &s,
+        2,
+        [-1.059389591217041, -1.0803329944610596, 0.014029961079359055],
+        [1.0803346633911133, 1.0593897104263306, 1.9155144691467285],
+    );
     assert_eq!(s.bsdfs.len(), 3);
     assert_eq!(s.bsdfs[s.meshes[0].bsdf], Bsdf::Diffuse { reflectance: Param::Texture(0) });
     match &s.textures[..] {
@@ -235,7 +253,12 @@ fn matpreview() {
 fn bunny() {
     let s = load("bunny");
     assert_eq!(tris(&s), vec![69451, 512]);
-    assert_bbox(&s, 0, [-0.9584707021713257, -1.0689585208892822, 0.057685233652591705], [0.8893356919288635, 0.6033881306648254, 1.9020347595214844]);
+    assert_bbox(
+        &s,
+        0,
+        [-0.9584707021713257, -1.0689585208892822, 0.057685233652591705],
+        [0.8893356919288635, 0.6033881306648254, 1.9020347595214844],
+    );
     assert_eq!((s.meshes[0].id.as_str(), s.meshes[1].id.as_str()), ("shape_0", "Plane-mesh_0"));
     assert_eq!(s.bsdfs.len(), 3); // twosided + its diffuse, planemat
     assert_eq!(s.textures.len(), 1);
@@ -255,7 +278,12 @@ fn veach_ajar() {
     assert_eq!(s.bsdfs.len(), 20);
     assert_eq!(s.textures.len(), 4);
     assert_eq!(s.emitters.len(), 1);
-    assert_bbox(&s, 0, [-5.169544696807861, 0.18519997596740723, -4.443769931793213], [-3.7086548805236816, 2.8279199600219727, -4.443769931793213]);
+    assert_bbox(
+        &s,
+        0,
+        [-5.169544696807861, 0.18519997596740723, -4.443769931793213],
+        [-3.7086548805236816, 2.8279199600219727, -4.443769931793213],
+    );
     assert_bbox(&s, 3, [-2.8299996852874756, 0.0, -7.599999904632568], [7.429999828338623, 0.0, 0.5999990105628967]);
     assert_bbox(&s, 15, [-9.646340370178223, 0.0, -7.599999904632568], [7.429999828338623, 3.799999952316284, 0.5999990105628967]);
     let Bsdf::TwoSided { front, .. } = s.bsdfs[s.meshes[3].bsdf] else { panic!() };

@@ -1,0 +1,43 @@
+use super::*;
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let dir = crate::testing::scratch_dir("image");
+    dir.join(name)
+}
+
+#[test]
+fn exr_round_trip_is_exact() {
+    let (w, h) = (5u32, 3u32);
+    let px: Vec<[f32; 3]> = (0..w * h).map(|i| [i as f32 * 0.1, -(i as f32) * 1e-3, 1e6 + i as f32 * std::f32::consts::PI]).collect();
+    let p = tmp("rt.exr");
+    write_exr(&p, w, h, &px).unwrap();
+    let (w2, h2, back) = read_exr(&p).unwrap();
+    assert_eq!((w2, h2), (w, h));
+    assert_eq!(back, px);
+    assert!(write_exr(&p, 4, 4, &px).is_err());
+}
+
+#[test]
+fn reads_piz_half_exr_of_shared_scene() {
+    // bunny/textures/museum.exr: PIZ-compressed half RGB(A), as in the shared scenes.
+    let p = crate::scene::mesh::shared_dir().join("scenes/bunny/textures/museum.exr");
+    let (w, h, px) = read_exr(&p).unwrap();
+    assert_eq!(px.len(), (w * h) as usize);
+    assert!(px.iter().all(|c| c.iter().all(|v| v.is_finite() && *v >= 0.0)));
+    let mean: f64 = px.iter().map(|c| c[1] as f64).sum::<f64>() / px.len() as f64;
+    assert!(mean > 0.0);
+}
+
+#[test]
+fn png_write_encodes_srgb() {
+    let p = tmp("w.png");
+    let px = [[0.0, 0.5, 1.0], [0.21586, 2.0, -1.0], [0.0031308, 0.25, f32::NAN], [1.0, 1.0, 1.0]];
+    write_png(&p, 2, 2, &px, 0.0).unwrap();
+    let img = image::open(&p).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (2, 2));
+    assert_eq!(img.get_pixel(0, 0).0, [0, 188, 255]);
+    assert_eq!(img.get_pixel(1, 0).0, [128, 255, 0]);
+    assert_eq!(img.get_pixel(0, 1).0, [10, 137, 0]);
+    write_png(&p, 2, 2, &px, -1.0).unwrap();
+    assert_eq!(image::open(&p).unwrap().to_rgb8().get_pixel(1, 1).0, [188, 188, 188]);
+}

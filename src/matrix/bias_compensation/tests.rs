@@ -1,0 +1,66 @@
+use super::*;
+use crate::lights::{generate_lights, GenerateOptions};
+use crate::matrix::reference::CpuReference;
+use crate::testing::light_scenes::furnace_box;
+use crate::testing::scenes::cast_view;
+
+/// Sum over the image of every VPL column (the indirect light) of `lights`.
+fn vpl_energy(reference: &CpuReference, view: &ViewSamples, lights: &LightSet) -> f64 {
+    (0..lights.len())
+        .filter(|&j| lights.kind[j] == LightKind::Vpl)
+        .map(|j| reference.column(view, lights, j).iter().map(|&v| v as f64).sum::<f64>())
+        .sum()
+}
+
+fn mean_se(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
+    (m, (var / n).sqrt())
+}
+
+/// Over VPL and compensation seeds, clamped columns + compensation = the unclamped VPL image within
+/// its standard error, while the clamped columns alone are far below it (max_depth 3: exact).
+#[test]
+fn clamped_plus_compensation_is_unbiased() {
+    let scene = furnace_box(0.7, vec![], true);
+    let view = cast_view(&scene);
+    let tracer = RayTracer::new(&scene).unwrap();
+    let reference = CpuReference::new(&scene);
+    let (mut paired, mut clamp_only, mut unclamped) = (Vec::new(), Vec::new(), Vec::new());
+    for seed in 0..96u64 {
+        let opts = GenerateOptions { area: 16, indirect: 60, max_depth: 3, clamp: Some(1.0), seed, ..Default::default() };
+        let clamped = generate_lights(&scene, &opts).unwrap();
+        let mut free = clamped.clone();
+        free.vpl_clamp = f32::INFINITY;
+        let comp_opts = BiasCompensationOptions { max_depth: 3, spp: 2, light_samples: 0, seed: 1000 + seed };
+        let comp: f64 = bias_compensation(&scene, &tracer, &view, &clamped, &comp_opts).unwrap().iter().map(|&v| v as f64).sum();
+        let (c, u) = (vpl_energy(&reference, &view, &clamped), vpl_energy(&reference, &view, &free));
+        paired.push(c + comp - u);
+        clamp_only.push(c - u);
+        unclamped.push(u);
+    }
+    let (d, se) = mean_se(&paired);
+    let (b, se_b) = mean_se(&clamp_only);
+    let (u, _) = mean_se(&unclamped);
+    eprintln!("unclamped VPL energy {u:.3}; clamped - unclamped {b:.3} +- {se_b:.3}; clamped + compensation - unclamped {d:.3} +- {se:.3}");
+    assert!(b < -6.0 * se_b && -b > 0.05 * u, "the clamp must remove a clear share: {b} +- {se_b} of {u}");
+    assert!(d.abs() <= 3.5 * se, "compensated: {d} +- {se}");
+    assert!(se < 0.25 * b.abs(), "the test must resolve the bias: se {se} vs bias {b}");
+    // Same seed, same bits; spp 0 and VSL sets are refused; no clamp = zero.
+    let opts = GenerateOptions { area: 16, indirect: 60, max_depth: 3, clamp: Some(1.0), seed: 3, ..Default::default() };
+    let lights = generate_lights(&scene, &opts).unwrap();
+    let o = BiasCompensationOptions { max_depth: 3, spp: 1, light_samples: 8, seed: 9 };
+    let a = bias_compensation(&scene, &tracer, &view, &lights, &o).unwrap();
+    assert_eq!(a, bias_compensation(&scene, &tracer, &view, &lights, &o).unwrap());
+    assert!(a.iter().any(|&v| v > 0.0));
+    let e = bias_compensation(&scene, &tracer, &view, &lights, &BiasCompensationOptions { spp: 0, ..o }).unwrap_err().to_string();
+    assert!(e.contains("spp"), "{e}");
+    let mut vsl = lights.clone();
+    let j = (0..vsl.len()).find(|&j| vsl.kind[j] == LightKind::Vpl).unwrap();
+    vsl.set_vsl_radius(j, 0.1).unwrap();
+    assert!(bias_compensation(&scene, &tracer, &view, &vsl, &o).unwrap_err().to_string().contains("virtual spherical light"));
+    let mut free = lights.clone();
+    free.vpl_clamp = f32::INFINITY;
+    assert!(bias_compensation(&scene, &tracer, &view, &free, &o).unwrap().iter().all(|&v| v == 0.0));
+}

@@ -1,0 +1,339 @@
+//! Delta BSDF chains: what a pixel sees through mirrors, glass and smooth plastic's specular layer.
+//!
+//! A camera ray that hits a delta BSDF (`conductor`, `dielectric`, the specular layer of `plastic`) is
+//! continued deterministically along every delta lobe to the first surface with a non-delta BSDF, as
+//! the expectation of Mitsuba 3's `path` integrator (`src/integrators/path.cpp`) computes it:
+//! - `conductor` (one-sided; `twosided` flips the side): the mirror direction about the shading normal,
+//!   weight `specular_reflectance * fresnel_conductor(cos_theta_i, eta + i k)`.
+//! - `dielectric`: both branches of Mitsuba's `dielectric.cpp` `sample` (the reflected one with the
+//!   Fresnel reflectance R, the refracted one with `(1 - R) * eta_ti^2`, radiance mode: the solid-angle
+//!   compression when crossing the interface); total internal reflection keeps only the reflection.
+//!   `specular_reflectance` / `specular_transmittance` are 1 (the loader keeps no other value).
+//! - `plastic` (one-sided): the specular branch `specular_reflectance * F(cos_theta_i, eta)`; the
+//!   plastic surface itself stays a view sample for its diffuse lobe.
+//! Directions are built in the shading frame (reflection: `2 (wi . n_s) n_s - wi`; refraction:
+//! Mitsuba's `refract(wi, cos_theta_t, eta_ti)`), rays leave with Mitsuba's `spawn_ray` offsets and are
+//! traced with the CPU `RayTracer`. Every branch multiplies its RGB throughput by the weight.
+//!
+//! Path depth follows Mitsuba's `max_depth` (`ChainOptions::max_depth`, -1 = unlimited): a vertex reached
+//! after k delta bounces adds its emission (an area emitter seen from its front, or the environment when
+//! the branch escapes) when `k < max_depth`, and becomes a view sample (a row of direct light: emitter
+//! sampling) when `k + 1 < max_depth`, exactly the conditions of `path.cpp` (`active_next = depth + 1 <
+//! max_depth`, emission at every intersection reached). So at `max_depth = 2` a mirror shows the
+//! emitters it reflects but no lit walls, as Mitsuba's image does.
+//!
+//! Bounds (deviations from Mitsuba's unbounded expectation, each a bias of at most the dropped
+//! throughput times the radiance it would have carried): a branch stops after `max_bounces` delta
+//! bounces (also with `max_depth = -1`), a branch whose throughput falls below `min_throughput` (all
+//! channels) is dropped, and a pixel keeps at most `max_samples_per_pixel` extra samples (the later ones
+//! are dropped). `ChainStats` counts all three. Russian roulette is not needed (the sum is exact).
+//!
+//! Emission at the camera's own hit (k = 0) is `matrix::emitted`'s; this module collects k >= 1.
+use crate::error::{Error, Result};
+use crate::lights::generate::environment::Environment;
+use crate::raytrace::{spawn_ray, RayTracer};
+use crate::scene::{Bsdf, Scene};
+use crate::shading::bsdf::{fresnel, fresnel_conductor, KIND_NONE, KIND_SMOOTH};
+use crate::shading::GpuBsdf;
+use crate::view::ViewSamples;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+/// How delta chains are followed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChainOptions {
+    /// Mitsuba's `path` `max_depth`: -1 = unlimited, else >= 2 (2 = direct light only).
+    pub max_depth: i32,
+    /// Most delta bounces along one branch (bounds `max_depth = -1`).
+    pub max_bounces: u32,
+    /// A branch whose throughput is below this in every channel is dropped.
+    pub min_throughput: f32,
+    /// Most extra view samples per pixel.
+    pub max_samples_per_pixel: usize,
+}
+
+impl Default for ChainOptions {
+    fn default() -> Self {
+        ChainOptions { max_depth: -1, max_bounces: 8, min_throughput: 1e-3, max_samples_per_pixel: 32 }
+    }
+}
+
+impl ChainOptions {
+    /// Options with Mitsuba's `max_depth` and the default bounds.
+    ///
+    /// Errors: `InvalidParameter` unless `max_depth == -1` or `max_depth >= 2`.
+    pub fn with_max_depth(max_depth: i64) -> Result<ChainOptions> {
+        if max_depth != -1 && max_depth < 2 {
+            return Err(Error::invalid(format!(
+                "max_depth must be -1 (unlimited) or >= 2 (Mitsuba's path depth; 2 = direct light only), got {max_depth}"
+            )));
+        }
+        Ok(ChainOptions { max_depth: max_depth.min(i32::MAX as i64) as i32, ..Default::default() })
+    }
+
+    fn check(&self) -> Result<()> {
+        if self.max_depth != -1 && self.max_depth < 2 {
+            return Err(Error::invalid(format!("max_depth must be -1 or >= 2, got {}", self.max_depth)));
+        }
+        if !(self.min_throughput.is_finite() && self.min_throughput >= 0.0) {
+            return Err(Error::invalid(format!("min_throughput must be finite and >= 0, got {}", self.min_throughput)));
+        }
+        Ok(())
+    }
+
+    /// Whether emission at a vertex after k delta bounces counts (`k < max_depth`).
+    fn emits(&self, k: u32) -> bool {
+        self.max_depth < 0 || (k as i64) < self.max_depth as i64
+    }
+
+    /// Whether a vertex after k delta bounces samples emitters (`k + 1 < max_depth`).
+    fn samples(&self, k: u32) -> bool {
+        self.max_depth < 0 || (k as i64) + 1 < self.max_depth as i64
+    }
+}
+
+/// What `trace_chains` did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ChainStats {
+    /// Extra view samples added.
+    pub extra_samples: usize,
+    /// Branches dropped below `min_throughput`.
+    pub dropped_throughput: usize,
+    /// Branches stopped by `max_bounces`.
+    pub dropped_bounces: usize,
+    /// Samples dropped by `max_samples_per_pixel`.
+    pub dropped_samples: usize,
+}
+
+/// The delta lobes of a BSDF.
+#[derive(Debug, Clone, Copy)]
+enum Delta {
+    Conductor { eta: Vec3, k: Vec3, specular: Vec3 },
+    Dielectric { eta: f32 },
+    Plastic { eta: f32, specular: Vec3 },
+}
+
+/// The delta lobes of scene BSDF `index` (resolved at the point as `b`), with its two-sidedness.
+fn delta_of(bsdfs: &[Bsdf], index: usize, b: &GpuBsdf, twosided: bool) -> Option<(Delta, bool)> {
+    match bsdfs.get(index)? {
+        Bsdf::TwoSided { front, .. } if *front != index => delta_of(bsdfs, *front, b, true),
+        Bsdf::Conductor { eta, k, .. } => Some((Delta::Conductor { eta: *eta, k: *k, specular: Vec3::from(b.specular) }, twosided)),
+        Bsdf::Dielectric { int_ior, ext_ior } => Some((Delta::Dielectric { eta: int_ior / ext_ior }, twosided)),
+        Bsdf::Plastic { int_ior, ext_ior, .. } => {
+            let specular = Vec3::from(b.specular);
+            (specular != Vec3::ZERO).then_some((Delta::Plastic { eta: int_ior / ext_ior, specular }, twosided))
+        }
+        _ => None,
+    }
+}
+
+/// Mitsuba's dielectric `fresnel(cos_theta_i, eta)`: (R, cos_theta_t, eta_ti); cos_theta_t has the
+/// opposite sign of cos_theta_i.
+fn fresnel_full(cos_theta_i: f32, eta: f32) -> (f32, f32, f32) {
+    let eta_ti = if cos_theta_i >= 0.0 { 1.0 / eta } else { eta };
+    let cos_theta_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
+    let ct = cos_theta_t_sqr.max(0.0).sqrt();
+    let cos_theta_t = if cos_theta_i >= 0.0 { -ct } else { ct };
+    (fresnel(cos_theta_i, eta), cos_theta_t, eta_ti)
+}
+
+/// The delta branches (outgoing world direction, RGB weight) at a point with shading normal `n` seen
+/// along `wi` (unit, pointing away from the surface toward the previous vertex).
+fn branches(delta: Delta, twosided: bool, wi: Vec3, n: Vec3) -> Vec<(Vec3, Vec3)> {
+    let cos_i = wi.dot(n);
+    let reflect = |n: Vec3, c: f32| (2.0 * c * n - wi).normalize();
+    match delta {
+        Delta::Conductor { .. } | Delta::Plastic { .. } => {
+            // One-sided; `twosided` evaluates the back side as the front with the normal flipped.
+            let (n, c) = if twosided && cos_i < 0.0 { (-n, -cos_i) } else { (n, cos_i) };
+            if c <= 0.0 {
+                return Vec::new();
+            }
+            let w = match delta {
+                Delta::Conductor { eta, k, specular } => {
+                    specular
+                        * Vec3::new(fresnel_conductor(c, eta.x, k.x), fresnel_conductor(c, eta.y, k.y), fresnel_conductor(c, eta.z, k.z))
+                }
+                Delta::Plastic { eta, specular } => specular * fresnel(c, eta),
+                Delta::Dielectric { .. } => unreachable!(),
+            };
+            vec![(reflect(n, c), w)]
+        }
+        Delta::Dielectric { eta } => {
+            let (r, cos_t, eta_ti) = fresnel_full(cos_i, eta);
+            let mut out = Vec::with_capacity(2);
+            if r > 0.0 {
+                out.push((reflect(n, cos_i), Vec3::splat(r)));
+            }
+            if r < 1.0 {
+                // Mitsuba's refract(wi, cos_theta_t, eta_ti) = (-eta_ti wi.xy, cos_theta_t) in the frame of n.
+                let t = (-eta_ti * (wi - cos_i * n) + cos_t * n).normalize();
+                out.push((t, Vec3::splat((1.0 - r) * eta_ti * eta_ti)));
+            }
+            out
+        }
+    }
+}
+
+/// One extra view sample.
+#[derive(Debug, Clone, Copy)]
+struct Extra {
+    position: Vec3,
+    normal: Vec3,
+    geo_normal: Vec3,
+    wi: Vec3,
+    uv: Vec2,
+    shape_index: i32,
+    prim_index: i32,
+    bsdf: GpuBsdf,
+    throughput: Vec3,
+}
+
+struct Tracer<'a> {
+    scene: &'a Scene,
+    rt: &'a RayTracer,
+    env: Option<Environment>,
+    area: crate::matrix::emitted::AreaRadiance<'a>,
+    opts: ChainOptions,
+}
+
+/// The result of one pixel.
+#[derive(Default)]
+struct PixelChains {
+    extras: Vec<Extra>,
+    emitted: Vec3,
+    stats: ChainStats,
+}
+
+impl Tracer<'_> {
+    /// Follow the delta lobes at a vertex reached after `k` delta bounces.
+    #[allow(clippy::too_many_arguments)]
+    fn follow(&self, out: &mut PixelChains, p: Vec3, n_g: Vec3, n_s: Vec3, wi: Vec3, delta: (Delta, bool), throughput: Vec3, k: u32) {
+        for (wo, w) in branches(delta.0, delta.1, wi, n_s) {
+            let tp = throughput * w;
+            let k1 = k + 1;
+            if !self.opts.emits(k1) {
+                continue;
+            }
+            if tp.max_element() < self.opts.min_throughput || !tp.is_finite() {
+                out.stats.dropped_throughput += 1;
+                continue;
+            }
+            if k1 > self.opts.max_bounces {
+                out.stats.dropped_bounces += 1;
+                continue;
+            }
+            let o = spawn_ray(p, n_g, wo);
+            let Some(si) = self.rt.intersect(o, wo, 0.0, f32::INFINITY) else {
+                if let Some(env) = &self.env {
+                    out.emitted += tp * crate::matrix::emitted::sanitized(env.radiance(wo));
+                }
+                continue;
+            };
+            let l = self.area.at(si.mesh, si.uv);
+            if l != Vec3::ZERO && si.wi.dot(si.n_s) > 0.0 {
+                out.emitted += tp * l;
+            }
+            let mesh = &self.scene.meshes[si.mesh];
+            let bsdf = crate::shading::bsdf::resolve(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, si.uv);
+            if bsdf.kind != KIND_SMOOTH && bsdf.kind != KIND_NONE && self.opts.samples(k1) {
+                if out.extras.len() < self.opts.max_samples_per_pixel {
+                    out.extras.push(Extra {
+                        position: si.p,
+                        normal: si.n_s,
+                        geo_normal: si.n_g,
+                        wi: si.wi,
+                        uv: si.uv,
+                        shape_index: si.mesh as i32,
+                        prim_index: si.prim as i32,
+                        bsdf,
+                        throughput: tp,
+                    });
+                } else {
+                    out.stats.dropped_samples += 1;
+                }
+            }
+            if let Some(d) = delta_of(&self.scene.bsdfs, mesh.bsdf, &bsdf, false) {
+                self.follow(out, si.p, si.n_g, si.n_s, si.wi, d, tp, k1);
+            }
+        }
+    }
+}
+
+/// Whether any BSDF of the scene has a delta lobe (then `trace_chains` has work to do).
+pub fn scene_has_delta(scene: &Scene) -> bool {
+    scene.bsdfs.iter().any(|b| match b {
+        Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => true,
+        Bsdf::Plastic { specular_reflectance, .. } => !matches!(specular_reflectance, crate::scene::Param::Value(v) if *v == Vec3::ZERO),
+        _ => false,
+    })
+}
+
+/// Appends to `view` (whose samples are exactly its `width * height` camera hits) the extra samples
+/// reached through delta chains from every pixel, and sets `chain_emitted` and `throughput` (module
+/// docs). A scene without delta BSDFs leaves `view` unchanged.
+///
+/// Errors: `InvalidParameter` for bad options or a view that already has extra samples; `Scene` errors
+/// of `RayTracer::new` (invalid meshes).
+pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) -> Result<ChainStats> {
+    opts.check()?;
+    let m = view.num_pixels();
+    if view.len() != m || !view.extra_pixel.is_empty() {
+        return Err(Error::invalid(format!("trace_chains needs the {m} camera samples only, got {}", view.len())));
+    }
+    if !scene_has_delta(scene) {
+        return Ok(ChainStats::default());
+    }
+    let starts: Vec<(usize, (Delta, bool))> = (0..m)
+        .filter_map(|i| {
+            let s = view.shape_index[i];
+            if s < 0 {
+                return None;
+            }
+            let mesh = scene.meshes.get(s as usize)?;
+            delta_of(&scene.bsdfs, mesh.bsdf, &view.bsdf[i], false).map(|d| (i, d))
+        })
+        .collect();
+    if starts.is_empty() {
+        return Ok(ChainStats::default());
+    }
+    let rt = RayTracer::new(scene)?;
+    let tracer =
+        Tracer { scene, rt: &rt, env: Environment::from_scene(scene), area: crate::matrix::emitted::AreaRadiance::new(scene), opts: *opts };
+    let results: Vec<(usize, PixelChains)> = starts
+        .par_iter()
+        .with_min_len(16)
+        .map(|&(i, d)| {
+            let mut out = PixelChains::default();
+            tracer.follow(&mut out, view.position[i], view.geo_normal[i], view.normal[i], view.wi[i], d, Vec3::ONE, 0);
+            (i, out)
+        })
+        .collect();
+    let mut stats = ChainStats::default();
+    view.throughput = vec![Vec3::ONE; m];
+    view.chain_emitted = vec![Vec3::ZERO; m];
+    for (i, r) in results {
+        view.chain_emitted[i] = r.emitted;
+        stats.dropped_throughput += r.stats.dropped_throughput;
+        stats.dropped_bounces += r.stats.dropped_bounces;
+        stats.dropped_samples += r.stats.dropped_samples;
+        stats.extra_samples += r.extras.len();
+        for e in r.extras {
+            view.position.push(e.position);
+            view.normal.push(e.normal);
+            view.geo_normal.push(e.geo_normal);
+            view.wi.push(e.wi);
+            view.uv.push(e.uv);
+            view.albedo.push(Vec3::from(e.bsdf.diffuse));
+            view.shape_index.push(e.shape_index);
+            view.prim_index.push(e.prim_index);
+            view.bsdf.push(e.bsdf);
+            view.throughput.push(e.throughput);
+            view.extra_pixel.push(i as u32);
+        }
+    }
+    Ok(stats)
+}
+
+#[cfg(test)]
+mod tests;
