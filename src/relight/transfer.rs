@@ -72,7 +72,7 @@ use std::time::Instant;
 pub const DEFAULT_COEFFICIENTS: usize = 100;
 /// Solid-angle threshold s^2 / d^2 when none is given: on the 32x32 test box with 4^6 gather samples it
 /// casts 3.5x fewer shadow rays than the exact gather for a relative L2 change of 0.04% (against
-/// Mitsuba: 2.76% vs 2.72%; tests/test_relight.py).
+/// Mitsuba: 2.76% vs 2.72%; tests/relight/test_relight.py).
 pub const DEFAULT_THRESHOLD: f32 = 0.03;
 /// Receivers per parallel task.
 const ROW_CHUNK: usize = 16;

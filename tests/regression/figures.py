@@ -48,7 +48,7 @@ TOLERANCES = {
     # The GPU backend (wgpu; the software adapter lavapipe here): see test_figures.py.
     "gpu": {"rel": 1e-3, "abs": 1e-6},
     # A GPU figure that is 0 in exact arithmetic (GPU columns equal the CPU's to 1e-5 per value:
-    # tests/test_backends.py).
+    # tests/matrix/test_backends.py).
     "gpu_roundoff": {"rel": 0.0, "abs": 1e-5},
 }
 
@@ -100,7 +100,7 @@ def _mean_ratio(image, reference) -> float:
 @functools.lru_cache(maxsize=None)
 def cbox_lights_32():
     """cbox-lights 32x32, 512 area + 512 environment + ~1024 VPLs (seed 3) and its 3 delta emitters: the
-    small matrix of tests/test_mrcs.py and tests/test_error_estimate.py; truth = column sum + emitted."""
+    small matrix of tests/renderers/test_mrcs.py and tests/renderers/test_error_estimate.py; truth = column sum + emitted."""
     scene = _bundled("cbox-lights", res=32)
     lights = ml.generate_lights(scene, area=512, environment=512, indirect=1024, seed=3)
     A = ml.LightMatrix(scene, lights, device="cpu")
@@ -110,7 +110,7 @@ def cbox_lights_32():
 @functools.lru_cache(maxsize=None)
 def cbox_gi_64():
     """cbox 64x64 full GI (the cbox-gi-64 reference), 1024 area + ~4000 clamped VPLs (max_depth -1, seed 0),
-    as tests/test_lights.py::test_gi_brute_force."""
+    as tests/lights/test_lights.py::test_gi_brute_force."""
     scene = _bundled("cbox", res=64)
     assert (scene.width, scene.height) == _reference_size("cbox-gi-64")
     lights = ml.generate_lights(scene, area=1024, indirect=4000, max_depth=-1, seed=0)
@@ -121,7 +121,7 @@ def cbox_gi_64():
 @functools.lru_cache(maxsize=None)
 def veach_32():
     """veach-ajar 32x18 full GI (the veach-ajar-gi-32 reference), 1000 area + ~4000 unclamped VPLs
-    (max_depth -1, seed 0), as tests/test_vpl_importance.py."""
+    (max_depth -1, seed 0), as tests/lights/test_vpl_importance.py."""
     w, h = _reference_size("veach-ajar-gi-32")
     scene = _bundled("veach-ajar", size=(w, h), resx=w, resy=h)
     lights = ml.generate_lights(scene, area=1000, indirect=4000, max_depth=-1, seed=0, clamp=float("inf"))
@@ -131,7 +131,7 @@ def veach_32():
 
 @functools.lru_cache(maxsize=None)
 def cbox_48():
-    """cbox 48x48, 256 area + ~2048 VPLs (seed 1): tests/test_clustered_visibility.py's matrix."""
+    """cbox 48x48, 256 area + ~2048 VPLs (seed 1): tests/renderers/test_clustered_visibility.py's matrix."""
     scene = _bundled("cbox", res=48)
     lights = ml.generate_lights(scene, area=256, indirect=2048, seed=1)
     A = ml.LightMatrix(scene, lights, device="cpu")
@@ -308,7 +308,7 @@ def kmeans_cbox():
 @functools.lru_cache(maxsize=None)
 def bounce_tensor():
     """bounce, frames 0-7 of its 40-frame path at 32x32 (camera moving), 512 area + 512 environment + 500
-    gather lights, 10,000 photons (seed 0): a smaller version of tests/test_tensor_animation.py's tensor."""
+    gather lights, 10,000 photons (seed 0): a smaller version of tests/animation/test_tensor_animation.py's tensor."""
     frames = ml.scenes.animation_frames("bounce", count=40)[:8]
     anim = ml.load_animation(ml.scenes.scene_path("bounce"), frames=frames, res=32, device="cpu")
     L = ml.generate_animation_lights(anim, area=512, environment=512, indirect=500, photons=10000, seed=0)
@@ -386,7 +386,7 @@ def glossy_plates():
     ref = _reference("veach-plates-direct")
     L = ml.generate_lights(scene, area=1024)
     bare = ml.LightMatrix(scene, L, device="cpu", max_depth=2, glossy_roughness=0.0)
-    plates = bare.emitted().sum(-1) == 0  # pixels that see no emitter (as tests/test_glossy.py)
+    plates = bare.emitted().sum(-1) == 0  # pixels that see no emitter (as tests/lights/test_glossy.py)
     mis = _brute(ml.LightMatrix(scene, L, device="cpu", max_depth=2, bsdf_samples=1024))
     return {"plates_rel_l2_vs_mitsuba_mis": _masked_rel(mis, ref, plates),
             "plates_rel_l2_vs_mitsuba_light_samples_only": _masked_rel(_brute(bare), ref, plates)}
@@ -405,7 +405,7 @@ def _near_field(xml, reference, area, **params):
     for name, ls in (("patch", L), ("point", _without_patches(scene, L))):
         A = ml.LightMatrix(scene, ls, device="cpu", max_depth=2)
         em = A.emitted()
-        lit = (em.sum(-1) == 0) & (ref.sum(-1) > 0)  # lit pixels that see no emitter (tests/test_nearfield.py)
+        lit = (em.sum(-1) == 0) & (ref.sum(-1) > 0)  # lit pixels that see no emitter (tests/lights/test_nearfield.py)
         out[f"{name}_rel_l2_vs_mitsuba"] = _masked_rel(A.column_sum(progress=False) + em, ref, lit)
     return out
 

@@ -27,7 +27,7 @@ Tolerances (``figures.TOLERANCES``; a figure passes when |now - stored| <= rel *
   decisions and rounding, so there they are reported as not compared. Without any GPU adapter the GPU
   case is skipped.
 - ``gpu_roundoff``: abs 1e-5, a GPU figure that is 0 in exact arithmetic (hybrid columns against the CPU's;
-  tests/test_backends.py bounds GPU = CPU at 1e-5 per value).
+  tests/matrix/test_backends.py bounds GPU = CPU at 1e-5 per value).
 
 Cases needing the shared scenes (matpreview, bunny) run wherever the rest of the suite does (conftest).
 """

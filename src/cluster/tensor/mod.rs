@@ -45,7 +45,7 @@
 //!   scales it up, which biases every frame the same way. Measured on a moving cbox-lights animation
 //!   (403 lights, 8 frames, 48 rows, 20 columns per frame): on the reduced tensor the paper's choice has
 //!   6x the relative L2 of sampled and 11x that of centroid representatives; on all 32x32 pixels 0.0102
-//!   vs 0.0017 (sampled) and 0.00095 (centroid), at the same low flicker (tests/test_tensor_clustering.py).
+//!   vs 0.0017 (sampled) and 0.00095 (centroid), at the same low flicker (tests/animation/test_tensor_clustering.py).
 //!   Its candidates are the pairs of at least half the cluster's mean weight
 //!   ([`reconstruction::CENTROID_WEIGHT_FLOOR`]): a pair the rows barely see may be well aligned with the
 //!   cluster by chance while its full column is a near-contact spike between the rows; scaled by

@@ -309,7 +309,7 @@ pub fn area_lights_tied(
                     let piece = emitter.stratum_piece(u0, k as f64 / n_e as f64, (k + 1) as f64 / n_e as f64);
                     // Textured emitters keep the point formula: the patch formula spreads the point's own
                     // L(uv) over its whole strip, across texels of other radiance (measured: 14% instead of
-                    // 3% relative L2 on tests/test_materials.py's checkerboard light).
+                    // 3% relative L2 on tests/scene/test_materials.py's checkerboard light).
                     if emitter.texture.is_none() && patch::quad_area(&piece) > 0.0 {
                         set.set_patch(set.len() - 1, piece)?;
                     }
