@@ -189,7 +189,9 @@ def _check_adaptive_block(ns):
     # The scene path: cbox has an area light and no environment, its path integrator asks for VPLs.
     counts = ns["auto"].budget["light_counts"]
     assert counts["area"]["count"] >= 256 and counts["indirect"]["count"] >= 256
-    assert counts["environment"]["count"] == 0 and ns["auto"].budget["target_reached"] is True
+    assert counts["environment"]["count"] == 0
+    # Clamped VPLs: the estimate may meet the target, but the result does not claim it (a known bias).
+    assert ns["auto"].budget["target_reached"] is False and ns["auto"].bias_sources[0]["source"] == "vpl_clamp"
 
 
 CHECKS = {"Error estimates, progressive MRCS and budgets": _check_adaptive_block,

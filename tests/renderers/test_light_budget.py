@@ -51,7 +51,9 @@ def test_counts_are_chosen_reproducibly_and_meet_their_shares():
     assert lc["indirect"]["count"] > 256, "VPLs at 32 px need more than the first 256 for a 5% target"
     assert a.budget["shadow_map_size"]["value"] is None  # CPU: exact rays
     assert a.budget["glossy"]["view_samples"] == 0 and "no glossy work" in a.budget["glossy"]["reason"]  # diffuse box
-    assert a.budget["target_reached"] is True
+    # The estimate meets the target, but the VPLs are clamped: a bias no estimate covers, so it is not claimed.
+    assert a.budget["estimated_total_error"] <= 0.05
+    assert a.budget["target_reached"] is False and "vpl_clamp" in a.budget["target_reason"]
     assert a.budget["estimated_total_error"] == pytest.approx(math.hypot(lc["estimated_generation_error"],
                                                                          a.error_estimate))
     # The MRCS part against the brute force of exactly these lights: within its share of the target.

@@ -81,9 +81,11 @@ class LightMatrix:
             shadow_map_size = 1024 if visibility == "shadow_map" else 512
         #: Texels per side of each shadow map (the default resolved; GPU only).
         self.shadow_map_size = _v.integer("shadow_map_size", shadow_map_size, 16, 8192)
+        #: Lobes with alpha below this get BSDF samples (glossy MIS; ``glossy_work`` counts them).
+        self.glossy_roughness = _v.real("glossy_roughness", glossy_roughness, 0.0, 1.0)
         self._m = _native.LightMatrix(scene, lights, self.shadow_map_size, visibility=visibility,
                                       max_depth=_v.integer("max_depth", max_depth, -1, 1 << 20), device=device,
-                                      glossy_roughness=_v.real("glossy_roughness", glossy_roughness, 0.0, 1.0),
+                                      glossy_roughness=self.glossy_roughness,
                                       bsdf_samples=_v.integer("bsdf_samples", bsdf_samples, 1, 65536),
                                       glossy_seed=_v.integer("glossy_seed", glossy_seed, 0, (1 << 64) - 1))
 

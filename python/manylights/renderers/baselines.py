@@ -11,6 +11,7 @@ from .._native import Scene
 from .._utils import validate as _v
 from ..lights.generate import generate_lights
 from ..matrix.light_matrix import LightMatrix
+from .bias import bias_sources
 from .mrcs import reconstruct
 from .result import RenderResult, light_luminance_power, matrix_shape
 
@@ -41,7 +42,8 @@ def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = 
     timings = {"sampling": time.perf_counter() - t}
     image = reconstruct(A, reps, weights, timings, add_emitted, progress)
     return RenderResult(image=image, method="power_sampling", seed=seed, timings=timings, representatives=reps,
-                        weights=weights, budget={"columns": int(columns), "lights": int(n)}, device=A.device)
+                        weights=weights, budget={"columns": int(columns), "lights": int(n)}, device=A.device,
+                        bias_sources=bias_sources(A))
 
 
 def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction: float = 0.5,
@@ -79,4 +81,4 @@ def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction
     timings["emitted"] = time.perf_counter() - t
     return RenderResult(image=image, method="instant_radiosity", seed=seed, timings=timings,
                         budget={"lights": int(len(L)), "area": n_area, "environment": n_env, "indirect": n_ind},
-                        device=A.device)
+                        device=A.device, bias_sources=bias_sources(A))

@@ -101,6 +101,7 @@ from typing import Optional
 import numpy as np
 
 from .._utils import validate as _v
+from .bias import bias_sources
 from .progressive import progressive_rounds
 from .result import RenderResult, matrix_shape
 
@@ -300,7 +301,8 @@ def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional
             if add_emitted:
                 image = image + A.emitted()
             last = RenderResult(image=image, method="brute_force", seed=seed, timings=timings,
-                                budget={"columns": int(n), "lights": int(n)}, device=A.device)
+                                budget={"columns": int(n), "lights": int(n)}, device=A.device,
+                                bias_sources=bias_sources(A))
             last.error_estimate = 0.0
             last.error_image = np.zeros(image.shape[:2], np.float32)
             stopped = "all lights: brute force"

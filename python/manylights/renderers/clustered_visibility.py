@@ -16,6 +16,7 @@ import numpy as np
 from .. import _native
 from .._utils import validate as _v
 from ..matrix.light_matrix import LightMatrix
+from .bias import bias_sources
 from .kmeans import COS_30_DEG
 from .result import RenderResult, matrix_shape
 
@@ -107,7 +108,8 @@ def clustered_shading(A, light_labels, light_centroids, view_centroids, view_nor
               "fuzziness": int(clusters.shape[1]), "rays": int(out["rays"]), "gave_up": int(out["gave_up"]),
               "lights": int(n), "view_samples": int(clusters.shape[0])}
     return RenderResult(image=image, method="clustered_visibility", seed=0, timings=timings, clusters=labels,
-                        representatives=out["light_representatives"], budget=budget, device=A.device)
+                        representatives=out["light_representatives"], budget=budget, device=A.device,
+                        bias_sources=bias_sources(A))
 
 
 def _split_budget(k: int, counts: list) -> list:

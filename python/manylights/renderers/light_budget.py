@@ -26,7 +26,8 @@ seed), which is at least as good (area points and environment directions are str
 two independent sets of n/2; VPLs are equal in distribution), so (6) is a conservative estimate of what
 the picked count leaves -- of its VARIANCE: the VPLs' geometry-term clamp (``generate_lights``' clamp)
 removes energy deterministically, which no comparison of two draws can see (veach-ajar 64x36: estimate
-11-13% at 65,536 VPLs, 20-25% against Mitsuba; README). Growth: every kind starts at ``first_lights``
+11-13% at 65,536 VPLs, 20-25% against Mitsuba; README). Such known bias sources (``bias``) are listed in
+``RenderResult.bias_sources``, and while any is active ``budget['target_reached']`` is False with the reason. Growth: every kind starts at ``first_lights``
 and each kind whose estimate is above ``SAFETY`` x its share doubles (recomputed at the new count) until
 it is below, or ``max_lights`` is reached, or the count phase has used its part of ``time_budget`` (a
 quarter); a kind whose lights add nothing at any row stops at once (estimate 0). With only a time budget
@@ -76,6 +77,7 @@ from ..lights.generate import generate_lights
 from ..matrix.light_matrix import LightMatrix
 from ..matrix.rows import stratified_rows
 from ..scene import load_scene
+from .bias import describe
 from .budget import check_targets, render_matrix
 
 #: A kind stops growing when its estimate (6) is <= SAFETY x its share (as ``auto_budget.SAFETY``).
@@ -240,8 +242,10 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         ``auto_budget.render``'s RenderResult; ``budget`` adds ``light_counts`` (per kind: count, reason,
         estimates, share; estimated_generation_error, rows, seconds), ``integrator`` (type, max_depth),
         ``shadow_map_size`` (value, reason), ``glossy`` (view_samples, bsdf_samples, reason), ``estimated_total_error`` (equation (5):
-        sqrt(E_gen^2 + error_estimate^2)), ``target_reached`` (that total <= target_error; None without a
-        target); ``timings['light_counts']`` and ``timings['lights']``.
+        sqrt(E_gen^2 + error_estimate^2)), ``target_reached`` (that total <= target_error and no known bias
+        source active (``RenderResult.bias_sources``): the estimates cover variance only; None without a
+        target) and ``target_reason`` (a sentence: why it is or is not claimed); ``timings['light_counts']``
+        and ``timings['lights']``.
         ``error_estimate`` stays the MRCS estimate against the brute force of the generated lights.
 
     Raises:
@@ -305,8 +309,24 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         if views else "no view sample's lobe is below glossy_roughness: pure many-light columns, no glossy work")}
     total = float(np.hypot(counts["estimated_generation_error"], res.error_estimate))
     res.budget["estimated_total_error"] = total
-    # Halving sees the light generation's variance, not the VPL clamp's bias (module doc).
-    res.budget["target_reached"] = None if target_error is None else bool(total <= target_error)
+    # Halving sees the light generation's variance, not the VPL clamp's bias (module doc): with a known bias
+    # source active no estimate covers the error against the converged scene, so the target is not claimed.
+    if target_error is None:
+        res.budget["target_reached"] = None
+        res.budget["target_reason"] = "no target given"
+    elif res.bias_sources:
+        res.budget["target_reached"] = False
+        res.budget["target_reason"] = (
+            f"not claimed: the estimated total error {total:.3g} covers variance only, and the light model has "
+            f"bias that no estimate covers: {describe(res.bias_sources)}")
+    elif total <= target_error:
+        res.budget["target_reached"] = True
+        res.budget["target_reason"] = (f"estimated total error {total:.3g} <= target {target_error:g}, and no known "
+                                       "bias source is active")
+    else:
+        res.budget["target_reached"] = False
+        res.budget["target_reason"] = (f"estimated total error {total:.3g} > target {target_error:g} "
+                                       f"(stopped: {res.budget.get('stopped')})")
     res.timings["light_counts"] = counts["seconds"]
     res.timings["lights"] = t_lights
     return res

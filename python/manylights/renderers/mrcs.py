@@ -35,6 +35,7 @@ import numpy as np
 from .._utils import validate as _v
 from ..matrix.rows import stratified_rows
 from . import estimates
+from .bias import bias_sources
 from .clustering import cluster_reduced_columns
 from .result import RenderResult, light_luminance_power, matrix_shape
 
@@ -129,7 +130,7 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
                            budget={"rows": int(len(row_indices)), "columns": int(len(reps)), "lights": int(n),
                                    "clusters": int(len(reps) // 2), "rendered_columns": cl["rendered_columns"],
                                    "unseen_lights": cl["unseen_lights"]},
-                           device=A.device)
+                           device=A.device, bias_sources=bias_sources(A))
         res.error_estimate, res.error_image = estimates.halves_estimate(X1, X2, res.image)
         return res
     t = time.perf_counter()
@@ -143,7 +144,8 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
     res = RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
                        clusters=clustering.get("assignment"), representatives=reps, weights=weights,
                        budget={"rows": 0 if row_indices is None else int(len(row_indices)),
-                               "columns": int(len(reps)), "lights": int(n)}, device=A.device)
+                               "columns": int(len(reps)), "lights": int(n)}, device=A.device,
+                       bias_sources=bias_sources(A))
     if error_rows and R is not None:
         estimates.attach_error_estimate(A, res, clustering, error_rows, progress=progress)
     return res

@@ -64,6 +64,7 @@ from .._utils import validate as _v
 from .._utils.progress import progress_bar
 from .._utils.seeds import derived_seed
 from ..matrix.rows import stratified_rows
+from .bias import bias_sources
 from .estimates import halves_estimate, lights_seen, mrcs_halves, row_variance
 from .result import RenderResult, light_luminance_power, matrix_shape
 
@@ -161,6 +162,7 @@ def progressive_rounds(A, plan, planned_rounds: int, seed: int, add_emitted: boo
     rendered. Round t's seed depends only on (seed, t), so a schedule replayed as lists gives the same bits."""
     power = light_luminance_power(A.lights)
     emitted = A.emitted()
+    known_bias = bias_sources(A)
     state = {} if state is None else state
     state.update({"R": None, "rows": np.zeros(0, np.int64), "rounds": [], "round": 0, "seen": False,
                   "R_buffer": None})
@@ -226,7 +228,8 @@ def progressive_rounds(A, plan, planned_rounds: int, seed: int, add_emitted: boo
                 budget={"rows": int(len(row_all)), "columns": int(sum(len(rd["reps"]) for rd in rounds)),
                         "rendered_columns": int(sum(rd["clustering"]["rendered_columns"] for rd in rounds)),
                         "lights": int(A.shape[1]), "round": t, "rounds": planned_rounds,
-                        "unseen_lights": cl["unseen_lights"]}, device=A.device)
+                        "unseen_lights": cl["unseen_lights"]}, device=A.device,
+                bias_sources=list(known_bias))
             res.error_estimate, res.error_image = halves_estimate(H1, H2, image)
             t += 1
             state["round"] = t

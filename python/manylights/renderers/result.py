@@ -32,6 +32,11 @@ class RenderResult:
     error_estimate: Optional[float] = None
     #: (H, W) float32 estimated RMS error per pixel (radiance), where the renderer has one.
     error_image: Optional[np.ndarray] = None
+    #: Known sources of bias of the light model that no estimate covers (``renderers.bias``: VPL clamp, VSL
+    #: radius, glossy lobes without MIS), each a dict with ``source`` and ``reason``; empty when none is known.
+    #: ``error_estimate`` covers variance only: with a source listed, the error against the converged scene
+    #: can be larger than it says.
+    bias_sources: list = field(default_factory=list)
 
     @property
     def seconds(self) -> float:

@@ -1,0 +1,127 @@
+"""Known sources of bias of a light matrix's image: what no error estimate of this package covers.
+
+Every estimate a renderer reports (``error_estimate``: the halves or held-out rows of MRCS, the halving of the
+light counts in ``light_budget``) measures VARIANCE: the spread of the sampled rows, columns or lights around
+their expectation. The expectation itself can differ from the converged image of the scene (what Mitsuba's
+``path`` integrator converges to) where the light model is biased, and then no number of rows, columns or
+lights removes the difference. ``bias_sources(A)`` lists the ones this package knows of, each a dict
+``{"source", "reason", ...}`` with the figures behind it; results carry them as ``RenderResult.bias_sources``
+and ``render("scene.xml", target_error=e)`` does not claim a target while any is active.
+
+| source | what | why it is a bias |
+|---|---|---|
+| ``vpl_clamp`` | VPLs whose geometry term cos cos / d^2 is clamped (``generate_lights``' ``clamp``) | the clamp removes energy near corners and contacts deterministically (Kollig and Keller 2004); ``LightMatrix.bias_compensation`` adds it back |
+| ``vsl_radius`` | virtual spherical lights (``indirect_kind="vsl"``) | each VPL's light is spread over a sphere: a blurred expectation that converges only as the radius goes to 0 (Hašan et al. 2009) |
+| ``glossy_lobe_without_mis`` | view samples on a lobe narrower than ``glossy_roughness`` that the matrix's glossy MIS does not sample (inside a ``blendbsdf``, ``principled``'s specular lobe, or any glossy lobe with textured roughness) | a few point lights on a sharp lobe: highlights of area and environment lights are missed by every draw but a rare one, a heavy tail that the estimates (a few draws) do not see |
+
+Symbols: alpha, the lobe's GGX / Beckmann roughness (principled: roughness^2); ``glossy_roughness``, the
+LightMatrix's threshold below which a lobe gets BSDF samples.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: BSDF types whose lobe glossy MIS samples when it is the view sample's own BSDF (``src/matrix/glossy.rs``).
+GLOSSY_MIS_TYPES = ("roughplastic", "roughconductor")
+#: Light kinds (``LightSet.kind``): virtual point lights (and VSLs, with ``vsl_radius`` > 0).
+VPL_KIND = 4
+
+
+def _value(v):
+    """A BSDF parameter as the scene reports it (a number, a list of numbers, or ``"texture[i]"``): its smallest
+    value, or ``"texture"``."""
+    if isinstance(v, str):
+        return "texture"
+    return float(np.min(v))
+
+
+def _alpha(bsdf: dict):
+    """The lobe's roughness alpha, None where there is no rough lobe, ``"texture"`` where it is textured."""
+    t = bsdf["type"]
+    if t == "roughplastic":
+        return _value(bsdf["alpha"])
+    if t == "roughconductor":
+        a = [_value(bsdf["alpha_u"]), _value(bsdf["alpha_v"])]
+        return "texture" if "texture" in a else min(a)
+    if t == "principled":
+        r = _value(bsdf.get("roughness", 0.5))
+        spec, metallic = _value(bsdf.get("specular", 0.5)), _value(bsdf.get("metallic", 0.0))
+        if spec == 0.0 and metallic == 0.0:
+            return None  # no specular lobe at all
+        return r if r == "texture" else r ** 2
+    return None
+
+
+def skipped_lobes(bsdfs: list[dict], index: int, threshold: float, inside_blend: bool = False, depth: int = 0) -> list[str]:
+    """The narrow lobes of BSDF ``index`` (resolved through ``twosided`` and ``blendbsdf``) that glossy MIS
+    skips: a description of each (e.g. ``"roughconductor alpha 0.02 inside blendbsdf 3"``)."""
+    if depth > 16 or not 0 <= index < len(bsdfs):
+        return []
+    b = bsdfs[index]
+    t = b["type"]
+    if t == "twosided":
+        return skipped_lobes(bsdfs, int(b["front"]), threshold, inside_blend, depth + 1)
+    if t == "blendbsdf":
+        return [f"{s} inside blendbsdf {index}" for k in ("bsdf_0", "bsdf_1")
+                for s in skipped_lobes(bsdfs, int(b[k]), threshold, True, depth + 1)]
+    a = _alpha(b)
+    if a is None:
+        return []
+    if a == "texture":
+        return [f"{t} {index} with textured roughness"]
+    if a >= threshold:
+        return []
+    if t in GLOSSY_MIS_TYPES and not inside_blend:
+        return []  # sampled by glossy MIS
+    return [f"{t} {index} alpha {a:.3g}"]
+
+
+def bias_sources(A) -> list[dict]:
+    """The known bias sources of ``A``'s column sum (module doc), in the order vpl_clamp, vsl_radius,
+    glossy_lobe_without_mis; empty when the light model is unbiased as far as this package knows.
+
+    Args:
+        A: a ``LightMatrix``.
+
+    Returns:
+        list of dicts with ``source`` and ``reason`` (a sentence), and per source: ``lights`` and ``clamp``
+        (1/m^2, scene units) for ``vpl_clamp``; ``lights`` and ``max_radius`` for ``vsl_radius``;
+        ``view_samples`` (pixels on such a lobe) and ``lobes`` for ``glossy_lobe_without_mis``."""
+    out = []
+    lights = A.lights
+    kind = np.asarray(lights.kind)
+    vpl = kind == VPL_KIND
+    radius = np.asarray(lights.vsl_radius) if vpl.any() else np.zeros(0)
+    vsl = vpl & (radius > 0) if radius.size else np.zeros_like(vpl)
+    point_vpls = int(np.count_nonzero(vpl & ~vsl))
+    clamp = float(lights.vpl_clamp)
+    if point_vpls and np.isfinite(clamp):
+        out.append({"source": "vpl_clamp", "lights": point_vpls, "clamp": clamp, "reason": (
+            f"{point_vpls} VPLs with the geometry term clamped at {clamp:.4g}: the energy removed near corners "
+            "and contacts is in no estimate (LightMatrix.bias_compensation adds it back)")})
+    if vsl.any():
+        out.append({"source": "vsl_radius", "lights": int(np.count_nonzero(vsl)), "max_radius": float(radius[vsl].max()),
+                    "reason": f"{int(np.count_nonzero(vsl))} virtual spherical lights spread each VPL over a sphere "
+                              f"(radius up to {float(radius[vsl].max()):.4g}): a blurred expectation"})
+    scene = A.scene
+    threshold = A.glossy_roughness
+    per_bsdf = {i: skipped_lobes(scene.bsdfs, i, threshold) for i in range(len(scene.bsdfs))}
+    if any(per_bsdf.values()):
+        shape_bsdf = np.array([-1 if s.get("bsdf") is None else int(s["bsdf"]) for s in scene.shapes] + [-1])
+        shape = np.asarray(scene.gbuffer(device=A.device["kind"])["shape_index"]).reshape(-1).astype(np.int64)
+        shape = np.where((shape >= 0) & (shape < len(scene.shapes)), shape, len(scene.shapes))
+        seen = shape_bsdf[shape]
+        hit = [i for i, lobes in per_bsdf.items() if lobes and np.any(seen == i)]
+        if hit:
+            count = int(np.isin(seen, hit).sum())
+            lobes = [s for i in hit for s in per_bsdf[i]]
+            out.append({"source": "glossy_lobe_without_mis", "view_samples": count, "lobes": lobes, "reason": (
+                f"{count} pixels see a lobe narrower than glossy_roughness {threshold:g} that glossy MIS does not "
+                f"sample ({'; '.join(lobes[:4])}{'; ...' if len(lobes) > 4 else ''}): their highlights are missed "
+                "by all but rare draws of the lights")})
+    return out
+
+
+def describe(sources: list[dict]) -> str:
+    """One sentence naming the sources (``"VPL clamp: ...; ..."``), or ``""`` for none."""
+    return "; ".join(f"{s['source']}: {s['reason']}" for s in sources)

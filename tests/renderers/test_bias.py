@@ -1,0 +1,117 @@
+"""Known bias sources (``manylights.renderers.bias``): every result lists the ones its light model has, and
+``ml.render("scene.xml", target_error=e)`` claims no target while one is active."""
+import numpy as np
+import pytest
+
+import manylights as ml
+from conftest import REPO
+from manylights.renderers.bias import bias_sources, skipped_lobes
+
+CBOX = REPO / "scenes" / "cbox" / "scene.xml"
+CBOX_LIGHTS = REPO / "scenes" / "cbox-lights" / "scene.xml"
+
+# A floor of one BSDF under a small area light, seen from above: 16x16 pixels, the light hides 6x6 of them.
+PLATE = """<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="30"/>
+        <transform name="to_world"><lookat origin="0, 3, 0.01" target="0, 0, 0" up="0, 0, 1"/></transform>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
+    </sensor>
+    {bsdfs}
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>
+        <ref id="floor"/>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.2"/><rotate x="1" angle="90"/><translate y="1"/></transform>
+        <emitter type="area"><rgb name="radiance" value="5, 5, 5"/></emitter>
+    </shape>
+</scene>
+"""
+ROUGH = '<bsdf type="roughconductor" id="{id}"><float name="alpha" value="{alpha}"/></bsdf>'
+BLEND = ('<bsdf type="blendbsdf" id="floor"><float name="weight" value="0.5"/>'
+         '<bsdf type="diffuse"/>' + ROUGH.format(id="inner", alpha="{alpha}") + '</bsdf>')
+
+
+def plate(tmp_path, name, bsdfs):
+    path = tmp_path / f"{name}.xml"
+    path.write_text(PLATE.format(bsdfs=bsdfs))
+    return ml.load_scene(path)
+
+
+def matrix(scene, **gen):
+    return ml.LightMatrix(scene, ml.generate_lights(scene, **gen), device="cpu")
+
+
+def test_clamped_vpls_are_a_bias_source_and_compensated_or_unclamped_ones_are_not():
+    scene = ml.load_scene(CBOX, res=16)
+    A = matrix(scene, area=64, indirect=200, seed=1)
+    src = bias_sources(A)
+    assert [s["source"] for s in src] == ["vpl_clamp"]
+    n_vpl = int(np.count_nonzero(np.asarray(A.lights.kind) == 4))
+    assert src[0]["lights"] == n_vpl > 100 and src[0]["clamp"] == pytest.approx(float(A.lights.vpl_clamp))
+    assert "bias_compensation" in src[0]["reason"]
+    res = ml.mrcs(A, rows=16, columns=32)
+    assert res.bias_sources == src
+    assert ml.power_sampling(A, columns=32).bias_sources == src
+    assert bias_sources(matrix(scene, area=64, indirect=200, clamp=float("inf"))) == []
+    assert bias_sources(matrix(scene, area=64)) == []  # direct light only: no VPL
+
+
+def test_virtual_spherical_lights_are_a_bias_source():
+    scene = ml.load_scene(CBOX, res=16)
+    A = matrix(scene, area=16, indirect=100, indirect_kind="vsl")
+    src = bias_sources(A)
+    assert [s["source"] for s in src] == ["vsl_radius"]
+    radius = np.asarray(A.lights.vsl_radius)
+    assert src[0]["lights"] == int(np.count_nonzero(radius > 0)) > 50
+    assert src[0]["max_radius"] == pytest.approx(float(radius.max()))
+
+
+@pytest.mark.parametrize("alpha, flagged", [(0.05, True), (0.3, False)])
+def test_a_narrow_lobe_inside_a_blend_is_a_bias_source(tmp_path, alpha, flagged):
+    scene = plate(tmp_path, "blend", BLEND.format(alpha=alpha))
+    A = matrix(scene, area=16)
+    src = bias_sources(A)
+    if not flagged:
+        assert src == []
+        return
+    assert [s["source"] for s in src] == ["glossy_lobe_without_mis"]
+    shape = np.asarray(scene.gbuffer(device="cpu")["shape_index"])
+    # The floor's pixels: all 256 but the 36 where the light, between camera and floor, hides it.
+    assert src[0]["view_samples"] == int(np.count_nonzero(shape == 0)) == 256 - 36
+    assert src[0]["lobes"] == ["roughconductor 1 alpha 0.05 inside blendbsdf 2"]  # nested BSDFs load first
+    assert ml.mrcs(A, rows=4, columns=8).bias_sources == src
+
+
+def test_glossy_mis_covers_a_narrow_lobe_of_its_own_but_not_below_a_lower_threshold(tmp_path):
+    scene = plate(tmp_path, "rough", ROUGH.format(id="floor", alpha=0.05))
+    assert bias_sources(matrix(scene, area=16)) == []  # roughconductor at alpha 0.05 < 0.2: BSDF samples
+    assert skipped_lobes(scene.bsdfs, 0, 0.2) == []
+
+
+def test_principled_specular_lobe_and_twosided_are_resolved():
+    bsdfs = [{"type": "twosided", "front": 1, "back": 1},
+             {"type": "principled", "base_color": [0.5] * 3, "roughness": 0.1, "specular": 0.5, "metallic": 0.0},
+             {"type": "principled", "base_color": [0.5] * 3, "roughness": 0.1, "specular": 0.0, "metallic": 0.0},
+             {"type": "roughplastic", "alpha": "texture[0]"},
+             {"type": "roughconductor", "alpha_u": "texture[1]", "alpha_v": 0.1}]
+    assert skipped_lobes(bsdfs, 0, 0.2) == ["principled 1 alpha 0.01"]  # alpha = roughness^2
+    assert skipped_lobes(bsdfs, 2, 0.2) == []  # no specular lobe
+    assert skipped_lobes(bsdfs, 1, 0.005) == []  # wider than the threshold
+    assert skipped_lobes(bsdfs, 4, 0.2) == ["roughconductor 4 with textured roughness"]
+    assert skipped_lobes(bsdfs, 7, 0.2) == []  # out of range: nothing
+
+
+def test_render_does_not_claim_a_target_while_a_bias_source_is_active():
+    opts = dict(params={"res": 16}, rows_per_column=0.25, progress=False, first_lights=64, max_lights=256)
+    res = ml.render(str(CBOX_LIGHTS), target_error=0.2, seed=1, **opts)
+    assert [s["source"] for s in res.bias_sources] == ["vpl_clamp"]
+    assert res.budget["target_reached"] is False
+    assert res.budget["target_reason"].startswith("not claimed") and "vpl_clamp" in res.budget["target_reason"]
+    # Direct light only (max_depth 2): no VPL, no known bias; the estimate's verdict stands.
+    direct = ml.render(str(CBOX_LIGHTS), target_error=0.2, seed=1, max_depth=2, **opts)
+    assert direct.bias_sources == []
+    assert direct.budget["target_reached"] is (direct.budget["estimated_total_error"] <= 0.2)
+    assert direct.budget["target_reached"] is True, direct.budget["target_reason"]
+    assert "no known bias source" in direct.budget["target_reason"]
