@@ -115,3 +115,16 @@ def test_render_does_not_claim_a_target_while_a_bias_source_is_active():
     assert direct.budget["target_reached"] is (direct.budget["estimated_total_error"] <= 0.2)
     assert direct.budget["target_reached"] is True, direct.budget["target_reason"]
     assert "no known bias source" in direct.budget["target_reason"]
+
+
+def test_animation_results_list_the_bias_sources_of_their_light_model():
+    from manylights.scenes import animation_frames, scene_path
+
+    anim = ml.load_animation(scene_path("bounce"), frames=animation_frames("bounce", 2), size=(16, 16), device="cpu")
+    lights = ml.generate_animation_lights(anim, area=64, environment=64, indirect=64, photons=0)
+    T = ml.LightTensor(anim, lights, device="cpu")
+    n_vpl = int((np.asarray(lights[0].kind) == 4).sum())
+    for res in (ml.tensor_clustering(T, rows=16, columns=32), ml.mrcs_per_frame(T, rows=16, columns=32)):
+        assert [s["source"] for s in res.bias_sources] == ["vpl_clamp"] and res.bias_sources[0]["lights"] == n_vpl > 0
+    direct = ml.generate_animation_lights(anim, area=64, environment=64, indirect=0, photons=0)
+    assert ml.tensor_clustering(ml.LightTensor(anim, direct, device="cpu"), rows=16, columns=32).bias_sources == []

@@ -27,6 +27,7 @@ from .._native import LightSet, Scene
 from .._utils import validate as _v
 from ..matrix.light_matrix import LightMatrix
 from ..matrix.rows import stratified_rows
+from ..renderers.bias import bias_sources
 from ..renderers.mrcs import mrcs
 from .frames import Animation
 
@@ -49,6 +50,9 @@ class AnimationResult:
     device: dict = field(default_factory=dict)
     rows: Optional[np.ndarray] = None
     clustering: Optional[object] = None
+    #: Known bias sources of the light model (``RenderResult.bias_sources``), from frame 0's matrix: every
+    #: frame has the same kinds of lights and materials.
+    bias_sources: list = field(default_factory=list)
 
     @property
     def seconds(self) -> float:
@@ -209,4 +213,4 @@ def mrcs_per_frame(T: LightTensor, rows: int = 300, columns: int = 900, seed: in
     spf = np.full(f, rows + columns, dtype=np.int64)
     return AnimationResult(frames=np.stack(frames), method="mrcs_per_frame", seed=seed, shadow_maps_per_frame=spf,
                            timings=timings, budget={"rows": rows, "columns": columns * f, "lights": n, "frames": f},
-                           device=T.device, rows=row_idx)
+                           device=T.device, rows=row_idx, bias_sources=bias_sources(T.frame(0)))

@@ -23,6 +23,7 @@ import numpy as np
 from .. import _native
 from .._utils import validate as _v
 from ..matrix.rows import stratified_rows
+from ..renderers.bias import bias_sources
 from .tensor import AnimationResult, LightTensor
 
 
@@ -280,4 +281,4 @@ def render_clustered(T, rows: int = 100, columns: int = 300, seed: int = 0, *, c
     return AnimationResult(frames=acc, method="tensor_clustering", seed=seed, shadow_maps_per_frame=spf,
                            timings=timings, budget={"rows": int(len(row_indices)), "columns": int(len(todo)),
                                                     "lights": n, "frames": f},
-                           device=T.device, rows=row_indices, clustering=cl)
+                           device=T.device, rows=row_indices, clustering=cl, bias_sources=bias_sources(T.frame(0)))

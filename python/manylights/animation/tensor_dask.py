@@ -52,7 +52,7 @@ def render_chunk(paths: list, params: list, size: tuple, anim_device: str, light
                             first_chunk=index, **kwargs)
     return {"frames": res.frames, "shadow_maps_per_frame": res.shadow_maps_per_frame,
             "timings": {"load": load, **res.timings}, "budget": res.budget, "device": res.device,
-            "clustering": res.clustering, "host": socket.gethostname()}
+            "clustering": res.clustering, "host": socket.gethostname(), "bias_sources": res.bias_sources}
 
 
 def _join_clusterings(parts: list, starts: list, f: int, seed: int):
@@ -136,4 +136,5 @@ def distributed_tensor_clustering(T, rows: int, columns: int, seed: int, chunk: 
     device = {**parts[0]["device"], "hosts": sorted({p["host"] for p in parts})}
     return AnimationResult(frames=np.concatenate([p["frames"] for p in parts]), method="tensor_clustering", seed=seed,
                            shadow_maps_per_frame=np.concatenate([p["shadow_maps_per_frame"] for p in parts]),
-                           timings=timings, budget=budget, device=device, rows=row_indices, clustering=clustering)
+                           timings=timings, budget=budget, device=device, rows=row_indices, clustering=clustering,
+                           bias_sources=parts[0]["bias_sources"])
