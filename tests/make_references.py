@@ -47,6 +47,10 @@ REFERENCES = {
     # target is over the whole image (the panel itself is exact and bright); the floor's own noise, which
     # the test checks against its tolerance, is ~8x the whole image's.
     "nearfield-panel-direct": (HERE / "data" / "nearfield_panel.xml", {"res": 64}, (64, 64), 2, 0.0004, None),
+    # tests/lights/test_twosided.py: the same panel 1 mm above a twosided diffuse floor whose triangles face away from
+    # the camera and the light (lit and seen from its back). The target is over the whole image (the panel
+    # dominates its norm); the floor's own noise, which the test checks, is ~7x the whole image's.
+    "twosided-wall-direct": (HERE / "data" / "twosided_wall.xml", {"res": 64}, (64, 64), 2, 0.0003, None),
     # Issue 13 acceptance (tests/lights/test_nearfield.py): 13 small recessed area lights beside a staircase, direct
     # light. The emitters seen directly (radiance 40, exact) dominate the image's norm; the target makes the
     # noise on the lit surfaces, which the test checks, ~0.5%.

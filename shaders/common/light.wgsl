@@ -360,11 +360,15 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
             return e;
         }
         if patch_is_near(l, p) {
-            let cos_r = dot(e.wo, n);
-            if !(cos_r > 0.0) {
+            // The side of the receiver's plane the light is on (`patch::receiver_side`): a twosided
+            // receiver lit from below its normal clips the patch to that side.
+            let cos_n = dot(e.wo, n);
+            if !(cos_n > 0.0 || cos_n < 0.0) {
                 return e;
             }
-            let pa = patch_clipped(l, p, n);
+            let side = select(-n, n, cos_n > 0.0);
+            let cos_r = abs(cos_n);
+            let pa = patch_clipped(l, p, side);
             if !(pa.x > 0.0 && pa.y > 0.0) {
                 return e;
             }

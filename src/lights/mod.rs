@@ -17,8 +17,10 @@
 //! - oriented point (a piece of area A_k of an emitter of radiance L, `intensity` I0 = L A_k in W/sr):
 //!   I(w) = I0 max(0, cos theta), theta between `normal` and w = (p - position) / d; F = I(w) / d^2.
 //!   With a `patch` (the piece of the emitter the point stands for) and p within a few patch radii,
-//!   F = I0 PSA / (A cos_r) instead: the patch's projected solid angle, no 1 / d^2 spike (`patch`
-//!   module; the rule, its unbiasedness and its deviation for glossy receivers are documented there).
+//!   F = I0 PSA / (A |cos_r|) instead: the projected solid angle of the part of the patch on the
+//!   light's side of the receiver's plane (either side: `twosided` receivers are lit from their back),
+//!   no 1 / d^2 spike (`patch` module; the rule, its unbiasedness and its deviation for glossy
+//!   receivers are documented there).
 //! - VPL (`intensity` = Phi, W): a particle that arrived at the VPL from direction `incident` (unit,
 //!   pointing from the VPL back toward where the particle came from) with flux Phi (already multiplied
 //!   by the shading-normal correction |incident . n_s| / |incident . n_g|). Its radiant intensity toward

@@ -11,14 +11,20 @@
 //! Near field: when the receiver p lies within `NEAR_FIELD_RADII` patch radii of the patch's centre
 //! (radius = largest distance from the centre, the mean of the four corners, to a corner), the
 //! radiance factor becomes
-//!     F = I0 * PSA(P+) / (A(P+) * cos_r(wo_j)),
-//! with P+ the part of P above the receiver's tangent plane (shading normal n), A(P+) its area and
-//! PSA(P+) = int_{P+} cos_r cos_l / r^2 dA its projected solid angle (Lambert's polygon formula,
-//! `(1/2) sum_i theta_i (n . g_i)` over the edges, theta_i the angle an edge subtends and g_i the unit
-//! normal of the plane through p and the edge). The receiver multiplies F by `f_r(wo_j) cos_r(wo_j)`,
-//! so a diffuse receiver gets `f_r I0 PSA / A(P+)`: the exact patch irradiance share, no 1 / d^2.
-//! Unbiased for diffuse receivers: the point lies in P+ with probability A(P+) / A_P (else the BSDF is
-//! 0), and whether the rule applies depends on p and P only, never on where the point fell. Glossy
+//!     F = I0 * PSA(P+) / (A(P+) * |cos_r(wo_j)|),
+//! with P+ the part of P on the side of the receiver's tangent plane (shading normal n) that the point
+//! lies on -- above it when wo_j . n > 0, below it when wo_j . n < 0 (`receiver_side`) --, A(P+) its
+//! area and PSA(P+) = int_{P+} |cos_r| cos_l / r^2 dA its projected solid angle (Lambert's polygon
+//! formula, `(1/2) sum_i theta_i (m . g_i)` over the edges, m = +-n the side's normal, theta_i the angle
+//! an edge subtends and g_i the unit normal of the plane through p and the edge). The receiver multiplies
+//! F by `f_r(wo_j) |cos_r(wo_j)|`, so a diffuse receiver gets `f_r I0 PSA / A(P+)`: the exact patch
+//! irradiance share, no 1 / d^2. Unbiased for receivers that are Lambertian on each side (one-sided,
+//! `twosided`, diffuse transmission): the point lies in the part above the plane with probability
+//! A(above) / A_P and below it with A(below) / A_P, each part's estimate is its exact share, and whether
+//! the rule applies depends on p and P only, never on where the point fell. The side is the point's,
+//! not a fixed one: clipping always to the upper side gave 0 for every near-field point of a `twosided`
+//! receiver seen and lit from below its normal (Mitsuba evaluates `twosided` on the side the camera
+//! sees; a one-sided BSDF gives 0 there by itself). Glossy
 //! receivers get the BSDF at the point's direction times the patch's irradiance share (deviation: not
 //! the lobe integrated over the patch; exact for Lambertian receivers). Visibility stays the one ray
 //! to the point. Far from the patch (and for lights without a patch) F is today's point formula, bit
@@ -125,17 +131,32 @@ pub fn clipped_projected_solid_angle(c: &[Vec3; 4], p: Vec3, n: Vec3) -> (f32, f
 }
 
 /// The near-field radiance factor F of an oriented point of intensity I0 (module docs), or None when
-/// the patch sends nothing above the receiver's plane or wo is below it.
+/// wo lies in the receiver's plane or the patch sends nothing from wo's side of it.
 pub fn near_field(c: &[Vec3; 4], intensity: Vec3, p: Vec3, n: Vec3, wo: Vec3) -> Option<Vec3> {
-    let cos_r = wo.dot(n);
-    if !(cos_r > 0.0) {
-        return None;
-    }
-    let (psa, area) = clipped_projected_solid_angle(c, p, n);
+    let (side, cos_r) = receiver_side(n, wo)?;
+    let (psa, area) = clipped_projected_solid_angle(c, p, side);
     if !(psa > 0.0 && area > 0.0) {
         return None;
     }
     Some(intensity * (psa / (area * cos_r)))
+}
+
+/// The side of the receiver's plane (shading normal n) that light arriving along `wo` (unit, toward the
+/// light) comes from, as the normal of that half-space, and |cos_r| = |wo . n| > 0; None when wo lies
+/// in the plane (or is NaN). The near field clips the patch to this half-space (module docs), so that a
+/// receiver lit from below its normal -- a `twosided` BSDF seen and lit from its back, or transmission --
+/// gets the part of the patch on that side; a BSDF that reflects nothing from there gives 0 itself.
+/// Twin of the side choice in `light_emitted` (light.wgsl).
+#[inline]
+pub fn receiver_side(n: Vec3, wo: Vec3) -> Option<(Vec3, f32)> {
+    let cos_r = wo.dot(n);
+    if cos_r > 0.0 {
+        Some((n, cos_r))
+    } else if cos_r < 0.0 {
+        Some((-n, -cos_r))
+    } else {
+        None
+    }
 }
 
 #[cfg(test)]

@@ -390,6 +390,8 @@ fn area_patches_are_stratum_pieces_and_the_near_field_is_unbiased() {
     let (exact, _) = patch::clipped_projected_solid_angle(&corners, p, n);
     let seeds = 200;
     let mut mean = 0.0f64;
+    // The same receiver facing away from the emitter (a `twosided` one lit from its back): |cos_r|.
+    let mut mean_back = 0.0f64;
     for seed in 0..seeds {
         let set = generate_lights(&scene, &GenerateOptions { seed, ..only(7, 0, 0) }).unwrap();
         // Each patch is (part of) its stratum of area 0.36 / 7; only the stratum straddling the two
@@ -403,7 +405,11 @@ fn area_patches_are_stratum_pieces_and_the_near_field_is_unbiased() {
             // A diffuse receiver's value is f_r F cos_r: sum F cos_r / L over the lights (L = (1, 2, 3)).
             let (wo, f, _) = set.emitted(j, p, n).unwrap();
             mean += (f.x * wo.dot(n)) as f64 / seeds as f64;
+            let (wo_b, f_b, _) = set.emitted(j, p, -n).expect("lit from the back");
+            assert_eq!((wo_b, f_b), (wo, f));
+            mean_back += (f_b.x * wo_b.dot(-n).abs()) as f64 / seeds as f64;
         }
     }
     assert!((mean / exact as f64 - 1.0).abs() < 5e-3, "mean {mean} vs exact projected solid angle {exact}");
+    assert_eq!(mean_back, mean);
 }

@@ -75,3 +75,37 @@ fn checks_reject_nan_and_zero_area() {
     let e = check(1, &[Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X, Vec3::Y, Vec3::ONE]).unwrap_err();
     assert!(e.to_string().contains("patch[1] must have finite corners"), "{e}");
 }
+
+/// The near field of a receiver lit from below its shading normal (a `twosided` wall whose triangles
+/// face away from the light and the camera) clips the patch to the side the light is on. It used to
+/// clip to the upper side only and return None: 0 for every near-field point of such a wall.
+#[test]
+fn near_field_clips_to_the_side_the_light_is_on() {
+    // A 2 x 2 square 0.5 above p: PSA = 4 x the form factor (times pi) from below a corner of a unit
+    // square at height 0.5 (closed form in f64), area 4.
+    let sq = [Vec3::new(-1.0, -1.0, 0.5), Vec3::new(1.0, -1.0, 0.5), Vec3::new(1.0, 1.0, 0.5), Vec3::new(-1.0, 1.0, 0.5)];
+    let (x, y) = (2.0f64, 2.0f64);
+    let t1 = x / (1.0 + x * x).sqrt() * (y / (1.0 + x * x).sqrt()).atan();
+    let t2 = y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan();
+    let psa = 4.0 * (t1 + t2) / 2.0;
+    let intensity = Vec3::new(1.0, 2.0, 3.0);
+    let wo = Vec3::new(0.2, -0.1, 0.5).normalize();
+    let expect = |c: f32| (psa / (4.0 * wo.z as f64)) * c as f64;
+    let front = near_field(&sq, intensity, Vec3::ZERO, Vec3::Z, wo).unwrap();
+    let back = near_field(&sq, intensity, Vec3::ZERO, -Vec3::Z, wo).expect("a receiver facing away is lit from its back");
+    assert_eq!(front, back, "the same half-space, bit for bit");
+    for (got, c) in [(back.x, 1.0), (back.y, 2.0), (back.z, 3.0)] {
+        assert!((got as f64 / expect(c) - 1.0).abs() < 2e-6, "{got} vs {}", expect(c));
+    }
+    assert_eq!(receiver_side(-Vec3::Z, wo), Some((Vec3::Z, wo.z)));
+    assert_eq!(receiver_side(Vec3::Z, wo), Some((Vec3::Z, wo.z)));
+    // wo in the receiver's plane: nothing (the BSDF's cosine is 0 there).
+    assert_eq!(receiver_side(Vec3::X, Vec3::Y), None);
+    assert!(near_field(&sq, intensity, Vec3::ZERO, Vec3::X, Vec3::Y).is_none());
+    // A patch straddling the receiver's plane: each side gets its own part, and the two parts' areas
+    // add up to the patch's.
+    let tilted = [Vec3::new(-0.5, 0.3, -0.4), Vec3::new(0.5, 0.3, -0.4), Vec3::new(0.5, 0.3, 0.6), Vec3::new(-0.5, 0.3, 0.6)];
+    let (_, up) = clipped_projected_solid_angle(&tilted, Vec3::ZERO, Vec3::Z);
+    let (_, down) = clipped_projected_solid_angle(&tilted, Vec3::ZERO, -Vec3::Z);
+    assert!((up - 0.6).abs() < 1e-6 && (down - 0.4).abs() < 1e-6, "{up} {down}");
+}
