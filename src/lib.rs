@@ -12,6 +12,7 @@ pub mod interrupt;
 pub mod lights;
 pub mod matrix;
 pub mod memory;
+pub mod pathtrace;
 pub mod raytrace;
 pub mod relight;
 pub mod scene;

@@ -53,6 +53,7 @@ from .renderers.clustered_visibility import clustered_shading, clustered_visibil
 from .renderers.clustering import cluster_reduced_columns, clustering_cost
 from .renderers.kmeans import KMeansResult, fuzzy_membership, kmeans
 from .renderers.mrcs import mrcs
+from .renderers.probes import probe_pixels
 from .renderers.progressive import mrcs_progressive
 from .renderers.render import render
 
@@ -69,7 +70,7 @@ __all__ = [
     # renderers
     "RenderResult", "render", "render_brute_force", "mrcs", "mrcs_progressive", "cluster_reduced_columns",
     "clustering_cost", "power_sampling", "instant_radiosity", "clustered_visibility", "clustered_shading",
-    "KMeansResult", "kmeans", "fuzzy_membership", "antialias",
+    "KMeansResult", "kmeans", "fuzzy_membership", "antialias", "probe_pixels",
     # animation
     "Animation", "load_animation", "apply_mapping", "AnimationLights", "generate_animation_lights",
     "LightTensor", "AnimationResult", "mrcs_per_frame", "TensorClustering", "cluster_tensor", "tensor_clustering",

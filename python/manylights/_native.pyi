@@ -1,6 +1,6 @@
 """Type stub of the native module ``manylights._native`` (Rust, PyO3). Keep in sync with ``src/py/``."""
 from os import PathLike
-from typing import Any, Callable, Optional, Sequence, Union
+from typing import Any, Callable, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -261,6 +261,12 @@ def mrcs_row_variance(rows: npt.NDArray[np.float32], assignment: npt.NDArray[np.
     """(h, 3) exact variance of the MRCS estimate at h complete rows (h, n, 3) for a clustering
     (assignment (n,) labels < num_clusters, probability (n,) of each light being its cluster's
     representative). Raises ValueError for bad shapes, labels or probabilities outside [0, 1]."""
+def probe_pixels(scene: Scene, pixels: npt.NDArray[np.int64], spp: int, max_depth: int, seed: int,
+                 progress: Optional[Callable[[int, int], None]] = None
+                 ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+    """(mean, variance_of_mean), each (k, 3) float32, of the unbiased path tracer at k probe pixels
+    ((k, 2) int64 (row, column)); ``spp`` >= 2 paths each, Mitsuba's ``max_depth`` (-1 or >= 1).
+    Raises ValueError for bad arguments or a scene with a principled BSDF (``manylights.probe_pixels``)."""
 def clustering_cost(R: npt.NDArray[np.float32], assignment: npt.NDArray[np.int32]) -> float:
     """Sum of the paper's cluster costs of a partition on the (unprojected, scalar) reduced matrix."""
 

@@ -12,6 +12,7 @@ pub mod kmeans;
 pub mod lights;
 pub mod lightset;
 pub mod matrix;
+pub mod probes;
 pub mod relight;
 pub mod scene;
 pub mod signals;
@@ -41,6 +42,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     transfer::register(m)?;
     transfer_store::register(m)?;
     variance::register(m)?;
+    probes::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -39,6 +39,16 @@ impl Scene {
         Ok(self.tracer.get_or_init(|| t).clone())
     }
 
+    /// The camera's own view samples (the first `width * height`, which do not depend on the delta-chain
+    /// options): any cached entry (so a probe starts from the same hits as the images of this Scene, on
+    /// either backend), else computed with the CPU backend's ray cast.
+    pub fn camera_samples(&self, py: Python<'_>) -> PyResult<Arc<ViewSamples>> {
+        if let Some((_, v)) = self.view.lock().unwrap_or_else(|e| e.into_inner()).first() {
+            return Ok(v.clone());
+        }
+        self.view_samples_on(py, ChainOptions::default(), &Chosen::Cpu)
+    }
+
     /// The view samples with delta chains followed by `chains`, computed once per options and cached:
     /// visibility at pixel centres rasterised on the GPU, or ray cast through the BVH for the CPU
     /// backend (`view::resolve::cast_visibility_traced`), then resolved exactly on the CPU. A cached

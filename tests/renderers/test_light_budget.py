@@ -12,7 +12,8 @@ from manylights.renderers import light_budget
 CBOX_LIGHTS = REPO / "scenes" / "cbox-lights" / "scene.xml"
 CBOX = REPO / "scenes" / "cbox" / "scene.xml"
 DELTA_EMITTERS = [0, 1, 2]  # cbox-lights' top-level point, spot and directional emitters (document order)
-OPTS = dict(params={"res": 32}, rows_per_column=0.25, progress=False)
+# Without probes (error_probes=0): these tests check the variance estimates of the counts and of MRCS.
+OPTS = dict(params={"res": 32}, rows_per_column=0.25, progress=False, error_probes=0)
 
 
 def brute_force_at_picked_counts(path, res, seed, max_depth, params):

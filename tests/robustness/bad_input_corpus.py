@@ -1220,6 +1220,29 @@ cases_for("antialias", [
     ("not a scene", lambda c: c.ml.antialias(np.zeros((8, 8, 3)), "scene.xml"), ["Scene"]),
     ("unknown device", lambda c: c.ml.antialias(np.zeros((8, 8, 3)), c.scene, device="fpga"), ["fpga"]),
 ], raises=("ValueError", "TypeError"))
+cases_for("probe_pixels", [
+    ("pixel outside the film", lambda c: c.ml.probe_pixels(c.scene, [[10**6, 0]], spp=4, progress=False), ["outside"]),
+    ("negative pixel", lambda c: c.ml.probe_pixels(c.scene, [[0, -1]], spp=4, progress=False), ["outside"]),
+    ("wrong shape", lambda c: c.ml.probe_pixels(c.scene, [1, 2, 3], spp=4, progress=False), ["(k, 2)"]),
+    ("float pixels", lambda c: c.ml.probe_pixels(c.scene, [[0.5, 1.0]], spp=4, progress=False), ["integers"]),
+    ("string pixels", lambda c: c.ml.probe_pixels(c.scene, [["a", "b"]], spp=4, progress=False), ["integer"]),
+    ("one spp", lambda c: c.ml.probe_pixels(c.scene, [[0, 0]], spp=1, progress=False), ["spp"]),
+    ("NaN spp", lambda c: c.ml.probe_pixels(c.scene, [[0, 0]], spp=float("nan"), progress=False), ["spp"]),
+    ("max_depth 0", lambda c: c.ml.probe_pixels(c.scene, [[0, 0]], spp=4, max_depth=0, progress=False),
+     ["max_depth"]),
+    ("max_depth -2", lambda c: c.ml.probe_pixels(c.scene, [[0, 0]], spp=4, max_depth=-2, progress=False),
+     ["max_depth"]),
+    ("negative seed", lambda c: c.ml.probe_pixels(c.scene, [[0, 0]], spp=4, seed=-1, progress=False), ["seed"]),
+    ("not a scene", lambda c: c.ml.probe_pixels("scene.xml", [[0, 0]]), ["Scene"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.probe_pixels", [
+    ("pixel outside the film", lambda c: c.native.probe_pixels(c.scene, np.array([[10**6, 0]]), 4, -1, 0),
+     ["outside"]),
+    ("wrong shape", lambda c: c.native.probe_pixels(c.scene, np.zeros((1, 3), np.int64), 4, -1, 0), ["(k, 2)"]),
+    ("one spp", lambda c: c.native.probe_pixels(c.scene, np.zeros((1, 2), np.int64), 1, -1, 0), ["spp"]),
+    ("max_depth 0", lambda c: c.native.probe_pixels(c.scene, np.zeros((1, 2), np.int64), 4, 0, 0), ["max_depth"]),
+    ("float pixels", lambda c: c.native.probe_pixels(c.scene, np.zeros((1, 2)), 4, -1, 0), ["int64"]),
+], raises=("ValueError", "TypeError"))
 cases_for("native.check_animation_topology", [
     ("no frames", lambda c: c.native.check_animation_topology([]), ["at least one frame"]),
     ("not scenes", lambda c: c.native.check_animation_topology(["a"]), ["Scene"]),

@@ -13,20 +13,26 @@ from ..lights.generate import generate_lights
 from ..matrix.light_matrix import LightMatrix
 from .bias import bias_sources
 from .mrcs import reconstruct
+from .probe_error import attach_probe_error
 from .result import RenderResult, light_luminance_power, matrix_shape
 
 
 def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = True,
-                   progress: bool = False) -> RenderResult:
+                   progress: bool = False, error_probes: int = 0) -> RenderResult:
     """Baseline: draw ``columns`` lights with probability proportional to their power (with replacement)
     and weight each by 1 / (columns * p_j): an unbiased estimate of the column sum that ignores visibility
     and geometry (no rows). Lights of zero power are never drawn (they emit nothing).
+
+    Args:
+        error_probes: N > 0: N path-traced probe pixels estimate the error against the converged scene, bias
+            included (``probe_error``: ``error_estimate`` the upper bound, ``bias_estimate``); 0: none.
 
     Raises:
         TypeError: A is not a LightMatrix. ValueError: columns not an integer in [1, 2^31), a negative
             seed, lights without finite power."""
     m, n = matrix_shape(A)
     columns = _v.integer("columns", columns, 1, 2**31 - 1)
+    error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     seed = _v.seed(seed)
     if n == 0:
         raise ValueError(f"power_sampling needs lights (n = {n})")
@@ -41,16 +47,21 @@ def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = 
     weights = np.repeat(w[:, None], 3, axis=1)
     timings = {"sampling": time.perf_counter() - t}
     image = reconstruct(A, reps, weights, timings, add_emitted, progress)
-    return RenderResult(image=image, method="power_sampling", seed=seed, timings=timings, representatives=reps,
+    res = RenderResult(image=image, method="power_sampling", seed=seed, timings=timings, representatives=reps,
                         weights=weights, budget={"columns": int(columns), "lights": int(n)}, device=A.device,
                         bias_sources=bias_sources(A))
+    return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
 
 
 def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction: float = 0.5,
                       environment_fraction: float = 0.0, max_depth: int = 5, clamp=None,
-                      progress: bool = False, **matrix_options) -> RenderResult:
+                      progress: bool = False, error_probes: int = 0, **matrix_options) -> RenderResult:
     """Baseline: generate only ``lights`` lights (area / environment / indirect shares as given) and render
     all of them (Keller's instant radiosity with the same light generation as the large matrix).
+
+    Args:
+        error_probes: N > 0: N path-traced probe pixels estimate the error against the converged scene, bias
+            included (``probe_error``: ``error_estimate`` the upper bound, ``bias_estimate``); 0: none.
 
     Raises:
         TypeError: scene is not a Scene. ValueError: lights not an integer >= 1, fractions outside [0, 1]
@@ -58,6 +69,7 @@ def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a manylights Scene, got {type(scene).__name__}")
     lights = _v.integer("lights", lights, 1, 2**63 - 1)
+    error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     area_fraction = _v.real("area_fraction", area_fraction, 0.0, 1.0)
     environment_fraction = _v.real("environment_fraction", environment_fraction, 0.0, 1.0)
     if area_fraction + environment_fraction > 1.0:
@@ -79,6 +91,7 @@ def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction
     t = time.perf_counter()
     image = image + A.emitted()
     timings["emitted"] = time.perf_counter() - t
-    return RenderResult(image=image, method="instant_radiosity", seed=seed, timings=timings,
-                        budget={"lights": int(len(L)), "area": n_area, "environment": n_env, "indirect": n_ind},
-                        device=A.device, bias_sources=bias_sources(A))
+    res = RenderResult(image=image, method="instant_radiosity", seed=seed, timings=timings,
+                       budget={"lights": int(len(L)), "area": n_area, "environment": n_env, "indirect": n_ind},
+                       device=A.device, bias_sources=bias_sources(A))
+    return attach_probe_error(res, scene, error_probes, seed) if error_probes else res

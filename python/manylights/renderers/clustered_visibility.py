@@ -18,6 +18,7 @@ from .._utils import validate as _v
 from ..matrix.light_matrix import LightMatrix
 from .bias import bias_sources
 from .kmeans import COS_30_DEG
+from .probe_error import attach_probe_error
 from .result import RenderResult, matrix_shape
 
 
@@ -127,7 +128,8 @@ def _split_budget(k: int, counts: list) -> list:
 
 
 def clustered_visibility(A, light_clusters: int = 1000, view_clusters: int = 8000, fuzzy: int = 6, seed: int = 0, *,
-                         iterations: int = 10, cos_threshold=None, downsample: int = 4, add_emitted: bool = True):
+                         iterations: int = 10, cos_threshold=None, downsample: int = 4, add_emitted: bool = True,
+                         error_probes: int = 0):
     """Render light matrix ``A`` by clustered visibility, the whole method of "GPU-based fuzzy K-means
     clustering of VPLs and shading points" (Computers & Graphics 2022, Sec. 3, Alg. 1-2, Eqs. 6-10).
 
@@ -162,6 +164,10 @@ def clustered_visibility(A, light_clusters: int = 1000, view_clusters: int = 800
         view_clusters, fuzziness, rays, gave_up, lights, view_samples, downsample; clusters (n,) the light
         labels; representatives of the light clusters.
 
+    Args (besides the method's):
+        error_probes: N > 0: N path-traced probe pixels estimate the error against the converged scene, bias
+            included (``probe_error``: ``error_estimate`` the upper bound, ``bias_estimate``); 0: none.
+
     Raises:
         TypeError: A is not a LightMatrix. ValueError: light_clusters or view_clusters < 1, fuzzy outside
             [1, 16], iterations < 0, downsample < 1, a threshold outside [-1, 1], an empty light set, a
@@ -170,6 +176,7 @@ def clustered_visibility(A, light_clusters: int = 1000, view_clusters: int = 800
     if not isinstance(A, LightMatrix):
         raise TypeError(f"A must be a LightMatrix, got {type(A).__name__}")
     m, n = matrix_shape(A)
+    error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     if n == 0:
         raise ValueError("the light matrix has no lights (n = 0): nothing to cluster")
     light_clusters = _v.integer("light_clusters", light_clusters, 1, 2**31)
@@ -228,4 +235,4 @@ def clustered_visibility(A, light_clusters: int = 1000, view_clusters: int = 800
     res.timings = {**timings, **res.timings}
     res.seed = seed
     res.budget = {**res.budget, "downsample": int(vc["gamma"]), "kmeans_iterations": iterations}
-    return res
+    return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res

@@ -79,6 +79,7 @@ from ..matrix.rows import stratified_rows
 from ..scene import load_scene
 from .bias import describe
 from .budget import check_targets, render_matrix
+from .probe_error import attach_probe_error, integrator_depth
 
 #: A kind stops growing when its estimate (6) is <= SAFETY x its share (as ``auto_budget.SAFETY``).
 SAFETY = 0.8
@@ -86,23 +87,6 @@ SAFETY = 0.8
 COUNT_TIME_SHARE = 0.25
 KINDS = ("area", "environment", "indirect")
 _STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5}
-
-
-def integrator_depth(scene) -> tuple[str, int]:
-    """The scene's top-level ``<integrator>`` as (type, max_depth), from the loader (``Scene.integrator``,
-    which resolved ``$name`` values, ``<include>`` and version upgrades): a path tracer's ``max_depth``
-    (Mitsuba's default -1), 2 for ``direct``; no integrator: Mitsuba's default ``path``, -1.
-
-    Raises:
-        ValueError: an integrator without a path depth (e.g. ``aov``): give ``max_depth=`` (names the file
-            and line)."""
-    integ = scene.integrator
-    if integ is None:
-        return "path", -1
-    if integ["max_depth"] is None:
-        raise ValueError(f"{integ['file']}:{integ['line']}: integrator type {integ['type']!r} has no path depth "
-                         "(not path, volpath or direct): give max_depth=")
-    return integ["type"], int(integ["max_depth"])
 
 
 def _kind_lights(scene, kind: str, count: int, max_depth: int, seed: int, delta: int):
@@ -220,7 +204,8 @@ def choose_light_counts(scene, target_error: Optional[float], time_budget: Optio
 def render_scene(path, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
                  params: Optional[dict] = None, size=None, device: str = "auto", max_depth: Optional[int] = None,
                  first_lights: int = 256, max_lights: int = 1 << 16, count_rows: int = 256,
-                 generation_share: float = 0.5, **render_options):
+                 generation_share: float = 0.5, error_probes: int = 256, probe_spp: int = 256,
+                 **render_options):
     """``render("scene.xml", target_error=, time_budget=)``: load the scene, choose the light counts
     (``choose_light_counts``, module doc), generate the lights at those counts (a fresh seed), then
     ``auto_budget.render`` the matrix to ``sqrt(1 - generation_share) x target_error`` within what is left of
@@ -235,6 +220,11 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         first_lights: first count per kind (even integer >= 2). max_lights: cap per kind (>= first_lights;
             default 65,536: the count phase renders count_rows rows of 2 x that many lights).
         count_rows: rows of the count phase (>= 1). generation_share: g in (0, 1).
+        error_probes: N probe pixels path-traced with ``probe_spp`` paths each at the scene's depth
+            (``probe_error``): the error against the converged scene, bias included, at a 90% upper
+            confidence bound; ``target_reached`` is claimed only when that bound is <= target_error and the
+            probes are reliable. 0: no probes (then the estimates cover variance only, and any known bias
+            source makes ``target_reached`` False).
         **render_options: passed to ``auto_budget.render`` (first_columns, max_rounds, rows_per_column,
             add_emitted, progress).
 
@@ -246,7 +236,10 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         source active (``RenderResult.bias_sources``): the estimates cover variance only; None without a
         target) and ``target_reason`` (a sentence: why it is or is not claimed); ``timings['light_counts']``
         and ``timings['lights']``.
-        ``error_estimate`` stays the MRCS estimate against the brute force of the generated lights.
+        With probes ``error_estimate`` is their upper bound on the error against the converged scene,
+        ``variance_estimate`` the variance part (equation (5)), ``bias_estimate`` the rest, ``budget['probes']``
+        the details and ``timings['probes']`` their cost; without, ``error_estimate`` stays the MRCS
+        estimate against the brute force of the generated lights.
 
     Raises:
         FileNotFoundError: the scene file does not exist. ValueError: neither target_error nor time_budget,
@@ -268,6 +261,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     max_lights = _v.integer("max_lights", max_lights, first_lights, 1 << 30)
     count_rows = _v.integer("count_rows", count_rows, 1, 1 << 30)
     generation_share = _v.real("generation_share", generation_share)
+    error_probes = _v.integer("error_probes", error_probes, 0, 1 << 30)
+    probe_spp = _v.integer("probe_spp", probe_spp, 2, 1 << 30)
     if not 0.0 < generation_share < 1.0:
         raise ValueError(f"generation_share must be in (0, 1), got {generation_share}")
     t_start = time.perf_counter()
@@ -309,16 +304,41 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         if views else "no view sample's lobe is below glossy_roughness: pure many-light columns, no glossy work")}
     total = float(np.hypot(counts["estimated_generation_error"], res.error_estimate))
     res.budget["estimated_total_error"] = total
-    # Halving sees the light generation's variance, not the VPL clamp's bias (module doc): with a known bias
-    # source active no estimate covers the error against the converged scene, so the target is not claimed.
+    # Halving sees the light generation's variance, not the VPL clamp's bias (module doc): only probes against
+    # the converged scene see bias; without them a known bias source means the target is not claimed.
+    probes_failed = None
+    if error_probes:
+        try:
+            attach_probe_error(res, scene, error_probes, seed, spp=probe_spp, max_depth=max_depth, variance=total)
+            probe = res.budget["probes"]
+        except ValueError as e:  # a scene the probes do not support: the result stands, without them
+            probes_failed, error_probes = str(e), 0
+            res.budget["probes"] = {"error": probes_failed}
     if target_error is None:
         res.budget["target_reached"] = None
         res.budget["target_reason"] = "no target given"
+    elif error_probes and not probe["reliable"]:
+        res.budget["target_reached"] = False
+        res.budget["target_reason"] = (
+            f"not claimed: {probe['effective_probes']:.1f} of {error_probes} probes carry the probe estimate "
+            f"({res.error_estimate:.3g}): too few to bound the error (more probes or probe_spp)")
+    elif error_probes:
+        ok = res.error_estimate <= target_error
+        res.budget["target_reached"] = bool(ok)
+        why = (f"probe upper bound {res.error_estimate:.3g} ({probe['confidence']:.0%}, variance and bias) "
+               f"{'<=' if ok else '>'} target {target_error:g}")
+        if not ok and res.bias_sources:
+            why += f"; bias {res.bias_estimate:.3g} from: {describe(res.bias_sources)}"
+        res.budget["target_reason"] = why
     elif res.bias_sources:
         res.budget["target_reached"] = False
         res.budget["target_reason"] = (
             f"not claimed: the estimated total error {total:.3g} covers variance only, and the light model has "
             f"bias that no estimate covers: {describe(res.bias_sources)}")
+    elif probes_failed:
+        res.budget["target_reached"] = False
+        res.budget["target_reason"] = (f"not claimed: no probe could check the error against the converged scene "
+                                       f"({probes_failed}); the estimated total error {total:.3g} covers variance only")
     elif total <= target_error:
         res.budget["target_reached"] = True
         res.budget["target_reason"] = (f"estimated total error {total:.3g} <= target {target_error:g}, and no known "

@@ -37,6 +37,7 @@ from ..matrix.rows import stratified_rows
 from . import estimates
 from .bias import bias_sources
 from .clustering import cluster_reduced_columns
+from .probe_error import attach_probe_error
 from .result import RenderResult, light_luminance_power, matrix_shape
 
 
@@ -54,7 +55,7 @@ def reconstruct(A, reps, weights, timings: dict, add_emitted: bool, progress: bo
 
 def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=None, clustering=None,
          add_emitted: bool = True, progress: bool = False, error_rows: int = 0, halves: bool = False,
-         **cluster_options) -> RenderResult:
+         error_probes: int = 0, **cluster_options) -> RenderResult:
     """Render the column sum of light matrix ``A`` by Matrix Row-Column Sampling.
 
     Args:
@@ -71,6 +72,11 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
             with two representatives each (same column count, one clustering of half the size), the
             image is their mean (``manylights.renderers.estimates``; calibrated in ``bench calibrate``). A light both
             draws of its cluster pick is rendered once: ``budget['rendered_columns']`` (<= columns).
+        error_probes: N > 0 path-traces N stratified probe pixels (1,024 paths each, the scene's integrator
+            depth) and reports the error against the converged scene, bias included (``probe_error``):
+            ``error_estimate`` becomes the probes' upper bound, ``variance_estimate`` keeps the halves' or
+            rows' estimate, ``bias_estimate`` the split; 0 (default): no probes, the estimate covers variance
+            only (``bias_sources`` lists what it misses).
         **cluster_options: passed to ``cluster_reduced_columns`` (projection_dim, sampling_fraction, ...).
 
     Returns:
@@ -94,6 +100,7 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
         raise ValueError("the light matrix has no lights (n = 0): nothing to sample")
     seed = _v.seed(seed)
     error_rows = _v.integer("error_rows", error_rows, 0, m)
+    error_probes = _v.integer("error_probes", error_probes, 0, m)
     timings = {}
     t = time.perf_counter()
     if clustering is not None:
@@ -132,7 +139,7 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
                                    "unseen_lights": cl["unseen_lights"]},
                            device=A.device, bias_sources=bias_sources(A))
         res.error_estimate, res.error_image = estimates.halves_estimate(X1, X2, res.image)
-        return res
+        return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
     t = time.perf_counter()
     if clustering is None:
         clustering = cluster_reduced_columns(R, _v.integer("columns", columns, 1, n), seed=seed,
@@ -148,7 +155,7 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
                        bias_sources=bias_sources(A))
     if error_rows and R is not None:
         estimates.attach_error_estimate(A, res, clustering, error_rows, progress=progress)
-    return res
+    return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
 
 
 def checked_clustering(clustering, n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -37,6 +37,11 @@ class RenderResult:
     #: ``error_estimate`` covers variance only: with a source listed, the error against the converged scene
     #: can be larger than it says.
     bias_sources: list = field(default_factory=list)
+    #: With probes (``error_probes``): the renderer's own estimate (variance only) moves here, ``error_estimate``
+    #: becomes the probes' upper bound on the error against the converged scene (``probe_error``).
+    variance_estimate: Optional[float] = None
+    #: With probes: relative L2 of the image's expectation against the converged scene (variance removed).
+    bias_estimate: Optional[float] = None
 
     @property
     def seconds(self) -> float:

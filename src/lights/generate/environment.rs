@@ -236,7 +236,13 @@ impl Environment {
             prob.push(p as f32);
             cdf.push(acc);
         }
-        EnvSampler { cells, cdf, prob, integral: power }
+        let mut row_start = Vec::new();
+        let mut above = 0usize;
+        for k in super::sampling::equal_area_rows(cells.len()) {
+            row_start.push(above);
+            above += k;
+        }
+        EnvSampler { cells, cdf, prob, integral: power, row_start }
     }
 }
 
@@ -247,6 +253,8 @@ pub struct EnvSampler {
     prob: Vec<f32>,
     /// int_{S^2} L dw (per channel).
     pub integral: Vec3,
+    /// Index of the first cell of each row of the equal-area partition (`sampling::equal_area_rows`).
+    row_start: Vec<usize>,
 }
 
 impl EnvSampler {
@@ -256,5 +264,26 @@ impl EnvSampler {
         let k = self.cdf.partition_point(|&c| c <= u0 as f64 * total).min(self.cells.len() - 1);
         let cell = &self.cells[k];
         (cell.sample(u1, u2), (self.prob[k] as f64 / total) as f32 / cell.solid_angle())
+    }
+
+    /// The solid-angle density with which `sample` returns the unit direction `d` (MIS weights): the
+    /// probability of the cell holding `d` over its solid angle (cells of `sampling::sphere_dir`: z =
+    /// d.y from 1 down, phi = atan2(d.x, d.z) in [0, 2 pi)). A direction on a cell boundary (measure
+    /// zero) gets one of its neighbours' densities.
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        let n = self.cells.len();
+        if n == 0 {
+            return 0.0;
+        }
+        // Row: the last one whose first cell is at or above the fraction of the sphere above d.
+        let above = ((1.0 - d.y.clamp(-1.0, 1.0) as f64) * 0.5 * n as f64).clamp(0.0, (n - 1) as f64);
+        let r = self.row_start.partition_point(|&s| s as f64 <= above).saturating_sub(1);
+        let start = self.row_start[r];
+        let end = self.row_start.get(r + 1).copied().unwrap_or(n);
+        let phi = (d.x.atan2(d.z) as f64).rem_euclid(2.0 * std::f64::consts::PI);
+        let c = ((phi / (2.0 * std::f64::consts::PI) * (end - start) as f64) as usize).min(end - start - 1);
+        let k = start + c;
+        let total = *self.cdf.last().unwrap_or(&1.0);
+        (self.prob[k] as f64 / total) as f32 / self.cells[k].solid_angle()
     }
 }

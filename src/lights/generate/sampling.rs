@@ -275,6 +275,50 @@ pub fn sample_bsdf(b: &GpuBsdf, wi_in: Vec3, rng: &mut Pcg32) -> Option<BsdfSamp
     Some(s)
 }
 
+/// The solid-angle density with which `sample_bsdf(b, wi_in, .)` returns the local direction `wo_in`
+/// among its non-delta samples (the MIS weights of a path tracer, `crate::pathtrace`): the same
+/// mixtures as `sample_bsdf` (module docs), 0 where it never samples (delta-only BSDFs, the wrong
+/// hemisphere, the back of a one-sided BSDF). For `plastic` the density of the diffuse branch times its
+/// probability (1 - p_spec); the delta branch has no density. Principled BSDFs are not covered (0).
+pub fn pdf_bsdf(b: &GpuBsdf, wi_in: Vec3, wo_in: Vec3) -> f32 {
+    let (mut wi, mut wo) = (wi_in, wo_in);
+    if b.flags & FLAG_TWOSIDED != 0 && wi.z < 0.0 {
+        wi.z = -wi.z;
+        wo.z = -wo.z;
+    }
+    if !(wi.z > 0.0 && wo.z > 0.0) {
+        return 0.0;
+    }
+    match b.kind {
+        KIND_DIFFUSE => wo.z / PI,
+        KIND_PLASTIC => {
+            let f = fresnel(wi.z, b.eta[0]);
+            let (sm, dm) = (f * mean(b.specular), (1.0 - f) * mean(b.diffuse));
+            let p_spec = if sm + dm > 0.0 { sm / (sm + dm) } else { 0.0 };
+            (1.0 - p_spec) * wo.z / PI
+        }
+        KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR => {
+            let ggx = b.flags & FLAG_GGX != 0;
+            let alpha = (b.alpha_u * b.alpha_v).sqrt();
+            let p_spec = if b.kind == KIND_ROUGHCONDUCTOR {
+                0.9
+            } else {
+                let f = fresnel(wi.z, b.eta[0]);
+                let (sm, dm) = (f * mean(b.specular), (1.0 - f) * mean(b.diffuse));
+                if sm + dm > 0.0 {
+                    (sm / (sm + dm)).clamp(0.1, 0.9)
+                } else {
+                    0.5
+                }
+            };
+            let h = (wi + wo).normalize();
+            let pdf_spec = microfacet_d(ggx, alpha, alpha, h) * h.z / (4.0 * wo.dot(h).abs());
+            p_spec * pdf_spec + (1.0 - p_spec) * wo.z / PI
+        }
+        _ => 0.0,
+    }
+}
+
 /// A smooth BSDF resolved from `dielectric` (eta = (int/ext, 0, 0), no specular or k).
 pub fn is_dielectric(b: &GpuBsdf) -> bool {
     b.kind == KIND_SMOOTH && b.specular == [0.0; 3] && b.k == [0.0; 3] && b.eta[1] == 0.0 && b.eta[2] == 0.0

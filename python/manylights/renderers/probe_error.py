@@ -1,0 +1,171 @@
+"""The error a rendered image really has -- variance AND bias -- from unbiased probe pixels.
+
+Every other estimate of this package (the halves of MRCS, held-out rows, the halving of light counts) measures
+the spread of a renderer around ITS expectation, the column sum of a light model. The light model itself can
+be biased (clamped VPLs, glossy lobes, near-field patches: ``bias``), and then the image converges to the
+wrong answer. Probes measure against the right one: at ``N`` probe pixels the unbiased path tracer
+(``probes.probe_pixels``, Mitsuba's ``path`` integrator with the scene's own ``max_depth``) estimates the
+converged value ``P_k`` with the variance of its mean ``v_k``, and for the image ``I`` (fixed)
+
+    E[ sum_ch (I_k - P_k)^2 - sum_ch v_k ] = sum_ch (I_k - I*_k)^2                                (1)
+
+so with probes drawn independently from a defensive mixture ``p_i = (1 - a) / M + a |I_i|^2 / ||I||^2``
+(``a`` = ``RISK_SHARE`` = 1/2: uniform, plus the pixels that can carry relative error mass; the
+Hansen-Hurwitz weights ``w_k = 1 / (N p_k)``)
+
+    SE = sum_k w_k d_k,   d_k = sum_ch (I_k - P_k)^2 - sum_ch v_k                                   (2)
+
+is an unbiased estimate of the total squared error ``||I - I*||^2`` of this image. Reported as a relative
+L2, ``sqrt(SE) / ||I||``, at an upper confidence bound: ``SE + z_q s``, ``s = std(d_k / p_k) / sqrt(N)`` the
+standard error of (2), ``z_q`` the one-sided normal
+quantile of ``confidence``. Fireflies: a probe whose paths rarely find a bright, small light underestimates
+its own ``v_k`` and its ``d_k`` can dominate (2); ``effective_probes`` = (sum |d_k|)^2 / sum d_k^2 says
+how many probes carry the estimate (of the terms d_k / p_k), and below min(N / 4, 16) the estimate is marked
+unreliable.
+
+The variance part: a renderer that also estimates its own variance (MRCS halves: relative ``sigma``) gives
+``bias^2 ~= SE / ||I||^2 - sigma^2``, the squared relative L2 of ``E[I] - I*`` (``bias_estimate``; noisy:
+both terms are estimates).
+
+| symbol | meaning |
+|---|---|
+| ``I``, ``I*`` | the rendered image, the converged image of the scene (Mitsuba's ``path``) |
+| ``M``, ``N`` | pixels, probes |
+| ``P_k``, ``v_k`` | probe k's path-traced mean and the variance of that mean |
+| ``p_i``, ``a`` | probability of pixel i in the probes' mixture, its share by squared value |
+| ``d_k``, ``w_k``, ``SE`` | probe k's residual (1), its weight, the estimated total squared error (2) |
+| ``z_q`` | normal quantile of the confidence (one-sided) |
+"""
+from __future__ import annotations
+
+import statistics
+import time
+from typing import Optional
+
+import numpy as np
+
+from .._native import Scene
+from .._utils import validate as _v
+from .._utils.seeds import derived_seed
+from .probes import probe_pixels
+
+#: Random stream of the probes' pixels and paths (apart from every renderer's own streams).
+PROBE_STREAM = 1 << 26
+#: Fewer effective probes than this (or N / 4) mark the estimate unreliable.
+MIN_EFFECTIVE = 16
+#: Share of the probes' distribution proportional to the image's squared value (the rest uniform).
+RISK_SHARE = 0.5
+
+
+def integrator_depth(scene) -> tuple[str, int]:
+    """The scene's top-level ``<integrator>`` as (type, max_depth), from the loader (``Scene.integrator``,
+    which resolved ``$name`` values, ``<include>`` and version upgrades): a path tracer's ``max_depth``
+    (Mitsuba's default -1), 2 for ``direct``; no integrator: Mitsuba's default ``path``, -1.
+
+    Raises:
+        ValueError: an integrator without a path depth (e.g. ``aov``): give ``max_depth=`` (names the file
+            and line)."""
+    integ = scene.integrator
+    if integ is None:
+        return "path", -1
+    if integ["max_depth"] is None:
+        raise ValueError(f"{integ['file']}:{integ['line']}: integrator type {integ['type']!r} has no path depth "
+                         "(not path, volpath or direct): give max_depth=")
+    return integ["type"], int(integ["max_depth"])
+
+
+def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_depth: Optional[int] = None,
+                seed: int = 0, confidence: float = 0.9, variance_estimate: Optional[float] = None) -> dict:
+    """Estimate the relative L2 of ``image`` against the converged scene from unbiased probe pixels
+    (module doc: (1), (2)).
+
+    Args:
+        image: (H, W, 3) the rendered image of ``scene`` (float; what the camera sees included).
+        scene: the Scene it renders.
+        probes: N, probe pixels (the defensive mixture of the module doc, with replacement), 1 <= N <= M.
+        spp: paths per probe (>= 2).
+        max_depth: the path depth of the converged image; None = the scene's integrator (``integrator_depth``).
+        seed: seeds the probes' pixels and paths (a stream apart from the renderers').
+        confidence: one-sided confidence of the upper bound, in (0, 1).
+        variance_estimate: the renderer's own estimate of its relative L2 from variance (e.g. MRCS halves), to
+            split the error into variance and bias; None: no split.
+
+    Returns:
+        dict: ``error_estimate`` (relative L2 at the upper confidence bound), ``error_mean`` (the point
+        estimate (2), relative), ``bias_estimate`` (relative L2 of E[I] - I*, from ``variance_estimate``, or
+        None), ``probes`` N, ``spp``, ``max_depth``, ``confidence``, ``effective_probes``, ``reliable``
+        (effective_probes >= min(N / 4, ``MIN_EFFECTIVE``)), ``pixels`` (N, 2) int64 (row, column), ``probe_mean`` / ``probe_variance``
+        (N, 3) float32, ``residuals`` (N,) float64 d_k, ``seconds``, ``paths_per_second``.
+
+    Raises:
+        ValueError: an image whose shape is not the scene's (H, W, 3), probes outside [1, M], spp < 2, a
+            confidence outside (0, 1), a negative seed, an integrator whose depth is unknown (give max_depth),
+            what ``probe_pixels`` refuses (e.g. a BSDF it does not support).
+        TypeError: scene not a Scene; a non-numeric image.
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a manylights Scene, got {type(scene).__name__}")
+    img = _v.numeric_array("image", image)
+    H, W = scene.height, scene.width
+    if img.shape != (H, W, 3):
+        raise ValueError(f"image must have the scene's shape ({H}, {W}, 3), got {img.shape}")
+    M = H * W
+    probes = _v.integer("probes", probes, 1, M)
+    confidence = _v.real("confidence", confidence)
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    seed = _v.seed(seed)
+    if max_depth is None:
+        _, max_depth = integrator_depth(scene)
+    t = time.perf_counter()
+    # Defensive mixture: half uniform, half proportional to the image's squared value (where relative L2
+    # error mass can be); drawn with replacement, each probe weighted by 1 / (N p_k) (Hansen-Hurwitz).
+    sq = np.sum(img.reshape(-1, 3).astype(np.float64) ** 2, axis=1)
+    prob = np.full(M, (1.0 - RISK_SHARE) / M) + (RISK_SHARE * sq / sq.sum() if sq.sum() > 0 else RISK_SHARE / M)
+    rng = np.random.default_rng(derived_seed(seed, PROBE_STREAM))
+    idx = np.sort(rng.choice(M, size=probes, p=prob / prob.sum()))
+    pk = prob[idx] / prob.sum()
+    pixels = np.stack([idx // W, idx % W], axis=1).astype(np.int64)
+    mean, var = probe_pixels(scene, pixels, spp=spp, max_depth=max_depth, seed=derived_seed(seed, PROBE_STREAM + 1),
+                             progress=False)
+    seconds = time.perf_counter() - t
+    x = img.reshape(-1, 3)[idx].astype(np.float64)
+    p, v = mean.astype(np.float64), var.astype(np.float64)
+    d = np.sum((x - p) ** 2, axis=1) - np.sum(v, axis=1)
+    terms = d / pk
+    se = float(terms.mean())
+    sd = float(terms.std(ddof=1)) / np.sqrt(probes) if probes > 1 else abs(se)
+    z = statistics.NormalDist().inv_cdf(confidence)
+    norm2 = float(np.sum(img.astype(np.float64) ** 2))
+    eff = float(np.abs(terms).sum() ** 2 / np.sum(terms * terms)) if np.any(terms) else float(probes)
+
+    def rel(sq: float) -> float:
+        if norm2 == 0.0:
+            return 0.0 if sq <= 0.0 else float("inf")
+        return float(np.sqrt(max(sq, 0.0) / norm2))
+
+    out = {"error_estimate": rel(se + z * sd), "error_mean": rel(se), "bias_estimate": None, "probes": probes,
+           "spp": int(spp), "max_depth": int(max_depth), "confidence": confidence, "effective_probes": eff,
+           "reliable": bool(eff >= min(probes / 4, MIN_EFFECTIVE)), "pixels": pixels, "probe_mean": mean, "probe_variance": var,
+           "residuals": d, "seconds": seconds, "paths_per_second": probes * spp / max(seconds, 1e-9)}
+    if variance_estimate is not None and norm2 > 0.0:
+        out["bias_estimate"] = float(np.sqrt(max(se / norm2 - float(variance_estimate) ** 2, 0.0)))
+    return out
+
+
+def attach_probe_error(res, scene: Scene, probes: int, seed: int, variance: Optional[float] = None, **options):
+    """Fill a ``RenderResult``'s error fields from probes (``probe_error``): ``variance_estimate`` keeps what
+    the renderer estimated itself (its ``error_estimate``, variance only), ``error_estimate`` becomes the
+    probes' upper bound (variance and bias), ``bias_estimate`` their split, ``budget['probes']`` the
+    details (without the per-probe arrays) and ``timings['probes']`` their cost. ``variance``: the relative
+    error from variance when it is not ``res.error_estimate`` alone (e.g. light counts and MRCS together).
+    Returns ``res``."""
+    variance = res.error_estimate if variance is None else variance
+    est = probe_error(res.image, scene, probes, seed=seed, variance_estimate=variance, **options)
+    res.variance_estimate = variance
+    res.error_estimate = est["error_estimate"]
+    res.bias_estimate = est["bias_estimate"]
+    res.budget["probes"] = {k: v for k, v in est.items()
+                            if k not in ("pixels", "probe_mean", "probe_variance", "residuals")}
+    res.timings["probes"] = est["seconds"]
+    return res
