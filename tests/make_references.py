@@ -62,6 +62,9 @@ REFERENCES = {
     # Glossy MIS on blended BSDFs (tests/lights/test_glossy.py): the env-lit plates as blends of a rough lobe and a
     # near-specular rough conductor (alpha 0.02-0.05).
     "glossy-blend-direct": (HERE / "data" / "glossy_blend.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.003, None),
+    # The same plates as principled BSDFs (glossy MIS on principled's specular lobe).
+    "glossy-principled-direct": (HERE / "data" / "glossy_principled.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.003,
+                                 None),
     # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
     "matpreview-full-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
                                None),

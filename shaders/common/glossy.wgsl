@@ -4,7 +4,7 @@
 // measure (`LightSet::mis_measure`: stratum area or solid angle, 0 = no MIS) travels in patch_corners[0].w;
 // a view sample's n_B in `ViewSample::bsdf_samples`.
 
-// p_B(wo) of one rough lobe (roughplastic / roughconductor record): D(h) cos_h / (4 |wo . h|) (0 where it
+// p_B(wo) of one rough lobe (roughplastic / roughconductor / principled record): D(h) cos_h / (4 |wo . h|) (0 where it
 // samples nothing). Twin of `bsdf_pdf` in glossy.rs.
 fn glossy_lobe_pdf(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> f32 {
     var wi = wi_in;
@@ -18,12 +18,14 @@ fn glossy_lobe_pdf(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> f32 {
     }
     let alpha = sqrt(b.alpha_u * b.alpha_v);
     let h = normalize(wi + wo);
-    return bsdf_microfacet_d((b.flags & BSDF_FLAG_GGX) != 0u, alpha, alpha, h) * h.z / (4.0 * abs(dot(wo, h)));
+    let ggx = (b.flags & BSDF_FLAG_GGX) != 0u || b.kind == BSDF_KIND_PRINCIPLED;
+    return bsdf_microfacet_d(ggx, alpha, alpha, h) * h.z / (4.0 * abs(dot(wo, h)));
 }
 
-// Whether the BSDF strategy samples record b's lobe (`lobe_alpha` in glossy.rs).
+// Whether the BSDF strategy samples record b's lobe (`lobe_alpha` in glossy.rs): roughplastic, roughconductor,
+// principled (its GGX specular lobe).
 fn glossy_is_rough(b: Bsdf) -> bool {
-    return b.kind == BSDF_KIND_ROUGHPLASTIC || b.kind == BSDF_KIND_ROUGHCONDUCTOR;
+    return b.kind == BSDF_KIND_ROUGHPLASTIC || b.kind == BSDF_KIND_ROUGHCONDUCTOR || b.kind == BSDF_KIND_PRINCIPLED;
 }
 
 // p_B(wo): the density of the BSDF strategy (`strategy_pdf` in glossy.rs): one rough record's lobe pdf; for a

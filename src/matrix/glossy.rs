@@ -35,11 +35,11 @@
 //! (tried K = 4, 16, 64) was worse at every K (a lobe's tails hold the error), so the weights decide
 //! everywhere.
 //!
-//! Rule (which view samples are glossy): a sample whose BSDF has a rough lobe (`roughplastic` or
-//! `roughconductor`, alone or as a component of a `blendbsdf`, float or texture weight) with isotropic
-//! GGX/Beckmann alpha = sqrt(alpha_u alpha_v) below `GlossyOptions::roughness` gets `bsdf_samples` BSDF
-//! samples; all others (diffuse, smooth, principled, blends of those) keep w_L = 1 and pure
-//! many-light columns. The threshold compares the lobe with the light density: a lobe of roughness alpha
+//! Rule (which view samples are glossy): a sample whose BSDF has a rough lobe (`roughplastic`,
+//! `roughconductor` or `principled`'s GGX specular lobe, alone or as a component of a `blendbsdf`, float or
+//! texture weight) with isotropic GGX/Beckmann alpha = sqrt(alpha_u alpha_v) below
+//! `GlossyOptions::roughness` gets `bsdf_samples` BSDF samples; all others (diffuse, plastic, smooth,
+//! blends of those) keep w_L = 1 and pure many-light columns. The threshold compares the lobe with the light density: a lobe of roughness alpha
 //! spans about pi alpha^2 sr around the mirror direction, a light sample stands for Omega_j = A_j cos_l / d^2;
 //! light samples resolve the lobe when several fall in it, i.e. alpha >~ sqrt(Omega_j / pi) times a few.
 //! Because both strategies are weighted, the choice affects only noise and cost, never the expectation:
@@ -52,13 +52,16 @@
 //! restricted to the lobes above: a component is chosen by its weight (the second if u1 < w, u1 rescaled
 //! and reused), its microfacet lobe is sampled as a lone rough record's, and p_B is the weighted mixture
 //! (1 - w) p_0 + w p_1 of the components' lobe pdfs (used in both weights and in f / p_B, f the whole
-//! blend); a component without a rough lobe (diffuse, plastic, smooth, principled) is left to the light
+//! blend); a component without a rough lobe (diffuse, plastic, smooth) is left to the light
 //! samples like a rough plastic's diffuse lobe, and the weights are renormalised over the rough
 //! component(s) (one rough component takes every sample, p_B its own pdf). Measured on
-//! tests/data/glossy_blend.xml (tests/lights/test_glossy.py). `principled` keeps w_L = 1: its GGX
-//! specular lobe could use the same sampler, but its clearcoat lobe (GTR1, alpha down to 0.001) and its
-//! transmission are further lobes this strategy would have to mix in (or leave to the light samples),
-//! and its alpha depends on `anisotropic`; not done (README "Glossy highlights").
+//! tests/data/glossy_blend.xml (tests/lights/test_glossy.py).
+//! `principled` fits the same machinery: its specular lobe is GGX of (alpha_u, alpha_v) =
+//! `dist_params(anisotropic, roughness)`, sampled and weighted like a rough conductor's (isotropic
+//! sqrt(alpha_u alpha_v), front side, reflection); its other lobes are left to the light samples as a
+//! rough plastic's diffuse lobe is: diffuse, sheen, transmission, the back side (p_B = 0 there, w_L = 1)
+//! and the GTR1 clearcoat (alpha down to 0.001: a sharp clearcoat's highlights stay with the light samples
+//! alone, covered only where they overlap the specular lobe). Measured on tests/data/glossy_principled.xml.
 //!
 //! Lights that BSDF sampling cannot hit, or whose density is unknown, keep w_L = 1 and the BSDF strategy
 //! ignores them (so nothing is counted twice or dropped): delta lights, VPLs, user-made oriented points,
@@ -78,7 +81,9 @@ use crate::lights::{LightKind, LightSet};
 use crate::matrix::emitted::AreaRadiance;
 use crate::raytrace::{spawn_ray, RayTracer};
 use crate::scene::Scene;
-use crate::shading::bsdf::{eval_records, microfacet_d, FLAG_BLEND, FLAG_GGX, FLAG_TWOSIDED, KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC};
+use crate::shading::bsdf::{
+    eval_records, microfacet_d, FLAG_BLEND, FLAG_GGX, FLAG_TWOSIDED, KIND_PRINCIPLED, KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC,
+};
 use crate::shading::GpuBsdf;
 use crate::view::ViewSamples;
 use glam::Vec3;
@@ -134,9 +139,15 @@ impl GlossyOptions {
 }
 
 /// The isotropic alpha of a record with a rough lobe the BSDF strategy samples (roughplastic /
-/// roughconductor; one record: a blend's first record answers for its own lobe).
+/// roughconductor, principled's GGX specular lobe; one record: a blend's first record answers for its
+/// own lobe).
 pub fn lobe_alpha(b: &GpuBsdf) -> Option<f32> {
-    matches!(b.kind, KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR).then(|| (b.alpha_u * b.alpha_v).sqrt())
+    matches!(b.kind, KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR | KIND_PRINCIPLED).then(|| (b.alpha_u * b.alpha_v).sqrt())
+}
+
+/// Whether record `b`'s lobe is GGX (principled's always is), else Beckmann.
+fn lobe_ggx(b: &GpuBsdf) -> bool {
+    b.flags & FLAG_GGX != 0 || b.kind == KIND_PRINCIPLED
 }
 
 /// The lobes the BSDF strategy samples at record `i` of a record array (`ViewSamples::bsdf`: a blend's
@@ -169,7 +180,7 @@ pub fn strategy_lobes(records: &[GpuBsdf], i: usize) -> ([(GpuBsdf, f32); 2], us
 }
 
 /// The smallest alpha among the lobes the BSDF strategy samples at record `i` (`strategy_lobes`); None
-/// when it samples none (diffuse, plastic, smooth, principled, a blend of those).
+/// when it samples none (diffuse, plastic, smooth, a blend of those).
 pub fn glossy_alpha(records: &[GpuBsdf], i: usize) -> Option<f32> {
     let (lobes, n) = strategy_lobes(records, i);
     lobes[..n].iter().filter_map(|(r, _)| lobe_alpha(r)).reduce(f32::min)
@@ -204,7 +215,7 @@ pub fn bsdf_pdf(b: &GpuBsdf, wi: Vec3, wo: Vec3) -> f32 {
     }
     let alpha = (b.alpha_u * b.alpha_v).sqrt();
     let h = (wi + wo).normalize();
-    microfacet_d(b.flags & FLAG_GGX != 0, alpha, alpha, h) * h.z / (4.0 * wo.dot(h).abs())
+    microfacet_d(lobe_ggx(b), alpha, alpha, h) * h.z / (4.0 * wo.dot(h).abs())
 }
 
 /// p_B(wo): the BSDF strategy's density at record `i` of a record array: the mixture over its lobes
@@ -224,7 +235,7 @@ pub fn strategy_pdf(records: &[GpuBsdf], i: usize, wi: Vec3, wo: Vec3) -> f32 {
 fn sample_lobe(b: &GpuBsdf, wi: Vec3, u1: f32, u2: f32) -> Option<Vec3> {
     let (wi_up, _, flip) = upper(b, wi, Vec3::Z)?;
     let alpha = (b.alpha_u * b.alpha_v).sqrt();
-    let mut wo = reflect(wi_up, sample_microfacet(b.flags & FLAG_GGX != 0, alpha, u1, u2));
+    let mut wo = reflect(wi_up, sample_microfacet(lobe_ggx(b), alpha, u1, u2));
     if flip {
         wo.z = -wo.z;
     }

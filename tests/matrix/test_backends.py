@@ -131,13 +131,15 @@ def test_auto_follows_manylights_device(pair, monkeypatch):
     assert ml.LightMatrix(scene, lights).device["kind"] == "cpu"
 
 
-def test_glossy_blend_weights_on_both_backends():
+@pytest.mark.parametrize("name", ["glossy_blend.xml", "glossy_principled.xml"])
+def test_glossy_blend_weights_on_both_backends(name):
     """Glossy MIS on blended BSDFs (``tests/data/glossy_blend.xml``: roughplastic / diffuse + near-specular
-    roughconductor, one weight a checkerboard): the GPU's w_L (``shaders/common/glossy.wgsl``, the blend's
-    mixture pdf read through its second record) equals the CPU's in columns and rows, and the images agree."""
+    roughconductor, one weight a checkerboard) and on principled's specular lobe (``glossy_principled.xml``):
+    the GPU's w_L (``shaders/common/glossy.wgsl``; a blend's mixture pdf read through its second record)
+    equals the CPU's in columns and rows, and the images agree."""
     from pathlib import Path
 
-    xml = Path(__file__).resolve().parents[1] / "data" / "glossy_blend.xml"
+    xml = Path(__file__).resolve().parents[1] / "data" / name
     small = ml.load_scene(xml, size=(32, 24), width=32, height=24)
     lights = ml.generate_lights(small, area=0, environment=256)
     cpu = ml.LightMatrix(small, lights, device="cpu", max_depth=2, bsdf_samples=16)

@@ -1,7 +1,7 @@
 use super::*;
 use crate::lights::generate::sampling::uniform_sphere;
 use crate::scene::{Bsdf, MicrofacetDistribution, Param};
-use crate::shading::bsdf::{link_blend, resolve_records, FLAG_GGX, KIND_ROUGHCONDUCTOR};
+use crate::shading::bsdf::{link_blend, resolve, resolve_records, FLAG_GGX, KIND_ROUGHCONDUCTOR};
 use glam::Vec2;
 use rand_pcg::Pcg32;
 
@@ -192,12 +192,25 @@ fn blend_samples_follow_their_pdf() {
 /// quadrature's 2e-3), and the spread is far below the light strategy's alone.
 #[test]
 fn blend_mis_estimator_is_unbiased() {
+    check_mis_unbiased(&blend_records(roughplastic(0.15), roughconductor(0.03), 0.6), "blend");
+}
+
+/// The same for principled (its GGX specular lobe sampled, alpha 0.04 / 0.0225 anisotropic; sheen and a
+/// GTR1 clearcoat left to the light samples) and for a blend of principled and diffuse.
+#[test]
+fn principled_mis_estimator_is_unbiased() {
+    check_mis_unbiased(&[resolve(&[principled(0.2, 0.0, 0.5)], &[], 0, Vec2::ZERO)], "principled");
+    check_mis_unbiased(&[resolve(&[principled(0.15, 0.4, 0.0)], &[], 0, Vec2::ZERO)], "anisotropic principled");
+    let diffuse = Bsdf::Diffuse { reflectance: Param::Value(Vec3::splat(0.5)) };
+    check_mis_unbiased(&blend_records(diffuse, principled(0.2, 0.0, 0.0), 0.5), "diffuse + principled");
+}
+
+fn check_mis_unbiased(rec: &[GpuBsdf], what: &str) {
     use crate::lights::generate::sampling::stream;
-    let rec = blend_records(roughplastic(0.15), roughconductor(0.03), 0.6);
     let wi = Vec3::new(0.4, -0.2, 0.89).normalize();
     let spot = Vec3::new(-wi.x + 0.03, -wi.y, wi.z).normalize();
     let radiance = |wo: Vec3| 0.5 + 40.0 * wo.dot(spot).max(0.0).powi(400);
-    let integrand = |wo: Vec3| eval_records(&rec, 0, wi, wo) * radiance(wo);
+    let integrand = |wo: Vec3| eval_records(rec, 0, wi, wo) * radiance(wo);
     // Midpoint quadrature, equal-area cells in (cos theta, phi) over the upper hemisphere (f = 0 below).
     let (n_mu, n_phi) = (2000usize, 2000usize);
     let mut exact = glam::DVec3::ZERO;
@@ -220,14 +233,14 @@ fn blend_mis_estimator_is_unbiased() {
         let (mut est, mut light_only) = (Vec3::ZERO, Vec3::ZERO);
         for _ in 0..n_l {
             let wo = uniform_sphere(uniform(&mut rng), uniform(&mut rng));
-            let pb = n_b as f32 * strategy_pdf(&rec, 0, wi, wo);
+            let pb = n_b as f32 * strategy_pdf(rec, 0, wi, wo);
             let v = integrand(wo) / (n_l as f32 * p_l);
             est += v * power_heuristic(q, pb);
             light_only += v;
         }
         for _ in 0..n_b {
             let (u1, u2) = (uniform(&mut rng), uniform(&mut rng));
-            let Some((wo, weight, pdf)) = sample(&rec, 0, wi, u1, u2) else { continue };
+            let Some((wo, weight, pdf)) = sample(rec, 0, wi, u1, u2) else { continue };
             est += weight * radiance(wo) * power_heuristic(n_b as f32 * pdf, q) / n_b as f32;
         }
         sum += est.as_dvec3();
@@ -241,8 +254,8 @@ fn blend_mis_estimator_is_unbiased() {
     let light_sd = (light_sum2 / t).powf(0.5) / t.sqrt();
     for c in 0..3 {
         let (m, e, s) = (mean[c], exact[c], sd[c]);
-        assert!((m - e).abs() < 4.0 * s + 2e-3 * e, "channel {c}: MIS mean {m} vs quadrature {e} (sd {s})");
-        assert!(s < 0.01 * e && s < 0.5 * light_sd[c], "channel {c}: sd {s}, light strategy alone {}", light_sd[c]);
+        assert!((m - e).abs() < 4.0 * s + 2e-3 * e, "{what} channel {c}: MIS mean {m} vs quadrature {e} (sd {s})");
+        assert!(s < 0.01 * e && s < 0.5 * light_sd[c], "{what} channel {c}: sd {s}, light strategy alone {}", light_sd[c]);
     }
 }
 
@@ -297,4 +310,41 @@ fn light_weights_and_densities() {
     rough.set_glossy(&GlossyOptions { roughness: 0.005, bsdf_samples: 64, seed: 0 }).unwrap();
     assert!(rough.bsdf_samples.is_empty());
     assert_eq!(rough.glossy_work(), (0, 0));
+}
+
+/// A principled BSDF: roughness, anisotropic, clearcoat (metallic 0.5, sheen 0.5, no transmission).
+fn principled(roughness: f32, anisotropic: f32, clearcoat: f32) -> Bsdf {
+    let v = |x: f32| Param::Value(Vec3::splat(x));
+    Bsdf::Principled(Box::new(crate::scene::principled::Principled {
+        base_color: Param::Value(Vec3::new(0.7, 0.4, 0.2)),
+        roughness: v(roughness),
+        anisotropic: v(anisotropic),
+        metallic: v(0.5),
+        spec_tint: v(0.2),
+        spec_trans: v(0.0),
+        sheen: v(0.5),
+        sheen_tint: v(0.5),
+        clearcoat: v(clearcoat),
+        clearcoat_gloss: v(0.3),
+        flatness: v(0.0),
+        eta: 1.5,
+    }))
+}
+
+/// Principled's specular lobe is sampled as a GGX lobe of alpha sqrt(alpha_u alpha_v): the cone test, and
+/// the glossy rule sees that alpha.
+#[test]
+fn principled_samples_follow_their_pdf() {
+    use crate::lights::generate::sampling::stream;
+    let wi = Vec3::new(0.5, 0.1, 0.86).normalize();
+    let mirror = Vec3::new(-wi.x, -wi.y, wi.z);
+    for (roughness, anisotropic) in [(0.2f32, 0.0f32), (0.15, 0.4)] {
+        let rec = [resolve(&[principled(roughness, anisotropic, 0.5)], &[], 0, Vec2::ZERO)];
+        let alpha = (rec[0].alpha_u * rec[0].alpha_v).sqrt();
+        assert_eq!(glossy_alpha(&rec, 0), Some(alpha));
+        let mut rng = stream(13, 57, (roughness * 100.0) as u64);
+        check_cones(&rec, wi, mirror, &[2.0 * alpha, 6.0 * alpha], &mut rng, 400_000, &format!("principled {roughness} {anisotropic}"));
+        // The back side has no BSDF strategy.
+        assert!(sample(&rec, 0, Vec3::new(wi.x, wi.y, -wi.z), 0.3, 0.3).is_none());
+    }
 }
