@@ -39,9 +39,10 @@
 //! `roughconductor` or `principled`'s GGX specular lobe, alone or as a component of a `blendbsdf`, float or
 //! texture weight) with isotropic GGX/Beckmann alpha = sqrt(alpha_u alpha_v) below
 //! `GlossyOptions::roughness` gets `bsdf_samples` BSDF samples; all others (diffuse, plastic, smooth,
-//! blends of those) keep w_L = 1 and pure many-light columns. The threshold compares the lobe with the light density: a lobe of roughness alpha
-//! spans about pi alpha^2 sr around the mirror direction, a light sample stands for Omega_j = A_j cos_l / d^2;
-//! light samples resolve the lobe when several fall in it, i.e. alpha >~ sqrt(Omega_j / pi) times a few.
+//! blends of those) keep w_L = 1 and pure many-light columns. The threshold compares the lobe with the
+//! light density: a lobe of roughness alpha spans about pi alpha^2 sr around the mirror direction, a light
+//! sample stands for Omega_j = A_j cos_l / d^2; light samples resolve the lobe when several fall in it,
+//! i.e. alpha >~ sqrt(Omega_j / pi) times a few.
 //! Because both strategies are weighted, the choice affects only noise and cost, never the expectation:
 //! a sample below the threshold that the light samples would have resolved loses nothing (w_L stays
 //! near 1 where q_L >> n_B p_B). The default `DEFAULT_ROUGHNESS` (0.2) takes every Veach plate
@@ -152,9 +153,9 @@ fn lobe_ggx(b: &GpuBsdf) -> bool {
 
 /// The lobes the BSDF strategy samples at record `i` of a record array (`ViewSamples::bsdf`: a blend's
 /// second record past `len()`, `shading::bsdf::link_blend`), each with the probability that it is chosen
-/// (module docs): a roughplastic / roughconductor record alone (probability 1); a blend's rough records,
-/// chosen by their blend weights (1 - w, w) renormalised over the rough ones (both rough: exactly
-/// Mitsuba's `blendbsdf` choice; one rough: it takes every sample). Empty when there is none.
+/// (module docs): a roughplastic / roughconductor / principled record alone (probability 1); a blend's
+/// rough records, chosen by their blend weights (1 - w, w) renormalised over the rough ones (both rough:
+/// exactly Mitsuba's `blendbsdf` choice; one rough: it takes every sample). Empty when there is none.
 pub fn strategy_lobes(records: &[GpuBsdf], i: usize) -> ([(GpuBsdf, f32); 2], usize) {
     let b = records[i];
     let mut out = [(b, 0.0f32); 2];
