@@ -30,7 +30,9 @@ OUT = HERE / "references"
 
 # name -> (scene xml, loader params, film size (W, H), max_depth, target relative noise, scene edit)
 # Edits: "no-smooth-specular" sets specular_reflectance=0 on smooth plastics (our lights cannot reach a
-# delta lobe; the remaining diffuse part is exactly what both renderers compute).
+# delta lobe; the remaining diffuse part is exactly what both renderers compute). "blend-object" makes the
+# matpreview object a blendbsdf, weight 0.5, of roughplastic (GGX alpha 0.15, the object's colour) and
+# roughconductor (GGX alpha 0.02, Au).
 REFERENCES = {
     "cbox-direct": (SCENES / "cbox" / "scene.xml", {"res": 128}, (128, 128), 2, 0.0075, None),
     "cbox-lights-direct": (SCENES / "cbox-lights" / "scene.xml", {"res": 128}, (128, 128), 2, 0.0075, None),
@@ -63,6 +65,15 @@ REFERENCES = {
     # The same plates under an environment map with a bright band (glossy MIS against environment strata).
     "veach-plates-env-direct": (HERE / "data" / "veach_plates_env.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002,
                                 None),
+    # Glossy MIS on blended BSDFs (tests/lights/test_glossy.py): the env-lit plates as blends of a rough lobe and a
+    # near-specular rough conductor (alpha 0.02-0.05).
+    "glossy-blend-direct": (HERE / "data" / "glossy_blend.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.003, None),
+    # The same plates as principled BSDFs (glossy MIS on principled's specular lobe).
+    "glossy-principled-direct": (HERE / "data" / "glossy_principled.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.003,
+                                 None),
+    # matpreview's object as a blend of rough plastic and a near-specular gold (glossy MIS on blends).
+    "matpreview-blend-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.004,
+                                "blend-object"),
     # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
     "matpreview-full-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
                                None),
@@ -91,6 +102,26 @@ def edited(xml: Path, edit, tmp: Path) -> Path:
                 for c in [c for c in b if c.get("name") == "specular_reflectance"]:
                     b.remove(c)
                 ET.SubElement(b, "float", {"name": "specular_reflectance", "value": "0"})
+        tree.write(out)
+        return out
+    if edit == "blend-object":
+        import xml.etree.ElementTree as ET
+
+        out = reference.scene_variant(xml, tmp, remove_area_emitters=False)
+        tree = ET.parse(out)
+        for b in tree.getroot().iter("bsdf"):
+            if b.get("id") == "bsdf-matpreview":
+                b.clear()
+                b.attrib.update({"type": "blendbsdf", "id": "bsdf-matpreview"})
+                ET.SubElement(b, "float", {"name": "weight", "value": "0.5"})
+                rp = ET.SubElement(b, "bsdf", {"type": "roughplastic"})
+                ET.SubElement(rp, "string", {"name": "distribution", "value": "ggx"})
+                ET.SubElement(rp, "float", {"name": "alpha", "value": "0.15"})
+                ET.SubElement(rp, "rgb", {"name": "diffuse_reflectance", "value": "0.940, 0.271, 0.361"})
+                rc = ET.SubElement(b, "bsdf", {"type": "roughconductor"})
+                ET.SubElement(rc, "string", {"name": "distribution", "value": "ggx"})
+                ET.SubElement(rc, "float", {"name": "alpha", "value": "0.02"})
+                ET.SubElement(rc, "string", {"name": "material", "value": "Au"})
         tree.write(out)
         return out
     raise ValueError(edit)

@@ -35,17 +35,34 @@
 //! (tried K = 4, 16, 64) was worse at every K (a lobe's tails hold the error), so the weights decide
 //! everywhere.
 //!
-//! Rule (which view samples are glossy): a `roughplastic` or `roughconductor` sample (not blended) whose
-//! isotropic GGX/Beckmann alpha = sqrt(alpha_u alpha_v) is below `GlossyOptions::roughness` gets
-//! `bsdf_samples` BSDF samples; all others (diffuse, principled, blends, smooth) keep w_L = 1 and pure
-//! many-light columns. The threshold compares the lobe with the light density: a lobe of roughness alpha
-//! spans about pi alpha^2 sr around the mirror direction, a light sample stands for Omega_j = A_j cos_l / d^2;
-//! light samples resolve the lobe when several fall in it, i.e. alpha >~ sqrt(Omega_j / pi) times a few.
+//! Rule (which view samples are glossy): a sample whose BSDF has a rough lobe (`roughplastic`,
+//! `roughconductor` or `principled`'s GGX specular lobe, alone or as a component of a `blendbsdf`, float or
+//! texture weight) with isotropic GGX/Beckmann alpha = sqrt(alpha_u alpha_v) below
+//! `GlossyOptions::roughness` gets `bsdf_samples` BSDF samples; all others (diffuse, plastic, smooth,
+//! blends of those) keep w_L = 1 and pure many-light columns. The threshold compares the lobe with the
+//! light density: a lobe of roughness alpha spans about pi alpha^2 sr around the mirror direction, a light
+//! sample stands for Omega_j = A_j cos_l / d^2; light samples resolve the lobe when several fall in it,
+//! i.e. alpha >~ sqrt(Omega_j / pi) times a few.
 //! Because both strategies are weighted, the choice affects only noise and cost, never the expectation:
 //! a sample below the threshold that the light samples would have resolved loses nothing (w_L stays
 //! near 1 where q_L >> n_B p_B). The default `DEFAULT_ROUGHNESS` (0.2) takes every Veach plate
 //! (alpha <= 0.1) at 1k-4k area points; rougher lobes (alpha 0.2 spans ~0.5 sr) are resolved by a few
 //! thousand light samples of an emitter in view.
+//!
+//! A blend's BSDF strategy (`strategy_lobes`, `sample`, `strategy_pdf`) is Mitsuba's `blendbsdf` sampling
+//! restricted to the lobes above: a component is chosen by its weight (the second if u1 < w, u1 rescaled
+//! and reused), its microfacet lobe is sampled as a lone rough record's, and p_B is the weighted mixture
+//! (1 - w) p_0 + w p_1 of the components' lobe pdfs (used in both weights and in f / p_B, f the whole
+//! blend); a component without a rough lobe (diffuse, plastic, smooth) is left to the light
+//! samples like a rough plastic's diffuse lobe, and the weights are renormalised over the rough
+//! component(s) (one rough component takes every sample, p_B its own pdf). Measured on
+//! tests/data/glossy_blend.xml (tests/lights/test_glossy.py).
+//! `principled` fits the same machinery: its specular lobe is GGX of (alpha_u, alpha_v) =
+//! `dist_params(anisotropic, roughness)`, sampled and weighted like a rough conductor's (isotropic
+//! sqrt(alpha_u alpha_v), front side, reflection); its other lobes are left to the light samples as a
+//! rough plastic's diffuse lobe is: diffuse, sheen, transmission, the back side (p_B = 0 there, w_L = 1)
+//! and the GTR1 clearcoat (alpha down to 0.001: a sharp clearcoat's highlights stay with the light samples
+//! alone, covered only where they overlap the specular lobe). Measured on tests/data/glossy_principled.xml.
 //!
 //! Lights that BSDF sampling cannot hit, or whose density is unknown, keep w_L = 1 and the BSDF strategy
 //! ignores them (so nothing is counted twice or dropped): delta lights, VPLs, user-made oriented points,
@@ -65,7 +82,9 @@ use crate::lights::{LightKind, LightSet};
 use crate::matrix::emitted::AreaRadiance;
 use crate::raytrace::{spawn_ray, RayTracer};
 use crate::scene::Scene;
-use crate::shading::bsdf::{eval, microfacet_d, FLAG_BLEND, FLAG_GGX, FLAG_TWOSIDED, KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC};
+use crate::shading::bsdf::{
+    eval_records, microfacet_d, FLAG_BLEND, FLAG_GGX, FLAG_TWOSIDED, KIND_PRINCIPLED, KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC,
+};
 use crate::shading::GpuBsdf;
 use crate::view::ViewSamples;
 use glam::Vec3;
@@ -120,13 +139,52 @@ impl GlossyOptions {
     }
 }
 
-/// The isotropic alpha of a BSDF record that can be glossy (roughplastic / roughconductor, not blended).
+/// The isotropic alpha of a record with a rough lobe the BSDF strategy samples (roughplastic /
+/// roughconductor, principled's GGX specular lobe; one record: a blend's first record answers for its
+/// own lobe).
 pub fn lobe_alpha(b: &GpuBsdf) -> Option<f32> {
-    if matches!(b.kind, KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR) && b.flags & FLAG_BLEND == 0 {
-        Some((b.alpha_u * b.alpha_v).sqrt())
-    } else {
-        None
+    matches!(b.kind, KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR | KIND_PRINCIPLED).then(|| (b.alpha_u * b.alpha_v).sqrt())
+}
+
+/// Whether record `b`'s lobe is GGX (principled's always is), else Beckmann.
+fn lobe_ggx(b: &GpuBsdf) -> bool {
+    b.flags & FLAG_GGX != 0 || b.kind == KIND_PRINCIPLED
+}
+
+/// The lobes the BSDF strategy samples at record `i` of a record array (`ViewSamples::bsdf`: a blend's
+/// second record past `len()`, `shading::bsdf::link_blend`), each with the probability that it is chosen
+/// (module docs): a roughplastic / roughconductor / principled record alone (probability 1); a blend's
+/// rough records, chosen by their blend weights (1 - w, w) renormalised over the rough ones (both rough:
+/// exactly Mitsuba's `blendbsdf` choice; one rough: it takes every sample). Empty when there is none.
+pub fn strategy_lobes(records: &[GpuBsdf], i: usize) -> ([(GpuBsdf, f32); 2], usize) {
+    let b = records[i];
+    let mut out = [(b, 0.0f32); 2];
+    if b.flags & FLAG_BLEND == 0 {
+        let n = usize::from(lobe_alpha(&b).is_some());
+        out[0].1 = 1.0;
+        return (out, n);
     }
+    let w = b.extra[2];
+    let second = records.get(b.extra[3].to_bits() as usize).copied();
+    // (record, blend weight) of the rough records with a positive weight.
+    let rough = |r: Option<GpuBsdf>, p: f32| r.filter(|r| p > 0.0 && lobe_alpha(r).is_some()).map(|r| (r, p));
+    let mut n = 0;
+    for (r, p) in [rough(Some(b), 1.0 - w), rough(second, w)].into_iter().flatten() {
+        out[n] = (r, p);
+        n += 1;
+    }
+    let total: f32 = out[..n].iter().map(|(_, p)| p).sum();
+    for lobe in &mut out[..n] {
+        lobe.1 /= total;
+    }
+    (out, n)
+}
+
+/// The smallest alpha among the lobes the BSDF strategy samples at record `i` (`strategy_lobes`); None
+/// when it samples none (diffuse, plastic, smooth, a blend of those).
+pub fn glossy_alpha(records: &[GpuBsdf], i: usize) -> Option<f32> {
+    let (lobes, n) = strategy_lobes(records, i);
+    lobes[..n].iter().filter_map(|(r, _)| lobe_alpha(r)).reduce(f32::min)
 }
 
 /// n_B of every view sample under `opts` (0 = not glossy; background samples are never glossy).
@@ -135,7 +193,7 @@ pub fn lobe_alpha(b: &GpuBsdf) -> Option<f32> {
 pub fn bsdf_samples_per_view_sample(view: &ViewSamples, opts: &GlossyOptions) -> Result<Vec<u32>> {
     opts.check()?;
     Ok((0..view.len())
-        .map(|i| match lobe_alpha(&view.bsdf[i]) {
+        .map(|i| match glossy_alpha(&view.bsdf, i) {
             Some(a) if view.shape_index[i] >= 0 && a < opts.roughness => opts.bsdf_samples,
             _ => 0,
         })
@@ -149,8 +207,8 @@ fn upper(b: &GpuBsdf, wi: Vec3, wo: Vec3) -> Option<(Vec3, Vec3, bool)> {
     (wi.z * f.z > 0.0).then_some((wi * f, wo * f, flip))
 }
 
-/// p_B(wo): the BSDF strategy's density (module docs) for a glossy record at local `wi`, `wo`; 0 where it
-/// samples nothing. Twin of `glossy_bsdf_pdf` in `shaders/common/glossy.wgsl`.
+/// p_B(wo) of one rough lobe: D(h) cos theta_h / (4 |wo . h|) (module docs) for record `b` at local `wi`,
+/// `wo`; 0 where it samples nothing. Twin of `glossy_lobe_pdf` in `shaders/common/glossy.wgsl`.
 pub fn bsdf_pdf(b: &GpuBsdf, wi: Vec3, wo: Vec3) -> f32 {
     let Some((wi, wo, _)) = upper(b, wi, wo) else { return 0.0 };
     if !(wo.z > 0.0) {
@@ -158,23 +216,58 @@ pub fn bsdf_pdf(b: &GpuBsdf, wi: Vec3, wo: Vec3) -> f32 {
     }
     let alpha = (b.alpha_u * b.alpha_v).sqrt();
     let h = (wi + wo).normalize();
-    microfacet_d(b.flags & FLAG_GGX != 0, alpha, alpha, h) * h.z / (4.0 * wo.dot(h).abs())
+    microfacet_d(lobe_ggx(b), alpha, alpha, h) * h.z / (4.0 * wo.dot(h).abs())
 }
 
-/// One BSDF-strategy sample at local `wi`: (local wo, eval(wi, wo) / p_B, p_B), or None when it leaves
-/// below the surface.
-pub fn sample(b: &GpuBsdf, wi: Vec3, u1: f32, u2: f32) -> Option<(Vec3, Vec3, f32)> {
+/// p_B(wo): the BSDF strategy's density at record `i` of a record array: the mixture over its lobes
+/// (`strategy_lobes`) of their `bsdf_pdf`, weighted by their choice probabilities (one lobe: its own
+/// pdf). Twin of `glossy_bsdf_pdf` in `shaders/common/glossy.wgsl`.
+pub fn strategy_pdf(records: &[GpuBsdf], i: usize, wi: Vec3, wo: Vec3) -> f32 {
+    let (lobes, n) = strategy_lobes(records, i);
+    let mut pdf = 0.0;
+    for (r, p) in &lobes[..n] {
+        pdf += p * bsdf_pdf(r, wi, wo);
+    }
+    pdf
+}
+
+/// One sample of rough lobe `b` at local `wi` (microfacet normal with density D(h) cos theta_h,
+/// reflected); None below a one-sided BSDF.
+fn sample_lobe(b: &GpuBsdf, wi: Vec3, u1: f32, u2: f32) -> Option<Vec3> {
     let (wi_up, _, flip) = upper(b, wi, Vec3::Z)?;
     let alpha = (b.alpha_u * b.alpha_v).sqrt();
-    let mut wo = reflect(wi_up, sample_microfacet(b.flags & FLAG_GGX != 0, alpha, u1, u2));
+    let mut wo = reflect(wi_up, sample_microfacet(lobe_ggx(b), alpha, u1, u2));
     if flip {
         wo.z = -wo.z;
     }
-    let pdf = bsdf_pdf(b, wi, wo);
+    Some(wo)
+}
+
+/// One BSDF-strategy sample at record `i` of a record array, local `wi`: (local wo, f(wi, wo) / p_B, p_B)
+/// with f the whole BSDF (`eval_records`, a blend's both records) and p_B = `strategy_pdf`, or None when
+/// it leaves below the surface or the record has no lobe to sample. A blend chooses its lobe with `u1`
+/// (the second if u1 < its probability, as Mitsuba's `blendbsdf`) and reuses `u1` rescaled, so the
+/// jittered strata stay stratified within each lobe.
+pub fn sample(records: &[GpuBsdf], i: usize, wi: Vec3, u1: f32, u2: f32) -> Option<(Vec3, Vec3, f32)> {
+    let (lobes, n) = strategy_lobes(records, i);
+    let (lobe, u1) = match n {
+        0 => return None,
+        1 => (&lobes[0].0, u1),
+        _ => {
+            let p1 = lobes[1].1;
+            if u1 < p1 {
+                (&lobes[1].0, (u1 / p1).min(1.0 - f32::EPSILON))
+            } else {
+                (&lobes[0].0, ((u1 - p1) / lobes[0].1).clamp(0.0, 1.0 - f32::EPSILON))
+            }
+        }
+    };
+    let wo = sample_lobe(lobe, wi, u1, u2)?;
+    let pdf = strategy_pdf(records, i, wi, wo);
     if !(pdf > 0.0) {
         return None;
     }
-    Some((wo, eval(b, wi, wo) / pdf, pdf))
+    Some((wo, eval_records(records, i, wi, wo) / pdf, pdf))
 }
 
 /// q_L: the density (1/sr) with which light j's emitter is covered by its light samples in the
@@ -210,7 +303,7 @@ pub fn light_weight(view: &ViewSamples, lights: &LightSet, i: usize, p: Vec3, wi
         return 1.0;
     }
     let Some(q) = light_density(lights, j, p) else { return 1.0 };
-    let pb = n_b as f32 * bsdf_pdf(&view.bsdf[i], wi_local, wo_local);
+    let pb = n_b as f32 * strategy_pdf(&view.bsdf, i, wi_local, wo_local);
     power_heuristic(q, pb)
 }
 
@@ -276,7 +369,6 @@ pub fn bsdf_image(scene: &Scene, tracer: &RayTracer, view: &ViewSamples, lights:
                 return Vec3::ZERO;
             }
             let sp = crate::cpu::ShadingPoint::new(view, i);
-            let b = &view.bsdf[i];
             let mut rng = stream(seed, STREAM_GLOSSY, i as u64);
             let mut sum = Vec3::ZERO;
             // Jittered strata: the first g^2 samples on a g x g grid of [0,1)^2 (g = floor(sqrt(n_B))),
@@ -288,7 +380,7 @@ pub fn bsdf_image(scene: &Scene, tracer: &RayTracer, view: &ViewSamples, lights:
                     u1 = (((k % g) as f32 + u1) / g as f32).min(1.0 - f32::EPSILON);
                     u2 = (((k / g) as f32 + u2) / g as f32).min(1.0 - f32::EPSILON);
                 }
-                let Some((wo_local, weight, pdf)) = sample(b, sp.wi_local, u1, u2) else { continue };
+                let Some((wo_local, weight, pdf)) = sample(&view.bsdf, i, sp.wi_local, u1, u2) else { continue };
                 let wo = (sp.s * wo_local.x + sp.t * wo_local.y + sp.n * wo_local.z).normalize();
                 let origin = spawn_ray(sp.p, sp.n_g, wo);
                 let (radiance, q) = match tracer.intersect(origin, wo, 0.0, f32::INFINITY) {

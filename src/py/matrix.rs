@@ -58,7 +58,9 @@ impl LightMatrix {
         let chosen = py.detach(move || device.choose())?;
         let visibility = visibility.unwrap_or(if chosen.is_cpu() { Visibility::RayTraced } else { Visibility::Hybrid });
         let mut view = scene.view_samples_on(py, chains, &chosen)?;
-        if glossy.roughness > 0.0 && view.bsdf.iter().any(|b| crate::matrix::glossy::lobe_alpha(b).is_some_and(|a| a < glossy.roughness)) {
+        if glossy.roughness > 0.0
+            && (0..view.len()).any(|i| crate::matrix::glossy::glossy_alpha(&view.bsdf, i).is_some_and(|a| a < glossy.roughness))
+        {
             let mut v = (*view).clone();
             v.set_glossy(&glossy)?;
             view = Arc::new(v);
