@@ -63,6 +63,11 @@ REFERENCES = {
     # The same plates under an environment map with a bright band (glossy MIS against environment strata).
     "veach-plates-env-direct": (HERE / "data" / "veach_plates_env.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002,
                                 None),
+    # Area-light strata (tests/lights/test_strata.py), direct light: a 6.5 x 5.1 m emitting wall whose top edge
+    # meets the ceiling at a right angle (the emitter's pixels, exact in both, are part of the norm), and two
+    # 1:50 strips, one touching the floor, one 2 cm above it.
+    "wall-corner-direct": (HERE / "data" / "wall_emitter_corner.xml", {"res": 64}, (64, 64), 2, 0.0008, None),
+    "strip-lights-direct": (HERE / "data" / "strip_lights.xml", {"res": 64}, (64, 64), 2, 0.0015, None),
     # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
     "matpreview-full-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
                                None),
