@@ -74,6 +74,11 @@ REFERENCES = {
     # matpreview's object as a blend of rough plastic and a near-specular gold (glossy MIS on blends).
     "matpreview-blend-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.004,
                                 "blend-object"),
+    # Area-light strata (for the strata tests to come), direct light: a 6.5 x 5.1 m emitting wall whose top edge
+    # meets the ceiling at a right angle (the emitter's pixels, exact in both, are part of the norm), and two
+    # 1:50 strips, one touching the floor, one 2 cm above it.
+    "wall-corner-direct": (HERE / "data" / "wall_emitter_corner.xml", {"res": 64}, (64, 64), 2, 0.0008, None),
+    "strip-lights-direct": (HERE / "data" / "strip_lights.xml", {"res": 64}, (64, 64), 2, 0.0015, None),
     # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
     "matpreview-full-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
                                None),
