@@ -68,9 +68,14 @@ def test_virtual_spherical_lights_are_a_bias_source():
     assert src[0]["max_radius"] == pytest.approx(float(radius.max()))
 
 
-@pytest.mark.parametrize("alpha, flagged", [(0.05, True), (0.3, False)])
-def test_a_narrow_lobe_inside_a_blend_is_a_bias_source(tmp_path, alpha, flagged):
-    scene = plate(tmp_path, "blend", BLEND.format(alpha=alpha))
+CLEARCOAT = ('<bsdf type="blendbsdf" id="floor"><float name="weight" value="0.5"/><bsdf type="diffuse"/>'
+             '<bsdf type="principled"><float name="roughness" value="0.5"/><float name="clearcoat" value="{cc}"/>'
+             '<float name="clearcoat_gloss" value="0.9"/></bsdf></bsdf>')
+
+
+@pytest.mark.parametrize("cc, flagged", [(1.0, True), (0.0, False)])
+def test_a_clearcoat_is_a_bias_source_even_inside_a_blend(tmp_path, cc, flagged):
+    scene = plate(tmp_path, "clearcoat", CLEARCOAT.format(cc=cc))
     A = matrix(scene, area=16)
     src = bias_sources(A)
     if not flagged:
@@ -80,26 +85,30 @@ def test_a_narrow_lobe_inside_a_blend_is_a_bias_source(tmp_path, alpha, flagged)
     shape = np.asarray(scene.gbuffer(device="cpu")["shape_index"])
     # The floor's pixels: all 256 but the 36 where the light, between camera and floor, hides it.
     assert src[0]["view_samples"] == int(np.count_nonzero(shape == 0)) == 256 - 36
-    assert src[0]["lobes"] == ["roughconductor 1 alpha 0.05 inside blendbsdf 2"]  # nested BSDFs load first
+    # Nested BSDFs load first; clearcoat alpha = lerp(0.1, 0.001, 0.9) = 0.0109.
+    assert src[0]["lobes"] == ["principled 1 clearcoat alpha 0.0109 inside blendbsdf 2"]
     assert ml.mrcs(A, rows=4, columns=8).bias_sources == src
 
 
-def test_glossy_mis_covers_a_narrow_lobe_of_its_own_but_not_below_a_lower_threshold(tmp_path):
-    scene = plate(tmp_path, "rough", ROUGH.format(id="floor", alpha=0.05))
-    assert bias_sources(matrix(scene, area=16)) == []  # roughconductor at alpha 0.05 < 0.2: BSDF samples
-    assert skipped_lobes(scene.bsdfs, 0, 0.2) == []
+@pytest.mark.parametrize("bsdfs", [BLEND.format(alpha=0.05), ROUGH.format(id="floor", alpha=0.05)])
+def test_glossy_mis_covers_rough_lobes_alone_or_blended(tmp_path, bsdfs):
+    scene = plate(tmp_path, "rough", bsdfs)
+    A = matrix(scene, area=16)
+    assert bias_sources(A) == []  # alpha 0.05 < 0.2: BSDF samples (A.glossy_work counts them)
+    assert A.glossy_work[0] == 256 - 36
 
 
-def test_principled_specular_lobe_and_twosided_are_resolved():
+def test_twosided_blends_and_textured_clearcoats_are_resolved():
     bsdfs = [{"type": "twosided", "front": 1, "back": 1},
-             {"type": "principled", "base_color": [0.5] * 3, "roughness": 0.1, "specular": 0.5, "metallic": 0.0},
-             {"type": "principled", "base_color": [0.5] * 3, "roughness": 0.1, "specular": 0.0, "metallic": 0.0},
-             {"type": "roughplastic", "alpha": "texture[0]"},
+             {"type": "principled", "roughness": 0.1, "clearcoat": 0.5, "clearcoat_gloss": 0.0},
+             {"type": "principled", "roughness": 0.1, "clearcoat": 0.0, "clearcoat_gloss": 1.0},
+             {"type": "principled", "clearcoat": "texture[0]"},
              {"type": "roughconductor", "alpha_u": "texture[1]", "alpha_v": 0.1}]
-    assert skipped_lobes(bsdfs, 0, 0.2) == ["principled 1 alpha 0.01"]  # alpha = roughness^2
-    assert skipped_lobes(bsdfs, 2, 0.2) == []  # no specular lobe
-    assert skipped_lobes(bsdfs, 1, 0.005) == []  # wider than the threshold
-    assert skipped_lobes(bsdfs, 4, 0.2) == ["roughconductor 4 with textured roughness"]
+    assert skipped_lobes(bsdfs, 0, 0.2) == ["principled 1 clearcoat alpha 0.1"]
+    assert skipped_lobes(bsdfs, 1, 0.05) == []  # wider than the threshold
+    assert skipped_lobes(bsdfs, 2, 0.2) == []  # no clearcoat
+    assert skipped_lobes(bsdfs, 3, 0.2) == ["principled 3 clearcoat with a textured clearcoat or gloss"]
+    assert skipped_lobes(bsdfs, 4, 0.2) == []  # glossy MIS reads textured roughness per view sample
     assert skipped_lobes(bsdfs, 7, 0.2) == []  # out of range: nothing
 
 

@@ -12,17 +12,15 @@ and ``render("scene.xml", target_error=e)`` does not claim a target while any is
 |---|---|---|
 | ``vpl_clamp`` | VPLs whose geometry term cos cos / d^2 is clamped (``generate_lights``' ``clamp``) | the clamp removes energy near corners and contacts deterministically (Kollig and Keller 2004); ``LightMatrix.bias_compensation`` adds it back |
 | ``vsl_radius`` | virtual spherical lights (``indirect_kind="vsl"``) | each VPL's light is spread over a sphere: a blurred expectation that converges only as the radius goes to 0 (Hašan et al. 2009) |
-| ``glossy_lobe_without_mis`` | view samples on a lobe narrower than ``glossy_roughness`` that the matrix's glossy MIS does not sample (inside a ``blendbsdf``, ``principled``'s specular lobe, or any glossy lobe with textured roughness) | a few point lights on a sharp lobe: highlights of area and environment lights are missed by every draw but a rare one, a heavy tail that the estimates (a few draws) do not see |
+| ``glossy_lobe_without_mis`` | view samples on a lobe narrower than ``glossy_roughness`` that the matrix's glossy MIS does not sample (``principled``'s clearcoat; rough plastic, rough conductor and principled's specular lobe are sampled, alone or in a ``blendbsdf``) | a few point lights on a sharp lobe: highlights of area and environment lights are missed by every draw but a rare one, a heavy tail that the estimates (a few draws) do not see |
 
-Symbols: alpha, the lobe's GGX / Beckmann roughness (principled: roughness^2); ``glossy_roughness``, the
+Symbols: alpha, the lobe's GGX / Beckmann roughness (principled's clearcoat: lerp(0.1, 0.001, gloss)); ``glossy_roughness``, the
 LightMatrix's threshold below which a lobe gets BSDF samples.
 """
 from __future__ import annotations
 
 import numpy as np
 
-#: BSDF types whose lobe glossy MIS samples when it is the view sample's own BSDF (``src/matrix/glossy.rs``).
-GLOSSY_MIS_TYPES = ("roughplastic", "roughconductor")
 #: Light kinds (``LightSet.kind``): virtual point lights (and VSLs, with ``vsl_radius`` > 0).
 VPL_KIND = 4
 
@@ -35,45 +33,40 @@ def _value(v):
     return float(np.min(v))
 
 
-def _alpha(bsdf: dict):
-    """The lobe's roughness alpha, None where there is no rough lobe, ``"texture"`` where it is textured."""
-    t = bsdf["type"]
-    if t == "roughplastic":
-        return _value(bsdf["alpha"])
-    if t == "roughconductor":
-        a = [_value(bsdf["alpha_u"]), _value(bsdf["alpha_v"])]
-        return "texture" if "texture" in a else min(a)
-    if t == "principled":
-        r = _value(bsdf.get("roughness", 0.5))
-        spec, metallic = _value(bsdf.get("specular", 0.5)), _value(bsdf.get("metallic", 0.0))
-        if spec == 0.0 and metallic == 0.0:
-            return None  # no specular lobe at all
-        return r if r == "texture" else r ** 2
-    return None
+def _clearcoat_alpha(bsdf: dict):
+    """A ``principled`` BSDF's clearcoat lobe roughness (Mitsuba: lerp(0.1, 0.001, clearcoat_gloss)), None
+    without a clearcoat, ``"texture"`` where it is textured."""
+    cc = _value(bsdf.get("clearcoat", 0.0))
+    if cc == "texture":
+        return "texture"
+    if cc <= 0.0:
+        return None
+    gloss = _value(bsdf.get("clearcoat_gloss", 1.0))
+    return gloss if gloss == "texture" else 0.1 * (1.0 - gloss) + 0.001 * gloss
 
 
-def skipped_lobes(bsdfs: list[dict], index: int, threshold: float, inside_blend: bool = False, depth: int = 0) -> list[str]:
+def skipped_lobes(bsdfs: list[dict], index: int, threshold: float, depth: int = 0) -> list[str]:
     """The narrow lobes of BSDF ``index`` (resolved through ``twosided`` and ``blendbsdf``) that glossy MIS
-    skips: a description of each (e.g. ``"roughconductor alpha 0.02 inside blendbsdf 3"``)."""
+    does not sample: rough plastic, rough conductor and principled's specular lobe are sampled (alone or in a
+    blend, ``src/matrix/glossy.rs``); principled's clearcoat lobe is not. A description of each (e.g.
+    ``"principled 3 clearcoat alpha 0.001"``)."""
     if depth > 16 or not 0 <= index < len(bsdfs):
         return []
     b = bsdfs[index]
     t = b["type"]
     if t == "twosided":
-        return skipped_lobes(bsdfs, int(b["front"]), threshold, inside_blend, depth + 1)
+        return skipped_lobes(bsdfs, int(b["front"]), threshold, depth + 1)
     if t == "blendbsdf":
         return [f"{s} inside blendbsdf {index}" for k in ("bsdf_0", "bsdf_1")
-                for s in skipped_lobes(bsdfs, int(b[k]), threshold, True, depth + 1)]
-    a = _alpha(b)
+                for s in skipped_lobes(bsdfs, int(b[k]), threshold, depth + 1)]
+    if t != "principled":
+        return []
+    a = _clearcoat_alpha(b)
     if a is None:
         return []
     if a == "texture":
-        return [f"{t} {index} with textured roughness"]
-    if a >= threshold:
-        return []
-    if t in GLOSSY_MIS_TYPES and not inside_blend:
-        return []  # sampled by glossy MIS
-    return [f"{t} {index} alpha {a:.3g}"]
+        return [f"principled {index} clearcoat with a textured clearcoat or gloss"]
+    return [f"principled {index} clearcoat alpha {a:.3g}"] if a < threshold else []
 
 
 def bias_sources(A) -> list[dict]:
