@@ -232,17 +232,7 @@ pub fn sample_bsdf(b: &GpuBsdf, wi_in: Vec3, rng: &mut Pcg32) -> Option<BsdfSamp
         KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR => {
             let ggx = b.flags & FLAG_GGX != 0;
             let alpha = (b.alpha_u * b.alpha_v).sqrt();
-            let p_spec = if b.kind == KIND_ROUGHCONDUCTOR {
-                0.9
-            } else {
-                let f = fresnel(wi.z, b.eta[0]);
-                let (sm, dm) = (f * mean(b.specular), (1.0 - f) * mean(b.diffuse));
-                if sm + dm > 0.0 {
-                    (sm / (sm + dm)).clamp(0.1, 0.9)
-                } else {
-                    0.5
-                }
-            };
+            let p_spec = rough_specular_probability(b, wi);
             let wo = if u0 < p_spec { reflect(wi, sample_microfacet(ggx, alpha, u1, u2)) } else { cosine_hemisphere(u1, u2) };
             if !(wo.z > 0.0) {
                 return None;
@@ -300,17 +290,7 @@ pub fn pdf_bsdf(b: &GpuBsdf, wi_in: Vec3, wo_in: Vec3) -> f32 {
         KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR => {
             let ggx = b.flags & FLAG_GGX != 0;
             let alpha = (b.alpha_u * b.alpha_v).sqrt();
-            let p_spec = if b.kind == KIND_ROUGHCONDUCTOR {
-                0.9
-            } else {
-                let f = fresnel(wi.z, b.eta[0]);
-                let (sm, dm) = (f * mean(b.specular), (1.0 - f) * mean(b.diffuse));
-                if sm + dm > 0.0 {
-                    (sm / (sm + dm)).clamp(0.1, 0.9)
-                } else {
-                    0.5
-                }
-            };
+            let p_spec = rough_specular_probability(b, wi);
             let h = (wi + wo).normalize();
             let pdf_spec = microfacet_d(ggx, alpha, alpha, h) * h.z / (4.0 * wo.dot(h).abs());
             p_spec * pdf_spec + (1.0 - p_spec) * wo.z / PI
@@ -326,3 +306,19 @@ pub fn is_dielectric(b: &GpuBsdf) -> bool {
 
 #[cfg(test)]
 mod tests;
+
+/// Probability that `sample_bsdf` samples the specular (microfacet) lobe of a rough plastic or rough conductor
+/// record at incident direction `wi` (local frame); `pdf_bsdf` mixes the lobes' densities with it.
+fn rough_specular_probability(b: &GpuBsdf, wi: Vec3) -> f32 {
+    if b.kind == KIND_ROUGHCONDUCTOR {
+        0.9
+    } else {
+        let f = fresnel(wi.z, b.eta[0]);
+        let (sm, dm) = (f * mean(b.specular), (1.0 - f) * mean(b.diffuse));
+        if sm + dm > 0.0 {
+            (sm / (sm + dm)).clamp(0.1, 0.9)
+        } else {
+            0.5
+        }
+    }
+}
