@@ -33,6 +33,19 @@ it is below, or ``max_lights`` is reached, or the count phase has used its part 
 quarter); a kind whose lights add nothing at any row stops at once (estimate 0). With only a time budget
 the kind of the largest estimate doubles first.
 
+Light models
+------------
+Counts are not the whole choice: a light model can converge to the wrong image (``bias``), and no count
+removes that. With probes (``error_probes``) the rendered image's light model is chosen by its error against
+the converged scene (``choose_light_model``): the lights as generated, and where the VPLs are clamped, the same
+image plus the clamp's energy by ``LightMatrix.bias_compensation`` (unbiased, cheap: short BSDF paths; its own
+variance from two independent estimates). A selection probe set scores both, the smaller point estimate wins,
+and fresh probes that took no part in the choice give the reported error (``budget['light_model']``). The
+probes' per-path variance also prices the alternative: the paths per pixel an unbiased path tracer needs for
+the target and their time on this machine (``probe_error``'s (3)); ``budget['advice']`` says so when that is
+less than this render took. Not offered as models yet: virtual spherical lights, importance-sampled VPLs and
+the glossy threshold (they are chosen by the caller through ``generate_lights`` / ``LightMatrix``).
+
 Which kinds exist (``budget['light_counts'][kind]['reason']``):
 
 - ``delta``: the scene's point, spot and directional emitters, one light each, exact (never grown);
@@ -79,14 +92,24 @@ from ..matrix.rows import stratified_rows
 from ..scene import load_scene
 from .bias import describe
 from .budget import check_targets, render_matrix
-from .probe_error import attach_probe_error, integrator_depth
+from .probe_error import (
+    attach_probe_error,
+    describe_location,
+    integrator_depth,
+    path_tracer_projection,
+    probe_error,
+    probe_estimate,
+    probe_sample,
+)
 
 #: A kind stops growing when its estimate (6) is <= SAFETY x its share (as ``auto_budget.SAFETY``).
 SAFETY = 0.8
 #: Part of ``time_budget`` the count phase may use; the rest renders (MRCS).
 COUNT_TIME_SHARE = 0.25
 KINDS = ("area", "environment", "indirect")
-_STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5}
+_STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5, "compensation": 6, "model_probes": 7}
+#: Paths per pixel of each of the two bias-compensation estimates a clamped-VPL model is offered with.
+COMPENSATION_SPP = 1
 
 
 def _kind_lights(scene, kind: str, count: int, max_depth: int, seed: int, delta: int):
@@ -201,6 +224,59 @@ def choose_light_counts(scene, target_error: Optional[float], time_budget: Optio
     return out
 
 
+def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_depth: int, variance: float) -> dict:
+    """The light model of the rendered image ``res`` (from ``A``), chosen by probe residuals (module doc,
+    "Light models"), and the chosen model's error from FRESH probes that took no part in the choice.
+
+    Candidates: the lights as generated; with clamped VPLs (``bias`` source ``vpl_clamp``) also the same image
+    plus the clamp's energy (``LightMatrix.bias_compensation``, two independent estimates of ``COMPENSATION_SPP``
+    paths per pixel averaged: their half difference is the compensation's own variance, added to
+    ``variance`` in quadrature). With one candidate no choice is made and one probe set estimates the error;
+    with more, a selection probe set (its own stream) scores every candidate by the point estimate (2) of
+    ``probe_error`` on the same probes, the smallest wins, and a second, fresh probe set estimates the winner's
+    error (so the reported bound is not the minimum of noisy scores).
+
+    Sets ``res.image``, ``res.bias_sources`` (the winner's), the error fields (``attach_probe_error``),
+    ``budget['light_model']`` (``chosen``, ``candidates``: model, variance, selection error, ``reason``),
+    ``timings['light_model']`` (the candidates' extra work) and adds the selection probes to
+    ``timings['probes']``. Returns the fresh ``probe_estimate``. Raises: what ``probe_error`` raises."""
+    t = time.perf_counter()
+    candidates = [{"model": "lights as generated", "image": res.image, "variance": float(variance),
+                   "bias_sources": list(res.bias_sources)}]
+    if any(b["source"] == "vpl_clamp" for b in res.bias_sources):
+        comp = [A.bias_compensation(max_depth, spp=COMPENSATION_SPP, light_samples=64,
+                                    seed=derived_seed(seed, 100 * _STREAM["compensation"] + h)) for h in (0, 1)]
+        norm = float(np.linalg.norm(res.image.astype(np.float64)))
+        spread = float(np.linalg.norm(comp[0].astype(np.float64) - comp[1])) / 2.0 / norm if norm > 0 else 0.0
+        candidates.append({"model": "VPLs + bias compensation", "image": res.image + 0.5 * (comp[0] + comp[1]),
+                           "variance": float(np.hypot(variance, spread)),
+                           "bias_sources": [b for b in res.bias_sources if b["source"] != "vpl_clamp"]})
+    t_models = time.perf_counter() - t
+    select_seconds = 0.0
+    if len(candidates) == 1:
+        chosen, reason = candidates[0], "one light model for this scene: no choice"
+    else:
+        sample = probe_sample(res.image, scene, probes, spp=spp, max_depth=max_depth,
+                              seed=derived_seed(seed, _STREAM["model_probes"]))
+        select_seconds = sample["seconds"]
+        for c in candidates:
+            c["selection"] = probe_estimate(c["image"], sample, variance_estimate=c["variance"])["error_mean"]
+        chosen = min(candidates, key=lambda c: c["selection"])
+        reason = (f"smallest error at {probes} selection probes: " + ", ".join(
+            f"{c['model']} {c['selection']:.3g}" for c in candidates))
+    est = probe_error(chosen["image"], scene, probes, spp=spp, max_depth=max_depth, seed=seed,
+                      variance_estimate=chosen["variance"])
+    res.image = chosen["image"]
+    res.bias_sources = chosen["bias_sources"]
+    attach_probe_error(res, scene, probes, seed, variance=chosen["variance"], estimate=est)
+    res.timings["probes"] += select_seconds
+    res.timings["light_model"] = t_models
+    res.budget["light_model"] = {
+        "chosen": chosen["model"], "reason": reason,
+        "candidates": [{k: c[k] for k in ("model", "variance", "selection") if k in c} for c in candidates]}
+    return est
+
+
 def render_scene(path, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
                  params: Optional[dict] = None, size=None, device: str = "auto", max_depth: Optional[int] = None,
                  first_lights: int = 256, max_lights: int = 1 << 16, count_rows: int = 256,
@@ -309,11 +385,22 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     probes_failed = None
     if error_probes:
         try:
-            attach_probe_error(res, scene, error_probes, seed, spp=probe_spp, max_depth=max_depth, variance=total)
+            est = choose_light_model(res, A, scene, error_probes, seed, spp=probe_spp, max_depth=max_depth,
+                                     variance=total)
             probe = res.budget["probes"]
         except ValueError as e:  # a scene the probes do not support: the result stands, without them
             probes_failed, error_probes = str(e), 0
             res.budget["probes"] = {"error": probes_failed}
+    if error_probes and target_error is not None:
+        pt = path_tracer_projection(est, target_error, scene.width * scene.height)
+        spent = float(sum(res.timings.values())) + counts["seconds"] + t_lights
+        res.budget["path_tracer"] = {**pt, "render_seconds": spent}
+        res.budget["advice"] = (
+            f"a path tracer would get there sooner: the probes' unbiased tracer needs about {pt['spp']:.0f} paths "
+            f"per pixel for {target_error:g} (equation (3) of probe_error), about {pt['seconds']:.3g} s here, "
+            f"against {spent:.3g} s for this render" if pt["seconds"] < spent else None)
+    else:
+        res.budget["advice"] = None
     if target_error is None:
         res.budget["target_reached"] = None
         res.budget["target_reason"] = "no target given"
@@ -327,8 +414,12 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         res.budget["target_reached"] = bool(ok)
         why = (f"probe upper bound {res.error_estimate:.3g} ({probe['confidence']:.0%}, variance and bias) "
                f"{'<=' if ok else '>'} target {target_error:g}")
-        if not ok and res.bias_sources:
-            why += f"; bias {res.bias_estimate:.3g} from: {describe(res.bias_sources)}"
+        if not ok:
+            if res.bias_sources:
+                why += f"; bias {res.bias_estimate:.3g} from: {describe(res.bias_sources)}"
+            where = describe_location(probe["error_by_shape"])
+            if where:
+                why += f"; the error sits {where}"
         res.budget["target_reason"] = why
     elif res.bias_sources:
         res.budget["target_reached"] = False

@@ -23,6 +23,14 @@ its own ``v_k`` and its ``d_k`` can dominate (2); ``effective_probes`` = (sum |d
 how many probes carry the estimate (of the terms d_k / p_k), and below min(N / 4, 16) the estimate is marked
 unreliable.
 
+The probes' path tracer itself: a probe's per-path variance is ``spp v_k``, so an image of ``S`` paths per
+pixel from the same tracer has the expected squared relative L2
+
+    sum_i sum_ch spp v_i / S / ||I||^2 ~= mean_k (sum_ch spp v_k / p_k) / (S ||I||^2)                (3)
+
+which prices "would a path tracer get there sooner" (``path_tracer_projection``). Where the error sits: the
+positive terms of (2) summed by the shape each probe pixel sees (``error_by_shape``)                  (4)
+
 The variance part: a renderer that also estimates its own variance (MRCS halves: relative ``sigma``) gives
 ``bias^2 ~= SE / ||I||^2 - sigma^2``, the squared relative L2 of ``E[I] - I*`` (``bias_estimate``; noisy:
 both terms are estimates).
@@ -77,7 +85,7 @@ def integrator_depth(scene) -> tuple[str, int]:
 def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_depth: Optional[int] = None,
                 seed: int = 0, confidence: float = 0.9, variance_estimate: Optional[float] = None) -> dict:
     """Estimate the relative L2 of ``image`` against the converged scene from unbiased probe pixels
-    (module doc: (1), (2)).
+    (module doc: (1), (2)): ``probe_estimate(image, probe_sample(image, scene, ...))``.
 
     Args:
         image: (H, W, 3) the rendered image of ``scene`` (float; what the camera sees included).
@@ -94,8 +102,10 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
         dict: ``error_estimate`` (relative L2 at the upper confidence bound), ``error_mean`` (the point
         estimate (2), relative), ``bias_estimate`` (relative L2 of E[I] - I*, from ``variance_estimate``, or
         None), ``probes`` N, ``spp``, ``max_depth``, ``confidence``, ``effective_probes``, ``reliable``
-        (effective_probes >= min(N / 4, ``MIN_EFFECTIVE``)), ``pixels`` (N, 2) int64 (row, column), ``probe_mean`` / ``probe_variance``
-        (N, 3) float32, ``residuals`` (N,) float64 d_k, ``seconds``, ``paths_per_second``.
+        (effective_probes >= min(N / 4, ``MIN_EFFECTIVE``)), ``pixels`` (N, 2) int64 (row, column),
+        ``probe_mean`` / ``probe_variance`` (N, 3) float32, ``residuals`` (N,) float64 d_k, ``seconds``,
+        ``paths_per_second``, ``path_tracer_variance`` (equation (3): the squared relative L2 of a one-path
+        per pixel image of the probes' path tracer) and ``error_by_shape`` (equation (4)).
 
     Raises:
         ValueError: an image whose shape is not the scene's (H, W, 3), probes outside [1, M], spp < 2, a
@@ -103,17 +113,35 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
             what ``probe_pixels`` refuses (e.g. a BSDF it does not support).
         TypeError: scene not a Scene; a non-numeric image.
     """
+    sample = probe_sample(image, scene, probes, spp=spp, max_depth=max_depth, seed=seed)
+    return probe_estimate(image, sample, confidence=confidence, variance_estimate=variance_estimate)
+
+
+def _check_image(image, scene: Scene) -> np.ndarray:
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a manylights Scene, got {type(scene).__name__}")
     img = _v.numeric_array("image", image)
     H, W = scene.height, scene.width
     if img.shape != (H, W, 3):
         raise ValueError(f"image must have the scene's shape ({H}, {W}, 3), got {img.shape}")
+    return img
+
+
+def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth: Optional[int] = None,
+                 seed: int = 0) -> dict:
+    """Draw N probe pixels from the defensive mixture of ``image`` (module doc) and path-trace them: the part of
+    ``probe_error`` that costs, reusable for several images of the same scene (``probe_estimate`` on each:
+    the probabilities stay those of ``image``, so every estimate is unbiased; only its spread depends on how
+    close the other images are to ``image``).
+
+    Args: as ``probe_error``. Returns: dict ``pixels`` (N, 2) int64, ``index`` (N,) flat pixel indices,
+    ``p`` (N,) float64 their probabilities, ``mean`` / ``variance`` (N, 3) float32, ``spp``, ``max_depth``,
+    ``seconds``, ``shape_index`` (N,) int64 (-1: background), ``scene`` (the Scene). Raises: as ``probe_error``.
+    """
+    img = _check_image(image, scene)
+    H, W = scene.height, scene.width
     M = H * W
     probes = _v.integer("probes", probes, 1, M)
-    confidence = _v.real("confidence", confidence)
-    if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
     seed = _v.seed(seed)
     if max_depth is None:
         _, max_depth = integrator_depth(scene)
@@ -128,7 +156,21 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
     pixels = np.stack([idx // W, idx % W], axis=1).astype(np.int64)
     mean, var = probe_pixels(scene, pixels, spp=spp, max_depth=max_depth, seed=derived_seed(seed, PROBE_STREAM + 1),
                              progress=False)
-    seconds = time.perf_counter() - t
+    shape = np.asarray(scene.gbuffer(device="cpu")["shape_index"]).reshape(-1).astype(np.int64)[idx]
+    return {"pixels": pixels, "index": idx, "p": pk, "mean": mean, "variance": var, "spp": int(spp),
+            "max_depth": int(max_depth), "seconds": time.perf_counter() - t, "shape_index": shape, "scene": scene}
+
+
+def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_estimate: Optional[float] = None) -> dict:
+    """The error estimate (2) of ``image`` from a ``probe_sample`` of the same scene; returns and raises as
+    ``probe_error`` (``seconds`` is the sample's)."""
+    scene = sample["scene"]
+    img = _check_image(image, scene)
+    confidence = _v.real("confidence", confidence)
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    idx, pk, mean, var = sample["index"], sample["p"], sample["mean"], sample["variance"]
+    probes, spp = len(idx), sample["spp"]
     x = img.reshape(-1, 3)[idx].astype(np.float64)
     p, v = mean.astype(np.float64), var.astype(np.float64)
     d = np.sum((x - p) ** 2, axis=1) - np.sum(v, axis=1)
@@ -144,28 +186,71 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
             return 0.0 if sq <= 0.0 else float("inf")
         return float(np.sqrt(max(sq, 0.0) / norm2))
 
+    # (3): one path per pixel of the probes' tracer has per-pixel variance spp * v_k; its total over the image
+    # is estimated like (2), relative to ||I||^2.
+    pt = float(np.mean(np.sum(v, axis=1) * spp / pk)) / norm2 if norm2 > 0 else float("inf")
     out = {"error_estimate": rel(se + z * sd), "error_mean": rel(se), "bias_estimate": None, "probes": probes,
-           "spp": int(spp), "max_depth": int(max_depth), "confidence": confidence, "effective_probes": eff,
-           "reliable": bool(eff >= min(probes / 4, MIN_EFFECTIVE)), "pixels": pixels, "probe_mean": mean, "probe_variance": var,
-           "residuals": d, "seconds": seconds, "paths_per_second": probes * spp / max(seconds, 1e-9)}
+           "spp": spp, "max_depth": sample["max_depth"], "confidence": confidence, "effective_probes": eff,
+           "reliable": bool(eff >= min(probes / 4, MIN_EFFECTIVE)), "pixels": sample["pixels"],
+           "probe_mean": mean, "probe_variance": var, "residuals": d, "seconds": sample["seconds"],
+           "paths_per_second": probes * spp / max(sample["seconds"], 1e-9), "path_tracer_variance": pt,
+           "error_by_shape": error_by_shape(scene, sample["shape_index"], terms)}
     if variance_estimate is not None and norm2 > 0.0:
         out["bias_estimate"] = float(np.sqrt(max(se / norm2 - float(variance_estimate) ** 2, 0.0)))
     return out
 
 
-def attach_probe_error(res, scene: Scene, probes: int, seed: int, variance: Optional[float] = None, **options):
+def error_by_shape(scene: Scene, shape_index: np.ndarray, terms: np.ndarray, top: int = 3) -> list:
+    """Where the error sits, (4): the probes' positive terms d_k / p_k of (2) summed per shape the probe pixel
+    sees, as shares of their total, largest first: a list of up to ``top`` dicts ``{"shape", "share"}``
+    (``shape``: the shape's ``id`` or ``"shape <i>"``, ``"background"`` for pixels that see no shape). Empty
+    when no term is positive (no error the probes can see)."""
+    pos = np.maximum(np.asarray(terms, dtype=np.float64), 0.0)
+    total = float(pos.sum())
+    if total <= 0.0:
+        return []
+    keys, inv = np.unique(np.asarray(shape_index), return_inverse=True)
+    mass = np.bincount(inv, weights=pos)
+    order = np.argsort(-mass)[:top]
+    out = []
+    for k in order:
+        i = int(keys[k])
+        if 0 <= i < len(scene.shapes):
+            name = scene.shapes[i].get("id") or f"shape {i}"
+        else:
+            name = "background"
+        out.append({"shape": str(name), "share": float(mass[k] / total)})
+    return out
+
+
+def describe_location(by_shape: list) -> str:
+    """``error_by_shape``'s list as words: ``"62% on 'floor', 21% on 'back'"``, or ``""``."""
+    return ", ".join(f"{e['share']:.0%} on {e['shape']!r}" for e in by_shape if e["share"] >= 0.05)
+
+
+def path_tracer_projection(est: dict, target_error: float, pixels: int) -> dict:
+    """What the probes' own path tracer would need for ``target_error`` over the whole image, from (3):
+    ``spp = path_tracer_variance / e^2`` paths per pixel (it has no bias), at the probes' measured
+    ``paths_per_second`` (the same CPU, the same tracer as ``probe_pixels``): ``{"spp", "seconds"}``."""
+    spp = max(1.0, float(np.ceil(est["path_tracer_variance"] / target_error ** 2)))
+    return {"spp": spp, "seconds": spp * pixels / est["paths_per_second"]}
+
+
+def attach_probe_error(res, scene: Scene, probes: int, seed: int, variance: Optional[float] = None, *,
+                       estimate: Optional[dict] = None, **options):
     """Fill a ``RenderResult``'s error fields from probes (``probe_error``): ``variance_estimate`` keeps what
     the renderer estimated itself (its ``error_estimate``, variance only), ``error_estimate`` becomes the
     probes' upper bound (variance and bias), ``bias_estimate`` their split, ``budget['probes']`` the
     details (without the per-probe arrays) and ``timings['probes']`` their cost. ``variance``: the relative
     error from variance when it is not ``res.error_estimate`` alone (e.g. light counts and MRCS together).
-    Returns ``res``."""
+    ``estimate``: a ``probe_estimate`` of ``res.image`` already made (then nothing is traced). Returns ``res``."""
     variance = res.error_estimate if variance is None else variance
-    est = probe_error(res.image, scene, probes, seed=seed, variance_estimate=variance, **options)
+    est = estimate if estimate is not None else probe_error(res.image, scene, probes, seed=seed,
+                                                             variance_estimate=variance, **options)
     res.variance_estimate = variance
     res.error_estimate = est["error_estimate"]
     res.bias_estimate = est["bias_estimate"]
     res.budget["probes"] = {k: v for k, v in est.items()
                             if k not in ("pixels", "probe_mean", "probe_variance", "residuals")}
-    res.timings["probes"] = est["seconds"]
+    res.timings["probes"] = res.timings.get("probes", 0.0) + est["seconds"]
     return res
