@@ -121,3 +121,26 @@ def test_time_weight_trades_time_splits_for_light_splits():
         ml.cluster_tensor(R, 200, time_weight=0.0)
     with pytest.raises(ValueError, match="time_weight"):
         ml.tensor_clustering(T, rows=8, columns=8, time_weight=float("nan"))
+
+
+def test_error_probes_estimate_every_frames_error_against_the_converged_frame():
+    """Per frame, the probes' upper bound against a path-traced reference of the whole frame (the probes'
+    own unbiased tracer, 1,024 paths per pixel; its noise taken out in quadrature). Measured: bounds 8.2% and
+    10.0% against true 8.4% and 7.9%."""
+    T = _tensor(False, frames=2, res=24, area=512, environment=512, indirect=500, photons=0)
+    res = ml.tensor_clustering(T, rows=48, columns=100, seed=1, error_probes=128)
+    assert res.error_estimate.shape == (2,) and len(res.budget["probes"]) == 2 and res.timings["probes"] > 0
+    H, W = T.scenes[0].height, T.scenes[0].width
+    pixels = np.stack(np.meshgrid(np.arange(H), np.arange(W), indexing="ij"), axis=-1).reshape(-1, 2)
+    for k in range(2):
+        mean, var = ml.probe_pixels(T.scenes[k], pixels, spp=1024, max_depth=-1, seed=9, progress=False)
+        ref = mean.reshape(H, W, 3)
+        noise = float(np.sqrt(var.sum()) / np.linalg.norm(ref))
+        true = float(np.sqrt(max(ml.relative_l2(res.frames[k], ref) ** 2 - noise ** 2, 0.0)))
+        assert res.budget["probes"][k]["reliable"]
+        assert 0.7 * true <= res.error_estimate[k] <= 2.0 * true, (k, res.error_estimate[k], true, noise)
+    plain = ml.tensor_clustering(T, rows=48, columns=100, seed=1)
+    np.testing.assert_array_equal(plain.frames, res.frames)
+    assert plain.error_estimate is None and "probes" not in plain.budget
+    with pytest.raises(ValueError, match="error_probes"):
+        ml.tensor_clustering(T, rows=8, columns=8, error_probes=-1)

@@ -53,6 +53,9 @@ class AnimationResult:
     #: Known bias sources of the light model (``RenderResult.bias_sources``), from frame 0's matrix: every
     #: frame has the same kinds of lights and materials.
     bias_sources: list = field(default_factory=list)
+    #: With probes (``error_probes``): per frame (f,) float64, the probes' upper bound on the frame's relative L2
+    #: against the converged frame (variance and bias; ``renderers.probe_error``); None without.
+    error_estimate: Optional[np.ndarray] = None
 
     @property
     def seconds(self) -> float:
