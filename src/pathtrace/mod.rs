@@ -246,6 +246,8 @@ pub struct PathTracer<'a> {
     env: Option<(Environment, EnvSampler)>,
     /// Emitters to sample: delta lights, area emitters, the environment (one), in that order.
     num_emitters: usize,
+    /// False in the light-set mode (`with_lights`): the scene's own emitters neither emit nor are sampled.
+    scene_emission: bool,
     opts: ProbeOptions,
 }
 
@@ -265,7 +267,43 @@ impl<'a> PathTracer<'a> {
             (e, s)
         });
         let num_emitters = delta.len() + area.len() + usize::from(env.is_some());
-        Ok(PathTracer { scene, rt, delta, area, area_of_mesh, area_radiance: AreaRadiance::new(scene), env, num_emitters, opts: *opts })
+        Ok(PathTracer {
+            scene,
+            rt,
+            delta,
+            area,
+            area_of_mesh,
+            area_radiance: AreaRadiance::new(scene),
+            env,
+            num_emitters,
+            scene_emission: true,
+            opts: *opts,
+        })
+    }
+
+    /// The light-set mode: the scene lit by `lights` alone (any kinds `LightSet::emitted` evaluates: point,
+    /// spot, directional, oriented points with their near-field patches, VPLs with their clamp), each
+    /// sampled at every vertex (or one uniformly when there are more than `ALL_EMITTERS`), exactly as the
+    /// scene's delta lights are; the scene's own emitters are ignored (they neither emit nor are sampled,
+    /// and a pixel on an emitter starts with zero: what `DirectToIndirect.relight` renders).
+    ///
+    /// Errors: `check_supported`, bad options.
+    pub fn with_lights(scene: &'a Scene, rt: &'a RayTracer, lights: LightSet, opts: &ProbeOptions) -> Result<PathTracer<'a>> {
+        opts.check()?;
+        check_supported(scene)?;
+        let num_emitters = lights.len();
+        Ok(PathTracer {
+            scene,
+            rt,
+            delta: lights,
+            area: Vec::new(),
+            area_of_mesh: vec![None; scene.meshes.len()],
+            area_radiance: AreaRadiance::new(scene),
+            env: None,
+            num_emitters,
+            scene_emission: false,
+            opts: *opts,
+        })
     }
 
     fn select_all(&self) -> bool {
@@ -371,7 +409,7 @@ impl<'a> PathTracer<'a> {
             return sanitized(env.radiance(d));
         }
         let mesh = shape as usize;
-        let le = self.area_radiance.at(mesh, view.uv[i]);
+        let le = if self.scene_emission { self.area_radiance.at(mesh, view.uv[i]) } else { Vec3::ZERO };
         let mut result = if le != Vec3::ZERO && view.wi[i].dot(view.normal[i]) > 0.0 { le } else { Vec3::ZERO };
         let mut x = self.vertex(mesh, view.position[i], view.normal[i], view.geo_normal[i], view.wi[i], view.uv[i]);
         let mut beta = Vec3::ONE;
@@ -406,7 +444,7 @@ impl<'a> PathTracer<'a> {
                 }
                 break;
             };
-            let le = self.area_radiance.at(si.mesh, si.uv);
+            let le = if self.scene_emission { self.area_radiance.at(si.mesh, si.uv) } else { Vec3::ZERO };
             if le != Vec3::ZERO && si.wi.dot(si.n_s) > 0.0 {
                 let mis = match self.area_of_mesh.get(si.mesh).copied().flatten() {
                     Some(k) if !bs.delta => {
@@ -436,15 +474,20 @@ impl<'a> PathTracer<'a> {
 ///
 /// Errors: `InvalidParameter` for bad options, a pixel outside the film, a view without the film's
 /// samples, or an unsupported scene (`check_supported`); `Interrupted`.
+/// With `lights`, the scene is lit by them alone (`PathTracer::with_lights`).
 pub fn probe_pixels(
     scene: &Scene,
     rt: &RayTracer,
     view: &ViewSamples,
     pixels: &[(u32, u32)],
     opts: &ProbeOptions,
+    lights: Option<LightSet>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Vec<ProbeEstimate>> {
-    let tracer = PathTracer::new(scene, rt, opts)?;
+    let tracer = match lights {
+        Some(l) => PathTracer::with_lights(scene, rt, l, opts)?,
+        None => PathTracer::new(scene, rt, opts)?,
+    };
     let (w, h) = (view.width, view.height);
     if view.len() < view.num_pixels() || w != scene.camera.width || h != scene.camera.height {
         return Err(Error::invalid(format!(

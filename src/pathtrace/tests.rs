@@ -66,7 +66,7 @@ fn run(path: &std::path::Path, spp: u32, max_depth: i32, seed: u64) -> (ViewSamp
     let (scene, view, rt) = scene_view_tracer(path, 16);
     let px = probes(&view);
     let opts = ProbeOptions { spp, max_depth, seed, ..Default::default() };
-    let est = probe_pixels(&scene, &rt, &view, &px, &opts, &mut |_, _| {}).unwrap();
+    let est = probe_pixels(&scene, &rt, &view, &px, &opts, None, &mut |_, _| {}).unwrap();
     (view, px, est)
 }
 
@@ -129,9 +129,35 @@ fn seeded_and_deterministic() {
 fn bad_options_and_pixels_are_refused() {
     let path = plane_scene("pt-bad", r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#);
     let (scene, view, rt) = scene_view_tracer(&path, 16);
-    let go = |px: &[(u32, u32)], o: ProbeOptions| probe_pixels(&scene, &rt, &view, px, &o, &mut |_, _| {});
+    let go = |px: &[(u32, u32)], o: ProbeOptions| probe_pixels(&scene, &rt, &view, px, &o, None, &mut |_, _| {});
     assert!(go(&[(16, 0)], ProbeOptions::default()).unwrap_err().to_string().contains("outside"));
     assert!(go(&[(0, 0)], ProbeOptions { spp: 1, ..Default::default() }).unwrap_err().to_string().contains("spp"));
     assert!(go(&[(0, 0)], ProbeOptions { max_depth: 0, ..Default::default() }).unwrap_err().to_string().contains("max_depth"));
     assert!(go(&[], ProbeOptions::default()).unwrap().is_empty());
+}
+
+#[test]
+fn a_light_set_replaces_the_scene_emitters() {
+    // The sphere emitter of the scene is ignored (neither seen nor sampled); the given point light is exact.
+    let path = plane_scene(
+        "pt-lightset",
+        r#"<shape type="sphere"><point name="center" x="0.3" y="0.2" z="1.2"/><float name="radius" value="0.5"/>
+           <emitter type="area"><rgb name="radiance" value="4"/></emitter></shape>"#,
+    );
+    let (scene, view, rt) = scene_view_tracer(&path, 16);
+    let p = Vec3::new(-0.5, 0.5, 3.0);
+    let mut lights = LightSet::new(Vec3::ZERO, 20.0);
+    lights.push_point(p, Vec3::splat(10.0)).unwrap();
+    let px = probes(&view);
+    let opts = ProbeOptions { spp: 8, max_depth: 2, seed: 3, ..Default::default() };
+    let est = probe_pixels(&scene, &rt, &view, &px, &opts, Some(lights), &mut |_, _| {}).unwrap();
+    for (&(x, y), e) in px.iter().zip(&est) {
+        let i = (y * 16 + x) as usize;
+        let d = p - view.position[i];
+        // The sphere shadows part of the plane from p: only unshadowed pixels have the exact value.
+        let exact = R / std::f32::consts::PI * 10.0 * d.normalize().z / d.length_squared();
+        assert!(e.mean.x == 0.0 || (e.mean - Vec3::splat(exact)).abs().max_element() < 1e-5 * exact, "({x}, {y}): {}", e.mean);
+        assert!(e.variance_of_mean.max_element() < 1e-12);
+    }
+    assert!(est.iter().filter(|e| e.mean.x > 0.0).count() >= px.len() / 2);
 }

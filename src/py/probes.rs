@@ -1,4 +1,5 @@
 //! `probe_pixels`: the unbiased CPU path tracer at probe pixels (`crate::pathtrace`).
+use super::lightset::LightSet;
 use super::scene::Scene;
 use super::signals::{self, progress_callback};
 use super::util::array;
@@ -11,10 +12,10 @@ use pyo3::prelude::*;
 /// (`crate::pathtrace`; the Python wrapper `manylights.probe_pixels` documents it).
 ///
 /// Args: pixels (k, 2) int64 (row, column); spp >= 2; max_depth -1 or >= 1; seed; progress(done, total)
-/// in paths. Returns two (k, 3) float32 arrays. Raises ValueError for bad arguments or an unsupported
+/// in paths; lights: a LightSet lighting the scene instead of its emitters. Returns two (k, 3) float32 arrays. Raises ValueError for bad arguments or an unsupported
 /// scene (principled BSDFs), KeyboardInterrupt on Ctrl-C.
 #[pyfunction]
-#[pyo3(name = "probe_pixels", signature = (scene, pixels, spp, max_depth, seed, progress=None))]
+#[pyo3(name = "probe_pixels", signature = (scene, pixels, spp, max_depth, seed, progress=None, lights=None))]
 pub fn probe_pixels_py<'py>(
     py: Python<'py>,
     scene: &Scene,
@@ -23,6 +24,7 @@ pub fn probe_pixels_py<'py>(
     max_depth: i64,
     seed: u64,
     progress: Option<Py<PyAny>>,
+    lights: Option<&LightSet>,
 ) -> PyResult<(Bound<'py, PyArrayDyn<f32>>, Bound<'py, PyArrayDyn<f32>>)> {
     let a = pixels.as_array();
     if a.ncols() != 2 {
@@ -48,9 +50,10 @@ pub fn probe_pixels_py<'py>(
     let view = scene.camera_samples(py)?;
     let tracer = scene.tracer(py)?;
     let inner = scene.inner.clone();
+    let lights = lights.map(|l| (*l.inner).clone());
     let est = signals::detach(py, move || {
         let mut cb = progress_callback(progress);
-        probe_pixels(&inner, &tracer, &view, &px, &opts, &mut cb)
+        probe_pixels(&inner, &tracer, &view, &px, &opts, lights, &mut cb)
     })?;
     let k = est.len();
     let mean = est.iter().flat_map(|e| e.mean.to_array()).collect();

@@ -151,3 +151,32 @@ def test_error_by_shape_sums_positive_terms_per_shape(cbox):
                      {"shape": "background", "share": 0.2}]
     assert describe_location(where) == f"50% on {names[1]!r}, 30% on {names[0]!r}, 20% on 'background'"
     assert error_by_shape(scene, np.array([0]), np.array([-1.0])) == []
+
+
+NO_LIGHT = """<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="3"/></integrator>
+  <sensor type="perspective"><float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, -3, 4" target="0, 0, 0" up="0, 0, 1"/></transform>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+  <shape type="rectangle"><bsdf type="diffuse"/></shape>
+</scene>"""
+
+
+def test_edge_cases_of_probes_and_render(tmp_path):
+    from conftest import REPO
+
+    path = tmp_path / "no_light.xml"
+    path.write_text(NO_LIGHT)
+    scene = ml.load_scene(path)
+    est = probe_error(np.zeros((8, 8, 3), np.float32), scene, probes=16, spp=4, seed=0)
+    assert est["error_estimate"] == 0.0 and est["error_mean"] == 0.0 and np.all(est["probe_mean"] == 0)
+    assert est["error_by_shape"] == [] and est["reliable"]
+    with pytest.raises(ValueError, match="no_light.xml: the scene has no emitters"):
+        ml.render(str(path), target_error=0.05, progress=False)
+    cbox = str(REPO / "scenes" / "cbox" / "scene.xml")
+    opts = dict(target_error=0.05, progress=False, max_lights=256)
+    many = ml.render(cbox, params={"res": 8}, error_probes=10_000, **opts)  # capped at the 64 pixels
+    assert many.budget["probes"]["probes"] == 64 and many.budget["target_reached"] is False
+    off = ml.render(cbox, params={"res": 8}, error_probes=0, **opts)
+    assert "probes" not in off.budget and off.budget["target_reached"] is False
+    assert "covers variance only" in off.budget["target_reason"]

@@ -6,6 +6,7 @@ the gather samples, compressed in 2D Haar wavelets on the gather image, then rel
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -13,6 +14,8 @@ from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
 from .._utils.progress import progress_bar
+from ..renderers.probe_error import attach_probe_error
+from ..renderers.result import RenderResult
 from . import store
 
 __all__ = ["DirectToIndirect"]
@@ -181,7 +184,8 @@ class DirectToIndirect:
                                                callback, multibounce, photons_per_sample, photon_neighbours,
                                                bool(glossy), near_field, device, visibility, shadow_map_size)
 
-    def relight(self, lights: LightSet, epsilon: float = 0.0) -> np.ndarray:
+    def relight(self, lights: LightSet, epsilon: float = 0.0, *, error_probes: int = 0, probe_spp: int = 256,
+                seed: int = 0):
         """The image lit by ``lights``: direct light plus indirect light through the transfer (Eq. 4-8):
         k_d / pi F_d (M + I) B_1 + k_g F_g (M + I) B_1, B_1 = k_d / pi E the gather samples' direct radiance.
 
@@ -189,18 +193,38 @@ class DirectToIndirect:
             lights: a non-empty LightSet of this scene (point, spot, directional, oriented points, VPLs).
             epsilon: on-the-fly wavelet-light culling threshold (Sec. 3.5; >= 0, 0 keeps every light):
                 a wavelet light is skipped when |intensity| * |image| < epsilon.
+            error_probes: N > 0: N probe pixels path-traced with ``probe_spp`` paths each, the scene lit by
+                ``lights`` alone (``probe_pixels(lights=)``) to the transfer's depth (``bounces`` + 2), estimate
+                the image's error against the converged image under those lights, bias included
+                (``renderers.probe_error``). 0: no probes.
+            probe_spp: paths per probe (>= 2). seed: seeds the probes (>= 0).
 
         Returns:
-            (H, W, 3) float32 radiance. Emitters seen directly are not included (``LightMatrix.emitted``).
+            (H, W, 3) float32 radiance without probes; with probes a ``RenderResult`` (method
+            ``"direct_to_indirect"``) holding that image, ``error_estimate`` (the probes' upper bound),
+            ``budget['probes']`` and ``timings`` (``relight``, ``probes``). Emitters seen directly are not
+            included (``LightMatrix.emitted``).
 
         Raises:
             ValueError: an empty LightSet, non-finite light values (the light named), a negative or
-                non-finite epsilon.
+                non-finite epsilon, error_probes outside [0, pixels], probe_spp < 2, a negative seed.
             TypeError: lights not a LightSet.
         """
         if not isinstance(lights, LightSet):
             raise TypeError(f"lights must be a manylights LightSet, got {type(lights).__name__}")
-        return self._t.relight(lights, _v.real("epsilon", epsilon, 0.0))
+        epsilon = _v.real("epsilon", epsilon, 0.0)
+        error_probes = _v.integer("error_probes", error_probes, 0, self.scene.width * self.scene.height)
+        probe_spp = _v.integer("probe_spp", probe_spp, 2, 1 << 30)
+        seed = _v.seed(seed)
+        t = time.perf_counter()
+        image = self._t.relight(lights, epsilon)
+        if not error_probes:
+            return image
+        res = RenderResult(image=image, method="direct_to_indirect", seed=seed,
+                           timings={"relight": time.perf_counter() - t}, device=dict(self.device),
+                           budget={"lights": len(lights), "epsilon": epsilon})
+        return attach_probe_error(res, self.scene, error_probes, seed, spp=probe_spp,
+                                  max_depth=int(self.stats["bounces"]) + 2, lights=lights)
 
     def save(self, path):
         """Writes the whole precomputation to ``path`` (a numpy ``.npz``; ``manylights.relight.store``

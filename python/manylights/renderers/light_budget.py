@@ -337,7 +337,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     max_lights = _v.integer("max_lights", max_lights, first_lights, 1 << 30)
     count_rows = _v.integer("count_rows", count_rows, 1, 1 << 30)
     generation_share = _v.real("generation_share", generation_share)
-    error_probes = _v.integer("error_probes", error_probes, 0, 1 << 30)
+    error_probes = _v.integer("error_probes", error_probes, 0, 1 << 30)  # capped at the pixel count below
     probe_spp = _v.integer("probe_spp", probe_spp, 2, 1 << 30)
     if not 0.0 < generation_share < 1.0:
         raise ValueError(f"generation_share must be in (0, 1), got {generation_share}")
@@ -348,6 +348,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         if max_depth in (0, 1):
             raise ValueError(f"max_depth must be -1 or >= 2 (Mitsuba's path depth), got {max_depth}")
     scene = load_scene(p, size=size, **params)  # malformed XML: SceneError naming file and line
+    error_probes = min(error_probes, scene.width * scene.height)
     if max_depth is None:
         integ, max_depth = integrator_depth(scene)
     else:
@@ -433,7 +434,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     elif total <= target_error:
         res.budget["target_reached"] = True
         res.budget["target_reason"] = (f"estimated total error {total:.3g} <= target {target_error:g}, and no known "
-                                       "bias source is active")
+                                       "bias source is active (without probes the estimate covers variance only)")
     else:
         res.budget["target_reached"] = False
         res.budget["target_reason"] = (f"estimated total error {total:.3g} > target {target_error:g} "

@@ -83,7 +83,8 @@ def integrator_depth(scene) -> tuple[str, int]:
 
 
 def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_depth: Optional[int] = None,
-                seed: int = 0, confidence: float = 0.9, variance_estimate: Optional[float] = None) -> dict:
+                seed: int = 0, confidence: float = 0.9, variance_estimate: Optional[float] = None,
+                lights=None) -> dict:
     """Estimate the relative L2 of ``image`` against the converged scene from unbiased probe pixels
     (module doc: (1), (2)): ``probe_estimate(image, probe_sample(image, scene, ...))``.
 
@@ -97,6 +98,8 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
         confidence: one-sided confidence of the upper bound, in (0, 1).
         variance_estimate: the renderer's own estimate of its relative L2 from variance (e.g. MRCS halves), to
             split the error into variance and bias; None: no split.
+        lights: a ``LightSet`` that lights the scene instead of its emitters (``probe_pixels``), for images
+            of the scene under those lights (``DirectToIndirect.relight``); None: the scene's emitters.
 
     Returns:
         dict: ``error_estimate`` (relative L2 at the upper confidence bound), ``error_mean`` (the point
@@ -113,7 +116,7 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
             what ``probe_pixels`` refuses (e.g. a BSDF it does not support).
         TypeError: scene not a Scene; a non-numeric image.
     """
-    sample = probe_sample(image, scene, probes, spp=spp, max_depth=max_depth, seed=seed)
+    sample = probe_sample(image, scene, probes, spp=spp, max_depth=max_depth, seed=seed, lights=lights)
     return probe_estimate(image, sample, confidence=confidence, variance_estimate=variance_estimate)
 
 
@@ -128,7 +131,7 @@ def _check_image(image, scene: Scene) -> np.ndarray:
 
 
 def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth: Optional[int] = None,
-                 seed: int = 0) -> dict:
+                 seed: int = 0, lights=None) -> dict:
     """Draw N probe pixels from the defensive mixture of ``image`` (module doc) and path-trace them: the part of
     ``probe_error`` that costs, reusable for several images of the same scene (``probe_estimate`` on each:
     the probabilities stay those of ``image``, so every estimate is unbiased; only its spread depends on how
@@ -155,7 +158,7 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     pk = prob[idx] / prob.sum()
     pixels = np.stack([idx // W, idx % W], axis=1).astype(np.int64)
     mean, var = probe_pixels(scene, pixels, spp=spp, max_depth=max_depth, seed=derived_seed(seed, PROBE_STREAM + 1),
-                             progress=False)
+                             progress=False, lights=lights)
     shape = np.asarray(scene.gbuffer(device="cpu")["shape_index"]).reshape(-1).astype(np.int64)[idx]
     return {"pixels": pixels, "index": idx, "p": pk, "mean": mean, "variance": var, "spp": int(spp),
             "max_depth": int(max_depth), "seconds": time.perf_counter() - t, "shape_index": shape, "scene": scene}

@@ -2,18 +2,18 @@
 converged image (bias included), so that a render's error can be estimated without Mitsuba at run time."""
 from __future__ import annotations
 
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
 from .. import _native
-from .._native import Scene
+from .._native import LightSet, Scene
 from .._utils import validate as _v
 from .._utils.progress import progress_bar
 
 
 def probe_pixels(scene: Scene, pixels, spp: int = 256, max_depth: int = -1, seed: int = 0, *,
-                 progress: bool = True) -> Tuple[np.ndarray, np.ndarray]:
+                 progress: bool = True, lights: Optional[LightSet] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Mean radiance and the variance of that mean at probe pixels, by an unbiased path tracer.
 
     The estimator is Mitsuba 3's ``path`` integrator (``src/pathtrace/mod.rs`` has the details): each of
@@ -37,6 +37,11 @@ def probe_pixels(scene: Scene, pixels, spp: int = 256, max_depth: int = -1, seed
             emitters seen directly, 2 direct light only, 3 one indirect bounce, ...
         seed: random seed (>= 0); the same seed gives bit-identical output on any machine thread count.
         progress: show a progress bar (paths done) when the call is long.
+        lights: a ``LightSet`` lighting the scene INSTEAD of its emitters (point, spot, directional, oriented
+            points with their near-field patches, VPLs with their clamp, as ``LightMatrix`` shades them),
+            every light sampled at every vertex (one uniformly when there are more than 8); the scene's
+            emitters neither emit nor are seen (what ``DirectToIndirect.relight`` renders). None: the
+            scene's own emitters.
 
     Returns:
         (mean, variance_of_mean): two (k, 3) float32 arrays of RGB radiance (the scene's units, as
@@ -47,7 +52,7 @@ def probe_pixels(scene: Scene, pixels, spp: int = 256, max_depth: int = -1, seed
         ValueError: ``pixels`` not of shape (k, 2) or with a pixel outside the film, non-integer pixels,
             ``spp`` < 2, ``max_depth`` 0 or < -1, a negative ``seed``, or a scene with a ``principled`` BSDF
             (not supported: the call refuses rather than return a wrong value).
-        TypeError: ``scene`` not a Scene; ``pixels`` not numeric.
+        TypeError: ``scene`` not a Scene; ``pixels`` not numeric; ``lights`` not a LightSet.
         KeyboardInterrupt: Ctrl-C (checked between blocks of paths).
     """
     if not isinstance(scene, Scene):
@@ -67,7 +72,9 @@ def probe_pixels(scene: Scene, pixels, spp: int = 256, max_depth: int = -1, seed
     if max_depth == 0:
         raise ValueError("max_depth must be -1 (unlimited) or >= 1, got 0")
     seed = _v.seed(seed)
+    if lights is not None and not isinstance(lights, LightSet):
+        raise TypeError(f"lights must be a manylights LightSet or None, got {type(lights).__name__}")
     total = int(px.shape[0]) * spp
     # A bar only for calls long enough to need one (~1e6 paths take seconds).
     with progress_bar(total, "probe paths", bool(progress) and total >= 1_000_000, unit="path") as callback:
-        return _native.probe_pixels(scene, px, spp, max_depth, seed, callback)
+        return _native.probe_pixels(scene, px, spp, max_depth, seed, callback, lights)
