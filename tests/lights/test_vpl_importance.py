@@ -1,4 +1,4 @@
-"""Issue 13: importance-sampled VPLs (generate_lights(vpl_importance=True); Georgiev and Slusallek,
+"""Importance-sampled VPLs (generate_lights(vpl_importance=True); Georgiev and Slusallek,
 EG 2010 short paper; src/lights/generate/vpl_importance.rs). Accuracy against Mitsuba on veach-ajar (where
 the light comes through the ajar door) and cbox, determinism, bad input. Unbiasedness (a z-test over
 seeds against plain VPLs), the target equation, eps = 1 and delta-only scenes are Rust tests
