@@ -9,7 +9,7 @@ A block that cannot run here says so on its first line, visibly for readers too:
 
     # docs-test: skip: <why>
 
-(docs/development.md documents the convention; keep such blocks to a minimum). Every command of README.md's
+(docs/development/index.md documents the convention; keep such blocks to a minimum). Every command of README.md's
 ```sh blocks is either run the same way (cheap ones) or listed in ``NOT_RUN`` with the reason: a new command
 that is neither fails the test. The ```sh blocks of docs/ are not run (benchmarks at their published sizes).
 """

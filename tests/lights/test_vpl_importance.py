@@ -60,7 +60,7 @@ def test_importance_vpls_beat_plain_vpls_on_veach_ajar(veach):
 
 # cbox-gi-64 full GI, 1024 area + 4000 indirect, seed 0 (reference noise 0.19%): clamped VPLs 0.49%
 # without importance sampling (tests/lights/test_vsl.py), 0.515% with it (38% of the candidates accepted; VSLs
-# 0.462%, README). The limit of test_vsl.py.
+# 0.462%, docs/validation/accuracy.md). The limit of test_vsl.py.
 CBOX_TOL = 0.006
 
 
