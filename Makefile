@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 export XDG_RUNTIME_DIR ?= /tmp/manylights-runtime
 export HOME ?= /root
 
-.PHONY: all setup system venv build demo test test-rust test-python lint bench clean fuzz fuzz-tools fuzz-cmin fuzz-add-image
+.PHONY: all setup system venv build demo test test-rust test-python lint docs bench clean fuzz fuzz-tools fuzz-cmin fuzz-add-image
 
 all: build
 
@@ -44,7 +44,13 @@ test-python: build
 lint: venv
 	$(VENV)/bin/ruff check python tests
 
-test: lint build test-rust test-python
+# The documentation site (mkdocs.yml): every page, the API reference from the docstrings and the stub, no
+# warning allowed (--strict); output in site/ (not committed). The code blocks of the pages are run by pytest
+# (tests/docs/test_code_blocks.py).
+docs: venv
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet
+
+test: lint build test-rust test-python docs
 
 bench: build
 	$(PY) -m manylights.bench --help
@@ -56,7 +62,7 @@ figures: build
 	$(PY) tests/regression/figures.py --write
 
 clean:
-	rm -rf target $(VENV) fuzz/target
+	rm -rf target $(VENV) fuzz/target site
 
 # Fuzzing (cargo-fuzz + libFuzzer, fuzz/README.md): `make fuzz` runs every target for FUZZ_SECONDS, reading the
 # committed corpus fuzz/corpus/T and adding new inputs to fuzz/corpus-raw/T (not committed); findings go to

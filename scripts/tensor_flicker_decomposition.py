@@ -1,4 +1,4 @@
-"""Where tensor clustering's flicker comes from with a moving camera (issue 10, last acceptance point).
+"""Where tensor clustering's flicker comes from with a moving camera.
 
 Runs the CI configuration of ``tests/test_tensor_animation.py`` (``bounce``, 8 consecutive frames of its
 40-frame path at 48x48, 3,032 lights, moving camera), renders the whole light tensor A once (every light's

@@ -41,11 +41,11 @@ REFERENCES = {
     "bunny-direct": (SCENES / "bunny" / "scene.xml", {}, (128, 96), 2, 0.01, None),
     "cbox-gi": (SCENES / "cbox" / "scene.xml", {"res": 128}, (128, 128), -1, 0.02, None),
     "veach-ajar-gi": (SCENES / "veach-ajar" / "scene.xml", {"resx": 64, "resy": 36}, (64, 36), -1, 0.05, None),
-    # Issue 13 item 2 (VSLs, bias compensation): veach-ajar full GI at 32x18, its noise 3x below 5%.
+    # VSLs and bias compensation: veach-ajar full GI at 32x18, its noise 3x below 5%.
     "veach-ajar-gi-32": (SCENES / "veach-ajar" / "scene.xml", {"resx": 32, "resy": 18}, (32, 18), -1, 0.0167, None),
     # CI-sized full GI (tests/lights/test_lights.py: error vs indirect light count).
     "cbox-gi-64": (SCENES / "cbox" / "scene.xml", {"res": 64}, (64, 64), -1, 0.002, None),
-    # Issue 13 item 1 (tests/lights/test_nearfield.py): an emitting panel 5 mm above a floor, direct light. The
+    # Near field (tests/lights/test_nearfield.py): an emitting panel 5 mm above a floor, direct light. The
     # target is over the whole image (the panel itself is exact and bright); the floor's own noise, which
     # the test checks against its tolerance, is ~8x the whole image's.
     "nearfield-panel-direct": (HERE / "data" / "nearfield_panel.xml", {"res": 64}, (64, 64), 2, 0.0004, None),
@@ -53,11 +53,11 @@ REFERENCES = {
     # the camera and the light (lit and seen from its back). The target is over the whole image (the panel
     # dominates its norm); the floor's own noise, which the test checks, is ~7x the whole image's.
     "twosided-wall-direct": (HERE / "data" / "twosided_wall.xml", {"res": 64}, (64, 64), 2, 0.0003, None),
-    # Issue 13 acceptance (tests/lights/test_nearfield.py): 13 small recessed area lights beside a staircase, direct
+    # Near field, acceptance (tests/lights/test_nearfield.py): 13 small recessed area lights beside a staircase, direct
     # light. The emitters seen directly (radiance 40, exact) dominate the image's norm; the target makes the
     # noise on the lit surfaces, which the test checks, ~0.5%.
     "staircase-direct": (HERE / "data" / "staircase_recessed.xml", {"res": 64}, (64, 64), 2, 0.00002, None),
-    # Issue 13 item 3 (tests/lights/test_glossy.py): Veach's plates, sphere lights on rough plastic (alpha 0.005-0.1),
+    # Glossy highlights (tests/lights/test_glossy.py): Veach's plates, sphere lights on rough plastic (alpha 0.005-0.1),
     # direct light. The spheres seen directly (exact) dominate the norm; the target makes the plates' own
     # noise, which the test checks, about 0.3%.
     "veach-plates-direct": (HERE / "data" / "veach_plates.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.0003,

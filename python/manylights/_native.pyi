@@ -63,7 +63,7 @@ class LightSet:
     """(n, 20) uint32: each VPL's 80-byte BSDF record (opaque; for from_arrays of the same scene)."""
     patch: npt.NDArray[np.float32]
     """(n, 4, 3) float32: each oriented point's patch corners (m); all zero = none. Receivers within 3
-    patch radii get the patch's projected solid angle instead of 1/d^2 (issue 13)."""
+    patch radii get the patch's projected solid angle instead of 1/d^2."""
     vsl_radius: npt.NDArray[np.float32]
     """(n,) float32: each VPL's virtual-spherical-light radius (m); 0 = a point VPL (clamped)."""
     scene_sphere: tuple[tuple[float, float, float], float]
@@ -146,7 +146,10 @@ def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[in
     """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film.
 
     Raises:
-        FileNotFoundError, SceneError, OSError; MemoryError for an image larger than host memory allows.
+        FileNotFoundError: the XML or a file it names does not exist.
+        SceneError: the scene is malformed or uses what is not supported (file, line and value).
+        OSError: a file cannot be read.
+        MemoryError: an image larger than host memory allows.
 
     Warns:
         UserWarning: input Mitsuba accepts with a warning (a mesh whose triangles all have zero area)."""

@@ -1,4 +1,4 @@
-// Glossy MIS (issue 13 item 3): the light-strategy weight w_L of a glossy view sample, the WGSL twin of
+// Glossy MIS: the light-strategy weight w_L of a glossy view sample, the WGSL twin of
 // src/matrix/glossy.rs (`light_weight`, `strategy_pdf`, `bsdf_pdf`). Needs common/bsdf.wgsl (and its
 // `bsdf_record`, which a blendbsdf's second record comes from) and common/light.wgsl. A light's sampling
 // measure (`LightSet::mis_measure`: stratum area or solid angle, 0 = no MIS) travels in patch_corners[0].w;

@@ -39,7 +39,7 @@
 //!   in that cluster) with weight `1/q_j`. With both kinds of columns, the zero-norm columns get
 //!   `max(1, c - #non-zero, ceil(c z / (8 n)))` clusters ([`zero_cluster_count`]; z zero-norm of n
 //!   columns; contiguous index ranges of equal size) and the rest the remaining budget. The share
-//!   `z / 8n` (issue 14): with ONE zero-norm cluster a scene whose rows see few of its lights (veach-ajar
+//!   `z / 8n`: with ONE zero-norm cluster a scene whose rows see few of its lights (veach-ajar
 //!   at 32x18 px, 2k lights, 64 rows: 93% zero-norm) had a single power-drawn light stand for all of
 //!   them, so the image missed their light in most runs and the paired error estimate could not see it.
 //!   Measured there at 64 rows x 256 columns, 8 seeds: mean true relative L2 0.038 -> 0.0098, the paired

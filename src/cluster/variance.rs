@@ -1,5 +1,5 @@
 //! The variance of the MRCS estimator at chosen rows, for an error estimate without the reference
-//! (issue 14; Hašan et al. 2007, Sec. 3.3 and Appendix A).
+//! (Hašan et al. 2007, Sec. 3.3 and Appendix A).
 //!
 //! For a fixed clustering C_1..C_c and the representative of cluster k drawn with probability `p_j`
 //! (j in C_k, the probabilities of one cluster sum to 1) and weighted `1/p_j`, the estimate of element i of

@@ -16,7 +16,7 @@
 //! the "wide traversal" that pays on a CPU without packets (shadow rays of a column scatter over the
 //! whole scene, so packets would rarely stay coherent).
 //!
-//! Work layout (timed side by side with the GPU by `python -m manylights.bench backends`; README):
+//! Work layout (timed side by side with the GPU by `python -m manylights.bench backends`; docs/validation/backends.md):
 //! - `weighted_sum(J, w)` (the reconstruction of clustered renderers): lights in blocks, each block
 //!   parallel over pixel chunks; a pixel loops over the block's lights and accumulates in registers
 //!   (no atomics, no per-column buffers), in light order, so the result does not depend on threads.

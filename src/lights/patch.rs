@@ -1,5 +1,4 @@
-//! The patch of an area-light sample: the near field of oriented point lights without the 1 / d^2 spike
-//! (issue 13, item 1).
+//! The patch of an area-light sample: the near field of oriented point lights without the 1 / d^2 spike.
 //!
 //! An oriented point j made by `generate_lights` from a mesh emitter stands for a piece P of the
 //! emitter: the part of its equal-area stratum that lies in the triangle the point fell in (a strip of

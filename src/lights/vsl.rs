@@ -1,7 +1,6 @@
 //! Virtual spherical lights (VSLs): a VPL's light spread over a sphere so that its contribution to a
 //! receiver next to it stays bounded, with no geometry-term clamp (Hašan, Křivánek, Walter, Bala,
-//! "Virtual Spherical Lights for Many-Light Rendering of Glossy Scenes", SIGGRAPH Asia 2009, Sec. 4-5;
-//! issue 13 item 2).
+//! "Virtual Spherical Lights for Many-Light Rendering of Glossy Scenes", SIGGRAPH Asia 2009, Sec. 4-5).
 //!
 //! A VPL j (intensity I_j(w) = Phi f_v(incident, w) |w . n_g|, `LightSet` module docs) with a radius
 //! r_j > 0 (`LightSet::vsl_radius`) becomes a sphere of radius r_j around its position y that sends,

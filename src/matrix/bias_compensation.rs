@@ -1,6 +1,6 @@
 //! Bias compensation of the VPL clamp: an unbiased estimate of the energy that the geometry-term clamp
 //! removes, by short BSDF-sampled paths (Kollig and Keller, "Illumination in the Presence of Weak
-//! Singularities", Monte Carlo and Quasi-Monte Carlo Methods 2004; issue 13 item 2). A per-pixel image
+//! Singularities", Monte Carlo and Quasi-Monte Carlo Methods 2004). A per-pixel image
 //! added to the matrix's column sum like `emitted()`; not a column.
 //!
 //! The point VPLs of a set estimate, at a view sample x with BSDF f_r,

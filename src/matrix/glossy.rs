@@ -1,5 +1,5 @@
 //! Glossy highlights of area and environment emitters: BSDF sampling combined with the light samples by
-//! multiple importance sampling (issue 13 item 3; Veach and Guibas, "Optimally Combining Sampling
+//! multiple importance sampling (Veach and Guibas, "Optimally Combining Sampling
 //! Techniques for Monte Carlo Rendering", SIGGRAPH 1995, Sec. 4, the power heuristic; Veach's thesis Ch. 9).
 //!
 //! The many-light columns sample an emitter by its light samples: an area emitter e of area A_e by n_e
@@ -27,7 +27,7 @@
 //! seeded) added to `LightMatrix::emitted`, which every renderer adds to its image.
 //!
 //! Choices, measured on the Veach plates (tests/data/veach_plates.xml, 64 x 48, against the Mitsuba
-//! reference; README "Glossy highlights"): the power heuristic beat the balance heuristic (at 4,096 area
+//! reference; docs/validation/accuracy.md, "Glossy highlights"): the power heuristic beat the balance heuristic (at 4,096 area
 //! points and n_B = 128: 0.77% against 1.25% relative L2 on the plates); the BSDF samples are jittered on a
 //! floor(sqrt(n_B))^2 grid of the (u1, u2) square (a one-pixel highlight of a tiny sphere is a hit/miss
 //! edge in that square: stratified, its error falls faster than 1 / sqrt(n_B)); a rule that left a

@@ -23,7 +23,7 @@
 //! bundled animation (8 frames, 48x48, moving camera, `scripts/tensor_flicker_decomposition.py`), one
 //! direct nearest-neighbour mapping from the representative's frame gives the same tensor-clustering
 //! flicker as the chain (0.0126), and bilinear taps on the same surface 0.0125: what the mappings cannot
-//! carry is the moving box's shadow, not the resampling (README, "Animations").
+//! carry is the moving box's shadow, not the resampling (docs/validation/animations.md).
 //!
 //! Symbols: m = pixels per frame, `source` = the index array (one `u32` per pixel of the destination).
 use crate::error::{Error, Result};

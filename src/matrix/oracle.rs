@@ -1,5 +1,5 @@
 //! Exact oracle of the light matrix on the CPU: A(i, j) by ray casting, to check the GPU's
-//! shadow-mapped columns and rows element by element (issue 3, "Exact oracle").
+//! shadow-mapped columns and rows element by element.
 //!
 //! A(i, j) is computed with the shading of `shaders/columns.wgsl`: for a surface view sample i (shading
 //! normal n, Mitsuba's frame `coordinate_system(n)`), `(wo, F, dist) = LightSet::emitted(j, p, n)`,

@@ -1,4 +1,4 @@
-"""Lights for animations (issue 10, item 2): light j is the same light in every frame. On one frame the
+"""Lights for animations: light j is the same light in every frame. On one frame the
 area and environment lights are exactly ``generate_lights``'; area points and gather samples move with
 their surfaces; the gather lights' reflected power equals the particle tracer's VPL power (one bounce and
 all bounces) within Monte Carlo noise; and the brute-force frames match Mitsuba's path tracer."""

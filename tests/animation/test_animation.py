@@ -1,4 +1,4 @@
-"""Animations as input (issue 10, item 1) and the bundled animated scene "bounce" (item 9): frames from
+"""Animations as input and the bundled animated scene "bounce": frames from
 per-frame <default> parameters or from one file per frame, checked against Mitsuba 3.9.1's own loading
 and rendering of the same frames; topology checks and bad input."""
 from __future__ import annotations

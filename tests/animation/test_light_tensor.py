@@ -1,4 +1,4 @@
-"""The lighting tensor of an animation (issue 10, item 3) and the per-frame MRCS baseline (item 6):
+"""The lighting tensor of an animation and the per-frame MRCS baseline:
 slices equal the frames' rows, brute force equals each frame's column sum, per-frame MRCS is exactly
 ``mrcs`` on each frame with seed + k, and bad input is named."""
 from __future__ import annotations

@@ -37,7 +37,7 @@ RIG = f"""<scene version="3.0.0">
 """
 
 # A pixel "matches" when every channel is within 1e-3 of the reference pixel's largest channel (the
-# acceptance criterion of issue 10), plus 1e-7 absolute for pixels in shadow (0 in both).
+# acceptance criterion), plus 1e-7 absolute for pixels in shadow (0 in both).
 MATCH_RTOL = 1e-3
 # A destination pixel is disoccluded when the surface point its mapping found lies farther than this many
 # pixel footprints (on its surface) from its own point: more than half a pixel diagonal (0.707), so the

@@ -1,13 +1,13 @@
-"""The tensor-clustering renderer on an animation (issue 10, items 5 and 6 acceptance): with every light-frame
+"""The tensor-clustering renderer on an animation: with every light-frame
 pair its own cluster it is brute force; a one-frame tensor has MRCS quality; on the bundled animation
 ``bounce`` (8 consecutive frames of its 40-frame path at 48x48, ~3,000 lights) tensor clustering at 300
 shadow maps per frame has lower mean per-frame error than per-frame MRCS at 600 and less flicker, shown
 with the camera still (the pixel mappings are the identity) and moving (they carry columns between frames).
 
-Measured (8 seeds, README): still camera, tensor (centroid) 1.59% / flicker 0.0118 against MRCS 1.93% /
+Measured (8 seeds, docs/validation/animations.md): still camera, tensor (centroid) 1.59% / flicker 0.0118 against MRCS 1.93% /
 0.0207 (0.82x error, 0.57x flicker); moving camera 1.57% / 0.0126 against 1.80% / 0.0180 (0.87x, 0.70x).
 The issue's "at most half" held with the camera still (0.45x) against MRCS before its zero-norm strata
-(issue 14) made per-frame MRCS flicker less; with the camera moving, representative columns carried to
+ made per-frame MRCS flicker less; with the camera moving, representative columns carried to
 other frames miss the moving box's shadow, which no pixel mapping moves
 (scripts/tensor_flicker_decomposition.py). The paper's max-weight
 representative gives 2.9-3.2% (above MRCS at 600) at 0.7-0.9x its flicker."""
@@ -111,7 +111,7 @@ def test_bad_input():
 
 def test_time_weight_trades_time_splits_for_light_splits():
     """``time_weight`` > 1 (the paper's Sec. 4.3.2 suggestion of weighting light and time splits
-    differently) makes fewer time splits; on bounce it raised the error 2.5-2.9x (README), so the default
+    differently) makes fewer time splits; on bounce it raised the error 2.5-2.9x (docs/validation/animations.md), so the default
     stays the paper's 1."""
     T = _tensor(False, frames=4, res=24, area=128, environment=128, indirect=128, photons=0)
     R = T.slices(ml.stratified_rows(T.scenes[0], 32, seed=0))

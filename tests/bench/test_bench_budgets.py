@@ -1,4 +1,4 @@
-"""``python -m manylights.bench budgets`` (issue 14, acceptance point 2) end to end on a 16x16 configuration:
+"""``python -m manylights.bench budgets`` end to end on a 16x16 configuration:
 its JSON has every field, and each target's hit rate, cheapest fixed budget and time ratio follow from the
 bench's own runs."""
 from __future__ import annotations

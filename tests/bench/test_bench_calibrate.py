@@ -1,4 +1,4 @@
-"""``python -m manylights.bench calibrate`` (issue 14, item 1) end to end on a tiny configuration at two light
+"""``python -m manylights.bench calibrate`` end to end on a tiny configuration at two light
 counts: every run is recorded with its light count, and the within-2x shares of the JSON follow from its runs."""
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""``python -m manylights.bench compare`` (issue 12 item 6) on a tiny configuration: every renderer on one
+"""``python -m manylights.bench compare`` on a tiny configuration: every renderer on one
 chart with its error against the cached brute force, the light x view cluster study, JSON and PNGs; and the
-light models of issue 13 side by side (``--light-models``)."""
+light models side by side (``--light-models``)."""
 from __future__ import annotations
 
 import json
@@ -48,7 +48,7 @@ def test_cluster_pairs_are_checked():
 
 
 def test_light_models_side_by_side_record_their_model(tmp_path):
-    """``--light-models`` (issue 13): every model's renders are rows naming it; the bias compensation's seconds
+    """``--light-models``: every model's renders are rows naming it; the bias compensation's seconds
     are in each image's time; with the clamped VPLs' brute force as the truth the errors are exact: 0 for VPLs
     and for glossy MIS off (cbox has no glossy surface), > 0 for VSLs and the compensated VPLs."""
     import numpy as np

@@ -1,4 +1,4 @@
-"""``python -m manylights.bench relight`` (issue 11, item 7) on a tiny configuration: cbox with a spot at
+"""``python -m manylights.bench relight`` on a tiny configuration: cbox with a spot at
 24x24, 4^4 gather samples, a 256-spp full-GI reference in a temporary cache. No timing is compared with a
 constant: the checks are on the errors against the reference (the same numbers recomputed here), the
 culling table, the frame-rate rows, the cache and the files written."""

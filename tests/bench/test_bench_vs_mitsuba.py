@@ -1,4 +1,4 @@
-"""``python -m manylights.bench vs-mitsuba`` (issue 9, item 4) on a tiny configuration: cbox-lights 32x32,
+"""``python -m manylights.bench vs-mitsuba`` on a tiny configuration: cbox-lights 32x32,
 a 512-spp pixel-centre reference in a temporary cache, Mitsuba at 1/4/16 spp, MRCS at two budgets on each
 backend this build has. No timing is compared with a constant: the checks are on the cache, on the
 time-to-error table against the measured (seconds, error) points, on errors falling with budget, and on
@@ -18,7 +18,7 @@ from manylights.bench import vs_mitsuba as bvm
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
-# Both backends of ml.LightMatrix (issue 9): the CPU one and the GPU one (a software adapter in CI).
+# Both backends of ml.LightMatrix: the CPU one and the GPU one (a software adapter in CI).
 DEVICES = ["cpu", "gpu"]
 THRESHOLDS = [0.6, 0.3, 0.1, 0.03]
 

@@ -1,4 +1,4 @@
-"""``python -m manylights animate`` and ``python -m manylights.bench tensor`` (issue 10, items 8 and 9) at a
+"""``python -m manylights animate`` and ``python -m manylights.bench tensor`` at a
 tiny size: the files they say they write are complete and hold the frames, the printed errors are those of
 the written frames, and bad arguments are refused before anything is written."""
 from __future__ import annotations

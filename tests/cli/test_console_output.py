@@ -1,4 +1,4 @@
-"""What a user running ``python script.py`` sees on the console (issue 8 items 10 and 11).
+"""What a user running ``python script.py`` sees on the console.
 
 Item 10: progress in logs and CI. With stderr going to a pipe or a file a call writes a few plain lines
 per progress display (start and end), not tqdm's carriage-return redraws; in a terminal (a pty here) a

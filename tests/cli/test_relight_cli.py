@@ -1,4 +1,4 @@
-"""``python -m manylights relight`` (issue 11, item 6): one EXR (+ PNG) per light placement, equal to
+"""``python -m manylights relight``: one EXR (+ PNG) per light placement, equal to
 ``DirectToIndirect.relight`` of the same lights; ``--save`` / ``--load``; light specs and their errors."""
 from __future__ import annotations
 

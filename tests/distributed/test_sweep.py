@@ -1,4 +1,4 @@
-"""Sweeps on Dask (issue 15): a 2-process LocalCluster gives the serial DataFrame, references are rendered
+"""Sweeps on Dask: a 2-process LocalCluster gives the serial DataFrame, references are rendered
 once per content, a killed worker loses no row, an interrupted sweep resumes with only the missing renders,
 a task that raises is a row with its error, and bad input is refused before anything is written."""
 from __future__ import annotations

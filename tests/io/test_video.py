@@ -1,4 +1,4 @@
-"""Animation output (issue 10, item 8): EXR sequences read back bit-exact, MP4 and GIF decoded back to the
+"""Animation output: EXR sequences read back bit-exact, MP4 and GIF decoded back to the
 frames' sRGB codes (within the codec's loss), side-by-side strips, and files that appear complete or not at
 all."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Gather cloud (issue 11 item 1) and its cluster hierarchy (item 2): `ml.gather_cloud`, `GatherCloud.on`,
+"""Gather cloud and its cluster hierarchy: `ml.gather_cloud`, `GatherCloud.on`,
 `GatherCloud.hierarchy`. Areas, surface points, normals, uvs and diffuse reflectances are checked against
 Mitsuba 3.9.1's own values (`shape.surface_area()`, `scene.ray_intersect`, `bsdf.eval_diffuse_reflectance`)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Glossy highlights of area and environment lights (issue 13 item 3): view samples on rough plastic or
+"""Glossy highlights of area and environment lights: view samples on rough plastic or
 conductor with alpha below ``glossy_roughness`` combine the light samples with ``bsdf_samples`` BSDF
 samples by multiple importance sampling (power heuristic; ``src/matrix/glossy.rs``). The light samples'
 columns carry the weight w_L, ``emitted()`` adds the BSDF-sampled rest.
@@ -30,7 +30,7 @@ HERE = Path(__file__).resolve().parents[1]
 XML = HERE / "data" / "veach_plates.xml"
 REFS = HERE / "references"
 SIZE = (64, 48)
-# Issue 13 acceptance: Veach plates <= 3% at <= 4k area points (measured 1.3% at 4,096 points and
+# Acceptance: Veach plates <= 3% at <= 4k area points (measured 1.3% at 4,096 points and
 # 1,024 BSDF samples, 1.1% at 1,024 points; pure many-light columns: 11.3% / 24.6%).
 TOL_PLATES = 0.03
 # matpreview with its full plastic <= 4% (measured 0.85% at 4,096 environment lights).
@@ -46,7 +46,7 @@ TOL_PRINCIPLED = 0.03
 # 1,024 BSDF samples (measured 0.79%, CPU and GPU; 1.63% / 0.65% at 256 / 4,096 BSDF samples; strata alone
 # 27.4%; reference noise 0.45%, so the limit is 3x the noise).
 TOL_MATPREVIEW_BLEND = 0.02
-# A reference's noise on the measured pixels must be this much below the tolerance (issue 13: >= 3x).
+# A reference's noise on the measured pixels must be this much below the tolerance (>= 3x).
 NOISE_MARGIN = 3.0
 
 

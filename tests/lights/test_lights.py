@@ -1,4 +1,4 @@
-"""Many lights (issue 3 acceptance, CI-sized): GPU columns against the exact CPU oracle, direct light
+"""Many lights (CI-sized): GPU columns against the exact CPU oracle, direct light
 against stored Mitsuba references, full global illumination as the number of VPLs grows, power
 conservation, determinism and bad input.
 
@@ -22,7 +22,7 @@ from conftest import REPO, SCENE_CONFIGS, save_failure_images
 REFS = REPO / "tests" / "references"
 
 # --- GPU columns vs the exact oracle -------------------------------------------------------------------
-# Issue 3: >= 99% of pixels within 2% relative or 1e-3 absolute. A single light of a 4096-light set
+# Acceptance: >= 99% of pixels within 2% relative or 1e-3 absolute. A single light of a 4096-light set
 # carries 1/4096 of the power, so the absolute floor is taken relative to the column's maximum.
 PIXEL_REL = 0.02
 PIXEL_ABS_OF_MAX = 1e-3
@@ -108,7 +108,7 @@ def test_oracle_element_row_column_agree():
 
 
 # --- Direct light against stored Mitsuba references ------------------------------------------------------
-# Issue 3 tolerances (relative L2 of the direct image): cbox and cbox-lights 3%, the env-map scenes 4%.
+# Tolerances (relative L2 of the direct image): cbox and cbox-lights 3%, the env-map scenes 4%.
 DIRECT = {
     # name: (reference, generate_lights arguments, max relative L2)
     "cbox": ("cbox-direct", dict(area=4096), 0.03),
@@ -121,7 +121,7 @@ DIRECT = {
 # Pixels evaluated by the oracle per scene (a fixed random subset: the relative L2 over 4096 of
 # 12-16k pixels estimates the full image's within ~5% of its value).
 DIRECT_PIXELS = 4096
-# A reference's own relative noise must be this much below the tolerance (issue 3).
+# A reference's own relative noise must be this much below the tolerance.
 NOISE_MARGIN = 4.0
 
 
@@ -277,7 +277,7 @@ def test_gi_brute_force(gi_scene, device):
 
 
 # --- Power conservation ---------------------------------------------------------------------------------
-POWER_TOL = 0.005  # issue 3: generated lights carry the emitters' power within 0.5%
+POWER_TOL = 0.005  # generated lights carry the emitters' power within 0.5%
 
 
 def _mesh_area(scene, k):

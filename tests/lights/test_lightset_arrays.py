@@ -1,4 +1,4 @@
-"""Light sets made by researchers (issue 8 item 13): ``LightSet.from_arrays``, indexing / masks / slices,
+"""Light sets made by researchers: ``LightSet.from_arrays``, indexing / masks / slices,
 ``LightSet.concat``, with shape and value checks.
 
 The round trip rebuilds a generated set holding all five kinds (point, spot, directional, oriented

@@ -1,4 +1,4 @@
-"""Area-light samples that know their area (issue 13 item 1): oriented points carry their patch, and
+"""Area-light samples that know their area: oriented points carry their patch, and
 receivers within 3 patch radii get the patch's projected solid angle instead of the point's 1 / d^2.
 
 Against a converged Mitsuba 3.9.1 pixel-centre reference (``tests/references/nearfield-panel-direct``,
@@ -24,7 +24,7 @@ SIZE = (64, 64)
 # (measured 15.4% / 9.7% / 6.6% at 64 / 256 / 1024 points).
 TOL = 0.015
 COUNTS = (64, 256, 1024)
-# The reference's floor noise must be this much below TOL (issue 13: >= 3x).
+# The reference's floor noise must be this much below TOL (>= 3x).
 NOISE_MARGIN = 3.0
 
 
@@ -73,7 +73,7 @@ def test_near_field_converges_to_mitsuba_where_points_spike(scene, reference):
 
 STAIRCASE = HERE / "data" / "staircase_recessed.xml"
 STAIRCASE_REF = HERE / "references" / "staircase-direct"
-# Issue 13's acceptance: 13 small recessed area lights, direct light, <= 2% relative L2 at <= 16k area points.
+# Acceptance: 13 small recessed area lights, direct light, <= 2% relative L2 at <= 16k area points.
 STAIRCASE_TOL = 0.02
 
 

@@ -1,4 +1,4 @@
-"""Spot lights with a projected texture (Mitsuba 3.9.1 `spot` `texture`, issue 8 item 6) against Mitsuba:
+"""Spot lights with a projected texture (Mitsuba 3.9.1 `spot` `texture`) against Mitsuba:
 pixel-centre renders of one textured spot (deterministic: one delta light, max_depth=2) for the GPU
 columns and the exact CPU oracle, the power against the mean of Mitsuba's own `sample_ray` weights,
 and VPLs emitted from the spot carrying the texture.

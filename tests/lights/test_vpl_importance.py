@@ -1,4 +1,4 @@
-"""Issue 13: importance-sampled VPLs (generate_lights(vpl_importance=True); Georgiev and Slusallek,
+"""Importance-sampled VPLs (generate_lights(vpl_importance=True); Georgiev and Slusallek,
 EG 2010 short paper; src/lights/generate/vpl_importance.rs). Accuracy against Mitsuba on veach-ajar (where
 the light comes through the ajar door) and cbox, determinism, bad input. Unbiasedness (a z-test over
 seeds against plain VPLs), the target equation, eps = 1 and delta-only scenes are Rust tests
@@ -60,7 +60,7 @@ def test_importance_vpls_beat_plain_vpls_on_veach_ajar(veach):
 
 # cbox-gi-64 full GI, 1024 area + 4000 indirect, seed 0 (reference noise 0.19%): clamped VPLs 0.49%
 # without importance sampling (tests/lights/test_vsl.py), 0.515% with it (38% of the candidates accepted; VSLs
-# 0.462%, README). The limit of test_vsl.py.
+# 0.462%, docs/validation/accuracy.md). The limit of test_vsl.py.
 CBOX_TOL = 0.006
 
 

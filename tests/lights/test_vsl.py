@@ -1,4 +1,4 @@
-"""Issue 13 item 2: virtual spherical lights (generate_lights(indirect_kind="vsl")) and the bias
+"""Virtual spherical lights (generate_lights(indirect_kind="vsl")) and the bias
 compensation of the VPL clamp (LightMatrix.bias_compensation): cbox full GI accuracy against Mitsuba,
 the compensation's effect, LightSet plumbing and bad input. Unbiasedness of the compensation, GPU = CPU
 and radius -> 0 = VPL are Rust tests (src/matrix/bias_compensation.rs, src/lights/generate/tests/vsl.rs);

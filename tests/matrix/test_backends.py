@@ -1,4 +1,4 @@
-"""The light matrix's two backends (issue 9): the CPU backend (exact rays, rayon) and the GPU backend
+"""The light matrix's two backends: the CPU backend (exact rays, rayon) and the GPU backend
 (wgpu) give the same matrix, every renderer runs on either, and ``device="auto"`` chooses as documented.
 
 Values are compared with ``visibility="ray_traced"`` on the GPU (the same rays as the CPU): equal to

@@ -5,7 +5,7 @@ import pytest
 import manylights as ml
 from conftest import SCENE_CONFIGS, save_failure_images
 
-# Acceptance (issue 2): relative L2 <= 1% and >= 99% of pixels within 2% relative or 1e-3 absolute.
+# Acceptance: relative L2 <= 1% and >= 99% of pixels within 2% relative or 1e-3 absolute.
 MAX_REL_L2 = 0.01
 MIN_PIXELS_OK = 0.99
 PIXEL_REL, PIXEL_ABS = 0.02, 1e-3

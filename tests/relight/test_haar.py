@@ -1,4 +1,4 @@
-"""2D Haar wavelets of the gather image and the paper's coefficient culling (issue 11 item 3):
+"""2D Haar wavelets of the gather image and the paper's coefficient culling:
 `_native.haar2d` / `ihaar2d` / `haar_support_area` / `haar_cull_area_weighted` / `cull_wavelet_lights`,
 checked against an independent numpy construction of the same orthonormal non-standard transform."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Direct-to-indirect relighting on the CPU (issue 11 items 4 and 5, one diffuse bounce):
+"""Direct-to-indirect relighting on the CPU (one diffuse bounce):
 `ml.DirectToIndirect`. Checked against the dense transfer product (the gather cloud as cosine-emitting VPLs
 through the light matrix) and against Mitsuba 3.9.1's path tracer (max_depth 3: direct + one bounce; more
 bounces through the multi-bounce matrix M, by photons or the exact gather; the glossy final gather F_g)."""

@@ -1,4 +1,4 @@
-"""Direct-to-indirect relighting on the GPU (issue 11 item 5): `ml.DirectToIndirect(..., device="gpu")`.
+"""Direct-to-indirect relighting on the GPU: `ml.DirectToIndirect(..., device="gpu")`.
 Checked against the dense transfer product (the gather cloud as cosine-emitting VPLs through the CPU light
 matrix) and against the CPU relighting of the same transfer; device choice and bad input."""
 from __future__ import annotations

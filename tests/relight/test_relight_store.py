@@ -1,4 +1,4 @@
-"""Saving and loading a direct-to-indirect precomputation (issue 11, item 4 save/load and bad input):
+"""Saving and loading a direct-to-indirect precomputation (save/load and bad input):
 ``rel.save(path)`` / ``ml.DirectToIndirect.load(path, scene)``. A loaded object relights bit-identically;
 a scene whose geometry, materials, camera or film changed is refused; a scene whose lights changed loads;
 damaged, truncated and foreign files are refused; a failed save leaves no file behind."""

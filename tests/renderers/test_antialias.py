@@ -1,4 +1,4 @@
-"""Anti-aliasing from a 3x deep framebuffer (issue 10, item 7; tensor clustering paper, Sec. 5) against
+"""Anti-aliasing from a 3x deep framebuffer (tensor clustering paper, Sec. 5) against
 Mitsuba 3.9.1 with its box reconstruction filter and many samples per pixel."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Clustered visibility with given clusterings (issue 12 items 3-4, ``ml.clustered_shading``): singleton
+"""Clustered visibility with given clusterings (``ml.clustered_shading``): singleton
 clusters reproduce brute force, GPU and CPU agree, fuzzy (F = 6) beats hard (F = 1) on cbox, bad input.
 The clusterings are made here with a small numpy K-means using the paper's distance (Eq. 7)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 14: the MRCS error estimate without the reference, and progressive MRCS (manylights.renderers.estimates, manylights.renderers.progressive)."""
+"""The MRCS error estimate without the reference, and progressive MRCS (manylights.renderers.estimates, manylights.renderers.progressive)."""
 import numpy as np
 import pytest
 
@@ -12,7 +12,7 @@ from manylights.renderers.result import light_luminance_power as _light_luminanc
 
 BUDGETS = [(16, 32), (32, 64), (32, 128), (64, 256)]
 SEEDS = 8
-# Issue 14 acceptance: the estimate within a factor 2 of the true relative L2 in >= 90% of runs.
+# Acceptance: the estimate within a factor 2 of the true relative L2 in >= 90% of runs.
 MIN_WITHIN_2X = 0.9
 
 

@@ -1,4 +1,4 @@
-"""ml.kmeans and ml.fuzzy_membership (issue 12, items 1-2): the GPU K-means of the 2022 GPU fuzzy K-means
+"""ml.kmeans and ml.fuzzy_membership: the GPU K-means of the 2022 GPU fuzzy K-means
 paper against its CPU twin and scikit-learn, and the Eq. 10 fuzzy weights against hand-computed values."""
 from __future__ import annotations
 

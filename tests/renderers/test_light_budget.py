@@ -1,4 +1,4 @@
-"""Issue 14 item 4: ``ml.render("scene.xml", target_error=...)`` picks the light counts (manylights.renderers.light_budget)."""
+"""``ml.render("scene.xml", target_error=...)`` picks the light counts (manylights.renderers.light_budget)."""
 import math
 
 import numpy as np

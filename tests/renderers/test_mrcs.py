@@ -5,7 +5,7 @@ import pytest
 import manylights as ml
 from conftest import SCENE_CONFIGS, SCENES
 
-# Unbiasedness test configuration (issue 4): cbox-lights at 32x32 with ~2k lights, 64 seeds, 32 rows and
+# Unbiasedness test configuration: cbox-lights at 32x32 with ~2k lights, 64 seeds, 32 rows and
 # 128 columns. (With far fewer columns than this, e.g. 48, the per-seed estimates are so heavy-tailed --
 # lights whose reduced column is zero are drawn by power -- that 64 seeds do not reach a normal mean.)
 SEEDS = 64
@@ -48,7 +48,7 @@ def test_mrcs_is_unbiased(small_matrix, mrcs_runs):
 
 
 def test_mrcs_is_unbiased_with_virtual_spherical_lights(small_matrix):
-    """Issue 13 item 2: VSLs are one column each like VPLs, so MRCS stays unbiased for their matrix."""
+    """VSLs are one column each like VPLs, so MRCS stays unbiased for their matrix."""
     scene, _, _, _ = small_matrix
     lights = ml.generate_lights(scene, area=512, environment=512, indirect=1024, seed=3, indirect_kind="vsl")
     assert (lights.vsl_radius[lights.kind == 4] > 0).all() and (lights.vsl_radius[lights.kind != 4] == 0).all()

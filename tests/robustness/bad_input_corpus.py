@@ -1,4 +1,4 @@
-"""The bad-input corpus (issue 8, item 15): malformed arguments for every public function of manylights
+"""The bad-input corpus: malformed arguments for every public function of manylights
 and truncated / foreign files for every file reader. Each case must raise a Python ``Exception`` of the
 listed kinds whose message names the problem; a pyo3 ``PanicException`` (a ``BaseException``), an
 abort, a hang or a return counts as a failure.
@@ -622,7 +622,7 @@ cases_for("clustering_cost", [
     ("bad R shape", lambda c: c.ml.clustering_cost(R(4, 10, 2), np.zeros(10, np.int64)), ["shape"]),
 ])
 
-# K-means and fuzzy membership (issue 12, items 1-2).
+# K-means and fuzzy membership.
 KP = lambda n=20: np.random.default_rng(2).random((n, 3), dtype=np.float32)  # noqa: E731
 KN = lambda n=20: np.tile(np.array([[0, 0, 1]], np.float32), (n, 1))  # noqa: E731
 cases_for("kmeans", [
@@ -681,7 +681,7 @@ cases_for("native.fuzzy_membership", [
     ("NaN normal", lambda c: c.native.fuzzy_membership(KP(), _nan_at(KN(), (1, 1)), KP(5), KN(5), 2), ["normal 1"]),
 ])
 
-# Tensor clustering (issue 10, item 5) and the animation metrics (item 6).
+# Tensor clustering and the animation metrics.
 T4 = lambda *shape: np.random.default_rng(1).random(shape, dtype=np.float32)  # noqa: E731
 cases_for("cluster_tensor", [
     ("columns below f", lambda c: c.ml.cluster_tensor(T4(4, 5, 3, 3), 2), ["columns", "[3, 15]"]),
@@ -828,7 +828,7 @@ cases_for("relative_l2_per_frame", [
 ], raises=("ValueError", "TypeError"))
 
 # --------------------------------------------------------------------------------------------------
-# Gather cloud, cluster hierarchy, Haar wavelets (issue 11).
+# Gather cloud, cluster hierarchy, Haar wavelets.
 
 _gather = lambda c: c._get("gather", lambda: c.ml.gather_cloud(c.scene, n=16))  # noqa: E731
 F = lambda *shape: np.zeros(shape, np.float32)  # noqa: E731
@@ -1166,7 +1166,7 @@ cases_for("native.clustering_cost", [
     ("float labels", lambda c: c.native.clustering_cost(R(2, 4), [0.5] * 4), ["integer"]),
 ], raises=("TypeError",))
 
-# Animations, pixel mappings, anti-aliasing (issue 10, items 1, 4, 7).
+# Animations, pixel mappings, anti-aliasing.
 DEMO = REPO / "scenes" / "demo" / "scene.xml"
 
 
@@ -1274,7 +1274,7 @@ cases_for("scenes.animation_frames", [
     ("fractional count", lambda c: __import__("manylights.scenes").scenes.animation_frames("bounce", 2.5), ["count"]),
 ])
 
-# Animation lights, the lighting tensor, tensor clustering, animation output (issue 10, items 2, 3, 5, 6, 8).
+# Animation lights, the lighting tensor, tensor clustering, animation output.
 def _tensor(c):
     return c._get("tensor", lambda: c.ml.LightTensor(
         _anim(c), c.ml.generate_animation_lights(_anim(c), area=8, indirect=8, seed=0), device="cpu"))
@@ -1375,7 +1375,7 @@ cases_for("native.tensor_reconstruct_gpu", [
         [c.ml.LightMatrix(c.scene, c.lights, device="cpu")._m], np.zeros((1, 2), np.uint32),
         np.zeros((1, 1, 3), np.float32), np.zeros((0, 1), np.uint32), np.zeros((0, 1), np.uint32)), ["not on the GPU"]),
 ], raises=("ValueError", "TypeError"))
-# ml.sweep (issue 15): everything is refused before a cluster starts or a file is written.
+# ml.sweep: everything is refused before a cluster starts or a file is written.
 def _sweep(c, **kw):
     args = {"methods": ["mrcs"], "budgets": [(4, 8)], "seeds": [0], "lights": 50, "device": "cpu", "progress": False,
             "workers": 0, "reference_dir": c.tmp / "sweep-refs", **kw}

@@ -1,4 +1,4 @@
-"""Bad-input corpus (issue 8, item 15): every public function of manylights with malformed arguments and
+"""Bad-input corpus: every public function of manylights with malformed arguments and
 every file reader with truncated and foreign files must raise a Python exception naming the problem --
 never a panic (pyo3's PanicException, a BaseException, counts as a failure), an abort, a hang or a
 silently returned result. The cases live in ``tests/robustness/bad_input_corpus.py``; they run in a child process

@@ -1,4 +1,4 @@
-"""Ctrl-C during long native calls (issue 8 item 8): KeyboardInterrupt within about a second, and the
+"""Ctrl-C during long native calls: KeyboardInterrupt within about a second, and the
 LightMatrix stays usable (the next call gives the same result as before the interruption).
 
 A child process runs each long call; the parent sends it SIGINT one second after the call started and

@@ -1,4 +1,4 @@
-"""Requests that cannot fit in memory are refused before allocating (issue 8 item 9): MemoryError naming
+"""Requests that cannot fit in memory are refused before allocating: MemoryError naming
 the request and the limit, never an abort or an OOM kill; the same objects keep working afterwards.
 
 ``MANYLIGHTS_MEMORY_LIMIT`` lowers the host memory the checks allow, which makes the requests below

@@ -1,4 +1,4 @@
-"""A clone runs alone (issue 8, item 12): every scene the README, the notebooks, the CLI and the
+"""A clone runs alone: every scene the README, the notebooks, the CLI and the
 benchmarks name is bundled in scenes/ with its source and licence, found relative to the package, and
 nothing in the product looks for ../shared or an absolute machine path.
 

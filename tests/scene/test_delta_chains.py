@@ -1,4 +1,4 @@
-"""Mirrors and glass (issue 8 item 2): what a pixel sees through delta BSDF chains, against Mitsuba.
+"""Mirrors and glass: what a pixel sees through delta BSDF chains, against Mitsuba.
 
 A small box (48x48) with a tilted silver mirror, a glass sphere, a point light and a small ceiling area
 light. Our image is ``column_sum + emitted`` of a LightMatrix whose view samples follow the delta chains

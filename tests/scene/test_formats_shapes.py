@@ -1,4 +1,4 @@
-"""Issue 8 items 5 and 6 (shapes): image formats Mitsuba reads (EXR, Radiance RGBE, PFM; tiny env maps
+"""Image formats Mitsuba reads (EXR, Radiance RGBE, PFM; tiny env maps
 padded as Mitsuba pads them), `serialized` meshes, `cylinder`, and `shapegroup` + `instance`, each
 checked against mitsuba 3.9.1 (written files, `mi.load_dict` vertex buffers, pixel-centre renders and
 G-buffers by Mitsuba's own ray intersection)."""

@@ -5,7 +5,7 @@ import pytest
 import manylights as ml
 from conftest import SCENE_CONFIGS, save_failure_images
 
-# Acceptance (issue 2): >= 99.5% of pixels agree on each of these.
+# Acceptance: >= 99.5% of pixels agree on each of these.
 MIN_AGREEMENT = 0.995
 # Positions within this fraction of the scene's bounding-box diagonal.
 POSITION_TOL = 1e-3

@@ -1,4 +1,4 @@
-"""Scene-loader compatibility with Mitsuba 3.9.1 on inputs published scenes use (issue 8 items 1, 3, 4, 7):
+"""Scene-loader compatibility with Mitsuba 3.9.1 on inputs published scenes use:
 every transform form, spectral values, version < 2.0 scenes, and what Mitsuba accepts and goes on with.
 Each test loads the same small scene with Mitsuba (scalar_rgb) and compares the values."""
 import numpy as np

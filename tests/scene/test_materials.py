@@ -1,4 +1,4 @@
-"""Materials and emitters of issue 8 item 6, rendered end to end (loader, per-pixel BSDF resolve, GPU
+"""Materials and emitters, rendered end to end (loader, per-pixel BSDF resolve, GPU
 columns) against Mitsuba 3.9.1 pixel-centre references (deterministic with one delta light and
 max_depth=2; a multi-light image is the sum of single-light renders, since Mitsuba's path integrator
 picks one emitter per sample).

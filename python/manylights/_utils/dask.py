@@ -39,7 +39,7 @@ def default_workers(device: str = "auto") -> int:
     a GPU, else (CPU backend or a software adapter) 2 when the machine has 2+ cores, else 1."""
     info = _native.device_info(device)
     if info.get("kind") == "gpu" and not info.get("is_software"):
-        return 1  # wgpu exposes one adapter to a process; more GPUs need one worker per GPU (README)
+        return 1  # wgpu exposes one adapter to a process; more GPUs need one worker per GPU (docs/guide/sweep-cluster.md)
     return 2 if (os.cpu_count() or 1) >= 2 else 1
 
 

@@ -42,7 +42,7 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
             matches its cluster's sum), "max" (the paper's Sec. 4.5: the pair of largest weight) or
             "sampled" (MRCS's weight-proportional choice). Measured on the bundled animation (8 frames,
             48x48, 3,000 lights, 300 shadow maps per frame): mean per-frame error 1.6% with "centroid"
-            against 3.0-3.2% with "max" (per-frame MRCS at 600: 1.9-2.2%); README has the full figures.
+            against 3.0-3.2% with "max" (per-frame MRCS at 600: 1.9-2.2%); docs/validation/animations.md has the full figures.
             "centroid" considers only pairs of at least half the cluster's mean weight, so no pair the rows
             barely see is scaled up by hundreds (which made one seed in 8 an outlier at 6.4%).
         row_indices: your own view-sample rows instead of ``stratified_rows``.

@@ -1,5 +1,5 @@
 """Tensor clustering with its chunks of frames rendered on a Dask cluster (``tensor_clustering(T, ...,
-client=...)``, issue 15 item 6).
+client=...)``).
 
 Tensor clustering cuts the frames into chunks of ``chunk`` frames that are clustered and rendered
 independently (no cluster spans two chunks, Hašan et al. 2008 Sec. 6), so each chunk is one Dask task: a

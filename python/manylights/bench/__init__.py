@@ -4,7 +4,7 @@ The library never imports this package; it runs from a clone (the benchmarks rea
 Mitsuba references in ``tests/references``; ``common``).
 
 Subcommands:
-    lights   issue 3's many-light figures: full global illumination of ``cbox`` (128x128) and
+    lights   the many-light figures: full global illumination of ``cbox`` (128x128) and
              ``veach-ajar`` (64x36) with area + indirect lights against the stored Mitsuba references
              (tests/references/*-gi.exr), the VPL clamp on and off, and a sweep over the number of VPLs N_i.
              Prints a table, writes ``<out>/lights.json`` and ``<out>/lights.png`` (error vs N_i).

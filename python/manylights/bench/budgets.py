@@ -1,10 +1,10 @@
 """``python -m manylights.bench budgets``: ``ml.render(A, target_error=e)`` against the cheapest fixed MRCS
-budget that reaches e (issue 14, acceptance point 2: "the true error is <= e in >= 90% of seeds, and the time
+budget that reaches e ("the true error is <= e in >= 90% of seeds, and the time
 is within 2x of the cheapest fixed budget that reaches e").
 
 One light matrix of the scene on the CPU backend (``--lights`` lights, default 100k: the MRCS benchmark's
 split -- a quarter area points, the rest VPLs -- or ``--area`` area points and the rest VPLs; veach-ajar
-defaults to 10% area points, as the README's full-GI figures). Its brute-force image (column sum + emitted)
+defaults to 10% area points, as the published full-GI figures (docs/validation/accuracy.md)). Its brute-force image (column sum + emitted)
 is rendered once and cached by content hash under ``<cache>/references`` (the sweep's ``<key>.npz``;
 ``--cache``, default ``out/bench``).
 
@@ -56,7 +56,7 @@ REACH = 0.9
 DEFAULT_TARGETS = [0.05, 0.02, 0.01]
 DEFAULT_BUDGETS = ["8:32", "8:64", "16:64", "8:128", "16:128", "32:128", "16:256", "32:256", "64:256",
                    "32:512", "64:512", "128:512", "64:1024", "128:1024", "128:2048", "256:2048"]
-#: Share of area points in the generated lights where the README's figures use another split than a quarter.
+#: Share of area points in the generated lights where the published figures use another split than a quarter.
 AREA_FRACTION = {"veach-ajar": 0.1}
 
 

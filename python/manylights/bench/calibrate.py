@@ -1,4 +1,4 @@
-"""``python -m manylights.bench calibrate``: is the MRCS error estimate trustworthy? (issue 14, item 1)
+"""``python -m manylights.bench calibrate``: is the MRCS error estimate trustworthy?
 
 For each scene x (rows, columns) budget x seed it renders MRCS with an error estimate and the brute-force
 image once per scene, and compares the estimated relative L2 (``RenderResult.error_estimate``) with the

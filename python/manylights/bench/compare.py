@@ -15,7 +15,7 @@ content hash under ``--reference-dir``):
 ``compare-<scene>.json`` holds every record (method, budget, seconds per stage, error mean and std); the
 rows stay in Parquet files beside it (a stopped run resumes). ``--workers`` / ``--scheduler`` run the
 renders on Dask as ``bench mrcs`` does. ``--light-models vpl vpl+bc vsl no-mis`` charts the light models and
-estimator options of issue 13 instead (``bench.light_models``), against the scene's Mitsuba reference.
+estimator options instead (``bench.light_models``), against the scene's Mitsuba reference.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``python -m manylights.bench compare --light-models ...``: the light models and estimator options of issue 13
+"""``python -m manylights.bench compare --light-models ...``: the light models and estimator options
 next to each other on one error-against-time chart per scene.
 
 | name | light model / option | settings |

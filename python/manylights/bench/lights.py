@@ -126,7 +126,7 @@ def lights_report(runs: list[dict], out: Path) -> None:
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("lights", help="full GI vs Mitsuba with area + indirect lights (issue 3 figures)")
+    p = sub.add_parser("lights", help="full GI vs Mitsuba with area + indirect lights (the many-light figures)")
     p.add_argument("--scene", choices=[*LIGHT_SCENES, "all"], default="all")
     p.add_argument("--lights", type=int, default=100_000, help="total area + indirect lights")
     p.add_argument("--area", type=int, default=None, help="area lights (default: --area-fraction of --lights)")

@@ -98,7 +98,7 @@ class SceneDefaults:
 # Reference spp: its relative L2 noise is resolution-independent (sum of variances over pixels against
 # the image norm) and falls as 1/sqrt(spp). Measured: cbox GI 0.19% at 960 spp, cbox-lights direct 0.74% at
 # 14k spp (the environment map is noisy), veach-ajar GI 8.2% at 4096 spp (lit through a door gap: no
-# affordable spp gets it below 1%; MRCS's own floor there is ~19%, see the README), demo direct 1.16% at
+# affordable spp gets it below 1%; MRCS's own floor there is ~19%, see docs/validation/vs-mitsuba.md), demo direct 1.16% at
 # 4096 spp (four emitters, one picked per sample). Reference cost on 2 cores: ~2.4-5 M samples/s (llvm).
 DEFAULTS = {
     "cbox": SceneDefaults(width=128, max_depth=-1, ref_spp=2048, max_spp=1024,

@@ -70,7 +70,7 @@ def generate_lights(
             contribution over ``indirect``; particles are traced until about ``indirect`` VPLs are
             accepted (at most indirect / vpl_accept_min candidates). CPU generation (the lights are
             ordinary columns for every backend and renderer); ``src/lights/generate/vpl_importance.rs``.
-            Default False (README, issue 13: measured accuracy and cost).
+            Default False (measured accuracy and cost: docs/validation/accuracy.md).
         vpl_view_samples: integer in 1 ..= 65536, pilot view samples (``vpl_importance`` only).
         vpl_accept_min: eps in (0, 1], the floor of the acceptance probability (1 = plain VPLs).
 

@@ -18,7 +18,7 @@ class LightMatrix:
 
     - ``"cpu"``: Rust on every core (rayon), an exact shadow ray per light-sample pair through the scene's
       BVH (Mitsuba's ray offsets). On machines without a hardware GPU it is 5-20x faster than the
-      software GPU adapter (README: measured figures).
+      software GPU adapter (docs/validation/backends.md: measured figures).
     - ``"gpu"``: wgpu compute passes; shadow maps (cube maps for point lights, perspective maps for spots,
       orthographic maps for directional lights) decide where they are certain and exact GPU rays elsewhere
       (``visibility``); columns are accumulated on the GPU, nothing is read back per column.
@@ -48,8 +48,8 @@ class LightMatrix:
             extra view sample of the pixel with its RGB throughput (a row of the matrix is a pixel: the sum
             of its samples). -1 (default) = unlimited (at most 8 delta bounces, branches below 1e-3
             throughput dropped); 2 = direct light only (mirrors show the emitters they reflect).
-        glossy_roughness: glossy highlights by BSDF sampling with multiple importance sampling (issue 13
-            item 3, Veach and Guibas 1995; rule and formulas in ``src/matrix/glossy.rs``): view samples on a
+        glossy_roughness: glossy highlights by BSDF sampling with multiple importance sampling
+            (Veach and Guibas 1995; rule and formulas in ``src/matrix/glossy.rs``): view samples on a
             ``roughplastic`` / ``roughconductor`` whose GGX/Beckmann alpha is below this threshold (in
             [0, 1]; 0 = off; default 0.2) weight the columns of area and uniform-environment light samples by
             the power-heuristic light weight w_L = q_L^2 / (q_L^2 + (n_B p_B)^2) (q_L the density of the light
@@ -102,7 +102,7 @@ class LightMatrix:
 
     @property
     def glossy_work(self) -> tuple[int, int]:
-        """Glossy MIS work (issue 13, item 3): (view samples that get BSDF samples, BSDF samples in all),
+        """Glossy MIS work: (view samples that get BSDF samples, BSDF samples in all),
         both ints; (0, 0) when no view sample's lobe alpha is below ``glossy_roughness`` (e.g. a
         diffuse-only scene: pure many-light columns)."""
         return tuple(self._m.glossy_work)

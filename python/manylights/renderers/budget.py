@@ -1,4 +1,4 @@
-"""Budgets chosen automatically: ``ml.render(A, target_error=e)`` / ``time_budget=s`` (issue 14, item 3) on
+"""Budgets chosen automatically: ``ml.render(A, target_error=e)`` / ``time_budget=s`` on
 top of progressive MRCS (``manylights.renderers.estimates``: rounds, the paired-representative estimate (3), the
 inverse-variance combination).
 
@@ -24,10 +24,8 @@ After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total
    exponents of step 3 (which would give rows half the columns' time): it is what the cheapest fixed
    budgets spend (below), and the blind spot of rows (adaptive's doc) makes rows worth more than a
    power law says. Rows already rendered are paid for:
-   ``R = max(R_t + 8, (8))``. Why not measured: an earlier version estimated e_r and e_c from held-out
-   variances of clusterings of half the rows; on veach-ajar they scattered from 0 to 2 between seeds at
-   the same rows, cost 0.5-1.4 s a render at 100k lights, and bought nothing visible (5%, one 8-seed
-   pass each: 12.3 s at the fixed ratio, 13.9 s with them; passes of the same code differ by more).
+   ``R = max(R_t + 8, (8))``. The exponents are not measured per render: estimated from held-out
+   variances they scatter too much between seeds to steer by (docs/validation/budgets.md).
    The cheapest fixed budgets of ``bench budgets`` spend about equal time on both: cbox 16:128 and
    32:256 (a row costs ~11 columns: rows 1.4x the columns' time), veach-ajar 256:2048 (~7 columns:
    0.9x).
@@ -41,13 +39,9 @@ After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total
    ``e_r = 1/2`` (``E_COLUMNS``, ``E_ROWS``). Where the variance collapses faster (veach-ajar, once the
    clusters catch the VPL splotches) this asks for too much: after the round of 4,000 columns 1% renders
    took the 4x cap and ended at 0.06% (true, mean) with 18,222 columns where the cheapest fixed budget
-   has 8,192. An exponent from the last two rounds' estimates (``[ln(V_{t-1} / V_t) - e_r ln(R_t /
-   R_{t-1})] / ln(Δc_t / Δc_{t-1})`` in [1, 2]) was tried in the same bench: 5% 2.12x with one seed of 8
-   stopping at 2,636 columns and 6.0% true, 2% 1.97x, 8/8, 1% worse (the first six seeds 45 s on the
-   mean against 36 s; one went to 41,792 columns): not kept. Δc solves it (bisection), at least
+   has 8,192 (exponents fitted to the last two rounds did worse: docs/validation/budgets.md). Δc solves it (bisection), at least
    ``max(c_0, C_t / 2)`` (every round re-clusters all rows: small rounds do not pay) and at most
-   ``GROWTH`` (4) x the columns so far (predictions from small rounds run far: on veach-ajar 16x and 8x
-   caps ended 5% renders at 0.3-1.3% with 6,500-11,300 columns). AIM = 0.85 is the margin: a seed that lands
+   ``GROWTH`` (4) x the columns so far (predictions from small rounds run far: larger caps overshoot). AIM = 0.85 is the margin: a seed that lands
    just above the stop adds a round of what the estimate says is missing (at least half the columns so
    far), not a blind doubling.
    A round also costs its overhead ``t_0`` (clustering, combination: up to a second at 100k lights
@@ -65,21 +59,12 @@ floor of step 3 is not applied, and nothing depends on a timing: the same seed g
 (with a time budget, where it stops still does).
 
 Measured (``python -m manylights.bench budgets``, CPU, 100k lights, 8 seeds, paired time ratio against the
-cheapest fixed MRCS budget reaching e; README "At the issue's size"): cbox 128^2 true <= e in 100/100/100%
-of seeds at 5/2/1%, 1.04x / 1.86x / 1.80x (last bench, with the elasticities and the weights at own
-rows: 1.12x / 1.94x / 2.01x); veach-ajar 128x72 100/88/100%, 2.17x / 2.14x / 2.58x (last bench
-100/88/100%, 2.48x / 2.21x / 2.03x). Where it falls short: on veach-ajar the variance collapses once rows
-and clusters catch the VPL splotches, which no local power law (step 3) foresees, so rounds hit the 4x
-cap and the last one overshoots (1%: 18,222 columns on the mean, true 0.06%, against the fixed 8,192);
-each round re-clusters all rows of all lights (~1 s at 100k); and the halves use c/2 clusters, which on
-veach-ajar is the largest cost: its MRCS error collapses once each splotch VPL has a cluster of its own
-(48x27 px, 8k lights, 64 rows x 1,024 columns: plain 0.35%, halves 9.7%, plain at 512 columns 10.8%), so
-rounds need about twice the cheapest fixed budget's columns (a light drawn by both halves is rendered
-once, which pays back part of it).
-Rows at half the columns' time (``e_r / e_c`` = 1/2) instead of equal time, measured later on another
-machine (veach-ajar, 8 seeds): 5% 14.6 s and 2% 26.6 s (7/8 each) against 12.2 s (6/8) and 16.7 s (7/8) at
-equal time, 1% 1.68x the fixed 512:8192 on 6 seeds (6/6): rows pay for the blind spot while they are few,
-little once they are many; not kept (README, "Measured since").
+cheapest fixed MRCS budget reaching e): cbox 128^2 reaches 5/2/1% in every seed at 1.0-1.9x that budget's
+time; veach-ajar 128x72 in 88-100% of seeds at 2.1-2.6x. Where it falls short on veach-ajar: the variance
+collapses once rows and clusters catch the VPL splotches, which no local power law (step 3) foresees, so
+rounds hit the 4x cap and the last one overshoots; each round re-clusters all rows of all lights (~1 s at
+100k); and the halves use c/2 clusters, while veach-ajar's MRCS error collapses once each splotch VPL has a
+cluster of its own. The tables, and what was tried and not kept: docs/validation/budgets.md.
 
 Symbols
 -------

@@ -130,8 +130,9 @@ def _split_budget(k: int, counts: list) -> list:
 def clustered_visibility(A, light_clusters: int = 1000, view_clusters: int = 8000, fuzzy: int = 6, seed: int = 0, *,
                          iterations: int = 10, cos_threshold=None, downsample: int = 4, add_emitted: bool = True,
                          error_probes: int = 0):
-    """Render light matrix ``A`` by clustered visibility, the whole method of "GPU-based fuzzy K-means
-    clustering of VPLs and shading points" (Computers & Graphics 2022, Sec. 3, Alg. 1-2, Eqs. 6-10).
+    """Render light matrix ``A`` by clustered visibility, the whole method of Colom, Marques and Santos,
+    "Interactive VPL-based global illumination on the GPU using fuzzy clustering" (Computers & Graphics 2022,
+    Sec. 3, Alg. 1-2, Eqs. 6-10).
 
     1. The lights are clustered by K-means (``kmeans``): oriented lights (area-light samples, VPLs) by
        position with Eq. 7's orientation threshold on their normals; point and spot lights by position;

@@ -48,7 +48,7 @@ against brute force, for (3) / (4) with h = rows:
 - at 16,384 lights: 97.9% / 77.6% of 192 runs ((3): veach-ajar 91%, cbox-lights 97%, bounce, demo,
   matpreview, bunny 100%);
 - at 2,048 lights: 88.0% / 74.0% ((3): cbox-lights 97%, bounce 97%, demo 97%, matpreview 94%, bunny 97%,
-  veach-ajar 47%; 96.2% without veach-ajar), short of the issue's 90% because of veach-ajar, where the
+  veach-ajar 47%; 96.2% without veach-ajar), short of the 90% target because of veach-ajar, where the
   light count is so low that one VPL carries half of the image. Two causes there, measured on its whole
   576 x 2041 matrix (32x18 px):
 
@@ -63,10 +63,8 @@ against brute force, for (3) / (4) with h = rows:
     lights at weight ~1-2, both halves usually skip it: the image misses it (true error ~0.52) and the
     halves agree (estimate 0.1-0.3). No estimate from the run can see a light it never drew; this is
     the row sampling's blind spot and dominates the failures at 16-32 rows (rms true error 2.3 at
-    16:32). An unshadowed bound ``|I_j| min(clamp, cos cos / d^2)`` over the view samples ranks that
-    VPL 20th of 2041 and points at the pixel next to its peak, but rows at the bound's top pixels did
-    not help (a quarter / half of the rows: within 2x 34% / 47% against 53% with stratified rows only,
-    8 seeds x 4 budgets): not kept.
+    16:32). Rows placed by an unshadowed bound on each light's contribution did not remove it
+    (docs/guide/render-to-target.md, "Calibration").
 Results of (3) carry ``budget['unseen_lights']``, the number of lights no sampled row sees: when it is a
 large share of n, treat the estimate as a lower bound.
 

@@ -1,7 +1,7 @@
 """K-means of surface data points (position, normal) on the GPU, and distance-based fuzzy membership.
 
-The clustering of "GPU-based fuzzy K-means clustering of VPLs and shading points" (Computers & Graphics,
-2022; Sec. 3.2-3.3, Eq. 7-10, Alg. 1-2), used by clustered visibility for both the VPLs and the view
+The clustering of Colom, Marques and Santos, "Interactive VPL-based global illumination on the GPU using
+fuzzy clustering" (Computers & Graphics, 2022; Sec. 3.2-3.3, Eq. 7-10, Alg. 1-2), used by clustered visibility for both the VPLs and the view
 samples. The Rust core is ``src/cluster/kmeans/`` (GPU passes in ``src/gpu/kmeans.rs`` and
 ``shaders/kmeans.wgsl``; a CPU twin for ``device="cpu"`` and tests).
 

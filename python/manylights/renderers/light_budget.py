@@ -1,5 +1,5 @@
-"""Light counts chosen automatically: ``ml.render("scene.xml", target_error=0.02)`` end to end (issue 14,
-item 4, "model no more than the scene needs").
+"""Light counts chosen automatically: ``ml.render("scene.xml", target_error=0.02)`` end to end
+("model no more than the scene needs").
 
 A scene XML becomes an image in two stages whose errors add in quadrature (they are independent: the
 light generation draws the lights, MRCS then samples the matrix of those lights):
@@ -26,7 +26,7 @@ seed), which is at least as good (area points and environment directions are str
 two independent sets of n/2; VPLs are equal in distribution), so (6) is a conservative estimate of what
 the picked count leaves -- of its VARIANCE: the VPLs' geometry-term clamp (``generate_lights``' clamp)
 removes energy deterministically, which no comparison of two draws can see (veach-ajar 64x36: estimate
-11-13% at 65,536 VPLs, 20-25% against Mitsuba; README). Such known bias sources (``bias``) are listed in
+11-13% at 65,536 VPLs, 20-25% against Mitsuba; docs/guide/render-to-target.md). Such known bias sources (``bias``) are listed in
 ``RenderResult.bias_sources``, and while any is active ``budget['target_reached']`` is False with the reason. Growth: every kind starts at ``first_lights``
 and each kind whose estimate is above ``SAFETY`` x its share doubles (recomputed at the new count) until
 it is below, or ``max_lights`` is reached, or the count phase has used its part of ``time_budget`` (a
@@ -61,8 +61,8 @@ Which kinds exist (``budget['light_counts'][kind]['reason']``):
   chosen, in ``budget['glossy']`` (``LightMatrix.glossy_work``).
 - shadow-map resolution (``budget['shadow_map_size']``): the CPU backend has no shadow maps (exact rays);
   the GPU backend's default ``hybrid`` visibility redoes every uncertain shadow-map test with an exact
-  ray, so the resolution changes the cost, not the image (README: 512^2 and 1024^2 give the same image
-  to 1e-4): the default 512 is kept and the reason says so. (A ``shadow_map``-only resolution search is
+  ray, so the resolution changes the cost, not the image (measured: 512^2 and 1024^2 give the same
+  image to 1e-4): the default 512 is kept and the reason says so. (A ``shadow_map``-only resolution search is
   not built.)
 
 Symbols

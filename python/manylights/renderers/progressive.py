@@ -40,7 +40,7 @@ Budgets (``render``)
 ``render(A, target_error=, time_budget=)`` (``budget``, its module doc: the
 row:column ratio (8), increments predicted from the estimate) drives these rounds through the
 same generator, choosing each round's rows and columns from what the earlier rounds rendered.
-``render("scene.xml", ...)`` (item 4) also chooses the light counts before that:
+``render("scene.xml", ...)`` also chooses the light counts before that:
 ``light_budget`` (its module doc: the error split (5), the halving estimate (6)).
 
 Symbols

@@ -14,15 +14,15 @@ def render(A, target_error: Optional[float] = None, time_budget: Optional[float]
            first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
            add_emitted: bool = True, progress: bool = True, **scene_options) -> RenderResult:
     """Render ``A``'s column sum to a target relative L2 and/or within a time budget, choosing the budget
-    (issue 14, item 3; the schedule and the ratio (8): this module's doc): progressive MRCS rounds,
+    (the schedule and the ratio (8): this module's doc): progressive MRCS rounds,
     the row:column ratio from the measured cost of a row against a column (equal rendering time), each
     round's columns predicted from the estimate, stopped when the estimated relative L2
     (``error_estimate``, paired representatives) is <= ``SAFETY`` (0.8) x ``target_error``, or when the
     next round would not fit ``time_budget``, or when it would need more columns than there are lights --
     then the brute-force image (all n columns, exact: error 0) is returned if the time budget allows.
 
-    ``A`` may also be a scene XML path: then the light counts are chosen too (issue 14 item 4,
-    ``light_budget.render_scene``; ``scene_options``: params, size, device, max_depth,
+    ``A`` may also be a scene XML path: then the light counts are chosen too
+    (``light_budget.render_scene``; ``scene_options``: params, size, device, max_depth,
     first_lights, max_lights, count_rows, generation_share), and ``target_error`` is the error of the
     whole image against the converged scene.
 

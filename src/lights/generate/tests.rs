@@ -378,7 +378,7 @@ fn emitted_oriented_point_and_vpl() {
     assert!((s.power(1).x - 1.5).abs() < 1e-5, "{}", s.power(1));
 }
 
-/// Issue 13 item 1: each area point's patch is the part of its stratum in its triangle, and the near-field estimate of a receiver 1 cm from the emitter is unbiased: its mean
+/// Each area point's patch is the part of its stratum in its triangle, and the near-field estimate of a receiver 1 cm from the emitter is unbiased: its mean
 /// over seeds is L times the emitter's exact projected solid angle (`lights::patch`), with strata that
 /// straddle the quad's two triangles (n = 7).
 #[test]

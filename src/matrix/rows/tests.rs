@@ -319,7 +319,7 @@ fn bench_rows_cbox() {
     assert_eq!(rows.len(), 300 * n * 3);
 }
 
-/// A row count that cannot be allocated is an error, not an abort (issue 8, bad-input corpus).
+/// A row count that cannot be allocated is an error, not an abort (bad-input corpus).
 #[test]
 fn stratified_rows_refuses_an_unallocatable_count() {
     let e = stratified_rows(u32::MAX, u32::MAX, 1 << 60, 0).unwrap_err().to_string();
