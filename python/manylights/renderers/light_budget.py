@@ -27,11 +27,25 @@ two independent sets of n/2; VPLs are equal in distribution), so (6) is a conser
 the picked count leaves -- of its VARIANCE: the VPLs' geometry-term clamp (``generate_lights``' clamp)
 removes energy deterministically, which no comparison of two draws can see (veach-ajar 64x36: estimate
 11-13% at 65,536 VPLs, 20-25% against Mitsuba; docs/guide/render-to-target.md). Such known bias sources (``bias``) are listed in
-``RenderResult.bias_sources``, and while any is active ``budget['target_reached']`` is False with the reason. Growth: every kind starts at ``first_lights``
-and each kind whose estimate is above ``SAFETY`` x its share doubles (recomputed at the new count) until
-it is below, or ``max_lights`` is reached, or the count phase has used its part of ``time_budget`` (a
-quarter); a kind whose lights add nothing at any row stops at once (estimate 0). With only a time budget
-the kind of the largest estimate doubles first.
+``RenderResult.bias_sources``, and while any is active ``budget['target_reached']`` is False with the reason. 
+
+Environment strata do not depend on the seed (``DETERMINISTIC``): two draws of n/2 are the same set, and (6)
+would read 0. Such a kind is estimated by refinement instead,
+
+    E_k(n) = || S_k(n) - S_k(n/2) ||_rows / || T ||_rows                                         (6')
+
+the error of the coarser set, an upper bound for the finer one's as the quadrature converges; the set of n
+is the one rendered (the same strata), and each step reuses the previous step's set of n.
+
+Growth: every kind starts at ``first_lights`` and each kind whose estimate is above ``SAFETY`` x its share
+grows to the count its estimate asks for if the error falls as 1 / sqrt(n),
+
+    n' = n 2^j,  the smallest j >= 1 with 2^j >= (E_k / (SAFETY share))^2, 2^j <= MAX_GROWTH (8)      (7)
+
+(recomputed at the new count) until it is below, or ``max_lights`` is reached, or the count phase has used
+its part of ``time_budget`` (a quarter; the next step is predicted at the last step's time times its
+growth); a kind whose lights add nothing at any row stops at once. With only a time budget the kind of the
+largest estimate doubles first.
 
 Light models
 ------------
@@ -107,6 +121,10 @@ SAFETY = 0.8
 #: Part of ``time_budget`` the count phase may use; the rest renders (MRCS).
 COUNT_TIME_SHARE = 0.25
 KINDS = ("area", "environment", "indirect")
+#: Kinds whose lights do not depend on the seed (environment strata): estimated by refinement, (6').
+DETERMINISTIC = ("environment",)
+#: A kind grows by at most this factor per step of the count phase, (7).
+MAX_GROWTH = 8
 _STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5, "compensation": 6, "model_probes": 7}
 #: Paths per pixel of each of the two bias-compensation estimates a clamped-VPL model is offered with.
 COMPENSATION_SPP = 1
@@ -165,35 +183,46 @@ def choose_light_counts(scene, target_error: Optional[float], time_budget: Optio
     share = float(np.sqrt(generation_share / max(len(active), 1))) * target_error if target_error else None
     base = _row_sums(scene, delta_lights, rows, matrix_options)
     emitted_rows = LightMatrix(scene, delta_lights, **matrix_options).emitted().reshape(-1, 3)[rows]
-    halves: dict = {}  # kind -> (count, S_a, S_b)
+    halves: dict = {}  # kind -> (count, value at the rows, error vector at the rows)
+    cache: dict = {}  # (kind, count) -> row sums of a deterministic kind's set (reused by the next step)
+
+    def sums(k: str, n: int, s: int) -> np.ndarray:
+        return _row_sums(scene, _kind_lights(scene, k, n, max_depth, s, d), rows, matrix_options)
 
     def measure(k: str, n: int) -> None:
+        if k in DETERMINISTIC:
+            # (6'): the strata do not depend on the seed, so two draws agree; the set of n against the set of
+            # n/2 instead (the coarser one's error, an upper bound for the finer one's as the quadrature converges).
+            for c in (n, n // 2):
+                if (k, c) not in cache:
+                    cache[(k, c)] = sums(k, c, seed)
+            halves[k] = (n, cache[(k, n)], cache[(k, n)] - cache[(k, n // 2)])
+            return
         # Two independent sets of n/2 lights, seeds from (seed, kind, count, half).
-        s = [_row_sums(scene, _kind_lights(scene, k, n // 2, max_depth,
-                                           derived_seed(seed, 1000 * _STREAM[k] + 2 * n + half), d),
-                       rows, matrix_options) for half in (0, 1)]
-        halves[k] = (n, s[0], s[1])
+        sa, sb = (sums(k, n // 2, derived_seed(seed, 1000 * _STREAM[k] + 2 * n + half)) for half in (0, 1))
+        halves[k] = (n, 0.5 * (sa + sb), 0.5 * (sa - sb))
 
     def estimates() -> dict:
-        total = base + emitted_rows + sum(0.5 * (sa + sb) for _, sa, sb in halves.values())
+        total = base + emitted_rows + sum(v for _, v, _ in halves.values())
         den = float(np.linalg.norm(total))
-        return {k: (0.0 if den == 0 else float(np.linalg.norm(0.5 * (sa - sb))) / den)
-                for k, (_, sa, sb) in halves.items()}
+        return {k: (0.0 if den == 0 else float(np.linalg.norm(e)) / den) for k, (_, _, e) in halves.items()}
 
     for k in active:
         out[k] = {"count": first_lights, "estimates": [], "share": share}
         measure(k, first_lights)
     growing = set(active)
     count_time = None if time_budget is None else COUNT_TIME_SHARE * time_budget
+    factor = {k: 2 for k in active}
+    step_seconds = time.perf_counter() - t0
     while growing:
         est = estimates()
         for k in sorted(growing):
             out[k]["estimates"].append((halves[k][0], est[k]))
         done = []
         for k in sorted(growing):
-            n = halves[k][0]
-            if est[k] == 0.0:
-                out[k]["reason"] = f"its {n} lights add nothing at any of the {h} rows (estimate 0)"
+            n, value, err = halves[k]
+            if not np.any(value) and not np.any(err):
+                out[k]["reason"] = f"its {n} lights add nothing at any of the {h} rows"
                 done.append(k)
             elif share is not None and est[k] <= SAFETY * share:
                 out[k]["reason"] = f"estimated error {est[k]:.2%} <= {SAFETY} x its share {share:.2%}"
@@ -201,20 +230,30 @@ def choose_light_counts(scene, target_error: Optional[float], time_budget: Optio
             elif 2 * n > max_lights:
                 out[k]["reason"] = f"max_lights {max_lights} reached (estimate {est[k]:.2%})"
                 done.append(k)
+            elif share is not None:
+                # (7): the count the estimate asks for, if it falls as 1 / sqrt(n), in powers of two, at most
+                # MAX_GROWTH x a step and never past max_lights.
+                want = (est[k] / (SAFETY * share)) ** 2
+                f = 2
+                while f < MAX_GROWTH and f < want and 2 * f * n <= max_lights:
+                    f *= 2
+                factor[k] = f
         growing -= set(done)
         if not growing:
             break
         spent = time.perf_counter() - t0
-        # The next step costs about as much as everything so far (counts double).
-        if count_time is not None and 2 * spent > count_time:
+        # The next step costs about the last one times its growth (the rows are linear in the lights).
+        if count_time is not None and spent + step_seconds * max(factor[k] for k in growing) > count_time:
             for k in growing:
                 out[k]["reason"] = f"the count phase's share of time_budget ({count_time:.3g} s) is spent " \
                                    f"(estimate {est[k]:.2%})"
             break
-        # With a target, double every kind above its share; with only a time budget, the largest first.
+        # With a target, grow every kind above its share by (7); with only a time budget, double the largest.
         grow = sorted(growing) if share is not None else [max(sorted(growing), key=lambda k: est[k])]
+        t_step = time.perf_counter()
         for k in grow:
-            measure(k, 2 * halves[k][0])
+            measure(k, factor[k] * halves[k][0] if share is not None else 2 * halves[k][0])
+        step_seconds = time.perf_counter() - t_step
     est = estimates()
     for k in active:
         out[k]["count"] = halves[k][0]
