@@ -132,6 +132,12 @@ fn patch_is_near(l: Light, p: vec3<f32>) -> bool {
     return r2 > 0.0 && dot(dp, dp) < r2 * (PATCH_NEAR_FIELD_RADII * PATCH_NEAR_FIELD_RADII);
 }
 
+// Whether an oriented point has a patch (not all four corners zero).
+fn patch_present(l: Light) -> bool {
+    return any(l.patch_corners[0].xyz != vec3<f32>(0.0)) || any(l.patch_corners[1].xyz != vec3<f32>(0.0))
+        || any(l.patch_corners[2].xyz != vec3<f32>(0.0)) || any(l.patch_corners[3].xyz != vec3<f32>(0.0));
+}
+
 // atan(z) for z in [0, 1] (Cephes atanf), as `atan_unit` in patch.rs.
 fn atan_unit(z: f32) -> f32 {
     var base = 0.0;
@@ -355,6 +361,20 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
         }
         e.radiance = intensity * (falloff * inv_d2);
     } else if l.kind == LIGHT_ORIENTED_POINT {
+        var inv = inv_d2;
+        if patch_present(l) {
+            // Shaded from the emitter's surface point beneath the light (`patch::surface_emitted`): the light
+            // sits offset above its surface for its visibility only.
+            let surface = l.position - l.normal * dot(l.position - l.patch_corners[0].xyz, l.normal);
+            let ds = surface - p;
+            let ds2 = dot(ds, ds);
+            if !(ds2 > 0.0) {
+                return e;
+            }
+            e.dist = sqrt(ds2);
+            e.wo = ds / e.dist;
+            inv = 1.0 / ds2;
+        }
         let cos_theta = -dot(e.wo, l.normal);
         if !(cos_theta > 0.0) {
             return e;
@@ -374,7 +394,7 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
             }
             e.radiance = l.intensity * (pa.x / (pa.y * cos_r));
         } else {
-            e.radiance = l.intensity * (cos_theta * inv_d2);
+            e.radiance = l.intensity * (cos_theta * inv);
         }
     } else if l.kind == LIGHT_VPL {
         // I(w) = Phi f(incident, w) |w . n_g|, then the geometry-term clamp min(1, clamp / G).

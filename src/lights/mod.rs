@@ -404,11 +404,14 @@ impl LightSet {
                 }
             }
             LightKind::OrientedPoint => {
+                let c = &self.patch[j];
+                if !patch::is_none(c) {
+                    return patch::surface_emitted(c, self.position[j], self.normal[j], self.intensity[j], p, n);
+                }
                 let cos = -wo.dot(self.normal[j]);
                 if !(cos > 0.0) {
                     return None;
                 }
-                let c = &self.patch[j];
                 if patch::is_near(c, p) {
                     patch::near_field(c, self.intensity[j], p, n, wo)?
                 } else {
