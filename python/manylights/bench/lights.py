@@ -18,6 +18,7 @@ import numpy as np
 
 import manylights as ml
 
+from .._utils.files import atomic_write_text
 from ..scenes import scene_path
 from .common import references_dir
 
@@ -89,7 +90,7 @@ def lights_runs(args) -> list[dict]:
 
 def lights_report(runs: list[dict], out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    (out / "lights.json").write_text(json.dumps(runs, indent=2) + "\n")
+    atomic_write_text(out / "lights.json", json.dumps(runs, indent=2) + "\n")
     # Table: mean over seeds per (scene, clamp, N_i).
     groups: dict[tuple, list[dict]] = {}
     for r in runs:

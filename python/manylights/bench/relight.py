@@ -39,6 +39,7 @@ import numpy as np
 
 import manylights as ml
 
+from .._utils.files import atomic_write_text
 from ..io.video import to_srgb8
 from ..scenes import scene_path
 from ..testing import mitsuba as reference
@@ -183,9 +184,7 @@ def run(args) -> int:
               "coefficients": [], "culling": [], "frame_rate": [], "cpu_count": os.cpu_count()}
 
     def save():
-        t = json_path.with_suffix(f".tmp{os.getpid()}")
-        t.write_text(json.dumps(result, indent=2) + "\n")
-        os.replace(t, json_path)
+        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
 
     def precompute(sc, coefficients):
         t = time.perf_counter()

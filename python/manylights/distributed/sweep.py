@@ -27,6 +27,7 @@ from typing import Callable, Optional, Sequence
 from .._utils import progress as _progress
 from .._utils import validate as _v
 from .._utils.dask import connect, gpu_resources
+from .._utils.files import atomic_write
 from . import worker
 from .specs import (
     check_kinds,
@@ -80,19 +81,15 @@ def _read_existing(out: Path, definition: dict):
 
 
 def _write(out: Path, df, definition: dict) -> None:
-    """Write ``df`` to ``out`` atomically: a temporary file beside it, then a rename over it."""
+    """Write ``df`` to ``out`` atomically (``_utils.files.atomic_write``: a temporary file beside it, synced,
+    then renamed over it)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     table = pa.Table.from_pandas(df, preserve_index=False)
     table = table.replace_schema_metadata({**(table.schema.metadata or {}),
                                            META_KEY: json.dumps(definition).encode()})
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    try:
-        pq.write_table(table, tmp)
-        os.replace(tmp, out)
-    finally:
-        tmp.unlink(missing_ok=True)
+    atomic_write(out, lambda tmp: pq.write_table(table, tmp))
 
 
 def _frame(rows: list[dict], order: dict):

@@ -10,8 +10,9 @@ Animations", EGSR 2008) renders f frames at once; its results are compared by ey
 - ``side_by_side``: panels of equal size concatenated left to right with a labelled header, e.g.
   tensor | per-frame MRCS | brute force | error.
 
-Every file appears complete or not at all: it is written to a temporary name in the target folder and
-renamed when done, so an error or Ctrl-C in the middle leaves no partial file behind.
+Every file appears complete or not at all (``_utils.files.atomic_write``: a temporary name in the target
+folder, synced and renamed over the target), so an error, a full disk, Ctrl-C or a killed process in the
+middle leaves the old file (or none), never a partial one.
 
 Symbols: f frames, H x W pixels, k panels.
 """
@@ -78,7 +79,7 @@ def write_exr_sequence(frames, folder: str | os.PathLike, prefix: str = "frame")
     paths = []
     for k, frame in enumerate(a):
         p = folder / f"{prefix}_{k:04d}.exr"
-        atomic_write(p, lambda tmp: write_exr(tmp, frame))
+        write_exr(p, frame)
         paths.append(p)
     return paths
 
@@ -123,11 +124,11 @@ def write_video(frames, path: str | os.PathLike, fps: float = 12.0, exposure: fl
             rgb = np.pad(rgb, ((0, 0), (0, h % 2), (0, w % 2), (0, 0)))
 
         def write(tmp):
-            iio.imwrite(tmp, rgb, plugin="FFMPEG", fps=fps, codec="libx264", macro_block_size=1,
+            iio.imwrite(tmp, rgb, plugin="FFMPEG", extension=".mp4", fps=fps, codec="libx264", macro_block_size=1,
                         output_params=["-pix_fmt", "yuv420p", "-crf", "18"])
     else:
         def write(tmp):
-            iio.imwrite(tmp, rgb, plugin="pillow", duration=1000.0 / fps, loop=0)
+            iio.imwrite(tmp, rgb, plugin="pillow", extension=".gif", duration=1000.0 / fps, loop=0)
     atomic_write(path, write)
     return path
 
