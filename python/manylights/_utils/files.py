@@ -19,8 +19,10 @@ import errno
 import hashlib
 import os
 import secrets
+import signal
 import socket
 import threading
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable, Optional
 
@@ -183,17 +185,45 @@ def atomic_write(path: str | os.PathLike, write: Optional[Callable[[Path], None]
                 _fsync_path(tmp)
                 os.chmod(tmp, mode)
             os.replace(tmp, path)
-        except BaseException:
+        except BaseException as e:
             try:
                 os.unlink(tmp)
             except OSError:
                 pass
+            if isinstance(e, OSError) and e.filename is None:  # name the file (a full disk says nothing else)
+                if e.errno is None:
+                    raise OSError(f"cannot write {path}: {e}") from e
+                raise OSError(e.errno, f"cannot write: {e.strerror or e}", str(path)) from e
             raise
         _fsync_folder(folder)
     finally:
         with _active_lock:
             _active.discard(tmp.name)
     return path
+
+
+@contextmanager
+def held_signals():
+    """Hold the Python handlers of signals (Ctrl-C's KeyboardInterrupt) for the body, then run those of the
+    signals that came, in order: code that must not be cut in two (starting a helper process and recording
+    it) runs whole. Outside the main thread, where no Python handler runs, it does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    came: list = []
+    old: dict = {}
+    try:
+        for s in signal.valid_signals():
+            h = signal.getsignal(s)
+            if callable(h):
+                old[s] = h
+                signal.signal(s, lambda n, f: came.append((n, f)))
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        for n, f in came:
+            old[n](n, f)
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
