@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import errno
 import hashlib
+import json
 import os
 import secrets
 import signal
 import socket
 import threading
+import time
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable, Optional
@@ -224,6 +226,83 @@ def held_signals():
             signal.signal(s, h)
         for n, f in came:
             old[n](n, f)
+
+
+class LockedError(RuntimeError):
+    """Another writer holds the file's lock (``exclusive``)."""
+
+
+@contextmanager
+def exclusive(path: str | os.PathLike, what: str = "writer"):
+    """Hold ``<path>.lock`` for the body: one writer of ``path`` at a time, across threads, processes and hosts
+    sharing the folder. The lock file holds the owner's pid, host, thread and start time (JSON) and is
+    created whole (written under a temporary name, then hard-linked). A lock whose owner is a process of
+    this host that no longer runs is stale and taken over; any other is refused.
+
+    Raises:
+        LockedError: another live writer (of this process, another process or another host) holds the lock;
+            the message names it and the lock file."""
+    path = Path(path)
+    lock = path.with_name(path.name + ".lock")
+    me = {"pid": os.getpid(), "host": host_name(), "thread": threading.get_ident(), "what": what,
+          "since": time.strftime("%Y-%m-%d %H:%M:%S")}
+    token = json.dumps(me, sort_keys=True)
+    for _ in range(3):
+        tmp = temporary_path(lock)
+        with _active_lock:
+            _active.add(tmp.name)
+        try:
+            try:
+                atomic_data = token.encode()
+                fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666 & ~current_umask())
+                try:
+                    _write_all(fd, atomic_data)
+                finally:
+                    os.close(fd)
+                os.link(tmp, lock)  # fails when the lock exists: creation and content in one step
+                taken = True
+            except FileExistsError:
+                taken = False
+            finally:
+                try:
+                    os.unlink(tmp)
+                except OSError:
+                    pass
+        finally:
+            with _active_lock:
+                _active.discard(tmp.name)
+        if taken:
+            break
+        try:
+            owner = json.loads(lock.read_text())
+        except FileNotFoundError:
+            continue  # released meanwhile
+        except (OSError, ValueError):
+            owner = {}
+        pid = owner.get("pid")
+        if owner.get("host") == me["host"] and isinstance(pid, int) and pid != me["pid"] and not _pid_alive(pid):
+            try:
+                if lock.read_text() == json.dumps(owner, sort_keys=True):
+                    os.unlink(lock)  # stale: its writer died
+            except OSError:
+                pass
+            continue
+        who = (f"pid {pid} on host {owner.get('host')}" + (" (this process)" if pid == me["pid"] and
+                                                          owner.get("host") == me["host"] else "")
+               + f", since {owner.get('since')}") if owner else "an unreadable lock"
+        raise LockedError(f"{path} is being written by another {owner.get('what', what)} ({who}; lock file {lock}): "
+                          "wait for it to finish or pass another path (if that writer is gone and the lock "
+                          "remains, remove the lock file)")
+    else:
+        raise LockedError(f"{path}: could not take the lock {lock} (it keeps changing owners)")
+    try:
+        yield lock
+    finally:
+        try:
+            if lock.read_text() == token:
+                os.unlink(lock)
+        except OSError:
+            pass
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:

@@ -42,6 +42,27 @@ pub struct Builder<'a> {
     pub warnings: Vec<String>,
 }
 
+/// Refuse an emitter texture with NaN, infinite or negative texels (radiance must be finite and >= 0;
+/// reading them as 0 would silently change the lighting): the error names the file, how many texels are
+/// bad and the first one (index in row-major order and its value).
+fn check_emitter_texels(path: &std::path::Path, loc: &Location, data: &[glam::Vec3]) -> Result<()> {
+    let bad = |t: &glam::Vec3| !(t.is_finite() && t.min_element() >= 0.0);
+    let count = data.iter().filter(|t| bad(t)).count();
+    if let Some((i, t)) = data.iter().enumerate().find(|(_, t)| bad(t)) {
+        return Err(Error::scene(
+            loc,
+            format!(
+                "envmap {}: {count} of {} texels are NaN, infinite or negative (the first: texel {i} = {:?}); an \
+                 emitter's radiance must be finite and >= 0: fix the image",
+                path.display(),
+                data.len(),
+                t.to_array()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn unknown_plugin(p: &Props) -> Error {
     Error::scene(p.loc(), format!("unsupported {} plugin type=\"{}\"", p.node.class, p.node.plugin))
 }
@@ -543,6 +564,7 @@ impl<'a> Builder<'a> {
                 let (path, floc) = self.filename(&mut p, "envmap")?;
                 let scale = p.float("scale", 1.0)? as f32;
                 let (w, h, data) = texture::load_bitmap(&path, &floc, false)?;
+                check_emitter_texels(&path, &floc, &data)?;
                 // Mitsuba pads every environment map to at least 2 x 3 texels (`crate::image::pad`).
                 let (width, height, data) = crate::image::pad::pad_to(w, h, data, 2, 3);
                 // Mitsuba looks up `to_world.inverse() * d`; keep the matrix whose inverse that is.
