@@ -304,6 +304,19 @@ cases_for("load_scene[envmap]", [
     for what, t in (("nan", [np.nan, 0.5, 0.5]), ("inf", [0.5, np.inf, 0.5]), ("negative", [0.5, 0.5, -1.0]))
 ], raises=("SceneError", "ValueError"))
 
+
+def _area_tex_scene(ctx, tag, fname, data):
+    body = (f'<shape type="rectangle"><emitter type="area"><texture name="radiance" type="bitmap">'
+            f'<string name="filename" value="{fname}"/></texture></emitter></shape>')
+    return ctx.ml.load_scene(ctx.scene_with(tag, body, {fname: data}))
+
+
+cases_for("load_scene[area emitter texture]", [
+    (f"{what} texels", lambda c, t=t, w=what: _area_tex_scene(c, f"area-{w}", f"{w}.exr", _exr_with(t)),
+     [f"{what}.exr", "area emitter radiance texture", "2 of 32 texels", "finite and >= 0"])
+    for what, t in (("nan", [np.nan, 0.5, 0.5]), ("negative", [0.5, 0.5, -1.0]))
+], raises=("SceneError", "ValueError"))
+
 for _kind, _load_fn in [("bitmap", _tex_scene), ("envmap", _env_scene)]:
     cases_for(f"load_scene[{_kind}]", [
         ("truncated PNG", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-png", "t.png", c.png_bytes[:40]), ["t.png"]),

@@ -228,6 +228,10 @@ class LightMatrix:
         shadow_map_size = _v.integer("shadow_map_size", shadow_map_size, 16, 8192)
         with progress_bar(int(idx.size), "rows", progress, unit="row") as callback:
             R, timings = self._m.rows([int(i) for i in idx], callback, int(shadow_map_size))
+        if not np.isfinite(R).all():
+            k, j, _ = np.argwhere(~np.isfinite(R))[0]
+            raise FloatingPointError(f"rows: element (view sample {int(idx[k])}, light {j}) is {R[k, j].tolist()} "
+                                     "(float32 overflow)")
         if return_timings:
             return R, dict(timings)
         return R
