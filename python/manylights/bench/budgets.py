@@ -46,7 +46,7 @@ import numpy as np
 
 import manylights as ml
 
-from .._utils.files import atomic_write_text
+from .._utils.files import atomic_write, atomic_write_text
 from .._utils.progress import mode
 from ..distributed import worker as sweep_worker
 from ..distributed.specs import parse_lights, scene_specs
@@ -281,5 +281,5 @@ def _chart(summary: dict, path: Path) -> None:
     fig.suptitle(f"{Path(summary['scene']).parent.name} {w}x{h}, {summary['lights']} lights, {summary['seeds']} seeds",
                  fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)

@@ -26,7 +26,7 @@ import numpy as np
 
 import manylights as ml
 
-from .._utils.files import atomic_write_text
+from .._utils.files import atomic_write, atomic_write_text
 from .common import display_path, parse_budgets, resolve_scene
 
 DEFAULT_SCENES = ["cbox-lights", "veach-ajar", "bounce", "demo"]
@@ -158,5 +158,5 @@ def _plot(runs, path: Path) -> None:
     ax.set_title("MRCS error estimate calibration")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)

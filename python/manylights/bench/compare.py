@@ -25,7 +25,7 @@ from pathlib import Path
 
 import manylights as ml
 
-from .._utils.files import atomic_write_text
+from .._utils.files import atomic_write, atomic_write_text
 from . import light_models
 from .common import display_path, finish_loglog, method_records, ok_rows, resolve_scene, settings_tag
 from .dask_options import add_dask_arguments, check_dask_arguments
@@ -183,5 +183,5 @@ def _study_chart(study, lights: list, views: list, png: Path, title: str) -> Non
         ax.legend(fontsize=8)
     fig.suptitle(f"clustered visibility: {title}")
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)

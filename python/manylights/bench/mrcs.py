@@ -20,7 +20,7 @@ import numpy as np
 
 import manylights as ml
 
-from .._utils.files import atomic_write_text
+from .._utils.files import atomic_write, atomic_write_text
 from .common import display_path, ok_rows, resolve_scene, settings_tag
 from .dask_options import add_dask_arguments, check_dask_arguments
 
@@ -190,5 +190,5 @@ def _chart(records, png: Path, title: str) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)

@@ -39,7 +39,7 @@ import numpy as np
 
 import manylights as ml
 
-from .._utils.files import atomic_write_text
+from .._utils.files import atomic_write, atomic_write_text
 from ..io.video import to_srgb8
 from ..scenes import scene_path
 from ..testing import mitsuba as reference
@@ -315,7 +315,7 @@ def chart(result: dict, images: dict, ref: np.ndarray, png: Path, strip_png: Pat
     b.set_title("frame rate (median)")
     b.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)
     keys = sorted(images)
     pick = sorted({keys[0], keys[len(keys) // 2], keys[-1]})
@@ -326,5 +326,5 @@ def chart(result: dict, images: dict, ref: np.ndarray, png: Path, strip_png: Pat
         ax.set_title(title, fontsize=9)
         ax.axis("off")
     fig.tight_layout()
-    fig.savefig(strip_png, dpi=120)
+    atomic_write(strip_png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)

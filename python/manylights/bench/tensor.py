@@ -38,7 +38,7 @@ import manylights as ml
 import manylights.scenes as sc
 
 from .._utils.dask import connect
-from .._utils.files import atomic_write_text
+from .._utils.files import atomic_write, atomic_write_text
 from .common import settings_tag
 from .dask_options import add_dask_arguments, check_dask_arguments
 
@@ -217,5 +217,5 @@ def chart(summary: dict, png: Path) -> None:
     fig.suptitle(f"{summary['scene']} {summary['frames']} frames {W}x{H}, {summary['lights']} lights, "
                  f"{summary['seeds']} seeds")
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)

@@ -54,7 +54,7 @@ import numpy as np
 
 import manylights as ml
 
-from .._utils.files import atomic_write_text
+from .._utils.files import atomic_write, atomic_write_text
 from .._utils.files import folder_hash as scene_hash
 from .._utils.progress import progress_bar
 from ..scenes import resolve
@@ -363,7 +363,7 @@ def chart(summary: dict, png: Path) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)
 
 
