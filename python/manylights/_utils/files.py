@@ -305,6 +305,24 @@ def exclusive(path: str | os.PathLike, what: str = "writer"):
             pass
 
 
+def npz_bytes(**arrays) -> bytes:
+    """``np.savez`` of ``arrays`` into memory (for ``atomic_write(path, data=...)``). A KeyboardInterrupt
+    inside it stays a KeyboardInterrupt (zipfile turns one that lands while an entry is open into a
+    ValueError about closing the archive)."""
+    import io
+
+    import numpy as np
+
+    buf = io.BytesIO()
+    try:
+        np.savez(buf, **arrays)
+    except ValueError as e:
+        if isinstance(e.__context__, KeyboardInterrupt):
+            raise e.__context__ from None
+        raise
+    return buf.getvalue()
+
+
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     """``atomic_write`` of ``text`` encoded as UTF-8."""
     return atomic_write(path, data=text.encode("utf-8"))

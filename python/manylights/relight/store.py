@@ -21,7 +21,6 @@ that name as it was; a temporary left by a killed process is removed by the next
 """
 from __future__ import annotations
 
-import io
 import json
 import os
 import zipfile
@@ -30,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _native
-from .._utils.files import atomic_write
+from .._utils.files import atomic_write, npz_bytes
 
 __all__ = ["FORMAT", "VERSION", "save", "load", "scene_hash"]
 
@@ -63,9 +62,7 @@ def save(rel, path) -> Path:
     meta = {"format": np.array(FORMAT), "version": np.array(VERSION, dtype=np.uint32),
             "scene_hash": np.array(json.dumps(scene_hash(rel.scene), sort_keys=True)),
             "info": np.array(json.dumps(info, sort_keys=True))}
-    buf = io.BytesIO()
-    np.savez(buf, **meta, **arrays)
-    return atomic_write(path, data=buf.getbuffer())
+    return atomic_write(path, data=npz_bytes(**meta, **arrays))
 
 
 def load(cls, path, scene, device: str = "auto", visibility=None, shadow_map_size: int = 1024):
