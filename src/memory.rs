@@ -4,7 +4,8 @@
 //!
 //! Host memory available = `MemAvailable` of `/proc/meminfo`, lowered to the cgroup's remaining
 //! allowance (`memory.max - memory.current`, cgroup v2, or `memory.limit_in_bytes - memory.usage_in_bytes`,
-//! v1) where a container sets one, and to `MANYLIGHTS_MEMORY_LIMIT` (bytes, or with a K/M/G/T suffix
+//! v1) where a container sets one, to the room left under the address-space and data-segment limits
+//! (`ulimit -v` / `ulimit -d`: RLIMIT_AS less `VmSize`, RLIMIT_DATA less `VmData`), and to `MANYLIGHTS_MEMORY_LIMIT` (bytes, or with a K/M/G/T suffix
 //! in powers of 1024: `8G`) when the user sets it, e.g. to keep room for other work on a shared
 //! machine. On systems without `/proc/meminfo` only that variable bounds the host check (the adapter's
 //! limits still apply). GPU allocations are checked against the adapter's limits
@@ -43,6 +44,9 @@ pub fn available_host_bytes() -> Result<Option<u64>> {
         (Some(a), Some(c)) => Some(a.min(c)),
         (a, c) => a.or(c),
     };
+    if let Some(r) = rlimit_remaining() {
+        avail = Some(avail.map_or(r, |a| a.min(r)));
+    }
     if let Ok(v) = std::env::var("MANYLIGHTS_MEMORY_LIMIT") {
         let limit = parse_bytes(&v)
             .ok_or_else(|| Error::invalid(format!("MANYLIGHTS_MEMORY_LIMIT must be a byte count such as 2000000000 or 2G, got {v:?}")))?;
@@ -101,6 +105,28 @@ fn read_u64(path: &str) -> Option<u64> {
     std::fs::read_to_string(path).ok()?.trim().parse().ok()
 }
 
+/// Room left under the process's address-space and data-segment limits (`ulimit -v`, RLIMIT_AS, against
+/// `VmSize`; `ulimit -d`, RLIMIT_DATA, against `VmData`), the smaller; None when neither is set. An
+/// allocation past either fails, and Rust aborts the process on a failed allocation.
+fn rlimit_remaining() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    rlimit_room(&limits, &status)
+}
+
+/// `rlimit_remaining` from the texts of `/proc/self/limits` and `/proc/self/status`.
+fn rlimit_room(limits: &str, status: &str) -> Option<u64> {
+    let soft = |name: &str| -> Option<u64> {
+        let line = limits.lines().find(|l| l.starts_with(name))?;
+        line[name.len()..].split_whitespace().next()?.parse().ok() // "unlimited" -> None
+    };
+    let room = |limit: Option<u64>, used: &str| limit.map(|l| l.saturating_sub(meminfo_field(status, used).unwrap_or(0)));
+    match (room(soft("Max address space"), "VmSize:"), room(soft("Max data size"), "VmData:")) {
+        (Some(a), Some(d)) => Some(a.min(d)),
+        (a, d) => a.or(d),
+    }
+}
+
 /// Memory left under the process's cgroup limit (None without a limit).
 fn cgroup_remaining() -> Option<u64> {
     // cgroup v2: the process's own group from /proc/self/cgroup ("0::/path").
@@ -150,7 +176,7 @@ fn check_host_against(what: &str, bytes: u128, available: Option<u64>) -> Result
         if bytes > avail as u128 {
             return Err(Error::OutOfMemory(format!(
                 "{what} needs {} of host memory but only {} is available (MemAvailable, cgroup limit, \
-                 MANYLIGHTS_MEMORY_LIMIT); request less",
+                 address-space and data limits (ulimit -v / -d), MANYLIGHTS_MEMORY_LIMIT); request less",
                 fmt_bytes(bytes),
                 fmt_bytes(avail as u128)
             )));

@@ -208,14 +208,16 @@ def generate_animation_lights(frames: Sequence[Scene], area: int = 1024, environ
 def check_host_memory(what: str, bytes: int) -> None:
     """Raises MemoryError naming ``what`` when ``bytes`` of host memory break the policy (MANYLIGHTS_MEMORY_LIMIT)."""
 
-def write_exr(path: str | PathLike[str], image: npt.NDArray[np.float32]) -> None:
-    """Raises ValueError for a shape other than (H, W, 3) or an empty image, OSError when unwritable."""
+def encode_exr(image: npt.NDArray[np.float32]) -> bytes:
+    """The bytes of a float32 RGB OpenEXR file. Raises ValueError for a shape other than (H, W, 3) or an
+    empty image."""
 def read_exr(path: str | PathLike[str]) -> npt.NDArray[np.float32]:
     """(H, W, 3) float32. Raises OSError naming the file when missing, truncated or not an OpenEXR file."""
 def encode_srgb8(image: npt.NDArray[np.float32], exposure: float = 0.0) -> npt.NDArray[np.uint8]:
     """(H, W, 3) uint8 sRGB of a linear image times 2**exposure, clamped (as write_png). Raises ValueError."""
-def write_png(path: str | PathLike[str], image: npt.NDArray[np.float32], exposure: float = 0.0) -> None:
-    """Raises ValueError for a bad shape, an empty image or a non-finite exposure; OSError when unwritable."""
+def encode_png(image: npt.NDArray[np.float32], exposure: float = 0.0) -> bytes:
+    """The bytes of an 8-bit sRGB PNG. Raises ValueError for a bad shape, an empty image or a non-finite
+    exposure."""
 
 def bsdf_eval(spec: dict[str, Any], wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32], device: str) -> npt.NDArray[np.float32]:
     """Evaluate a BSDF given as a dict ({"type": "roughplastic", "alpha": 0.1, ...; "twosided": True}) on

@@ -3,8 +3,8 @@
 //! - [`read_exr`]: the first valid layer of an OpenEXR file (any compression the `exr` crate reads, PIZ
 //!   included; half, float or uint channels), channels R, G, B (A ignored) or a single Y channel
 //!   replicated to RGB. Linear, as stored.
-//! - [`write_exr`]: float32 RGB, lossless.
-//! - [`write_png`]: 8-bit sRGB: `value * 2^exposure`, exact sRGB encoding curve, clamped to [0, 1],
+//! - [`write_exr`] / [`encode_exr`]: float32 RGB, lossless (to a file, or to bytes).
+//! - [`write_png`] / [`encode_png`]: 8-bit sRGB: `value * 2^exposure`, exact sRGB encoding curve, clamped to [0, 1],
 //!   rounded to nearest.
 use crate::error::{Error, Result};
 use exr::prelude::*;
@@ -61,14 +61,29 @@ fn check_len(path: &Path, w: u32, h: u32, n: usize) -> Result<()> {
     Ok(())
 }
 
-/// Writes float32 RGB pixels (row 0 = top) to an EXR file.
+/// Float32 RGB pixels (row 0 = top) encoded as an EXR file's bytes (the `exr` crate's default encoding,
+/// as `write_rgb_file` writes it).
+pub fn encode_exr(width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<Vec<u8>> {
+    check_len(Path::new("<exr>"), width, height, pixels.len())?;
+    let w = width as usize;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = pixels[y * w + x];
+        (p[0], p[1], p[2])
+    });
+    let mut out = std::io::Cursor::new(Vec::new());
+    Image::from_channels((w, height as usize), channels)
+        .write()
+        .to_buffered(&mut out)
+        .map_err(|e| Error::invalid(format!("cannot encode an EXR image of {width}x{height}: {e}")))?;
+    Ok(out.into_inner())
+}
+
+/// Writes float32 RGB pixels (row 0 = top) to an EXR file (encoded in memory, then written; any write
+/// error is returned).
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<()> {
     check_len(path, width, height, pixels.len())?;
-    write_rgb_file(path, width as usize, height as usize, |x, y| {
-        let p = pixels[y * width as usize + x];
-        (p[0], p[1], p[2])
-    })
-    .map_err(|e| Error::io(path, e))
+    let bytes = encode_exr(width, height, pixels)?;
+    std::fs::write(path, bytes).map_err(|e| Error::io(path, e))
 }
 
 /// 8-bit sRGB code of a linear value.
@@ -83,11 +98,25 @@ pub fn encode_srgb8_image(pixels: &[[f32; 3]], exposure: f32) -> Vec<u8> {
     pixels.iter().flat_map(|p| p.map(|c| encode_srgb8(c * scale))).collect()
 }
 
-/// Writes linear RGB pixels as an 8-bit sRGB PNG after scaling by `2^exposure`.
+/// Linear RGB pixels as the bytes of an 8-bit sRGB PNG after scaling by `2^exposure` (the `image`
+/// crate's default PNG encoder, as `image::save_buffer` writes it).
+pub fn encode_png(width: u32, height: u32, pixels: &[[f32; 3]], exposure: f32) -> Result<Vec<u8>> {
+    use image::ImageEncoder;
+    check_len(Path::new("<png>"), width, height, pixels.len())?;
+    let bytes = encode_srgb8_image(pixels, exposure);
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(&bytes, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| Error::invalid(format!("cannot encode a PNG image of {width}x{height}: {e}")))?;
+    Ok(out)
+}
+
+/// Writes linear RGB pixels as an 8-bit sRGB PNG after scaling by `2^exposure` (encoded in memory, then
+/// written; any write error is returned).
 pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure: f32) -> Result<()> {
     check_len(path, width, height, pixels.len())?;
-    let bytes = encode_srgb8_image(pixels, exposure);
-    image::save_buffer(path, &bytes, width, height, image::ColorType::Rgb8).map_err(|e| Error::io(path, e))
+    let bytes = encode_png(width, height, pixels, exposure)?;
+    std::fs::write(path, bytes).map_err(|e| Error::io(path, e))
 }
 
 #[cfg(test)]

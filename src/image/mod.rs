@@ -14,6 +14,6 @@ pub mod pfm;
 pub mod size_policy;
 
 pub use hdr::read_hdr;
-pub use io::{encode_srgb8_image, read_exr, write_exr, write_png};
+pub use io::{encode_exr, encode_png, encode_srgb8_image, read_exr, write_exr, write_png};
 pub use metrics::{fraction_within, mae, max_abs_error, mse, relative_l2, relative_mse, rmse};
 pub use pfm::{read_pfm, write_pfm};

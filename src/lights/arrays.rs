@@ -16,7 +16,8 @@
 //!   Phi (W), bsdf; optional vsl_radius (m, finite and >= 0: a virtual spherical light, `lights::vsl`;
 //!   0 = a point VPL, the default; ignored for other kinds)
 //!
-//! Unit vectors must have length 1 within `UNIT_TOL`; positions finite; intensities finite and >= 0.
+//! Unit vectors must have length 1 within `UNIT_TOL`; positions finite; intensities finite, >= 0 and at most
+//! `MAX_INTENSITY` (so that contributions stay finite in float32).
 use super::{LightKind, LightSet};
 use crate::error::{Error, Result};
 use crate::shading::GpuBsdf;
@@ -76,6 +77,10 @@ fn need<'a, T>(name: &str, arr: &'a Option<Vec<T>>, j: usize, kind: LightKind) -
         .map(|a| &a[j])
         .ok_or_else(|| Error::invalid(format!("{name} is required for {} lights (light {j} is one)", kind_name(kind))))
 }
+
+/// The largest intensity component accepted (W/sr, W/m^2 or W): 1e30 leaves eight orders of magnitude of
+/// float32's range (3.4e38) for the BSDF, cosine and 1/d^2 factors of a contribution and for sums of columns.
+pub const MAX_INTENSITY: f32 = 1e30;
 
 fn finite(name: &str, j: usize, v: Vec3) -> Result<Vec3> {
     if !v.is_finite() {
@@ -140,6 +145,13 @@ impl LightSet {
             let intensity = finite("intensity", j, a.intensity[j])?;
             if intensity.min_element() < 0.0 {
                 return Err(Error::invalid(format!("intensity[{j}] must be >= 0, got {:?}", intensity.to_array())));
+            }
+            if intensity.max_element() > MAX_INTENSITY {
+                return Err(Error::invalid(format!(
+                    "intensity[{j}] = {:?} is above {MAX_INTENSITY:e}: a contribution (intensity times BSDF and geometry \
+                     terms, float32) could overflow to inf; scale the lights (or the scene's units) down",
+                    intensity.to_array()
+                )));
             }
             let (mut position, mut direction, mut normal, mut geo, mut incident) =
                 (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);

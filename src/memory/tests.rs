@@ -43,3 +43,18 @@ fn available_memory_is_known_on_linux() {
         assert!(a > 1 << 20, "{a}");
     }
 }
+
+#[test]
+fn address_space_and_data_limits_bound_the_room() {
+    let limits = "Limit                     Soft Limit           Hard Limit           Units     \n\
+                  Max data size             unlimited            unlimited            bytes     \n\
+                  Max address space         1536000000           unlimited            bytes     \n";
+    let status = "Name:\tpython\nVmSize:\t  500000 kB\nVmData:\t  300000 kB\n";
+    assert_eq!(rlimit_room(limits, status), Some(1_536_000_000 - 500_000 * 1024));
+    let both = limits.replace("Max data size             unlimited", "Max data size             400000000");
+    assert_eq!(rlimit_room(&both, status), Some(400_000_000 - 300_000 * 1024));
+    let none = limits.replace("1536000000", "unlimited");
+    assert_eq!(rlimit_room(&none, status), None);
+    // Above the limit already: no room at all.
+    assert_eq!(rlimit_room(limits, "VmSize:\t 2000000 kB\n"), Some(0));
+}

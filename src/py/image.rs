@@ -1,8 +1,10 @@
-//! EXR / PNG I/O for (H, W, 3) float32 images.
+//! EXR / PNG I/O for (H, W, 3) float32 images: reading, and encoding to bytes (files are written by the
+//! Python writer path, `manylights._utils.files.atomic_write`).
 use super::util::array;
 use crate::error::Error;
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+use pyo3::types::PyBytes;
 use std::path::PathBuf;
 
 fn hw3(img: &PyReadonlyArrayDyn<'_, f32>) -> PyResult<(u32, u32, Vec<[f32; 3]>)> {
@@ -24,12 +26,12 @@ fn hw3(img: &PyReadonlyArrayDyn<'_, f32>) -> PyResult<(u32, u32, Vec<[f32; 3]>)>
     Ok((shape[1] as u32, shape[0] as u32, data))
 }
 
-/// Write a float32 RGB OpenEXR file.
+/// The bytes of a float32 RGB OpenEXR file of an (H, W, 3) image (written by the Python writer path).
 #[pyfunction]
-pub fn write_exr(py: Python<'_>, path: PathBuf, image: PyReadonlyArrayDyn<'_, f32>) -> PyResult<()> {
+pub fn encode_exr<'py>(py: Python<'py>, image: PyReadonlyArrayDyn<'py, f32>) -> PyResult<Bound<'py, PyBytes>> {
     let (w, h, data) = hw3(&image)?;
-    py.detach(move || crate::image::write_exr(&path, w, h, &data))?;
-    Ok(())
+    let bytes = py.detach(move || crate::image::encode_exr(w, h, &data))?;
+    Ok(PyBytes::new(py, &bytes))
 }
 
 /// Read an OpenEXR file as (H, W, 3) float32 (RGB; Y is broadcast).
@@ -40,16 +42,16 @@ pub fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAr
     array(py, flat, &[h as usize, w as usize, 3])
 }
 
-/// Write an 8-bit sRGB PNG of a linear image scaled by 2^exposure (clamped).
+/// The bytes of an 8-bit sRGB PNG of a linear image scaled by 2^exposure (clamped).
 #[pyfunction]
-#[pyo3(signature = (path, image, exposure=0.0))]
-pub fn write_png(py: Python<'_>, path: PathBuf, image: PyReadonlyArrayDyn<'_, f32>, exposure: f32) -> PyResult<()> {
+#[pyo3(signature = (image, exposure=0.0))]
+pub fn encode_png<'py>(py: Python<'py>, image: PyReadonlyArrayDyn<'py, f32>, exposure: f32) -> PyResult<Bound<'py, PyBytes>> {
     if !exposure.is_finite() {
         return Err(Error::invalid(format!("exposure must be finite, got {exposure}")).into());
     }
     let (w, h, data) = hw3(&image)?;
-    py.detach(move || crate::image::write_png(&path, w, h, &data, exposure))?;
-    Ok(())
+    let bytes = py.detach(move || crate::image::encode_png(w, h, &data, exposure))?;
+    Ok(PyBytes::new(py, &bytes))
 }
 
 /// A linear image as 8-bit sRGB, scaled by 2^exposure and clamped, exactly as `write_png` encodes it.
@@ -66,8 +68,8 @@ pub fn encode_srgb8<'py>(py: Python<'py>, image: PyReadonlyArrayDyn<'py, f32>, e
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(encode_srgb8, m)?)?;
-    m.add_function(wrap_pyfunction!(write_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(encode_exr, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
-    m.add_function(wrap_pyfunction!(write_png, m)?)?;
+    m.add_function(wrap_pyfunction!(encode_png, m)?)?;
     Ok(())
 }

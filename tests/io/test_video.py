@@ -66,7 +66,23 @@ def test_failed_write_leaves_nothing(tmp_path, monkeypatch):
 
     monkeypatch.setattr(iio, "imwrite", boom)
     with pytest.raises(KeyboardInterrupt):
+        ml.write_video(frames, tmp_path / "a.gif")
+    assert list(tmp_path.iterdir()) == []
+    # MP4: Ctrl-C while ffmpeg runs kills ffmpeg, waits for it and removes its temporary file.
+    import subprocess
+
+    started = []
+    real = subprocess.Popen.communicate
+
+    def interrupted(self, *a, **k):
+        started.append(self)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(subprocess.Popen, "communicate", interrupted)
+    with pytest.raises(KeyboardInterrupt):
         ml.write_video(frames, tmp_path / "a.mp4")
+    monkeypatch.setattr(subprocess.Popen, "communicate", real)
+    assert len(started) == 1 and started[0].returncode is not None  # ffmpeg was waited for
     assert list(tmp_path.iterdir()) == []
 
 

@@ -486,20 +486,17 @@ def _write_env(tmp_path, data, name="env.exr"):
 ENV = '<emitter type="envmap"><string name="filename" value="{file}"/></emitter>'
 
 
-def test_non_finite_env_texels_count_as_zero(tmp_path):
+def test_non_finite_and_negative_env_texels_are_refused(tmp_path):
+    # Reading them as zero changed the lighting silently: the scene is refused, naming the file and count.
     data = np.ones((8, 16, 3), np.float32)
     data[2, 3] = [np.nan, 1, 1]
     data[5, 10] = [np.inf, 1, 1]
-    scene = _scene(tmp_path, ENV.format(file=_write_env(tmp_path, data)))
-    lights, img = _finite_render(scene, environment=256, indirect=200)
-    assert np.isfinite(lights.power).all() and (lights.power > 0).any()
-    clean = _scene(tmp_path, ENV.format(file=_write_env(tmp_path, np.ones((8, 16, 3)), "clean.exr")), "clean.xml")
-    ref_lights = ml.generate_lights(clean, environment=256)
-    # Two of 128 texels are zero in red: the red power drops, by at most two texels' largest solid-angle
-    # share (at the equator: (pi / H)(2 pi / W) / 4 pi each).
-    env = lights.kind == 2
-    drop = 1 - lights.power[env, 0].sum() / ref_lights.power[ref_lights.kind == 2, 0].sum()
-    assert 0 < drop < 2 * np.pi / (2 * 8 * 16)
+    data[7, 0] = [1, -0.5, 1]
+    with pytest.raises(ml.SceneError, match=r"envmap .*env\.exr: 3 of 128 texels are NaN, infinite or negative "
+                                            r"\(the first: texel 35 = \[NaN, 1\.0, 1\.0\]\)"):
+        _scene(tmp_path, ENV.format(file=_write_env(tmp_path, data)))
+    data[2, 3] = data[5, 10] = data[7, 0] = 1
+    _scene(tmp_path, ENV.format(file=_write_env(tmp_path, data, "clean.exr")), "clean.xml")
 
 
 def test_non_lat_long_env_map(tmp_path):

@@ -286,6 +286,37 @@ HDR_BYTES = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 4\n" + bytes([128, 6
 PFM_BYTES = b"PF\n4 4\n-1.0\n" + struct.pack("<48f", *([0.5] * 48))
 
 
+def _exr_with(texel):
+    import tempfile
+
+    import manylights as ml
+    img = np.full((4, 8, 3), 0.5, np.float32)
+    img[1, 2] = texel
+    img[3, 5] = texel
+    with tempfile.TemporaryDirectory() as d:
+        ml.write_exr(Path(d) / "t.exr", img)
+        return (Path(d) / "t.exr").read_bytes()
+
+
+cases_for("load_scene[envmap]", [
+    (f"{what} texels", lambda c, t=t, w=what: _env_scene(c, f"env-{w}", f"{w}.exr", _exr_with(t)),
+     [f"{what}.exr", "2 of 32 texels", "texel 10", "finite and >= 0"])
+    for what, t in (("nan", [np.nan, 0.5, 0.5]), ("inf", [0.5, np.inf, 0.5]), ("negative", [0.5, 0.5, -1.0]))
+], raises=("SceneError", "ValueError"))
+
+
+def _area_tex_scene(ctx, tag, fname, data):
+    body = (f'<shape type="rectangle"><emitter type="area"><texture name="radiance" type="bitmap">'
+            f'<string name="filename" value="{fname}"/></texture></emitter></shape>')
+    return ctx.ml.load_scene(ctx.scene_with(tag, body, {fname: data}))
+
+
+cases_for("load_scene[area emitter texture]", [
+    (f"{what} texels", lambda c, t=t, w=what: _area_tex_scene(c, f"area-{w}", f"{w}.exr", _exr_with(t)),
+     [f"{what}.exr", "area emitter radiance texture", "2 of 32 texels", "finite and >= 0"])
+    for what, t in (("nan", [np.nan, 0.5, 0.5]), ("negative", [0.5, 0.5, -1.0]))
+], raises=("SceneError", "ValueError"))
+
 for _kind, _load_fn in [("bitmap", _tex_scene), ("envmap", _env_scene)]:
     cases_for(f"load_scene[{_kind}]", [
         ("truncated PNG", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-png", "t.png", c.png_bytes[:40]), ["t.png"]),
@@ -461,6 +492,9 @@ cases_for("LightSet.from_arrays", [
                                                                   intensity=np.ones((2, 3))), ["position", "(2, 3)"]),
     ("negative intensity", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=0, position=[[0, 0, 0]],
                                                                 intensity=[[1, -1, 1]]), ["intensity[0]", ">= 0"]),
+    ("intensity overflowing float32", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=0, position=[[0, 0, 0]],
+                                                                           intensity=[[3e38] * 3]),
+     ["intensity[0]", "1e30", "overflow"]),
     ("inf power", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=0, position=[[0, 0, 0]],
                                                        power=[[1, np.inf, 1]]), ["power[0]", "finite"]),
     ("unknown kind", lambda c: c.ml.LightSet.from_arrays(c.scene, kind=7, position=[[0, 0, 0]],
@@ -555,6 +589,28 @@ cases_for("LightMatrix.column_sum", [
     ("empty weights", lambda c: c.A.column_sum(np.ones(0), progress=False), ["length"]),
     ("native: wrong length", lambda c: c.A._m.column_sum(np.ones(c.n + 1, np.float32)), ["length"]),
 ])
+def _overflowing_matrix(c):
+    """Light 1 of 1e30 W/sr a millionth of a unit above a visible surface: its contribution overflows."""
+    def make():
+        vs = c.A.view_samples()
+        p, n = vs["position"][vs["surface"]][10], vs["normal"][vs["surface"]][10]
+        lights = c.ml.LightSet.from_arrays(c.scene, kind=[0, 0], position=[[0, 1, 0], (p + n * 1e-6).tolist()],
+                                           intensity=[[1, 1, 1], [1e30] * 3])
+        return c.ml.LightMatrix(c.scene, lights, device="cpu")
+    return c._get("overflow", make)
+
+
+cases_for("LightMatrix.column_sum", [
+    ("a contribution overflowing float32", lambda c: _overflowing_matrix(c).column_sum(progress=False),
+     ["view sample", "light 1", "inf"]),
+    ("weights overflowing the sum", lambda c: c.ml.LightMatrix(c.scene, c.ml.LightSet.from_arrays(
+        c.scene, kind=[0, 0], position=[[0, 1, 0], [0, 1.1, 0]], intensity=[[1e30] * 3] * 2), device="cpu").column_sum(
+        [1e10, 1e10], progress=False),
+     ["view sample", "weighted sum", "inf"]),
+], raises=("FloatingPointError",))
+cases_for("LightMatrix.columns", [
+    ("a column overflowing float32", lambda c: _overflowing_matrix(c).columns([1]), ["light 1", "view sample", "inf"]),
+], raises=("FloatingPointError",))
 cases_for("LightMatrix.column_sum", [("strings", lambda c: c.A.column_sum(["a"] * c.n, progress=False), ["'a'"])],
           raises=("TypeError",))
 cases_for("LightMatrix.weighted_sum", [
@@ -1005,6 +1061,9 @@ cases_for("mrcs", [
     ("negative error_rows", lambda c: c.ml.mrcs(c.A, rows=4, columns=2, error_rows=-1), ["error_rows"]),
     ("error_rows past the pixels", lambda c: c.ml.mrcs(c.A, rows=4, columns=2, error_rows=c.m + 1), ["error_rows"]),
     ("halves with one column", lambda c: c.ml.mrcs(c.A, rows=4, columns=1, halves=True), ["columns"]),
+    ("halves with one light", lambda c: c.ml.mrcs(c.ml.LightMatrix(c.scene, c.ml.LightSet.from_arrays(
+        c.scene, kind=0, position=[[0, 1, 0]], intensity=[[1, 1, 1]]), device="cpu"), rows=4, columns=2, halves=True),
+     ["halves=True needs >= 2 lights", "has 1"]),
     ("halves with a given clustering", lambda c: c.ml.mrcs(
         c.A, halves=True, clustering={"representatives": [0], "weights": np.ones((1, 3))}), ["halves"]),
 ])
@@ -1134,13 +1193,13 @@ cases_for("native.load_scene", [
 ], raises=("ValueError", "TypeError", "SceneError"))
 cases_for("native.scene_lights", [("not a scene", lambda c: c.native.scene_lights(3), ["Scene"])],
           raises=("TypeError",))
-cases_for("native.write_exr", [
-    ("float64 image", lambda c: c.native.write_exr(str(c.tmp / "o.exr"), np.zeros((2, 2, 3))), ["float32"]),
-    ("2-D image", lambda c: c.native.write_exr(str(c.tmp / "o.exr"), np.zeros((2, 2), np.float32)), ["(H, W, 3)"]),
+cases_for("native.encode_exr", [
+    ("float64 image", lambda c: c.native.encode_exr(np.zeros((2, 2, 3))), ["float32"]),
+    ("2-D image", lambda c: c.native.encode_exr(np.zeros((2, 2), np.float32)), ["(H, W, 3)"]),
 ], raises=("TypeError", "ValueError"))
-cases_for("native.write_png", [
-    ("float64 image", lambda c: c.native.write_png(str(c.tmp / "o.png"), np.zeros((2, 2, 3))), ["float32"]),
-    ("NaN exposure", lambda c: c.native.write_png(str(c.tmp / "o.png"), np.zeros((2, 2, 3), np.float32), float("nan")),
+cases_for("native.encode_png", [
+    ("float64 image", lambda c: c.native.encode_png(np.zeros((2, 2, 3))), ["float32"]),
+    ("NaN exposure", lambda c: c.native.encode_png(np.zeros((2, 2, 3), np.float32), float("nan")),
      ["exposure"]),
 ], raises=("TypeError", "ValueError"))
 cases_for("scenes.scene_path", [

@@ -86,3 +86,58 @@ def test_bad_memory_limit_setting(matrix, monkeypatch):
     monkeypatch.setenv("MANYLIGHTS_MEMORY_LIMIT", "lots")
     with pytest.raises(ValueError, match="MANYLIGHTS_MEMORY_LIMIT must be a byte count .* got \"lots\""):
         matrix.rows([0], progress=False)
+
+
+# --- Address-space and data-segment limits (ulimit -v / ulimit -d) -------------------------------------------
+# Each request runs in a child process whose limit is set before it starts; without the limit in the policy
+# the allocation fails inside Rust and the process aborts (SIGABRT, "memory allocation failed").
+ULIMIT_CHILD = r"""
+import sys, manylights as ml
+which = sys.argv[1]
+s = ml.load_scene(sys.argv[2], res=32)
+try:
+    if which == "columns":
+        ml.LightMatrix(s, ml.generate_lights(s, area=64, seed=0), device="cpu").columns([0] * 150000)
+    elif which == "generate_lights":
+        ml.generate_lights(s, area=8_000_000, seed=0)
+    elif which == "gpu columns":
+        L = ml.generate_lights(s, area=64, seed=0)
+        try:
+            A = ml.LightMatrix(s, L, device="gpu", shadow_map_size=64)
+        except MemoryError:
+            raise
+        except Exception as e:  # no adapter on this machine
+            print("NO GPU:", e)
+            sys.exit(0)
+        A.columns([0] * 150000)
+    print("RETURNED")
+except MemoryError as e:
+    print("MemoryError:", e)
+"""
+
+
+@pytest.mark.parametrize("limit", ["RLIMIT_AS", "RLIMIT_DATA"])
+@pytest.mark.parametrize("which", ["columns", "generate_lights", "gpu columns"])
+def test_requests_past_an_address_space_limit_raise_memoryerror_in_a_child(which, limit):
+    import resource
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    if limit == "RLIMIT_DATA" and which == "gpu columns":
+        pytest.skip("one GPU case (ulimit -v) suffices")
+    repo = Path(__file__).resolve().parents[2]
+    lim = getattr(resource, limit)
+
+    def set_limit():  # ulimit -v 1500000 (KiB) / ulimit -d 1500000
+        resource.setrlimit(lim, (1_500_000 * 1024, resource.RLIM_INFINITY))
+
+    p = subprocess.run([sys.executable, "-c", ULIMIT_CHILD, which, str(repo / "scenes" / "demo" / "scene.xml")],
+                       preexec_fn=set_limit, capture_output=True, text=True, timeout=300,
+                       env={**__import__("os").environ, "PYTHONPATH": str(repo / "python")})
+    assert p.returncode == 0, f"exit status {p.returncode} (an abort is -6): {p.stderr[-1500:]}"
+    if p.stdout.startswith("NO GPU:"):
+        pytest.skip(p.stdout.strip())
+    assert p.stdout.startswith("MemoryError:"), p.stdout + p.stderr[-1500:]
+    needs = {"columns": "1.84 GB", "gpu columns": "1.84 GB", "generate_lights": "1.89 GB"}[which]
+    assert needs in p.stdout and "ulimit -v / -d" in p.stdout, p.stdout

@@ -22,6 +22,8 @@ def integer(name: str, v, lo: Optional[int] = None, hi: Optional[int] = None) ->
         out = int(v)
     else:
         raise ValueError(f"{name} must be an integer, got {v!r}")
+    if lo is not None and hi is not None and lo > hi:  # no value fits: say both bounds, not "lo..=hi"
+        raise ValueError(f"{name} has no valid value here: it must be >= {lo} and also <= {hi}; got {out}")
     if (lo is not None and out < lo) or (hi is not None and out > hi):
         rng = f"in {lo}..={hi}" if lo is not None and hi is not None else f">= {lo}" if lo is not None else f"<= {hi}"
         raise ValueError(f"{name} must be {rng}, got {out}")

@@ -19,6 +19,7 @@ import numpy as np
 
 import manylights as ml
 
+from .._utils.files import atomic_write_text
 from ..scenes import resolve
 
 # scene -> loader params (bundled scenes/<name>/scene.xml)
@@ -110,6 +111,6 @@ def run(args) -> dict:
                   f"weighted {ratios['weighted_column_ms']:.1f}x, row {ratios['row_ms']:.1f}x")
         report["scenes"][name] = {"size": [scene.width, scene.height], "lights": len(lights),
                                   "row_lights": len(row_lights), "results": res}
-        (out / "backends.json").write_text(json.dumps(report, indent=2) + "\n")
+        atomic_write_text(out / "backends.json", json.dumps(report, indent=2) + "\n")
     print(f"wrote {out / 'backends.json'}")
     return report

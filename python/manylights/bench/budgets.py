@@ -46,6 +46,7 @@ import numpy as np
 
 import manylights as ml
 
+from .._utils.files import atomic_write, atomic_write_text
 from .._utils.progress import mode
 from ..distributed import worker as sweep_worker
 from ..distributed.specs import parse_lights, scene_specs
@@ -193,7 +194,7 @@ def run(args) -> dict:
                    "brute_force_seconds": float(ref["seconds"]), "seeds": args.seeds, "targets": list(done),
                    "complete": len(done) == len(args.targets), "reach": REACH, "sweep_wall_seconds": sweep_wall,
                    "table": table, "fixed": fixed, "runs": [x for x in runs if x["target"] in done]}
-        (out / f"budgets-{name}.json").write_text(json.dumps(summary, indent=1) + "\n")
+        atomic_write_text(out / f"budgets-{name}.json", json.dumps(summary, indent=1) + "\n")
         _chart(summary, out / f"budgets-{name}.png")
         row = table[-1]
         cf = row["cheapest_fixed"]
@@ -280,5 +281,5 @@ def _chart(summary: dict, path: Path) -> None:
     fig.suptitle(f"{Path(summary['scene']).parent.name} {w}x{h}, {summary['lights']} lights, {summary['seeds']} seeds",
                  fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)

@@ -26,6 +26,7 @@ import numpy as np
 
 import manylights as ml
 
+from .._utils.files import atomic_write, atomic_write_text
 from .common import display_path, parse_budgets, resolve_scene
 
 DEFAULT_SCENES = ["cbox-lights", "veach-ajar", "bounce", "demo"]
@@ -122,7 +123,7 @@ def run(args) -> dict:
             print(f"{n} lights, {est}: {by_lights[str(n)][est]:.1%} of {k} runs within a factor 2")
     for est, frac in summary.items():
         print(f"ALL {est}: {frac:.1%} of {sum(x['estimator'] == est for x in all_runs)} runs within a factor 2")
-    (out / "calibrate.json").write_text(json.dumps({"config": {"res": args.res, "lights": counts,
+    atomic_write_text(out / "calibrate.json", json.dumps({"config": {"res": args.res, "lights": counts,
                                                                "budgets": args.budgets, "seeds": args.seeds,
                                                                "device": args.device},
                                                     "within_2x": summary, "within_2x_by_lights": by_lights,
@@ -157,5 +158,5 @@ def _plot(runs, path: Path) -> None:
     ax.set_title("MRCS error estimate calibration")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)

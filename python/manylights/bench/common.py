@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._utils.files import atomic_write
 from ..scenes import resolve
 
 #: The repository the package was installed from (benchmarks write paths relative to it).
@@ -91,7 +92,7 @@ def finish_loglog(fig, ax, png: Path, xlabel: str, ylabel: str, title: str, lege
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=legend_size)
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)
 
 

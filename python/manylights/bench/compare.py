@@ -25,6 +25,7 @@ from pathlib import Path
 
 import manylights as ml
 
+from .._utils.files import atomic_write, atomic_write_text
 from . import light_models
 from .common import display_path, finish_loglog, method_records, ok_rows, resolve_scene, settings_tag
 from .dask_options import add_dask_arguments, check_dask_arguments
@@ -134,7 +135,7 @@ def run(args) -> dict:
                                                   "rel_l2": best["rel_l2_mean"], "seconds": best["seconds"]}
     print(f"brute force {t_brute:.2f} s; speed-up at <= 2% error: "
           + ", ".join(f"{m} {v['speedup']:.1f}x" for m, v in summary["speedup_at_2pct"].items()), flush=True)
-    (out / f"{stem}.json").write_text(json.dumps(summary, indent=2) + "\n")
+    atomic_write_text(out / f"{stem}.json", json.dumps(summary, indent=2) + "\n")
     title = f"{path.parent.name}: {summary['lights']} lights, {size[0]}x{size[1]}, {args.seeds} seeds"
     _chart(records, t_brute, out / f"{stem}.png", title)
     if study:
@@ -182,5 +183,5 @@ def _study_chart(study, lights: list, views: list, png: Path, title: str) -> Non
         ax.legend(fontsize=8)
     fig.suptitle(f"clustered visibility: {title}")
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)

@@ -32,6 +32,7 @@ from typing import Optional
 
 import manylights as ml
 
+from .._utils.files import atomic_write_text
 from .common import REFERENCES, display_path, finish_loglog, method_records, ok_rows, settings_tag
 
 #: name -> (sweep light-model settings, chart label with indirect lights, label for a direct-only scene).
@@ -144,7 +145,7 @@ def run(args, path: Path, film) -> dict:
                "seeds": args.seeds, "light_seed": 0, "sweep_wall_seconds": wall,
                "light_models": {n: {"settings": models[n], "label": label(n, direct_only)} for n in models},
                "records": records, "brute_force": brute}
-    (out / f"{stem}.json").write_text(json.dumps(summary, indent=2) + "\n")
+    atomic_write_text(out / f"{stem}.json", json.dumps(summary, indent=2) + "\n")
     title = (f"{scene_stem(path)}: {int(ok.iloc[0]['lights'])} lights, {size[0]}x{size[1]}, {args.seeds} seeds, "
              f"max_depth {max_depth}")
     chart(records, brute, out / f"{stem}.png", title, against, direct_only)

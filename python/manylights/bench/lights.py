@@ -18,6 +18,7 @@ import numpy as np
 
 import manylights as ml
 
+from .._utils.files import atomic_write, atomic_write_text
 from ..scenes import scene_path
 from .common import references_dir
 
@@ -89,7 +90,7 @@ def lights_runs(args) -> list[dict]:
 
 def lights_report(runs: list[dict], out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    (out / "lights.json").write_text(json.dumps(runs, indent=2) + "\n")
+    atomic_write_text(out / "lights.json", json.dumps(runs, indent=2) + "\n")
     # Table: mean over seeds per (scene, clamp, N_i).
     groups: dict[tuple, list[dict]] = {}
     for r in runs:
@@ -121,7 +122,7 @@ def lights_report(runs: list[dict], out: Path) -> None:
     ax.set_title("Brute force over area + indirect lights (dotted: reference noise)")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out / "lights.png", dpi=120)
+    atomic_write(out / "lights.png", lambda tmp: fig.savefig(tmp, dpi=120))
     print(f"wrote {out / 'lights.json'} and {out / 'lights.png'}")
 
 

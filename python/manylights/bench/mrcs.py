@@ -20,6 +20,7 @@ import numpy as np
 
 import manylights as ml
 
+from .._utils.files import atomic_write, atomic_write_text
 from .common import display_path, ok_rows, resolve_scene, settings_tag
 from .dask_options import add_dask_arguments, check_dask_arguments
 
@@ -115,7 +116,7 @@ def run(args) -> dict:
                        ok[(ok["method"] == "mrcs") & (ok["rows"] == r) & (ok["columns"] == c)])
 
     _summarize(summary, t_brute)
-    (out / f"{stem}.json").write_text(json.dumps(summary, indent=2) + "\n")
+    atomic_write_text(out / f"{stem}.json", json.dumps(summary, indent=2) + "\n")
     _chart(records, out / f"{stem}.png", f"{path.parent.name}: {summary['lights']} lights, {size[0]}x{size[1]}, "
            f"{args.seeds} seeds")
     print(f"wrote {out / (stem + '.json')}, {out / (stem + '.png')} and the rows in "
@@ -189,5 +190,5 @@ def _chart(records, png: Path, title: str) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)

@@ -39,6 +39,7 @@ import numpy as np
 
 import manylights as ml
 
+from .._utils.files import atomic_write, atomic_write_text
 from ..io.video import to_srgb8
 from ..scenes import scene_path
 from ..testing import mitsuba as reference
@@ -183,9 +184,7 @@ def run(args) -> int:
               "coefficients": [], "culling": [], "frame_rate": [], "cpu_count": os.cpu_count()}
 
     def save():
-        t = json_path.with_suffix(f".tmp{os.getpid()}")
-        t.write_text(json.dumps(result, indent=2) + "\n")
-        os.replace(t, json_path)
+        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
 
     def precompute(sc, coefficients):
         t = time.perf_counter()
@@ -316,7 +315,7 @@ def chart(result: dict, images: dict, ref: np.ndarray, png: Path, strip_png: Pat
     b.set_title("frame rate (median)")
     b.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)
     keys = sorted(images)
     pick = sorted({keys[0], keys[len(keys) // 2], keys[-1]})
@@ -327,5 +326,5 @@ def chart(result: dict, images: dict, ref: np.ndarray, png: Path, strip_png: Pat
         ax.set_title(title, fontsize=9)
         ax.axis("off")
     fig.tight_layout()
-    fig.savefig(strip_png, dpi=120)
+    atomic_write(strip_png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import time
 from pathlib import Path
 
@@ -39,6 +38,7 @@ import manylights as ml
 import manylights.scenes as sc
 
 from .._utils.dask import connect
+from .._utils.files import atomic_write, atomic_write_text
 from .common import settings_tag
 from .dask_options import add_dask_arguments, check_dask_arguments
 
@@ -158,9 +158,7 @@ def run(args) -> dict:
         print(f"  seed {rec['seed']} {rec['method']:<18s} {rec['shadow_maps_per_frame']:7.1f} maps/frame  "
               f"rel L2 {rec['mean_relative_l2']:.3%}  flicker {rec['flicker']:.3f}  {rec['seconds']:.1f} s", flush=True)
     summary["table"] = table(summary["records"], t_brute)
-    tmp = json_path.with_suffix(f".tmp{os.getpid()}")
-    tmp.write_text(json.dumps(summary, indent=2) + "\n")
-    os.replace(tmp, json_path)
+    atomic_write_text(json_path, json.dumps(summary, indent=2) + "\n")
     print_table(summary)
     chart(summary, png_path)
     print(f"wrote {json_path}, {png_path} and the rows in {', '.join(str(p) for p in parquets.values())}")
@@ -219,5 +217,5 @@ def chart(summary: dict, png: Path) -> None:
     fig.suptitle(f"{summary['scene']} {summary['frames']} frames {W}x{H}, {summary['lights']} lights, "
                  f"{summary['seeds']} seeds")
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)

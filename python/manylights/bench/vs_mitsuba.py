@@ -45,7 +45,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,6 +54,7 @@ import numpy as np
 
 import manylights as ml
 
+from .._utils.files import atomic_write, atomic_write_text
 from .._utils.files import folder_hash as scene_hash
 from .._utils.progress import progress_bar
 from ..scenes import resolve
@@ -237,14 +237,10 @@ def cached_reference(s: dict, cache: Path, seed: int) -> tuple[np.ndarray, np.nd
                                              batch=max(1, LANES // (W * H)), progress=cb, **s["params"])
     seconds = time.perf_counter() - t
     for suffix, img in ((".exr", mean), (".var.exr", var)):
-        tmp = f"{stem}.tmp{os.getpid()}{suffix}"
-        ml.write_exr(tmp, img)
-        os.replace(tmp, f"{stem}{suffix}")
+        ml.write_exr(f"{stem}{suffix}", img)
     meta = {**key_fields, "key": key, "relative_noise": relative_noise(mean, var), "seconds": round(seconds, 2),
             "exr": Path(f"{stem}.exr").name}
-    tmp = f"{stem}.tmp{os.getpid()}.json"
-    Path(tmp).write_text(json.dumps(meta, indent=2) + "\n")
-    os.replace(tmp, meta_path)
+    atomic_write_text(meta_path, json.dumps(meta, indent=2) + "\n")
     return mean, var, meta, False
 
 
@@ -367,7 +363,7 @@ def chart(summary: dict, png: Path) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    atomic_write(png, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)
 
 
@@ -448,9 +444,7 @@ def run(args) -> dict:
     records = summary["records"]
 
     def save() -> None:
-        tmp = json_path.with_suffix(f".tmp{os.getpid()}")
-        tmp.write_text(json.dumps(summary, indent=2) + "\n")
-        os.replace(tmp, json_path)
+        atomic_write_text(json_path, json.dumps(summary, indent=2) + "\n")
 
     def errors(img) -> dict:
         e = {"relative_l2": ml.relative_l2(img, ref)}

@@ -35,7 +35,6 @@ from pathlib import Path
 import numpy as np
 
 from .._native import LightSet
-from .._utils.files import atomic_write
 from .._utils.progress import progress_bar
 from ..io.images import write_exr, write_png
 from ..lights.generate import scene_lights
@@ -224,11 +223,11 @@ def run(args) -> list[Path]:
             img = rel.relight(lights, epsilon=args.epsilon)
             seconds += time.perf_counter() - t
             p = out / f"light_{k:03d}.exr"
-            atomic_write(p, lambda tmp: write_exr(tmp, img))
+            write_exr(p, img)
             written.append(p)
             if not args.no_png:
                 q = p.with_suffix(".png")
-                atomic_write(q, lambda tmp: write_png(tmp, img, exposure=args.exposure))
+                write_png(q, img, exposure=args.exposure)
                 written.append(q)
             if callback is not None:
                 callback(k + 1, len(todo))

@@ -15,6 +15,7 @@ is lost or duplicated (one row per task key).
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -27,6 +28,7 @@ from typing import Callable, Optional, Sequence
 from .._utils import progress as _progress
 from .._utils import validate as _v
 from .._utils.dask import connect, gpu_resources
+from .._utils.files import atomic_write, exclusive
 from . import worker
 from .specs import (
     check_kinds,
@@ -80,19 +82,15 @@ def _read_existing(out: Path, definition: dict):
 
 
 def _write(out: Path, df, definition: dict) -> None:
-    """Write ``df`` to ``out`` atomically: a temporary file beside it, then a rename over it."""
+    """Write ``df`` to ``out`` atomically (``_utils.files.atomic_write``: a temporary file beside it, synced,
+    then renamed over it)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     table = pa.Table.from_pandas(df, preserve_index=False)
     table = table.replace_schema_metadata({**(table.schema.metadata or {}),
                                            META_KEY: json.dumps(definition).encode()})
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    try:
-        pq.write_table(table, tmp)
-        os.replace(tmp, out)
-    finally:
-        tmp.unlink(missing_ok=True)
+    atomic_write(out, lambda tmp: pq.write_table(table, tmp))
 
 
 def _frame(rows: list[dict], order: dict):
@@ -252,6 +250,9 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         OSError: a scheduler address not reachable within ``connect_timeout``.
         TypeError: scenes not a list of paths / pairs.
         KeyboardInterrupt: Ctrl-C; the rows written so far stay in ``out``, the LocalCluster is closed.
+        RuntimeError (``_utils.files.LockedError``): another sweep (thread, process or host) is writing ``out``:
+            each sweep holds ``<out>.lock`` (its pid, host and start time) while it runs; a lock of a dead
+            process of this host is taken over.
     """
     local = client is None
     specs = scene_specs(scenes, local=local)
@@ -281,55 +282,58 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
     tasks = make_tasks(specs, methods, budgets, seeds, lights, matrix, options, models, truths)
     order = {t["task"]: i for i, t in enumerate(tasks)}
     definition = definition_of(specs, methods, budgets, seeds, lights, matrix, options, models, truths)
-    done: dict[str, dict] = {}
     if out is not None:
         out = Path(out)
         if not out.parent.is_dir():
             raise FileNotFoundError(f"out={out}: the directory {out.parent} does not exist")
-        old = _read_existing(out, definition)
-        if old is not None:
-            for r in old.to_dict("records"):
-                if r["task"] in order and not (rerun_errors and r["status"] == "error"):
-                    done[r["task"]] = r
-    todo = [t for t in tasks if t["task"] not in done]
-
-    bar = _Progress(len(tasks), len(done), progress)
-    exc = None
-    rows = dict(done)
-
-    def accept(row: dict) -> None:
-        task = tasks[order[row["task"]]]
-        s = task["scene"]
-        row = {**row, "scene": s["display"], "params": json.dumps(s["params"], sort_keys=True),
-               "method": task["method"], "rows": task["rows"], "columns": task["columns"], "seed": task["seed"],
-               "light_model": task["light_model"]}
-        row.setdefault("error_estimate", math.nan)
-        rows[row["task"]] = row
+    # One sweep at a time per out file (threads, processes, hosts): a second one is refused, not mixed in.
+    with exclusive(out, "sweep") if out is not None else contextlib.nullcontext():
+        done: dict[str, dict] = {}
         if out is not None:
-            _write(out, _frame(list(rows.values()), order), definition)
-        bar.update(row)
-        if on_row is not None:
-            on_row(row)
+            old = _read_existing(out, definition)
+            if old is not None:
+                for r in old.to_dict("records"):
+                    if r["task"] in order and not (rerun_errors and r["status"] == "error"):
+                        done[r["task"]] = r
+        todo = [t for t in tasks if t["task"] not in done]
 
-    try:
-        if todo and workers == 0 and local:
-            _run_serial(todo, reference_dir, accept)
-        elif todo:
-            cl, owned = connect(client, workers, connect_timeout, device)
-            try:
-                _run_dask(cl, todo, reference_dir, accept)
-            finally:
-                if owned:
-                    cluster = cl.cluster
-                    cl.close()
-                    if cluster is not None:
-                        cluster.close()
-    except BaseException as e:
-        exc = e
-        raise
-    finally:
-        bar.close(exc)
-    return _frame(list(rows.values()), order)
+        bar = _Progress(len(tasks), len(done), progress)
+        exc = None
+        rows = dict(done)
+
+        def accept(row: dict) -> None:
+            task = tasks[order[row["task"]]]
+            s = task["scene"]
+            row = {**row, "scene": s["display"], "params": json.dumps(s["params"], sort_keys=True),
+                   "method": task["method"], "rows": task["rows"], "columns": task["columns"], "seed": task["seed"],
+                   "light_model": task["light_model"]}
+            row.setdefault("error_estimate", math.nan)
+            rows[row["task"]] = row
+            if out is not None:
+                _write(out, _frame(list(rows.values()), order), definition)
+            bar.update(row)
+            if on_row is not None:
+                on_row(row)
+
+        try:
+            if todo and workers == 0 and local:
+                _run_serial(todo, reference_dir, accept)
+            elif todo:
+                cl, owned = connect(client, workers, connect_timeout, device)
+                try:
+                    _run_dask(cl, todo, reference_dir, accept)
+                finally:
+                    if owned:
+                        cluster = cl.cluster
+                        cl.close()
+                        if cluster is not None:
+                            cluster.close()
+        except BaseException as e:
+            exc = e
+            raise
+        finally:
+            bar.close(exc)
+        return _frame(list(rows.values()), order)
 
 
 def _ref_id(task: dict) -> str:

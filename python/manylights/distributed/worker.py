@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import socket
 import threading
 import time
@@ -24,7 +23,7 @@ from typing import Optional
 
 import numpy as np
 
-from .._utils.files import folder_hash
+from .._utils.files import atomic_write, folder_hash, npz_bytes
 from ..animation.frames import load_animation
 from ..animation.lights import generate_animation_lights
 from ..animation.tensor import LightTensor, mrcs_per_frame
@@ -210,12 +209,7 @@ def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_
         image = image.astype(np.float32)
     seconds = time.perf_counter() - t
     d.mkdir(parents=True, exist_ok=True)
-    tmp = d / f".{key}.{os.getpid()}.{threading.get_ident()}.tmp.npz"
-    try:
-        np.savez(tmp, image=image, seconds=seconds)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    atomic_write(path, data=npz_bytes(image=image, seconds=seconds))
     return {**out, "image": image, "seconds": seconds, "cached": False}
 
 

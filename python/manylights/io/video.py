@@ -10,13 +10,15 @@ Animations", EGSR 2008) renders f frames at once; its results are compared by ey
 - ``side_by_side``: panels of equal size concatenated left to right with a labelled header, e.g.
   tensor | per-frame MRCS | brute force | error.
 
-Every file appears complete or not at all: it is written to a temporary name in the target folder and
-renamed when done, so an error or Ctrl-C in the middle leaves no partial file behind.
+Every file appears complete or not at all (``_utils.files.atomic_write``: a temporary name in the target
+folder, synced and renamed over the target), so an error, a full disk, Ctrl-C or a killed process in the
+middle leaves the old file (or none), never a partial one.
 
 Symbols: f frames, H x W pixels, k panels.
 """
 from __future__ import annotations
 
+import errno
 import os
 from pathlib import Path
 from typing import Optional, Sequence
@@ -25,7 +27,7 @@ import numpy as np
 
 from .. import _native
 from .._utils import validate as _v
-from .._utils.files import atomic_write
+from .._utils.files import atomic_write, held_signals
 from .images import write_exr
 
 #: Header height (pixels) of labelled strips.
@@ -78,7 +80,7 @@ def write_exr_sequence(frames, folder: str | os.PathLike, prefix: str = "frame")
     paths = []
     for k, frame in enumerate(a):
         p = folder / f"{prefix}_{k:04d}.exr"
-        atomic_write(p, lambda tmp: write_exr(tmp, frame))
+        write_exr(p, frame)
         paths.append(p)
     return paths
 
@@ -122,14 +124,44 @@ def write_video(frames, path: str | os.PathLike, fps: float = 12.0, exposure: fl
         if h % 2 or w % 2:  # yuv420p needs even sizes
             rgb = np.pad(rgb, ((0, 0), (0, h % 2), (0, w % 2), (0, 0)))
 
-        def write(tmp):
-            iio.imwrite(tmp, rgb, plugin="FFMPEG", fps=fps, codec="libx264", macro_block_size=1,
-                        output_params=["-pix_fmt", "yuv420p", "-crf", "18"])
+        atomic_write(path, lambda tmp: _ffmpeg_mp4(rgb, fps, tmp, path))
     else:
-        def write(tmp):
-            iio.imwrite(tmp, rgb, plugin="pillow", duration=1000.0 / fps, loop=0)
-    atomic_write(path, write)
+        data = iio.imwrite("<bytes>", rgb, plugin="pillow", extension=".gif", duration=1000.0 / fps, loop=0)
+        atomic_write(path, data=data)
     return path
+
+
+def _ffmpeg_mp4(rgb: np.ndarray, fps: float, tmp: Path, path: Path) -> None:
+    """Encode (f, H, W, 3) uint8 frames (even H and W) as H.264 MP4 at ``tmp`` with imageio-ffmpeg's ffmpeg and
+    the arguments imageio's FFMPEG plugin gives it (the same bytes). ffmpeg is waited for on every error and
+    on Ctrl-C (killed first), so that no ffmpeg still writes ``tmp`` once the writer removes it."""
+    import subprocess
+    from fractions import Fraction
+
+    import imageio_ffmpeg
+
+    f, h, w, _ = rgb.shape
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-f", "rawvideo", "-vcodec", "rawvideo", "-s", f"{w}x{h}",
+           "-pix_fmt", "rgb24", "-r", str(Fraction(fps).limit_denominator()), "-i", "-", "-an",
+           "-vcodec", "libx264", "-pix_fmt", "yuv420p", "-v", "warning", "-crf", "18", str(tmp)]
+    started: list = []
+    try:
+        # Ctrl-C (any signal with a Python handler) is held while ffmpeg starts, so that a KeyboardInterrupt
+        # cannot leave an ffmpeg that nobody waits for; it is raised once the process is in ``started``.
+        with held_signals():
+            started.append(subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                                            stderr=subprocess.PIPE))
+        p = started[0]
+        _, err = p.communicate(np.ascontiguousarray(rgb).tobytes())
+    except BaseException:
+        for q in started:
+            q.kill()
+            q.wait()
+        raise
+    if p.returncode != 0:
+        text = err.decode(errors="replace").strip()
+        code = errno.ENOSPC if "No space left" in text else errno.EIO
+        raise OSError(code, f"ffmpeg could not write the video (exit status {p.returncode}): {text[-500:]}", str(path))
 
 
 def _label_band(labels: Sequence[str], widths: Sequence[int], gap: int) -> np.ndarray:

@@ -133,7 +133,13 @@ class LightMatrix:
         Raises:
             ValueError: indices that are not integers (bools, floats) or outside [0, n), or not 1-D."""
         idx = _v.indices("column index", indices, self.shape[1], f"n = {self.shape[1]} lights")
-        return self._m.columns([int(i) for i in idx])
+        idx = [int(i) for i in idx]
+        out = self._m.columns(idx)
+        if not np.isfinite(out).all():
+            k, y, x, _ = np.argwhere(~np.isfinite(out))[0]
+            raise FloatingPointError(f"column of light {idx[k]} is not finite at pixel (x {x}, y {y}) = view sample "
+                                     f"{y * out.shape[2] + x}: {out[k, y, x].tolist()} (float32 overflow)")
+        return out
 
     def column_sum(self, weights: Optional[Sequence[float]] = None, *, progress: bool = True) -> np.ndarray:
         """Sum of all columns, each times its weight (default 1), (H, W, 3) float32: the matrix part of
@@ -153,7 +159,7 @@ class LightMatrix:
             if w.ndim != 1 or w.shape[0] != self.shape[1]:
                 raise ValueError(f"weights must have shape (n,) = ({self.shape[1]},) (length n), got {w.shape}")
         with progress_bar(self.shape[1], "columns", progress) as callback:
-            return self._m.column_sum(w, callback)
+            return self._finite(self._m.column_sum(w, callback), "column_sum", None, w)
 
     def weighted_sum(self, indices: Sequence[int], weights, *, progress: bool = False) -> np.ndarray:
         """``sum_k weights[k] * column[indices[k]]`` with (k, 3) RGB weights, rendering only those columns
@@ -168,7 +174,26 @@ class LightMatrix:
         if w.ndim == 1:
             w = np.repeat(w[:, None], 3, axis=1)
         with progress_bar(len(idx), "columns", progress) as callback:
-            return self._m.weighted_sum(idx, w, callback)
+            return self._finite(self._m.weighted_sum(idx, w, callback), "weighted_sum", idx, None)
+
+    def _finite(self, img: np.ndarray, what: str, lights, weights) -> np.ndarray:
+        """``img`` when every element is finite; else FloatingPointError naming the first non-finite pixel
+        (view sample) and the light whose contribution there is not finite (found from that row), or
+        saying that the sum overflowed although each contribution is finite."""
+        bad = ~np.isfinite(img)
+        if not bad.any():
+            return img
+        y, x, _ = np.argwhere(bad)[0]
+        sample = int(y * img.shape[1] + x)
+        where = f"{what}: pixel (x {x}, y {y}) = view sample {sample} is {img[y, x].tolist()} (float32 overflow)"
+        row = np.asarray(self._m.rows([sample], None, 256)[0])[0] if sample < self.shape[0] else None
+        if row is not None:
+            cand = range(row.shape[0]) if lights is None else lights
+            j = next((j for j in cand if not np.isfinite(row[j]).all()), None)
+            if j is not None:
+                raise FloatingPointError(f"{where}: light {j}'s contribution there is {row[j].tolist()}")
+        raise FloatingPointError(f"{where}: every light's contribution is finite but their weighted sum is not; "
+                                 "scale the lights or the weights down")
 
     def rows(self, indices: Sequence[int], *, progress: bool = True, shadow_map_size: int = 256,
              return_timings: bool = False):
@@ -203,6 +228,10 @@ class LightMatrix:
         shadow_map_size = _v.integer("shadow_map_size", shadow_map_size, 16, 8192)
         with progress_bar(int(idx.size), "rows", progress, unit="row") as callback:
             R, timings = self._m.rows([int(i) for i in idx], callback, int(shadow_map_size))
+        if not np.isfinite(R).all():
+            k, j, _ = np.argwhere(~np.isfinite(R))[0]
+            raise FloatingPointError(f"rows: element (view sample {int(idx[k])}, light {j}) is {R[k, j].tolist()} "
+                                     "(float32 overflow)")
         if return_timings:
             return R, dict(timings)
         return R

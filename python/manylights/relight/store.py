@@ -14,21 +14,22 @@ catch damaged or truncated data) holding:
 - the transfer's arrays, named as ``src/relight/store.rs`` names them (options, the gather cloud checked
   against the scene's on load, the hierarchy, the sparse wavelet rows of each matrix, stats, timings).
 
-Saving writes a temporary file in the destination folder and renames it over the destination: a save that
-fails (an unwritable folder, a full disk, an interruption) leaves no partial file and keeps an older file of
-that name as it was.
+Saving writes through ``_utils.files.atomic_write`` (a temporary file in the destination folder, synced and
+renamed over the destination, with the umask's mode or the replaced file's): a save that fails (an
+unwritable folder, a full disk, Ctrl-C, a killed process) leaves no partial file and keeps an older file of
+that name as it was; a temporary left by a killed process is removed by the next save to that path.
 """
 from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from .. import _native
+from .._utils.files import atomic_write, npz_bytes
 
 __all__ = ["FORMAT", "VERSION", "save", "load", "scene_hash"]
 
@@ -61,23 +62,7 @@ def save(rel, path) -> Path:
     meta = {"format": np.array(FORMAT), "version": np.array(VERSION, dtype=np.uint32),
             "scene_hash": np.array(json.dumps(scene_hash(rel.scene), sort_keys=True)),
             "info": np.array(json.dumps(info, sort_keys=True))}
-    folder = path.parent
-    if not folder.is_dir():
-        raise FileNotFoundError(f"{path}: the folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, **meta, **arrays)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return path
+    return atomic_write(path, data=npz_bytes(**meta, **arrays))
 
 
 def load(cls, path, scene, device: str = "auto", visibility=None, shadow_map_size: int = 1024):

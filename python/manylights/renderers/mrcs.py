@@ -98,6 +98,9 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
     m, n = matrix_shape(A)
     if n == 0:
         raise ValueError("the light matrix has no lights (n = 0): nothing to sample")
+    if halves and n < 2:
+        raise ValueError(f"halves=True needs >= 2 lights (two half images of columns // 2 clusters each); "
+                         f"the matrix has {n}")
     seed = _v.seed(seed)
     error_rows = _v.integer("error_rows", error_rows, 0, m)
     error_probes = _v.integer("error_probes", error_probes, 0, m)

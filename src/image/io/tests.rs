@@ -41,3 +41,24 @@ fn png_write_encodes_srgb() {
     write_png(&p, 2, 2, &px, -1.0).unwrap();
     assert_eq!(image::open(&p).unwrap().to_rgb8().get_pixel(1, 1).0, [188, 188, 188]);
 }
+
+#[test]
+fn encoded_bytes_equal_the_crates_own_file_writers() {
+    // encode_exr / encode_png (what the Python writers write) give the bytes that exr's write_rgb_file
+    // and image's save_buffer write for the same pixels.
+    let (w, h) = (7u32, 4u32);
+    let px: Vec<[f32; 3]> = (0..w * h).map(|i| [i as f32 * 0.05, 0.5, 2.0 - i as f32 * 0.07]).collect();
+    let p = tmp("crate.exr");
+    exr::prelude::write_rgb_file(&p, w as usize, h as usize, |x, y| {
+        let c = px[y * w as usize + x];
+        (c[0], c[1], c[2])
+    })
+    .unwrap();
+    let enc = encode_exr(w, h, &px).unwrap();
+    assert_eq!(enc, std::fs::read(&p).unwrap());
+    assert!(enc.len() > 300);
+    let q = tmp("crate.png");
+    image::save_buffer(&q, &encode_srgb8_image(&px, 0.5), w, h, image::ColorType::Rgb8).unwrap();
+    assert_eq!(encode_png(w, h, &px, 0.5).unwrap(), std::fs::read(&q).unwrap());
+    assert!(encode_png(w, h, &px[1..], 0.0).is_err());
+}

@@ -19,7 +19,8 @@ fn pixel_cap_and_memory_policy() {
         assert_eq!(
             e.to_string(),
             "decoding \"dir/t.jpg\" (PNG image of 300x300 pixels) needs 1.1 MB of host memory but only 1.0 MB \
-                 is available (MemAvailable, cgroup limit, MANYLIGHTS_MEMORY_LIMIT); request less"
+                 is available (MemAvailable, cgroup limit, address-space and data limits (ulimit -v / -d), \
+                 MANYLIGHTS_MEMORY_LIMIT); request less"
         );
         // The extra bytes count too.
         assert!(check(p, "PNG image", 200, 200, 12, 600_000).is_err());

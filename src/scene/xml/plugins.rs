@@ -35,11 +35,34 @@ pub struct Builder<'a> {
     pub area_emitters: Vec<Emitter>,
     bsdf_memo: HashMap<usize, usize>,
     texture_memo: HashMap<usize, usize>,
+    /// The image file of each bitmap texture (by texture index), for messages.
+    texture_paths: HashMap<usize, PathBuf>,
     default_bsdf: Option<usize>,
     /// Area emitter nodes already attached to a shape (node -> where).
     attached: HashMap<usize, Location>,
     /// Things Mitsuba only warns about (`Scene::warnings`).
     pub warnings: Vec<String>,
+}
+
+/// Refuse an emitter texture with NaN, infinite or negative texels (radiance must be finite and >= 0;
+/// reading them as 0 would silently change the lighting): the error names the file, how many texels are
+/// bad and the first one (index in row-major order and its value).
+fn check_emitter_texels(what: &str, path: &std::path::Path, loc: &Location, data: &[glam::Vec3]) -> Result<()> {
+    let bad = |t: &glam::Vec3| !(t.is_finite() && t.min_element() >= 0.0);
+    let count = data.iter().filter(|t| bad(t)).count();
+    if let Some((i, t)) = data.iter().enumerate().find(|(_, t)| bad(t)) {
+        return Err(Error::scene(
+            loc,
+            format!(
+                "{what} {}: {count} of {} texels are NaN, infinite or negative (the first: texel {i} = {:?}); an \
+                 emitter's radiance must be finite and >= 0: fix the image",
+                path.display(),
+                data.len(),
+                t.to_array()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn unknown_plugin(p: &Props) -> Error {
@@ -58,6 +81,7 @@ impl<'a> Builder<'a> {
             area_emitters: Vec::new(),
             bsdf_memo: HashMap::new(),
             texture_memo: HashMap::new(),
+            texture_paths: HashMap::new(),
             default_bsdf: None,
             attached: HashMap::new(),
             warnings: Vec::new(),
@@ -104,9 +128,11 @@ impl<'a> Builder<'a> {
         }
         let mut p = Props::new(self.doc, node);
         let to_uv = transform::to_uv_matrix(&p.transform("to_uv")?.unwrap_or(DMat4::IDENTITY));
+        let mut file = None;
         let tex = match p.node.plugin.as_str() {
             "bitmap" => {
                 let (path, loc) = self.filename(&mut p, "bitmap texture")?;
+                file = Some(path.clone());
                 let filter = match p.string("filter_type")? {
                     None | Some(("bilinear", _)) => FilterType::Bilinear,
                     Some(("nearest", _)) => FilterType::Nearest,
@@ -138,7 +164,19 @@ impl<'a> Builder<'a> {
         self.textures.push(tex);
         let i = self.textures.len() - 1;
         self.texture_memo.insert(node, i);
+        if let Some(f) = file {
+            self.texture_paths.insert(i, f);
+        }
         Ok(i)
+    }
+
+    /// Refuse an emitter's bitmap texture with NaN, infinite or negative texels (`check_emitter_texels`).
+    fn check_emitter_texture(&self, t: usize, what: &str) -> Result<()> {
+        if let Texture::Bitmap { data, loc, .. } = &self.textures[t] {
+            let path = self.texture_paths.get(&t).cloned().unwrap_or_default();
+            check_emitter_texels(what, &path, loc, data)?;
+        }
+        Ok(())
     }
 
     /// A reflectance parameter: constant, or a nested / referenced texture. Like Mitsuba's
@@ -474,7 +512,10 @@ impl<'a> Builder<'a> {
         }
         let (radiance, texture) = match self.unbounded_param(&mut p, "radiance", 1.0)? {
             Param::Value(v) => (v, None),
-            Param::Texture(t) => (Vec3::ONE, Some(t)),
+            Param::Texture(t) => {
+                self.check_emitter_texture(t, "area emitter radiance texture")?;
+                (Vec3::ONE, Some(t))
+            }
         };
         let loc = p.loc().clone();
         p.finish()?;
@@ -507,7 +548,10 @@ impl<'a> Builder<'a> {
             "spot" => {
                 // Mitsuba requires a spatially varying projected texture (a bitmap or checkerboard).
                 let texture = match self.unbounded_param(&mut p, "texture", 1.0)? {
-                    Param::Texture(t) => Some(t),
+                    Param::Texture(t) => {
+                        self.check_emitter_texture(t, "spot texture")?;
+                        Some(t)
+                    }
                     Param::Value(_) if p.has("texture") => {
                         return Err(Error::scene(&loc, "spot: \"texture\" must be spatially varying (a bitmap or checkerboard texture)"));
                     }
@@ -543,6 +587,7 @@ impl<'a> Builder<'a> {
                 let (path, floc) = self.filename(&mut p, "envmap")?;
                 let scale = p.float("scale", 1.0)? as f32;
                 let (w, h, data) = texture::load_bitmap(&path, &floc, false)?;
+                check_emitter_texels("envmap", &path, &floc, &data)?;
                 // Mitsuba pads every environment map to at least 2 x 3 texels (`crate::image::pad`).
                 let (width, height, data) = crate::image::pad::pad_to(w, h, data, 2, 3);
                 // Mitsuba looks up `to_world.inverse() * d`; keep the matrix whose inverse that is.
