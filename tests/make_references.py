@@ -79,6 +79,10 @@ REFERENCES = {
     # 1:50 strips, one touching the floor, one 2 cm above it.
     "wall-corner-direct": (HERE / "data" / "wall_emitter_corner.xml", {"res": 64}, (64, 64), 2, 0.0008, None),
     "strip-lights-direct": (HERE / "data" / "strip_lights.xml", {"res": 64}, (64, 64), 2, 0.0015, None),
+    # A disk light in a ceiling recess (tests/lights/test_nearfield.py): the recess walls in its near field,
+    # the room lit through the opening. The emitter (radiance 30, exact) dominates the norm: the target makes
+    # the lit surfaces' own noise ~0.5%.
+    "disk-recess-direct": (HERE / "data" / "disk_recess.xml", {"res": 64}, (64, 64), 2, 0.00015, None),
     # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
     "matpreview-full-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
                                None),
