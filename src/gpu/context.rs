@@ -5,8 +5,8 @@
 //! - `MANYLIGHTS_ADAPTER=hardware|software|<substring of the adapter name>`
 //! - `WGPU_BACKEND=vulkan|gl|metal|dx12` (wgpu's own variable) restricts the backends tried.
 //!
-//! See `../shared/docs/WGPU_HEADLESS.md` for what software adapters can and cannot do (loop limit of
-//! 65,535 iterations per invocation on Mesa 22.3, 128 MiB per storage binding).
+//! Software adapters (lavapipe, llvmpipe) work but have limits: a loop limit of 65,535 iterations per
+//! invocation on Mesa 22.3 and 128 MiB per storage binding.
 use crate::error::{Error, Result};
 use std::sync::{Arc, OnceLock};
 

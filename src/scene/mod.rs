@@ -2,7 +2,7 @@
 //!
 //! `types` is the data model every other module reads; `xml` parses files into it; `mesh` loads OBJ/PLY
 //! and builds the built-in shapes; `texture` loads bitmaps and evaluates textures as Mitsuba does;
-//! `transform` parses `<transform>` children. Conventions: `../shared/docs/MITSUBA_CONVENTIONS.md`.
+//! `transform` parses `<transform>` children. Conventions: Mitsuba 3.9.1's (plugin reference and sources).
 pub mod animation;
 pub mod mesh;
 pub mod principled;

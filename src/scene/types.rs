@@ -1,7 +1,7 @@
 //! The scene data model: what `xml::load_scene` produces and every renderer reads.
 //!
-//! Everything is in world space, RGB, linear. Units and conventions follow Mitsuba 3.9.1
-//! (`../shared/docs/MITSUBA_CONVENTIONS.md`). Vectors are `glam::Vec3` (f32), matrices `glam::Mat4`
+//! Everything is in world space, RGB, linear. Units and conventions follow Mitsuba 3.9.1 (its plugin
+//! reference and sources). Vectors are `glam::Vec3` (f32), matrices `glam::Mat4`
 //! (column-major, `world_from_local` style: `p_world = m.transform_point3(p_local)`).
 use crate::error::Location;
 use glam::{Mat3, Mat4, Vec2, Vec3};

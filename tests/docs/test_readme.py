@@ -1,7 +1,7 @@
 """Every code block of README.md runs as written (issue 8, item 12).
 
 Each ```python block is executed in a temporary directory that holds the repository's ``scenes/`` (as a
-clone has it), with ../shared hidden; what its comments claim is checked on the names it leaves behind.
+clone has it); what its comments claim is checked on the names it leaves behind.
 Every command of the ```sh blocks is either run the same way (cheap ones) or listed in ``NOT_RUN`` with
 the reason: a new command that is neither fails the test.
 """
@@ -52,13 +52,10 @@ def sh_commands() -> list[tuple[int, str]]:
 
 @pytest.fixture()
 def clone_dir(tmp_path, monkeypatch):
-    """A working directory like a fresh clone's root: scenes/ only, ../shared hidden."""
+    """A working directory like a fresh clone's root: scenes/ only."""
     work = tmp_path / "clone"
     work.mkdir()
     (work / "scenes").symlink_to(REPO / "scenes", target_is_directory=True)
-    empty = tmp_path / "no-shared"
-    empty.mkdir()
-    monkeypatch.setenv("MANYLIGHTS_SHARED", str(empty))
     monkeypatch.chdir(work)
     return work
 

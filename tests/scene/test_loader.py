@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import SCENE_CONFIGS, SCENES
+from conftest import SCENE_CONFIGS, TEST_SCENES
 
 
 def _triangles(pos, idx):
@@ -68,7 +68,7 @@ def test_cbox_lights_introspection():
 def test_params_and_size_override():
     xml, _, _ = SCENE_CONFIGS["cbox-lights"]
     assert ml.load_scene(xml, res=32).width == 32
-    s = ml.load_scene(SCENES / "bunny" / "scene.xml", size=(64, 48))
+    s = ml.load_scene(TEST_SCENES / "bunny" / "scene.xml", size=(64, 48))
     assert (s.width, s.height) == (64, 48)
     # fov_axis "smaller" on a landscape film: the vertical fov is the given one.
     assert s.camera["fov_y"] == pytest.approx(28.8415, abs=1e-3)

@@ -1,6 +1,6 @@
 """Mitsuba 3 references for the same scene XML: pixel-centre G-buffers and deterministic renders.
 
-Everything here follows ``shared/docs/MITSUBA_CONVENTIONS.md``: camera rays go through pixel centres
+Everything here follows Mitsuba 3.9.1's conventions: camera rays go through pixel centres
 (film position ``((i + 0.5) / W, (j + 0.5) / H)``), so a rasteriser that shades pixel centres can be compared
 pixel by pixel. Mitsuba (``mitsuba==3.9.1``, ``drjit==1.5.0``) is imported lazily: it is a test/benchmark
 dependency, not a runtime one.

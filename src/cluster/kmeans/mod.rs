@@ -1,7 +1,7 @@
 //! K-means clustering of surface data points (position, normal) for clustered visibility:
 //! the GPU K-means and the distance-based fuzzy clustering of
 //! "GPU-based fuzzy K-means clustering of VPLs and shading points" (Sec. 3.2-3.3, Eq. 7-10,
-//! Alg. 1-2; Computers & Graphics, 2022, the paper in `../shared/seeds/gpu-fuzzy-kmeans-vpl-clustering-2022.txt`).
+//! Alg. 1-2; Computers & Graphics, 2022).
 //! The GPU version ([`kmeans_gpu`], wgpu passes in `crate::gpu::kmeans`, `shaders/kmeans.wgsl`) is the
 //! product; [`kmeans_cpu`] is its reference twin (same initialisation, same order of candidates, same
 //! fixed-point centroid sums), used by tests and by `device="cpu"`.
