@@ -199,7 +199,6 @@ cases_for("load_scene", [
     ("negative resolution", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=-8), ["-8"]),
     ("NaN parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=float("nan")),
      ["nan"]),
-    ("unused parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", nope=1), ["nope"]),
     ("size of zero", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", size=(0, 8)), ["size"]),
     ("size of three", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", size=(8, 8, 8)),
      ["size"]),
@@ -225,6 +224,12 @@ cases_for("load_scene", [
     ("NaN sphere radius", lambda c: c.ml.load_scene(c.scene_with(
         "nanr", '<shape type="sphere"><float name="radius" value="nan"/></shape>')), ["nan", "scene.xml:8"]),
 ], raises=FILE_ERRORS + ("FileNotFoundError",))
+cases_for("load_scene", [
+    # refused before loading, naming the closest parameter the file has
+    ("unused parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", nope=1), ["nope"]),
+    ("misspelled parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", rez=8),
+     ["rez", "did you mean 'res'"]),
+], raises=("TypeError",))
 
 # --------------------------------------------------------------------------------------------------
 # Mesh files (OBJ, PLY) through load_scene.

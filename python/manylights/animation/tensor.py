@@ -25,6 +25,7 @@ import numpy as np
 from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from ..matrix.light_matrix import LightMatrix
 from ..matrix.rows import stratified_rows
 from ..renderers.bias import bias_sources
@@ -75,6 +76,7 @@ class LightTensor:
             light sets of different sizes (the frame is named), or what ``LightMatrix`` raises.
     """
 
+    @checked_keywords()
     def __init__(self, animation, lights, *, device: str = "auto", visibility: Optional[str] = None,
                  max_depth: int = -1, shadow_map_size: Optional[int] = None):
         scenes = [animation[k] for k in range(len(animation))]
@@ -182,6 +184,7 @@ class LightTensor:
         return f"LightTensor(m={m}, n={n}, f={f}, device={self.device.get('kind')!r})"
 
 
+@checked_keywords()
 def mrcs_per_frame(T: LightTensor, rows: int = 300, columns: int = 900, seed: int = 0, *,
                    progress: bool = False) -> AnimationResult:
     """The baseline of the tensor-clustering paper: independent MRCS (Hašan et al. 2007) on every frame,

@@ -3,11 +3,13 @@ frames on a Dask cluster (``animation.tensor_dask``)."""
 from __future__ import annotations
 
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .tensor import LightTensor
 from .tensor_clusters import render_clustered
 from .tensor_dask import distributed_tensor_clustering
 
 
+@checked_keywords()
 def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, chunk: int = 40,
                       representative: str = "centroid", init_clusters: int = 100, time_weight: float = 1.0,
                       row_indices=None, progress: bool = False, client=None, connect_timeout: float = 10.0,

@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import _native
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from ..matrix.rows import stratified_rows
 from ..renderers.bias import bias_sources
 from .tensor import AnimationResult, LightTensor
@@ -103,6 +104,7 @@ def time_weight_of(v) -> float:
     return float(v)
 
 
+@checked_keywords()
 def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init_clusters: int = 100,
                    projection_dim: int = 50, representative: str = "max",
                    color_averaging: bool = True, time_weight: float = 1.0, first_chunk: int = 0) -> TensorClustering:

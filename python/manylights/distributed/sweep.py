@@ -27,6 +27,7 @@ from typing import Callable, Optional, Sequence
 from .._utils import progress as _progress
 from .._utils import validate as _v
 from .._utils.dask import connect, gpu_resources
+from .._utils.keywords import checked_keywords
 from . import worker
 from .specs import (
     check_kinds,
@@ -171,6 +172,7 @@ def _error_row(task: dict, exc: BaseException) -> dict:
 
 
 # ------------------------------------------------------------------------------------------ sweep
+@checked_keywords()
 def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=((100, 300),),
           seeds: Sequence[int] = (0,), *, lights=10_000, client=None, workers: Optional[int] = None,
           out=None, reference_dir=None, device: str = "auto", visibility: Optional[str] = None,

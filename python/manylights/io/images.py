@@ -8,10 +8,12 @@ import numpy as np
 from .. import _native
 from .._native import read_exr
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 
 __all__ = ["read_exr", "write_exr", "write_png", "as_image"]
 
 
+@checked_keywords()
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
     """Write an (H, W, 3) image as float32 RGB OpenEXR.
 
@@ -21,6 +23,7 @@ def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
     _native.write_exr(str(path), as_image(image))
 
 
+@checked_keywords()
 def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0) -> None:
     """Write an (H, W, 3) linear image as 8-bit sRGB PNG, scaled by 2**exposure and clamped.
 

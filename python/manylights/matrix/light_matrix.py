@@ -8,6 +8,7 @@ import numpy as np
 from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .._utils.progress import progress_bar
 
 
@@ -68,6 +69,7 @@ class LightMatrix:
             to install).
     """
 
+    @checked_keywords()
     def __init__(self, scene: Scene, lights: LightSet, *, device: str = "auto", shadow_map_size: Optional[int] = None,
                  visibility: Optional[str] = None, max_depth: int = -1, glossy_roughness: float = 0.2,
                  bsdf_samples: int = 256, glossy_seed: int = 0):

@@ -12,6 +12,7 @@ import numpy as np
 from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .._utils.progress import progress_bar
 from . import store
 
@@ -136,6 +137,7 @@ class DirectToIndirect:
         GpuUnavailableError: device="gpu" without any GPU adapter.
     """
 
+    @checked_keywords()
     def __init__(self, scene: Scene, gather: int = 4**7, final_gather_coefficients: int = 100, seed: int = 0,
                  *, bounces: int = 1, multibounce_coefficients: int = 40, multibounce: str = "photons",
                  photons_per_sample: int = 64, photon_neighbours: int = 400, glossy: bool = True,

@@ -9,6 +9,7 @@ import numpy as np
 
 from .._native import Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from ..lights.generate import generate_lights
 from ..matrix.light_matrix import LightMatrix
 from .bias import bias_sources
@@ -17,6 +18,7 @@ from .probe_error import attach_probe_error
 from .result import RenderResult, light_luminance_power, matrix_shape
 
 
+@checked_keywords()
 def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = True,
                    progress: bool = False, error_probes: int = 0) -> RenderResult:
     """Baseline: draw ``columns`` lights with probability proportional to their power (with replacement)
@@ -53,6 +55,7 @@ def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = 
     return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
 
 
+@checked_keywords(LightMatrix)
 def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction: float = 0.5,
                       environment_fraction: float = 0.0, max_depth: int = 5, clamp=None,
                       progress: bool = False, error_probes: int = 0, **matrix_options) -> RenderResult:

@@ -6,9 +6,11 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .._native import LightSet, Scene
+from .._utils.keywords import checked_keywords
 from ..matrix.light_matrix import LightMatrix
 
 
+@checked_keywords()
 def render_brute_force(scene: Scene, lights: LightSet, *, weights: Optional[Sequence[float]] = None,
                        shadow_map_size: int = 1024, visibility: Optional[str] = None,
                        progress: bool = True, max_depth: int = -1, device: str = "auto") -> np.ndarray:

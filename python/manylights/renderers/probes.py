@@ -9,9 +9,11 @@ import numpy as np
 from .. import _native
 from .._native import Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .._utils.progress import progress_bar
 
 
+@checked_keywords()
 def probe_pixels(scene: Scene, pixels, spp: int = 256, max_depth: int = -1, seed: int = 0, *,
                  progress: bool = True) -> Tuple[np.ndarray, np.ndarray]:
     """Mean radiance and the variance of that mean at probe pixels, by an unbiased path tracer.

@@ -61,6 +61,7 @@ from typing import Iterator, Optional
 import numpy as np
 
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .._utils.progress import progress_bar
 from .._utils.seeds import derived_seed
 from ..matrix.rows import stratified_rows
@@ -92,6 +93,7 @@ def _schedule(name: str, value, rounds: Optional[int], limit: int, what: str, st
     return steps
 
 
+@checked_keywords("manylights.renderers.clustering:cluster_reduced_columns", exclude=("seed", "power"))
 def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed: int = 0, *,
                      add_emitted: bool = True, progress: bool = True,
                      **cluster_options) -> Iterator[RenderResult]:

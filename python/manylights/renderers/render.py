@@ -5,11 +5,13 @@ from __future__ import annotations
 import os
 from typing import Optional
 
+from .._utils.keywords import checked_keywords
 from .budget import render_matrix
 from .light_budget import render_scene
 from .result import RenderResult
 
 
+@checked_keywords()
 def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
            first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
            add_emitted: bool = True, progress: bool = True, **scene_options) -> RenderResult:
