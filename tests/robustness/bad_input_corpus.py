@@ -369,6 +369,14 @@ cases_for("write_png", [
     ("inf exposure", lambda c: c.ml.write_png(c.tmp / "o.png", IMG(2, 2, 3), exposure=float("inf")),
      ["exposure"]),
 ])
+cases_for("show", [
+    ("five channels", lambda c: c.ml.show(IMG(2, 3, 5), path=c.tmp / "s.png"), ["(2, 3, 5)"]),
+    ("empty image", lambda c: c.ml.show(IMG(0, 3, 3), path=c.tmp / "s.png"), ["empty"]),
+    ("NaN exposure", lambda c: c.ml.show(IMG(2, 2, 3), exposure=float("nan"), path=c.tmp / "s.png"), ["exposure"]),
+])
+cases_for("show", [
+    ("strings", lambda c: c.ml.show([["a", "b"]], path=c.tmp / "s.png"), ["dtype"]),
+], raises=("TypeError",))
 
 # --------------------------------------------------------------------------------------------------
 # Metrics.
@@ -1472,8 +1480,10 @@ NOT_COVERED: dict[str, str] = {
     "scenes.animated": "takes no arguments",
     "Animation.gbuffers": "takes no arguments (the device is the Animation's, checked when it is made)",
     "AnimationResult": "a dataclass that only holds results (no validation of its own)",
-    "LightTensor.brute_force": "takes only a progress flag (any truthy value shows a bar)",
+    "LightTensor.brute_force": "takes only a progress flag (None, True or False; any other value counts as True)",
     "LightMatrix.view_samples": "takes no arguments",
+    "RenderResult.summary": "takes no arguments",
+    "AnimationResult.summary": "takes no arguments",
 }
 
 # Case id -> environment of its own child process.

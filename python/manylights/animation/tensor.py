@@ -26,14 +26,16 @@ from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
 from .._utils.keywords import checked_keywords
+from ..io.display import png_bytes
 from ..matrix.light_matrix import LightMatrix
 from ..matrix.rows import stratified_rows
 from ..renderers.bias import bias_sources
 from ..renderers.mrcs import mrcs
+from ..renderers.result import short_repr, summary_lines
 from .frames import Animation
 
 
-@dataclass
+@dataclass(repr=False)
 class AnimationResult:
     """What an animation renderer did: the frames and how.
 
@@ -59,6 +61,23 @@ class AnimationResult:
     def seconds(self) -> float:
         """Total time of all stages."""
         return float(sum(self.timings.values()))
+
+    def summary(self) -> str:
+        """A few lines: method, seed, device, frames and size, budget, shadow maps per frame, time per stage."""
+        f, h, w = np.shape(self.frames)[:3]
+        maps = np.asarray(self.shadow_maps_per_frame)
+        extra = {"shadow maps per frame": f"mean {maps.mean():.4g}, max {maps.max():,}"} if maps.size else {}
+        return "\n".join(summary_lines("AnimationResult", self.method, self.seed, f"{f} frames of {w}x{h}",
+                                        self.budget, self.timings, self.device, None, self.bias_sources, extra))
+
+    def __str__(self) -> str:
+        return self.summary()
+
+    def __repr__(self) -> str:
+        return short_repr(self.summary().splitlines())
+
+    def _repr_png_(self) -> bytes:
+        return png_bytes(self.frames)
 
 
 class LightTensor:
@@ -152,7 +171,7 @@ class LightTensor:
             self._animation = anim
         return self._animation.mapping(k, l)
 
-    def slices(self, rows: Sequence[int], *, progress: bool = False) -> np.ndarray:
+    def slices(self, rows: Sequence[int], *, progress: Optional[bool] = None) -> np.ndarray:
         """The reduced tensor R = A(I, :, :) (the paper's r slices), (r, n, f, 3) float32: R[a, j, k] is
         light j's contribution to view sample ``rows[a]`` in frame k. Stored frame by frame: the result is a
         view of an (f, r, n, 3) array (``np.ascontiguousarray`` for an (r, n, f, 3) copy).
@@ -173,7 +192,7 @@ class LightTensor:
             frames[k] = self.frame(k).rows(idx, progress=progress)
         return np.moveaxis(frames, 0, 2)
 
-    def brute_force(self, *, progress: bool = False) -> np.ndarray:
+    def brute_force(self, *, progress: Optional[bool] = None) -> np.ndarray:
         """Every element summed per frame plus what the camera sees of emitters: (f, H, W, 3) float32, the
         reference the renderers approximate."""
         return np.stack([self.frame(k).column_sum(progress=progress) + self.frame(k).emitted()
@@ -186,7 +205,7 @@ class LightTensor:
 
 @checked_keywords()
 def mrcs_per_frame(T: LightTensor, rows: int = 300, columns: int = 900, seed: int = 0, *,
-                   progress: bool = False) -> AnimationResult:
+                   progress: Optional[bool] = None) -> AnimationResult:
     """The baseline of the tensor-clustering paper: independent MRCS (Hašan et al. 2007) on every frame,
     through the same ``mrcs`` code path, with the same stratified rows in every frame and seed ``seed + k``
     for frame k (independent sampling per frame, which is what makes it flicker).

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
@@ -241,7 +242,7 @@ def _reconstruct_gpu(T, cl, reps, todo, fw, bw, timings) -> np.ndarray:
 
 def render_clustered(T, rows: int = 100, columns: int = 300, seed: int = 0, *, chunk: int = 40,
                      representative: str = "centroid", init_clusters: int = 100, time_weight: float = 1.0,
-                     row_indices=None, progress: bool = False, first_chunk: int = 0):
+                     row_indices=None, progress: Optional[bool] = None, first_chunk: int = 0):
     """Tensor clustering of ``T`` in this process (``tensor_clustering`` without ``client``; its doc: arguments,
     result, errors)."""
     if not isinstance(T, LightTensor):

@@ -137,14 +137,14 @@ class LightMatrix:
         idx = _v.indices("column index", indices, self.shape[1], f"n = {self.shape[1]} lights")
         return self._m.columns([int(i) for i in idx])
 
-    def column_sum(self, weights: Optional[Sequence[float]] = None, *, progress: bool = True) -> np.ndarray:
+    def column_sum(self, weights: Optional[Sequence[float]] = None, *, progress: Optional[bool] = None) -> np.ndarray:
         """Sum of all columns, each times its weight (default 1), (H, W, 3) float32: the matrix part of
         the brute-force image (add ``emitted()`` for the image itself; ``render_brute_force`` does).
 
         Args:
             weights: optional (n,) weights.
-            progress: show progress over light batches (a bar in terminals and notebooks, a few log
-                lines elsewhere: ``manylights.progress``).
+            progress: progress over light batches (None: a bar in a terminal or notebook, nothing in logs;
+                True: also a few lines in logs; False: nothing).
 
         Raises:
             ValueError: weights not of shape (n,), or NaN/inf. TypeError: non-numeric weights.
@@ -157,7 +157,7 @@ class LightMatrix:
         with progress_bar(self.shape[1], "columns", progress) as callback:
             return self._m.column_sum(w, callback)
 
-    def weighted_sum(self, indices: Sequence[int], weights, *, progress: bool = False) -> np.ndarray:
+    def weighted_sum(self, indices: Sequence[int], weights, *, progress: Optional[bool] = None) -> np.ndarray:
         """``sum_k weights[k] * column[indices[k]]`` with (k, 3) RGB weights, rendering only those columns
         (repeated indices add up): how clustered renderers reconstruct an image. (H, W, 3) float32.
 
@@ -172,7 +172,7 @@ class LightMatrix:
         with progress_bar(len(idx), "columns", progress) as callback:
             return self._m.weighted_sum(idx, w, callback)
 
-    def rows(self, indices: Sequence[int], *, progress: bool = True, shadow_map_size: int = 256,
+    def rows(self, indices: Sequence[int], *, progress: Optional[bool] = None, shadow_map_size: int = 256,
              return_timings: bool = False):
         """Rows ``indices`` of the matrix (the reduced matrix R of matrix row-column sampling), (r, n, 3)
         float32: R[k, j] = light j's contribution to view sample ``indices[k]`` (pixel ``y * W + x``).

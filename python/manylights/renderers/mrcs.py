@@ -29,6 +29,7 @@ Its baselines, power sampling and instant radiosity, are in ``baselines``.
 from __future__ import annotations
 
 import time
+from typing import Optional
 
 import numpy as np
 
@@ -56,7 +57,7 @@ def reconstruct(A, reps, weights, timings: dict, add_emitted: bool, progress: bo
 
 @checked_keywords(cluster_reduced_columns, exclude=("seed", "power"))
 def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=None, clustering=None,
-         add_emitted: bool = True, progress: bool = False, error_rows: int = 0, halves: bool = False,
+         add_emitted: bool = True, progress: Optional[bool] = None, error_rows: int = 0, halves: bool = False,
          error_probes: int = 0, **cluster_options) -> RenderResult:
     """Render the column sum of light matrix ``A`` by Matrix Row-Column Sampling.
 
