@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 from pathlib import Path
 from typing import Optional
 
@@ -34,7 +35,8 @@ def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = Non
 
     Warns:
         UserWarning: for input Mitsuba accepts with a warning (e.g. a mesh whose triangles all have zero
-            area: it stays as an empty shape, so shape indices match Mitsuba's).
+            area: it stays as an empty shape, so shape indices match Mitsuba's); one warning per kind and
+            scene (many such shapes: one line naming how many, the first ids and the first location).
     """
     p = Path(path)
     if not p.exists():
@@ -51,7 +53,36 @@ def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = Non
             raise ValueError(f"size must be (width, height) positive integers, got {size!r}")
         size = (_v.integer("size[0] (width)", size[0], 1, 2**32 - 1),
                 _v.integer("size[1] (height)", size[1], 1, 2**32 - 1))
-    return _native.load_scene(str(p), conv, size)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = _native.load_scene(str(p), conv, size)
+    for category, message in grouped_warnings(caught):
+        warnings.warn(message, category, stacklevel=2)
+    return scene
+
+
+_SHAPE_WARNING = re.compile(r'^(?P<loc>.+?): shape "(?P<id>[^"]*)": (?P<what>.+)$', re.S)
+
+
+def grouped_warnings(caught) -> list:
+    """The loader's warnings, one line per kind: those about single shapes (``file:line: shape "id": what``)
+    with the same ``what`` become one line naming how many shapes, the first few ids and the first location;
+    other warnings pass as they are (repeats once). Returns (category, message) pairs in first-seen order."""
+    out: dict = {}
+    for w in caught:
+        text = str(w.message)
+        m = _SHAPE_WARNING.match(text)
+        key = (w.category, m.group("what") if m else text)
+        out.setdefault(key, []).append(m)
+    lines = []
+    for (category, what), matches in out.items():
+        if len(matches) == 1 or matches[0] is None:
+            lines.append((category, matches[0].string if matches[0] is not None else what))
+            continue
+        ids = [m.group("id") for m in matches]
+        shown = ", ".join(f'"{i}"' for i in ids[:5]) + (f" and {len(ids) - 5} more" if len(ids) > 5 else "")
+        lines.append((category, f"{matches[0].group('loc')} (first of {len(ids)}): shapes {shown}: {what}"))
+    return lines
 
 
 _PARAM = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")

@@ -135,6 +135,25 @@ def test_degenerate_triangle(tmp_path):
     assert s.shapes[0]["triangles"] == 0
 
 
+def test_warnings_grouped_per_kind(tmp_path):
+    """Seven zero-area shapes: one warning line (how many, the first five ids, the first location), not seven."""
+    import warnings
+
+    (tmp_path / "flat.obj").write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")
+    body = "".join(f'<shape type="obj" id="flat{k}"><string name="filename" value="flat.obj"/></shape>\n'
+                   for k in range(7))
+    (tmp_path / "scene.xml").write_text(_scene('<shape type="rectangle" id="floor"/>' + body))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        s = ml.load_scene(tmp_path / "scene.xml")
+    assert len(s.shapes) == 8
+    messages = [str(w.message) for w in caught]
+    assert len(messages) == 1, messages
+    assert messages[0].startswith(f"{tmp_path / 'scene.xml'}:4 (first of 7): shapes ")
+    assert '"flat0", "flat1", "flat2", "flat3", "flat4" and 2 more: all triangles have zero area' in messages[0]
+    assert caught[0].category is UserWarning and caught[0].filename == __file__  # reported at the caller
+
+
 def test_no_shapes(tmp_path):
     _raises(tmp_path, _scene('<emitter type="point"><point name="position" x="0" y="0" z="0"/></emitter>'),
             ml.SceneError, "scene.xml", "no shapes")

@@ -66,7 +66,8 @@ class AnimationResult:
         """A few lines: method, seed, device, frames and size, budget, shadow maps per frame, time per stage."""
         f, h, w = np.shape(self.frames)[:3]
         maps = np.asarray(self.shadow_maps_per_frame)
-        extra = {"shadow maps per frame": f"mean {maps.mean():.4g}, max {maps.max():,}"} if maps.size else {}
+        unit = "shadow maps" if self.device.get("kind") == "gpu" else "rows + columns"
+        extra = {f"{unit} per frame": f"mean {maps.mean():.4g}, max {maps.max():,}"} if maps.size else {}
         return "\n".join(summary_lines("AnimationResult", self.method, self.seed, f"{f} frames of {w}x{h}",
                                         self.budget, self.timings, self.device, None, self.bias_sources, extra))
 

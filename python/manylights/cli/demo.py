@@ -15,14 +15,14 @@ from ..metrics import error_map, relative_l2
 from ..renderers.mrcs import mrcs
 from ..scene import load_scene
 from ..scenes import SCENES_DIR
-from .common import Stopwatch, write_image
+from .common import Stopwatch, add_output, write_image
 
 DEMO_SCENE = SCENES_DIR / "demo" / "scene.xml"
 
 
 def add_parser(sub) -> None:
     d = sub.add_parser("demo", help="MRCS vs brute force on the bundled demo scene")
-    d.add_argument("-o", "--output", default="out/demo", help="output folder")
+    add_output(d, "out/demo", "output folder")
     d.add_argument("--res", type=int, default=128)
     d.add_argument("--rows", type=int, default=300)
     d.add_argument("--columns", type=int, default=900)

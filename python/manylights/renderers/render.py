@@ -11,7 +11,7 @@ from .light_budget import render_scene
 from .result import RenderResult
 
 
-@checked_keywords()
+@checked_keywords(render_scene)
 def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
            first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
            add_emitted: bool = True, progress: Optional[bool] = None, **scene_options) -> RenderResult:
