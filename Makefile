@@ -42,7 +42,7 @@ test-rust: setup
 WHEEL_DIR := target/wheel-test
 wheel: build
 	rm -rf $(WHEEL_DIR)
-	$(VENV)/bin/maturin build --release -q -o $(WHEEL_DIR)
+	$(VENV)/bin/maturin build --release -q -o $(WHEEL_DIR) -i $(PY)
 
 test-python: build wheel
 	MANYLIGHTS_WHEEL="$$(ls $(WHEEL_DIR)/manylights-*.whl)" $(PY) -m pytest -q tests
