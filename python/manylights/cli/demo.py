@@ -29,6 +29,7 @@ from ..metrics import error_map, relative_l2
 from ..renderers.mrcs import mrcs
 from ..scene import load_scene
 from ..scenes import SCENES_DIR
+from ..testing import mitsuba as reference
 from .common import Stopwatch, add_output, write_image
 
 DEMO_SCENE = SCENES_DIR / "demo" / "scene.xml"
@@ -58,8 +59,6 @@ def mitsuba_equal_time(res: int, seconds: float, seed: int = 1):
     """Mitsuba's ``path`` (pixel-centre rays, ``MAX_DEPTH``) on the demo scene at the largest power-of-two spp
     whose render fits in ``seconds`` (at least 1 spp): (image, spp, seconds taken), or None without Mitsuba."""
     try:
-        from ..testing import mitsuba as reference
-
         reference.mitsuba()
     except Exception as e:  # not installed, or no usable variant
         print(f"Mitsuba: skipped ({type(e).__name__}: {str(e)[:120]})")
