@@ -136,7 +136,7 @@ def test_bad_input(tmp_path):
     frames = animation_frames("bounce", count=3)
     frames[2] = dict(frames[2], wobble=1)
     with mock.patch.object(frames_module, "load_scene", side_effect=AssertionError("a frame loaded")):
-        with pytest.raises(TypeError, match=r"unexpected scene parameter 'wobble'"):
+        with pytest.raises(TypeError, match=r"frame 2 .*unexpected scene parameter 'wobble'"):
             ml.load_animation(BOUNCE, frames=frames, res=16)
     with pytest.raises(TypeError, match="frame 1 must be a dict"):
         ml.load_animation(BOUNCE, frames=[{}, 3])

@@ -107,7 +107,10 @@ def load_animation(path: Union[PathLike, Sequence[PathLike]], frames: Optional[S
                 raise TypeError(f"load_animation: frame {k}: parameter names must be strings, got {key!r}")
     for k, (p, f) in enumerate(zip(paths, frames)):  # every frame's parameters, before any frame loads
         if p.is_file() and (params or f):
-            check_scene_parameters(p, {**params, **f})
+            try:
+                check_scene_parameters(p, {**params, **f})
+            except TypeError as e:
+                raise TypeError(f"load_animation: frame {k} ({p}): {e}") from None
     scenes = []
     merged = []
     for k, (p, f) in enumerate(zip(paths, frames)):
