@@ -10,7 +10,7 @@ sun lights; direct light, so every method computes the same image), rendered by
 
 It prints the time of each, MRCS's speed-up over brute force and each method's relative L2 against brute
 force (and MRCS's own error estimate), and writes the images (EXR + PNG) and ``side_by_side.png``: MRCS,
-brute force, Mitsuba at equal time and MRCS's error map x10. ``--res`` defaults to 128 on a GPU, 64 on the
+brute force, Mitsuba at equal time and MRCS's error map x10 (labels: MRCS, brute force, Mitsuba, error x10). ``--res`` defaults to 128 on a GPU, 64 on the
 CPU backend (brute force casts one exact shadow ray per pixel and light there).
 """
 from __future__ import annotations
@@ -120,9 +120,9 @@ def demo(out_dir="out/demo", res=None, lights=100_000, rows=300, columns=900, se
     if mi is not None:
         written += write_image(sw, out / "mitsuba_equal_time.exr", mi[0], True)
         panels.append(mi[0])
-        labels.append("Mitsuba equal time")
+        labels.append("Mitsuba")
     panels.append(emap)
-    labels.append("MRCS error x10")
+    labels.append("error x10")
     strip = out / "side_by_side.png"
     write_png(strip, side_by_side(panels, labels))
     written.append(strip)
