@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 export XDG_RUNTIME_DIR ?= /tmp/manylights-runtime
 export HOME ?= /root
 
-.PHONY: all setup system venv build demo test test-rust test-python lint docs bench clean fuzz fuzz-tools fuzz-cmin fuzz-add-image
+.PHONY: all setup system venv build wheel demo test test-rust test-python lint docs bench clean fuzz fuzz-tools fuzz-cmin fuzz-add-image
 
 all: build
 
@@ -37,8 +37,15 @@ test-rust: setup
 	cargo fmt --check
 	cargo test --release
 
-test-python: build
-	$(PY) -m pytest -q tests
+# The wheel, built once from the same cargo target (seconds after `build`); tests/layout/test_wheel.py installs it
+# into a fresh venv and runs the quick start there.
+WHEEL_DIR := target/wheel-test
+wheel: build
+	rm -rf $(WHEEL_DIR)
+	$(VENV)/bin/maturin build --release -q -o $(WHEEL_DIR) -i $(PY)
+
+test-python: build wheel
+	MANYLIGHTS_WHEEL="$$(ls $(WHEEL_DIR)/manylights-*.whl)" $(PY) -m pytest -q tests
 
 # Style: ruff (pyproject.toml: pyflakes, pycodestyle's errors, sorted imports) over the package and the tests.
 lint: venv

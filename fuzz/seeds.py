@@ -1,8 +1,8 @@
 """Writes the seed inputs of the fuzz targets into fuzz/corpus-raw/<target>/ (small valid files).
 
-Run: .venv/bin/python fuzz/seeds.py [SHARED_DIR]. Needs numpy, Pillow and OpenEXR (requirements-dev.txt).
+Run: .venv/bin/python fuzz/seeds.py [FOLDER]. Needs numpy, Pillow and OpenEXR (requirements-dev.txt).
 The committed corpus (fuzz/corpus/) is these seeds plus what fuzzing found, minimised with `cargo fuzz cmin`
-(`make fuzz-cmin`). SHARED_DIR (default ../shared) adds the shared scenes' small XML and OBJ files.
+(`make fuzz-cmin`). FOLDER (default: the repository) adds the small XML and OBJ files of its scenes/.
 """
 import io
 import struct
@@ -261,11 +261,8 @@ put("xml", "errors.xml", """@params unused=1
 <float name="x" value="1e400"/><transform name="to_world"><lookat origin="0,0,0" target="0,0,0"/></transform>
 <spectrum name="s" value="400:1, 500:2"/><rgb name="c" value="1, 2"/><ref id="missing"/></scene>""")
 
-# Extra seeds from the shared scenes beside the checkout (or a folder given), else the bundled ones.
-shared = Path(sys.argv[1]) if len(sys.argv) > 1 else FUZZ.parent.parent / "shared"
-if not (shared / "scenes").is_dir():
-    shared = FUZZ.parent
-scenes = shared / "scenes"
+# Extra seeds from the repository's scenes (or the scenes/ of a folder given).
+scenes = (Path(sys.argv[1]) if len(sys.argv) > 1 else FUZZ.parent) / "scenes"
 if scenes.is_dir():
     for xml in sorted(scenes.rglob("*.xml")):
         if xml.stat().st_size < 16000:

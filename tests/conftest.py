@@ -1,7 +1,6 @@
-"""Shared fixtures: where the shared scenes are, Mitsuba references, and failure images."""
+"""Shared fixtures: where the test scenes are, Mitsuba references, and failure images."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -9,25 +8,18 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 
+#: The scenes bundled with the package (cbox, cbox-lights, veach-ajar, demo, bounce).
+SCENES = REPO / "scenes"
+#: Scenes only the tests read (matpreview, bunny: tests/data/README.md), not part of the package.
+TEST_SCENES = REPO / "tests" / "data" / "scenes"
 
-def shared_dir() -> Path:
-    """../shared beside the checkout (CI and developers), or $MANYLIGHTS_SHARED."""
-    env = os.environ.get("MANYLIGHTS_SHARED")
-    for cand in ([Path(env)] if env else []) + [REPO.parent / "shared"]:
-        if (cand / "scenes").is_dir():
-            return cand
-    raise RuntimeError("the shared scenes were not found: put shared/ beside the checkout or set MANYLIGHTS_SHARED")
-
-
-SCENES = shared_dir() / "scenes"
-
-# Test configurations per shared scene: (xml, loader params, film size (W, H)). Sizes keep each film's
+# Test configurations per test scene: (xml, loader params, film size (W, H)). Sizes keep each film's
 # aspect ratio; Mitsuba rays use normalised film positions, so its own film size does not matter.
 SCENE_CONFIGS = {
     "cbox": (SCENES / "cbox" / "scene.xml", {"res": 128}, (128, 128)),
     "cbox-lights": (SCENES / "cbox-lights" / "scene.xml", {"res": 128}, (128, 128)),
-    "matpreview": (SCENES / "matpreview" / "scene.xml", {"width": 128, "height": 96}, (128, 96)),
-    "bunny": (SCENES / "bunny" / "scene.xml", {}, (128, 96)),
+    "matpreview": (TEST_SCENES / "matpreview" / "scene.xml", {"width": 128, "height": 96}, (128, 96)),
+    "bunny": (TEST_SCENES / "bunny" / "scene.xml", {}, (128, 96)),
     "veach-ajar": (SCENES / "veach-ajar" / "scene.xml", {"resx": 128, "resy": 72}, (128, 72)),
 }
 

@@ -23,7 +23,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import manylights as ml  # noqa: E402
-from conftest import SCENES  # noqa: E402
+from conftest import REPO, SCENES, TEST_SCENES  # noqa: E402
 from manylights.testing import mitsuba as reference  # noqa: E402
 
 OUT = HERE / "references"
@@ -36,9 +36,9 @@ OUT = HERE / "references"
 REFERENCES = {
     "cbox-direct": (SCENES / "cbox" / "scene.xml", {"res": 128}, (128, 128), 2, 0.0075, None),
     "cbox-lights-direct": (SCENES / "cbox-lights" / "scene.xml", {"res": 128}, (128, 128), 2, 0.0075, None),
-    "matpreview-direct": (SCENES / "matpreview" / "scene.xml", {"width": 128, "height": 96}, (128, 96), 2, 0.01,
+    "matpreview-direct": (TEST_SCENES / "matpreview" / "scene.xml", {"width": 128, "height": 96}, (128, 96), 2, 0.01,
                           "no-smooth-specular"),
-    "bunny-direct": (SCENES / "bunny" / "scene.xml", {}, (128, 96), 2, 0.01, None),
+    "bunny-direct": (TEST_SCENES / "bunny" / "scene.xml", {}, (128, 96), 2, 0.01, None),
     "cbox-gi": (SCENES / "cbox" / "scene.xml", {"res": 128}, (128, 128), -1, 0.02, None),
     "veach-ajar-gi": (SCENES / "veach-ajar" / "scene.xml", {"resx": 64, "resy": 36}, (64, 36), -1, 0.05, None),
     # VSLs and bias compensation: veach-ajar full GI at 32x18, its noise 3x below 5%.
@@ -72,7 +72,7 @@ REFERENCES = {
     "glossy-principled-direct": (HERE / "data" / "glossy_principled.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.003,
                                  None),
     # matpreview's object as a blend of rough plastic and a near-specular gold (glossy MIS on blends).
-    "matpreview-blend-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.004,
+    "matpreview-blend-direct": (TEST_SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.004,
                                 "blend-object"),
     # Area-light strata (for the strata tests to come), direct light: a 6.5 x 5.1 m emitting wall whose top edge
     # meets the ceiling at a right angle (the emitter's pixels, exact in both, are part of the norm), and two
@@ -84,7 +84,7 @@ REFERENCES = {
     # the lit surfaces' own noise ~0.5%.
     "disk-recess-direct": (HERE / "data" / "disk_recess.xml", {"res": 64}, (64, 64), 2, 0.00015, None),
     # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
-    "matpreview-full-direct": (SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
+    "matpreview-full-direct": (TEST_SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
                                None),
 }
 
@@ -165,7 +165,7 @@ def render(name: str, max_seconds: float, seed: int = 0) -> dict:
     ml.write_exr(OUT / f"{name}.exr", m.astype(np.float32))
     ml.write_exr(OUT / f"{name}.var.exr", v.astype(np.float32))
     meta = {
-        "scene": str(xml.relative_to(SCENES.parent) if xml.is_relative_to(SCENES.parent) else xml.relative_to(HERE.parent)),
+        "scene": str(xml.relative_to(REPO)),
         "scene_sha256": scene_hash(xml),
         "params": params,
         "size": list(size),

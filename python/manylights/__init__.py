@@ -32,6 +32,7 @@ from .animation.tensor_clusters import TensorClustering, cluster_tensor
 
 # Sweeps (dask and pandas are imported when a sweep runs)
 from .distributed.sweep import sweep
+from .io.display import show
 
 # I/O and metrics
 from .io.images import read_exr, write_exr, write_png
@@ -79,7 +80,7 @@ __all__ = [
     # sweeps
     "sweep",
     # I/O and metrics
-    "read_exr", "write_exr", "write_png", "write_exr_sequence", "write_video", "side_by_side", "relative_l2",
+    "read_exr", "write_exr", "write_png", "show", "write_exr_sequence", "write_video", "side_by_side", "relative_l2",
     "relative_l2_per_frame", "fraction_within", "flicker",
     # exceptions
     "ManyLightsError", "SceneError", "GpuError", "GpuUnavailableError",

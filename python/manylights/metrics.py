@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._utils.keywords import checked_keywords
 from ._utils.validate import finite, numeric_array, real
 
 
@@ -21,6 +22,7 @@ def _pair(image, reference) -> tuple[np.ndarray, np.ndarray]:
     return finite("image", a), finite("reference", b)
 
 
+@checked_keywords()
 def relative_l2(image, reference) -> float:
     """||image - reference|| / ||reference|| over all pixels and channels (float64).
 
@@ -33,6 +35,7 @@ def relative_l2(image, reference) -> float:
     return float(np.linalg.norm(a - b) / nb)
 
 
+@checked_keywords()
 def fraction_within(image, reference, rel: float = 0.02, abs_: float = 1e-3) -> float:
     """Fraction of pixels whose every channel is within ``rel`` relative or ``abs_`` absolute of the reference.
 
@@ -65,6 +68,7 @@ def _animation_pair(frames, reference) -> tuple[np.ndarray, np.ndarray]:
     return a, b
 
 
+@checked_keywords()
 def relative_l2_per_frame(frames, reference) -> np.ndarray:
     """Relative L2 error of every frame: ``||X_k - R_k|| / ||R_k||`` over pixels and channels.
 
@@ -85,6 +89,7 @@ def relative_l2_per_frame(frames, reference) -> np.ndarray:
     return np.sqrt(((a - b) ** 2).reshape(len(a), -1).sum(axis=1)) / den
 
 
+@checked_keywords()
 def flicker(frames, reference) -> float:
     """Temporal flicker of an animation against its reference: the relative L2 norm of the frame-to-frame
     change of the error,

@@ -1,8 +1,8 @@
-"""The scenes bundled in the repository's ``scenes/`` folder (see ``scenes/README.md``).
+"""The scenes bundled in the repository's ``scenes/`` folder (see ``scenes/README.md``) and in the wheel.
 
 The README, the notebooks, the command line and the benchmarks name these scenes by folder
-(``"cbox"``, ``"veach-ajar"``, ...); this module finds them relative to the package, so a clone needs
-nothing beside it::
+(``"cbox"``, ``"veach-ajar"``, ...); this module finds them relative to the package, so a clone or an
+installed wheel needs nothing beside it::
 
     import manylights as ml
     from manylights.scenes import scene_path
@@ -15,8 +15,20 @@ from pathlib import Path
 
 from ._utils import validate as _v
 
-#: The repository's ``scenes/`` folder (the package lives in ``<repo>/python/manylights``).
-SCENES_DIR = Path(__file__).resolve().parents[2] / "scenes"
+
+def _scenes_dir() -> Path:
+    """The bundled scenes: in an installed wheel the package's ``scenes_data/`` folder; in a clone the
+    repository's ``scenes/`` (``python/manylights/scenes_data`` is a link to it, which the wheel build
+    follows)."""
+    here = Path(__file__).resolve().parent
+    data = here / "scenes_data"
+    if data.is_dir() and not data.is_symlink():
+        return data
+    return here.parents[1] / "scenes"
+
+
+#: Where the bundled scenes are (``_scenes_dir``).
+SCENES_DIR = _scenes_dir()
 
 
 def available() -> list[str]:
@@ -32,15 +44,15 @@ def scene_path(name: str | os.PathLike) -> Path:
     Raises:
         TypeError: ``name`` is not a string or path.
         FileNotFoundError: no bundled scene of that name (the message lists those there are), or the
-            package runs outside a clone (an installed wheel carries no scenes: pass an XML path instead).
+            scenes are missing (a package built without them: pass the path of a scene XML instead).
     """
     if not isinstance(name, (str, os.PathLike)):
         raise TypeError(f"scene name must be a string, got {type(name).__name__}")
     name = os.fspath(name)
     if not SCENES_DIR.is_dir():
         raise FileNotFoundError(
-            f"bundled scene {name!r}: no scenes/ folder at {SCENES_DIR} (the scenes ship with the repository, "
-            "not the wheel; run from a clone or pass the path of a scene XML)")
+            f"bundled scene {name!r}: no scenes folder at {SCENES_DIR} (this installation carries no bundled "
+            "scenes; pass the path of a scene XML)")
     path = SCENES_DIR / name / "scene.xml"
     if not name or Path(name).name != name or name in (".", "..") or not path.is_file():
         raise FileNotFoundError(f"no bundled scene {name!r} in {SCENES_DIR}; bundled scenes: {', '.join(available())}")

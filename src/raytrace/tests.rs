@@ -69,7 +69,7 @@ fn count_disagreements(scene: &Scene, n: usize, seed: u64) -> (usize, usize) {
 }
 
 #[test]
-fn bvh_matches_brute_force_on_shared_scenes() {
+fn bvh_matches_brute_force_on_test_scenes() {
     for (name, scene, n) in [
         ("cbox", raytrace_scenes::cbox(true), 100_000),
         ("cbox+spheres", raytrace_scenes::cbox_spheres(), 100_000),
@@ -84,11 +84,10 @@ fn bvh_matches_brute_force_on_shared_scenes() {
 }
 
 #[test]
-fn loaded_shared_scenes_match_brute_force() {
+fn loaded_scenes_match_brute_force() {
     use crate::scene::{load_scene, LoadOptions};
-    let dir = raytrace_scenes::scenes_dir();
     for (name, n) in [("cbox", 20_000), ("cbox-lights", 20_000), ("bunny", 3_000), ("matpreview", 2_000), ("veach-ajar", 3_000)] {
-        let scene = load_scene(&dir.join(name).join("scene.xml"), &LoadOptions::default()).unwrap();
+        let scene = load_scene(&crate::testing::scene_file(&format!("{name}/scene.xml")), &LoadOptions::default()).unwrap();
         let spheres = scene.meshes.iter().filter(|m| matches!(m.kind, ShapeKind::Sphere { .. })).count();
         let (disagree, hits) = count_disagreements(&scene, n, 6);
         let agreement = 1.0 - disagree as f64 / n as f64;
@@ -97,7 +96,7 @@ fn loaded_shared_scenes_match_brute_force() {
         assert!(hits > n / 4, "{name}: only {hits} hits of {n} rays");
     }
     // The hand-built test scenes are the same geometry as the XML files.
-    let loaded = load_scene(&dir.join("bunny/scene.xml"), &LoadOptions::default()).unwrap();
+    let loaded = load_scene(&crate::testing::scene_file("bunny/scene.xml"), &LoadOptions::default()).unwrap();
     let (lo, hi) = (loaded.bounds(), raytrace_scenes::bunny().bounds());
     assert!((lo.0 - hi.0).abs().max_element() < 1e-4 && (lo.1 - hi.1).abs().max_element() < 1e-4, "{lo:?} vs {hi:?}");
 }

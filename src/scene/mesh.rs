@@ -231,7 +231,4 @@ fn unshare_with_face_normals(world: &[Vec3], uvs: &[Vec2], indices: &[[u32; 3]])
 }
 
 #[cfg(test)]
-pub(crate) use crate::testing::shared_dir;
-
-#[cfg(test)]
 mod tests;

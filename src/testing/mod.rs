@@ -1,19 +1,19 @@
-//! Test-only helpers shared by the unit tests of every module: where the shared scenes are, and the
+//! Test-only helpers shared by the unit tests of every module: where the test scenes are, and the
 //! scenes the tests build: `scenes` (hand-made meshes, cameras and CPU-cast view samples),
 //! `light_scenes` (closed and open boxes for light generation and the light matrix), `view_scenes`
-//! (G-buffer and view-sample scenes) and `raytrace_scenes` (geometry of the shared cbox and bunny).
+//! (G-buffer and view-sample scenes) and `raytrace_scenes` (geometry of the cbox and bunny test scenes).
 use std::path::{Path, PathBuf};
 
-/// Where the shared scenes are: `$MANYLIGHTS_SHARED`, then `<manifest>/../shared` (CI: `shared/` beside
-/// the checkout); the folder must contain `scenes/`.
-pub fn shared_dir() -> PathBuf {
-    let candidates =
-        [std::env::var("MANYLIGHTS_SHARED").ok().map(PathBuf::from), Some(Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"))];
-    candidates
+/// A test scene's file by its path below the scene folders (`"cbox/scene.xml"`, `"bunny/meshes/bunny.ply"`):
+/// in the bundled `scenes/` or in the test-only `tests/data/scenes/` (matpreview, bunny), both in the repository.
+pub fn scene_file(rel: &str) -> PathBuf {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let folder = rel.split('/').next().unwrap_or(rel);
+    [repo.join("scenes"), repo.join("tests/data/scenes")]
         .into_iter()
-        .flatten()
-        .find(|d| d.join("scenes").is_dir())
-        .expect("shared scenes not found: set MANYLIGHTS_SHARED to the folder holding scenes/")
+        .find(|root| root.join(folder).is_dir())
+        .map(|root| root.join(rel))
+        .unwrap_or_else(|| panic!("test scene {rel:?}: no folder {folder:?} in scenes/ or tests/data/scenes/"))
 }
 
 pub mod light_scenes;
@@ -88,7 +88,7 @@ pub fn backend_pair(res: u32) -> BackendPair {
     use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
     use crate::scene::{load_scene, LoadOptions};
     use std::sync::Arc;
-    let xml = shared_dir().join("scenes/cbox-lights/scene.xml");
+    let xml = scene_file("cbox-lights/scene.xml");
     let opts = LoadOptions { params: vec![("res".into(), res.to_string())], size: None };
     let scene = Arc::new(load_scene(&xml, &opts).unwrap());
     let gen = GenerateOptions { area: 24, environment: 24, indirect: 300, seed: 5, ..Default::default() };

@@ -1,15 +1,11 @@
-//! Test-only scenes built from the shared scene assets (OBJ/PLY files and the transforms of their XML
+//! Test-only scenes built from the test scenes' assets (OBJ/PLY files and the transforms of their XML
 //! files), so the ray tracer's tests do not depend on the XML reader. Only geometry is filled in.
 use crate::error::Location;
 use crate::scene::{Camera, Mesh, Scene, ShapeKind};
 use glam::{Mat4, Vec3};
 use std::path::PathBuf;
 
-pub use crate::testing::shared_dir;
-
-pub fn scenes_dir() -> PathBuf {
-    shared_dir().join("scenes")
-}
+use crate::testing::scene_file;
 
 fn mesh(id: &str, kind: ShapeKind, positions: Vec<Vec3>, indices: Vec<[u32; 3]>, path: &std::path::Path) -> Mesh {
     let mut m = crate::testing::scenes::mesh(id, kind, positions, indices, 0);
@@ -19,7 +15,7 @@ fn mesh(id: &str, kind: ShapeKind, positions: Vec<Vec3>, indices: Vec<[u32; 3]>,
 
 /// An OBJ file (positions and faces only; quads fan-triangulated by tobj) transformed by `to_world`.
 pub fn load_obj(rel: &str, to_world: Mat4) -> Mesh {
-    let path = scenes_dir().join(rel);
+    let path = scene_file(rel);
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let (models, _) = tobj::load_obj(&path, &opts).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let (mut positions, mut indices) = (Vec::new(), Vec::new());
@@ -34,7 +30,7 @@ pub fn load_obj(rel: &str, to_world: Mat4) -> Mesh {
 /// A binary little-endian PLY whose vertex properties are all `float` (x, y, z first) and whose faces
 /// are `list uchar int`; positions transformed by `to_world`.
 pub fn load_ply(rel: &str, to_world: Mat4) -> Mesh {
-    let path = scenes_dir().join(rel);
+    let path = scene_file(rel);
     let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let end = bytes.windows(11).position(|w| w == b"end_header\n").expect("PLY header") + 11;
     let header = std::str::from_utf8(&bytes[..end]).expect("PLY header is ASCII");

@@ -1,8 +1,8 @@
 """What a user running ``python script.py`` sees on the console.
 
-Item 10: progress in logs and CI. With stderr going to a pipe or a file a call writes a few plain lines
-per progress display (start and end), not tqdm's carriage-return redraws; in a terminal (a pty here) a
-live tqdm bar is kept.
+Progress in logs and CI. With stderr going to a pipe or a file a call with the default ``progress=None``
+writes nothing, and one with ``progress=True`` a few plain lines per progress display (start and end), not
+tqdm's carriage-return redraws; in a terminal (a pty here) the default is a live tqdm bar.
 
 Item 11: with ``XDG_RUNTIME_DIR`` unset, importing manylights and starting the GPU prints nothing on
 stderr (Mesa's device-select layer used to make libwayland print "error: XDG_RUNTIME_DIR is invalid or
@@ -33,8 +33,9 @@ SCRIPT = textwrap.dedent(r"""
     scene = ml.load_scene(xml, size=(16, 16), **params)
     lights = ml.generate_lights(scene, area=int(sys.argv[3]), seed=0)
     A = ml.LightMatrix(scene, lights, shadow_map_size=64)
-    img = A.column_sum()                      # progress=True by default
-    R = A.rows(np.arange(40))                 # progress=True by default
+    progress = json.loads(sys.argv[5]) if len(sys.argv) > 5 else None
+    img = A.column_sum(progress=progress)     # progress=None by default: a bar in a terminal, quiet in logs
+    R = A.rows(np.arange(40), progress=progress)
     np.save(sys.argv[4], img)
 """)
 
@@ -48,7 +49,12 @@ def test_progress_in_a_pipe_is_a_few_lines(tmp_path):
     xml, params = _cbox()
     env = {k: v for k, v in os.environ.items() if k != "MANYLIGHTS_PROGRESS"}
     # 1500 lights = 6 column batches of 256, 40 rows; tqdm redrew once per batch before.
-    out = subprocess.run([sys.executable, "-c", SCRIPT, xml, params, "1500", str(tmp_path / "img.npy")],
+    # The default in a pipe: nothing at all.
+    quiet = subprocess.run([sys.executable, "-c", SCRIPT, xml, params, "300", str(tmp_path / "q.npy")],
+                           capture_output=True, text=True, cwd=REPO, env=env, timeout=600)
+    assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr[-3000:]
+    # progress=True in a pipe: a few plain lines.
+    out = subprocess.run([sys.executable, "-c", SCRIPT, xml, params, "1500", str(tmp_path / "img.npy"), "true"],
                          capture_output=True, text=True, cwd=REPO, env=env, timeout=600)
     assert out.returncode == 0, out.stderr[-3000:]
     lines = out.stderr.splitlines()

@@ -1,7 +1,7 @@
 """Every code block of README.md and docs/**/*.md runs as written.
 
 Each ```python block is executed on its own (a fresh namespace) in a temporary directory that holds the
-repository's ``scenes/`` (as a clone has it), with ../shared hidden; a block that raises fails its test.
+repository's ``scenes/`` (as a clone has it); a block that raises fails its test.
 Where a block makes a claim in its comments (a shape, an error, "the same in one call"), a check in
 ``CHECKS``, keyed by (file, the heading above the block), verifies it on the names the block leaves behind.
 
@@ -79,13 +79,10 @@ def heading_before(path: str, line: int) -> str:
 
 @pytest.fixture()
 def clone_dir(tmp_path, monkeypatch):
-    """A working directory like a fresh clone's root: scenes/ only, ../shared hidden."""
+    """A working directory like a fresh clone's root: scenes/ only."""
     work = tmp_path / "clone"
     work.mkdir()
     (work / "scenes").symlink_to(REPO / "scenes", target_is_directory=True)
-    empty = tmp_path / "no-shared"
-    empty.mkdir()
-    monkeypatch.setenv("MANYLIGHTS_SHARED", str(empty))
     monkeypatch.setenv("MANYLIGHTS_PROGRESS", "off")
     monkeypatch.chdir(work)
     return work

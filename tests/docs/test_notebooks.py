@@ -1,5 +1,4 @@
-"""Every notebook in notebooks/ runs top to bottom (outputs are not stored), from a temporary folder with
-../shared hidden: the notebooks use the scenes bundled in scenes/ only."""
+"""Every notebook in notebooks/ runs top to bottom (outputs are not stored), from a temporary folder: the notebooks use the scenes bundled in scenes/ only."""
 
 import nbformat
 import pytest
@@ -14,8 +13,6 @@ NOTEBOOKS = sorted((REPO / "notebooks").glob("*.ipynb"))
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs(path, tmp_path, monkeypatch):
     nb = nbformat.read(path, as_version=4)
-    (tmp_path / "no-shared").mkdir()
-    monkeypatch.setenv("MANYLIGHTS_SHARED", str(tmp_path / "no-shared"))
     monkeypatch.setenv("MPLBACKEND", "Agg")
     client = NotebookClient(nb, timeout=900, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
     client.execute()

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import SCENES
+from conftest import SCENES, TEST_SCENES
 
 CBOX_LIGHTS = SCENES / "cbox-lights" / "scene.xml"
-MATPREVIEW = SCENES / "matpreview" / "scene.xml"
+MATPREVIEW = TEST_SCENES / "matpreview" / "scene.xml"
 
 
 @pytest.fixture(scope="module")

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import SCENES
+from conftest import TEST_SCENES
 
 HERE = Path(__file__).resolve().parents[1]
 XML = HERE / "data" / "veach_plates.xml"
@@ -87,7 +87,7 @@ def test_veach_plates_converge_to_mitsuba(scene, area):
 def test_matpreview_full_plastic_matches_mitsuba():
     ref, var, meta = _reference("matpreview-full-direct")
     assert meta["edit"] is None
-    scene = ml.load_scene(SCENES / "matpreview" / "scene.xml", size=SIZE, width=SIZE[0], height=SIZE[1])
+    scene = ml.load_scene(TEST_SCENES / "matpreview" / "scene.xml", size=SIZE, width=SIZE[0], height=SIZE[1])
     lights = ml.generate_lights(scene, area=0, environment=4096)
     A = ml.LightMatrix(scene, lights, device="cpu", max_depth=2)
     img = np.asarray(A.column_sum(progress=False)) + A.emitted()
@@ -242,7 +242,7 @@ def test_matpreview_blend_highlights(device, tmp_path):
 
     ref, var, meta = _reference("matpreview-blend-direct")
     assert meta["edit"] == "blend-object"
-    xml = edited(SCENES / "matpreview" / "scene.xml", "blend-object", tmp_path)
+    xml = edited(TEST_SCENES / "matpreview" / "scene.xml", "blend-object", tmp_path)
     scene = ml.load_scene(xml, size=SIZE, width=SIZE[0], height=SIZE[1])
     lights = ml.generate_lights(scene, area=0, environment=2048)
     vis = {"visibility": "ray_traced"} if device == "gpu" else {}

@@ -63,7 +63,7 @@ class Case:
     compute: Callable[[], dict]
     tol: str = "cpu"
     tols: dict = field(default_factory=dict)
-    #: "gpu": needs a GPU adapter (skipped without one); "shared": needs the shared scenes.
+    #: "gpu": needs a GPU adapter (skipped without one).
     requires: str = ""
 
     def tolerance(self, name: str) -> dict:
@@ -351,18 +351,18 @@ def relight():
     return out
 
 
-def _shared_scenes() -> Path:
-    """The shared test scenes (matpreview, bunny), found as tests/conftest.py finds them."""
+def _test_scenes() -> Path:
+    """The test-only scenes (matpreview, bunny: tests/data/scenes), as tests/conftest.py names them."""
     if str(TESTS) not in sys.path:
         sys.path.insert(0, str(TESTS))
-    from conftest import SCENES
+    from conftest import TEST_SCENES
 
-    return SCENES
+    return TEST_SCENES
 
 
 def brute_matpreview():
     w, h = _reference_size("matpreview-full-direct")
-    scene = ml.load_scene(_shared_scenes() / "matpreview" / "scene.xml", size=(w, h), width=w, height=h)
+    scene = ml.load_scene(_test_scenes() / "matpreview" / "scene.xml", size=(w, h), width=w, height=h)
     L = ml.generate_lights(scene, area=0, environment=1024)
     img = _brute(ml.LightMatrix(scene, L, device="cpu", max_depth=2))
     ref = _reference("matpreview-full-direct")
@@ -370,7 +370,7 @@ def brute_matpreview():
 
 
 def brute_bunny():
-    scene = ml.load_scene(_shared_scenes() / "bunny" / "scene.xml", size=_reference_size("bunny-direct"))
+    scene = ml.load_scene(_test_scenes() / "bunny" / "scene.xml", size=_reference_size("bunny-direct"))
     L = ml.generate_lights(scene, area=0, environment=512)
     img = _brute(ml.LightMatrix(scene, L, device="cpu", max_depth=2))
     ref = _reference("bunny-direct")
@@ -508,14 +508,14 @@ CASES = [
                                                      "and vpl_importance=True",
                                               method="brute force", reference="veach-ajar-gi-32"),
          brute_veach, tols={"lights_plain": "count", "lights_importance": "count"}),
-    Case("brute_force/matpreview-full-direct", dict(scene="matpreview (shared)", size="64x48",
+    Case("brute_force/matpreview-full-direct", dict(scene="tests/data/scenes/matpreview", size="64x48",
                                                     lights="1024 environment, seed 0",
                                                     method="brute force, max_depth 2 (delta chains through the "
                                                            "smooth plastic)", reference="matpreview-full-direct"),
-         brute_matpreview, requires="shared"),
-    Case("brute_force/bunny-direct", dict(scene="bunny (shared)", size="128x96", lights="512 environment, seed 0",
+         brute_matpreview),
+    Case("brute_force/bunny-direct", dict(scene="tests/data/scenes/bunny", size="128x96", lights="512 environment, seed 0",
                                           method="brute force, max_depth 2", reference="bunny-direct"),
-         brute_bunny, requires="shared"),
+         brute_bunny),
     Case("brute_force/veach-plates-glossy", dict(scene="tests/data/veach_plates.xml", size="64x48",
                                                  lights="1024 area, seed 0",
                                                  method="brute force, max_depth 2: glossy MIS (bsdf_samples 1024) "
@@ -632,11 +632,6 @@ def skip_reason(case: Case):
     """Why ``case`` cannot run on this machine (None: it can)."""
     if case.requires == "gpu" and not gpu_available():
         return "no GPU adapter (ml.device_info('gpu') raised GpuUnavailableError)"
-    if case.requires == "shared":
-        try:
-            _shared_scenes()
-        except RuntimeError as e:
-            return str(e)
     return None
 
 

@@ -199,7 +199,6 @@ cases_for("load_scene", [
     ("negative resolution", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=-8), ["-8"]),
     ("NaN parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", res=float("nan")),
      ["nan"]),
-    ("unused parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", nope=1), ["nope"]),
     ("size of zero", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", size=(0, 8)), ["size"]),
     ("size of three", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", size=(8, 8, 8)),
      ["size"]),
@@ -225,6 +224,12 @@ cases_for("load_scene", [
     ("NaN sphere radius", lambda c: c.ml.load_scene(c.scene_with(
         "nanr", '<shape type="sphere"><float name="radius" value="nan"/></shape>')), ["nan", "scene.xml:8"]),
 ], raises=FILE_ERRORS + ("FileNotFoundError",))
+cases_for("load_scene", [
+    # refused before loading, naming the closest parameter the file has
+    ("unused parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", nope=1), ["nope"]),
+    ("misspelled parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", rez=8),
+     ["rez", "did you mean 'res'"]),
+], raises=("TypeError",))
 
 # --------------------------------------------------------------------------------------------------
 # Mesh files (OBJ, PLY) through load_scene.
@@ -395,6 +400,14 @@ cases_for("write_png", [
     ("inf exposure", lambda c: c.ml.write_png(c.tmp / "o.png", IMG(2, 2, 3), exposure=float("inf")),
      ["exposure"]),
 ])
+cases_for("show", [
+    ("five channels", lambda c: c.ml.show(IMG(2, 3, 5), path=c.tmp / "s.png"), ["(2, 3, 5)"]),
+    ("empty image", lambda c: c.ml.show(IMG(0, 3, 3), path=c.tmp / "s.png"), ["empty"]),
+    ("NaN exposure", lambda c: c.ml.show(IMG(2, 2, 3), exposure=float("nan"), path=c.tmp / "s.png"), ["exposure"]),
+])
+cases_for("show", [
+    ("strings", lambda c: c.ml.show([["a", "b"]], path=c.tmp / "s.png"), ["dtype"]),
+], raises=("TypeError",))
 
 # --------------------------------------------------------------------------------------------------
 # Metrics.
@@ -1526,8 +1539,10 @@ NOT_COVERED: dict[str, str] = {
     "scenes.animated": "takes no arguments",
     "Animation.gbuffers": "takes no arguments (the device is the Animation's, checked when it is made)",
     "AnimationResult": "a dataclass that only holds results (no validation of its own)",
-    "LightTensor.brute_force": "takes only a progress flag (any truthy value shows a bar)",
+    "LightTensor.brute_force": "takes only a progress flag (None, True or False; any other value counts as True)",
     "LightMatrix.view_samples": "takes no arguments",
+    "RenderResult.summary": "takes no arguments",
+    "AnimationResult.summary": "takes no arguments",
 }
 
 # Case id -> environment of its own child process.

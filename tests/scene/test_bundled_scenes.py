@@ -1,13 +1,11 @@
-"""A clone runs alone: every scene the README, the notebooks, the CLI and the
-benchmarks name is bundled in scenes/ with its source and licence, found relative to the package, and
-nothing in the product looks for ../shared or an absolute machine path.
+"""A clone runs alone: every scene the README, the notebooks, the CLI and the benchmarks name is bundled
+in scenes/ with its source and licence, found relative to the package; the scenes only the tests read are
+in tests/data/scenes with theirs; nothing looks beside the checkout or at an absolute machine path.
 
-The runs here hide ../shared: ``MANYLIGHTS_SHARED`` points to an empty folder and the working directory
-is a temporary one (product code no longer reads either; ``test_no_shared_lookup_in_product`` checks).
+The subprocess runs here start from a temporary working directory.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import re
@@ -18,8 +16,7 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from conftest import REPO
-from conftest import SCENES as SHARED_SCENES
+from conftest import REPO, TEST_SCENES
 from manylights.bench import lights as bench_lights
 from manylights.scenes import SCENES_DIR, animated, available, resolve, scene_path
 
@@ -73,21 +70,40 @@ def test_named_scenes_are_bundled_with_source_and_licence():
     assert size < 4 * 2**20, f"scenes/ holds {size / 2**20:.1f} MiB"
 
 
-def test_bundled_scenes_equal_the_shared_ones():
-    """The bundled copies are byte-identical to ../shared/scenes (the stored references were made from
-    those), for every file the shared folder has."""
-    compared = 0
-    for name in available():
-        shared = SHARED_SCENES / name
-        if not shared.is_dir():
+def test_test_scenes_ship_with_source_and_licence():
+    """The scenes only the tests read (tests/data/scenes) are in the repository, each with its source and
+    licence, and every file their XML names is there (a clone tests itself with nothing beside it)."""
+    names = sorted(p.name for p in TEST_SCENES.iterdir() if p.is_dir())
+    assert names == ["bunny", "matpreview"], names
+    for name in names:
+        folder = TEST_SCENES / name
+        source = (folder / "SOURCE.txt").read_text()
+        assert "Source:" in source and "licen" in source.lower(), f"{name}/SOURCE.txt names no source or licence"
+        xml = (folder / "scene.xml").read_text()
+        files = re.findall(r'name="filename" value="([^"]+)"', xml)
+        assert len(files) >= 3, (name, files)
+        for f in files:
+            assert (folder / f).is_file(), f"{name}/scene.xml names {f}, which is not in the repository"
+    assert "Stanford" in (TEST_SCENES / "bunny" / "LICENSE.txt").read_text()
+    size = sum(p.stat().st_size for p in TEST_SCENES.rglob("*") if p.is_file())
+    assert size < 5 * 2**20, f"tests/data/scenes holds {size / 2**20:.1f} MiB"
+
+
+def test_nothing_looks_beside_the_checkout():
+    """No test, test helper, build file or module comment reads or names a folder beside the checkout
+    (the old ../shared) or an environment variable pointing to one."""
+    files = [*(REPO / "src").rglob("*.rs"), *(REPO / "tests").rglob("*.py"), *(REPO / "python").rglob("*.py"),
+             *(REPO / "fuzz").glob("*.py"), REPO / "Makefile", *(REPO / ".ci").glob("*"), REPO / "Cargo.toml",
+             REPO / "pyproject.toml"]
+    me = Path(__file__).resolve()
+    bad = []
+    for f in files:
+        if f.resolve() == me or not f.is_file():
             continue
-        for f in shared.rglob("*"):
-            if f.is_file():
-                mine = SCENES_DIR / f.relative_to(SHARED_SCENES)
-                assert mine.is_file(), f"{mine} missing"
-                assert hashlib.sha256(mine.read_bytes()).digest() == hashlib.sha256(f.read_bytes()).digest(), mine
-                compared += 1
-    assert compared >= 40
+        for k, line in enumerate(f.read_text(errors="replace").splitlines(), 1):
+            if re.search(r"\.\./shared|MANYLIGHTS_SHARED|parent / \"shared\"|shared/(docs|seeds|scenes)", line):
+                bad.append(f"{f.relative_to(REPO)}:{k}: {line.strip()}")
+    assert not bad, bad
 
 
 def test_scene_path_and_resolve():
@@ -113,8 +129,6 @@ def test_no_shared_lookup_in_product():
         for pat in [r"/work\b", r"/home/", r"/root/", r"/tmp/", r"MANYLIGHTS_SHARED", r"[\"'/]shared[\"'/]"]:
             for m in re.finditer(pat, text):
                 line = text[: m.start()].count("\n") + 1
-                if f.name == "README.md" and pat in ("MANYLIGHTS_SHARED", r"[\"'/]shared[\"'/]"):
-                    continue  # the README says where the *test suite* finds its extra scenes
                 if f.name == "Makefile" and pat == r"/tmp/":
                     continue  # XDG_RUNTIME_DIR default, not a data path
                 if f.name == "mitsuba.py" and "shared/docs" in text.splitlines()[line - 1]:
@@ -124,15 +138,13 @@ def test_no_shared_lookup_in_product():
 
 
 def _hidden_env(tmp_path: Path) -> dict:
-    empty = tmp_path / "no-shared"
-    empty.mkdir(exist_ok=True)
     env = os.environ.copy()
-    env.update(MANYLIGHTS_SHARED=str(empty), MPLBACKEND="Agg", MANYLIGHTS_NB_RES="16", MANYLIGHTS_NB_LIGHTS="64")
+    env.update(MPLBACKEND="Agg", MANYLIGHTS_NB_RES="16", MANYLIGHTS_NB_LIGHTS="64")
     return env
 
 
 def test_named_scenes_load_from_elsewhere(tmp_path):
-    """From another working directory with ../shared hidden, every named scene loads by name."""
+    """From another working directory, every named scene loads by name."""
     names = sorted(named_scenes())
     code = ("import json, manylights as ml\nfrom manylights.scenes import scene_path\nout = {}\n"
             f"for n in {names!r}:\n"
@@ -149,9 +161,9 @@ def test_named_scenes_load_from_elsewhere(tmp_path):
     assert all(c[0] > 0 for c in counts.values())
 
 
-def test_notebooks_scene_lookup_without_shared(tmp_path):
-    """Each notebook's code up to and including its first scene load runs from a temporary folder with
-    ../shared hidden (small sizes via the notebooks' own environment knobs)."""
+def test_notebooks_scene_lookup_from_elsewhere(tmp_path):
+    """Each notebook's code up to and including its first scene load runs from a temporary folder
+    (small sizes via the notebooks' own environment knobs)."""
     for nb_path in NOTEBOOKS:
         nb = nbformat.read(nb_path, as_version=4)
         cells = [c.source for c in nb.cells if c.cell_type == "code"]
@@ -163,8 +175,8 @@ def test_notebooks_scene_lookup_without_shared(tmp_path):
         assert "SCENE 16 16" in r.stdout, r.stdout[-1000:]
 
 
-def test_tiny_lights_benchmark_without_shared(tmp_path):
-    """``python -m manylights.bench lights`` at a tiny size, from elsewhere, ../shared hidden: it finds the
+def test_tiny_lights_benchmark_from_elsewhere(tmp_path):
+    """``python -m manylights.bench lights`` at a tiny size, from elsewhere: it finds the
     bundled cbox, compares with the stored reference and writes its JSON. (The tiny MRCS benchmark runs in
     test_readme.py, the same way.)"""
     out = tmp_path / "bench"

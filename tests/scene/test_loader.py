@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import SCENE_CONFIGS, SCENES
+from conftest import SCENE_CONFIGS, TEST_SCENES
 
 
 def _triangles(pos, idx):
@@ -68,7 +68,7 @@ def test_cbox_lights_introspection():
 def test_params_and_size_override():
     xml, _, _ = SCENE_CONFIGS["cbox-lights"]
     assert ml.load_scene(xml, res=32).width == 32
-    s = ml.load_scene(SCENES / "bunny" / "scene.xml", size=(64, 48))
+    s = ml.load_scene(TEST_SCENES / "bunny" / "scene.xml", size=(64, 48))
     assert (s.width, s.height) == (64, 48)
     # fov_axis "smaller" on a landscape film: the vertical fov is the given one.
     assert s.camera["fov_y"] == pytest.approx(28.8415, abs=1e-3)
@@ -133,6 +133,25 @@ def test_degenerate_triangle(tmp_path):
     with pytest.warns(UserWarning, match="scene.xml:4.*zero area"):
         s = ml.load_scene(tmp_path / "scene.xml")
     assert s.shapes[0]["triangles"] == 0
+
+
+def test_warnings_grouped_per_kind(tmp_path):
+    """Seven zero-area shapes: one warning line (how many, the first five ids, the first location), not seven."""
+    import warnings
+
+    (tmp_path / "flat.obj").write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")
+    body = "".join(f'<shape type="obj" id="flat{k}"><string name="filename" value="flat.obj"/></shape>\n'
+                   for k in range(7))
+    (tmp_path / "scene.xml").write_text(_scene('<shape type="rectangle" id="floor"/>' + body))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        s = ml.load_scene(tmp_path / "scene.xml")
+    assert len(s.shapes) == 8
+    messages = [str(w.message) for w in caught]
+    assert len(messages) == 1, messages
+    assert messages[0].startswith(f"{tmp_path / 'scene.xml'}:4 (first of 7): shapes ")
+    assert '"flat0", "flat1", "flat2", "flat3", "flat4" and 2 more: all triangles have zero area' in messages[0]
+    assert caught[0].category is UserWarning and caught[0].filename == __file__  # reported at the caller
 
 
 def test_no_shapes(tmp_path):

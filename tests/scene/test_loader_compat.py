@@ -185,7 +185,7 @@ def test_spectrum_to_rgb_matches_mitsuba(case, tmp_path):
 
 
 def test_official_cbox_spectral_loads_as_mitsuba(mitsuba_ref):
-    """The official spectral Cornell box (shared/scenes/cbox/cbox.xml) loads; reflectances and the light's
+    """The official spectral Cornell box (scenes/cbox/cbox.xml) loads; reflectances and the light's
     radiance equal Mitsuba's."""
     from conftest import SCENES
 

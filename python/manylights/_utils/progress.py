@@ -1,11 +1,13 @@
 """Progress display for long native calls, fit for terminals, notebooks, log files and CI.
 
-A terminal (stderr is a TTY) or a Jupyter kernel gets a live tqdm bar (``tqdm.auto``: a widget in
-notebooks). Anywhere else (output to a pipe or a file, CI logs) a bar would write thousands of
-carriage-return redraws, so the call instead writes at most a few plain lines to stderr: one when it
-starts, one every ``LOG_INTERVAL`` seconds while it runs (rarely more than a couple), one when it ends.
+Every public function takes ``progress=None`` by default, which means: a live tqdm bar in a terminal
+(stderr is a TTY) or a Jupyter kernel (``tqdm.auto``: a widget in notebooks), nothing anywhere else (output
+to a pipe or a file, CI logs). ``progress=True`` asks for progress everywhere: the bar where there is one,
+and elsewhere, since a bar would write thousands of carriage-return redraws, at most a few plain lines to
+stderr: one when the call starts, one every ``LOG_INTERVAL`` seconds while it runs, one when it ends.
+``progress=False`` shows nothing.
 
-``MANYLIGHTS_PROGRESS`` overrides the choice: ``bar``, ``log`` or ``off``.
+``MANYLIGHTS_PROGRESS`` overrides the choice for every call: ``bar``, ``log`` or ``off``.
 """
 from __future__ import annotations
 
@@ -31,8 +33,11 @@ def _in_notebook() -> bool:
         return False
 
 
-def mode() -> str:
-    """``"bar"``, ``"log"`` or ``"off"``: how progress is shown now (see module docs)."""
+def mode(requested: Optional[bool] = True) -> str:
+    """``"bar"``, ``"log"`` or ``"off"``: how progress is shown now for a call's ``progress=requested``
+    (None: the default, True, False; see module docs)."""
+    if requested is not None and not requested:
+        return "off"
     forced = os.environ.get("MANYLIGHTS_PROGRESS", "").strip().lower()
     if forced in ("bar", "log", "off"):
         return forced
@@ -43,7 +48,7 @@ def mode() -> str:
             return "bar"
     except (AttributeError, ValueError):
         pass
-    return "log" if sys.stderr is not None else "off"
+    return "log" if (requested is not None and sys.stderr is not None) else "off"
 
 
 class progress_bar:
@@ -52,13 +57,14 @@ class progress_bar:
     Args:
         total: units of work (lights, rows); no display when 0.
         desc: what is being computed ("columns", "rows").
-        enabled: the caller's ``progress=`` flag.
+        enabled: the caller's ``progress=`` (None: bar in a terminal or notebook, else nothing; True: also
+            lines in logs; False: nothing).
         unit: name of one unit.
     """
 
-    def __init__(self, total: int, desc: str, enabled: bool, unit: str = "light"):
+    def __init__(self, total: int, desc: str, enabled: Optional[bool], unit: str = "light"):
         self.total, self.desc, self.unit = int(total), desc, unit
-        self.mode = mode() if (enabled and total > 0) else "off"
+        self.mode = mode(enabled) if total > 0 else "off"
         self.bar = None
         self.start = self.last_log = 0.0
         self.done = 0

@@ -32,7 +32,8 @@ import numpy as np
 from .. import _native
 from .._native import Scene
 from .._utils import validate as _v
-from ..scene import load_scene
+from .._utils.keywords import checked_keywords
+from ..scene import check_scene_parameters, load_scene
 
 __all__ = ["Animation", "apply_mapping", "load_animation"]
 
@@ -68,7 +69,9 @@ def load_animation(path: Union[PathLike, Sequence[PathLike]], frames: Optional[S
     Raises:
         ValueError: no frames, ``frames`` of another length than the list of paths, a bad ``size``, frames
             of different film sizes (the message names the frame).
-        TypeError: a frame that is not a dict or a parameter name that is not a string.
+        TypeError: a frame that is not a dict or a parameter name that is not a string; a parameter that
+            no ``$name`` of the scene's files refers to (before any frame loads; the message names the
+            closest one the file has).
         SceneError: a frame names a parameter the XML does not use or declare ("unused parameter"), any
             other load error, or a frame whose shapes or emitters differ from frame 0's (count, ids,
             triangles, vertices, connectivity, emitter types); the message names the frame, the shape or
@@ -102,6 +105,12 @@ def load_animation(path: Union[PathLike, Sequence[PathLike]], frames: Optional[S
         for key in f:
             if not isinstance(key, str):
                 raise TypeError(f"load_animation: frame {k}: parameter names must be strings, got {key!r}")
+    for k, (p, f) in enumerate(zip(paths, frames)):  # every frame's parameters, before any frame loads
+        if p.is_file() and (params or f):
+            try:
+                check_scene_parameters(p, {**params, **f})
+            except TypeError as e:
+                raise TypeError(f"load_animation: frame {k} ({p}): {e}") from None
     scenes = []
     merged = []
     for k, (p, f) in enumerate(zip(paths, frames)):
@@ -122,6 +131,7 @@ class Animation:
     ``anim.params[k]`` say how frame k was loaded; ``anim.width`` / ``anim.height`` the common film size.
     """
 
+    @checked_keywords()
     def __init__(self, frames: Sequence[Scene], paths: Sequence[Path], params: Sequence[dict], *, device: str = "auto"):
         frames = list(frames)
         if not frames:
@@ -200,6 +210,7 @@ class Animation:
         return f"Animation({len(self)} frames, {self.width}x{self.height}, {os.fspath(self.paths[0])})"
 
 
+@checked_keywords()
 def apply_mapping(image, mapping, *, device: str = "auto") -> np.ndarray:
     """Apply a pixel mapping (or a chain of them) to an image: ``out[i] = image[mapping[i]]``, 0 where the
     mapping is -1 (paper Sec. 4.4: the sparse m x m matrix M(k -> l) times a column).

@@ -21,6 +21,7 @@ from typing import Optional
 
 from .. import _native
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 
 
 class AnimationLights:
@@ -49,6 +50,7 @@ class AnimationLights:
         return f"AnimationLights({len(self)} frames x {self.n} lights, {self.counts})"
 
 
+@checked_keywords()
 def generate_animation_lights(animation, *, area: int = 1024, environment: int = 0, indirect: int = 0,
                               photons: int = 0, max_depth: int = -1, clamp: Optional[float] = None,
                               seed: int = 0) -> AnimationLights:

@@ -25,14 +25,17 @@ import numpy as np
 from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
+from ..io.display import png_bytes
 from ..matrix.light_matrix import LightMatrix
 from ..matrix.rows import stratified_rows
 from ..renderers.bias import bias_sources
 from ..renderers.mrcs import mrcs
+from ..renderers.result import short_repr, summary_lines
 from .frames import Animation
 
 
-@dataclass
+@dataclass(repr=False)
 class AnimationResult:
     """What an animation renderer did: the frames and how.
 
@@ -62,6 +65,24 @@ class AnimationResult:
         """Total time of all stages."""
         return float(sum(self.timings.values()))
 
+    def summary(self) -> str:
+        """A few lines: method, seed, device, frames and size, budget, shadow maps per frame, time per stage."""
+        f, h, w = np.shape(self.frames)[:3]
+        maps = np.asarray(self.shadow_maps_per_frame)
+        unit = "shadow maps" if self.device.get("kind") == "gpu" else "rows + columns"
+        extra = {f"{unit} per frame": f"mean {maps.mean():.4g}, max {maps.max():,}"} if maps.size else {}
+        return "\n".join(summary_lines("AnimationResult", self.method, self.seed, f"{f} frames of {w}x{h}",
+                                        self.budget, self.timings, self.device, None, self.bias_sources, extra))
+
+    def __str__(self) -> str:
+        return self.summary()
+
+    def __repr__(self) -> str:
+        return short_repr(self.summary().splitlines())
+
+    def _repr_png_(self) -> bytes:
+        return png_bytes(self.frames)
+
 
 class LightTensor:
     """The m x n x f lighting tensor of an animation (module docs; the paper's Sec. 4.1).
@@ -78,6 +99,7 @@ class LightTensor:
             light sets of different sizes (the frame is named), or what ``LightMatrix`` raises.
     """
 
+    @checked_keywords()
     def __init__(self, animation, lights, *, device: str = "auto", visibility: Optional[str] = None,
                  max_depth: int = -1, shadow_map_size: Optional[int] = None):
         scenes = [animation[k] for k in range(len(animation))]
@@ -153,7 +175,7 @@ class LightTensor:
             self._animation = anim
         return self._animation.mapping(k, l)
 
-    def slices(self, rows: Sequence[int], *, progress: bool = False) -> np.ndarray:
+    def slices(self, rows: Sequence[int], *, progress: Optional[bool] = None) -> np.ndarray:
         """The reduced tensor R = A(I, :, :) (the paper's r slices), (r, n, f, 3) float32: R[a, j, k] is
         light j's contribution to view sample ``rows[a]`` in frame k. Stored frame by frame: the result is a
         view of an (f, r, n, 3) array (``np.ascontiguousarray`` for an (r, n, f, 3) copy).
@@ -174,7 +196,7 @@ class LightTensor:
             frames[k] = self.frame(k).rows(idx, progress=progress)
         return np.moveaxis(frames, 0, 2)
 
-    def brute_force(self, *, progress: bool = False) -> np.ndarray:
+    def brute_force(self, *, progress: Optional[bool] = None) -> np.ndarray:
         """Every element summed per frame plus what the camera sees of emitters: (f, H, W, 3) float32, the
         reference the renderers approximate."""
         return np.stack([self.frame(k).column_sum(progress=progress) + self.frame(k).emitted()
@@ -185,8 +207,9 @@ class LightTensor:
         return f"LightTensor(m={m}, n={n}, f={f}, device={self.device.get('kind')!r})"
 
 
+@checked_keywords()
 def mrcs_per_frame(T: LightTensor, rows: int = 300, columns: int = 900, seed: int = 0, *,
-                   progress: bool = False) -> AnimationResult:
+                   progress: Optional[bool] = None) -> AnimationResult:
     """The baseline of the tensor-clustering paper: independent MRCS (Hašan et al. 2007) on every frame,
     through the same ``mrcs`` code path, with the same stratified rows in every frame and seed ``seed + k``
     for frame k (independent sampling per frame, which is what makes it flicker).

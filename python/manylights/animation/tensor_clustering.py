@@ -8,6 +8,7 @@ from typing import Optional
 import numpy as np
 
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .._utils.seeds import derived_seed
 from ..renderers.probe_error import probe_error
 from .tensor import LightTensor
@@ -15,9 +16,10 @@ from .tensor_clusters import render_clustered
 from .tensor_dask import distributed_tensor_clustering
 
 
+@checked_keywords()
 def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, chunk: int = 40,
                       representative: str = "centroid", init_clusters: int = 100, time_weight: float = 1.0,
-                      row_indices=None, progress: bool = False, client=None, connect_timeout: float = 10.0,
+                      row_indices=None, progress: Optional[bool] = None, client=None, connect_timeout: float = 10.0,
                       first_chunk: int = 0, error_probes: int = 0, probe_spp: int = 256,
                       probe_max_depth: Optional[int] = None):
     """Render an animation by tensor clustering (Hašan, Velázquez, Pellacini, Bala, EGSR 2008, Sec. 4).
@@ -46,7 +48,8 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
             "centroid" considers only pairs of at least half the cluster's mean weight, so no pair the rows
             barely see is scaled up by hundreds (which made one seed in 8 an outlier at 6.4%).
         row_indices: your own view-sample rows instead of ``stratified_rows``.
-        progress: progress bars for the slices.
+        progress: progress over the slices (None: a bar in a terminal or notebook, nothing in logs; True:
+            also a few lines in logs; False: nothing).
         client: a ``dask.distributed.Client`` or scheduler address: each chunk of ``chunk`` frames is one Dask
             task (a worker loads its frames from ``T.animation``'s paths and parameters; ``animation.tensor_dask``).
             Each chunk is clustered with its index (``first_chunk``), so the result equals the serial call's

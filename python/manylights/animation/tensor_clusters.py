@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
 from .. import _native
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from ..matrix.rows import stratified_rows
 from ..renderers.bias import bias_sources
 from .tensor import AnimationResult, LightTensor
@@ -103,6 +105,7 @@ def time_weight_of(v) -> float:
     return float(v)
 
 
+@checked_keywords()
 def cluster_tensor(slices, columns: int, *, seed: int = 0, chunk: int = 40, init_clusters: int = 100,
                    projection_dim: int = 50, representative: str = "max",
                    color_averaging: bool = True, time_weight: float = 1.0, first_chunk: int = 0) -> TensorClustering:
@@ -239,7 +242,7 @@ def _reconstruct_gpu(T, cl, reps, todo, fw, bw, timings) -> np.ndarray:
 
 def render_clustered(T, rows: int = 100, columns: int = 300, seed: int = 0, *, chunk: int = 40,
                      representative: str = "centroid", init_clusters: int = 100, time_weight: float = 1.0,
-                     row_indices=None, progress: bool = False, first_chunk: int = 0):
+                     row_indices=None, progress: Optional[bool] = None, first_chunk: int = 0):
     """Tensor clustering of ``T`` in this process (``tensor_clustering`` without ``client``; its doc: arguments,
     result, errors)."""
     if not isinstance(T, LightTensor):

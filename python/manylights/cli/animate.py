@@ -28,6 +28,7 @@ from ..animation.tensor_clustering import tensor_clustering
 from ..io.video import error_panel, side_by_side, write_exr_sequence, write_video
 from ..metrics import flicker, relative_l2_per_frame
 from ..scenes import animated, animation_frames, resolve
+from .common import add_output
 
 
 def add_parser(sub) -> None:
@@ -51,7 +52,7 @@ def add_parser(sub) -> None:
     p.add_argument("--exposure", type=float, default=0.0)
     p.add_argument("--gif", action="store_true", help="write GIF instead of MP4")
     p.add_argument("--compare", action="store_true", help="also per-frame MRCS and brute force, with errors")
-    p.add_argument("--out", default="out/animate")
+    add_output(p, "out/animate", "output folder")
     p.set_defaults(run=run)
 
 
@@ -93,7 +94,7 @@ def run(args) -> dict:
             raise ValueError(f"--{name} must be >= 1, got {getattr(args, name)}")
     if not args.fps > 0:
         raise ValueError(f"--fps must be > 0, got {args.fps}")
-    out = Path(args.out)
+    out = Path(args.output)
     t = time.perf_counter()
     anim = _load(args)
     lights = generate_animation_lights(anim, area=args.area, environment=args.environment, indirect=args.indirect,
@@ -106,7 +107,8 @@ def run(args) -> dict:
     res = tensor_clustering(T, rows=args.rows, columns=args.columns, seed=args.seed, chunk=args.chunk)
     summary = {"frames": f, "lights": n, "tensor": {"seconds": res.seconds, "timings": res.timings,
                                                     "shadow_maps_per_frame": float(np.mean(res.shadow_maps_per_frame))}}
-    print(f"tensor clustering: {res.seconds:.2f} s, {np.mean(res.shadow_maps_per_frame):.0f} shadow maps per frame")
+    unit = "shadow maps" if T.device["kind"] == "gpu" else "rows + columns (exact rays)"
+    print(f"tensor clustering: {res.seconds:.2f} s, {np.mean(res.shadow_maps_per_frame):.0f} {unit} per frame")
     out.mkdir(parents=True, exist_ok=True)
     written = _write(out, "tensor", res.frames, args)
     if args.compare:
@@ -122,7 +124,7 @@ def run(args) -> dict:
                                                  "flicker": float(flicker(r.frames, brute)),
                                                  "seconds": r.seconds})
             print(f"{name:>7s}: mean relative L2 {np.mean(e):.3%}, flicker {summary[name]['flicker']:.3f}, "
-                  f"{r.seconds:.2f} s, {np.mean(r.shadow_maps_per_frame):.0f} shadow maps per frame")
+                  f"{r.seconds:.2f} s, {np.mean(r.shadow_maps_per_frame):.0f} {unit} per frame")
         summary["brute_force_seconds"] = t_brute
         print(f"brute force: {t_brute:.2f} s ({n} columns per frame)")
         written += _write(out, "mrcs", per.frames, args) + _write(out, "brute_force", brute, args)

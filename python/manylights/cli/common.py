@@ -1,7 +1,9 @@
-"""What the commands share: ``-D name=value`` scene parameters, a stopwatch of stages, and writing an image as
-EXR (+ PNG)."""
+"""What the commands share: one flag vocabulary (``-o/--output``; ``--res N`` the scene's ``res`` parameter,
+``--size W H`` a film override, ``-D name=value`` any scene parameter), a stopwatch of stages, and writing an
+image as EXR (+ PNG)."""
 from __future__ import annotations
 
+import argparse
 import time
 from pathlib import Path
 
@@ -17,6 +19,29 @@ def scene_params(pairs) -> dict:
         k, v = p.split("=", 1)
         out[k] = v
     return out
+
+
+def add_output(parser, default: str, help: str) -> None:
+    """``-o/--output`` (the older ``--out`` still works, hidden from the help)."""
+    parser.add_argument("-o", "--output", default=default, help=f"{help} (default {default})")
+    parser.add_argument("--out", dest="output", help=argparse.SUPPRESS)
+
+
+def add_scene_options(parser, size: bool = True) -> None:
+    """``--res N`` (the scene's ``res`` parameter), ``--size W H`` (film override) and ``-D name=value``."""
+    parser.add_argument("--res", type=int, default=None, help="the scene's 'res' parameter (image width and height)")
+    if size:
+        parser.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), help="film size override")
+    parser.add_argument("-D", dest="params", action="append", metavar="NAME=VALUE", help="scene parameter")
+
+
+def scene_options(a) -> tuple:
+    """(size or None, params dict) from ``add_scene_options``' arguments (``--res`` becomes ``res``)."""
+    params = scene_params(getattr(a, "params", None))
+    if getattr(a, "res", None) is not None:
+        params["res"] = str(a.res)
+    size = getattr(a, "size", None)
+    return (tuple(size) if size else None), params
 
 
 class Stopwatch:

@@ -41,7 +41,7 @@ from ..lights.generate import scene_lights
 from ..relight.direct_to_indirect import DirectToIndirect
 from ..scene import load_scene
 from ..scenes import resolve
-from .common import scene_params
+from .common import add_output, add_scene_options, scene_options
 
 KINDS = {"point": 0, "spot": 1, "directional": 2}
 _KEYS = {"point": {"pos", "intensity"}, "spot": {"pos", "target", "dir", "intensity", "cutoff", "beam"},
@@ -56,10 +56,8 @@ def add_parser(sub) -> None:
     p.add_argument("scene", help="a Mitsuba 3 XML file, or a bundled scene's name (cbox-lights, ...)")
     p.add_argument("--light", action="append", default=[], metavar="SPEC", help="one light placement (see above)")
     p.add_argument("--lights", default=None, metavar="FILE", help="JSON list of light placements")
-    p.add_argument("--out", default="out/relight", help="output folder")
-    p.add_argument("--res", type=int, default=None, help="the scene's 'res' parameter (image width and height)")
-    p.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), help="film size override")
-    p.add_argument("-D", dest="params", action="append", metavar="NAME=VALUE", help="scene parameter")
+    add_output(p, "out/relight", "output folder")
+    add_scene_options(p)
     p.add_argument("--gather", type=int, default=4**7, help="gather samples n_g, a power of 4 (default 4^7)")
     p.add_argument("--coefficients", type=int, default=100, help="wavelet coefficients kept per pixel row")
     p.add_argument("--bounces", type=int, default=1, help="diffuse bounces of indirect light")
@@ -196,10 +194,8 @@ def run(args) -> list[Path]:
     """The command (module docs); returns the written paths."""
     if args.save and args.load:
         raise ValueError("give --save or --load, not both (a loaded precomputation is already saved)")
-    params = scene_params(args.params)
-    if args.res is not None:
-        params["res"] = str(args.res)
-    scene = load_scene(resolve(args.scene), size=tuple(args.size) if args.size else None, **params)
+    size, params = scene_options(args)
+    scene = load_scene(resolve(args.scene), size=size, **params)
     todo = placements(scene, args.light, args.lights)
     t = time.perf_counter()
     if args.load:
@@ -213,7 +209,7 @@ def run(args) -> list[Path]:
         print(f"precomputed {rel!r} in {time.perf_counter() - t:.2f} s")
         if args.save:
             print(f"saved {rel.save(args.save)}")
-    out = Path(args.out)
+    out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     written = []
     seconds = 0.0

@@ -29,6 +29,7 @@ from .._utils import progress as _progress
 from .._utils import validate as _v
 from .._utils.dask import connect, gpu_resources
 from .._utils.files import atomic_write, exclusive
+from .._utils.keywords import checked_keywords
 from . import worker
 from .specs import (
     check_kinds,
@@ -120,7 +121,7 @@ class _Progress:
 
     def __init__(self, total: int, done: int, enabled: bool):
         self.total, self.done, self.best = total, done, {}
-        self.mode = _progress.mode() if enabled and total > done else "off"
+        self.mode = _progress.mode(enabled) if total > done else "off"
         self.interval = _progress.LOG_INTERVAL
         self.bar = None
         self.start = self.last = time.perf_counter()
@@ -169,11 +170,12 @@ def _error_row(task: dict, exc: BaseException) -> dict:
 
 
 # ------------------------------------------------------------------------------------------ sweep
+@checked_keywords()
 def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=((100, 300),),
           seeds: Sequence[int] = (0,), *, lights=10_000, client=None, workers: Optional[int] = None,
           out=None, reference_dir=None, device: str = "auto", visibility: Optional[str] = None,
           shadow_map_size: Optional[int] = None, options: Optional[dict] = None, rerun_errors: bool = False,
-          light_models: Optional[dict] = None, truth=None, progress: bool = True,
+          light_models: Optional[dict] = None, truth=None, progress: Optional[bool] = None,
           connect_timeout: float = 10.0, on_row: Optional[Callable[[dict], None]] = None):
     """Run every render of methods x budgets x seeds x scenes as Dask tasks; one DataFrame row per render.
 
@@ -219,7 +221,8 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
             converged Mitsuba reference: ``rel_l2`` is then against it, ``rel_l2_brute_force`` against the
             brute force and ``reference_rel_l2`` the brute force's own error against it).
         rerun_errors: with ``out``, also run again the rows stored with ``status="error"``.
-        progress: show the count and the running best error per method (a bar, or lines in a log).
+        progress: the count and the running best error per method (None: a bar in a terminal or notebook,
+            nothing in logs; True: also a few lines in logs; False: nothing).
         connect_timeout: seconds to wait for a scheduler given by address.
         on_row: called with each new row (a dict) after it is written.
 

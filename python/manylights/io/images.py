@@ -14,10 +14,12 @@ from .. import _native
 from .._native import read_exr
 from .._utils import validate as _v
 from .._utils.files import atomic_write
+from .._utils.keywords import checked_keywords
 
 __all__ = ["read_exr", "write_exr", "write_png", "as_image"]
 
 
+@checked_keywords()
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
     """Write an (H, W, 3) image as float32 RGB OpenEXR.
 
@@ -27,6 +29,7 @@ def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
     atomic_write(_path(path), data=_native.encode_exr(as_image(image)))
 
 
+@checked_keywords()
 def write_png(path: str | os.PathLike, image: np.ndarray, exposure: float = 0.0) -> None:
     """Write an (H, W, 3) linear image as 8-bit sRGB PNG, scaled by 2**exposure and clamped.
 

@@ -28,6 +28,7 @@ import numpy as np
 from .. import _native
 from .._utils import validate as _v
 from .._utils.files import atomic_write, held_signals
+from .._utils.keywords import checked_keywords
 from .images import write_exr
 
 #: Header height (pixels) of labelled strips.
@@ -61,6 +62,7 @@ def to_srgb8(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     return np.asarray(_native.encode_srgb8(flat, _v.real("exposure", exposure))).reshape(a.shape)
 
 
+@checked_keywords()
 def write_exr_sequence(frames, folder: str | os.PathLike, prefix: str = "frame") -> list[Path]:
     """Write each frame of an (f, H, W, 3) animation as float32 RGB OpenEXR ``<prefix>_<k:04d>.exr``.
 
@@ -85,6 +87,7 @@ def write_exr_sequence(frames, folder: str | os.PathLike, prefix: str = "frame")
     return paths
 
 
+@checked_keywords()
 def write_video(frames, path: str | os.PathLike, fps: float = 12.0, exposure: float = 0.0) -> Path:
     """Write an (f, H, W, 3) linear animation as an 8-bit sRGB video: ``.mp4`` (H.264, yuv420p, through
     imageio-ffmpeg; odd sizes are padded by one black row/column) or ``.gif`` (looping).
@@ -178,6 +181,7 @@ def _label_band(labels: Sequence[str], widths: Sequence[int], gap: int) -> np.nd
     return np.asarray(img, dtype=np.float32) / 255.0
 
 
+@checked_keywords()
 def side_by_side(panels: Sequence, labels: Optional[Sequence[str]] = None, gap: int = 2,
                  label_value: float = 1.0) -> np.ndarray:
     """Concatenate animations (or single images) of equal size left to right, ``gap`` black pixels apart,

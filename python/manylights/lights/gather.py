@@ -5,10 +5,12 @@ from __future__ import annotations
 from .. import _native
 from .._native import GatherCloud, Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 
 __all__ = ["GatherCloud", "gather_cloud"]
 
 
+@checked_keywords()
 def gather_cloud(scene: Scene, n: int = 4**7, seed: int = 0, *, include_emitters: bool = True) -> GatherCloud:
     """n = 4^k gather samples spread uniformly by area over the scene's surfaces (Sec. 4.1).
 

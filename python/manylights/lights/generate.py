@@ -10,14 +10,17 @@ import numpy as np
 from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 
 
+@checked_keywords()
 def scene_lights(scene: Scene) -> LightSet:
     """The scene's point, spot and directional emitters as a LightSet (area and environment emitters are
     turned into lights by the many-light generation, not here)."""
     return _native.scene_lights(scene)
 
 
+@checked_keywords()
 def generate_lights(
     scene: Scene,
     area: int = 4096,

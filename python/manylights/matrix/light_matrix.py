@@ -8,6 +8,7 @@ import numpy as np
 from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .._utils.progress import progress_bar
 
 
@@ -68,6 +69,7 @@ class LightMatrix:
             to install).
     """
 
+    @checked_keywords()
     def __init__(self, scene: Scene, lights: LightSet, *, device: str = "auto", shadow_map_size: Optional[int] = None,
                  visibility: Optional[str] = None, max_depth: int = -1, glossy_roughness: float = 0.2,
                  bsdf_samples: int = 256, glossy_seed: int = 0):
@@ -141,14 +143,14 @@ class LightMatrix:
                                      f"{y * out.shape[2] + x}: {out[k, y, x].tolist()} (float32 overflow)")
         return out
 
-    def column_sum(self, weights: Optional[Sequence[float]] = None, *, progress: bool = True) -> np.ndarray:
+    def column_sum(self, weights: Optional[Sequence[float]] = None, *, progress: Optional[bool] = None) -> np.ndarray:
         """Sum of all columns, each times its weight (default 1), (H, W, 3) float32: the matrix part of
         the brute-force image (add ``emitted()`` for the image itself; ``render_brute_force`` does).
 
         Args:
             weights: optional (n,) weights.
-            progress: show progress over light batches (a bar in terminals and notebooks, a few log
-                lines elsewhere: ``manylights.progress``).
+            progress: progress over light batches (None: a bar in a terminal or notebook, nothing in logs;
+                True: also a few lines in logs; False: nothing).
 
         Raises:
             ValueError: weights not of shape (n,), or NaN/inf. TypeError: non-numeric weights.
@@ -161,7 +163,7 @@ class LightMatrix:
         with progress_bar(self.shape[1], "columns", progress) as callback:
             return self._finite(self._m.column_sum(w, callback), "column_sum", None, w)
 
-    def weighted_sum(self, indices: Sequence[int], weights, *, progress: bool = False) -> np.ndarray:
+    def weighted_sum(self, indices: Sequence[int], weights, *, progress: Optional[bool] = None) -> np.ndarray:
         """``sum_k weights[k] * column[indices[k]]`` with (k, 3) RGB weights, rendering only those columns
         (repeated indices add up): how clustered renderers reconstruct an image. (H, W, 3) float32.
 
@@ -195,7 +197,7 @@ class LightMatrix:
         raise FloatingPointError(f"{where}: every light's contribution is finite but their weighted sum is not; "
                                  "scale the lights or the weights down")
 
-    def rows(self, indices: Sequence[int], *, progress: bool = True, shadow_map_size: int = 256,
+    def rows(self, indices: Sequence[int], *, progress: Optional[bool] = None, shadow_map_size: int = 256,
              return_timings: bool = False):
         """Rows ``indices`` of the matrix (the reduced matrix R of matrix row-column sampling), (r, n, 3)
         float32: R[k, j] = light j's contribution to view sample ``indices[k]`` (pixel ``y * W + x``).

@@ -6,8 +6,10 @@ import numpy as np
 from .. import _native
 from .._native import Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 
 
+@checked_keywords()
 def stratified_rows(scene: Scene, r: int, seed: int = 0) -> np.ndarray:
     """Stratified row selection (Hašan et al. 2007, Sec. 4): the image is cut into ``r`` blocks of nearly
     equal area (bands of about sqrt(r * H / W) rows of blocks, heights proportional to their block counts)

@@ -7,12 +7,14 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Optional
 
 import numpy as np
 
 from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .._utils.progress import progress_bar
 from ..renderers.probe_error import attach_probe_error
 from ..renderers.result import RenderResult
@@ -100,7 +102,8 @@ class DirectToIndirect:
             Measured on the bundled cbox lit by a spot at 128x128 against Mitsuba (max_depth -1, 6
             bounces): 24% relative L2 with "point" (78% of the squared error in 0.1% of the pixels, the
             corners) against 10.6% with "disc". The paper clamps instead (``clamp``).
-        progress: show a progress bar (or log lines) over the pixels' rows (``manylights.progress``).
+        progress: progress over the pixels' rows (None: a bar in a terminal or notebook, nothing in logs;
+            True: also a few lines in logs; False: nothing).
         device: where ``relight`` runs: "auto" (``MANYLIGHTS_DEVICE`` if set, else a hardware GPU, else the
             CPU, as ``LightMatrix``: on a 2-core machine with only lavapipe the CPU relights a 320x240 box
             at ~20/s against ~5/s on the software GPU), "gpu" (any adapter, software included) or "cpu".
@@ -139,11 +142,12 @@ class DirectToIndirect:
         GpuUnavailableError: device="gpu" without any GPU adapter.
     """
 
+    @checked_keywords()
     def __init__(self, scene: Scene, gather: int = 4**7, final_gather_coefficients: int = 100, seed: int = 0,
                  *, bounces: int = 1, multibounce_coefficients: int = 40, multibounce: str = "photons",
                  photons_per_sample: int = 64, photon_neighbours: int = 400, glossy: bool = True,
                  threshold: float = 0.03, clamp=None, K: float = 30.0, near_field: str = "disc",
-                 progress: bool = False, device: str = "auto", visibility=None, shadow_map_size: int = 1024):
+                 progress: Optional[bool] = None, device: str = "auto", visibility=None, shadow_map_size: int = 1024):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a manylights Scene, got {type(scene).__name__}")
         gather = _v.integer("gather", gather, 1)

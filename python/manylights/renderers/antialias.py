@@ -15,10 +15,12 @@ import numpy as np
 from .. import _native
 from .._native import Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 
 __all__ = ["antialias"]
 
 
+@checked_keywords()
 def antialias(image, scene: Scene, factor: int = 3, *, device: str = "auto") -> np.ndarray:
     """Anti-alias an image rendered from ``scene`` at pixel centres (paper Sec. 5, "Anti-aliasing").
 

@@ -4,11 +4,13 @@ drawn by power, unbiased weights, no rows) and instant radiosity (fewer lights, 
 from __future__ import annotations
 
 import time
+from typing import Optional
 
 import numpy as np
 
 from .._native import Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from ..lights.generate import generate_lights
 from ..matrix.light_matrix import LightMatrix
 from .bias import bias_sources
@@ -17,8 +19,9 @@ from .probe_error import attach_probe_error
 from .result import RenderResult, light_luminance_power, matrix_shape
 
 
+@checked_keywords()
 def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = True,
-                   progress: bool = False, error_probes: int = 0) -> RenderResult:
+                   progress: Optional[bool] = None, error_probes: int = 0) -> RenderResult:
     """Baseline: draw ``columns`` lights with probability proportional to their power (with replacement)
     and weight each by 1 / (columns * p_j): an unbiased estimate of the column sum that ignores visibility
     and geometry (no rows). Lights of zero power are never drawn (they emit nothing).
@@ -53,9 +56,10 @@ def power_sampling(A, columns: int = 900, seed: int = 0, *, add_emitted: bool = 
     return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
 
 
+@checked_keywords(LightMatrix)
 def instant_radiosity(scene, lights: int = 2500, seed: int = 0, *, area_fraction: float = 0.5,
                       environment_fraction: float = 0.0, max_depth: int = 5, clamp=None,
-                      progress: bool = False, error_probes: int = 0, **matrix_options) -> RenderResult:
+                      progress: Optional[bool] = None, error_probes: int = 0, **matrix_options) -> RenderResult:
     """Baseline: generate only ``lights`` lights (area / environment / indirect shares as given) and render
     all of them (Keller's instant radiosity with the same light generation as the large matrix).
 

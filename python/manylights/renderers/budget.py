@@ -169,7 +169,7 @@ def fit_columns(round_seconds, lo: int, hi: int, left: float) -> Optional[int]:
     return a - a % 2
 def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
                   first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
-                  add_emitted: bool = True, progress: bool = True) -> RenderResult:
+                  add_emitted: bool = True, progress: Optional[bool] = None) -> RenderResult:
     """``render`` of a ``LightMatrix`` (its doc: arguments, result, errors): progressive MRCS rounds with the
     budget chosen from the estimates and the measured costs (this module's doc)."""
     m, n = matrix_shape(A)

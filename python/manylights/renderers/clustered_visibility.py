@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import _native
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from ..matrix.light_matrix import LightMatrix
 from .bias import bias_sources
 from .kmeans import COS_30_DEG
@@ -29,6 +30,7 @@ def _points(name: str, a) -> np.ndarray:
     return _v.finite(name, arr)
 
 
+@checked_keywords()
 def clustered_shading(A, light_labels, light_centroids, view_centroids, view_normals, membership_clusters,
                       membership_weights, *, add_emitted: bool = True) -> RenderResult:
     """Render light matrix ``A`` by clustered visibility with the given clusterings.
@@ -127,6 +129,7 @@ def _split_budget(k: int, counts: list) -> list:
     return out
 
 
+@checked_keywords()
 def clustered_visibility(A, light_clusters: int = 1000, view_clusters: int = 8000, fuzzy: int = 6, seed: int = 0, *,
                          iterations: int = 10, cos_threshold=None, downsample: int = 4, add_emitted: bool = True,
                          error_probes: int = 0):

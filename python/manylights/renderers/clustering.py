@@ -13,8 +13,10 @@ import numpy as np
 
 from .. import _native
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 
 
+@checked_keywords()
 def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_dim: int = 50,
                             sampling_fraction: float = 2.0 / 3.0, color_averaging: bool = False) -> dict:
     """Cluster the reduced columns of a reduced matrix as Matrix Row-Column Sampling does (Hašan et al. 2007).
@@ -46,6 +48,7 @@ def cluster_reduced_columns(R, c: int, *, seed: int = 0, power=None, projection_
                                            bool(color_averaging))
 
 
+@checked_keywords()
 def clustering_cost(R, assignment) -> float:
     """Sum of the paper's cluster costs of a partition (assignment (n,)) on the scalar reduced matrix.
 

@@ -186,7 +186,7 @@ def halves_estimate(X1: np.ndarray, X2: np.ndarray, image: np.ndarray) -> tuple[
 
 
 def mrcs_halves(A, R: np.ndarray, columns: int, seed: int, power: np.ndarray, timings: dict,
-                progress: bool = False, seen: Optional[np.ndarray] = None, **cluster_options) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                progress: Optional[bool] = None, seen: Optional[np.ndarray] = None, **cluster_options) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The paired-representative MRCS of ``mrcs(..., halves=True)``: ``columns // 2`` clusters of the
     reduced matrix ``R``, two independent representatives each. Returns (clustering, representatives
     (2k,), weights (2k, 3) (each half's weights / 2: the image is the mean), X1, X2 (H, W, 3) float32:
@@ -224,7 +224,7 @@ def lights_seen(R) -> np.ndarray:
 
 
 def shared_halves(A, reps1: np.ndarray, w1: np.ndarray, reps2: np.ndarray, w2: np.ndarray,
-                  progress: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
+                  progress: Optional[bool] = None) -> tuple[np.ndarray, np.ndarray, int]:
     """The half images ``X_h = sum_k w_h[k] A[:, reps_h[k]]`` (h = 1, 2) of (3), rendering a column
     drawn by BOTH halves of its cluster once: where ``reps1[k] == reps2[k]`` the light is the same, so is
     its weight ``1 / p_j``, and its weighted column ``S`` is common to both halves,
@@ -256,7 +256,7 @@ def shared_halves(A, reps1: np.ndarray, w1: np.ndarray, reps2: np.ndarray, w2: n
 
 
 def attach_error_estimate(A, res: RenderResult, clustering: dict, error_rows: int,
-                          progress: bool = False) -> RenderResult:
+                          progress: Optional[bool] = None) -> RenderResult:
     """Fill ``res.error_estimate`` / ``res.error_image`` of a plain MRCS run from ``error_rows`` extra
     stratified rows the clustering never saw (module doc, estimator (4)); ``res.budget['error_rows']``
     and ``timings['error_estimate']`` say what it cost."""

@@ -40,6 +40,7 @@ import numpy as np
 
 from .. import _native
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 
 #: The paper's orientation threshold: cos(pi / 6) = sqrt(3) / 2.
 COS_30_DEG = math.sqrt(3.0) / 2.0
@@ -91,6 +92,7 @@ def _device(device) -> str:
     return device
 
 
+@checked_keywords()
 def kmeans(points, normals, k: int, *, iterations: int = 10, tolerance: float = 0.0,
            cos_threshold: Optional[float] = COS_30_DEG, grid: bool = True, device: str = "auto",
            seed: int = 0) -> KMeansResult:
@@ -137,6 +139,7 @@ def kmeans(points, normals, k: int, *, iterations: int = 10, tolerance: float = 
                         timings=dict(d["timings"]), device=d["device"], seed=seed)
 
 
+@checked_keywords()
 def fuzzy_membership(points, normals, centroids, centroid_normals, f: int = 6, *,
                      cos_threshold: Optional[float] = COS_30_DEG, grid: bool = True,
                      device: str = "auto") -> dict:

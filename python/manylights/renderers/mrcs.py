@@ -29,10 +29,12 @@ Its baselines, power sampling and instant radiosity, are in ``baselines``.
 from __future__ import annotations
 
 import time
+from typing import Optional
 
 import numpy as np
 
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from ..matrix.rows import stratified_rows
 from . import estimates
 from .bias import bias_sources
@@ -53,8 +55,9 @@ def reconstruct(A, reps, weights, timings: dict, add_emitted: bool, progress: bo
     return image
 
 
+@checked_keywords(cluster_reduced_columns, exclude=("seed", "power"))
 def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=None, clustering=None,
-         add_emitted: bool = True, progress: bool = False, error_rows: int = 0, halves: bool = False,
+         add_emitted: bool = True, progress: Optional[bool] = None, error_rows: int = 0, halves: bool = False,
          error_probes: int = 0, **cluster_options) -> RenderResult:
     """Render the column sum of light matrix ``A`` by Matrix Row-Column Sampling.
 

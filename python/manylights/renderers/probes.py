@@ -9,11 +9,13 @@ import numpy as np
 from .. import _native
 from .._native import LightSet, Scene
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .._utils.progress import progress_bar
 
 
+@checked_keywords()
 def probe_pixels(scene: Scene, pixels, spp: int = 256, max_depth: int = -1, seed: int = 0, *,
-                 progress: bool = True, lights: Optional[LightSet] = None) -> Tuple[np.ndarray, np.ndarray]:
+                 progress: Optional[bool] = None, lights: Optional[LightSet] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Mean radiance and the variance of that mean at probe pixels, by an unbiased path tracer.
 
     The estimator is Mitsuba 3's ``path`` integrator (``src/pathtrace/mod.rs`` has the details): each of
@@ -36,7 +38,8 @@ def probe_pixels(scene: Scene, pixels, spp: int = 256, max_depth: int = -1, seed
         max_depth: Mitsuba's path depth in segments: -1 unlimited (full global illumination), 1 only
             emitters seen directly, 2 direct light only, 3 one indirect bounce, ...
         seed: random seed (>= 0); the same seed gives bit-identical output on any machine thread count.
-        progress: show a progress bar (paths done) when the call is long.
+        progress: paths done, when the call is long (None: a bar in a terminal or notebook, nothing in logs;
+            True: also a few lines in logs; False: nothing).
         lights: a ``LightSet`` lighting the scene INSTEAD of its emitters (point, spot, directional, oriented
             points with their near-field patches, VPLs with their clamp, as ``LightMatrix`` shades them),
             every light sampled at every vertex (one uniformly when there are more than 8); the scene's
@@ -76,5 +79,5 @@ def probe_pixels(scene: Scene, pixels, spp: int = 256, max_depth: int = -1, seed
         raise TypeError(f"lights must be a manylights LightSet or None, got {type(lights).__name__}")
     total = int(px.shape[0]) * spp
     # A bar only for calls long enough to need one (~1e6 paths take seconds).
-    with progress_bar(total, "probe paths", bool(progress) and total >= 1_000_000, unit="path") as callback:
+    with progress_bar(total, "probe paths", progress if total >= 1_000_000 else False, unit="path") as callback:
         return _native.probe_pixels(scene, px, spp, max_depth, seed, callback, lights)

@@ -61,6 +61,7 @@ from typing import Iterator, Optional
 import numpy as np
 
 from .._utils import validate as _v
+from .._utils.keywords import checked_keywords
 from .._utils.progress import progress_bar
 from .._utils.seeds import derived_seed
 from ..matrix.rows import stratified_rows
@@ -92,8 +93,9 @@ def _schedule(name: str, value, rounds: Optional[int], limit: int, what: str, st
     return steps
 
 
+@checked_keywords("manylights.renderers.clustering:cluster_reduced_columns", exclude=("seed", "power"))
 def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed: int = 0, *,
-                     add_emitted: bool = True, progress: bool = True,
+                     add_emitted: bool = True, progress: Optional[bool] = None,
                      **cluster_options) -> Iterator[RenderResult]:
     """Progressive matrix row-column sampling: an iterator of ``RenderResult``, one per round, each an
     unbiased image of all columns rendered so far with its error estimate (module doc).
@@ -110,7 +112,7 @@ def mrcs_progressive(A, rows=64, columns=128, rounds: Optional[int] = None, seed
             derived from (seed, t).
         add_emitted: add ``A.emitted()`` to every image.
         progress: a progress bar over rounds showing the columns and the current error estimate
-            (``manylights.progress``: a bar on a terminal or notebook, a few log lines elsewhere).
+            (None: a bar in a terminal or notebook, nothing in logs; True: also a few lines in logs).
         **cluster_options: passed to ``cluster_reduced_columns`` (projection_dim, sampling_fraction).
 
     Yields:

@@ -5,14 +5,16 @@ from __future__ import annotations
 import os
 from typing import Optional
 
+from .._utils.keywords import checked_keywords
 from .budget import render_matrix
 from .light_budget import render_scene
 from .result import RenderResult
 
 
+@checked_keywords(render_scene)
 def render(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
            first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
-           add_emitted: bool = True, progress: bool = True, **scene_options) -> RenderResult:
+           add_emitted: bool = True, progress: Optional[bool] = None, **scene_options) -> RenderResult:
     """Render ``A``'s column sum to a target relative L2 and/or within a time budget, choosing the budget
     (the schedule and the ratio (8): this module's doc): progressive MRCS rounds,
     the row:column ratio from the measured cost of a row against a column (equal rendering time), each

@@ -11,7 +11,7 @@ const MIN_AGREEMENT: f64 = 0.9999;
 const NUM_QUERIES: usize = 120_000;
 
 pub(crate) fn load_shared(name: &str) -> Scene {
-    let path = crate::testing::shared_dir().join("scenes").join(name).join("scene.xml");
+    let path = crate::testing::scene_file(&format!("{name}/scene.xml"));
     load_scene(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 

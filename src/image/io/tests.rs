@@ -19,8 +19,8 @@ fn exr_round_trip_is_exact() {
 
 #[test]
 fn reads_piz_half_exr_of_shared_scene() {
-    // bunny/textures/museum.exr: PIZ-compressed half RGB(A), as in the shared scenes.
-    let p = crate::scene::mesh::shared_dir().join("scenes/bunny/textures/museum.exr");
+    // bunny/textures/museum.exr: PIZ-compressed half RGB(A), as in the test scenes.
+    let p = crate::testing::scene_file("bunny/textures/museum.exr");
     let (w, h, px) = read_exr(&p).unwrap();
     assert_eq!(px.len(), (w * h) as usize);
     assert!(px.iter().all(|c| c.iter().all(|v| v.is_finite() && *v >= 0.0)));

@@ -6,7 +6,7 @@ use crate::testing::scenes::{quad, square_camera};
 use glam::{Mat3, Mat4, Quat};
 
 fn load(name: &str) -> Scene {
-    let path = crate::testing::shared_dir().join("scenes").join(name).join("scene.xml");
+    let path = crate::testing::scene_file(&format!("{name}/scene.xml"));
     load_scene(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 

@@ -15,7 +15,7 @@ const ABS_TOL: f32 = 1e-6;
 const MAX_MISMATCH_FRACTION: f64 = 1e-3;
 
 fn matrix(visibility: Visibility) -> LightMatrix {
-    let xml = crate::testing::shared_dir().join("scenes/cbox-lights/scene.xml");
+    let xml = crate::testing::scene_file("cbox-lights/scene.xml");
     let opts = LoadOptions { params: vec![("res".into(), "32".into())], size: None };
     let scene = load_scene(&xml, &opts).unwrap();
     let gen = GenerateOptions { area: 16, environment: 16, indirect: 200, seed: 3, ..Default::default() };

@@ -9,7 +9,7 @@ use glam::Vec3;
 use std::time::Instant;
 
 fn setup(size: u32) -> (Arc<Scene>, Arc<ViewSamples>, Arc<RayTracer>) {
-    setup_scene(&crate::testing::shared_dir().join("scenes").join("cbox").join("scene.xml"), size)
+    setup_scene(&crate::testing::scene_file("cbox/scene.xml"), size)
 }
 
 fn setup_scene(path: &std::path::Path, size: u32) -> (Arc<Scene>, Arc<ViewSamples>, Arc<RayTracer>) {

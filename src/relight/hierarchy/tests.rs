@@ -147,7 +147,7 @@ fn bad_input_is_an_error() {
 fn hierarchy_layout_compresses_a_lighting_signal() {
     use crate::lights::gather::{GatherCloud, GatherOptions};
     use crate::relight::haar;
-    let path = crate::testing::shared_dir().join("scenes/cbox-lights/scene.xml");
+    let path = crate::testing::scene_file("cbox-lights/scene.xml");
     let scene = crate::scene::load_scene(&path, &Default::default()).unwrap();
     let cloud = GatherCloud::new(&scene, &GatherOptions { n: 4096, seed: 0, include_emitters: true }).unwrap();
     let x0 = Vec3::new(0.2, 0.7, 0.3);

@@ -4,7 +4,7 @@ use crate::scene::Emitter;
 use crate::view::ViewSamples;
 
 fn setup() -> (Scene, ViewSamples, RayTracer) {
-    crate::testing::scene_view_tracer(&crate::testing::shared_dir().join("scenes").join("cbox").join("scene.xml"), 8)
+    crate::testing::scene_view_tracer(&crate::testing::scene_file("cbox/scene.xml"), 8)
 }
 
 fn transfer(bounces: u32) -> (Scene, Transfer) {

@@ -2,7 +2,7 @@ use super::*;
 use crate::relight::haar;
 
 fn setup() -> (Scene, ViewSamples, RayTracer) {
-    crate::testing::scene_view_tracer(&crate::testing::shared_dir().join("scenes").join("cbox").join("scene.xml"), 8)
+    crate::testing::scene_view_tracer(&crate::testing::scene_file("cbox/scene.xml"), 8)
 }
 
 /// Keeping every coefficient, threshold 0 reproduces the per-sample gather A_g G V (inverse Haar of the

@@ -1,4 +1,5 @@
 use super::*;
+use crate::testing::scene_file;
 
 fn loc() -> Location {
     Location::new("test.obj", 0)
@@ -51,11 +52,10 @@ const MITSUBA: &[(&str, usize, usize, usize, [f32; 3], [f32; 3], [f32; 3], [f32;
 ];
 
 #[test]
-fn shared_scene_meshes_match_mitsuba() {
+fn scene_meshes_match_mitsuba() {
     const NORMAL_TOL: f32 = 2e-6; // Mitsuba normalises with rsqrt, we divide by the length
-    let root = shared_dir().join("scenes");
     for &(file, nv, nf, k, p0, pk, n0, nk, nlast, uv0, f0, flast) in MITSUBA {
-        let path = root.join(file);
+        let path = scene_file(file);
         let l = Location::new(&path, 0);
         let data = if file.ends_with(".obj") { load_obj(&path, &l) } else { load_ply(&path, &l) }.unwrap();
         let (p, n, uv, idx) = finalize(data, Mat4::IDENTITY, false, false, &l).unwrap();
@@ -74,11 +74,10 @@ fn shared_scene_meshes_match_mitsuba() {
 }
 
 #[test]
-fn shared_scene_meshes_all_normals_match_mitsuba() {
+fn scene_meshes_all_normals_match_mitsuba() {
     // All normals of meshes with recomputed (shortbox, bunny: 1113 unreferenced vertices get (1,0,0))
     // and file normals, through a weighted sum sum_i (i % 13 + 1) n_i that catches sign, order and
     // weighting errors. Reference sums from mitsuba 3.9.1's vertex_normals_buffer().
-    let root = shared_dir().join("scenes");
     #[rustfmt::skip]
     const NORMAL_SUMS: &[(&str, [f64; 3])] = &[
     ("cbox-lights/shortbox.obj", [2.309401512145996, 2.309401512145996, 9.237604975700378]),
@@ -88,7 +87,7 @@ fn shared_scene_meshes_all_normals_match_mitsuba() {
     ("veach-ajar/models/Mesh012.obj", [1.8755085095763206, -4.0, 15.106586217880249]),
     ];
     for (file, sum) in NORMAL_SUMS {
-        let path = root.join(file);
+        let path = scene_file(file);
         let l = Location::new(&path, 0);
         let data = if file.ends_with(".obj") { load_obj(&path, &l) } else { load_ply(&path, &l) }.unwrap();
         let (_, n, _, _) = finalize(data, Mat4::IDENTITY, false, false, &l).unwrap();
@@ -107,7 +106,7 @@ fn transformed_shapes_match_mitsuba() {
         [1.0, 0.1339746117591858, -0.5, 0.0], [0.2679492235183716, 2.0, 1.0, 0.0],
         [0.25, -0.25, 0.4330126941204071, 0.0], [1.0, 2.0, 3.0, 1.0],
     ]);
-    let shortbox = shared_dir().join("scenes/cbox-lights/shortbox.obj");
+    let shortbox = scene_file("cbox-lights/shortbox.obj");
     #[rustfmt::skip]
     let cases: [(&str, MeshData, [[f32; 3]; 2], [[f32; 3]; 2], [f64; 3]); 3] = [
         ("obj", load_obj(&shortbox, &loc()).unwrap(),

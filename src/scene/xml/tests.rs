@@ -15,10 +15,10 @@ const BBOX_TOL: f32 = 2e-5;
 /// Angles: Mitsuba stores x_fov as f32 degrees.
 const FOV_TOL_DEG: f32 = 2e-5;
 
-use crate::testing::shared_dir as shared;
+use crate::testing::scene_file;
 
 fn load(name: &str) -> Scene {
-    let path = shared().join("scenes").join(name).join("scene.xml");
+    let path = scene_file(&format!("{name}/scene.xml"));
     load_scene(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
@@ -80,7 +80,7 @@ fn cbox() {
 #[test]
 fn cbox_rgb_with_includes_and_forward_emitter_ref() {
     // cbox-rgb.xml: three <include>s; a shape refers to a top-level area emitter declared after it.
-    let path = shared().join("scenes/cbox/cbox-rgb.xml");
+    let path = scene_file("cbox/cbox-rgb.xml");
     let s = load_scene(&path, &LoadOptions::default()).unwrap();
     assert_eq!(tris(&s).iter().sum::<usize>(), 38);
     assert_eq!(s.emitters.len(), 1);
@@ -92,7 +92,7 @@ fn cbox_rgb_with_includes_and_forward_emitter_ref() {
 fn cbox_spectral_original_loads_as_mitsuba() {
     // The official Cornell box with wavelength:value spectra; values from mitsuba 3.9.1 scalar_rgb
     // (mi.traverse: white.reflectance.value, red.reflectance.value, the light's radiance).
-    let path = shared().join("scenes/cbox/cbox.xml");
+    let path = scene_file("cbox/cbox.xml");
     let s = load_scene(&path, &LoadOptions::default()).unwrap();
     let refl: Vec<Vec3> = s
         .bsdfs
@@ -311,7 +311,7 @@ fn veach_ajar() {
         ],
     );
     let sized = load_scene(
-        &shared().join("scenes/veach-ajar/scene.xml"),
+        &scene_file("veach-ajar/scene.xml"),
         &LoadOptions { params: vec![("resx".into(), "64".into()), ("resy".into(), "32".into())], size: None },
     )
     .unwrap();

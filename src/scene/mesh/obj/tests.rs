@@ -1,5 +1,5 @@
 use super::*;
-use crate::scene::mesh::shared_dir;
+use crate::testing::scene_file;
 
 fn parse(s: &str) -> Result<MeshData> {
     parse_obj(s, Path::new("mem.obj"))
@@ -83,7 +83,7 @@ fn errors_name_file_and_line() {
 #[test]
 fn cbox_smallbox_matches_mitsuba() {
     // Values dumped from mitsuba 3.9.1 (scalar_rgb, identity to_world).
-    let p = shared_dir().join("scenes/cbox/meshes/cbox_smallbox.obj");
+    let p = scene_file("cbox/meshes/cbox_smallbox.obj");
     let d = load_obj(&p, &Location::default()).unwrap();
     assert_eq!((d.positions.len(), d.indices.len()), (24, 12));
     assert_eq!(d.positions[0], Vec3::new(130.0, 165.0, 65.0));

@@ -100,7 +100,7 @@ fn veach_ajar_jpegs_match_mitsuba() {
     // The JPEG decoders differ (zune-jpeg here, libjpeg in Mitsuba): up to 4 codes on 8-bit values,
     // measured over whole images, so lookups are compared with a tolerance of a few codes.
     const TOL: f32 = 0.025;
-    let root = crate::scene::mesh::shared_dir().join("scenes/veach-ajar/textures");
+    let root = crate::testing::scene_file("veach-ajar/textures");
     let mut worst = 0.0f32;
     for (name, filter, wrap, expect) in VEACH_JPEGS {
         let t = texture(&root.join(name), filter_of(filter), wrap_of(wrap), Mat3::IDENTITY);
