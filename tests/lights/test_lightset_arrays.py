@@ -33,7 +33,8 @@ def lights(scene):
 def _arrays(s):
     return dict(kind=s.kind, position=s.position, direction=s.direction, normal=s.normal,
                 geo_normal=s.geo_normal, incident=s.incident, intensity=s.intensity,
-                cutoff_angle=s.cutoff_angle, beam_width=s.beam_width, bsdf=s.bsdf, vpl_clamp=s.vpl_clamp)
+                cutoff_angle=s.cutoff_angle, beam_width=s.beam_width, bsdf=s.bsdf, vpl_clamp=s.vpl_clamp,
+                patch=s.patch, vsl_radius=s.vsl_radius)
 
 
 def _bits(a):

@@ -184,3 +184,42 @@ def test_textured_emitters_keep_the_point_formula(tmp_path):
     scene = ml.load_scene(xml, size=(16, 16))
     lights = ml.generate_lights(scene, area=64, environment=0, indirect=0, seed=0)
     assert len(lights) == 64 and not lights.patch.any()
+
+
+DISK_RECESS = HERE / "data" / "disk_recess.xml"
+DISK_RECESS_REF = HERE / "references" / "disk-recess-direct"
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "known bias: an area light's visibility ray ends at the light, offset_p (0.33 mm here) off its surface; seen "
+    "through the recess opening the offset widens the visible part of the disk: the room's walls 1.4% too bright "
+    "(the recess walls are within 0.09% of the exact integral)"))
+def test_disk_light_in_a_ceiling_recess_converges_to_mitsuba():
+    """A disk light (radius 12 cm) 1 cm below the top of a 15 cm ceiling recess (``tests/data/disk_recess.xml``),
+    direct light, against a converged Mitsuba pixel-centre reference (516k spp), on the lit pixels that see no
+    emitter: the recess walls in the disk's near field and the room's walls lit through the opening, where
+    the recess hides part of many patches. The acceptance rule: 4x the lights gives <= 0.6x the error until it
+    is within 1.5x of the reference's noise.
+
+    Measured: 0.26% / 0.26% / 0.29% at 1k / 4k / 16k points against the reference's noise of 0.12%: flat. On
+    the recess walls this renderer is within 0.09% of the exact integral (Lambert's formula over the disk) and
+    Mitsuba within its noise; on the room's walls, lit through the opening, Mitsuba is within 0.2% of the exact
+    value (the disk clipped by the opening's projection) and this renderer 1.4% above it: the lights sit
+    offset_p above the disk (0.33 mm), their visibility rays end there, and at a wall pixel 14.5% of the lights
+    pass the opening against 14.3% of the disk's area (14.3% with the lights moved onto the surface)."""
+    meta = json.loads(DISK_RECESS_REF.with_suffix(".json").read_text())
+    ref = ml.read_exr(DISK_RECESS_REF.with_suffix(".exr"))[..., :3]
+    var = ml.read_exr(DISK_RECESS_REF.with_suffix(".var.exr"))[..., :3]
+    assert tuple(meta["size"]) == (64, 64) and meta["integrator"]["max_depth"] == 2
+    scene = ml.load_scene(DISK_RECESS, res=64)
+    errs = []
+    for n in (1024, 4096, 16384):
+        lights = ml.generate_lights(scene, area=n, environment=0, indirect=0, seed=0)
+        A = ml.LightMatrix(scene, lights, visibility="ray_traced", max_depth=2, device="cpu")
+        err, noise = floor_error(A, ref, var)
+        errs.append(err)
+    print("\ndisk recess, relative L2 on lit non-emitter pixels at 1k / 4k / 16k: "
+          + " / ".join(f"{e:.3%}" for e in errs) + f" (reference noise {noise:.3%})")
+    for a, b in zip(errs, errs[1:]):
+        assert b <= 0.6 * a or b <= 1.5 * noise, (errs, noise)
+    assert errs[-1] <= 1.5 * noise, (errs, noise)
