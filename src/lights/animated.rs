@@ -8,7 +8,7 @@
 //! - Area emitters: `area` oriented points are sampled on frame 0 exactly as `generate_lights` does
 //!   (`area::area_lights_tied`: counts split by power, stratified by area) and tied to their surface
 //!   (`SurfaceTie`: mesh, triangle, barycentrics; sphere, direction from the centre). In frame k each point
-//!   is re-evaluated on that frame's shape: position (plus Mitsuba's `offset_p`), emitting normal, and
+//!   is re-evaluated on that frame's shape: position (on the surface), emitting normal, and
 //!   intensity I0 = L_e(uv) A_e(k) / n_e with the emitter's area A_e(k) in that frame, so a deforming
 //!   emitter keeps its power estimate unbiased.
 //! - Environment emitters: `environment` directional lights over the equal-area strata of the sphere
@@ -122,7 +122,7 @@ fn area_frame(scene: &Scene, tied: &TiedArea, areas: &[AreaEmitter], frame0: &Li
         match evaluate_tie(scene, tie, frame)? {
             Some((p, n, uv)) => {
                 let i0 = emitter.radiance_at(uv) * (emitter.area / tied.counts[*e] as f32);
-                set.push_oriented_point(offset_p(p, n, n), n, i0)?;
+                set.push_oriented_point(p, n, i0)?;
             }
             // A collapsed triangle emits nothing; the light keeps frame 0's place.
             None => set.push_oriented_point(frame0.position[j], frame0.normal[j], Vec3::ZERO)?,

@@ -130,12 +130,11 @@ pub fn clipped_projected_solid_angle(c: &[Vec3; 4], p: Vec3, n: Vec3) -> (f32, f
 }
 
 /// What a light with a patch sends to receiver `p` (shading normal `n`), as `LightSet::emitted`: (wo, radiance
-/// factor F, distance), from the point of the emitter's SURFACE beneath the light. A generated light sits at
-/// Mitsuba's `offset_p` above its surface (about 1e-4 m at unit scale) so that its own surface never shadows
-/// its visibility ray (which still ends at the light); its shading is the surface point's: the emitter's
-/// cosine from the light itself would be (h - o) / d instead of h / d for a receiver at height h above the
-/// emitter's plane (o the offset): 11% dark at h = 0.8 mm, and 0 for h < o (a floor meeting a wall emitter).
-/// The surface point is the light moved back onto its patch's plane (the corners lie on the surface).
+/// factor F, distance), from the point of the emitter's SURFACE beneath the light: the light moved onto its
+/// patch's plane (the corners lie on the surface). Generated lights sit on the surface already (then this is
+/// the light itself); a light placed off its surface by a user (e.g. Mitsuba's `offset_p`, ~1e-4 m at unit
+/// scale) would otherwise give a receiver at height h above the emitter's plane the cosine (h - o) / d
+/// instead of h / d (o the offset): 11% dark at h = 0.8 mm, and 0 for h < o (a floor meeting a wall emitter).
 /// Twin of the oriented-point branch of `light_emitted` in light.wgsl.
 pub fn surface_emitted(c: &[Vec3; 4], position: Vec3, normal: Vec3, intensity: Vec3, p: Vec3, n: Vec3) -> Option<(Vec3, Vec3, f32)> {
     let surface = position - normal * (position - c[0]).dot(normal);

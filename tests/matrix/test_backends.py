@@ -84,7 +84,7 @@ def test_gpu_hybrid_visibility_is_close_to_the_cpu(pair):
 
 def test_delta_chains_on_both_backends(tmp_path):
     """Mirrors and glass: a pixel's row sums its delta-chain samples on either backend."""
-    from test_delta_chains import _write  # the delta-chain tests' box with a mirror and a glass ball
+    from scene.test_delta_chains import _write  # the delta-chain tests' box with a mirror and a glass ball
 
     scene = ml.load_scene(_write(tmp_path, "box"), size=(32, 32))
     lights = ml.generate_lights(scene, area=64, seed=1)

@@ -79,14 +79,15 @@ fn area_power_is_exact_and_split_by_power() {
     let n_sphere = (0..set.len()).filter(|&j| (set.position[j] - Vec3::new(0.2, -0.5, 0.1)).length() < 0.21).count();
     let share = sphere_power.element_sum() / expect.element_sum();
     assert_eq!(n_sphere, (1000.0 * share).round() as usize, "sphere share {share}");
-    // Every light emits away from its surface, which it sits just above.
+    // Every light emits away from its surface, on which it sits (as Mitsuba's emitter samples).
     for j in 0..set.len() {
         let (p, n) = (set.position[j], set.normal[j]);
         if (p - Vec3::new(0.2, -0.5, 0.1)).length() < 0.21 {
             assert!((p - Vec3::new(0.2, -0.5, 0.1)).normalize().dot(n) > 0.9999);
+            assert!(((p - Vec3::new(0.2, -0.5, 0.1)).length() - 0.2).abs() < 1e-6, "{p}");
         } else {
             assert_eq!(n, -Vec3::Y);
-            assert!(p.y < 0.8 && p.y > 0.8 - 1e-3, "{p}");
+            assert!((p.y - 0.8).abs() < 1e-6, "{p}");
         }
     }
 }
