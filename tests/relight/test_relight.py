@@ -267,3 +267,21 @@ def test_relight_error_probes_against_the_path_traced_image(box):
         rel.relight(lights, error_probes=-1)
     with pytest.raises(TypeError, match="LightSet"):
         ml.probe_pixels(box, pixels[:1], lights="spot")
+
+
+def test_an_overflowing_relit_image_raises_naming_the_pixel(box):
+    """A point light 1 um off the surface with the largest accepted intensity (1e30): float32 overflows."""
+    from manylights._utils.validate import finite_result
+
+    g = box.gbuffer(device="cpu")
+    i = 16 * box.width + 16
+    p = np.asarray(g["position"]).reshape(-1, 3)[i] + np.asarray(g["normal"]).reshape(-1, 3)[i] * 1e-6
+    big = ml.LightSet.from_arrays(box, kind=0, position=[p], intensity=[[1e30, 1e30, 1e30]])
+    rel = ml.DirectToIndirect(box, gather=16, final_gather_coefficients=4)
+    with pytest.raises(FloatingPointError, match=r"relight: 1 pixels are not finite .* \(x 16, y 16\)"):
+        rel.relight(big)
+    frames = np.zeros((3, 4, 5, 3), np.float32)
+    frames[2, 1, 3, 0] = np.inf
+    with pytest.raises(FloatingPointError, match=r"tensor_clustering: 1 pixels .* \(frame 2, x 3, y 1\)"):
+        finite_result("tensor_clustering", frames)
+    assert finite_result("x", frames[:2]) is not None

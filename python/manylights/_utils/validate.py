@@ -65,6 +65,19 @@ def finite(name: str, a: np.ndarray) -> np.ndarray:
     return a
 
 
+def finite_result(what: str, img: np.ndarray) -> np.ndarray:
+    """``img`` (..., H, W, 3) when every element is finite; else FloatingPointError naming how many pixels and
+    the first one (frame, x, y): a result that overflowed float32 is never returned."""
+    bad = ~np.isfinite(img)
+    if not bad.any():
+        return img
+    first = np.argwhere(bad)[0]
+    *frame, y, x, _ = (int(i) for i in first)
+    at = f"frame {frame[0]}, " if frame else ""
+    raise FloatingPointError(f"{what}: {int(bad.any(axis=-1).sum())} pixels are not finite (float32 overflow), the "
+                             f"first at ({at}x {x}, y {y}): {img[tuple(first[:-1])].tolist()}; scale the lights down")
+
+
 def indices(name: str, values, size: int, what: str) -> np.ndarray:
     """``values`` as a 1-D int64 array of indices in [0, size): integers only (no bools, floats or NaN),
     the first bad one named with its position. ``name`` is singular ("row index"), ``what`` names the

@@ -73,6 +73,7 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
         bounds, ``budget['probes']`` one dict per frame (``probe_error``'s, without its per-probe arrays).
 
     Raises:
+        FloatingPointError: a frame that overflowed float32 (the first pixel named).
         TypeError: T is not a LightTensor. ValueError: rows or columns out of range, a bad chunk or
             representative, a negative seed; ``client`` with a T not made from an ``Animation``.
         OSError: a scheduler address not reachable within ``connect_timeout``.
@@ -96,6 +97,7 @@ def tensor_clustering(T, rows: int = 100, columns: int = 300, seed: int = 0, *, 
         res = render_clustered(T, rows, columns, seed, chunk=chunk, representative=representative,
                                init_clusters=init_clusters, time_weight=time_weight, row_indices=row_indices,
                                progress=progress, first_chunk=first_chunk)
+    _v.finite_result("tensor_clustering", res.frames)
     if error_probes:
         attach_frame_probes(res, T.scenes, error_probes, seed, spp=probe_spp, max_depth=depth)
     return res

@@ -212,6 +212,7 @@ class DirectToIndirect:
         Raises:
             ValueError: an empty LightSet, non-finite light values (the light named), a negative or
                 non-finite epsilon, error_probes outside [0, pixels], probe_spp < 2, a negative seed.
+            FloatingPointError: an image that overflowed float32 (the first pixel named).
             TypeError: lights not a LightSet.
         """
         if not isinstance(lights, LightSet):
@@ -221,7 +222,7 @@ class DirectToIndirect:
         probe_spp = _v.integer("probe_spp", probe_spp, 2, 1 << 30)
         seed = _v.seed(seed)
         t = time.perf_counter()
-        image = self._t.relight(lights, epsilon)
+        image = _v.finite_result("relight", self._t.relight(lights, epsilon))
         if not error_probes:
             return image
         res = RenderResult(image=image, method="direct_to_indirect", seed=seed,
