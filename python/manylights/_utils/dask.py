@@ -34,6 +34,16 @@ def connect(client, workers: Optional[int], connect_timeout: float, device: str)
     return Client(cluster), True
 
 
+def release(client, owned: bool) -> None:
+    """Close ``client`` and its local cluster when ``connect`` made them (``owned``); a client the caller gave
+    stays open."""
+    if owned:
+        cluster = client.cluster
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 def default_workers(device: str = "auto") -> int:
     """Worker processes of the default ``LocalCluster``: one per hardware GPU adapter when the sweep runs on
     a GPU, else (CPU backend or a software adapter) 2 when the machine has 2+ cores, else 1."""

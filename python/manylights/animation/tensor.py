@@ -71,6 +71,9 @@ class AnimationResult:
         maps = np.asarray(self.shadow_maps_per_frame)
         unit = "shadow maps" if self.device.get("kind") == "gpu" else "rows + columns"
         extra = {f"{unit} per frame": f"mean {maps.mean():.4g}, max {maps.max():,}"} if maps.size else {}
+        if self.error_estimate is not None and np.size(self.error_estimate):
+            e = np.asarray(self.error_estimate)
+            extra["error estimate per frame (probes)"] = f"mean {e.mean():.3g}, max {e.max():.3g}"
         return "\n".join(summary_lines("AnimationResult", self.method, self.seed, f"{f} frames of {w}x{h}",
                                         self.budget, self.timings, self.device, None, self.bias_sources, extra))
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from .._native import LightSet
 from .._utils import validate as _v
-from .._utils.dask import connect
+from .._utils.dask import connect, release
 from ..matrix.rows import stratified_rows
 from .frames import Animation, load_animation
 from .tensor import AnimationResult, LightTensor
@@ -120,11 +120,7 @@ def distributed_tensor_clustering(T, rows: int, columns: int, seed: int, chunk: 
                                      row_indices, columns, seed, kwargs, index, pure=False))
         parts = cl.gather(futures)
     finally:
-        if owned:
-            cluster = cl.cluster
-            cl.close()
-            if cluster is not None:
-                cluster.close()
+        release(cl, owned)
     wall = time.perf_counter() - t
     timings: dict = {}
     for p in parts:

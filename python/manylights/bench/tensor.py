@@ -37,7 +37,7 @@ import numpy as np
 import manylights as ml
 import manylights.scenes as sc
 
-from .._utils.dask import connect
+from .._utils.dask import connect, release
 from .._utils.files import atomic_write, atomic_write_text
 from .common import settings_tag
 from .dask_options import add_dask_arguments, check_dask_arguments
@@ -127,11 +127,7 @@ def run(args) -> dict:
         interrupted = True
         print("\ninterrupted: reporting what was measured")
     finally:
-        if owned:
-            cluster = client.cluster
-            client.close()
-            if cluster is not None:
-                cluster.close()
+        release(client, owned)
     wall = time.perf_counter() - t
     parts = [pd.read_parquet(p) for p in parquets.values() if p.is_file()]
     df = pd.concat(parts, ignore_index=True) if parts else None

@@ -27,7 +27,7 @@ from typing import Callable, Optional, Sequence
 
 from .._utils import progress as _progress
 from .._utils import validate as _v
-from .._utils.dask import connect, gpu_resources
+from .._utils.dask import connect, gpu_resources, release
 from .._utils.files import atomic_write, exclusive
 from .._utils.keywords import checked_keywords
 from . import worker
@@ -326,11 +326,7 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
                 try:
                     _run_dask(cl, todo, reference_dir, accept)
                 finally:
-                    if owned:
-                        cluster = cl.cluster
-                        cl.close()
-                        if cluster is not None:
-                            cluster.close()
+                    release(cl, owned)
         except BaseException as e:
             exc = e
             raise
