@@ -10,7 +10,7 @@ import numpy as np
 from .._utils import validate as _v
 from .._utils.keywords import checked_keywords
 from .._utils.seeds import derived_seed
-from ..renderers.probe_error import probe_error
+from ..renderers.probe_error import probe_error, probe_summary
 from .tensor import LightTensor
 from .tensor_clusters import render_clustered
 from .tensor_dask import distributed_tensor_clustering
@@ -110,8 +110,7 @@ def attach_frame_probes(res, scenes, probes: int, seed: int, *, spp: int, max_de
     per_frame = []
     for k, scene in enumerate(scenes):
         est = probe_error(res.frames[k], scene, probes, spp=spp, max_depth=max_depth, seed=derived_seed(seed, k))
-        per_frame.append({key: v for key, v in est.items()
-                          if key not in ("pixels", "probe_mean", "probe_variance", "residuals")})
+        per_frame.append(probe_summary(est))
     res.error_estimate = np.array([e["error_estimate"] for e in per_frame], dtype=np.float64)
     res.budget["probes"] = per_frame
     res.timings["probes"] = time.perf_counter() - t

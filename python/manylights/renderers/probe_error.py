@@ -239,6 +239,12 @@ def path_tracer_projection(est: dict, target_error: float, pixels: int) -> dict:
     return {"spp": spp, "seconds": spp * pixels / est["paths_per_second"]}
 
 
+def probe_summary(est: dict) -> dict:
+    """A ``probe_error`` result without its per-probe arrays (pixels, means, variances, residuals): what a
+    result's ``budget['probes']`` keeps."""
+    return {k: v for k, v in est.items() if k not in ("pixels", "probe_mean", "probe_variance", "residuals")}
+
+
 def attach_probe_error(res, scene: Scene, probes: int, seed: int, variance: Optional[float] = None, *,
                        estimate: Optional[dict] = None, **options):
     """Fill a ``RenderResult``'s error fields from probes (``probe_error``): ``variance_estimate`` keeps what
@@ -253,7 +259,6 @@ def attach_probe_error(res, scene: Scene, probes: int, seed: int, variance: Opti
     res.variance_estimate = variance
     res.error_estimate = est["error_estimate"]
     res.bias_estimate = est["bias_estimate"]
-    res.budget["probes"] = {k: v for k, v in est.items()
-                            if k not in ("pixels", "probe_mean", "probe_variance", "residuals")}
+    res.budget["probes"] = probe_summary(est)
     res.timings["probes"] = res.timings.get("probes", 0.0) + est["seconds"]
     return res
