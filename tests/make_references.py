@@ -83,6 +83,13 @@ REFERENCES = {
     # the room lit through the opening. The emitter (radiance 30, exact) dominates the norm: the target makes
     # the lit surfaces' own noise ~0.5%.
     "disk-recess-direct": (HERE / "data" / "disk_recess.xml", {"res": 64}, (64, 64), 2, 0.00015, None),
+    # Calibration of ``render(target_error=e)`` (``python -m manylights.bench targets``): the case at >= 256^2,
+    # the 13-light staircase with its indirect light, and a room lit through a window by an environment map
+    # (256 x 144, direct light, most of it from a small bright region of the sky).
+    "cbox-gi-256": (SCENES / "cbox" / "scene.xml", {"res": 256}, (256, 256), -1, 0.004, None),
+    "staircase-gi-64": (HERE / "data" / "staircase_recessed.xml", {"res": 64}, (64, 64), -1, 0.002, None),
+    "window-room-direct": (SCENES / "window-room" / "scene.xml", {"resx": 256, "resy": 144}, (256, 144), 2, 0.01,
+                           None),
     # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
     "matpreview-full-direct": (TEST_SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
                                None),

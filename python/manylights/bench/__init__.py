@@ -24,6 +24,9 @@ Subcommands:
              budgets x seeds: table, JSON and scatter plot (``bench.calibrate``).
     budgets  ml.render(A, target_error=e) against the cheapest fixed MRCS budget reaching e: share of seeds
              at or below e, time ratio; JSON + chart (``bench.budgets``).
+    targets  ml.render(scene, target_error=e) against converged Mitsuba references: what it claims, its
+             estimate and the true error per (scene, target) cell, Mitsuba's time to the same error
+             (``bench.targets``).
     vs-mitsuba time to 5/2/1% relative L2 of a converged Mitsuba reference: MRCS on the CPU and GPU backends
              against Mitsuba's path tracer (``bench.vs_mitsuba``).
 
