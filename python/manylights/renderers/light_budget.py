@@ -128,6 +128,10 @@ MAX_GROWTH = 8
 _STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5, "compensation": 6, "model_probes": 7}
 #: Paths per pixel of each of the two bias-compensation estimates a clamped-VPL model is offered with.
 COMPENSATION_SPP = 1
+#: Retracing the probes that carry an unreliable estimate may take this share of the render so far, and at
+#: least REFINE_MIN_SECONDS (on short renders the estimate's accuracy comes first).
+REFINE_SHARE = 0.15
+REFINE_MIN_SECONDS = 1.0
 
 
 def _kind_lights(scene, kind: str, count: int, max_depth: int, seed: int, delta: int):
@@ -263,7 +267,8 @@ def choose_light_counts(scene, target_error: Optional[float], time_budget: Optio
     return out
 
 
-def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_depth: int, variance: float) -> dict:
+def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_depth: int, variance: float,
+                       refine_seconds: Optional[float] = None) -> dict:
     """The light model of the rendered image ``res`` (from ``A``), chosen by probe residuals (module doc,
     "Light models"), and the chosen model's error from FRESH probes that took no part in the choice.
 
@@ -273,7 +278,8 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     ``variance`` in quadrature). With one candidate no choice is made and one probe set estimates the error;
     with more, a selection probe set (its own stream) scores every candidate by the point estimate (2) of
     ``probe_error`` on the same probes, the smallest wins, and a second, fresh probe set estimates the winner's
-    error (so the reported bound is not the minimum of noisy scores).
+    error (so the reported bound is not the minimum of noisy scores); where few probes carry that estimate they
+    are retraced with more paths for at most ``refine_seconds`` (``probe_error.refine_probes``).
 
     Sets ``res.image``, ``res.bias_sources`` (the winner's), the error fields (``attach_probe_error``),
     ``budget['light_model']`` (``chosen``, ``candidates``: model, variance, selection error, ``reason``),
@@ -304,7 +310,7 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
         reason = (f"smallest error at {probes} selection probes: " + ", ".join(
             f"{c['model']} {c['selection']:.3g}" for c in candidates))
     est = probe_error(chosen["image"], scene, probes, spp=spp, max_depth=max_depth, seed=seed,
-                      variance_estimate=chosen["variance"])
+                      variance_estimate=chosen["variance"], refine_seconds=refine_seconds)
     res.image = chosen["image"]
     res.bias_sources = chosen["bias_sources"]
     attach_probe_error(res, scene, probes, seed, variance=chosen["variance"], estimate=est)
@@ -425,8 +431,9 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     probes_failed = None
     if error_probes:
         try:
+            spent = float(sum(res.timings.values())) + counts["seconds"] + t_lights
             est = choose_light_model(res, A, scene, error_probes, seed, spp=probe_spp, max_depth=max_depth,
-                                     variance=total)
+                                     variance=total, refine_seconds=max(REFINE_MIN_SECONDS, REFINE_SHARE * spent))
             probe = res.budget["probes"]
         except ValueError as e:  # a scene the probes do not support: the result stands, without them
             probes_failed, error_probes = str(e), 0

@@ -21,7 +21,7 @@ standard error of (2), ``z_q`` the one-sided normal
 quantile of ``confidence``. Fireflies: a probe whose paths rarely find a bright, small light underestimates
 its own ``v_k`` and its ``d_k`` can dominate (2); ``effective_probes`` = (sum |d_k|)^2 / sum d_k^2 says
 how many probes carry the estimate (of the terms d_k / p_k), and below min(N / 4, 16) the estimate is marked
-unreliable.
+unreliable. Then the probes that carry it are traced again with more, fresh paths (``refine_probes``)    (5)
 
 The probes' path tracer itself: a probe's per-path variance is ``spp v_k``, so an image of ``S`` paths per
 pixel from the same tracer has the expected squared relative L2
@@ -61,6 +61,15 @@ from .probes import probe_pixels
 PROBE_STREAM = 1 << 26
 #: Fewer effective probes than this (or N / 4) mark the estimate unreliable.
 MIN_EFFECTIVE = 16
+#: (5) Rounds of retracing, the factor on the paths of a retraced probe, the share of sum |d_k / p_k| retraced,
+#: and at most N / REFINE_CAP probes a round (``refine_probes``).
+REFINE_ROUNDS = 4
+REFINE_FACTOR = 8
+REFINE_MASS = 0.8
+REFINE_CAP = 8
+#: ``probe_error``'s default limit on retracing: this many times the first pass's seconds, at least the minimum.
+REFINE_TIMES = 4.0
+REFINE_MIN_SECONDS = 0.5
 #: Share of the probes' distribution proportional to the image's squared value (the rest uniform).
 RISK_SHARE = 0.5
 
@@ -84,7 +93,7 @@ def integrator_depth(scene) -> tuple[str, int]:
 
 def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_depth: Optional[int] = None,
                 seed: int = 0, confidence: float = 0.9, variance_estimate: Optional[float] = None,
-                lights=None) -> dict:
+                lights=None, refine: bool = True, refine_seconds: Optional[float] = None) -> dict:
     """Estimate the relative L2 of ``image`` against the converged scene from unbiased probe pixels
     (module doc: (1), (2)): ``probe_estimate(image, probe_sample(image, scene, ...))``.
 
@@ -100,6 +109,10 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
             split the error into variance and bias; None: no split.
         lights: a ``LightSet`` that lights the scene instead of its emitters (``probe_pixels``), for images
             of the scene under those lights (``DirectToIndirect.relight``); None: the scene's emitters.
+        refine: retrace the probes that carry an unreliable estimate with more, fresh paths
+            (``refine_probes``, (5)); False: one pass of ``spp`` paths per probe.
+        refine_seconds: at most this many seconds of retracing (None: ``REFINE_TIMES`` x the first pass's,
+            and at least ``REFINE_MIN_SECONDS``).
 
     Returns:
         dict: ``error_estimate`` (relative L2 at the upper confidence bound), ``error_mean`` (the point
@@ -117,7 +130,76 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
         TypeError: scene not a Scene; a non-numeric image.
     """
     sample = probe_sample(image, scene, probes, spp=spp, max_depth=max_depth, seed=seed, lights=lights)
+    if refine:
+        limit = refine_seconds if refine_seconds is not None else max(REFINE_MIN_SECONDS,
+                                                                      REFINE_TIMES * sample["seconds"])
+        sample = refine_probes(image, sample, seed=seed, lights=lights, max_seconds=limit)
     return probe_estimate(image, sample, confidence=confidence, variance_estimate=variance_estimate)
+
+
+def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: int = REFINE_ROUNDS,
+                  factor: int = REFINE_FACTOR, max_seconds: Optional[float] = None) -> dict:
+    """Retrace the probes that carry an unreliable estimate (5): while fewer than min(N / 4, ``MIN_EFFECTIVE``)
+    probes carry (2), the fewest probes whose terms |d_k / p_k| make up ``REFINE_MASS`` of the sum (at most
+    N / ``REFINE_CAP``) are traced again with ``factor`` x the paths behind their mean, all FRESH, which
+    replace their mean and variance; at most ``rounds`` times, and no round that would take the retracing
+    past ``max_seconds`` (predicted from the paths per second of the sample).
+
+    Which probes are retraced depends on their earlier paths only, and their new paths are independent of
+    those, so each retraced probe's mean and variance are unbiased given that choice and (1) still holds
+    for it: a firefly that made a probe's residual large (or a bright path it missed, which made its own
+    variance small) is averaged out instead of deciding the estimate.
+
+    Args:
+        image: (H, W, 3) the image the residuals are taken against (the one whose error is estimated).
+        sample: a ``probe_sample`` of its scene (not modified).
+        seed: seeds the fresh paths (a stream apart from the sample's).
+        lights: as ``probe_sample``.
+        rounds: at most this many rounds (>= 0).
+        factor: paths of a retraced probe, as a multiple of the paths behind its mean (>= 2).
+        max_seconds: seconds the retracing may take in all (None: no limit).
+
+    Returns:
+        a copy of ``sample`` with the retraced probes' ``mean`` / ``variance``, ``seconds`` including the
+        retracing, ``refined`` (N,) int64: how many times each probe was retraced, ``paths`` (N,) int64:
+        the paths behind each probe's mean now, ``traced``: all paths traced.
+
+    Raises:
+        ValueError: rounds < 0, factor < 2, max_seconds <= 0, what ``probe_pixels`` refuses.
+    """
+    rounds = _v.integer("rounds", rounds, 0, 16)
+    factor = _v.integer("factor", factor, 2, 1 << 16)
+    if max_seconds is not None and not (float(max_seconds) > 0.0):
+        raise ValueError(f"max_seconds must be > 0 (or None), got {max_seconds}")
+    n = len(sample["index"])
+    out = dict(sample)
+    out["mean"], out["variance"] = sample["mean"].copy(), sample["variance"].copy()
+    out["refined"] = np.zeros(n, np.int64)
+    out["paths"] = np.asarray(sample.get("paths", np.full(n, sample["spp"])), np.int64).copy()
+    out["traced"] = int(sample.get("traced", int(out["paths"].sum())))
+    rate = out["traced"] / max(sample["seconds"], 1e-9)
+    t = time.perf_counter()
+    for r in range(rounds):
+        est = probe_estimate(image, out)
+        if est["reliable"] or n < 2:
+            break
+        mag = np.abs(est["residuals"] / out["p"])
+        if not np.any(mag):
+            break
+        order = np.argsort(-mag, kind="stable")
+        take = int(np.searchsorted(np.cumsum(mag[order]) / mag.sum(), REFINE_MASS) + 1)
+        which = np.sort(order[:max(1, min(take, n // REFINE_CAP))])
+        spp = int(min(out["paths"][which].max() * factor, 1 << 30))
+        if max_seconds is not None and time.perf_counter() - t + len(which) * spp / rate > max_seconds:
+            break
+        mean, var = probe_pixels(out["scene"], out["pixels"][which], spp=spp, max_depth=out["max_depth"],
+                                 seed=derived_seed(seed, PROBE_STREAM + 2 + r), progress=False, lights=lights)
+        out["mean"][which], out["variance"][which] = mean, var
+        out["refined"][which] += 1
+        out["paths"][which] = spp
+        out["traced"] += len(which) * spp
+    out["seconds"] = sample["seconds"] + time.perf_counter() - t
+    return out
 
 
 def _check_image(image, scene: Scene) -> np.ndarray:
@@ -191,12 +273,14 @@ def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_est
 
     # (3): one path per pixel of the probes' tracer has per-pixel variance spp * v_k; its total over the image
     # is estimated like (2), relative to ||I||^2.
-    pt = float(np.mean(np.sum(v, axis=1) * spp / pk)) / norm2 if norm2 > 0 else float("inf")
+    paths = np.asarray(sample.get("paths", np.full(probes, spp)), np.float64)
+    pt = float(np.mean(np.sum(v, axis=1) * paths / pk)) / norm2 if norm2 > 0 else float("inf")
     out = {"error_estimate": rel(se + z * sd), "error_mean": rel(se), "bias_estimate": None, "probes": probes,
            "spp": spp, "max_depth": sample["max_depth"], "confidence": confidence, "effective_probes": eff,
            "reliable": bool(eff >= min(probes / 4, MIN_EFFECTIVE)), "pixels": sample["pixels"],
            "probe_mean": mean, "probe_variance": var, "residuals": d, "seconds": sample["seconds"],
-           "paths_per_second": probes * spp / max(sample["seconds"], 1e-9), "path_tracer_variance": pt,
+           "paths_per_second": float(sample.get("traced", paths.sum())) / max(sample["seconds"], 1e-9),
+           "refined": int(np.count_nonzero(sample.get("refined", 0))), "path_tracer_variance": pt,
            "error_by_shape": error_by_shape(scene, sample["shape_index"], terms)}
     if variance_estimate is not None and norm2 > 0.0:
         out["bias_estimate"] = float(np.sqrt(max(se / norm2 - float(variance_estimate) ** 2, 0.0)))
