@@ -131,6 +131,9 @@ COMPENSATION_SPP = 1
 #: Retracing the probes that carry an unreliable estimate may take this share of the render so far, and at
 #: least REFINE_MIN_SECONDS (on short renders the estimate's accuracy comes first).
 REFINE_SHARE = 0.15
+#: A light model with a known bias source must score this much better at the selection probes to be kept
+#: over one without (within the probes' noise the unbiased model wins).
+BIAS_MARGIN = 0.05
 REFINE_MIN_SECONDS = 1.0
 
 
@@ -277,7 +280,8 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     paths per pixel averaged: their half difference is the compensation's own variance, added to
     ``variance`` in quadrature). With one candidate no choice is made and one probe set estimates the error;
     with more, a selection probe set (its own stream) scores every candidate by the point estimate (2) of
-    ``probe_error`` on the same probes, the smallest wins, and a second, fresh probe set estimates the winner's
+    ``probe_error`` on the same probes, the smallest wins (a model with a known bias source must be
+    ``BIAS_MARGIN`` better), and a second, fresh probe set estimates the winner's
     error (so the reported bound is not the minimum of noisy scores); where few probes carry that estimate they
     are retraced with more paths for at most ``refine_seconds`` (``probe_error.refine_probes``).
 
@@ -306,7 +310,7 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
         select_seconds = sample["seconds"]
         for c in candidates:
             c["selection"] = probe_estimate(c["image"], sample, variance_estimate=c["variance"])["error_mean"]
-        chosen = min(candidates, key=lambda c: c["selection"])
+        chosen = min(candidates, key=lambda c: c["selection"] * (1.0 + BIAS_MARGIN * bool(c["bias_sources"])))
         reason = (f"smallest error at {probes} selection probes: " + ", ".join(
             f"{c['model']} {c['selection']:.3g}" for c in candidates))
     est = probe_error(chosen["image"], scene, probes, spp=spp, max_depth=max_depth, seed=seed,

@@ -9,9 +9,12 @@ converged value ``P_k`` with the variance of its mean ``v_k``, and for the image
 
     E[ sum_ch (I_k - P_k)^2 - sum_ch v_k ] = sum_ch (I_k - I*_k)^2                                (1)
 
-so with probes drawn independently from a defensive mixture ``p_i = (1 - a) / M + a |I_i|^2 / ||I||^2``
-(``a`` = ``RISK_SHARE`` = 1/2: uniform, plus the pixels that can carry relative error mass; the
-Hansen-Hurwitz weights ``w_k = 1 / (N p_k)``)
+so with probes drawn independently from a defensive mixture
+``p_i = (1 - a - b) / M + a |I_i|^2 / ||I||^2 + b r_i / sum r`` (``a`` = ``RISK_SHARE`` = 1/4: the pixels
+that can carry relative error mass; ``b`` = ``PILOT_SHARE`` = 1/4, ``r_i = sum_ch (I_i - Q_i)^2`` against a
+pilot ``Q`` of two fresh paths per pixel: the pixels where the image is off, such as one near-field pixel
+that MRCS's representatives left dark (6); the Hansen-Hurwitz weights ``w_k = 1 / (N p_k)``; the mixture is
+fixed before the probes' own paths are traced, from paths independent of them)
 
     SE = sum_k w_k d_k,   d_k = sum_ch (I_k - P_k)^2 - sum_ch v_k                                   (2)
 
@@ -40,7 +43,8 @@ both terms are estimates).
 | ``I``, ``I*`` | the rendered image, the converged image of the scene (Mitsuba's ``path``) |
 | ``M``, ``N`` | pixels, probes |
 | ``P_k``, ``v_k`` | probe k's path-traced mean and the variance of that mean |
-| ``p_i``, ``a`` | probability of pixel i in the probes' mixture, its share by squared value |
+| ``p_i``, ``a``, ``b`` | probability of pixel i in the probes' mixture, its shares by squared value and by pilot residual |
+| ``Q_i``, ``r_i`` | the pilot's mean at pixel i (``PILOT_SPP`` paths), the pilot residual |
 | ``d_k``, ``w_k``, ``SE`` | probe k's residual (1), its weight, the estimated total squared error (2) |
 | ``z_q`` | normal quantile of the confidence (one-sided) |
 """
@@ -71,7 +75,12 @@ REFINE_CAP = 8
 REFINE_TIMES = 4.0
 REFINE_MIN_SECONDS = 0.5
 #: Share of the probes' distribution proportional to the image's squared value (the rest uniform).
-RISK_SHARE = 0.5
+RISK_SHARE = 0.25
+#: (6) Share of the mixture proportional to the pilot residual sum_ch (I_i - Q_i)^2, Q_i the mean of PILOT_SPP
+#: fresh paths at pixel i (at most PILOT_MAX_PIXELS pixels, the rest keep the other shares).
+PILOT_SHARE = 0.25
+PILOT_SPP = 2
+PILOT_MAX_PIXELS = 1 << 18
 
 
 def integrator_depth(scene) -> tuple[str, int]:
@@ -137,8 +146,8 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
     return probe_estimate(image, sample, confidence=confidence, variance_estimate=variance_estimate)
 
 
-def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: int = REFINE_ROUNDS,
-                  factor: int = REFINE_FACTOR, max_seconds: Optional[float] = None) -> dict:
+def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Optional[int] = None,
+                  factor: Optional[int] = None, max_seconds: Optional[float] = None) -> dict:
     """Retrace the probes that carry an unreliable estimate (5): while fewer than min(N / 4, ``MIN_EFFECTIVE``)
     probes carry (2), the fewest probes whose terms |d_k / p_k| make up ``REFINE_MASS`` of the sum (at most
     N / ``REFINE_CAP``) are traced again with ``factor`` x the paths behind their mean, all FRESH, which
@@ -155,8 +164,9 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: in
         sample: a ``probe_sample`` of its scene (not modified).
         seed: seeds the fresh paths (a stream apart from the sample's).
         lights: as ``probe_sample``.
-        rounds: at most this many rounds (>= 0).
-        factor: paths of a retraced probe, as a multiple of the paths behind its mean (>= 2).
+        rounds: at most this many rounds (>= 0; None: ``REFINE_ROUNDS``).
+        factor: paths of a retraced probe, as a multiple of the paths behind its mean (>= 2; None:
+            ``REFINE_FACTOR``).
         max_seconds: seconds the retracing may take in all (None: no limit).
 
     Returns:
@@ -167,8 +177,8 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: in
     Raises:
         ValueError: rounds < 0, factor < 2, max_seconds <= 0, what ``probe_pixels`` refuses.
     """
-    rounds = _v.integer("rounds", rounds, 0, 16)
-    factor = _v.integer("factor", factor, 2, 1 << 16)
+    rounds = _v.integer("rounds", REFINE_ROUNDS if rounds is None else rounds, 0, 16)
+    factor = _v.integer("factor", REFINE_FACTOR if factor is None else factor, 2, 1 << 16)
     if max_seconds is not None and not (float(max_seconds) > 0.0):
         raise ValueError(f"max_seconds must be > 0 (or None), got {max_seconds}")
     n = len(sample["index"])
@@ -213,15 +223,18 @@ def _check_image(image, scene: Scene) -> np.ndarray:
 
 
 def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth: Optional[int] = None,
-                 seed: int = 0, lights=None) -> dict:
+                 seed: int = 0, lights=None, pilot: bool = True) -> dict:
     """Draw N probe pixels from the defensive mixture of ``image`` (module doc) and path-trace them: the part of
     ``probe_error`` that costs, reusable for several images of the same scene (``probe_estimate`` on each:
     the probabilities stay those of ``image``, so every estimate is unbiased; only its spread depends on how
     close the other images are to ``image``).
 
-    Args: as ``probe_error``. Returns: dict ``pixels`` (N, 2) int64, ``index`` (N,) flat pixel indices,
+    Args: as ``probe_error``; ``pilot``: trace ``PILOT_SPP`` paths at every pixel (at most ``PILOT_MAX_PIXELS``,
+    uniformly chosen) first and give the pixels where the image differs from them a share of the mixture (6);
+    False: uniform and squared-value shares only. Returns: dict ``pixels`` (N, 2) int64, ``index`` (N,) flat pixel indices,
     ``p`` (N,) float64 their probabilities, ``mean`` / ``variance`` (N, 3) float32, ``spp``, ``max_depth``,
-    ``seconds``, ``shape_index`` (N,) int64 (-1: background), ``scene`` (the Scene). Raises: as ``probe_error``.
+    ``seconds`` (pilot included), ``shape_index`` (N,) int64 (-1: background), ``scene`` (the Scene), ``traced``
+    (all paths, the pilot's included). Raises: as ``probe_error``.
     """
     img = _check_image(image, scene)
     H, W = scene.height, scene.width
@@ -231,10 +244,23 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     if max_depth is None:
         _, max_depth = integrator_depth(scene)
     t = time.perf_counter()
-    # Defensive mixture: half uniform, half proportional to the image's squared value (where relative L2
-    # error mass can be); drawn with replacement, each probe weighted by 1 / (N p_k) (Hansen-Hurwitz).
-    sq = np.sum(img.reshape(-1, 3).astype(np.float64) ** 2, axis=1)
-    prob = np.full(M, (1.0 - RISK_SHARE) / M) + (RISK_SHARE * sq / sq.sum() if sq.sum() > 0 else RISK_SHARE / M)
+    # Defensive mixture (6): half uniform, a quarter proportional to the image's squared value (where relative
+    # L2 error mass can be), a quarter to the pilot's residual (where the image is off); drawn with
+    # replacement, each probe weighted by 1 / (N p_k) (Hansen-Hurwitz).
+    flat = img.reshape(-1, 3).astype(np.float64)
+    sq = np.sum(flat ** 2, axis=1)
+    prob = np.full(M, (1.0 - RISK_SHARE - PILOT_SHARE) / M) + (RISK_SHARE * sq / sq.sum() if sq.sum() > 0
+                                                               else RISK_SHARE / M)
+    risk, pilot_paths = np.zeros(M), 0
+    if pilot:
+        rng = np.random.default_rng(derived_seed(seed, PROBE_STREAM + 8))
+        at = np.arange(M) if M <= PILOT_MAX_PIXELS else np.sort(rng.choice(M, PILOT_MAX_PIXELS, replace=False))
+        pm, _ = probe_pixels(scene, np.stack([at // W, at % W], axis=1).astype(np.int64), spp=PILOT_SPP,
+                             max_depth=max_depth, seed=derived_seed(seed, PROBE_STREAM + 9), progress=False,
+                             lights=lights)
+        risk[at] = np.sum((flat[at] - pm.astype(np.float64)) ** 2, axis=1)
+        pilot_paths = len(at) * PILOT_SPP
+    prob += PILOT_SHARE * risk / risk.sum() if risk.sum() > 0 else PILOT_SHARE / M
     rng = np.random.default_rng(derived_seed(seed, PROBE_STREAM))
     idx = np.sort(rng.choice(M, size=probes, p=prob / prob.sum()))
     pk = prob[idx] / prob.sum()
@@ -243,7 +269,8 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
                              progress=False, lights=lights)
     shape = np.asarray(scene.gbuffer(device="cpu")["shape_index"]).reshape(-1).astype(np.int64)[idx]
     return {"pixels": pixels, "index": idx, "p": pk, "mean": mean, "variance": var, "spp": int(spp),
-            "max_depth": int(max_depth), "seconds": time.perf_counter() - t, "shape_index": shape, "scene": scene}
+            "max_depth": int(max_depth), "seconds": time.perf_counter() - t, "shape_index": shape, "scene": scene,
+            "traced": probes * int(spp) + pilot_paths}
 
 
 def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_estimate: Optional[float] = None) -> dict:
