@@ -232,3 +232,21 @@ def test_the_pilot_finds_an_error_that_sits_in_a_few_pixels():
             else:
                 plain_off += not (0.8 * true <= est["error_estimate"] <= 1.4 * true and est["reliable"])
     assert plain_off >= 2
+
+
+def test_a_negative_point_estimate_leaves_the_bound_at_the_probes_noise(cbox):
+    """Where the probes' variances exceed their squared residuals (heavy-tailed glossy paths do this often),
+    (2) is negative; the bound is then z s, the probes' own resolution, not zero."""
+    import statistics
+
+    from manylights.renderers.probe_error import probe_estimate, probe_sample
+
+    scene, ref, _ = cbox
+    sample = probe_sample(ref, scene, 64, spp=16, max_depth=-1, seed=3, pilot=False)
+    sample["variance"] = sample["variance"] + np.float32(1.0)  # every residual now negative
+    est = probe_estimate(ref, sample)
+    d = est["residuals"] / sample["p"]
+    assert d.max() < 0 and est["error_mean"] == 0.0
+    z = statistics.NormalDist().inv_cdf(0.9)
+    s = d.std(ddof=1) / np.sqrt(64)
+    assert est["error_estimate"] == pytest.approx(np.sqrt(z * s / np.sum(ref.astype(np.float64) ** 2)), rel=1e-9)

@@ -19,8 +19,9 @@ fixed before the probes' own paths are traced, from paths independent of them)
     SE = sum_k w_k d_k,   d_k = sum_ch (I_k - P_k)^2 - sum_ch v_k                                   (2)
 
 is an unbiased estimate of the total squared error ``||I - I*||^2`` of this image. Reported as a relative
-L2, ``sqrt(SE) / ||I||``, at an upper confidence bound: ``SE + z_q s``, ``s = std(d_k / p_k) / sqrt(N)`` the
-standard error of (2), ``z_q`` the one-sided normal
+L2, ``sqrt(SE) / ||I||``, at an upper confidence bound: ``max(SE, 0) + z_q s``, ``s = std(d_k / p_k) / sqrt(N)``
+the standard error of (2) (a negative SE says the error is within the probes' noise, and the bound is that
+noise), ``z_q`` the one-sided normal
 quantile of ``confidence``. Fireflies: a probe whose paths rarely find a bright, small light underestimates
 its own ``v_k`` and its ``d_k`` can dominate (2); ``effective_probes`` = (sum |d_k|)^2 / sum d_k^2 says
 how many probes carry the estimate (of the terms d_k / p_k), and below min(N / 4, 16) the estimate is marked
@@ -302,7 +303,9 @@ def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_est
     # is estimated like (2), relative to ||I||^2.
     paths = np.asarray(sample.get("paths", np.full(probes, spp)), np.float64)
     pt = float(np.mean(np.sum(v, axis=1) * paths / pk)) / norm2 if norm2 > 0 else float("inf")
-    out = {"error_estimate": rel(se + z * sd), "error_mean": rel(se), "bias_estimate": None, "probes": probes,
+    # A point estimate below zero says the error is within the probes' noise: the bound is then that noise
+    # (z s), never less -- on glossy probes, whose variances are heavy-tailed, (2) falls below zero often.
+    out = {"error_estimate": rel(max(se, 0.0) + z * sd), "error_mean": rel(se), "bias_estimate": None, "probes": probes,
            "spp": spp, "max_depth": sample["max_depth"], "confidence": confidence, "effective_probes": eff,
            "reliable": bool(eff >= min(probes / 4, MIN_EFFECTIVE)), "pixels": sample["pixels"],
            "probe_mean": mean, "probe_variance": var, "residuals": d, "seconds": sample["seconds"],
