@@ -8,7 +8,7 @@
 //!
 //! Supported plugins: shapes obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, shapegroup +
 //! instance (`instancing`); BSDFs diffuse, twosided, plastic,
-//! roughplastic, conductor, roughconductor, dielectric, principled, blendbsdf; textures bitmap (PNG, JPEG,
+//! roughplastic, conductor, roughconductor, dielectric, principled, blendbsdf; textures bitmap (PNG, JPEG, BMP, PPM, TGA,
 //! EXR, HDR, PFM), checkerboard; emitters point,
 //! spot, directional, area, envmap, constant; sensor perspective with film hdrfilm. Integrators, samplers
 //! and reconstruction filters are read and ignored. Anything else is an error naming plugin, file and line.
