@@ -10,7 +10,8 @@
 //! instance (`instancing`); BSDFs diffuse, twosided, plastic,
 //! roughplastic, conductor, roughconductor, dielectric, principled, blendbsdf; textures bitmap (PNG, JPEG, BMP, PPM, TGA,
 //! EXR, HDR, PFM), checkerboard; emitters point,
-//! spot, directional, area, envmap, constant; sensor perspective with film hdrfilm. Integrators, samplers
+//! spot, directional, area, envmap, constant; sensor perspective with film hdrfilm (crop window included; `banner` of
+//! Mitsuba 0.x files ignored and `gamma` refused, as Mitsuba 3.9.1 does). Integrators, samplers
 //! and reconstruction filters are read and ignored. Anything else is an error naming plugin, file and line.
 //!
 //! Spectra (`<spectrum value="0.5">`, `value="400:0.3, 500:0.6, ..."`) become RGB as in Mitsuba's RGB
