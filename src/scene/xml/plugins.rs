@@ -42,6 +42,13 @@ pub struct Builder<'a> {
     attached: HashMap<usize, Location>,
     /// Things Mitsuba only warns about (`Scene::warnings`).
     pub warnings: Vec<String>,
+    /// How `<medium>`s are taken (`LoadOptions::media`).
+    pub media_policy: super::MediaPolicy,
+    /// Media built so far (shared by reference: one entry per node).
+    pub media: Vec<crate::scene::Medium>,
+    medium_memo: HashMap<usize, usize>,
+    /// (mesh index, interior, exterior) of every shape with a medium.
+    pub shape_media: Vec<(usize, Option<usize>, Option<usize>)>,
 }
 
 /// Refuse an emitter texture with NaN, infinite or negative texels (radiance must be finite and >= 0;
@@ -85,7 +92,76 @@ impl<'a> Builder<'a> {
             default_bsdf: None,
             attached: HashMap::new(),
             warnings: Vec::new(),
+            media_policy: super::MediaPolicy::default(),
+            media: Vec::new(),
+            medium_memo: HashMap::new(),
+            shape_media: Vec::new(),
         }
+    }
+
+    /// A `<medium type="homogeneous">` (Mitsuba 3.9.1 `src/media/homogeneous.cpp`): `sigma_t` (default 1)
+    /// and `albedo` (default 0.75) as a `<float>`, an `<rgb>` in [0, 1] (Mitsuba's RGB variants refuse
+    /// others: "Invalid RGB reflectance value") or a `<spectrum>`, times `scale` (default 1);
+    /// `sample_emitted` and a `<phase>` (isotropic, hg) are accepted (they only matter for scattering, which
+    /// is not modelled). Memoised per node (media shared by `<ref>` are one medium).
+    /// Errors: other medium types, volume-textured coefficients, negative or non-finite values.
+    pub fn medium(&mut self, node: usize) -> Result<usize> {
+        if let Some(&i) = self.medium_memo.get(&node) {
+            return Ok(i);
+        }
+        let mut p = Props::new(self.doc, node);
+        let loc = p.loc().clone();
+        if p.node.plugin != "homogeneous" {
+            return Err(Error::scene(
+                &loc,
+                format!("unsupported medium plugin type=\"{}\" (only \"homogeneous\" media are supported)", p.node.plugin),
+            ));
+        }
+        for r in p.objects()? {
+            let n = &self.doc.nodes[r.node];
+            match (n.class.as_str(), n.plugin.as_str()) {
+                ("phase", "isotropic" | "hg") => {
+                    let mut q = Props::new(self.doc, r.node);
+                    if n.plugin == "hg" {
+                        q.float("g", 0.8)?;
+                    }
+                    q.finish()?;
+                }
+                (class, plugin) => {
+                    let what = r.name.as_deref().map(|x| format!(" (\"{x}\")")).unwrap_or_default();
+                    return Err(Error::scene(
+                        &r.loc,
+                        format!(
+                            "unsupported <{class} type=\"{plugin}\">{what} inside a homogeneous medium (give sigma_t and albedo as \
+                             <float>, <rgb> or <spectrum>; phase functions: isotropic, hg)"
+                        ),
+                    ));
+                }
+            }
+        }
+        let coefficient = |p: &mut Props, name: &str, default: f32| -> Result<Vec3> {
+            let ploc = p.node.props.iter().find(|q| q.name == name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+            let is_rgb = p.node.props.iter().any(|q| q.name == name && matches!(q.value, super::parse::Value::Rgb(_)));
+            let v = p.color_prop(name)?.unwrap_or(Vec3::splat(default));
+            if !v.is_finite() || v.min_element() < 0.0 || (is_rgb && v.max_element() > 1.0) {
+                let range =
+                    if is_rgb { "in [0, 1] (Mitsuba's RGB variants refuse other <rgb> values; use scale)" } else { "finite and >= 0" };
+                return Err(Error::scene(&ploc, format!("medium {name} = {:?} must be {range}", v.to_array())));
+            }
+            Ok(v)
+        };
+        let sigma_t = coefficient(&mut p, "sigma_t", 1.0)?;
+        let albedo = coefficient(&mut p, "albedo", 0.75)?;
+        let scale = p.float("scale", 1.0)?;
+        if !(scale.is_finite() && scale >= 0.0) {
+            return Err(Error::scene(&loc, format!("medium scale = {scale} must be finite and >= 0")));
+        }
+        p.bool("sample_emitted", true)?;
+        p.finish()?;
+        self.media.push(crate::scene::Medium { sigma_t: sigma_t * scale as f32, albedo, loc });
+        let i = self.media.len() - 1;
+        self.medium_memo.insert(node, i);
+        Ok(i)
     }
 
     /// A file named by a plugin: searched in the `<path>` directories, then the scene's directory.
@@ -443,9 +519,29 @@ impl<'a> Builder<'a> {
         // Children: one BSDF and at most one area emitter.
         let mut bsdf = None;
         let mut emitter_node = None;
+        let (mut interior, mut exterior) = (None, None);
         for r in p.objects()? {
             let n = &self.doc.nodes[r.node];
             match n.class.as_str() {
+                "medium" if self.media_policy == super::MediaPolicy::Follow => {
+                    let slot = match r.name.as_deref() {
+                        Some("interior") => &mut interior,
+                        Some("exterior") => &mut exterior,
+                        other => {
+                            return Err(Error::scene(
+                                &r.loc,
+                                format!("a medium inside a shape must be named \"interior\" or \"exterior\", got {other:?}"),
+                            ))
+                        }
+                    };
+                    if slot.is_some() {
+                        return Err(Error::scene(
+                            &r.loc,
+                            format!("only a single {} medium can be given per shape", r.name.as_deref().unwrap_or("")),
+                        ));
+                    }
+                    *slot = Some(self.medium(r.node)?);
+                }
                 "bsdf" if bsdf.is_none() => bsdf = Some(self.bsdf(r.node)?),
                 "bsdf" => return Err(Error::scene(&r.loc, "only a single BSDF can be given per shape")),
                 "emitter" if emitter_node.is_none() => emitter_node = Some(r),
@@ -495,6 +591,9 @@ impl<'a> Builder<'a> {
             }
             None => None,
         };
+        if interior.is_some() || exterior.is_some() {
+            self.shape_media.push((self.meshes.len(), interior, exterior));
+        }
         self.meshes.push(Mesh { id, kind, positions, normals, uvs, indices, face_normals, bsdf, emitter, loc });
         Ok(())
     }

@@ -33,7 +33,7 @@ fn load_str(test: &str, body: &str) -> Result<Scene> {
 fn load_with(test: &str, body: &str, params: &[(&str, &str)]) -> Result<Scene> {
     let path = write(test, &[("scene.xml", &scene(body))]);
     let params = params.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    load_scene(&path, &LoadOptions { params, size: None })
+    load_scene(&path, &LoadOptions { params, size: None, ..Default::default() })
 }
 
 /// Asserts a `Scene` error at `scene.xml:<line>` whose message contains every `words`.
@@ -72,7 +72,7 @@ fn defaults_and_parameters_everywhere() {
     assert_eq!(s.meshes[0].kind, ShapeKind::Disk);
     // `opts.size` replaces the film size.
     let path = write("size", &[("scene.xml", &scene(RECT))]);
-    let s = load_scene(&path, &LoadOptions { params: vec![], size: Some((10, 20)) }).unwrap();
+    let s = load_scene(&path, &LoadOptions { params: vec![], size: Some((10, 20)), ..Default::default() }).unwrap();
     assert_eq!((s.camera.width, s.camera.height), (10, 20));
 }
 
@@ -391,7 +391,7 @@ fn version_06_film_properties() {
     };
     let load06 = |test: &str, extra: &str, size: Option<(u32, u32)>| {
         let path = write(test, &[("scene.xml", &film(extra))]);
-        load_scene(&path, &LoadOptions { params: vec![], size })
+        load_scene(&path, &LoadOptions { params: vec![], size, ..Default::default() })
     };
     for banner in [r#"<boolean name="banner" value="false"/>"#, r#"<string name="banner" value="xyz"/>"#] {
         let s = load06("film06-banner", banner, None).unwrap();
