@@ -235,6 +235,32 @@ cases_for("load_scene", [
     ("NaN sphere radius", lambda c: c.ml.load_scene(c.scene_with(
         "nanr", '<shape type="sphere"><float name="radius" value="nan"/></shape>')), ["nan", "scene.xml:8"]),
 ], raises=FILE_ERRORS + ("FileNotFoundError",))
+_GLASS = '<shape type="sphere"><bsdf type="dielectric"/>{}</shape>'
+cases_for("load_scene[medium]", [
+    ("RGB sigma_t above 1", lambda c: c.ml.load_scene(c.scene_with("med-rgb", _GLASS.format(
+        '<medium type="homogeneous" name="interior"><rgb name="sigma_t" value="0.5, 2, 0.5"/></medium>'))),
+     ["scene.xml:8", "sigma_t", "in [0, 1]"]),
+    ("NaN scale", lambda c: c.ml.load_scene(c.scene_with("med-nan", _GLASS.format(
+        '<medium type="homogeneous" name="interior"><float name="scale" value="nan"/></medium>'))),
+     ["scene.xml:8", "scale"]),
+    ("unnamed medium", lambda c: c.ml.load_scene(c.scene_with("med-name", _GLASS.format(
+        '<medium type="homogeneous"/>'))), ["scene.xml:8", "interior"]),
+    ("heterogeneous medium", lambda c: c.ml.load_scene(c.scene_with("med-het", _GLASS.format(
+        '<medium type="heterogeneous" name="interior"/>'))), ["scene.xml:8", "heterogeneous"]),
+    ("medium refused on request", lambda c: c.ml.load_scene(c.scene_with("med-err", _GLASS.format(
+        '<medium type="homogeneous" name="interior"/>')), media="error"), ["scene.xml:8", "medium"]),
+    ("film gamma", lambda c: c.ml.load_scene(c.file("gamma/scene.xml", c.scene_with("gamma0", "<shape type='sphere'/>")
+                                                    .read_text().replace('<film type="hdrfilm">',
+                                                                         '<film type="hdrfilm"><float name="gamma" value="2.2"/>')
+                                                    .encode())), ["scene.xml:5", "gamma"]),
+    ("crop window outside the film", lambda c: c.ml.load_scene(c.file(
+        "crop/scene.xml", c.scene_with("crop0", "<shape type='sphere'/>").read_text().replace(
+            '<film type="hdrfilm">', '<film type="hdrfilm"><integer name="crop_width" value="9"/>').encode())),
+     ["scene.xml:5", "invalid crop window"]),
+], raises=("SceneError",))
+cases_for("load_scene[medium]", [
+    ("bad media option", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", media="ignore"), ["media"]),
+], raises=("ValueError",))
 cases_for("load_scene", [
     # refused before loading, naming the closest parameter the file has
     ("unused parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", nope=1), ["nope"]),
