@@ -126,6 +126,29 @@ put("pfm", "special_values.pfm", pfm_bytes(np.array([[[np.inf, -np.inf, np.nan],
 put("pfm", "truncated.pfm", pfm_bytes(pfm_img)[:-5])
 put("pfm", "header_only.pfm", b"PF\n65536 65536\n-1\n")
 
+# BMP, PPM (PNM) and TGA: Pillow's encoders (uncompressed and RLE), and headers declaring large sizes.
+put("bmp", "rgb_2x3.bmp", pil_bytes(rgb, "BMP"))
+put("bmp", "grey_5x2.bmp", pil_bytes(grey, "BMP"))
+put("bmp", "palette_3x1.bmp", pil_bytes(rgb.convert("P"), "BMP"))
+put("bmp", "rgba_2x2.bmp", pil_bytes(rgba, "BMP"))
+put("bmp", "bilevel_4x2.bmp", pil_bytes(Image.new("1", (4, 2), 1), "BMP"))
+put("bmp", "rle8_9x7.bmp", pil_bytes(rgb.resize((9, 7)).convert("P"), "BMP", compression="bmp_rle"))
+put("bmp", "header_60000.bmp", b"BM" + struct.pack("<IHHI", 58, 0, 0, 54)
+    + struct.pack("<IiiHHIIiiII", 40, 60000, 60000, 1, 24, 0, 0, 0, 0, 0, 0) + b"\x01\x02\x03\x00")
+put("ppm", "rgb_2x3.ppm", pil_bytes(rgb, "PPM"))
+put("ppm", "grey_5x2.pgm.ppm", pil_bytes(grey, "PPM"))
+put("ppm", "rgb16_1x1.ppm", b"P6\n1 1\n65535\n\x01\x02\x03\x04\x05\x06")
+put("ppm", "ascii_2x1.ppm", b"P3\n# comment\n2 1\n255\n1 2 3 4 5 6\n")
+put("ppm", "pam_1x1.ppm", b"P7\nWIDTH 1\nHEIGHT 1\nDEPTH 3\nMAXVAL 255\nTUPLTYPE RGB\nENDHDR\n\x01\x02\x03")
+put("ppm", "header_60000.ppm", b"P6\n60000 60000\n255\n\x01\x02\x03")
+put("tga", "rgb_2x3.tga", pil_bytes(rgb, "TGA"))
+put("tga", "rgb_rle_2x3.tga", pil_bytes(rgb.resize((7, 3)), "TGA", compression="tga_rle"))
+put("tga", "grey_5x2.tga", pil_bytes(grey, "TGA"))
+put("tga", "rgba_2x2.tga", pil_bytes(rgba, "TGA"))
+put("tga", "palette_3x1.tga", pil_bytes(rgb.convert("P"), "TGA"))
+put("tga", "header_60000.tga", bytes([0, 0, 2, 0, 0, 0, 0, 0]) + struct.pack("<HHHHBB", 0, 0, 60000, 60000, 24, 0x20)
+    + b"\x01\x02\x03")
+
 
 def exr_bytes(name, channels, compression, tiled=False):
     hdr = {"compression": compression, "type": OpenEXR.tiledimage if tiled else OpenEXR.scanlineimage}

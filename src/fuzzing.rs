@@ -120,7 +120,9 @@ pub fn xml(data: &[u8]) -> Result<Scene> {
         let _ = p.parent().map(std::fs::create_dir_all).unwrap_or(Ok(())).and_then(|_| std::fs::write(&p, bytes));
     }
     let path = write(&dir, "scene.xml", main);
-    crate::memory::with_thread_limit(MEMORY_LIMIT, || crate::scene::load_scene(&path, &LoadOptions { params, size: None }))
+    crate::memory::with_thread_limit(MEMORY_LIMIT, || {
+        crate::scene::load_scene(&path, &LoadOptions { params, size: None, ..Default::default() })
+    })
 }
 
 fn finalize_both(data: mesh::MeshData, path: &Path) -> Result<mesh::WorldMesh> {

@@ -1,8 +1,9 @@
 """Render the stored Mitsuba references under tests/references/ (run once; the tests read the results).
 
 Each reference is a pixel-centre render (camera rays through pixel centres, everything after them random)
-with Mitsuba 3.9.1's ``path`` integrator, accumulated until the estimated relative L2 noise of the mean,
-sqrt(sum var) / ||mean||, is below the target -- at least 4x below the tolerance the tests apply to it.
+with Mitsuba 3.9.1's ``path`` integrator (``volpath`` for those in ``INTEGRATORS``), accumulated until the
+estimated relative L2 noise of the mean, sqrt(sum var) / ||mean||, is below the target -- at least 4x below
+the tolerance the tests apply to it.
 Next to each ``<name>.exr`` go ``<name>.var.exr`` (variance of the mean per pixel) and ``<name>.json``
 (Mitsuba version, variant, spp, seed, noise, scene hash, parameters, edits).
 
@@ -93,7 +94,13 @@ REFERENCES = {
     # matpreview with its full smooth plastic (specular coat reached by delta chains), small.
     "matpreview-full-direct": (TEST_SCENES / "matpreview" / "scene.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.005,
                                None),
+    # A glass sphere with an absorbing coloured interior (homogeneous medium, albedo 0) over a floor, point light,
+    # under volpath with max_depth 4: the floor seen through the glass gets direct light (tests/scene/test_media.py).
+    "glass-medium-direct": (HERE / "data" / "glass_medium.xml", {"width": 64, "height": 48}, (64, 48), 4, 0.002, None),
 }
+
+# Integrator of the references that do not use ``path`` (with the max_depth above).
+INTEGRATORS = {"glass-medium-direct": "volpath"}
 
 
 def scene_hash(xml: Path) -> str:
@@ -157,7 +164,7 @@ def render(name: str, max_seconds: float, seed: int = 0) -> dict:
     noise = float("inf")
     while noise > target and time.perf_counter() - t0 < max_seconds:
         mean, var = reference.mitsuba_render(path, size, max_depth=max_depth, spp=batch, seed=seed * 7919 + spp,
-                                             batch=16, **params)
+                                             batch=16, integrator=INTEGRATORS.get(name, "path"), **params)
         # Merge batch statistics: sums of samples and of squares.
         total += mean.astype(np.float64) * batch
         total2 += (var.astype(np.float64) * max(batch - 1, 1) + mean.astype(np.float64) ** 2) * batch
@@ -176,7 +183,7 @@ def render(name: str, max_seconds: float, seed: int = 0) -> dict:
         "scene_sha256": scene_hash(xml),
         "params": params,
         "size": list(size),
-        "integrator": {"type": "path", "max_depth": max_depth},
+        "integrator": {"type": INTEGRATORS.get(name, "path"), "max_depth": max_depth},
         "edit": edit,
         "footprint": "pixel centre (camera ray through the pixel centre, all else random)",
         "spp": spp,

@@ -142,17 +142,21 @@ class LightMatrix:
     def column_exact(self, j: int) -> npt.NDArray[np.float32]:
         """(H, W, 3) column j by exact CPU ray casting. Raises ValueError for j >= n."""
 
-def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None) -> Scene:
-    """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film.
+def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None,
+               media: str = "mitsuba") -> Scene:
+    """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film;
+    ``media``: "mitsuba" (media as the scene's integrator uses them) or "error" (refuse ``<medium>``).
 
     Raises:
         FileNotFoundError: the XML or a file it names does not exist.
         SceneError: the scene is malformed or uses what is not supported (file, line and value).
         OSError: a file cannot be read.
         MemoryError: an image larger than host memory allows.
+        ValueError: ``media`` is neither "mitsuba" nor "error".
 
     Warns:
-        UserWarning: input Mitsuba accepts with a warning (a mesh whose triangles all have zero area)."""
+        UserWarning: input Mitsuba accepts with a warning (a mesh whose triangles all have zero area; a
+            medium under an integrator that ignores media, or one that scatters)."""
 
 def device_info(device: str = "auto") -> dict[str, Any]:
     """The device ``device`` resolves to: kind ("cpu"/"gpu"), name, backend, is_software, threads, and

@@ -15,12 +15,19 @@ from ._utils import validate as _v
 from ._utils.keywords import unknown_keyword_error
 
 
-def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = None, **params) -> Scene:
+def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = None, media: str = "mitsuba",
+               **params) -> Scene:
     """Load a Mitsuba 3 XML scene.
 
     Args:
         path: the scene's XML file.
         size: optional (width, height) overriding the film (for scenes whose film size is no parameter).
+        media: what to do with participating media (``<medium type="homogeneous">`` as a shape's interior or
+            exterior): ``"mitsuba"`` (default) as Mitsuba 3.9.1 does for the scene's integrator: ``volpath``,
+            ``volpathmis`` and ``prbvolpath`` use them (light along delta chains, e.g. through glass, is
+            attenuated by Beer-Lambert with ``sigma_t`` per unit length; in-scattering is not modelled, a
+            warning says so when a medium's albedo is not 0), every other integrator (``path``, the default)
+            ignores them (a warning says the medium has no effect); ``"error"`` refuses any ``<medium>``.
         **params: values for the file's ``<default name=...>`` parameters, as ``mitsuba.load_file`` takes
             them (``res=128``); converted with ``str``.
 
@@ -32,11 +39,13 @@ def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = Non
             image (texture, environment map) declaring more than 16384^2 pixels.
         MemoryError: an image whose decoding needs more host memory than is available or allowed by
             ``MANYLIGHTS_MEMORY_LIMIT`` (the message names the file, its size and the limit).
+        ValueError: ``media`` is neither ``"mitsuba"`` nor ``"error"``; a bad ``size``.
 
     Warns:
         UserWarning: for input Mitsuba accepts with a warning (e.g. a mesh whose triangles all have zero
             area: it stays as an empty shape, so shape indices match Mitsuba's); one warning per kind and
-            scene (many such shapes: one line naming how many, the first ids and the first location).
+            scene (many such shapes: one line naming how many, the first ids and the first location); a
+            medium that has no effect under the scene's integrator, or whose scattering is not modelled.
     """
     p = Path(path)
     if not p.exists():
@@ -48,6 +57,8 @@ def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = Non
         if isinstance(v, bool):
             v = "true" if v else "false"
         conv.append((k, str(v)))
+    if media not in ("mitsuba", "error"):
+        raise ValueError(f'media must be "mitsuba" or "error", got {media!r}')
     if size is not None:
         if np.ndim(size) != 1 or len(size) != 2:
             raise ValueError(f"size must be (width, height) positive integers, got {size!r}")
@@ -55,7 +66,7 @@ def load_scene(path: str | os.PathLike, *, size: Optional[tuple[int, int]] = Non
                 _v.integer("size[1] (height)", size[1], 1, 2**32 - 1))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        scene = _native.load_scene(str(p), conv, size)
+        scene = _native.load_scene(str(p), conv, size, media)
     for category, message in grouped_warnings(caught):
         warnings.warn(message, category, stacklevel=2)
     return scene

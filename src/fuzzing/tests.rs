@@ -82,7 +82,7 @@ fn fuzz_corpus_replays_without_panics() {
     let mut targets: Vec<PathBuf> = std::fs::read_dir(&root).unwrap().map(|e| e.unwrap().path()).collect();
     targets.sort();
     let names: Vec<String> = targets.iter().map(|t| t.file_name().unwrap().to_string_lossy().into_owned()).collect();
-    for want in ["xml", "obj", "ply", "exr", "png", "jpg"] {
+    for want in ["xml", "obj", "ply", "exr", "png", "jpg", "hdr", "pfm", "bmp", "ppm", "tga"] {
         assert!(names.iter().any(|n| n == want), "no corpus for target {want} in {}", root.display());
     }
     // One thread per target (each has its own scratch directory).

@@ -1,5 +1,5 @@
 //! Texture size policy: how large an image the readers (`crate::scene::texture::load_bitmap` and the
-//! EXR, RGBE, PFM, PNG and JPEG readers under it) decode.
+//! EXR, RGBE, PFM, PNG, JPEG, BMP, PNM and TGA readers under it) decode.
 //!
 //! Image headers declare their size, and a file of a few hundred bytes can declare a huge image: the
 //! decoders allocate from the header and fill what the data does not cover (fuzzing findings:
@@ -17,7 +17,7 @@
 //!   decoding: the decoder's output, its working memory (JPEG: [`jpeg_working_bytes`]) and the
 //!   returned linear RGB texels ([`TEXEL_BYTES`] each).
 //!
-//! The `image` crate's decoders (PNG, JPEG) are also given [`decoder_limits`]: its `max_alloc` is the
+//! The `image` crate's decoders (PNG, JPEG, BMP, PNM, TGA) are also given [`decoder_limits`]: its `max_alloc` is the
 //! decoder's share of the checked bytes (in place of the crate's default 512 MiB, which refused valid
 //! textures over 512 MiB and let a 398 MB JPEG decode), so a decoder that honours the limit never
 //! allocates more than the policy counted for it.

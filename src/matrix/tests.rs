@@ -33,6 +33,7 @@ fn test_scene(size: u32, emitters: Vec<Emitter>) -> Scene {
     ];
     meshes.push(oriented_box(Vec3::new(0.2, -0.55, -0.1), Vec3::new(0.3, 0.45, 0.25), Mat3::from_rotation_y(0.52), 0));
     Scene {
+        media: Default::default(),
         path: "test_scene.xml".into(),
         integrator: None,
         camera: square_camera(size, Vec3::new(0.0, 0.3, 3.4), Vec3::new(0.0, -0.2, 0.0)),

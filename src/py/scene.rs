@@ -381,11 +381,17 @@ impl Scene {
 
 use numpy::PyArrayMethods;
 
-/// Load a Mitsuba 3 XML scene. `params` substitute `$name` defaults; `size` = (width, height) overrides the film.
+/// Load a Mitsuba 3 XML scene. `params` substitute `$name` defaults; `size` = (width, height) overrides the film;
+/// `media`: "mitsuba" (media as the scene's integrator uses them) or "error" (refuse `<medium>`s).
 #[pyfunction]
-#[pyo3(signature = (path, params, size=None))]
-pub fn load_scene(py: Python<'_>, path: PathBuf, params: Vec<(String, String)>, size: Option<(u32, u32)>) -> PyResult<Scene> {
-    let opts = LoadOptions { params, size, ..Default::default() };
+#[pyo3(signature = (path, params, size=None, media="mitsuba"))]
+pub fn load_scene(py: Python<'_>, path: PathBuf, params: Vec<(String, String)>, size: Option<(u32, u32)>, media: &str) -> PyResult<Scene> {
+    let media = match media {
+        "mitsuba" => scene::MediaPolicy::Follow,
+        "error" => scene::MediaPolicy::Error,
+        other => return Err(pyo3::exceptions::PyValueError::new_err(format!("media must be \"mitsuba\" or \"error\", got {other:?}"))),
+    };
+    let opts = LoadOptions { params, size, media };
     let (s, warnings) = py.detach(move || scene::xml::load_scene_with_warnings(&path, &opts))?;
     for w in &warnings {
         // Accepted input that Mitsuba only warns about (e.g. a shape whose triangles all have zero area).

@@ -12,4 +12,4 @@ pub mod types;
 pub mod xml;
 
 pub use types::*;
-pub use xml::{load_scene, LoadOptions};
+pub use xml::{load_scene, LoadOptions, MediaPolicy};

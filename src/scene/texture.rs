@@ -1,11 +1,16 @@
 //! Bitmap loading and texture evaluation as Mitsuba 3.9.1 does them (`src/textures/bitmap.cpp`,
 //! `src/textures/checkerboard.cpp`, Dr.Jit 1.5 `include/drjit/texture_impl.h`).
 //!
-//! Bitmaps: PNG/JPEG through `image`, EXR through `exr` ([`crate::image::io`]), Radiance RGBE
+//! Bitmaps: PNG/JPEG/BMP/PPM/TGA through `image`, EXR through `exr` ([`crate::image::io`]), Radiance RGBE
 //! ([`crate::image::hdr`]) and PFM ([`crate::image::pfm`]); float formats are recognised by their first
 //! bytes (as Mitsuba's `detect_file_format`), whatever the file's extension. Row 0 is the first row of
 //! the file (the top of the picture) and is looked up at v = 0: Mitsuba's texture row is `floor(v*H - 1/2)`
 //! with no flip (the OBJ loader's `v' = 1 - v` is what makes OBJ files come out upright).
+//! BMP and PPM are recognised by their first bytes (`BM`, `P1`-`P7`), TGA (which has no signature) by its
+//! `.tga` extension; Mitsuba also finds TGA files by their header, and reads only binary 8/16-bit PPM (`P6`),
+//! where the `image` crate reads every PNM variant (PBM/PGM/PPM/PAM, ASCII or binary). 8-bit BMP, PPM
+//! and TGA texels are decoded as Mitsuba's Bitmap does for them: like an 8-bit PNG (sRGB unless `raw`;
+//! palette and grey images give the same RGB values).
 //! Storage follows Mitsuba's `format="auto"`: 8-bit images keep their bytes and are decoded per texel
 //! (`b / 255`, then sRGB to linear unless `raw`) *before* interpolation, which is what decoding at load
 //! time and interpolating linear values gives; 16-bit PNGs are linearised and rounded to half floats;
@@ -33,7 +38,7 @@ use std::path::Path;
 
 /// Loads a bitmap as linear RGB: (width, height, texels row-major, row 0 = top of the file).
 ///
-/// PNG/JPEG: sRGB decoded to linear unless `raw`; EXR, RGBE (.hdr) and PFM: linear as stored (`raw` has
+/// PNG/JPEG/BMP/PPM/TGA: sRGB decoded to linear unless `raw`; EXR, RGBE (.hdr) and PFM: linear as stored (`raw` has
 /// no effect). Every format's declared size is checked before decoding (texture size policy,
 /// [`crate::image::size_policy`]).
 /// Errors: `FileNotFound`; `Scene` for unreadable or unsupported images and images of more than
@@ -91,7 +96,7 @@ fn texels<T: Copy>(samples: &[T], channels: usize, f: impl Fn(T) -> f32) -> Vec<
     samples.chunks_exact(channels).map(|p| if channels < 3 { Vec3::splat(f(p[0])) } else { Vec3::new(f(p[0]), f(p[1]), f(p[2])) }).collect()
 }
 
-/// Decodes a PNG or JPEG (`image` crate) after checking its declared size against the texture size
+/// Decodes a PNG, JPEG, BMP, PNM or TGA (`image` crate) after checking its declared size against the texture size
 /// policy: the decoder's output, its working memory and the returned texels must fit; the decoder is
 /// limited (`max_alloc`) to its share. Errors: `Io` when the file cannot be opened, the policy's errors
 /// through `at_loc`, `Scene` for decoding errors.
@@ -119,6 +124,9 @@ fn decode_with_policy(path: &Path, loc: &Location, at_loc: impl Fn(Error) -> Err
     let what = match format {
         Some(ImageFormat::Png) => "PNG image".to_string(),
         Some(ImageFormat::Jpeg) => "JPEG image".to_string(),
+        Some(ImageFormat::Bmp) => "BMP image".to_string(),
+        Some(ImageFormat::Pnm) => "PNM image".to_string(),
+        Some(ImageFormat::Tga) => "TGA image".to_string(),
         Some(f) => format!("{f:?} image"),
         None => "image".to_string(),
     };

@@ -22,6 +22,74 @@ pub struct Scene {
     pub emitters: Vec<Emitter>,
     /// The first top-level `<integrator>`, if the file has one (Mitsuba's default is `path`, depth -1).
     pub integrator: Option<Integrator>,
+    /// Participating media of the shapes, as the scene's integrator uses them (empty when it ignores
+    /// media, e.g. `path`).
+    pub media: Media,
+}
+
+/// A homogeneous medium (Mitsuba's `homogeneous`) as the renderer uses it: extinction only. Along a
+/// segment of length t inside it, radiance is multiplied by `exp(-sigma_t * t)` per RGB channel
+/// (Beer-Lambert); in-scattering (`albedo`) is not modelled.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Medium {
+    /// Extinction coefficient per unit length, RGB: Mitsuba's `sigma_t` times `scale`.
+    pub sigma_t: Vec3,
+    /// Single-scattering albedo, RGB (kept to report what is not modelled).
+    pub albedo: Vec3,
+    pub loc: Location,
+}
+
+/// The media of a scene's shapes: `interior` / `exterior` of `<shape>`s (Mitsuba's medium transitions: a
+/// ray leaving a shape with media enters `exterior` if it leaves on the side of the geometric normal,
+/// else `interior`; a ray leaving a shape without media stays in its medium). The camera is in no medium.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Media {
+    pub media: Vec<Medium>,
+    /// Per mesh (same length as `Scene::meshes`, or empty when no shape has media): indices into `media`
+    /// of its (interior, exterior) media.
+    pub shape: Vec<(Option<usize>, Option<usize>)>,
+}
+
+impl Media {
+    /// Whether the scene has no media.
+    pub fn is_empty(&self) -> bool {
+        self.media.is_empty()
+    }
+
+    /// The medium a ray is in after leaving mesh `mesh` along `d` (geometric normal `n_g`), having been in
+    /// `current`: Mitsuba's `SurfaceInteraction::target_medium` where the shape is a medium transition.
+    pub fn after(&self, current: Option<usize>, mesh: usize, d: Vec3, n_g: Vec3) -> Option<usize> {
+        match self.shape.get(mesh) {
+            Some(&(interior, exterior)) if interior.is_some() || exterior.is_some() => {
+                if d.dot(n_g) > 0.0 {
+                    exterior
+                } else {
+                    interior
+                }
+            }
+            _ => current,
+        }
+    }
+
+    /// Beer-Lambert transmittance of a segment of length `t` in `medium` (1 outside any medium; 0 for
+    /// an infinite segment in a medium with sigma_t > 0).
+    pub fn transmittance(&self, medium: Option<usize>, t: f32) -> Vec3 {
+        match medium {
+            None => Vec3::ONE,
+            Some(m) => {
+                let s = self.media[m].sigma_t;
+                Vec3::new(beer(s.x, t), beer(s.y, t), beer(s.z, t))
+            }
+        }
+    }
+}
+
+fn beer(sigma_t: f32, t: f32) -> f32 {
+    if sigma_t == 0.0 {
+        1.0
+    } else {
+        (-(sigma_t as f64) * t as f64).exp() as f32
+    }
 }
 
 /// A top-level `<integrator>`: we render no image with it, but its path depth says how much light

@@ -8,10 +8,12 @@
 //!
 //! Supported plugins: shapes obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, shapegroup +
 //! instance (`instancing`); BSDFs diffuse, twosided, plastic,
-//! roughplastic, conductor, roughconductor, dielectric, principled, blendbsdf; textures bitmap (PNG, JPEG,
+//! roughplastic, conductor, roughconductor, dielectric, principled, blendbsdf; textures bitmap (PNG, JPEG, BMP, PPM, TGA,
 //! EXR, HDR, PFM), checkerboard; emitters point,
-//! spot, directional, area, envmap, constant; sensor perspective with film hdrfilm. Integrators, samplers
-//! and reconstruction filters are read and ignored. Anything else is an error naming plugin, file and line.
+//! spot, directional, area, envmap, constant; sensor perspective with film hdrfilm (crop window included; `banner` of
+//! Mitsuba 0.x files ignored and `gamma` refused, as Mitsuba 3.9.1 does). Integrators, samplers
+//! and reconstruction filters are read and ignored. Media (`<medium type="homogeneous">` as a shape's
+//! interior/exterior): as Mitsuba 3.9.1's integrator of the scene treats them ([`MediaPolicy`]). Anything else is an error naming plugin, file and line.
 //!
 //! Spectra (`<spectrum value="0.5">`, `value="400:0.3, 500:0.6, ..."`) become RGB as in Mitsuba's RGB
 //! variants (`spectrum.rs`); files of version < 2.0 are upgraded as Mitsuba 3 does (`upgrade.rs`).
@@ -45,7 +47,26 @@ pub struct LoadOptions {
     pub params: Vec<(String, String)>,
     /// Replaces the film's width and height (for scenes whose film size is not a parameter).
     pub size: Option<(u32, u32)>,
+    /// How `<medium>`s are taken.
+    pub media: MediaPolicy,
 }
+
+/// What `load_scene` does with participating media (`<medium type="homogeneous">` as a shape's
+/// `interior` / `exterior`, or at the top level for `<ref>`s).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum MediaPolicy {
+    /// As Mitsuba 3.9.1 does for the scene's integrator: `volpath`, `volpathmis` and `prbvolpath` use
+    /// them (here: Beer-Lambert attenuation with `sigma_t` along delta chains, `Scene::media`; a warning
+    /// when a medium scatters, which is not modelled); every other integrator (`path`, the default)
+    /// ignores them (a warning says the medium has no effect).
+    #[default]
+    Follow,
+    /// Refuse any `<medium>` (a `Scene` error naming it).
+    Error,
+}
+
+/// Mitsuba 3.9.1's integrators that use media.
+const VOLUMETRIC_INTEGRATORS: &[&str] = &["volpath", "volpathmis", "prbvolpath"];
 
 /// Loads a Mitsuba 3 XML scene.
 ///
@@ -65,6 +86,7 @@ pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 pub fn load_scene_with_warnings(path: &Path, opts: &LoadOptions) -> Result<(Scene, Vec<String>)> {
     let doc = parse::parse_document(path, &opts.params)?;
     let mut b = plugins::Builder::new(&doc, opts.size);
+    b.media_policy = opts.media;
     let root = &doc.nodes[0];
     let mut camera = None;
     let mut area_nodes = Vec::new();
@@ -93,6 +115,10 @@ pub fn load_scene_with_warnings(path: &Path, opts: &LoadOptions) -> Result<(Scen
                 }
             }
             "sampler" | "film" | "rfilter" => {}
+            // Built for its errors (shapes refer to it); unused ones are dropped, as Mitsuba's are unused.
+            "medium" if opts.media == MediaPolicy::Follow => {
+                b.medium(node)?;
+            }
             other => return Err(Error::scene(&loc, format!("unsupported <{other} type=\"{}\">", n.plugin))),
         }
     }
@@ -129,8 +155,52 @@ pub fn load_scene_with_warnings(path: &Path, opts: &LoadOptions) -> Result<(Scen
     }
     let mut emitters = b.emitters;
     emitters.extend(b.area_emitters);
-    let scene = Scene { path: path.to_path_buf(), camera, meshes: b.meshes, bsdfs: b.bsdfs, textures: b.textures, emitters, integrator };
-    Ok((scene, b.warnings))
+    let mut warnings = b.warnings;
+    let media = scene_media(&b.meshes, b.media, &b.shape_media, integrator.as_ref(), &mut warnings);
+    let scene =
+        Scene { path: path.to_path_buf(), camera, meshes: b.meshes, bsdfs: b.bsdfs, textures: b.textures, emitters, integrator, media };
+    Ok((scene, warnings))
+}
+
+/// The shapes' media as the integrator uses them (`MediaPolicy::Follow`), with their warnings.
+fn scene_media(
+    meshes: &[crate::scene::Mesh],
+    media: Vec<crate::scene::Medium>,
+    shape_media: &[(usize, Option<usize>, Option<usize>)],
+    integrator: Option<&Integrator>,
+    warnings: &mut Vec<String>,
+) -> crate::scene::Media {
+    let Some(&(first, i0, e0)) = shape_media.first() else {
+        return crate::scene::Media::default();
+    };
+    let m0 = &media[i0.or(e0).unwrap_or(0)];
+    let n = shape_media.len();
+    let plugin = integrator.map(|i| i.plugin.as_str()).unwrap_or("path");
+    let shapes =
+        if n == 1 { format!("shape \"{}\"", meshes[first].id) } else { format!("{n} shapes (the first: \"{}\")", meshes[first].id) };
+    if !VOLUMETRIC_INTEGRATORS.contains(&plugin) {
+        warnings.push(format!(
+            "{}: the medium of {shapes} has no effect: the scene's integrator \"{plugin}\" ignores media, as Mitsuba's does \
+             (rendered without it; use volpath to attenuate light through it, or load with media=\"error\" to refuse it)",
+            m0.loc
+        ));
+        return crate::scene::Media::default();
+    }
+    let used: std::collections::BTreeSet<usize> = shape_media.iter().flat_map(|&(_, i, e)| [i, e]).flatten().collect();
+    if let Some(&s) = used.iter().find(|&&m| media[m].albedo.max_element() > 0.0) {
+        warnings.push(format!(
+            "{}: medium with albedo {:?}: scattering inside media is not modelled (light through it is attenuated by \
+             Beer-Lambert with sigma_t = {:?}, in-scattered light is missing; exact for albedo 0)",
+            media[s].loc,
+            media[s].albedo.to_array(),
+            media[s].sigma_t.to_array()
+        ));
+    }
+    let mut shape = vec![(None, None); meshes.len()];
+    for &(k, i, e) in shape_media {
+        shape[k] = (i, e);
+    }
+    crate::scene::Media { media, shape }
 }
 
 /// Mitsuba 3.9.1's integrators with a `max_depth` (default -1: unbounded).

@@ -33,6 +33,7 @@ pub fn furnace_box(rho: f32, emitters: Vec<Emitter>, area: bool) -> Scene {
         meshes.push(q);
     }
     Scene {
+        media: Default::default(),
         path: "furnace_box.xml".into(),
         integrator: None,
         camera: square_camera(32, Vec3::new(0.0, 0.0, 0.9), Vec3::ZERO),
@@ -84,6 +85,7 @@ pub fn open_box(size: u32) -> Scene {
     let mut data = vec![Vec3::new(0.2, 0.25, 0.3); (w * h) as usize];
     data[(w + 2) as usize] = Vec3::new(4.0, 3.0, 2.0);
     Scene {
+        media: Default::default(),
         path: "open_box.xml".into(),
         integrator: None,
         camera: square_camera(size, Vec3::new(0.0, 0.3, 3.4), Vec3::new(0.0, -0.2, 0.0)),

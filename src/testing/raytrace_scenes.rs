@@ -85,7 +85,16 @@ pub fn scene(meshes: Vec<Mesh>) -> Scene {
         principal_point_offset: glam::Vec2::ZERO,
         loc: Location::default(),
     };
-    Scene { integrator: None, path: PathBuf::from("test"), camera, meshes, bsdfs: Vec::new(), textures: Vec::new(), emitters: Vec::new() }
+    Scene {
+        media: Default::default(),
+        integrator: None,
+        path: PathBuf::from("test"),
+        camera,
+        meshes,
+        bsdfs: Vec::new(),
+        textures: Vec::new(),
+        emitters: Vec::new(),
+    }
 }
 
 /// cbox/scene.xml: luminaire (moved down by 0.5), floor, ceiling, back, green and red walls, and the

@@ -54,7 +54,16 @@ fn bsdfs() -> Vec<Bsdf> {
 }
 
 fn scene(camera: Camera, meshes: Vec<Mesh>) -> Scene {
-    Scene { path: "test_scene.xml".into(), integrator: None, camera, meshes, bsdfs: bsdfs(), textures: vec![], emitters: vec![] }
+    Scene {
+        media: Default::default(),
+        path: "test_scene.xml".into(),
+        integrator: None,
+        camera,
+        meshes,
+        bsdfs: bsdfs(),
+        textures: vec![],
+        emitters: vec![],
+    }
 }
 
 /// Open box [-1,1]^3 (back, floor, ceiling, left, right walls) with a tilted smooth-shaded block and

@@ -28,6 +28,16 @@
 //! channels) is dropped, and a pixel keeps at most `max_samples_per_pixel` extra samples (the later ones
 //! are dropped). `ChainStats` counts all three. Russian roulette is not needed (the sum is exact).
 //!
+//! Media (`Scene::media`, present when the scene's integrator is `volpath`/`volpathmis`): each branch
+//! tracks the medium it travels in as Mitsuba's `volpath` does (the camera is in none; leaving a shape
+//! with media enters its `exterior` on the side of the geometric normal, else its `interior`; leaving
+//! any other shape keeps the medium) and multiplies its throughput by the Beer-Lambert transmittance
+//! `exp(-sigma_t t)` of every segment (an escaping branch inside a medium with sigma_t > 0 carries 0).
+//! That is the expectation of `volpath` for absorbing media (albedo 0); in-scattering is not modelled.
+//! The direct light of a view sample reached inside a medium is not attenuated (`ChainStats::in_medium`
+//! counts them): exact when its lights are outside the medium's closed boundary, which blocks their shadow
+//! rays anyway (Mitsuba's shadow rays pass only null BSDFs).
+//!
 //! Emission at the camera's own hit (k = 0) is `matrix::emitted`'s; this module collects k >= 1.
 use crate::error::{Error, Result};
 use crate::lights::generate::environment::Environment;
@@ -103,6 +113,8 @@ pub struct ChainStats {
     pub dropped_bounces: usize,
     /// Samples dropped by `max_samples_per_pixel`.
     pub dropped_samples: usize,
+    /// Extra samples reached inside a medium (their direct light is not attenuated; module docs).
+    pub in_medium: usize,
 }
 
 /// The delta lobes of a BSDF.
@@ -175,6 +187,18 @@ fn branches(delta: Delta, twosided: bool, wi: Vec3, n: Vec3) -> Vec<(Vec3, Vec3)
     }
 }
 
+/// A delta vertex: position, geometric and shading normals, direction back along the incoming ray, its
+/// mesh and the medium the incoming ray travelled in.
+#[derive(Debug, Clone, Copy)]
+struct Vertex {
+    p: Vec3,
+    n_g: Vec3,
+    n_s: Vec3,
+    wi: Vec3,
+    mesh: usize,
+    medium: Option<usize>,
+}
+
 /// One extra view sample.
 #[derive(Debug, Clone, Copy)]
 struct Extra {
@@ -208,9 +232,11 @@ struct PixelChains {
 impl Tracer<'_> {
     /// Follow the delta lobes at a vertex reached after `k` delta bounces.
     #[allow(clippy::too_many_arguments)]
-    fn follow(&self, out: &mut PixelChains, p: Vec3, n_g: Vec3, n_s: Vec3, wi: Vec3, delta: (Delta, bool), throughput: Vec3, k: u32) {
+    fn follow(&self, out: &mut PixelChains, v: Vertex, delta: (Delta, bool), throughput: Vec3, k: u32) {
+        let Vertex { p, n_g, n_s, wi, mesh: from, medium } = v;
         for (wo, w) in branches(delta.0, delta.1, wi, n_s) {
-            let tp = throughput * w;
+            let mut tp = throughput * w;
+            let medium = self.scene.media.after(medium, from, wo, n_g);
             let k1 = k + 1;
             if !self.opts.emits(k1) {
                 continue;
@@ -226,10 +252,14 @@ impl Tracer<'_> {
             let o = spawn_ray(p, n_g, wo);
             let Some(si) = self.rt.intersect(o, wo, 0.0, f32::INFINITY) else {
                 if let Some(env) = &self.env {
-                    out.emitted += tp * crate::matrix::emitted::sanitized(env.radiance(wo));
+                    out.emitted +=
+                        tp * self.scene.media.transmittance(medium, f32::INFINITY) * crate::matrix::emitted::sanitized(env.radiance(wo));
                 }
                 continue;
             };
+            if medium.is_some() {
+                tp *= self.scene.media.transmittance(medium, (si.p - o).length());
+            }
             let l = self.area.at(si.mesh, si.uv);
             if l != Vec3::ZERO && si.wi.dot(si.n_s) > 0.0 {
                 out.emitted += tp * l;
@@ -238,6 +268,7 @@ impl Tracer<'_> {
             let bsdf = crate::shading::bsdf::resolve(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, si.uv);
             if bsdf.kind != KIND_SMOOTH && bsdf.kind != KIND_NONE && self.opts.samples(k1) {
                 if out.extras.len() < self.opts.max_samples_per_pixel {
+                    out.stats.in_medium += medium.is_some() as usize;
                     out.extras.push(Extra {
                         position: si.p,
                         normal: si.n_s,
@@ -254,7 +285,8 @@ impl Tracer<'_> {
                 }
             }
             if let Some(d) = delta_of(&self.scene.bsdfs, mesh.bsdf, &bsdf, false) {
-                self.follow(out, si.p, si.n_g, si.n_s, si.wi, d, tp, k1);
+                let next = Vertex { p: si.p, n_g: si.n_g, n_s: si.n_s, wi: si.wi, mesh: si.mesh, medium };
+                self.follow(out, next, d, tp, k1);
             }
         }
     }
@@ -305,7 +337,15 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
         .with_min_len(16)
         .map(|&(i, d)| {
             let mut out = PixelChains::default();
-            tracer.follow(&mut out, view.position[i], view.geo_normal[i], view.normal[i], view.wi[i], d, Vec3::ONE, 0);
+            let v = Vertex {
+                p: view.position[i],
+                n_g: view.geo_normal[i],
+                n_s: view.normal[i],
+                wi: view.wi[i],
+                mesh: view.shape_index[i] as usize,
+                medium: None,
+            };
+            tracer.follow(&mut out, v, d, Vec3::ONE, 0);
             (i, out)
         })
         .collect();
@@ -317,6 +357,7 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
         stats.dropped_throughput += r.stats.dropped_throughput;
         stats.dropped_bounces += r.stats.dropped_bounces;
         stats.dropped_samples += r.stats.dropped_samples;
+        stats.in_medium += r.stats.in_medium;
         stats.extra_samples += r.extras.len();
         for e in r.extras {
             view.position.push(e.position);

@@ -167,6 +167,17 @@ def png_header_only(width: int, height: int) -> bytes:
     return b"\x89PNG\r\n\x1a\n" + chunk
 
 
+def bmp_declaring(width: int, height: int) -> bytes:
+    """A 24-bit uncompressed BMP header declaring width x height, followed by 4 bytes of pixels."""
+    return (b"BM" + struct.pack("<IHHI", 58, 0, 0, 54) + struct.pack("<IiiHHIIiiII", 40, width, height, 1, 24, 0, 0, 0, 0, 0, 0)
+            + b"\x01\x02\x03\x00")
+
+
+def tga_declaring(width: int, height: int) -> bytes:
+    """An uncompressed 24-bit TGA header declaring width x height, followed by one pixel."""
+    return bytes([0, 0, 2, 0, 0, 0, 0, 0]) + struct.pack("<HHHHBB", 0, 0, width, height, 24, 0x20) + b"\x01\x02\x03"
+
+
 def jpeg_declaring(jpeg: bytes, width: int, height: int) -> bytes:
     """A JPEG whose frame header (the first SOFn segment) is changed to declare width x height."""
     i = 2
@@ -224,6 +235,32 @@ cases_for("load_scene", [
     ("NaN sphere radius", lambda c: c.ml.load_scene(c.scene_with(
         "nanr", '<shape type="sphere"><float name="radius" value="nan"/></shape>')), ["nan", "scene.xml:8"]),
 ], raises=FILE_ERRORS + ("FileNotFoundError",))
+_GLASS = '<shape type="sphere"><bsdf type="dielectric"/>{}</shape>'
+cases_for("load_scene[medium]", [
+    ("RGB sigma_t above 1", lambda c: c.ml.load_scene(c.scene_with("med-rgb", _GLASS.format(
+        '<medium type="homogeneous" name="interior"><rgb name="sigma_t" value="0.5, 2, 0.5"/></medium>'))),
+     ["scene.xml:8", "sigma_t", "in [0, 1]"]),
+    ("NaN scale", lambda c: c.ml.load_scene(c.scene_with("med-nan", _GLASS.format(
+        '<medium type="homogeneous" name="interior"><float name="scale" value="nan"/></medium>'))),
+     ["scene.xml:8", "scale"]),
+    ("unnamed medium", lambda c: c.ml.load_scene(c.scene_with("med-name", _GLASS.format(
+        '<medium type="homogeneous"/>'))), ["scene.xml:8", "interior"]),
+    ("heterogeneous medium", lambda c: c.ml.load_scene(c.scene_with("med-het", _GLASS.format(
+        '<medium type="heterogeneous" name="interior"/>'))), ["scene.xml:8", "heterogeneous"]),
+    ("medium refused on request", lambda c: c.ml.load_scene(c.scene_with("med-err", _GLASS.format(
+        '<medium type="homogeneous" name="interior"/>')), media="error"), ["scene.xml:8", "medium"]),
+    ("film gamma", lambda c: c.ml.load_scene(c.file("gamma/scene.xml", c.scene_with("gamma0", "<shape type='sphere'/>")
+                                                    .read_text().replace('<film type="hdrfilm">',
+                                                                         '<film type="hdrfilm"><float name="gamma" value="2.2"/>')
+                                                    .encode())), ["scene.xml:5", "gamma"]),
+    ("crop window outside the film", lambda c: c.ml.load_scene(c.file(
+        "crop/scene.xml", c.scene_with("crop0", "<shape type='sphere'/>").read_text().replace(
+            '<film type="hdrfilm">', '<film type="hdrfilm"><integer name="crop_width" value="9"/>').encode())),
+     ["scene.xml:5", "invalid crop window"]),
+], raises=("SceneError",))
+cases_for("load_scene[medium]", [
+    ("bad media option", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", media="ignore"), ["media"]),
+], raises=("ValueError",))
 cases_for("load_scene", [
     # refused before loading, naming the closest parameter the file has
     ("unused parameter", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", nope=1), ["nope"]),
@@ -352,6 +389,21 @@ for _kind, _load_fn in [("bitmap", _tex_scene), ("envmap", _env_scene)]:
         ("HDR header claiming 60000 x 60000", lambda c, f=_load_fn, k=_kind: f(
             c, f"{k}-bighdr", "big.hdr", HDR_BYTES.replace(b"-Y 4 +X 4", b"-Y 60000 +X 60000")),
          ["big.hdr", "60000x60000 pixels is larger than supported", "16384x16384"]),
+        ("BMP header claiming 60000 x 60000", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-bigbmp", "big.bmp", bmp_declaring(60000, 60000)),
+         ["big.bmp", "BMP image of 60000x60000 pixels is larger than supported", "16384x16384"]),
+        ("TGA header claiming 60000 x 60000", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-bigtga", "big.tga", tga_declaring(60000, 60000)),
+         ["big.tga", "TGA image of 60000x60000 pixels is larger than supported", "16384x16384"]),
+        ("PPM header claiming 60000 x 60000", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-bigppm", "big.ppm", b"P6\n60000 60000\n255\n\x01\x02\x03"),
+         ["big.ppm", "PNM image of 60000x60000 pixels is larger than supported", "16384x16384"]),
+        ("truncated BMP", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-bmp", "t.bmp", bmp_declaring(4, 4)), ["t.bmp"]),
+        ("BMP of zero width", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-bmp0", "z.bmp", bmp_declaring(0, 4)), ["z.bmp"]),
+        ("truncated TGA", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-tga", "t.tga", tga_declaring(4, 4)), ["t.tga"]),
+        ("PPM with a bad maximum", lambda c, f=_load_fn, k=_kind: f(
+            c, f"{k}-ppmmax", "m.ppm", b"P6\n1 1\n0\n\x01\x02\x03"), ["m.ppm"]),
+        ("junk as .tga", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-jtga", "j.tga", JUNK), ["j.tga"]),
         ("junk, unknown extension", lambda c, f=_load_fn, k=_kind: f(c, f"{k}-ext", "t.xyz", JUNK), ["t.xyz"]),
     ], raises=FILE_ERRORS)
     # A JPEG declaring 4000 x 4000 pixels (400 MB to decode) while MANYLIGHTS_MEMORY_LIMIT=64M: MemoryError.

@@ -162,27 +162,29 @@ def mitsuba_edge_pixels(path, size: tuple[int, int], eps_px: float = 1e-3, **par
 
 
 def mitsuba_render(path, size: tuple[int, int], *, max_depth: int = 2, spp: int = 1, seed: int = 0,
-                   batch: int = 16, progress=None, **params) -> tuple[np.ndarray, np.ndarray]:
-    """Pixel-centre render with Mitsuba's ``path`` integrator: every camera ray through the pixel centre,
-    everything after it random. Returns (mean, variance of the mean), both (H, W, 3) float32.
+                   batch: int = 16, progress=None, integrator: str = "path", **params) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel-centre render with Mitsuba's ``path`` integrator (or ``integrator``, e.g. ``"volpath"``): every
+    camera ray through the pixel centre, everything after it random. Returns (mean, variance of the mean),
+    both (H, W, 3) float32.
 
     With a single delta light and ``max_depth=2`` the result is deterministic (spp=1 suffices).
     """
     return render_loaded(load(path, **params), size, max_depth=max_depth, spp=spp, seed=seed, batch=batch,
-                         progress=progress)
+                         progress=progress, integrator=integrator)
 
 
 def render_loaded(scene, size: tuple[int, int], *, max_depth: int = 2, spp: int = 1, seed: int = 0,
-                  batch: int = 16, progress=None) -> tuple[np.ndarray, np.ndarray]:
+                  batch: int = 16, progress=None, integrator: str = "path") -> tuple[np.ndarray, np.ndarray]:
     """``mitsuba_render`` of a scene already loaded by ``load`` (so that timing a render leaves the XML
     parsing out): ``batch`` spp per wavefront of W*H*batch lanes, ``progress(done, spp)`` after each.
+    ``integrator``: Mitsuba's integrator plugin (``path``, ``volpath``, ...), with ``max_depth``.
     Returns (mean, variance of the mean), both (H, W, 3) float32."""
     mi = mitsuba()
     import drjit as dr
 
     width, height = size
     sensor = scene.sensors()[0]
-    integrator = mi.load_dict({"type": "path", "max_depth": int(max_depth)})
+    integrator = mi.load_dict({"type": integrator, "max_depth": int(max_depth)})
     n = width * height
     total = np.zeros((n, 3), np.float64)
     total2 = np.zeros((n, 3), np.float64)

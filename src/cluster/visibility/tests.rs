@@ -200,7 +200,7 @@ fn bad_clusterings_are_refused_with_the_value() {
 fn shading_in_several_gpu_dispatches_still_equals_brute_force() {
     // F = 64 (the most): the GPU shades at most 738 lights per dispatch, so ~1,100 lights take two.
     let xml = crate::testing::scene_file("cbox-lights/scene.xml");
-    let opts = LoadOptions { params: vec![("res".into(), "8".into())], size: None };
+    let opts = LoadOptions { params: vec![("res".into(), "8".into())], size: None, ..Default::default() };
     let scene = Arc::new(load_scene(&xml, &opts).unwrap());
     let gen = GenerateOptions { area: 64, environment: 16, indirect: 1024, seed: 9, ..Default::default() };
     let lights = Arc::new(generate_lights(&scene, &gen).unwrap());

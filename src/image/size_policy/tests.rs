@@ -98,6 +98,31 @@ fn hdr_declaring(w: u32, h: u32) -> Vec<u8> {
     format!("#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n\x7f\x7f\x7f\x01").into_bytes()
 }
 
+/// A 24-bit uncompressed BMP declaring `w x h` (bottom-up) with 4 bytes of pixel data.
+fn bmp_declaring(w: i32, h: i32) -> Vec<u8> {
+    let mut b = b"BM".to_vec();
+    for v in [58u32, 0, 54] {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    b.extend_from_slice(&40u32.to_le_bytes());
+    b.extend_from_slice(&w.to_le_bytes());
+    b.extend_from_slice(&h.to_le_bytes());
+    b.extend_from_slice(&1u16.to_le_bytes());
+    b.extend_from_slice(&24u16.to_le_bytes());
+    b.extend_from_slice(&[0; 24]); // no compression, sizes, resolution, palette counts
+    b.extend_from_slice(&[1, 2, 3, 0]);
+    b
+}
+
+/// An uncompressed 24-bit TGA declaring `w x h` with 3 bytes of pixel data.
+fn tga_declaring(w: u16, h: u16) -> Vec<u8> {
+    let mut b = vec![0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0];
+    b.extend_from_slice(&w.to_le_bytes());
+    b.extend_from_slice(&h.to_le_bytes());
+    b.extend_from_slice(&[24, 0x20, 1, 2, 3]);
+    b
+}
+
 fn load_err(name: &str, bytes: &[u8]) -> Error {
     let loc = Location::new("s.xml", 3);
     load_bitmap(&tmp(name, bytes), &loc, false).map(|(w, h, _)| (w, h)).unwrap_err()
@@ -107,8 +132,11 @@ fn load_err(name: &str, bytes: &[u8]) -> Error {
 fn huge_declared_sizes_are_refused_for_every_format() {
     // A tiny file of each format declaring 60000 x 60000 pixels: an error naming the scene line, the
     // file and the size, before anything of that size is allocated.
-    let cases: [(&str, Vec<u8>, &str); 5] = [
+    let cases: [(&str, Vec<u8>, &str); 8] = [
         ("huge.png", png_header(60000, 60000), "PNG image of 60000x60000 pixels is larger than supported"),
+        ("huge.bmp", bmp_declaring(60000, 60000), "BMP image of 60000x60000 pixels is larger than supported"),
+        ("huge.tga", tga_declaring(60000, 60000), "TGA image of 60000x60000 pixels is larger than supported"),
+        ("huge.ppm", b"P6\n60000 60000\n255\n\x01\x02\x03".to_vec(), "PNM image of 60000x60000 pixels is larger than supported"),
         ("huge.jpg", jpeg_declaring(60000, 60000), "JPEG image of 60000x60000 pixels is larger than supported"),
         ("huge.exr", exr_declaring(60000, 60000), "EXR layer of 60000x60000 pixels is larger than supported"),
         ("huge.hdr", hdr_declaring(60000, 60000), "Radiance RGBE (.hdr) image of 60000x60000 pixels is larger than supported"),
@@ -131,9 +159,10 @@ fn declared_sizes_over_the_memory_policy_are_refused() {
     // Under a 64 MiB bound, 4000 x 4000 pixels (16 M) fit no format: the error is OutOfMemory
     // (Python MemoryError) naming the scene line, the file, the size, the bytes and the bound.
     let limit = 64u64 << 20;
-    let cases: [(&str, Vec<u8>, &str); 4] = [
+    let cases: [(&str, Vec<u8>, &str); 5] = [
         // 16e6 * (3 bytes decoded + 12 returned) + 16 MiB decoder overhead
         ("big.png", png_header(4000, 4000), "(PNG image of 4000x4000 pixels) needs 256.8 MB"),
+        ("big.bmp", bmp_declaring(4000, -4000), "(BMP image of 4000x4000 pixels) needs 256.8 MB"),
         // 16e6 * (3 + 12) + 16e6 * 8 (coefficients) + 16 MiB
         ("big.jpg", jpeg_declaring(4000, 4000), "(JPEG image of 4000x4000 pixels) needs 384.8 MB"),
         // 16e6 * (3 float channels = 12 stored + 12 channel copies + 12 returned)
@@ -202,4 +231,49 @@ fn normal_images_load_bit_exactly() {
     assert_eq!((w, h), (8, 8));
     let want: Vec<[f32; 3]> = rgb.pixels().map(|q| q.0.map(srgb8)).collect();
     assert_eq!(px.iter().map(|t| t.to_array()).collect::<Vec<_>>(), want);
+}
+
+#[test]
+fn bmp_ppm_tga_texels_equal_the_png_of_the_same_pixels() {
+    // The same 8-bit pixels written as PNG, BMP, PPM and TGA (the `image` crate's encoders; RGB, grey and
+    // RGBA where the format has them) load to the same texels, sRGB-decoded or raw. Mitsuba 3.9.1's
+    // Bitmap gives these formats' 8-bit pixels the PNG's values too (checked with a 4x3 image: texel
+    // (95, 130, 194) evaluates to (0.114435, 0.223228, 0.53948), raw (0.372549, 0.509804, 0.760784)).
+    let (w, h) = (5u32, 3u32);
+    let rgb: Vec<u8> = (0..w * h * 4).map(|i| (i * 53 % 256) as u8).collect();
+    let layouts = [(1, image::ExtendedColorType::L8), (3, image::ExtendedColorType::Rgb8), (4, image::ExtendedColorType::Rgba8)];
+    for (channels, color) in layouts {
+        let px = &rgb[..(w * h) as usize * channels];
+        let png = tmp(&format!("same{channels}.png"), b"");
+        image::save_buffer(&png, px, w, h, color).unwrap();
+        for raw in [false, true] {
+            let (_, _, want) = load_bitmap(&png, &Location::default(), raw).unwrap();
+            let first = if channels == 1 { [rgb[0]; 3] } else { [rgb[0], rgb[1], rgb[2]] };
+            let code =
+                |b: u8| if raw { b as f32 * (1.0f32 / 255.0) } else { crate::scene::texture::srgb_to_linear(b as f32 * (1.0f32 / 255.0)) };
+            assert_eq!(want[0].to_array(), first.map(code));
+            for ext in ["bmp", "ppm", "tga"] {
+                // PPM holds RGB or grey only (grey as PGM), BMP no alpha from this encoder.
+                if (ext == "ppm" || ext == "bmp") && channels == 4 {
+                    continue;
+                }
+                let p = tmp(&format!("same{channels}.{ext}"), b"");
+                image::save_buffer(&p, px, w, h, color).unwrap();
+                let (gw, gh, got) = load_bitmap(&p, &Location::default(), raw).unwrap();
+                assert_eq!((gw, gh), (w, h), "{ext}");
+                assert_eq!(got, want, "{ext}, {channels} channels, raw {raw}");
+            }
+        }
+    }
+    // The encoder above writes RLE-compressed TGA (and bottom-up BMP); an uncompressed TGA reads the same.
+    let p = tmp("flat.tga", b"");
+    let img = image::RgbImage::from_raw(w, h, rgb[..(w * h * 3) as usize].to_vec()).unwrap();
+    let mut bytes = Vec::new();
+    image::codecs::tga::TgaEncoder::new(&mut bytes).disable_rle().encode(img.as_raw(), w, h, image::ExtendedColorType::Rgb8).unwrap();
+    assert_eq!(bytes[2], 2, "uncompressed true-colour TGA");
+    std::fs::write(&p, &bytes).unwrap();
+    let (_, _, got) = load_bitmap(&p, &Location::default(), false).unwrap();
+    let png = tmp("same3.png", b"");
+    image::save_buffer(&png, img.as_raw(), w, h, image::ExtendedColorType::Rgb8).unwrap();
+    assert_eq!(got, load_bitmap(&png, &Location::default(), false).unwrap().2);
 }

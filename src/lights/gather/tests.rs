@@ -13,6 +13,7 @@ fn load(name: &str) -> Scene {
 /// A scene of `meshes` with one grey diffuse BSDF and no emitters.
 fn bare_scene(meshes: Vec<crate::scene::Mesh>) -> Scene {
     Scene {
+        media: Default::default(),
         path: "test.xml".into(),
         integrator: None,
         camera: square_camera(32, Vec3::new(0.0, 1.0, 3.0), Vec3::ZERO),

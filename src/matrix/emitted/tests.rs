@@ -15,8 +15,16 @@ fn setup(emitters: Vec<Emitter>) -> (Scene, ViewSamples) {
         principal_point_offset: glam::Vec2::ZERO,
         loc: Location::default(),
     };
-    let mut scene =
-        Scene { path: "test".into(), integrator: None, camera, meshes: Vec::new(), bsdfs: Vec::new(), textures: Vec::new(), emitters };
+    let mut scene = Scene {
+        media: Default::default(),
+        path: "test".into(),
+        integrator: None,
+        camera,
+        meshes: Vec::new(),
+        bsdfs: Vec::new(),
+        textures: Vec::new(),
+        emitters,
+    };
     scene.meshes.push(Mesh {
         id: "panel".into(),
         kind: ShapeKind::Rectangle,

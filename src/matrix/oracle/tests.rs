@@ -16,7 +16,7 @@ const MAX_MISMATCH_FRACTION: f64 = 1e-3;
 
 fn matrix(visibility: Visibility) -> LightMatrix {
     let xml = crate::testing::scene_file("cbox-lights/scene.xml");
-    let opts = LoadOptions { params: vec![("res".into(), "32".into())], size: None };
+    let opts = LoadOptions { params: vec![("res".into(), "32".into())], size: None, ..Default::default() };
     let scene = load_scene(&xml, &opts).unwrap();
     let gen = GenerateOptions { area: 16, environment: 16, indirect: 200, seed: 3, ..Default::default() };
     let lights = generate_lights(&scene, &gen).unwrap();

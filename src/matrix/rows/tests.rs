@@ -290,7 +290,7 @@ fn stratified_rows_one_per_block_and_reproducible() {
 #[ignore]
 fn bench_rows_cbox() {
     let path = crate::testing::scene_file("cbox/scene.xml");
-    let opts = crate::scene::LoadOptions { params: vec![("res".to_string(), "128".to_string())], size: None };
+    let opts = crate::scene::LoadOptions { params: vec![("res".to_string(), "128".to_string())], size: None, ..Default::default() };
     let scene = crate::scene::load_scene(&path, &opts).unwrap();
     let lights = generate_lights(&scene, &GenerateOptions { area: 50_000, indirect: 50_000, seed: 1, ..Default::default() }).unwrap();
     let ctx = GpuContext::shared().unwrap();

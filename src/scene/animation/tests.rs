@@ -23,7 +23,7 @@ fn write(dir: &std::path::Path, name: &str, body: &str) -> PathBuf {
 }
 
 fn load(p: &std::path::Path, x: &str) -> Scene {
-    load_scene(p, &LoadOptions { params: vec![("x".into(), x.into())], size: None }).unwrap()
+    load_scene(p, &LoadOptions { params: vec![("x".into(), x.into())], size: None, ..Default::default() }).unwrap()
 }
 
 #[test]
@@ -58,7 +58,7 @@ fn film_size_and_emitters_must_match() {
     let dir = tempdir();
     let a = write(&dir, "a.xml", r#"<shape type="cube" id="box"/>"#);
     let f0 = load(&a, "0");
-    let small = load_scene(&a, &LoadOptions { params: vec![], size: Some((4, 4)) }).unwrap();
+    let small = load_scene(&a, &LoadOptions { params: vec![], size: Some((4, 4)), ..Default::default() }).unwrap();
     let e = check_topology(&[&f0, &small]).unwrap_err().to_string();
     assert!(e.contains("frame 1") && e.contains("film is 4x4 but frame 0's is 8x6"), "{e}");
 

@@ -42,6 +42,13 @@ pub struct Builder<'a> {
     attached: HashMap<usize, Location>,
     /// Things Mitsuba only warns about (`Scene::warnings`).
     pub warnings: Vec<String>,
+    /// How `<medium>`s are taken (`LoadOptions::media`).
+    pub media_policy: super::MediaPolicy,
+    /// Media built so far (shared by reference: one entry per node).
+    pub media: Vec<crate::scene::Medium>,
+    medium_memo: HashMap<usize, usize>,
+    /// (mesh index, interior, exterior) of every shape with a medium.
+    pub shape_media: Vec<(usize, Option<usize>, Option<usize>)>,
 }
 
 /// Refuse an emitter texture with NaN, infinite or negative texels (radiance must be finite and >= 0;
@@ -85,7 +92,76 @@ impl<'a> Builder<'a> {
             default_bsdf: None,
             attached: HashMap::new(),
             warnings: Vec::new(),
+            media_policy: super::MediaPolicy::default(),
+            media: Vec::new(),
+            medium_memo: HashMap::new(),
+            shape_media: Vec::new(),
         }
+    }
+
+    /// A `<medium type="homogeneous">` (Mitsuba 3.9.1 `src/media/homogeneous.cpp`): `sigma_t` (default 1)
+    /// and `albedo` (default 0.75) as a `<float>`, an `<rgb>` in [0, 1] (Mitsuba's RGB variants refuse
+    /// others: "Invalid RGB reflectance value") or a `<spectrum>`, times `scale` (default 1);
+    /// `sample_emitted` and a `<phase>` (isotropic, hg) are accepted (they only matter for scattering, which
+    /// is not modelled). Memoised per node (media shared by `<ref>` are one medium).
+    /// Errors: other medium types, volume-textured coefficients, negative or non-finite values.
+    pub fn medium(&mut self, node: usize) -> Result<usize> {
+        if let Some(&i) = self.medium_memo.get(&node) {
+            return Ok(i);
+        }
+        let mut p = Props::new(self.doc, node);
+        let loc = p.loc().clone();
+        if p.node.plugin != "homogeneous" {
+            return Err(Error::scene(
+                &loc,
+                format!("unsupported medium plugin type=\"{}\" (only \"homogeneous\" media are supported)", p.node.plugin),
+            ));
+        }
+        for r in p.objects()? {
+            let n = &self.doc.nodes[r.node];
+            match (n.class.as_str(), n.plugin.as_str()) {
+                ("phase", "isotropic" | "hg") => {
+                    let mut q = Props::new(self.doc, r.node);
+                    if n.plugin == "hg" {
+                        q.float("g", 0.8)?;
+                    }
+                    q.finish()?;
+                }
+                (class, plugin) => {
+                    let what = r.name.as_deref().map(|x| format!(" (\"{x}\")")).unwrap_or_default();
+                    return Err(Error::scene(
+                        &r.loc,
+                        format!(
+                            "unsupported <{class} type=\"{plugin}\">{what} inside a homogeneous medium (give sigma_t and albedo as \
+                             <float>, <rgb> or <spectrum>; phase functions: isotropic, hg)"
+                        ),
+                    ));
+                }
+            }
+        }
+        let coefficient = |p: &mut Props, name: &str, default: f32| -> Result<Vec3> {
+            let ploc = p.node.props.iter().find(|q| q.name == name).map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+            let is_rgb = p.node.props.iter().any(|q| q.name == name && matches!(q.value, super::parse::Value::Rgb(_)));
+            let v = p.color_prop(name)?.unwrap_or(Vec3::splat(default));
+            if !v.is_finite() || v.min_element() < 0.0 || (is_rgb && v.max_element() > 1.0) {
+                let range =
+                    if is_rgb { "in [0, 1] (Mitsuba's RGB variants refuse other <rgb> values; use scale)" } else { "finite and >= 0" };
+                return Err(Error::scene(&ploc, format!("medium {name} = {:?} must be {range}", v.to_array())));
+            }
+            Ok(v)
+        };
+        let sigma_t = coefficient(&mut p, "sigma_t", 1.0)?;
+        let albedo = coefficient(&mut p, "albedo", 0.75)?;
+        let scale = p.float("scale", 1.0)?;
+        if !(scale.is_finite() && scale >= 0.0) {
+            return Err(Error::scene(&loc, format!("medium scale = {scale} must be finite and >= 0")));
+        }
+        p.bool("sample_emitted", true)?;
+        p.finish()?;
+        self.media.push(crate::scene::Medium { sigma_t: sigma_t * scale as f32, albedo, loc });
+        let i = self.media.len() - 1;
+        self.medium_memo.insert(node, i);
+        Ok(i)
     }
 
     /// A file named by a plugin: searched in the `<path>` directories, then the scene's directory.
@@ -443,9 +519,29 @@ impl<'a> Builder<'a> {
         // Children: one BSDF and at most one area emitter.
         let mut bsdf = None;
         let mut emitter_node = None;
+        let (mut interior, mut exterior) = (None, None);
         for r in p.objects()? {
             let n = &self.doc.nodes[r.node];
             match n.class.as_str() {
+                "medium" if self.media_policy == super::MediaPolicy::Follow => {
+                    let slot = match r.name.as_deref() {
+                        Some("interior") => &mut interior,
+                        Some("exterior") => &mut exterior,
+                        other => {
+                            return Err(Error::scene(
+                                &r.loc,
+                                format!("a medium inside a shape must be named \"interior\" or \"exterior\", got {other:?}"),
+                            ))
+                        }
+                    };
+                    if slot.is_some() {
+                        return Err(Error::scene(
+                            &r.loc,
+                            format!("only a single {} medium can be given per shape", r.name.as_deref().unwrap_or("")),
+                        ));
+                    }
+                    *slot = Some(self.medium(r.node)?);
+                }
                 "bsdf" if bsdf.is_none() => bsdf = Some(self.bsdf(r.node)?),
                 "bsdf" => return Err(Error::scene(&r.loc, "only a single BSDF can be given per shape")),
                 "emitter" if emitter_node.is_none() => emitter_node = Some(r),
@@ -495,6 +591,9 @@ impl<'a> Builder<'a> {
             }
             None => None,
         };
+        if interior.is_some() || exterior.is_some() {
+            self.shape_media.push((self.meshes.len(), interior, exterior));
+        }
         self.meshes.push(Mesh { id, kind, positions, normals, uvs, indices, face_normals, bsdf, emitter, loc });
         Ok(())
     }
@@ -622,19 +721,32 @@ impl<'a> Builder<'a> {
                 other => return Err(Error::scene(&r.loc, format!("unsupported <{other} type=\"{}\"> inside a sensor", n.plugin))),
             }
         }
-        let (width, height) = self.film(film, &loc)?;
-        let aspect = width as f64 / height as f64;
-        let fov_x = parse_fov(&mut p, aspect)?;
+        let f = self.film(film, &loc)?;
+        let aspect = f.full.0 as f64 / f.full.1 as f64;
+        let mut fov_x = parse_fov(&mut p, aspect)?;
         let near_clip = p.float("near_clip", 1e-2)?;
         let far_clip = p.float("far_clip", 1e4)?;
         if near_clip <= 0.0 || near_clip >= far_clip {
             return Err(Error::scene(&loc, format!("near_clip ({near_clip}) must be > 0 and < far_clip ({far_clip})")));
         }
-        let principal_point_offset =
-            glam::Vec2::new(p.float("principal_point_offset_x", 0.0)? as f32, p.float("principal_point_offset_y", 0.0)? as f32);
-        if !principal_point_offset.is_finite() {
-            return Err(Error::scene(&loc, format!("principal_point_offset {principal_point_offset} must be finite")));
+        let mut offset = glam::DVec2::new(p.float("principal_point_offset_x", 0.0)?, p.float("principal_point_offset_y", 0.0)?);
+        if !offset.is_finite() {
+            return Err(Error::scene(&loc, format!("principal_point_offset {offset} must be finite")));
         }
+        if let Some((ox, oy, cw, ch)) = f.crop {
+            // The crop window as a camera of its own: the ray through crop position (px, py) is the full
+            // film's ray through (px + ox, py + oy) (Mitsuba's `sample_ray` with a crop window). A film of
+            // cw/W the width (tan(fov/2) scaled by it) whose principal point is shifted to match.
+            let (w, h) = (f.full.0 as f64, f.full.1 as f64);
+            let (cw, ch) = (cw as f64, ch as f64);
+            fov_x = 2.0 * ((fov_x.to_radians() * 0.5).tan() * cw / w).atan().to_degrees();
+            offset = glam::DVec2::new(
+                0.5 * (1.0 - w / cw * (1.0 - 2.0 * (ox as f64 / w + offset.x))),
+                0.5 * (1.0 - h / ch * (1.0 - 2.0 * (oy as f64 / h + offset.y))),
+            );
+        }
+        let principal_point_offset = offset.as_vec2();
+        let (width, height) = f.size;
         let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
         if transform::has_scale(&to_world) {
             return Err(Error::scene(&loc, "scale factors in the camera to_world transformation are not allowed"));
@@ -652,9 +764,14 @@ impl<'a> Builder<'a> {
         })
     }
 
-    /// Film size: `hdrfilm` width/height (default 768x576), replaced by `size_override`.
-    fn film(&mut self, film: Option<usize>, sensor_loc: &Location) -> Result<(u32, u32)> {
+    /// Film of a sensor: `hdrfilm` width/height (default 768x576) and its crop window
+    /// (`crop_offset_x/y`, `crop_width/height`, as Mitsuba's `Film`: the image is the window); the image
+    /// size is replaced by `size_override` (the window then keeps its share of the film).
+    /// `banner` (Mitsuba 0.x's logo switch, any type) is accepted and ignored, as Mitsuba 3.9.1 does;
+    /// `gamma` (an `ldrfilm` property of Mitsuba 0.x) is refused, as Mitsuba 3.9.1 refuses it.
+    fn film(&mut self, film: Option<usize>, sensor_loc: &Location) -> Result<Film> {
         let (mut w, mut h, mut loc) = (DEFAULT_FILM_SIZE.0, DEFAULT_FILM_SIZE.1, sensor_loc.clone());
+        let mut crop = None;
         if let Some(node) = film {
             let mut p = Props::new(self.doc, node);
             if p.node.plugin != "hdrfilm" {
@@ -663,6 +780,33 @@ impl<'a> Builder<'a> {
             loc = p.loc().clone();
             (w, _) = p.int("width", w)?;
             (h, _) = p.int("height", h)?;
+            if ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"].iter().any(|n| p.has(n)) {
+                let (ox, _) = p.int("crop_offset_x", 0)?;
+                let (oy, _) = p.int("crop_offset_y", 0)?;
+                let (cw, _) = p.int("crop_width", w)?;
+                let (ch, _) = p.int("crop_height", h)?;
+                let inside = |o: i64, c: i64, n: i64| o >= 0 && c > 0 && n > 0 && o.checked_add(c).is_some_and(|e| e <= n);
+                if !inside(ox, cw, w) || !inside(oy, ch, h) || w > u32::MAX as i64 || h > u32::MAX as i64 {
+                    return Err(Error::scene(
+                        &loc,
+                        format!(
+                            "invalid crop window: offset ({ox}, {oy}), size {cw}x{ch} must lie inside the {w}x{h} film \
+                             (offsets >= 0, sizes > 0)"
+                        ),
+                    ));
+                }
+                if (ox, oy, cw, ch) != (0, 0, w, h) {
+                    crop = Some((ox as u32, oy as u32, cw as u32, ch as u32));
+                }
+            }
+            if let Some(g) = p.node.props.iter().find(|q| q.name == "gamma") {
+                return Err(Error::scene(
+                    &g.loc,
+                    "property \"gamma\" of the film is not supported: it belongs to Mitsuba 0.x's ldrfilm \
+                     (Mitsuba 3.9.1 refuses it in an hdrfilm too); remove it, the renders are linear",
+                ));
+            }
+            p.ignore(&["banner"]);
             for r in p.objects()? {
                 let n = &self.doc.nodes[r.node];
                 if n.class != "rfilter" {
@@ -671,14 +815,26 @@ impl<'a> Builder<'a> {
             }
             p.finish()?;
         }
+        let (mut iw, mut ih) = crop.map(|(_, _, cw, ch)| (cw as i64, ch as i64)).unwrap_or((w, h));
         if let Some((ow, oh)) = self.size_override {
-            (w, h) = (ow as i64, oh as i64);
+            (iw, ih) = (ow as i64, oh as i64);
         }
-        if w <= 0 || h <= 0 || w > u32::MAX as i64 || h > u32::MAX as i64 {
-            return Err(Error::scene(&loc, format!("film size {w}x{h}: width and height must be positive")));
+        if iw <= 0 || ih <= 0 || iw > u32::MAX as i64 || ih > u32::MAX as i64 {
+            return Err(Error::scene(&loc, format!("film size {iw}x{ih}: width and height must be positive")));
         }
-        Ok((w as u32, h as u32))
+        let size = (iw as u32, ih as u32);
+        // A crop window is a share of the file's film (whose aspect sets fov_axis); else the image is the film.
+        let full = if crop.is_some() { (w as u32, h as u32) } else { size };
+        Ok(Film { full, crop, size })
     }
+}
+
+/// A sensor's film: the full film size (the image size when there is no crop window), its crop window (offset x, y, width, height) when it is not the
+/// whole film, and the image size (the crop window's, or `size_override`).
+struct Film {
+    full: (u32, u32),
+    crop: Option<(u32, u32, u32, u32)>,
+    size: (u32, u32),
 }
 
 /// Horizontal field of view in degrees (Mitsuba's `parse_fov`, `src/render/sensor.cpp`).

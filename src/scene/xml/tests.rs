@@ -312,7 +312,7 @@ fn veach_ajar() {
     );
     let sized = load_scene(
         &scene_file("veach-ajar/scene.xml"),
-        &LoadOptions { params: vec![("resx".into(), "64".into()), ("resy".into(), "32".into())], size: None },
+        &LoadOptions { params: vec![("resx".into(), "64".into()), ("resy".into(), "32".into())], size: None, ..Default::default() },
     )
     .unwrap();
     assert_eq!((sized.camera.width, sized.camera.height), (64, 32));

@@ -233,3 +233,40 @@ fn gpu_tensor_reconstruction_folds_chain_samples_like_the_cpu() {
     let e = crate::gpu::reconstruction::reconstruct(&[&c], &[(0, 0)], &rec[..3], &[], &[]).unwrap_err().to_string();
     assert!(e.contains("not on the GPU"), "{e}");
 }
+
+/// A glass sphere with an absorbing interior: every extra sample's throughput is the medium-free one times
+/// exp(-sigma_t L), L the length its chain travelled inside the sphere, the same L for every channel.
+#[test]
+fn media_attenuate_chains_by_beer_lambert() {
+    let plain = mirror_glass_scene();
+    let mut scene = plain.clone();
+    let glass = scene.meshes.iter().position(|m| m.id == "glass").unwrap();
+    let sigma_t = Vec3::new(0.5, 1.0, 2.0);
+    scene.media.media.push(crate::scene::Medium { sigma_t, albedo: Vec3::ZERO, loc: Location::default() });
+    scene.media.shape = vec![(None, None); scene.meshes.len()];
+    scene.media.shape[glass] = (Some(0), None);
+    // No throughput cut-off: the same branches in both.
+    let opts = ChainOptions { min_throughput: 0.0, ..Default::default() };
+    let view = |s: &Scene| resolve_view_samples_with(s, &cast_visibility_cpu(s).unwrap(), &opts).unwrap();
+    let (v, p) = (view(&scene), view(&plain));
+    assert_eq!(v.len(), p.len());
+    let m = v.num_pixels();
+    let mut inside = 0;
+    for k in m..v.len() {
+        assert_eq!(v.position[k], p.position[k]);
+        let l = (p.throughput[k] / v.throughput[k]).to_array().map(|r| r.ln());
+        let len = l[0] / sigma_t.x;
+        assert!(len >= -1e-6 && (l[1] / sigma_t.y - len).abs() < 1e-4 && (l[2] / sigma_t.z - len).abs() < 1e-4, "{k}: {l:?}");
+        if len > 0.05 {
+            inside += 1;
+            // At most a few chords of the 0.35-radius sphere (8 bounces).
+            assert!(len < 8.0 * 0.7, "{len}");
+        }
+    }
+    assert!(inside >= 10, "{inside} samples seen through the medium");
+    // The medium's exterior side is no medium: leaving the sphere outward restores the camera's (none).
+    assert_eq!(scene.media.after(Some(0), glass, Vec3::X, Vec3::X), None);
+    assert_eq!(scene.media.after(None, glass, -Vec3::X, Vec3::X), Some(0));
+    assert_eq!(scene.media.after(Some(0), 0, Vec3::X, Vec3::X), Some(0));
+    assert_eq!(scene.media.transmittance(Some(0), f32::INFINITY), Vec3::ZERO);
+}

@@ -32,6 +32,7 @@ fn principled_box_second_bounce_flux_is_unbiased() {
     }));
     let light = Vec3::new(0.1, 0.2, -0.3);
     let scene = Scene {
+        media: Default::default(),
         path: "principled_box.xml".into(),
         integrator: None,
         camera: square_camera(16, Vec3::new(0.0, 0.0, 0.9), Vec3::ZERO),

@@ -33,7 +33,7 @@ fn load_str(test: &str, body: &str) -> Result<Scene> {
 fn load_with(test: &str, body: &str, params: &[(&str, &str)]) -> Result<Scene> {
     let path = write(test, &[("scene.xml", &scene(body))]);
     let params = params.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    load_scene(&path, &LoadOptions { params, size: None })
+    load_scene(&path, &LoadOptions { params, size: None, ..Default::default() })
 }
 
 /// Asserts a `Scene` error at `scene.xml:<line>` whose message contains every `words`.
@@ -72,7 +72,7 @@ fn defaults_and_parameters_everywhere() {
     assert_eq!(s.meshes[0].kind, ShapeKind::Disk);
     // `opts.size` replaces the film size.
     let path = write("size", &[("scene.xml", &scene(RECT))]);
-    let s = load_scene(&path, &LoadOptions { params: vec![], size: Some((10, 20)) }).unwrap();
+    let s = load_scene(&path, &LoadOptions { params: vec![], size: Some((10, 20)), ..Default::default() }).unwrap();
     assert_eq!((s.camera.width, s.camera.height), (10, 20));
 }
 
@@ -377,4 +377,46 @@ fn the_integrator_and_its_path_depth() {
         5,
         &["undefined parameter $d"],
     );
+}
+
+/// Mitsuba 0.6 film properties as Mitsuba 3.9.1 takes them: `banner` (any type) ignored, the crop window
+/// (`cropOffsetX` ... upgraded to `crop_offset_x` ...) kept, `gamma` refused (Mitsuba refuses it too).
+#[test]
+fn version_06_film_properties() {
+    let film = |extra: &str| {
+        format!(
+            "<scene version=\"0.6.0\">\n<shape type=\"sphere\"/>\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/>\n\
+             <film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/><integer name=\"height\" value=\"6\"/>\n{extra}</film></sensor>\n</scene>\n"
+        )
+    };
+    let load06 = |test: &str, extra: &str, size: Option<(u32, u32)>| {
+        let path = write(test, &[("scene.xml", &film(extra))]);
+        load_scene(&path, &LoadOptions { params: vec![], size, ..Default::default() })
+    };
+    for banner in [r#"<boolean name="banner" value="false"/>"#, r#"<string name="banner" value="xyz"/>"#] {
+        let s = load06("film06-banner", banner, None).unwrap();
+        assert_eq!((s.camera.width, s.camera.height), (8, 6));
+    }
+    let crop = r#"<integer name="cropOffsetX" value="3"/><integer name="cropOffsetY" value="1"/>
+<integer name="cropWidth" value="4"/><integer name="cropHeight" value="2"/><boolean name="banner" value="true"/>"#;
+    let s = load06("film06-crop", crop, None).unwrap();
+    assert_eq!((s.camera.width, s.camera.height), (4, 2));
+    // Mitsuba 3.9.1 `sensor.sample_ray` at crop positions (0.5, 0.5) and (3.5, 1.5), which are the full
+    // film's (3.5, 1.5) and (6.5, 2.5).
+    for ((px, py), want) in [((0.5, 0.5), [0.0450326, 0.135098, 0.989808]), ((3.5, 1.5), [-0.221597, 0.0443193, 0.974131])] {
+        let (_, d) = s.camera.ray(px, py);
+        assert!((d - Vec3::from(want)).abs().max_element() < 2e-6, "crop ({px}, {py}): {d}, Mitsuba {want:?}");
+    }
+    // A size override keeps the window's share of the film (the same rays at the same relative positions).
+    let big = load06("film06-crop-size", crop, Some((8, 4))).unwrap();
+    assert_eq!((big.camera.width, big.camera.height), (8, 4));
+    assert!((big.camera.ray(1.0, 1.0).1 - s.camera.ray(0.5, 0.5).1).abs().max_element() < 1e-6);
+    assert_err(load06("film06-crop-bad", r#"<integer name="cropWidth" value="9"/>"#, None), 4, &["invalid crop window", "9x6", "8x6 film"]);
+    assert_err(
+        load06("film06-gamma", r#"<float name="gamma" value="2.2"/>"#, None),
+        5,
+        &["\"gamma\"", "ldrfilm", "Mitsuba 3.9.1 refuses it"],
+    );
+    // Other Mitsuba 0.6 film properties that Mitsuba 3.9.1 refuses are refused here too.
+    assert_err(load06("film06-hq", r#"<boolean name="highQualityEdges" value="true"/>"#, None), 5, &["high_quality_edges"]);
 }
