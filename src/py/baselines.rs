@@ -10,7 +10,20 @@ use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use std::sync::Arc;
 
-/// A light tree over a LightSet (see `manylights.LightTree`).
+/// LightTree(lights): a binary BVH over a LightSet with the bounds of light-BVH importance sampling
+/// (Conty Estevez and Kulla 2018; pbrt-v4's LightBounds), built once (binned SAOH, one light per leaf).
+///
+/// Node arrays (N nodes, depth-first, node 0 the root): ``bounds_min`` / ``bounds_max`` (N, 3) float64
+/// (world units; the lights' positions, area-light patches and VSL spheres), ``axis`` (N, 3) float64
+/// (unit cone axis w), ``theta_o`` (N,) float64 (radians, bound on the lights' axes around w; pi =
+/// omnidirectional), ``theta_e`` (N,) float64 (radians, emission spread beyond theta_o), ``power`` (N,)
+/// float64 (phi: summed luminance power, W; spots 4 pi I as pbrt), ``children`` (N, 2) int64 (-1 at
+/// leaves), ``leaf_light`` (N,) int64 (the light of a leaf, -1 for inner nodes). ``infinite`` (k,) int64:
+/// the directional lights (environment strata included), kept outside the tree and sampled by power.
+/// ``pdf(matrix, sample)``: (n,) float64, each light's probability at view sample ``sample`` of
+/// ``matrix`` (sums to 1 where any light can reach it, else all 0). Rules: src/lights/light_tree.rs.
+///
+/// Raises: ValueError for an empty LightSet; ``pdf``: a matrix over other lights, a sample out of range.
 #[pyclass(module = "manylights._native", frozen)]
 pub struct LightTree {
     pub(crate) inner: Arc<light_tree::LightTree>,
