@@ -184,9 +184,10 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
             parameters are ``load_scene``'s (``{"res": 64}``, ``{"size": (64, 48)}``); with ``"frames"``: [one
             dict per frame] the scene is an animation (``load_animation``; the other parameters are common to
             every frame). Paths must be valid on the workers (a shared file system on a real cluster).
-        methods: for still scenes any of ``"mrcs"`` (takes rows and columns), ``"power_sampling"`` and
-            ``"instant_radiosity"`` (columns only: they take each distinct column count of ``budgets`` once,
-            their rows are 0); for animations ``"tensor_clustering"`` and ``"mrcs_per_frame"`` (rows and
+        methods: for still scenes any of ``"mrcs"`` (takes rows and columns), ``"power_sampling"``,
+            ``"instant_radiosity"``, ``"light_bvh_sampling"`` and ``"ris_sampling"`` (columns only: they take
+            each distinct column count of ``budgets`` once, their rows are 0; the light-tree samplers read it
+            as light samples per view sample), ``"clustered_visibility"``; for animations ``"tensor_clustering"`` and ``"mrcs_per_frame"`` (rows and
             columns per frame).
         budgets: (rows, columns) pairs of integers >= 1 (MRCS: r sampled rows, c clusters; power sampling: c
             sampled lights; instant radiosity: c generated lights).

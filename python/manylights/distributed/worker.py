@@ -34,12 +34,13 @@ from ..matrix.light_matrix import LightMatrix
 from ..metrics import flicker, relative_l2, relative_l2_per_frame
 from ..renderers.baselines import instant_radiosity, power_sampling
 from ..renderers.clustered_visibility import clustered_visibility
+from ..renderers.light_tree import light_bvh_sampling, ris_sampling
 from ..renderers.mrcs import mrcs
 from ..scene import load_scene
 
 #: Methods and whether they take rows (methods without rows use the columns of each budget).
 METHODS = {"mrcs": True, "power_sampling": False, "instant_radiosity": False, "clustered_visibility": True,
-           "tensor_clustering": True, "mrcs_per_frame": True}
+           "light_bvh_sampling": False, "ris_sampling": False, "tensor_clustering": True, "mrcs_per_frame": True}
 #: clustered_visibility reads a budget (rows, columns) as (view clusters, light clusters).
 #: Methods that render animations (a scene whose parameters hold ``frames``); the others render one image.
 ANIMATION_METHODS = {"tensor_clustering", "mrcs_per_frame"}
@@ -257,6 +258,12 @@ def render(task: dict, ref: dict) -> dict:
         elif method == "instant_radiosity":
             res = instant_radiosity(scene, lights=c, seed=seed, **opts, **task["matrix"])
             row["clusters"] = int(res.budget["lights"])
+        elif method in ("light_bvh_sampling", "ris_sampling"):
+            # A budget's columns are the light samples (shadow rays) per view sample.
+            render_fn = light_bvh_sampling if method == "light_bvh_sampling" else ris_sampling
+            res = render_fn(A, samples=c, seed=seed, **opts)
+            row["clusters"] = c
+            row["rays"] = int(res.budget["shadow_rays"])
         elif method == "clustered_visibility":
             res = clustered_visibility(A, light_clusters=c, view_clusters=task["rows"], seed=seed, **opts)
             row["clusters"] = int(res.budget["light_clusters"])
