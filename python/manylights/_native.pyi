@@ -166,9 +166,10 @@ class LightTree:
 def light_bvh_sampling(matrix: LightMatrix, samples: int, seed: int,
                        tree: Optional[LightTree] = None) -> dict[str, Any]:
     """image (H, W, 3) f32, variance (H, W, 3) f32 or None (samples = 1), shadow_rays, seconds, tree_seconds."""
-def ris(matrix: LightMatrix, samples: int, candidates: int, seed: int,
-        tree: Optional[LightTree] = None) -> dict[str, Any]:
-    """RIS over the light tree: the same dict as light_bvh_sampling."""
+def ris(matrix: LightMatrix, samples: int, candidates: int, seed: int, tree: Optional[LightTree] = None,
+        neighbours: int = 0, radius: int = 3) -> dict[str, Any]:
+    """RIS over the light tree (neighbours > 0: spatial reuse over that many pixels within radius pixels):
+    the same dict as light_bvh_sampling. Raises ValueError for samples, candidates or radius = 0."""
 
 def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None) -> Scene:
     """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film.

@@ -8,6 +8,8 @@
 //! - `ris`: resampled importance sampling (Talbot et al. 2005; the per-pixel core of ReSTIR DI,
 //!   Bitterli et al. 2020, Sec. 3 and Alg. 1-2): M candidates from the light tree, one chosen by the
 //!   unshadowed contribution, one shadow ray.
+//! - `ris_spatial`: the same reservoirs combined with those of neighbouring pixels (ReSTIR DI's spatial
+//!   reuse with unbiased balance-heuristic MIS weights, Bitterli et al. 2020, Sec. 4.3).
 //!
 //! `estimate_per_sample` runs an estimator k times per view sample (in parallel over view samples,
 //! one random stream per view sample so that results do not depend on threads) and returns the image
@@ -18,9 +20,11 @@
 //! pdf the light tree's probability of j at i, m view samples.
 pub mod light_bvh_sampling;
 pub mod ris;
+pub mod ris_spatial;
 
 pub use light_bvh_sampling::light_bvh_sampling;
 pub use ris::ris;
+pub use ris_spatial::ris_spatial;
 
 use crate::cpu::ShadingPoint;
 use crate::error::{Error, Result};

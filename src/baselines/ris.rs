@@ -34,33 +34,63 @@ pub fn ris(a: &LightMatrix, tree: &LightTree, samples: usize, candidates: usize,
     let tracer = a.tracer()?;
     let (view, lights) = (&*a.view, &*a.lights);
     estimate_per_sample(a, samples, seed, STREAM_RIS, |i, sp, rng, rays| {
-        let mut w_sum = 0.0f64;
-        // The chosen candidate: (light, f, wo, dist, p_hat).
-        let mut chosen: Option<(usize, Vec3, Vec3, f32, f64)> = None;
-        for _ in 0..candidates {
-            let Some((j, pdf)) = tree.sample(sp.p, sp.n, || uniform(rng)) else {
-                continue;
-            };
-            let Some((f, wo, dist)) = crate::cpu::shade_unshadowed(view, lights, sp, i, j) else {
-                continue;
-            };
-            let p_hat = luminance(f);
-            if !(p_hat > 0.0) {
-                continue;
-            }
-            let w = p_hat / pdf;
-            w_sum += w;
-            if uniform(rng) * w_sum < w {
-                chosen = Some((j, f, wo, dist, p_hat));
-            }
-        }
-        let Some((j, f, wo, dist, p_hat)) = chosen else {
+        let r = initial_reservoir(view, lights, tree, sp, i, candidates, rng);
+        let Some((j, f, wo, dist)) = r.chosen else {
             return Vec3::ZERO;
         };
         *rays += 1;
         if crate::cpu::light_blocked(&tracer, lights, j, sp.p, sp.n_g, wo, dist) {
             return Vec3::ZERO;
         }
-        f * (w_sum / (candidates as f64 * p_hat)) as f32
+        f * r.w as f32
     })
+}
+
+/// A one-sample reservoir after RIS (Bitterli et al. 2020, Alg. 2).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Reservoir {
+    /// The chosen light with its unshadowed contribution, wo and distance at the reservoir's view sample.
+    pub chosen: Option<(usize, Vec3, Vec3, f32)>,
+    /// Sum of the resampling weights.
+    pub w_sum: f64,
+    /// Candidates seen (M).
+    pub m: u32,
+    /// The unbiased contribution weight W = w_sum / (M p_hat(y)); 0 without a choice.
+    pub w: f64,
+}
+
+/// Steps 1-3 of the module docs at view sample i (prepared as `sp`).
+pub(crate) fn initial_reservoir(
+    view: &crate::view::ViewSamples,
+    lights: &crate::lights::LightSet,
+    tree: &LightTree,
+    sp: &crate::cpu::ShadingPoint,
+    i: usize,
+    candidates: usize,
+    rng: &mut rand_pcg::Pcg32,
+) -> Reservoir {
+    let mut r = Reservoir { m: candidates as u32, ..Default::default() };
+    let mut p_hat_y = 0.0;
+    for _ in 0..candidates {
+        let Some((j, pdf)) = tree.sample(sp.p, sp.n, || uniform(rng)) else {
+            continue;
+        };
+        let Some((f, wo, dist)) = crate::cpu::shade_unshadowed(view, lights, sp, i, j) else {
+            continue;
+        };
+        let p_hat = luminance(f);
+        if !(p_hat > 0.0) {
+            continue;
+        }
+        let w = p_hat / pdf;
+        r.w_sum += w;
+        if uniform(rng) * r.w_sum < w {
+            r.chosen = Some((j, f, wo, dist));
+            p_hat_y = p_hat;
+        }
+    }
+    if r.chosen.is_some() {
+        r.w = r.w_sum / (candidates as f64 * p_hat_y);
+    }
+    r
 }

@@ -151,9 +151,11 @@ fn light_bvh_sampling<'py>(
     Ok(d)
 }
 
-/// RIS over the light tree: the same dict as `light_bvh_sampling`.
+/// RIS over the light tree (`neighbours` > 0: with spatial reuse over that many pixels within `radius`):
+/// the same dict as `light_bvh_sampling`.
 #[pyfunction]
-#[pyo3(signature = (matrix, samples, candidates, seed, tree=None))]
+#[pyo3(signature = (matrix, samples, candidates, seed, tree=None, neighbours=0, radius=3))]
+#[allow(clippy::too_many_arguments)]
 fn ris<'py>(
     py: Python<'py>,
     matrix: &LightMatrix,
@@ -161,12 +163,20 @@ fn ris<'py>(
     candidates: usize,
     seed: u64,
     tree: Option<&LightTree>,
+    neighbours: usize,
+    radius: u32,
 ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
     let t0 = std::time::Instant::now();
     let t = LightTree::for_matrix(py, tree, matrix)?;
     let tree_seconds = t0.elapsed().as_secs_f64();
     let a = matrix.inner.clone();
-    let e = signals::detach(py, move || crate::baselines::ris(&a, &t, samples, candidates, seed))?;
+    let e = signals::detach(py, move || {
+        if neighbours > 0 {
+            crate::baselines::ris_spatial(&a, &t, samples, candidates, neighbours, radius, seed)
+        } else {
+            crate::baselines::ris(&a, &t, samples, candidates, seed)
+        }
+    })?;
     let d = estimate_dict(py, matrix, e)?;
     d.set_item("tree_seconds", tree_seconds)?;
     Ok(d)

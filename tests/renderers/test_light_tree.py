@@ -76,6 +76,17 @@ def test_unbiased_z_test_over_seeds(cbox_lights, method):
     assert runs[0].budget["shadow_rays"] > 0 and runs[0].error_estimate > 0
 
 
+def test_spatial_reuse_unbiased_over_seeds(cbox_lights):
+    """Pixels share reservoirs, so the variance of the image total comes from the spread over seeds."""
+    _, _, A, truth, tree = cbox_lights
+    runs = [ml.ris_sampling(A, samples=2, candidates=8, neighbours=4, radius=3, seed=s, tree=tree,
+                            add_emitted=False) for s in range(12)]
+    totals = np.array([r.image.astype(np.float64).sum() for r in runs])
+    z = (totals.mean() - truth.sum()) / (totals.std(ddof=1) / np.sqrt(len(totals)))
+    assert abs(z) < 4, z
+    assert runs[0].budget["neighbours"] == 4 and 0 < runs[0].budget["shadow_rays"] <= 2 * 32 * 32
+
+
 def test_lower_variance_than_power_sampling_at_equal_samples(cbox_lights):
     """Mean squared relative L2 over 4 seeds at equal shadow rays per pixel. Measured (32x32, 1,793
     lights): k = 32: power 0.28, light BVH 0.11; k = 8: light BVH 0.53, RIS (M = 8) 0.090."""
@@ -123,6 +134,8 @@ def test_bad_input(cbox_lights):
         ml.light_bvh_sampling(A, samples=0)
     with pytest.raises(ValueError, match="candidates"):
         ml.ris_sampling(A, candidates=0)
+    with pytest.raises(ValueError, match="radius"):
+        ml.ris_sampling(A, neighbours=2, radius=0)
     with pytest.raises(ValueError, match="empty"):
         ml.LightTree(lights[np.zeros(len(lights), dtype=bool)])
     with pytest.raises(ValueError, match="another LightSet"):
