@@ -197,11 +197,6 @@ def flip(image, reference, *, return_map: bool = False):
     Raises:
         ImportError: ``flip-evaluator`` is not installed (``pip install flip-evaluator==1.7``).
         ValueError: shapes that differ or are not (H, W, 3), NaN/inf or negative values."""
-    try:
-        import flip_evaluator
-    except ImportError as e:  # pragma: no cover - depends on the environment
-        raise ImportError("manylights.metrics.flip needs the flip-evaluator package: "
-                          "pip install flip-evaluator==1.7") from e
     a, b = _pair(image, reference)
     if a.ndim != 3 or a.shape[-1] != 3:
         raise ValueError(f"images must have shape (H, W, 3), got {a.shape}")
@@ -210,6 +205,11 @@ def flip(image, reference, *, return_map: bool = False):
             k = np.unravel_index(int(np.argmin(v)), v.shape)
             raise ValueError(f"{name} has a negative value {float(v[k])} at {tuple(int(x) for x in k)}: "
                              "HDR-FLIP needs non-negative radiance")
+    try:
+        import flip_evaluator
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError("manylights.metrics.flip needs the flip-evaluator package: "
+                          "pip install flip-evaluator==1.7") from e
     fmap, mean, _ = flip_evaluator.evaluate(np.ascontiguousarray(b, dtype=np.float32),
                                             np.ascontiguousarray(a, dtype=np.float32), "HDR", applyMagma=False)
     mean = float(mean)
