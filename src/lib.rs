@@ -1,6 +1,7 @@
 //! manylights: many-light rendering research core (Rust), with Python bindings behind the `python` feature.
 //!
 //! Tests: the tests of `foo` are `#[cfg(test)] mod tests;` in `foo/tests.rs` (`dir/tests.rs` for `dir/mod.rs`; topics in `tests/*.rs`).
+pub mod baselines;
 pub mod cluster;
 pub mod cpu;
 pub mod error;

@@ -16,6 +16,7 @@ from ._native import (
     GpuError,
     GpuUnavailableError,
     LightSet,
+    LightTree,
     ManyLightsError,
     Scene,
     SceneError,
@@ -43,7 +44,7 @@ from .lights.generate import generate_lights, scene_lights
 # The light matrix
 from .matrix.light_matrix import LightMatrix
 from .matrix.rows import stratified_rows
-from .metrics import flicker, fraction_within, relative_l2, relative_l2_per_frame
+from .metrics import flicker, fraction_within, relative_l2, relative_l2_per_frame, relmse, smape
 
 # Relighting
 from .relight.direct_to_indirect import DirectToIndirect
@@ -53,6 +54,7 @@ from .renderers.brute_force import render_brute_force
 from .renderers.clustered_visibility import clustered_shading, clustered_visibility
 from .renderers.clustering import cluster_reduced_columns, clustering_cost
 from .renderers.kmeans import KMeansResult, fuzzy_membership, kmeans
+from .renderers.light_tree import light_bvh_sampling, ris_sampling
 from .renderers.mrcs import mrcs
 from .renderers.probes import probe_pixels
 from .renderers.progressive import mrcs_progressive
@@ -64,14 +66,14 @@ from .scene import load_scene
 
 __all__ = [
     # scene and lights
-    "Scene", "LightSet", "GatherCloud", "load_scene", "scene_lights", "generate_lights", "gather_cloud",
+    "Scene", "LightSet", "LightTree", "GatherCloud", "load_scene", "scene_lights", "generate_lights", "gather_cloud",
     "device_info",
     # the light matrix
     "LightMatrix", "stratified_rows",
     # renderers
     "RenderResult", "render", "render_brute_force", "mrcs", "mrcs_progressive", "cluster_reduced_columns",
     "clustering_cost", "power_sampling", "instant_radiosity", "clustered_visibility", "clustered_shading",
-    "KMeansResult", "kmeans", "fuzzy_membership", "antialias", "probe_pixels",
+    "KMeansResult", "kmeans", "fuzzy_membership", "antialias", "probe_pixels", "light_bvh_sampling", "ris_sampling",
     # animation
     "Animation", "load_animation", "apply_mapping", "AnimationLights", "generate_animation_lights",
     "LightTensor", "AnimationResult", "mrcs_per_frame", "TensorClustering", "cluster_tensor", "tensor_clustering",
@@ -81,7 +83,7 @@ __all__ = [
     "sweep",
     # I/O and metrics
     "read_exr", "write_exr", "write_png", "show", "write_exr_sequence", "write_video", "side_by_side", "relative_l2",
-    "relative_l2_per_frame", "fraction_within", "flicker",
+    "relative_l2_per_frame", "fraction_within", "flicker", "relmse", "smape",
     # exceptions
     "ManyLightsError", "SceneError", "GpuError", "GpuUnavailableError",
 ]

@@ -142,6 +142,35 @@ class LightMatrix:
     def column_exact(self, j: int) -> npt.NDArray[np.float32]:
         """(H, W, 3) column j by exact CPU ray casting. Raises ValueError for j >= n."""
 
+class LightTree:
+    """A binary BVH over a LightSet with pbrt-v4-style light bounds (src/lights/light_tree.rs). Node arrays
+    (N nodes, node 0 the root): bounds_min / bounds_max / axis (N, 3) f64, theta_o / theta_e / power (N,)
+    f64, children (N, 2) int64 (-1 at leaves), leaf_light (N,) int64 (-1 inner); infinite (k,) int64 the
+    directional lights outside the tree. Raises ValueError for an empty LightSet."""
+    num_lights: int
+    bounds_min: npt.NDArray[np.float64]
+    bounds_max: npt.NDArray[np.float64]
+    axis: npt.NDArray[np.float64]
+    theta_o: npt.NDArray[np.float64]
+    theta_e: npt.NDArray[np.float64]
+    power: npt.NDArray[np.float64]
+    children: npt.NDArray[np.int64]
+    leaf_light: npt.NDArray[np.int64]
+    infinite: npt.NDArray[np.int64]
+    def __init__(self, lights: LightSet) -> None: ...
+    def __len__(self) -> int: ...
+    def pdf(self, matrix: LightMatrix, sample: int) -> npt.NDArray[np.float64]:
+        """(n,) probability of each light at view sample `sample` of `matrix` (sums to 1, or all 0 where
+        no light can reach it). Raises ValueError for another LightSet or a sample out of range."""
+
+def light_bvh_sampling(matrix: LightMatrix, samples: int, seed: int,
+                       tree: Optional[LightTree] = None) -> dict[str, Any]:
+    """image (H, W, 3) f32, variance (H, W, 3) f32 or None (samples = 1), shadow_rays, seconds, tree_seconds."""
+def ris(matrix: LightMatrix, samples: int, candidates: int, seed: int, tree: Optional[LightTree] = None,
+        neighbours: int = 0, radius: int = 3) -> dict[str, Any]:
+    """RIS over the light tree (neighbours > 0: spatial reuse over that many pixels within radius pixels):
+    the same dict as light_bvh_sampling. Raises ValueError for samples, candidates or radius = 0."""
+
 def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None,
                media: str = "mitsuba") -> Scene:
     """Load Mitsuba 3 XML with ``$name`` substitutions; ``size`` = (width, height) overrides the film;

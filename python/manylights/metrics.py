@@ -124,3 +124,93 @@ def flicker(frames, reference) -> float:
         raise ValueError("reference animation is all zero: flicker undefined")
     num = float((np.diff(a - b, axis=0) ** 2).sum()) / (len(a) - 1)
     return float(np.sqrt(num / den))
+
+
+@checked_keywords()
+def relmse(image, reference, eps: float = 1e-2) -> float:
+    """Relative mean squared error (Rousselle, Knaus, Zwicker, "Adaptive Sampling and Reconstruction using
+    Greedy Error Minimization", SIGGRAPH Asia 2011, Sec. 3; the error of Bitterli et al. 2020's ReSTIR
+    comparisons):
+
+        relMSE = mean over pixels and channels of (image - reference)^2 / (reference^2 + eps)
+
+    ``eps`` (default 1e-2, in squared radiance units) keeps dark pixels from dominating.
+
+    Args:
+        image, reference: arrays of one shape, e.g. (H, W, 3) (any real dtype; computed in float64).
+        eps: > 0.
+
+    Returns:
+        float.
+
+    Raises:
+        ValueError: different shapes, empty images, NaN/inf values, eps <= 0 or NaN."""
+    eps = real("eps", eps, 0.0)
+    if eps <= 0:
+        raise ValueError(f"eps must be > 0, got {eps}")
+    a, b = _pair(image, reference)
+    return float(np.mean((a - b) ** 2 / (b * b + eps)))
+
+
+@checked_keywords()
+def smape(image, reference, eps: float = 1e-2) -> float:
+    """Symmetric mean absolute percentage error (Vogels et al., "Denoising with Kernel Prediction and
+    Asymmetric Loss Functions", SIGGRAPH 2018, Sec. 6; Müller et al. 2021 report it for neural radiance
+    caching):
+
+        SMAPE = mean over pixels and channels of |image - reference| / (|image| + |reference| + eps)
+
+    in [0, 1); ``eps`` (default 1e-2, radiance units) keeps pixels where both are ~0 at 0.
+
+    Args:
+        image, reference: arrays of one shape, e.g. (H, W, 3) (any real dtype; computed in float64).
+        eps: > 0.
+
+    Returns:
+        float.
+
+    Raises:
+        ValueError: different shapes, empty images, NaN/inf values, eps <= 0 or NaN."""
+    eps = real("eps", eps, 0.0)
+    if eps <= 0:
+        raise ValueError(f"eps must be > 0, got {eps}")
+    a, b = _pair(image, reference)
+    return float(np.mean(np.abs(a - b) / (np.abs(a) + np.abs(b) + eps)))
+
+
+@checked_keywords()
+def flip(image, reference, *, return_map: bool = False):
+    """HDR-FLIP (Andersson et al., "FLIP: A Difference Evaluator for Alternating Images", HPG 2020; HDR
+    version: "Visualizing Errors in Rendered High Dynamic Range Images", Eurographics 2021 short papers)
+    by NVIDIA's ``flip-evaluator`` package (pinned in requirements-dev.txt), with its defaults: the
+    images are linear sRGB radiance (as every image here), tone-mapped by ACES at the exposures from
+    ``c_start`` to ``c_stop`` that the package derives from the reference (Sec. 3 of the HDR paper), 67
+    pixels per degree; the mean over pixels of the per-pixel maximum over exposures.
+
+    Args:
+        image, reference: (H, W, 3) non-negative linear RGB (any real dtype; passed as float32).
+        return_map: also return the (H, W) float32 FLIP error map.
+
+    Returns:
+        float mean FLIP in [0, 1] (0 = identical), or (mean, map) with ``return_map``.
+
+    Raises:
+        ImportError: ``flip-evaluator`` is not installed (``pip install flip-evaluator==1.7``).
+        ValueError: shapes that differ or are not (H, W, 3), NaN/inf or negative values."""
+    a, b = _pair(image, reference)
+    if a.ndim != 3 or a.shape[-1] != 3:
+        raise ValueError(f"images must have shape (H, W, 3), got {a.shape}")
+    for name, v in (("image", a), ("reference", b)):
+        if (v < 0).any():
+            k = np.unravel_index(int(np.argmin(v)), v.shape)
+            raise ValueError(f"{name} has a negative value {float(v[k])} at {tuple(int(x) for x in k)}: "
+                             "HDR-FLIP needs non-negative radiance")
+    try:
+        import flip_evaluator
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError("manylights.metrics.flip needs the flip-evaluator package: "
+                          "pip install flip-evaluator==1.7") from e
+    fmap, mean, _ = flip_evaluator.evaluate(np.ascontiguousarray(b, dtype=np.float32),
+                                            np.ascontiguousarray(a, dtype=np.float32), "HDR", applyMagma=False)
+    mean = float(mean)
+    return (mean, np.asarray(fmap, dtype=np.float32).reshape(a.shape[:2])) if return_map else mean

@@ -97,24 +97,29 @@ pub struct Shaded {
     pub lit: bool,
 }
 
-/// Light j's contribution to view sample i (prepared as `sp`) with exact visibility (module docs).
+/// Light j's unshadowed contribution to view sample i (prepared as `sp`): (value, wo, distance as
+/// `LightSet::emitted` gives them); None where it is 0 (then `shade` casts no ray).
 #[inline]
-pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &ShadingPoint, i: usize, j: usize) -> Shaded {
+pub fn shade_unshadowed(view: &ViewSamples, lights: &LightSet, sp: &ShadingPoint, i: usize, j: usize) -> Option<(Vec3, Vec3, f32)> {
     if !sp.surface {
-        return Shaded::default();
+        return None;
     }
-    let Some((wo, radiance, dist)) = lights.emitted(j, sp.p, sp.n) else {
-        return Shaded::default();
-    };
+    let (wo, radiance, dist) = lights.emitted(j, sp.p, sp.n)?;
     let wo_local = sp.local(wo);
     let receiver = |w: Vec3| crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, sp.local(w));
     let mut f = lights.shade_receiver(j, sp.p, wo, radiance, receiver) * sp.throughput;
     if !view.bsdf_samples.is_empty() {
         f *= crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, wo_local, j);
     }
-    if f == Vec3::ZERO {
+    (f != Vec3::ZERO).then_some((f, wo, dist))
+}
+
+/// Light j's contribution to view sample i (prepared as `sp`) with exact visibility (module docs).
+#[inline]
+pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &ShadingPoint, i: usize, j: usize) -> Shaded {
+    let Some((f, wo, dist)) = shade_unshadowed(view, lights, sp, i, j) else {
         return Shaded::default();
-    }
+    };
     if light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) {
         Shaded { value: Vec3::ZERO, tested: true, lit: false }
     } else {

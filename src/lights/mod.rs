@@ -53,6 +53,7 @@ pub mod animated;
 pub mod arrays;
 pub mod gather;
 pub mod generate;
+pub mod light_tree;
 pub mod patch;
 pub mod photon_map;
 pub mod spot_texture;

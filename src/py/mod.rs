@@ -2,6 +2,7 @@
 use pyo3::prelude::*;
 
 pub mod animation;
+pub mod baselines;
 pub mod bsdf;
 pub mod cluster;
 pub mod clustered_visibility;
@@ -29,6 +30,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     crate::gpu::wsi_env::quiet_device_select();
     scene::register(m)?;
     matrix::register(m)?;
+    baselines::register(m)?;
     image::register(m)?;
     bsdf::register(m)?;
     lights::register(m)?;

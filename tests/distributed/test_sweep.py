@@ -311,3 +311,17 @@ def test_error_estimate_column_is_the_methods_own(tmp_path):
     res = ml.mrcs(ml.LightMatrix(scene, lights, device="cpu"), rows=8, columns=32, seed=0, halves=True)
     assert mrcs.error_estimate == pytest.approx(res.error_estimate, rel=1e-6) and mrcs.error_estimate > 0
     assert np.isnan(df[df.method == "power_sampling"].iloc[0].error_estimate)
+
+
+def test_sweep_reports_relmse_and_smape_and_the_light_tree_samplers(tmp_path):
+    df = ml.sweep([("cbox", {"res": 16})], methods=["light_bvh_sampling", "ris_sampling"], budgets=[(1, 4)],
+                  seeds=[0], lights=LIGHTS, device="cpu", progress=False, workers=0, reference_dir=tmp_path / "refs")
+    assert (df.status == "ok").all(), df.error.tolist()
+    scene = ml.load_scene(scene_path("cbox"), res=16)
+    lights = ml.generate_lights(scene, area=LIGHTS // 4, indirect=LIGHTS - LIGHTS // 4, seed=0)
+    A = ml.LightMatrix(scene, lights, device="cpu")
+    ref = A.column_sum(progress=False) + A.emitted()
+    img = ml.light_bvh_sampling(A, samples=4, seed=0).image
+    row = df[df.method == "light_bvh_sampling"].iloc[0]
+    assert row.clusters == 4 and row.relmse == pytest.approx(ml.relmse(img, ref), rel=1e-5)
+    assert row.smape == pytest.approx(ml.smape(img, ref), rel=1e-5) and row.smape > 0

@@ -1211,6 +1211,49 @@ cases_for("power_sampling", [
     ("negative seed", lambda c: c.ml.power_sampling(c.A, columns=2, seed=-1), ["seed"]),
     ("not a matrix", lambda c: c.ml.power_sampling(None, columns=2), ["LightMatrix"]),
 ], raises=("ValueError", "TypeError"))
+cases_for("LightTree", [
+    ("empty LightSet", lambda c: c.ml.LightTree(c.lights[np.zeros(len(c.lights), dtype=bool)]), ["empty"]),
+    ("not a LightSet", lambda c: c.ml.LightTree(None), ["LightSet"]),
+], raises=("ValueError", "TypeError"))
+cases_for("LightTree.pdf", [
+    ("sample out of range", lambda c: c.ml.LightTree(c.lights).pdf(c.A._m, 10**6), ["out of range"]),
+    ("other LightSet", lambda c: c.ml.LightTree(c.lights[:1]).pdf(c.A._m, 0), ["another LightSet"]),
+])
+cases_for("light_bvh_sampling", [
+    ("zero samples", lambda c: c.ml.light_bvh_sampling(c.A, samples=0), ["samples"]),
+    ("fractional samples", lambda c: c.ml.light_bvh_sampling(c.A, samples=2.5), ["samples"]),
+    ("negative seed", lambda c: c.ml.light_bvh_sampling(c.A, seed=-1), ["seed"]),
+    ("not a matrix", lambda c: c.ml.light_bvh_sampling(None), ["LightMatrix"]),
+    ("tree not a LightTree", lambda c: c.ml.light_bvh_sampling(c.A, tree=3), ["LightTree"]),
+    ("tree over other lights", lambda c: c.ml.light_bvh_sampling(c.A, tree=c.ml.LightTree(c.lights[:1])),
+     ["another LightSet"]),
+], raises=("ValueError", "TypeError"))
+cases_for("ris_sampling", [
+    ("zero candidates", lambda c: c.ml.ris_sampling(c.A, candidates=0), ["candidates"]),
+    ("zero samples", lambda c: c.ml.ris_sampling(c.A, samples=0), ["samples"]),
+    ("negative neighbours", lambda c: c.ml.ris_sampling(c.A, neighbours=-1), ["neighbours"]),
+    ("zero radius", lambda c: c.ml.ris_sampling(c.A, neighbours=2, radius=0), ["radius"]),
+    ("not a matrix", lambda c: c.ml.ris_sampling(None), ["LightMatrix"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.light_bvh_sampling", [
+    ("zero samples", lambda c: c.native.light_bvh_sampling(c.A._m, 0, 0), ["samples"]),
+])
+cases_for("native.ris", [
+    ("zero candidates", lambda c: c.native.ris(c.A._m, 1, 0, 0), ["candidates"]),
+    ("zero radius", lambda c: c.native.ris(c.A._m, 1, 2, 0, None, 2, 0), ["radius"]),
+])
+for _metric in ("relmse", "smape"):
+    cases_for(_metric, [
+        ("zero eps", lambda c, f=_metric: getattr(c.ml, f)(IMG(2, 2, 3), IMG(2, 2, 3), eps=0.0), ["eps"]),
+        ("NaN eps", lambda c, f=_metric: getattr(c.ml, f)(IMG(2, 2, 3), IMG(2, 2, 3), eps=np.nan), ["eps"]),
+        ("shapes differ", lambda c, f=_metric: getattr(c.ml, f)(IMG(2, 2, 3), IMG(2, 3, 3)), ["shape"]),
+        ("NaN image", lambda c, f=_metric: getattr(c.ml, f)(np.full((2, 2, 3), np.nan), IMG(2, 2, 3)),
+         ["non-finite"]),
+    ])
+cases_for("metrics.flip", [
+    ("negative radiance", lambda c: c.ml.metrics.flip(IMG(4, 4, 3) - 1, IMG(4, 4, 3)), ["negative"]),
+    ("not (H, W, 3)", lambda c: c.ml.metrics.flip(IMG(4, 4), IMG(4, 4)), ["(H, W, 3)"]),
+])
 cases_for("instant_radiosity", [
     ("zero lights", lambda c: c.ml.instant_radiosity(c.scene, lights=0), ["lights"]),
     ("fractional lights", lambda c: c.ml.instant_radiosity(c.scene, lights=2.5), ["lights"]),

@@ -4,8 +4,9 @@ chart per scene, and the clustered-visibility paper's cluster-count study (its F
 Two ``ml.sweep`` runs against the brute-force image of the scene's light matrix (rendered once, cached by
 content hash under ``--reference-dir``):
 
-1. power sampling and instant radiosity at each column count, MRCS at rows = columns / 3, and clustered
-   visibility (GPU fuzzy K-means, F = ``--fuzzy``) at each ``LIGHTxVIEW`` pair of ``--clusters``; every one
+1. power sampling and instant radiosity at each column count, MRCS at rows = columns / 3, clustered
+   visibility (GPU fuzzy K-means, F = ``--fuzzy``) at each ``LIGHTxVIEW`` pair of ``--clusters``, and
+   light-BVH sampling and RIS (M = ``--candidates``) at each ``--samples`` count per view sample; every one
    at ``--seeds`` seeds. Chart ``compare-<scene>.png``: relative L2 (mean, error bars = std over seeds)
    against seconds, log-log, brute force's time as a vertical line.
 2. clustered visibility over the grid ``--grid-light`` x ``--grid-view`` (light clusters x view clusters):
@@ -30,7 +31,8 @@ from . import light_models
 from .common import display_path, finish_loglog, method_records, ok_rows, resolve_scene, settings_tag
 from .dask_options import add_dask_arguments, check_dask_arguments
 
-COLORS = {"power_sampling": "C0", "instant_radiosity": "C1", "mrcs": "C2", "clustered_visibility": "C3"}
+COLORS = {"power_sampling": "C0", "instant_radiosity": "C1", "mrcs": "C2", "clustered_visibility": "C3",
+          "light_bvh_sampling": "C4", "ris_sampling": "C5"}
 
 
 def _pair(text: str) -> tuple[int, int]:
@@ -54,6 +56,9 @@ def add_parser(sub) -> None:
                    help="column budgets of power sampling, instant radiosity and MRCS (rows = columns / 3)")
     p.add_argument("--clusters", nargs="+", default=["100x100", "300x400", "1000x1600"],
                    help="clustered visibility: LIGHTxVIEW cluster pairs")
+    p.add_argument("--samples", type=int, nargs="*", default=[4, 16, 64],
+                   help="light samples (shadow rays) per view sample of light-BVH sampling and RIS (none: skip them)")
+    p.add_argument("--candidates", type=int, default=16, help="RIS candidates per sample (M)")
     p.add_argument("--fuzzy", type=int, default=6, help="clustered visibility's F (view clusters per sample)")
     p.add_argument("--grid-light", type=int, nargs="*", default=[100, 300, 1000], help="light clusters of the study")
     p.add_argument("--grid-view", type=int, nargs="*", default=[50, 200, 800], help="view clusters of the study")
@@ -77,6 +82,8 @@ def run(args) -> dict:
     check_dask_arguments(args)
     if args.fuzzy < 1:
         raise ValueError(f"--fuzzy must be >= 1, got {args.fuzzy}")
+    if any(k < 1 for k in args.samples) or args.candidates < 1:
+        raise ValueError(f"--samples and --candidates must be >= 1, got {args.samples} and {args.candidates}")
     pairs = [_pair(c) for c in args.clusters]
     path = resolve_scene(args.scene)
     film = ml.load_scene(path)
@@ -102,15 +109,27 @@ def run(args) -> dict:
     cv = ml.sweep(scene, methods=["clustered_visibility"], budgets=cv_budgets,
                   options={"clustered_visibility": {"fuzzy": args.fuzzy}},
                   out=out / f"{stem}-clustered-{tag}.parquet", **common)
+    frames = [base, mrcs, cv]
+    if args.samples:
+        frames.append(ml.sweep(scene, methods=["light_bvh_sampling", "ris_sampling"],
+                               budgets=[(1, k) for k in args.samples],
+                               options={"ris_sampling": {"candidates": args.candidates}},
+                               out=out / f"{stem}-lighttree-{tag}.parquet", **common))
     wall = time.perf_counter() - t
     import pandas as pd
 
-    df = pd.concat([base, mrcs, cv], ignore_index=True)
+    df = pd.concat(frames, ignore_index=True)
     ok = ok_rows(df)
     first = ok.iloc[0]
     t_brute = float(first["reference_seconds"])
     records = (method_records(ok, "power_sampling", ["columns"]) + method_records(ok, "instant_radiosity", ["columns"])
                + method_records(ok, "mrcs", ["rows", "columns"]))
+    for method in ("light_bvh_sampling", "ris_sampling"):
+        for r in method_records(ok, method, ["columns"]):
+            r["budget"] = {"samples": r["budget"]["columns"]}
+            if method == "ris_sampling":
+                r["budget"]["candidates"] = args.candidates
+            records.append(r)
     cv_records = method_records(ok, "clustered_visibility", ["columns", "rows"])
     for r in cv_records:
         r["budget"] = {"light_clusters": r["budget"]["columns"], "view_clusters": r["budget"]["rows"],

@@ -49,7 +49,7 @@ from .specs import (
 META_KEY = b"manylights.sweep"
 #: The columns every row has, in this order (then ``seconds_<stage>`` columns, sorted).
 COLUMNS = ["task", "scene", "params", "scene_hash", "lights", "light_model", "method", "rows", "columns", "clusters",
-           "seed", "status", "error", "rel_l2", "truth", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "frames", "max_rel_l2", "flicker", "shadow_maps_per_frame",
+           "seed", "status", "error", "rel_l2", "relmse", "smape", "truth", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "frames", "max_rel_l2", "flicker", "shadow_maps_per_frame",
            "seconds", "setup_seconds", "reference_key",
            "reference_seconds", "reference_cached", "device", "adapter", "host"]
 
@@ -107,7 +107,7 @@ def _frame(rows: list[dict], order: dict):
     df = df.reset_index(drop=True)
     for c in ("lights", "rows", "columns", "clusters", "seed", "frames"):
         df[c] = df[c].astype("Int64")
-    for c in ["rel_l2", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds",
+    for c in ["rel_l2", "relmse", "smape", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds",
               "reference_seconds", *stages]:
         df[c] = df[c].astype("float64")
     df["reference_cached"] = df["reference_cached"].astype("boolean")
@@ -184,9 +184,10 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
             parameters are ``load_scene``'s (``{"res": 64}``, ``{"size": (64, 48)}``); with ``"frames"``: [one
             dict per frame] the scene is an animation (``load_animation``; the other parameters are common to
             every frame). Paths must be valid on the workers (a shared file system on a real cluster).
-        methods: for still scenes any of ``"mrcs"`` (takes rows and columns), ``"power_sampling"`` and
-            ``"instant_radiosity"`` (columns only: they take each distinct column count of ``budgets`` once,
-            their rows are 0); for animations ``"tensor_clustering"`` and ``"mrcs_per_frame"`` (rows and
+        methods: for still scenes any of ``"mrcs"`` (takes rows and columns), ``"power_sampling"``,
+            ``"instant_radiosity"``, ``"light_bvh_sampling"`` and ``"ris_sampling"`` (columns only: they take
+            each distinct column count of ``budgets`` once, their rows are 0; the light-tree samplers read it
+            as light samples per view sample), ``"clustered_visibility"``; for animations ``"tensor_clustering"`` and ``"mrcs_per_frame"`` (rows and
             columns per frame).
         budgets: (rows, columns) pairs of integers >= 1 (MRCS: r sampled rows, c clusters; power sampling: c
             sampled lights; instant radiosity: c generated lights).
@@ -231,6 +232,7 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         row's key), scene (as given), params (JSON), scene_hash (sha256 of the scene folder), lights (n),
         method, rows, columns, clusters (columns rendered), seed (Int64), status ("ok" / "error"), error
         (type: message, or None), light_model (its name, or None), rel_l2 (relative L2 against the truth, float64),
+        relmse and smape (``metrics.relmse`` / ``metrics.smape`` against the same truth; NaN for animations),
         truth ("brute_force" or "image:<file name>"), rel_l2_brute_force (against the brute-force reference),
         reference_rel_l2 (the brute force against the truth image; NaN without one),
         error_estimate (the method's own estimate of its error where it makes one, e.g. ``options={"mrcs": {"halves": True}}``; NaN otherwise); for animations frames, max_rel_l2

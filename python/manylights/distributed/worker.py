@@ -31,15 +31,16 @@ from ..animation.tensor_clustering import tensor_clustering
 from ..io.images import read_exr
 from ..lights.generate import generate_lights
 from ..matrix.light_matrix import LightMatrix
-from ..metrics import flicker, relative_l2, relative_l2_per_frame
+from ..metrics import flicker, relative_l2, relative_l2_per_frame, relmse, smape
 from ..renderers.baselines import instant_radiosity, power_sampling
 from ..renderers.clustered_visibility import clustered_visibility
+from ..renderers.light_tree import light_bvh_sampling, ris_sampling
 from ..renderers.mrcs import mrcs
 from ..scene import load_scene
 
 #: Methods and whether they take rows (methods without rows use the columns of each budget).
 METHODS = {"mrcs": True, "power_sampling": False, "instant_radiosity": False, "clustered_visibility": True,
-           "tensor_clustering": True, "mrcs_per_frame": True}
+           "light_bvh_sampling": False, "ris_sampling": False, "tensor_clustering": True, "mrcs_per_frame": True}
 #: clustered_visibility reads a budget (rows, columns) as (view clusters, light clusters).
 #: Methods that render animations (a scene whose parameters hold ``frames``); the others render one image.
 ANIMATION_METHODS = {"tensor_clustering", "mrcs_per_frame"}
@@ -224,7 +225,8 @@ def render(task: dict, ref: dict) -> dict:
         (relative L2 against ``ref["image"]``; the mean over frames for an animation, with max_rel_l2,
         flicker, frames and shadow_maps_per_frame), truth ("brute_force", or "image:<file name>" when the task
         names a truth image: rel_l2 is then against it, rel_l2_brute_force against ``ref`` and
-        reference_rel_l2 is ``ref``'s own error against it), error_estimate (the method's own estimate of its relative L2: MRCS with options {"halves": True}; NaN otherwise), seconds
+        reference_rel_l2 is ``ref``'s own error against it), relmse and smape (against the same image as
+        rel_l2; still images only), error_estimate (the method's own estimate of its relative L2: MRCS with options {"halves": True}; NaN otherwise), seconds
         (all stages) and ``seconds_<stage>`` per stage, clusters (columns rendered), lights, scene_hash,
         reference_key, reference_seconds, reference_cached (read from the cache directory), device, adapter, host,
         setup_seconds (scene + matrix loading of this task; 0 when cached)."""
@@ -257,6 +259,12 @@ def render(task: dict, ref: dict) -> dict:
         elif method == "instant_radiosity":
             res = instant_radiosity(scene, lights=c, seed=seed, **opts, **task["matrix"])
             row["clusters"] = int(res.budget["lights"])
+        elif method in ("light_bvh_sampling", "ris_sampling"):
+            # A budget's columns are the light samples (shadow rays) per view sample.
+            render_fn = light_bvh_sampling if method == "light_bvh_sampling" else ris_sampling
+            res = render_fn(A, samples=c, seed=seed, **opts)
+            row["clusters"] = c
+            row["rays"] = int(res.budget["shadow_rays"])
         elif method == "clustered_visibility":
             res = clustered_visibility(A, light_clusters=c, view_clusters=task["rows"], seed=seed, **opts)
             row["clusters"] = int(res.budget["light_clusters"])
@@ -274,14 +282,18 @@ def render(task: dict, ref: dict) -> dict:
         row["rel_l2_brute_force"] = float(relative_l2(image, ref["image"]))
         row["rel_l2"] = row["rel_l2_brute_force"]
         row["truth"] = "brute_force"
+        truth_img = ref["image"]
         if task.get("truth") is not None:
             truth = truth_image(task["truth"])
             if truth.shape != image.shape:
                 raise ValueError(f"truth image {task['truth']} is {truth.shape[1]}x{truth.shape[0]}, the render "
                                  f"{image.shape[1]}x{image.shape[0]}")
             row["rel_l2"] = float(relative_l2(image, truth))
+            truth_img = truth
             row["reference_rel_l2"] = float(relative_l2(ref["image"], truth))
             row["truth"] = f"image:{Path(task['truth']).name}"
+        row["relmse"] = float(relmse(image, truth_img))
+        row["smape"] = float(smape(image, truth_img))
         if getattr(res, "error_estimate", None) is not None:
             row["error_estimate"] = float(res.error_estimate)
         row["seconds"] = seconds
