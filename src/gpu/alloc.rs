@@ -41,14 +41,23 @@ pub fn budget() -> Result<Option<u64>> {
     }
 }
 
+/// "81920 bytes", or "1610612736 bytes (1.61 GB)" from a megabyte on.
+fn size_text(bytes: u128) -> String {
+    if bytes >= 1_000_000 {
+        format!("{bytes} bytes ({})", fmt_bytes(bytes))
+    } else {
+        format!("{bytes} bytes")
+    }
+}
+
 /// Refuse `bytes` for `what` above the budget (module docs).
 pub fn check_budget(what: &str, bytes: u128) -> Result<()> {
     if let Some(limit) = budget()? {
         if bytes > limit as u128 {
             return Err(Error::OutOfMemory(format!(
-                "{what} needs {} ({bytes} bytes) of GPU memory, above the budget {GPU_MEMORY_LIMIT_ENV}={} ({limit} bytes)",
-                fmt_bytes(bytes),
-                fmt_bytes(limit as u128)
+                "{what} needs {} of GPU memory, above the budget {GPU_MEMORY_LIMIT_ENV} of {}",
+                size_text(bytes),
+                size_text(limit as u128)
             )));
         }
     }
@@ -60,15 +69,15 @@ pub fn check_budget(what: &str, bytes: u128) -> Result<()> {
 pub fn check_buffer(limits: &wgpu::Limits, what: &str, bytes: u128, whole_binding: bool) -> Result<()> {
     if bytes > limits.max_buffer_size as u128 {
         return Err(Error::OutOfMemory(format!(
-            "{what} needs a GPU buffer of {} ({bytes} bytes), above the adapter's max_buffer_size of {} bytes",
-            fmt_bytes(bytes),
+            "{what} needs a GPU buffer of {}, above the adapter's max_buffer_size of {} bytes",
+            size_text(bytes),
             limits.max_buffer_size
         )));
     }
     if whole_binding && bytes > limits.max_storage_buffer_binding_size as u128 {
         return Err(Error::OutOfMemory(format!(
-            "{what} needs a storage binding of {} ({bytes} bytes), above the adapter's max_storage_buffer_binding_size of {} bytes",
-            fmt_bytes(bytes),
+            "{what} needs a storage binding of {}, above the adapter's max_storage_buffer_binding_size of {} bytes",
+            size_text(bytes),
             limits.max_storage_buffer_binding_size
         )));
     }
@@ -91,7 +100,7 @@ fn scoped<T>(device: &wgpu::Device, what: &str, bytes: u128, create: impl FnOnce
     let oom_err = pollster::block_on(oom.pop());
     let val_err = pollster::block_on(validation.pop());
     if let Some(e) = oom_err {
-        return Err(Error::OutOfMemory(format!("the GPU could not allocate {what} ({} , {bytes} bytes): {e}", fmt_bytes(bytes))));
+        return Err(Error::OutOfMemory(format!("the GPU could not allocate {what} ({}): {e}", size_text(bytes))));
     }
     if let Some(e) = val_err {
         return Err(Error::Gpu(format!("allocating {what} ({bytes} bytes) failed: {e}")));

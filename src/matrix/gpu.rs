@@ -172,18 +172,15 @@ impl GpuBackend {
             }
         }
         let max_binding = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
-        if view.bsdf.len() as u64 * 80 > max_binding {
-            return Err(Error::invalid(format!(
-                "{m} view samples need {} bytes of BSDFs, above the {max_binding}-byte storage binding limit",
-                view.bsdf.len() as u64 * 80
-            )));
-        }
         let max_layers = atlas_layers(&opts, limits.max_texture_array_layers);
         let triangles = scene.meshes.iter().map(|mesh| mesh.indices.len() as u64).sum::<u64>();
         let mut est = estimate_gpu_bytes(m as u64, lights.len() as u64, triangles, &opts);
         est.shadow_atlas = max_layers as u64 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64 * 4;
         let what = format!("a light matrix of {m} view samples, {} lights and {triangles} triangles on the GPU", lights.len());
         check_gpu_estimate(&ctx, &est, &what)?;
+        // The view samples' BSDF records (blended BSDFs add a second one) in one binding.
+        let bsdf_bytes = view.bsdf.len() as u128 * std::mem::size_of::<crate::shading::GpuBsdf>() as u128;
+        crate::gpu::alloc::check_buffer(limits, &format!("the BSDFs of {m} view samples"), bsdf_bytes, true)?;
         let device = &ctx.device;
         let geometry = SceneGeometry::upload(device, &scene)?;
         let tables = crate::shading::bsdf::roughplastic_table_buffer(&scene.bsdfs);

@@ -8,7 +8,7 @@ fn requests_over_the_limits_are_refused_before_allocating() {
     assert!(matches!(e, Error::OutOfMemory(_)));
     assert_eq!(
         e.to_string(),
-        "ViewBuffers::samples needs a GPU buffer of 1.61 GB (1610612736 bytes), above the adapter's max_buffer_size of 1073741824 bytes"
+        "ViewBuffers::samples needs a GPU buffer of 1610612736 bytes (1.61 GB), above the adapter's max_buffer_size of 1073741824 bytes"
     );
     let e = check_buffer(&limits, "KMeansPass::points", (1 << 27) + 4, true).unwrap_err();
     assert!(e.to_string().contains("above the adapter's max_storage_buffer_binding_size of 134217728 bytes"), "{e}");
