@@ -134,7 +134,7 @@ fn shadow_map_decide(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> u
     }
     let k = depth_scale(m, c, p, wo, texel);
     let g = plane_gradient(m, c, p, n_g, texel);
-    if !(k > 0.0) || g.z == 0.0 {
+    if !positive(k) || g.z == 0.0 {
         return SM_UNSURE;
     }
     return footprint_decide(li, xy0, c, g.xy, k, texel, false);

@@ -5,7 +5,8 @@
 //! llvmpipe over GL/EGL; any adapter whose name says it is software ranks as a CPU one, whatever type it
 //! reports). Overrides, read once per context:
 //! - `MANYLIGHTS_ADAPTER=hardware|software|<substring of the adapter name>`
-//! - `WGPU_BACKEND=vulkan|gl|metal|dx12` (wgpu's own variable) restricts the backends tried.
+//! - `WGPU_BACKEND=vulkan|gl|metal|dx12` (wgpu's own variable) restricts the backends tried (read once per
+//!   process: one wgpu instance serves every device).
 //! - `MANYLIGHTS_GPU_LIMITS` lowers the adapter's limits (`gpu::needs`, a diagnostic and test hook).
 //!
 //! The device is given the adapter's own limits (read from the adapter, never assumed) where the passes
@@ -97,9 +98,14 @@ impl GpuContext {
     /// `gpu::needs`) instead of that variable.
     pub fn with_limits(overrides: Option<&str>) -> Result<GpuContext> {
         crate::gpu::wsi_env::quiet_device_select();
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
-        let instance = wgpu::Instance::new(desc);
+        // One instance per process: wgpu numbers devices per instance, and the passes' caches tell
+        // devices apart by that number, so devices of two instances would be taken for one another.
+        static INSTANCE: std::sync::OnceLock<wgpu::Instance> = std::sync::OnceLock::new();
+        let instance = INSTANCE.get_or_init(|| {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
+            wgpu::Instance::new(desc)
+        });
         let mut adapters = pollster::block_on(instance.enumerate_adapters(desc_backends()));
         if adapters.is_empty() {
             return Err(Error::GpuUnavailable(INSTALL_HINT.to_string()));

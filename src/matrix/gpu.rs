@@ -173,6 +173,9 @@ impl GpuBackend {
         }
         let max_binding = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
         let max_layers = atlas_layers(&opts, limits.max_texture_array_layers);
+        let res = opts.shadow_resolution as u64;
+        let atlas_what = format!("shadow maps: {max_layers} layers of {res}^2 texels (shadow_map_size = {res})");
+        crate::memory::check_gpu(&ctx, &atlas_what, crate::memory::product(&[max_layers as u64, res, res, 4]), false)?;
         let triangles = scene.meshes.iter().map(|mesh| mesh.indices.len() as u64).sum::<u64>();
         let mut est = estimate_gpu_bytes(m as u64, lights.len() as u64, triangles, &opts);
         est.shadow_atlas = max_layers as u64 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64 * 4;
@@ -185,11 +188,8 @@ impl GpuBackend {
         let geometry = SceneGeometry::upload(device, &scene)?;
         let tables = crate::shading::bsdf::roughplastic_table_buffer(&scene.bsdfs);
         let view_buffers = ViewBuffers::upload(device, &view, &tables)?;
-        let res = opts.shadow_resolution as u64;
-        let what = format!("shadow maps: {max_layers} layers of {res}^2 texels (shadow_map_size = {res})");
-        crate::memory::check_gpu(&ctx, &what, crate::memory::product(&[max_layers as u64, res, res, 4]), false)?;
         let atlas = ShadowAtlas::new(device, opts.shadow_resolution, max_layers).map_err(|e| match e {
-            Error::OutOfMemory(m) => Error::OutOfMemory(format!("{what}: {m}")),
+            Error::OutOfMemory(m) => Error::OutOfMemory(format!("{atlas_what}: {m}")),
             e => e,
         })?;
         let bvh =

@@ -26,6 +26,8 @@ fn a_lost_device_is_recreated_on_next_use() {
     let b = GpuContext::shared().unwrap();
     assert!(!Arc::ptr_eq(&a, &b), "a lost device must not be handed out again");
     assert!(!b.is_lost() && a.is_lost());
+    // Told apart by the passes' caches (one wgpu instance numbers every device).
+    assert!(a.device != b.device);
     // The new device works.
     let buf = crate::gpu::alloc::buffer_init(&b.device, "test", bytemuck::cast_slice(&[7u32, 8, 9]), wgpu::BufferUsages::COPY_SRC).unwrap();
     assert_eq!(b.read_buffer::<u32>(&buf, 0, 3).unwrap(), [7, 8, 9]);

@@ -101,7 +101,8 @@ fn lowered_limits_name_the_pass_and_the_limit() {
     assert_eq!(msgs[1], "ColumnsPass needs max_storage_buffers_per_shader_stage >= 12, the device allows 8");
     let down = apply_override(adapter.clone(), Some("downlevel")).unwrap();
     assert_eq!(down.max_storage_buffers_per_shader_stage, 4);
-    let refused: Vec<&str> = unmet(&down).iter().map(|m| m.split(' ').next().unwrap()).collect();
+    let down_unmet = unmet(&down);
+    let refused: Vec<&str> = down_unmet.iter().map(|m| m.split(' ').next().unwrap()).collect();
     assert_eq!(refused, ["ClusteredVisibilityPass", "ColumnsPass", "KMeansPass", "ReconstructionPass", "RelightPasses", "RowsPass"]);
     // An override never raises a limit.
     let raised = apply_override(eight.clone(), Some("max_storage_buffers_per_shader_stage=64")).unwrap();
