@@ -62,6 +62,13 @@ test: lint build test-rust test-python docs
 bench: build
 	$(PY) -m manylights.bench --help
 
+# The GPU path on the first hardware adapter (scripts/gpu_check.py): GPU-path tests and small benchmarks into
+# one JSON (gpu-check.json), under 5 minutes, from the existing build (no `build` prerequisite, so a build made
+# beforehand can be carried to a GPU machine). Fails when the only adapter is a software one.
+.PHONY: gpu-check
+gpu-check:
+	$(PY) scripts/gpu_check.py --out gpu-check.json
+
 # Regenerate tests/regression/figures.json, the timing-independent figures the test suite guards
 # (tests/regression/README.md): run it and commit the file with any change that moves a figure.
 .PHONY: figures

@@ -33,8 +33,9 @@ struct ClusteredParams {
     first: u32,
     // Pairs (visibility) or lights (shading) of this dispatch.
     count: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // Shading: the view samples [first_sample, first_sample + num_dispatch_samples) of this dispatch.
+    first_sample: u32,
+    num_dispatch_samples: u32,
     _pad2: u32,
 }
 
@@ -139,7 +140,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if params.stage == STAGE_VISIBILITY {
         let q = params.first + t;
         trace_pair(q / params.num_lights, q % params.num_lights);
-    } else if t < params.num_samples {
-        shade_sample(t);
+    } else if t < params.num_dispatch_samples && params.first_sample + t < params.num_samples {
+        shade_sample(params.first_sample + t);
     }
 }

@@ -23,7 +23,8 @@ struct ColumnParams {
     normal_offset: f32,
     depth_bias: f32,
     slope_bias: f32,
-    _pad1: f32,
+    // First view sample of this dispatch: sample i = first_sample + gid.y * dispatch_width + gid.x.
+    first_sample: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: ColumnParams;
@@ -133,7 +134,7 @@ fn shadow_map_decide(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> u
     }
     let k = depth_scale(m, c, p, wo, texel);
     let g = plane_gradient(m, c, p, n_g, texel);
-    if !(k > 0.0) || g.z == 0.0 {
+    if !positive(k) || g.z == 0.0 {
         return SM_UNSURE;
     }
     return footprint_decide(li, xy0, c, g.xy, k, texel, false);
@@ -157,7 +158,7 @@ fn visibility(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f32 {
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.y * params.dispatch_width + gid.x;
+    let i = params.first_sample + gid.y * params.dispatch_width + gid.x;
     if i >= params.num_samples {
         return;
     }

@@ -125,7 +125,7 @@ fn row_map_decide(row: RowInfo, s: ViewSample, l: Light, wo: vec3<f32>) -> u32 {
         return SM_UNSURE;
     }
     let k = depth_scale(m, c, q, -normalize(v), texel);
-    if !(k > 0.0) {
+    if !positive(k) {
         return SM_UNSURE;
     }
     let n_l = light_plane(l);

@@ -11,7 +11,8 @@
 //! limits still apply). GPU allocations are checked against the adapter's limits
 //! (`max_buffer_size`, texture dimensions and layers); on a software adapter (lavapipe, llvmpipe) GPU
 //! memory is host memory, so they are also checked against the host; on hardware adapters an
-//! allocation the driver refuses is caught by an out-of-memory error scope (`gpu_alloc`).
+//! allocation the driver refuses is caught by an out-of-memory error scope (`crate::gpu::alloc`, the one path
+//! every GPU allocation takes).
 use crate::error::{Error, Result};
 
 /// Host bytes per light of a `LightSet` (kind, five Vec3, intensity, two angles, an 80-byte BSDF, a
@@ -81,7 +82,7 @@ pub fn with_thread_limit<T>(bytes: u64, f: impl FnOnce() -> T) -> T {
 }
 
 /// "123", "64K", "2M", "8G", "1T" (powers of 1024; a trailing "B"/"iB" is allowed).
-fn parse_bytes(s: &str) -> Option<u64> {
+pub(crate) fn parse_bytes(s: &str) -> Option<u64> {
     let t = s.trim().trim_end_matches(['B', 'b']).trim_end_matches('i');
     let (num, mult) = match t.chars().last()? {
         'k' | 'K' => (&t[..t.len() - 1], 1u64 << 10),
@@ -199,23 +200,6 @@ pub fn check_gpu(ctx: &crate::gpu::GpuContext, what: &str, bytes: u128, buffer: 
         check_host(&format!("{what} (GPU memory of the software adapter {})", ctx.summary.name), bytes)?;
     }
     Ok(())
-}
-
-/// Run `alloc` (creating buffers or textures) inside out-of-memory and validation error scopes; an
-/// error the driver reports becomes `Error::OutOfMemory` / `Error::Gpu` naming `what`.
-pub fn gpu_alloc<T>(device: &wgpu::Device, what: &str, alloc: impl FnOnce() -> T) -> Result<T> {
-    let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-    let value = alloc();
-    let oom_err = pollster::block_on(oom.pop());
-    let val_err = pollster::block_on(validation.pop());
-    if let Some(e) = oom_err {
-        return Err(Error::OutOfMemory(format!("the GPU could not allocate {what}: {e}")));
-    }
-    if let Some(e) = val_err {
-        return Err(Error::Gpu(format!("allocating {what} failed: {e}")));
-    }
-    Ok(value)
 }
 
 #[cfg(test)]

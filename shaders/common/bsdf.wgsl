@@ -4,6 +4,20 @@
 // a blendbsdf's second record). The including module must define `fn bsdf_table(i: u32) -> f32` returning
 // element i of `shading::bsdf::roughplastic_table_buffer` (roughplastic transmittance tables).
 
+// NaN-proof comparisons for every pass that includes this file. A compiler allowed to assume no NaN
+// (Metal's fast math, an aggressive driver) may fold `!(x > 0.0)` into `x <= 0.0`, which is false for
+// NaN; these test the bits, which no such assumption can fold away. `positive(x)`: x > 0 and not NaN.
+fn is_nan_f32(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;
+}
+fn positive(x: f32) -> bool {
+    return x > 0.0 && !is_nan_f32(x);
+}
+// a > b, false when either is NaN.
+fn greater(a: f32, b: f32) -> bool {
+    return a > b && !is_nan_f32(a) && !is_nan_f32(b);
+}
+
 // Keep in sync with `GpuBsdf` in src/shading/mod.rs (80 bytes).
 struct Bsdf {
     diffuse: vec3<f32>,
@@ -139,7 +153,7 @@ fn bsdf_eval_lobe(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
     }
     let cos_i = wi.z;
     let cos_o = wo.z;
-    if !(cos_i > 0.0 && cos_o > 0.0) {
+    if !(positive(cos_i) && positive(cos_o)) {
         return vec3<f32>(0.0);
     }
     let nonlinear = (b.flags & BSDF_FLAG_NONLINEAR) != 0u;

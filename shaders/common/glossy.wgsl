@@ -13,7 +13,7 @@ fn glossy_lobe_pdf(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> f32 {
         wi.z = -wi.z;
         wo.z = -wo.z;
     }
-    if !(wi.z > 0.0 && wo.z > 0.0) {
+    if !(positive(wi.z) && positive(wo.z)) {
         return 0.0;
     }
     let alpha = sqrt(b.alpha_u * b.alpha_v);
@@ -40,7 +40,7 @@ fn glossy_bsdf_pdf(b: Bsdf, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     let p0 = select(0.0, 1.0 - w, glossy_is_rough(b) && 1.0 - w > 0.0);
     let p1 = select(0.0, w, glossy_is_rough(b1) && w > 0.0);
     let total = p0 + p1;
-    if !(total > 0.0) {
+    if !positive(total) {
         return 0.0;
     }
     var pdf = 0.0;
@@ -57,7 +57,7 @@ fn glossy_bsdf_pdf(b: Bsdf, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
 // or the light has no MIS measure).
 fn glossy_light_weight(b: Bsdf, n_b: u32, l: Light, p: vec3<f32>, wi_local: vec3<f32>, wo_local: vec3<f32>) -> f32 {
     let measure = l.patch_corners[0].w;
-    if n_b == 0u || !(measure > 0.0) {
+    if n_b == 0u || !positive(measure) {
         return 1.0;
     }
     var q = 0.0;
@@ -67,7 +67,7 @@ fn glossy_light_weight(b: Bsdf, n_b: u32, l: Light, p: vec3<f32>, wi_local: vec3
         let d = l.position - p;
         let dist2 = dot(d, d);
         let cos_l = -dot(d, l.normal) / sqrt(dist2);
-        if !(cos_l > 0.0) {
+        if !positive(cos_l) {
             return 1.0;
         }
         q = dist2 / (measure * cos_l);

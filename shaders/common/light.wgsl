@@ -264,7 +264,7 @@ fn vsl_cap_shade(l: Light, p: vec3<f32>, wo: vec3<f32>, fs: vec3<f32>, ft: vec3<
             let out = -w;
             let cos_g_out = dot(out, l.geo_normal);
             let out_local = vec3<f32>(dot(out, vs), dot(out, vt), dot(out, l.normal));
-            if !(cos_g_out * cos_g_in > 0.0) || out_local.z == 0.0 {
+            if !positive(cos_g_out * cos_g_in) || out_local.z == 0.0 {
                 continue;
             }
             let f_cos = bsdf_eval(l.bsdf, wi_v, out_local);
@@ -322,7 +322,7 @@ fn acos_precise(x: f32) -> f32 {
 
 // Mitsuba's spot falloff_curve for cos(theta).
 fn spot_falloff(l: Light, cos_theta: f32) -> f32 {
-    if !(cos_theta > l.cos_cutoff) {
+    if !greater(cos_theta, l.cos_cutoff) {
         return 0.0;
     }
     if cos_theta >= l.cos_beam {
@@ -344,7 +344,7 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
     }
     let d = l.position - p;
     let dist2 = dot(d, d);
-    if !(dist2 > 0.0) {
+    if !positive(dist2) {
         return e;
     }
     e.dist = sqrt(dist2);
@@ -368,7 +368,7 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
             let surface = l.position - l.normal * dot(l.position - l.patch_corners[0].xyz, l.normal);
             let ds = surface - p;
             let ds2 = dot(ds, ds);
-            if !(ds2 > 0.0) {
+            if !positive(ds2) {
                 return e;
             }
             e.dist = sqrt(ds2);
@@ -376,20 +376,20 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
             inv = 1.0 / ds2;
         }
         let cos_theta = -dot(e.wo, l.normal);
-        if !(cos_theta > 0.0) {
+        if !positive(cos_theta) {
             return e;
         }
         if patch_is_near(l, p) {
             // The side of the receiver's plane the light is on (`patch::receiver_side`): a twosided
             // receiver lit from below its normal clips the patch to that side.
             let cos_n = dot(e.wo, n);
-            if !(cos_n > 0.0 || cos_n < 0.0) {
+            if !(positive(cos_n) || positive(-cos_n)) {
                 return e;
             }
             let side = select(-n, n, cos_n > 0.0);
             let cos_r = abs(cos_n);
             let pa = patch_clipped(l, p, side);
-            if !(pa.x > 0.0 && pa.y > 0.0) {
+            if !(positive(pa.x) && positive(pa.y)) {
                 return e;
             }
             e.radiance = l.intensity * (pa.x / (pa.y * cos_r));
@@ -400,7 +400,7 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
         // I(w) = Phi f(incident, w) |w . n_g|, then the geometry-term clamp min(1, clamp / G).
         let w = -e.wo;
         let cos_g_out = dot(w, l.geo_normal);
-        if !(cos_g_out * dot(l.incident, l.geo_normal) > 0.0) {
+        if !positive(cos_g_out * dot(l.incident, l.geo_normal)) {
             return e;
         }
         let fs = coordinate_system_s(l.normal);
@@ -414,7 +414,7 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
         let intensity = l.intensity * f_cos * (abs(cos_g_out) / abs(wo_local.z));
         if l.cutoff_angle > 0.0 {
             let cos_r = abs(dot(e.wo, n));
-            if !(cos_r > 0.0) {
+            if !positive(cos_r) {
                 return e;
             }
             e.radiance = vsl_spread(intensity, abs(cos_g_out), cos_r, dist2, l.cutoff_angle);

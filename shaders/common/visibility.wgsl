@@ -78,7 +78,7 @@ fn plane_gradient(m: mat4x4<f32>, c: vec4<f32>, q: vec3<f32>, n: vec3<f32>, texe
     let a = to_map(m, q + coordinate_system_s(n) * texel) - c;
     let b = to_map(m, q + coordinate_system_t(n) * texel) - c;
     let det = a.x * b.y - b.x * a.y;
-    if !(abs(det) > MIN_PROJECTED_AREA) {
+    if !greater(abs(det), MIN_PROJECTED_AREA) {
         return vec3<f32>(0.0);
     }
     return vec3<f32>((a.z * b.y - b.z * a.y) / det, (a.x * b.z - b.x * a.z) / det, 1.0);

@@ -7,7 +7,6 @@ use crate::gpu::shaders;
 use crate::shading::GpuBsdf;
 use glam::Vec3;
 use std::sync::{Arc, Mutex, OnceLock};
-use wgpu::util::DeviceExt;
 
 /// Threads per workgroup (mirrored in `shaders/bsdf_eval.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
@@ -72,19 +71,20 @@ pub fn eval_batch_gpu(ctx: &GpuContext, bsdfs: &[GpuBsdf], broadcast: bool, tabl
     let params = BsdfEvalParams { count: n as u32, broadcast: broadcast as u32, _pad: [0; 2] };
     let directions: Vec<[f32; 4]> = wi.iter().zip(wo).flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
     let tables: &[f32] = if tables.is_empty() { &[0.0] } else { tables };
-    let init = |label, contents: &[u8], usage| {
-        device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
-    };
-    let params_buf = init("BsdfEvalPass::params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
-    let bsdf_buf = init("BsdfEvalPass::bsdfs", bytemuck::cast_slice(bsdfs), wgpu::BufferUsages::STORAGE);
-    let dir_buf = init("BsdfEvalPass::directions", bytemuck::cast_slice(&directions), wgpu::BufferUsages::STORAGE);
-    let table_buf = init("BsdfEvalPass::tables", bytemuck::cast_slice(tables), wgpu::BufferUsages::STORAGE);
-    let out_buf = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("BsdfEvalPass::results"),
-        size: (n * 16) as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
+    let init = |label, contents: &[u8], usage| super::alloc::buffer_init(device, label, contents, usage);
+    let params_buf = init("BsdfEvalPass::params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM)?;
+    let bsdf_buf = init("BsdfEvalPass::bsdfs", bytemuck::cast_slice(bsdfs), wgpu::BufferUsages::STORAGE)?;
+    let dir_buf = init("BsdfEvalPass::directions", bytemuck::cast_slice(&directions), wgpu::BufferUsages::STORAGE)?;
+    let table_buf = init("BsdfEvalPass::tables", bytemuck::cast_slice(tables), wgpu::BufferUsages::STORAGE)?;
+    let out_buf = super::alloc::buffer(
+        device,
+        &wgpu::BufferDescriptor {
+            label: Some("BsdfEvalPass::results"),
+            size: (n * 16) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        },
+    )?;
     let groups = (n as u32).div_ceil(WORKGROUP_SIZE);
     let gx = groups.min(ctx.limits.max_compute_workgroups_per_dimension.max(1));
     let gy = groups.div_ceil(gx);

@@ -199,8 +199,8 @@ impl GpuBvh {
         }
         let usage = wgpu::BufferUsages::STORAGE;
         Ok(GpuBvh {
-            nodes: storage_buffer(device, "GpuBvh::nodes", &packed.nodes, usage),
-            primitives: storage_buffer(device, "GpuBvh::primitives", &packed.primitives, usage),
+            nodes: storage_buffer(device, "GpuBvh::nodes", &packed.nodes, usage)?,
+            primitives: storage_buffer(device, "GpuBvh::primitives", &packed.primitives, usage)?,
             num_nodes: packed.nodes.len() as u32,
             num_primitives: packed.primitives.len() as u32,
             depth: packed.depth,
@@ -275,14 +275,17 @@ impl OccludedPass {
         for chunk in queries.chunks(1 << 20) {
             let n = chunk.len() as u32;
             let (gx, gy, width) = dispatch_size(n);
-            let params = storage_buffer(device, "OccludedPass::params", &[n, width, 0, 0], wgpu::BufferUsages::UNIFORM);
-            let query_buf = storage_buffer(device, "OccludedPass::queries", chunk, wgpu::BufferUsages::STORAGE);
-            let results = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("OccludedPass::results"),
-                size: (n as u64 * 4).max(16),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
+            let params = storage_buffer(device, "OccludedPass::params", &[n, width, 0, 0], wgpu::BufferUsages::UNIFORM)?;
+            let query_buf = storage_buffer(device, "OccludedPass::queries", chunk, wgpu::BufferUsages::STORAGE)?;
+            let results = crate::gpu::alloc::buffer(
+                device,
+                &wgpu::BufferDescriptor {
+                    label: Some("OccludedPass::results"),
+                    size: (n as u64 * 4).max(16),
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                },
+            )?;
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("OccludedPass::encoder") });
             encode_dispatch(
                 device,

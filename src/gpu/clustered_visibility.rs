@@ -55,7 +55,11 @@ pub struct ClusteredParams {
     pub dispatch_width: u32,
     pub first: u32,
     pub count: u32,
-    pub _pad: [u32; 3],
+    /// Shading: the view samples `[first_sample, first_sample + num_dispatch_samples)` of this
+    /// dispatch (`gpu::dispatch::plan_clustered_shading`).
+    pub first_sample: u32,
+    pub num_dispatch_samples: u32,
+    pub _pad: u32,
 }
 
 /// The compiled pipeline.
@@ -115,21 +119,24 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     let (texels, offsets) = crate::lights::spot_texture::gpu_table(lights);
     let gpu_lights: Vec<GpuLight> = (0..k_light).map(|c| GpuLight::new(lights, c, 0, false, offsets[c])).collect();
     let usage = wgpu::BufferUsages::STORAGE;
-    let lights_buf = storage_buffer(device, "ClusteredVisibility::lights", &gpu_lights, usage);
-    let spot_buf = storage_buffer(device, "ClusteredVisibility::spot_textures", &texels, usage);
+    let lights_buf = storage_buffer(device, "ClusteredVisibility::lights", &gpu_lights, usage)?;
+    let spot_buf = storage_buffer(device, "ClusteredVisibility::spot_textures", &texels, usage)?;
     let reps: Vec<u32> = job.view_reps.sample.iter().map(|s| s.map_or(NO_REPRESENTATIVE, |i| i as u32)).collect();
-    let reps_buf = storage_buffer(device, "ClusteredVisibility::representatives", &reps, usage);
-    let clusters_buf = storage_buffer(device, "ClusteredVisibility::membership_clusters", &job.membership.clusters, usage);
-    let weights_buf = storage_buffer(device, "ClusteredVisibility::membership_weights", &job.membership.weights, usage);
+    let reps_buf = storage_buffer(device, "ClusteredVisibility::representatives", &reps, usage)?;
+    let clusters_buf = storage_buffer(device, "ClusteredVisibility::membership_clusters", &job.membership.clusters, usage)?;
+    let weights_buf = storage_buffer(device, "ClusteredVisibility::membership_weights", &job.membership.weights, usage)?;
     let vis_buf =
-        storage_buffer(device, "ClusteredVisibility::visibility", &vec![0u32; k_view * words], usage | wgpu::BufferUsages::COPY_SRC);
-    let accum = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("ClusteredVisibility::accum"),
-        size: (m as u64 * 16).max(16),
-        usage: usage | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let gave_up_buf = storage_buffer(device, "ClusteredVisibility::gave_up", &[0u32; 4], usage | wgpu::BufferUsages::COPY_SRC);
+        storage_buffer(device, "ClusteredVisibility::visibility", &vec![0u32; k_view * words], usage | wgpu::BufferUsages::COPY_SRC)?;
+    let accum = crate::gpu::alloc::buffer(
+        device,
+        &wgpu::BufferDescriptor {
+            label: Some("ClusteredVisibility::accum"),
+            size: (m as u64 * 16).max(16),
+            usage: usage | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        },
+    )?;
+    let gave_up_buf = storage_buffer(device, "ClusteredVisibility::gave_up", &[0u32; 4], usage | wgpu::BufferUsages::COPY_SRC)?;
     let pass = backend.clustered_pass.get_or_init(|| ClusteredVisibilityPass::new(device));
     let base = ClusteredParams {
         stage: STAGE_VISIBILITY,
@@ -141,13 +148,15 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
         dispatch_width: 0,
         first: 0,
         count: 0,
-        _pad: [0; 3],
+        first_sample: 0,
+        num_dispatch_samples: 0,
+        _pad: 0,
     };
     let run = |params: ClusteredParams, threads: u32, label: &str| -> Result<()> {
         crate::interrupt::check()?;
         let (gx, gy, width) = dispatch_size(threads);
         let params = ClusteredParams { dispatch_width: width, ..params };
-        let params_buf = storage_buffer(device, "ClusteredVisibility::params", &[params], wgpu::BufferUsages::UNIFORM);
+        let params_buf = storage_buffer(device, "ClusteredVisibility::params", &[params], wgpu::BufferUsages::UNIFORM)?;
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
         encode_dispatch(
             device,
@@ -186,10 +195,17 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     let visibility_seconds = seconds(t0);
     // Stage 2: shading, the lights in ranges.
     let t1 = Instant::now();
-    let per = lights_per_dispatch(f);
-    for first in (0..k_light).step_by(per) {
-        let count = per.min(k_light - first) as u32;
-        run(ClusteredParams { stage: STAGE_SHADE, first: first as u32, count, ..base }, m as u32, "clustered shading")?;
+    // Light ranges within Mesa's loop cap, samples split for the work budget (`gpu::dispatch`).
+    for d in crate::gpu::dispatch::plan_clustered_shading(m as u32, k_light as u32, lights_per_dispatch(f) as u32, f as u32) {
+        let params = ClusteredParams {
+            stage: STAGE_SHADE,
+            first: d.first_light,
+            count: d.num_lights,
+            first_sample: d.first_sample,
+            num_dispatch_samples: d.num_samples,
+            ..base
+        };
+        run(params, d.num_samples, "clustered shading")?;
     }
     let rgba = ctx.read_buffer::<[f32; 4]>(&accum, 0, m)?;
     let rgb: Vec<f32> = rgba.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();

@@ -12,11 +12,11 @@
 //! (a) adds `sum_j w_j column_j` to a GPU-resident RGBA f32 accumulator (read back once at the end),
 //! (b) optionally writes the individual columns (`[j][i][rgb]` f32) for readback; the caller keeps that
 //!     buffer under the 128 MiB storage-binding limit by sizing batches.
+use crate::error::Result;
 use crate::gpu::pipeline::{compute_pipeline, depth_array, encode_dispatch, storage, uniform};
 use crate::gpu::shaders;
 use crate::lights::{LightKind, LightSet};
 use crate::view::ViewSamples;
-use wgpu::util::DeviceExt;
 
 /// Threads per workgroup; mirrored in `columns.wgsl`.
 pub const WORKGROUP_SIZE: u32 = 64;
@@ -136,7 +136,8 @@ pub struct ColumnParams {
     pub normal_offset: f32,
     pub depth_bias: f32,
     pub slope_bias: f32,
-    pub _pad1: f32,
+    /// First view sample of this dispatch (`gpu::dispatch::plan_columns`).
+    pub first_sample: u32,
 }
 
 /// View samples on the GPU: geometry and throughput (80 B each) and BSDFs (80 B each), separate bindings, plus the
@@ -149,7 +150,7 @@ pub struct ViewBuffers {
 }
 
 impl ViewBuffers {
-    pub fn upload(device: &wgpu::Device, view: &ViewSamples, bsdf_tables: &[f32]) -> ViewBuffers {
+    pub fn upload(device: &wgpu::Device, view: &ViewSamples, bsdf_tables: &[f32]) -> Result<ViewBuffers> {
         let samples: Vec<GpuViewSample> = (0..view.len())
             .map(|i| GpuViewSample {
                 position: view.position[i].to_array(),
@@ -174,20 +175,29 @@ impl ViewBuffers {
         samples: &[GpuViewSample],
         bsdfs: &[crate::shading::GpuBsdf],
         bsdf_tables: &[f32],
-    ) -> ViewBuffers {
-        let pad = |bytes: &[u8]| if bytes.is_empty() { vec![0u8; 256] } else { bytes.to_vec() };
-        let samples_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("ViewBuffers::samples"),
-            contents: &pad(bytemuck::cast_slice(samples)),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let bsdfs = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("ViewBuffers::bsdfs"),
-            contents: &pad(bytemuck::cast_slice(bsdfs)),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let bsdf_tables = storage_buffer(device, "ViewBuffers::bsdf_tables", bsdf_tables, wgpu::BufferUsages::STORAGE);
-        ViewBuffers { samples: samples_buf, bsdfs, bsdf_tables, num_samples: samples.len() as u32 }
+    ) -> Result<ViewBuffers> {
+        let empty = [0u8; 256];
+        fn pad<'a>(bytes: &'a [u8], empty: &'a [u8]) -> &'a [u8] {
+            if bytes.is_empty() {
+                empty
+            } else {
+                bytes
+            }
+        }
+        let samples_buf = crate::gpu::alloc::buffer_init(
+            device,
+            "ViewBuffers::samples",
+            pad(bytemuck::cast_slice(samples), &empty),
+            wgpu::BufferUsages::STORAGE,
+        )?;
+        let bsdfs = crate::gpu::alloc::buffer_init(
+            device,
+            "ViewBuffers::bsdfs",
+            pad(bytemuck::cast_slice(bsdfs), &empty),
+            wgpu::BufferUsages::STORAGE,
+        )?;
+        let bsdf_tables = storage_buffer(device, "ViewBuffers::bsdf_tables", bsdf_tables, wgpu::BufferUsages::STORAGE)?;
+        Ok(ViewBuffers { samples: samples_buf, bsdfs, bsdf_tables, num_samples: samples.len() as u32 })
     }
 }
 
@@ -249,9 +259,9 @@ impl ColumnsPass {
         ColumnsPass { pipeline, bind_group_layout }
     }
 
-    /// Dispatch one thread per view sample.
-    pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &ColumnsInputs) {
-        let (gx, gy, _) = dispatch_size(inputs.view.num_samples);
+    /// Dispatch one thread per view sample of `samples` (from `params.first_sample`).
+    pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &ColumnsInputs, samples: u32) {
+        let (gx, gy, _) = dispatch_size(samples);
         encode_dispatch(
             device,
             encoder,
@@ -279,12 +289,15 @@ impl ColumnsPass {
 }
 
 /// A storage buffer initialised with `data` (at least 16 bytes so empty inputs still bind).
-pub fn storage_buffer<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, data: &[T], usage: wgpu::BufferUsages) -> wgpu::Buffer {
-    let mut bytes = bytemuck::cast_slice::<T, u8>(data).to_vec();
+/// Errors: `OutOfMemory` / `Gpu` from the guarded allocation (`gpu::alloc`).
+pub fn storage_buffer<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, data: &[T], usage: wgpu::BufferUsages) -> Result<wgpu::Buffer> {
+    let bytes = bytemuck::cast_slice::<T, u8>(data);
     if bytes.len() < 16 {
-        bytes.resize(16, 0);
+        let mut padded = bytes.to_vec();
+        padded.resize(16, 0);
+        return crate::gpu::alloc::buffer_init(device, label, &padded, usage);
     }
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: &bytes, usage })
+    crate::gpu::alloc::buffer_init(device, label, bytes, usage)
 }
 
 #[cfg(test)]

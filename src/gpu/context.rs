@@ -1,14 +1,28 @@
 //! Headless GPU device creation.
 //!
-//! Prefers a hardware adapter (discrete, then integrated, then virtual) and falls back to a software
-//! one (lavapipe over Vulkan, llvmpipe over GL/EGL). Overrides, read once per context:
+//! Prefers a hardware adapter (discrete, then integrated, then virtual, then one of unknown type, GL
+//! ones of unknown type last among those) and falls back to a software one (lavapipe over Vulkan,
+//! llvmpipe over GL/EGL; any adapter whose name says it is software ranks as a CPU one, whatever type it
+//! reports). Overrides, read once per context:
 //! - `MANYLIGHTS_ADAPTER=hardware|software|<substring of the adapter name>`
-//! - `WGPU_BACKEND=vulkan|gl|metal|dx12` (wgpu's own variable) restricts the backends tried.
+//! - `WGPU_BACKEND=vulkan|gl|metal|dx12` (wgpu's own variable) restricts the backends tried (read once per
+//!   process: one wgpu instance serves every device).
+//! - `MANYLIGHTS_GPU_LIMITS` lowers the adapter's limits (`gpu::needs`, a diagnostic and test hook).
+//!
+//! The device is given the adapter's own limits (read from the adapter, never assumed) where the passes
+//! need more than WebGPU's downlevel defaults; every pass's needs (`gpu::needs::PASSES`) are then checked
+//! against them and the unmet ones kept in `unmet` (`device="auto"` then runs on the CPU, `"gpu"` is
+//! refused, naming the pass and the limit).
+//!
+//! Device loss: a lost device (driver reset, OS timeout, `device_lost` callback) marks the context
+//! lost; `shared()` drops a lost context and creates a new one on the next call. Light matrices made on
+//! the old device keep failing with `GpuError`; new ones use the new device.
 //!
 //! See `docs/development/wgpu-headless.md` for what software adapters can and cannot do (loop limit of
 //! 65,535 iterations per invocation on Mesa 22.3, 128 MiB per storage binding).
 use crate::error::{Error, Result};
-use std::sync::{Arc, OnceLock};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 
 /// What `manylights.device_info()` reports.
 #[derive(Debug, Clone)]
@@ -19,6 +33,10 @@ pub struct AdapterSummary {
     pub driver: String,
     pub driver_info: String,
     pub is_software: bool,
+    /// Whether every adapter found is a software one.
+    pub only_software: bool,
+    /// Every adapter found, "name (backend, type)", best first.
+    pub adapters: String,
 }
 
 /// A device and its queue, plus what was chosen. Cheap to clone (Arc inside wgpu types).
@@ -29,6 +47,10 @@ pub struct GpuContext {
     pub adapter: wgpu::Adapter,
     pub summary: AdapterSummary,
     pub limits: wgpu::Limits,
+    /// The passes' needs the device's limits do not meet (`gpu::needs::unmet`); empty when all run.
+    pub unmet: Vec<String>,
+    /// Set by the device-lost callback (or `mark_lost`).
+    lost: Arc<AtomicBool>,
 }
 
 /// The install hint given when no adapter exists.
@@ -45,13 +67,17 @@ fn is_software(info: &wgpu::AdapterInfo) -> bool {
         || name.contains("software")
 }
 
-fn rank(info: &wgpu::AdapterInfo) -> i32 {
+/// Lower is better (module docs).
+pub fn rank(info: &wgpu::AdapterInfo) -> i32 {
     let type_rank = match info.device_type {
+        _ if is_software(info) => 5,
         wgpu::DeviceType::DiscreteGpu => 0,
         wgpu::DeviceType::IntegratedGpu => 1,
         wgpu::DeviceType::VirtualGpu => 2,
+        // GL reports most drivers as "Other": below every adapter of a known hardware type.
+        wgpu::DeviceType::Other if info.backend == wgpu::Backend::Gl => 4,
         wgpu::DeviceType::Other => 3,
-        wgpu::DeviceType::Cpu => 4,
+        wgpu::DeviceType::Cpu => 5,
     };
     // Among software adapters prefer Vulkan (lavapipe: fully compliant, float32 blending) over GL.
     let backend_rank = match info.backend {
@@ -64,16 +90,30 @@ fn rank(info: &wgpu::AdapterInfo) -> i32 {
 impl GpuContext {
     /// Create a new device, choosing an adapter as described in the module docs.
     pub fn new() -> Result<GpuContext> {
+        let overrides = std::env::var(crate::gpu::needs::LIMITS_ENV).ok();
+        GpuContext::with_limits(overrides.as_deref())
+    }
+
+    /// `new`, with the adapter's limits lowered by `overrides` (the syntax of `MANYLIGHTS_GPU_LIMITS`,
+    /// `gpu::needs`) instead of that variable.
+    pub fn with_limits(overrides: Option<&str>) -> Result<GpuContext> {
         crate::gpu::wsi_env::quiet_device_select();
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
-        let instance = wgpu::Instance::new(desc);
+        // One instance per process: wgpu numbers devices per instance, and the passes' caches tell
+        // devices apart by that number, so devices of two instances would be taken for one another.
+        static INSTANCE: std::sync::OnceLock<wgpu::Instance> = std::sync::OnceLock::new();
+        let instance = INSTANCE.get_or_init(|| {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
+            wgpu::Instance::new(desc)
+        });
         let mut adapters = pollster::block_on(instance.enumerate_adapters(desc_backends()));
         if adapters.is_empty() {
             return Err(Error::GpuUnavailable(INSTALL_HINT.to_string()));
         }
         let choice = std::env::var("MANYLIGHTS_ADAPTER").unwrap_or_default().to_lowercase();
         adapters.sort_by_key(|a| rank(&a.get_info()));
+        let only_software = adapters.iter().all(|a| is_software(&a.get_info()));
+        let all_names = names(&adapters);
         let adapter = match choice.as_str() {
             "" | "auto" | "hardware" => {
                 if choice == "hardware" && adapters.iter().all(|a| is_software(&a.get_info())) {
@@ -102,7 +142,7 @@ impl GpuContext {
             }
         };
         let info = adapter.get_info();
-        let adapter_limits = adapter.limits();
+        let adapter_limits = crate::gpu::needs::apply_override(adapter.limits(), overrides)?;
         // Ask for the adapter's own limits where we need more than the defaults (storage size, layers).
         let mut limits = wgpu::Limits::downlevel_defaults();
         limits.max_storage_buffer_binding_size = adapter_limits.max_storage_buffer_binding_size;
@@ -118,6 +158,13 @@ impl GpuContext {
         limits.max_storage_textures_per_shader_stage = adapter_limits.max_storage_textures_per_shader_stage;
         limits.max_color_attachments = adapter_limits.max_color_attachments;
         limits.max_color_attachment_bytes_per_sample = adapter_limits.max_color_attachment_bytes_per_sample;
+        limits.max_compute_workgroup_size_z = adapter_limits.max_compute_workgroup_size_z;
+        limits.max_uniform_buffers_per_shader_stage = adapter_limits.max_uniform_buffers_per_shader_stage;
+        limits.max_sampled_textures_per_shader_stage = adapter_limits.max_sampled_textures_per_shader_stage;
+        limits.max_bindings_per_bind_group = adapter_limits.max_bindings_per_bind_group;
+        // Never more than the adapter (or the override) allows, whatever the defaults above say.
+        let limits = limits.or_worse_values_from(&adapter_limits);
+        let unmet = crate::gpu::needs::unmet(&limits);
         let mut features = wgpu::Features::empty();
         for f in [wgpu::Features::FLOAT32_FILTERABLE, wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES] {
             if adapter.features().contains(f) {
@@ -140,25 +187,60 @@ impl GpuContext {
             driver: info.driver.clone(),
             driver_info: info.driver_info.clone(),
             is_software: is_software(&info),
+            only_software,
+            adapters: all_names,
         };
-        Ok(GpuContext { device, queue, adapter, summary, limits })
+        let lost = Arc::new(AtomicBool::new(false));
+        let flag = lost.clone();
+        device.set_device_lost_callback(move |_reason, _message| flag.store(true, Ordering::SeqCst));
+        Ok(GpuContext { device, queue, adapter, summary, limits, unmet, lost })
     }
 
-    /// The process-wide shared context (created on first use). Errors are not cached, so a user who
-    /// installs a driver can retry in the same process.
+    /// The process-wide shared context, created on first use and again after a loss (module docs).
+    /// Errors are not cached, so a user who installs a driver can retry in the same process.
     pub fn shared() -> Result<Arc<GpuContext>> {
-        static CTX: OnceLock<Arc<GpuContext>> = OnceLock::new();
-        if let Some(c) = CTX.get() {
+        static CTX: Mutex<Option<Arc<GpuContext>>> = Mutex::new(None);
+        let mut slot = CTX.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(c) = slot.as_ref().filter(|c| !c.is_lost()) {
             return Ok(c.clone());
         }
+        *slot = None;
         let ctx = Arc::new(GpuContext::new()?);
-        Ok(CTX.get_or_init(|| ctx).clone())
+        *slot = Some(ctx.clone());
+        Ok(ctx)
+    }
+
+    /// Whether the device was lost (then `shared()` makes a new one).
+    pub fn is_lost(&self) -> bool {
+        self.lost.load(Ordering::SeqCst)
+    }
+
+    /// Marks the device lost, as the device-lost callback does: a test hook that simulates a loss (and
+    /// makes `shared()` read `MANYLIGHTS_GPU_LIMITS` / `MANYLIGHTS_ADAPTER` afresh). Work on it still runs.
+    pub fn mark_lost(&self) {
+        self.lost.store(true, Ordering::SeqCst);
+    }
+
+    /// `Err(GpuUnavailable)` naming the passes this device cannot run and the limits, Ok when all can.
+    pub fn check_needs(&self) -> Result<()> {
+        if self.unmet.is_empty() {
+            return Ok(());
+        }
+        Err(Error::GpuUnavailable(format!(
+            "the GPU adapter {:?} cannot run every GPU pass: {}; use device=\"cpu\" (device=\"auto\" does)",
+            self.summary.name,
+            self.unmet.join("; ")
+        )))
     }
 
     /// Wait for all submitted work; turn a lost device into an error. Interruptible
     /// (`crate::interrupt::wait_gpu`): `Error::Interrupted` leaves the work running.
     pub fn wait(&self) -> Result<()> {
-        crate::interrupt::wait_gpu(&self.device, None, "the device")
+        crate::interrupt::wait_gpu(&self.device, None, "the device").inspect_err(|e| {
+            if matches!(e, Error::Gpu(m) if m.contains("lost") || m.contains("Lost")) {
+                self.mark_lost();
+            }
+        })
     }
 
     /// Copy a storage buffer back to the host (the buffer needs COPY_SRC usage).
@@ -174,12 +256,15 @@ impl GpuContext {
         if size == 0 {
             return Ok(());
         }
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("GpuContext::read_buffer::staging"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let staging = crate::gpu::alloc::buffer(
+            &self.device,
+            &wgpu::BufferDescriptor {
+                label: Some("GpuContext::read_buffer::staging"),
+                size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        )?;
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("GpuContext::read_buffer") });
         enc.copy_buffer_to_buffer(src, offset, &staging, 0, size);
         self.queue.submit(Some(enc.finish()));
@@ -209,7 +294,7 @@ fn names(adapters: &[wgpu::Adapter]) -> String {
         .iter()
         .map(|a| {
             let i = a.get_info();
-            format!("{} ({:?})", i.name, i.backend)
+            format!("{} ({:?}, {:?})", i.name, i.backend, i.device_type)
         })
         .collect::<Vec<_>>()
         .join(", ")

@@ -26,7 +26,6 @@ use crate::scene::{Camera, Mesh, Scene, ShapeKind};
 use crate::view::ViewSamples;
 use glam::{DMat4, DVec4};
 use std::sync::{Arc, Mutex};
-use wgpu::util::DeviceExt;
 
 /// Format of the visibility target.
 pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
@@ -244,11 +243,12 @@ impl GBufferPass {
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let oom_scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
 
-        let uniforms = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("GBufferPass::uniforms"),
-            contents: bytemuck::bytes_of(&GBufferUniforms::new(camera)),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let uniforms = super::alloc::buffer_init(
+            device,
+            "GBufferPass::uniforms",
+            bytemuck::bytes_of(&GBufferUniforms::new(camera)),
+            wgpu::BufferUsages::UNIFORM,
+        )?;
         // One uniform block per analytic sphere, at the device's dynamic-offset alignment.
         let align = device.limits().min_uniform_buffer_offset_alignment.max(32) as usize;
         let stride = std::mem::size_of::<SphereUniforms>().div_ceil(align) * align;
@@ -278,11 +278,7 @@ impl GBufferPass {
                 },
             }
         }
-        let spheres = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("GBufferPass::spheres"),
-            contents: &sphere_bytes,
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let spheres = super::alloc::buffer_init(device, "GBufferPass::spheres", &sphere_bytes, wgpu::BufferUsages::UNIFORM)?;
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("GBufferPass::bind_group"),
             layout: &self.bind_group_layout,
@@ -301,19 +297,22 @@ impl GBufferPass {
 
         let extent = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
         let texture = |label, format, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: extent,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
+            super::alloc::texture(
+                device,
+                &wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: extent,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                },
+            )
         };
-        let ids = texture("GBufferPass::ids", ID_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
-        let depth = texture("GBufferPass::depth", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        let ids = texture("GBufferPass::ids", ID_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC)?;
+        let depth = texture("GBufferPass::depth", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT)?;
         let ids_view = ids.create_view(&Default::default());
         let depth_view = depth.create_view(&Default::default());
 
@@ -355,12 +354,15 @@ impl GBufferPass {
             }
         }
         let padded_row = (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("GBufferPass::readback"),
-            size: padded_row as u64 * h as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        let readback = super::alloc::buffer(
+            device,
+            &wgpu::BufferDescriptor {
+                label: Some("GBufferPass::readback"),
+                size: padded_row as u64 * h as u64,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            },
+        )?;
         encoder.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo { texture: &ids, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
             wgpu::TexelCopyBufferInfo {

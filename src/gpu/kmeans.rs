@@ -8,7 +8,6 @@ use crate::error::{Error, Result};
 use crate::gpu::pipeline::{storage, uniform};
 use crate::gpu::shaders;
 use std::sync::{Arc, Mutex, OnceLock};
-use wgpu::util::DeviceExt;
 
 /// Threads per workgroup (mirrored in `shaders/kmeans.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 256;
@@ -160,6 +159,15 @@ impl KMeansPass {
     }
 }
 
+/// The (x, y) workgroups of a dispatch of `threads` invocations: x at most `max_per_dimension`. Every
+/// workgroup of the grid runs (x * y may exceed the groups `threads` needs), so buffers written per
+/// workgroup are sized x * y.
+pub fn dispatch_grid(threads: usize, max_per_dimension: u32) -> (u32, u32) {
+    let groups = threads.div_ceil(WORKGROUP_SIZE as usize).max(1) as u64;
+    let gx = groups.min(max_per_dimension.max(1) as u64);
+    (gx as u32, groups.div_ceil(gx) as u32)
+}
+
 /// Everything one K-means run or one fuzzy assignment keeps on the GPU.
 pub struct KMeansBuffers {
     pass: Arc<KMeansPass>,
@@ -178,13 +186,16 @@ pub struct KMeansBuffers {
     num_partials: usize,
 }
 
-fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: size.max(16),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
+fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> Result<wgpu::Buffer> {
+    super::alloc::buffer(
+        &ctx.device,
+        &wgpu::BufferDescriptor {
+            label: Some(label),
+            size: size.max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        },
+    )
 }
 
 impl KMeansBuffers {
@@ -237,39 +248,47 @@ impl KMeansBuffers {
             _pad0: 0,
         };
         let upload = |label: &str, data: Vec<GpuPoint>| {
-            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytemuck::cast_slice(&data),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-            })
+            super::alloc::buffer_init(
+                &ctx.device,
+                label,
+                bytemuck::cast_slice(&data),
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            )
         };
-        let pts = upload("KMeansPass::points", points.iter().zip(normals).map(|(p, q)| GpuPoint::new(*p, *q)).collect());
-        let cts = upload("KMeansPass::centroids", centroids.iter().zip(centroid_normals).map(|(p, q)| GpuPoint::new(*p, *q)).collect());
-        let groups = n.div_ceil(WORKGROUP_SIZE as usize);
+        let pts = upload("KMeansPass::points", points.iter().zip(normals).map(|(p, q)| GpuPoint::new(*p, *q)).collect())?;
+        let cts = upload("KMeansPass::centroids", centroids.iter().zip(centroid_normals).map(|(p, q)| GpuPoint::new(*p, *q)).collect())?;
+        // One objective partial per workgroup of the accumulate dispatch: its 2D grid can hold more
+        // workgroups than n needs (beyond 65,535 x 256 points), and each writes its slot.
+        let (gx, gy) = dispatch_grid(n, ctx.limits.max_compute_workgroups_per_dimension);
+        let groups = gx as usize * gy as usize;
         Ok(KMeansBuffers {
             pass: KMeansPass::shared(ctx),
             params,
             points: pts,
             centroids: cts,
-            cell_count: storage_buffer(ctx, "KMeansPass::cell_count", grid.num_cells() as u64 * 4),
-            cell_start: storage_buffer(ctx, "KMeansPass::cell_start", (grid.num_cells() as u64 + 1) * 4),
-            cell_items: storage_buffer(ctx, "KMeansPass::cell_items", k as u64 * 4),
-            best_idx: storage_buffer(ctx, "KMeansPass::best_idx", (n * f) as u64 * 4),
-            best_d2: storage_buffer(ctx, "KMeansPass::best_d2", (n * f) as u64 * 4),
-            status: storage_buffer(ctx, "KMeansPass::status", n as u64 * 4),
-            sums: storage_buffer(ctx, "KMeansPass::sums", (k * SUM_WORDS) as u64 * 4),
-            partials: storage_buffer(ctx, "KMeansPass::partials", groups as u64 * 4),
-            weights: storage_buffer(ctx, "KMeansPass::weights", (n * f) as u64 * 4),
+            cell_count: storage_buffer(ctx, "KMeansPass::cell_count", grid.num_cells() as u64 * 4)?,
+            cell_start: storage_buffer(ctx, "KMeansPass::cell_start", (grid.num_cells() as u64 + 1) * 4)?,
+            cell_items: storage_buffer(ctx, "KMeansPass::cell_items", k as u64 * 4)?,
+            best_idx: storage_buffer(ctx, "KMeansPass::best_idx", (n * f) as u64 * 4)?,
+            best_d2: storage_buffer(ctx, "KMeansPass::best_d2", (n * f) as u64 * 4)?,
+            status: storage_buffer(ctx, "KMeansPass::status", n as u64 * 4)?,
+            sums: storage_buffer(ctx, "KMeansPass::sums", (k * SUM_WORDS) as u64 * 4)?,
+            partials: storage_buffer(ctx, "KMeansPass::partials", groups as u64 * 4)?,
+            weights: storage_buffer(ctx, "KMeansPass::weights", (n * f) as u64 * 4)?,
             num_partials: groups,
         })
     }
 
-    fn dispatch(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, kernel: Kernel, params: &GpuKMeansParams, threads: usize) {
-        let params_buf = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("KMeansPass::params"),
-            contents: bytemuck::bytes_of(params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+    fn dispatch(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        kernel: Kernel,
+        params: &GpuKMeansParams,
+        threads: usize,
+    ) -> Result<()> {
+        let params_buf =
+            super::alloc::buffer_init(&ctx.device, "KMeansPass::params", bytemuck::bytes_of(params), wgpu::BufferUsages::UNIFORM)?;
         let resources = [
             &params_buf,
             &self.points,
@@ -294,9 +313,7 @@ impl KMeansBuffers {
             layout: &self.pass.bind_group_layout,
             entries: &entries,
         });
-        let groups = (threads.div_ceil(WORKGROUP_SIZE as usize).max(1)) as u32;
-        let gx = groups.min(ctx.limits.max_compute_workgroups_per_dimension.max(1));
-        let gy = groups.div_ceil(gx);
+        let (gx, gy) = dispatch_grid(threads, ctx.limits.max_compute_workgroups_per_dimension);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(&format!("KMeansPass::{}", ENTRY_POINTS[kernel as usize])),
             timestamp_writes: None,
@@ -304,47 +321,53 @@ impl KMeansBuffers {
         pass.set_pipeline(&self.pass.pipelines[kernel as usize]);
         pass.set_bind_group(0, &bind_group, &[]);
         pass.dispatch_workgroups(gx, gy, 1);
+        Ok(())
     }
 
     /// Alg. 1 line 5: rebuild the grid over the current centroids.
-    fn encode_grid(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder) {
+    fn encode_grid(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder) -> Result<()> {
         let k = self.params.k as usize;
         enc.clear_buffer(&self.cell_count, 0, None);
-        self.dispatch(ctx, enc, Kernel::GridCount, &self.params, k);
-        self.dispatch(ctx, enc, Kernel::GridScan, &self.params, 1);
+        self.dispatch(ctx, enc, Kernel::GridCount, &self.params, k)?;
+        self.dispatch(ctx, enc, Kernel::GridScan, &self.params, 1)?;
         enc.clear_buffer(&self.cell_count, 0, None);
-        self.dispatch(ctx, enc, Kernel::GridFill, &self.params, k);
+        self.dispatch(ctx, enc, Kernel::GridFill, &self.params, k)?;
+        Ok(())
     }
 
     /// The F nearest centroids of every point into `best_idx` / `best_d2` (grid shells, then exhaustive
     /// chunks for the points the grid left unresolved; all points when the grid is off).
-    pub fn encode_assign(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder) {
+    pub fn encode_assign(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder) -> Result<()> {
         let n = self.params.n as usize;
         if self.params.use_grid != 0 {
-            self.encode_grid(ctx, enc);
-            self.dispatch(ctx, enc, Kernel::Assign, &self.params, n);
+            self.encode_grid(ctx, enc)?;
+            self.dispatch(ctx, enc, Kernel::Assign, &self.params, n)?;
         }
         for chunk_start in (0..self.params.k).step_by(CHUNK as usize) {
             let p = GpuKMeansParams { chunk_start, ..self.params };
-            self.dispatch(ctx, enc, Kernel::AssignChunk, &p, n);
+            self.dispatch(ctx, enc, Kernel::AssignChunk, &p, n)?;
         }
+        Ok(())
     }
 
     /// Objective partials of the current assignment, plus the cluster sums when `sums` (F must be 1).
-    pub fn encode_accumulate(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, sums: bool) {
+    pub fn encode_accumulate(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, sums: bool) -> Result<()> {
         enc.clear_buffer(&self.sums, 0, None);
         let p = GpuKMeansParams { accumulate_sums: sums as u32, ..self.params };
-        self.dispatch(ctx, enc, Kernel::Accumulate, &p, self.params.n as usize);
+        self.dispatch(ctx, enc, Kernel::Accumulate, &p, self.params.n as usize)?;
+        Ok(())
     }
 
     /// Centroids from the sums of the last `encode_accumulate(.., true)`.
-    pub fn encode_update(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder) {
-        self.dispatch(ctx, enc, Kernel::Update, &self.params, self.params.k as usize);
+    pub fn encode_update(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder) -> Result<()> {
+        self.dispatch(ctx, enc, Kernel::Update, &self.params, self.params.k as usize)?;
+        Ok(())
     }
 
     /// Eq. 10 weights of the current F-nearest lists into `weights`.
-    pub fn encode_weights(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder) {
-        self.dispatch(ctx, enc, Kernel::FuzzyWeights, &self.params, self.params.n as usize);
+    pub fn encode_weights(&self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder) -> Result<()> {
+        self.dispatch(ctx, enc, Kernel::FuzzyWeights, &self.params, self.params.n as usize)?;
+        Ok(())
     }
 
     /// The objective of the last `encode_accumulate`: the per-workgroup partials added in f64.

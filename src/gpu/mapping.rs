@@ -14,7 +14,6 @@ use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use crate::gpu::shaders;
 use crate::matrix::mapping::PixelMapping;
 use std::sync::{Arc, Mutex, OnceLock};
-use wgpu::util::DeviceExt;
 
 /// Threads per workgroup (mirrored in `shaders/mapping.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
@@ -70,18 +69,15 @@ impl MappingPass {
     }
 
     /// Record one gather into `encoder`.
-    pub fn encode(&self, ctx: &GpuContext, encoder: &mut wgpu::CommandEncoder, inputs: &MappingInputs) {
+    pub fn encode(&self, ctx: &GpuContext, encoder: &mut wgpu::CommandEncoder, inputs: &MappingInputs) -> Result<()> {
         let params = MappingParams {
             num_pixels: inputs.num_pixels,
             accumulate: inputs.accumulate as u32,
             _pad: [0; 2],
             weight: [inputs.weight[0], inputs.weight[1], inputs.weight[2], 0.0],
         };
-        let params_buf = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("MappingPass::params"),
-            contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let params_buf =
+            super::alloc::buffer_init(&ctx.device, "MappingPass::params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM)?;
         let groups = inputs.num_pixels.div_ceil(WORKGROUP_SIZE).max(1);
         let gx = groups.min(ctx.limits.max_compute_workgroups_per_dimension.max(1));
         let gy = groups.div_ceil(gx);
@@ -98,30 +94,28 @@ impl MappingPass {
             ],
             (gx, gy),
         );
+        Ok(())
     }
 }
 
 /// Upload a mapping's index array (after checking every index).
 pub fn upload_mapping(ctx: &GpuContext, mapping: &PixelMapping) -> Result<wgpu::Buffer> {
     mapping.validate()?;
-    Ok(ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("MappingPass::mapping"),
-        contents: bytemuck::cast_slice(&mapping.source),
-        usage: wgpu::BufferUsages::STORAGE,
-    }))
+    super::alloc::buffer_init(&ctx.device, "MappingPass::mapping", bytemuck::cast_slice(&mapping.source), wgpu::BufferUsages::STORAGE)
 }
 
 /// `count` RGB images (`count * m * 3` floats) as one RGBA storage buffer per image.
-fn upload_images(ctx: &GpuContext, images: &[f32], m: usize) -> Vec<wgpu::Buffer> {
+fn upload_images(ctx: &GpuContext, images: &[f32], m: usize) -> Result<Vec<wgpu::Buffer>> {
     images
         .chunks(m * 3)
         .map(|img| {
             let rgba: Vec<[f32; 4]> = img.chunks(3).map(|c| [c[0], c[1], c[2], 0.0]).collect();
-            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("MappingPass::image"),
-                contents: bytemuck::cast_slice(&rgba),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            })
+            super::alloc::buffer_init(
+                &ctx.device,
+                "MappingPass::image",
+                bytemuck::cast_slice(&rgba),
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            )
         })
         .collect()
 }
@@ -148,17 +142,20 @@ pub fn apply_chain_gpu(ctx: &GpuContext, maps: &[&PixelMapping], images: &[f32])
     }
     let pass = MappingPass::shared(ctx);
     let index_bufs = maps.iter().map(|p| upload_mapping(ctx, p)).collect::<Result<Vec<_>>>()?;
-    let sources = upload_images(ctx, images, m);
+    let sources = upload_images(ctx, images, m)?;
     let scratch: Vec<wgpu::Buffer> = (0..sources.len())
         .map(|_| {
-            ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("MappingPass::scratch"),
-                size: (m * 16) as u64,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            })
+            super::alloc::buffer(
+                &ctx.device,
+                &wgpu::BufferDescriptor {
+                    label: Some("MappingPass::scratch"),
+                    size: (m * 16) as u64,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                },
+            )
         })
-        .collect();
+        .collect::<Result<_>>()?;
     let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("MappingPass::encoder") });
     for (a, b) in sources.iter().zip(&scratch) {
         let (mut from, mut to) = (a, b);
@@ -167,7 +164,7 @@ pub fn apply_chain_gpu(ctx: &GpuContext, maps: &[&PixelMapping], images: &[f32])
                 ctx,
                 &mut enc,
                 &MappingInputs { source: from, mapping: index, target: to, num_pixels: m as u32, weight: [1.0; 3], accumulate: false },
-            );
+            )?;
             std::mem::swap(&mut from, &mut to);
         }
     }

@@ -1,13 +1,16 @@
 //! GPU passes on wgpu. `context` creates the device; one file per pass, each driving its own WGSL in
 //! `shaders/`.
+pub mod alloc;
 pub mod bsdf_eval;
 pub mod bvh;
 pub mod clustered_visibility;
 pub mod columns;
 pub mod context;
+pub mod dispatch;
 pub mod gbuffer;
 pub mod kmeans;
 pub mod mapping;
+pub mod needs;
 pub mod pipeline;
 pub mod reconstruction;
 pub mod relight;

@@ -28,7 +28,6 @@ use crate::error::{Error, Result};
 use crate::gpu::shaders;
 use crate::matrix::LightMatrix;
 use std::sync::{Arc, Mutex, OnceLock};
-use wgpu::util::DeviceExt;
 
 /// Threads per workgroup (mirrored in `shaders/reconstruction.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
@@ -104,7 +103,7 @@ pub struct GpuReconstruction {
     pub reconstruction_seconds: f64,
 }
 
-fn buffer<T: bytemuck::Pod>(ctx: &GpuContext, label: &str, data: &[T]) -> wgpu::Buffer {
+fn buffer<T: bytemuck::Pod>(ctx: &GpuContext, label: &str, data: &[T]) -> Result<wgpu::Buffer> {
     // wgpu rejects empty bindings: pad to one element.
     let bytes: &[u8] = bytemuck::cast_slice(data);
     let padded;
@@ -114,7 +113,7 @@ fn buffer<T: bytemuck::Pod>(ctx: &GpuContext, label: &str, data: &[T]) -> wgpu::
     } else {
         bytes
     };
-    ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE })
+    super::alloc::buffer_init(&ctx.device, label, contents, wgpu::BufferUsages::STORAGE)
 }
 
 /// Renders and accumulates a stretch of f frames (module docs).
@@ -176,8 +175,8 @@ pub fn reconstruct(
         )));
     }
     let flat = |maps: &[&[u32]]| -> Vec<u32> { maps.iter().flat_map(|m| m.iter().copied()).collect() };
-    let forward_buf = buffer(&ctx, "ReconstructionPass::forward", &flat(forward));
-    let backward_buf = buffer(&ctx, "ReconstructionPass::backward", &flat(backward));
+    let forward_buf = buffer(&ctx, "ReconstructionPass::forward", &flat(forward))?;
+    let backward_buf = buffer(&ctx, "ReconstructionPass::backward", &flat(backward))?;
     // Accumulator windows of frames, each within the binding limit.
     let frame_bytes = (p as u64 * 16).max(16);
     let per_window = ((max_binding.min(1 << 30) / frame_bytes) as usize).max(1);
@@ -192,14 +191,17 @@ pub fn reconstruct(
     let accs: Vec<wgpu::Buffer> = windows
         .iter()
         .map(|&(a, b)| {
-            ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("ReconstructionPass::acc"),
-                size: (b - a) as u64 * frame_bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            })
+            super::alloc::buffer(
+                &ctx.device,
+                &wgpu::BufferDescriptor {
+                    label: Some("ReconstructionPass::acc"),
+                    size: (b - a) as u64 * frame_bytes,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                },
+            )
         })
-        .collect();
+        .collect::<Result<_>>()?;
     let (mut columns_seconds, mut reconstruction_seconds) = (0.0, 0.0);
     for k0 in 0..f {
         let group: Vec<usize> = (0..representatives.len()).filter(|&c| source[c] as usize == k0).collect();
@@ -222,8 +224,8 @@ pub fn reconstruct(
             extra_index[fill[px as usize] as usize] = (p + e) as u32;
             fill[px as usize] += 1;
         }
-        let extra_start_buf = buffer(&ctx, "ReconstructionPass::extra_start", &extra_start);
-        let extra_index_buf = buffer(&ctx, "ReconstructionPass::extra_index", &extra_index);
+        let extra_start_buf = buffer(&ctx, "ReconstructionPass::extra_start", &extra_start)?;
+        let extra_index_buf = buffer(&ctx, "ReconstructionPass::extra_index", &extra_index)?;
         let js: Vec<usize> = group.iter().map(|&c| representatives[c].0 as usize).collect();
         g.columns_on_gpu(&js, MAX_BATCH, &mut |columns, range, seconds| {
             columns_seconds += seconds;
@@ -243,7 +245,7 @@ pub fn reconstruct(
             let (Some(&lo), Some(&hi)) = (served.first(), served.last()) else {
                 return Ok(());
             };
-            let rec_buf = buffer(&ctx, "ReconstructionPass::rec", &rec4);
+            let rec_buf = buffer(&ctx, "ReconstructionPass::rec", &rec4)?;
             let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("ReconstructionPass") });
             for (wi, &(a, b)) in windows.iter().enumerate() {
                 let (first, last) = (lo.max(a), hi.min(b - 1));
@@ -269,11 +271,12 @@ pub fn reconstruct(
                     _pad0: 0,
                     _pad1: 0,
                 };
-                let params_buf = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("ReconstructionPass::params"),
-                    contents: bytemuck::bytes_of(&params),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                });
+                let params_buf = super::alloc::buffer_init(
+                    &ctx.device,
+                    "ReconstructionPass::params",
+                    bytemuck::bytes_of(&params),
+                    wgpu::BufferUsages::UNIFORM,
+                )?;
                 encode_dispatch(
                     &ctx.device,
                     &mut encoder,

@@ -90,11 +90,11 @@ impl Kernel {
         params: &RelightParams,
         threads: u32,
         buffers: &[&wgpu::Buffer],
-    ) {
+    ) -> crate::error::Result<()> {
         assert_eq!(buffers.len() + 1, self.bindings.len(), "RelightPasses::{}: wrong number of buffers", self.name);
         let (gx, gy, dispatch_width) = dispatch_size(threads);
         let params = RelightParams { dispatch_width, ..*params };
-        let params_buf = crate::gpu::columns::storage_buffer(device, "RelightPasses::params", &[params], wgpu::BufferUsages::UNIFORM);
+        let params_buf = crate::gpu::columns::storage_buffer(device, "RelightPasses::params", &[params], wgpu::BufferUsages::UNIFORM)?;
         let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: params_buf.as_entire_binding() }];
         for (b, buf) in self.bindings[1..].iter().zip(buffers) {
             entries.push(wgpu::BindGroupEntry { binding: *b, resource: buf.as_entire_binding() });
@@ -111,6 +111,7 @@ impl Kernel {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
         pass.dispatch_workgroups(gx, gy, 1);
+        Ok(())
     }
 }
 
@@ -148,7 +149,7 @@ impl RelightPasses {
         image: &wgpu::Buffer,
         scratch: [&wgpu::Buffer; 2],
         coeffs: &wgpu::Buffer,
-    ) {
+    ) -> crate::error::Result<()> {
         let mut size = side;
         let mut level = 0;
         while size > 1 {
@@ -161,10 +162,11 @@ impl RelightPasses {
                 &RelightParams { side, size, num_rows: h * h, ..Default::default() },
                 h * h,
                 &[src, dst, coeffs],
-            );
+            )?;
             size = h;
             level += 1;
         }
+        Ok(())
     }
 }
 

@@ -112,8 +112,8 @@ impl RowsPass {
     }
 
     /// Dispatch one thread per (row, light): x over `params.num_lights`, y over `params.num_rows`.
-    pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &RowsInputs) {
-        let params = storage_buffer(device, "RowsPass::params", &[inputs.params], wgpu::BufferUsages::UNIFORM);
+    pub fn encode(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, inputs: &RowsInputs) -> crate::error::Result<()> {
+        let params = storage_buffer(device, "RowsPass::params", &[inputs.params], wgpu::BufferUsages::UNIFORM)?;
         let gx = (inputs.params.num_lights).div_ceil(WORKGROUP_SIZE).max(1);
         encode_dispatch(
             device,
@@ -137,6 +137,7 @@ impl RowsPass {
             ],
             (gx, inputs.params.num_rows.max(1)),
         );
+        Ok(())
     }
 }
 

@@ -9,7 +9,6 @@
 use crate::error::{Error, Result};
 use crate::scene::{Mesh, Scene};
 use glam::Vec3;
-use wgpu::util::DeviceExt;
 
 /// Global triangle offsets of each mesh: `offsets[m]` = first global triangle of mesh `m`,
 /// `offsets[meshes.len()]` = total triangle count.
@@ -91,16 +90,12 @@ impl SceneGeometry {
         if positions.is_empty() {
             positions.push([0.0; 3]);
         }
-        let size = (positions.len() as u64) * Self::VERTEX_STRIDE;
-        let max = device.limits().max_buffer_size;
-        if size > max {
-            return Err(Error::Gpu(format!("scene vertex buffer needs {size} bytes ({num_triangles} triangles), the device allows {max}")));
-        }
-        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("SceneGeometry::vertex_buffer"),
-            contents: bytemuck::cast_slice(&positions),
-            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        });
+        let vertex_buffer = crate::gpu::alloc::buffer_init(
+            device,
+            &format!("SceneGeometry::vertex_buffer ({num_triangles} triangles)"),
+            bytemuck::cast_slice(&positions),
+            wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        )?;
         Ok(SceneGeometry { vertex_buffer, num_triangles, triangle_offsets })
     }
 

@@ -153,17 +153,21 @@ pub struct ShadowAtlas {
 }
 
 impl ShadowAtlas {
-    pub fn new(device: &wgpu::Device, resolution: u32, num_layers: u32) -> ShadowAtlas {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("ShadowAtlas::texture"),
-            size: wgpu::Extent3d { width: resolution, height: resolution, depth_or_array_layers: num_layers },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: SHADOW_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
+    /// Errors: `OutOfMemory` / `Gpu` from the guarded allocation (`gpu::alloc`).
+    pub fn new(device: &wgpu::Device, resolution: u32, num_layers: u32) -> crate::error::Result<ShadowAtlas> {
+        let texture = crate::gpu::alloc::texture(
+            device,
+            &wgpu::TextureDescriptor {
+                label: Some("ShadowAtlas::texture"),
+                size: wgpu::Extent3d { width: resolution, height: resolution, depth_or_array_layers: num_layers },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: SHADOW_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+        )?;
         let layer_views = (0..num_layers)
             .map(|l| {
                 texture.create_view(&wgpu::TextureViewDescriptor {
@@ -180,7 +184,7 @@ impl ShadowAtlas {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        ShadowAtlas { texture, layer_views, array_view, resolution, num_layers }
+        Ok(ShadowAtlas { texture, layer_views, array_view, resolution, num_layers })
     }
 }
 

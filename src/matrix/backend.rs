@@ -22,7 +22,9 @@
 //! `gpu`) when it is set; otherwise it takes a hardware GPU when one exists (as `GpuContext` ranks
 //! adapters; `MANYLIGHTS_ADAPTER` still selects among them, and an adapter it names that does not exist
 //! is an error, one it names is used even if it is software) and the CPU backend otherwise: on a software adapter exact CPU rays are 5-20x faster
-//! than the emulated GPU.
+//! than the emulated GPU. An adapter whose limits do not meet every pass's needs (`gpu::needs`) is not
+//! used: `"auto"` takes the CPU and `device_info()["reason"]` says why, `"gpu"` raises
+//! `GpuUnavailable` naming the pass and the limit.
 use super::rows::{RowOptions, TimedRows};
 use super::VisibilityStats;
 use crate::error::{Error, Result};
@@ -149,18 +151,42 @@ impl Device {
 
     /// The device that runs (module docs).
     ///
-    /// Errors: `GpuUnavailable` for `Gpu` without any adapter; an invalid `MANYLIGHTS_DEVICE`.
+    /// Errors: `GpuUnavailable` for `Gpu` without any adapter or with one that cannot run every pass;
+    /// an invalid `MANYLIGHTS_DEVICE`.
     pub fn choose(self) -> Result<Chosen> {
+        self.choose_explained().map(|(c, _)| c)
+    }
+
+    /// `choose`, with why `"auto"` took the CPU (None when it took the GPU or another device was asked).
+    pub fn choose_explained(self) -> Result<(Chosen, Option<String>)> {
         match self.with_env()? {
-            Device::Cpu => Ok(Chosen::Cpu),
-            Device::Gpu => Ok(Chosen::Gpu(GpuContext::shared()?)),
+            Device::Cpu => Ok((Chosen::Cpu, None)),
+            Device::Gpu => {
+                let ctx = GpuContext::shared()?;
+                ctx.check_needs()?;
+                Ok((Chosen::Gpu(ctx), None))
+            }
             Device::Auto => match GpuContext::shared() {
+                Ok(ctx) if !ctx.unmet.is_empty() => {
+                    let e = ctx.check_needs().expect_err("unmet needs");
+                    if adapter_requested() {
+                        return Err(e);
+                    }
+                    Ok((Chosen::Cpu, Some(e.to_string())))
+                }
                 // A hardware GPU, or the adapter `MANYLIGHTS_ADAPTER` asked for even if it is software.
-                Ok(ctx) if !ctx.summary.is_software || adapter_requested() => Ok(Chosen::Gpu(ctx)),
-                Ok(_) => Ok(Chosen::Cpu),
+                Ok(ctx) if !ctx.summary.is_software || adapter_requested() => Ok((Chosen::Gpu(ctx), None)),
+                Ok(ctx) => Ok((
+                    Chosen::Cpu,
+                    Some(format!(
+                        "only software GPU adapters exist ({}); exact CPU rays are faster than an emulated GPU \
+                         (device=\"gpu\" or MANYLIGHTS_ADAPTER=software uses it anyway)",
+                        ctx.summary.adapters
+                    )),
+                )),
                 // An adapter the user named that does not exist is an error, not a reason to fall back.
                 Err(e) if adapter_requested() => Err(e),
-                Err(_) => Ok(Chosen::Cpu),
+                Err(e) => Ok((Chosen::Cpu, Some(format!("no usable GPU adapter: {e}")))),
             },
         }
     }

@@ -56,6 +56,85 @@ pub struct GpuBackend {
     pub(crate) clustered_pass: std::sync::OnceLock<crate::gpu::clustered_visibility::ClusteredVisibilityPass>,
 }
 
+/// The GPU memory of one light matrix, by part (bytes): what `GpuBackend::new` allocates up front, and
+/// the largest buffers its calls add (one batch of columns, the accumulator, every light for the rows).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GpuMemoryEstimate {
+    pub view_samples: u64,
+    pub view_bsdfs: u64,
+    pub geometry: u64,
+    pub bvh: u64,
+    pub shadow_atlas: u64,
+    pub accumulator: u64,
+    pub column_batch: u64,
+    pub row_lights: u64,
+}
+
+impl GpuMemoryEstimate {
+    /// (name, bytes, bound whole as one storage binding) of every part.
+    pub fn parts(&self) -> [(&'static str, u64); 8] {
+        [
+            ("view_samples", self.view_samples),
+            ("view_bsdfs", self.view_bsdfs),
+            ("geometry", self.geometry),
+            ("bvh", self.bvh),
+            ("shadow_atlas", self.shadow_atlas),
+            ("accumulator", self.accumulator),
+            ("column_batch", self.column_batch),
+            ("row_lights", self.row_lights),
+        ]
+    }
+
+    pub fn total(&self) -> u64 {
+        self.parts().iter().map(|p| p.1).sum()
+    }
+}
+
+/// Shadow-map layers of a matrix's atlas with `opts` (the budget, at least one cube) on `max_layers`
+/// texture layers.
+fn atlas_layers(opts: &ColumnOptions, max_layers: u32) -> u32 {
+    let layer_bytes = 4 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64;
+    (opts.shadow_memory_budget / layer_bytes.max(1)).min(max_layers as u64).min(6 * opts.max_lights_per_batch as u64).max(6) as u32
+}
+
+/// The GPU memory of a light matrix of `samples` view samples (pixels plus delta-chain extras),
+/// `lights` lights and `triangles` triangles with `opts` (module docs of `gpu::alloc`; the BVH at its
+/// largest, 2 nodes per triangle). Pure arithmetic: checked against the adapter before allocating.
+pub fn estimate_gpu_bytes(samples: u64, lights: u64, triangles: u64, opts: &ColumnOptions) -> GpuMemoryEstimate {
+    let res = opts.shadow_resolution as u64;
+    let bvh = if opts.visibility == Visibility::ShadowMap {
+        0
+    } else {
+        2 * triangles * std::mem::size_of::<crate::gpu::bvh::GpuBvhNode>() as u64
+            + triangles * std::mem::size_of::<crate::gpu::bvh::GpuPrimitive>() as u64
+    };
+    GpuMemoryEstimate {
+        view_samples: samples * std::mem::size_of::<crate::gpu::columns::GpuViewSample>() as u64,
+        view_bsdfs: samples * std::mem::size_of::<crate::shading::GpuBsdf>() as u64,
+        geometry: triangles * 3 * SceneGeometry::VERTEX_STRIDE,
+        bvh,
+        shadow_atlas: atlas_layers(opts, 2048) as u64 * res * res * 4,
+        accumulator: samples * 16,
+        column_batch: (opts.max_lights_per_batch as u64 * samples * 12).min(128 << 20),
+        row_lights: lights * std::mem::size_of::<GpuLight>() as u64,
+    }
+}
+
+/// Refuse a light matrix whose estimate (`estimate_gpu_bytes`) cannot fit the device: a part above
+/// `max_buffer_size` or (bound whole) the storage binding limit, or the total above the budget
+/// `MANYLIGHTS_GPU_MEMORY_LIMIT` (`gpu::alloc`) or, on a software adapter, above the host's memory.
+///
+/// Errors: `OutOfMemory` naming the part, its bytes and the limit.
+pub fn check_gpu_estimate(ctx: &GpuContext, est: &GpuMemoryEstimate, what: &str) -> Result<()> {
+    for (part, bytes) in est.parts() {
+        let whole = part != "shadow_atlas" && part != "row_lights" && part != "geometry" && part != "bvh";
+        crate::gpu::alloc::check_buffer(&ctx.limits, &format!("{what}: {part}"), bytes as u128, whole)?;
+    }
+    let total = est.total() as u128;
+    crate::gpu::alloc::check_budget(&format!("{what} (all its GPU buffers)"), total)?;
+    crate::memory::check_gpu(ctx, what, total, false)
+}
+
 /// Lights `js[start..end]` and the first layer of each.
 struct Batch {
     start: usize,
@@ -93,25 +172,26 @@ impl GpuBackend {
             }
         }
         let max_binding = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
-        if view.bsdf.len() as u64 * 80 > max_binding {
-            return Err(Error::invalid(format!(
-                "{m} view samples need {} bytes of BSDFs, above the {max_binding}-byte storage binding limit",
-                view.bsdf.len() as u64 * 80
-            )));
-        }
-        let layer_bytes = 4 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64;
-        let max_layers = (opts.shadow_memory_budget / layer_bytes)
-            .min(limits.max_texture_array_layers as u64)
-            .min(6 * opts.max_lights_per_batch as u64)
-            .max(6) as u32;
+        let max_layers = atlas_layers(&opts, limits.max_texture_array_layers);
+        let res = opts.shadow_resolution as u64;
+        let atlas_what = format!("shadow maps: {max_layers} layers of {res}^2 texels (shadow_map_size = {res})");
+        crate::memory::check_gpu(&ctx, &atlas_what, crate::memory::product(&[max_layers as u64, res, res, 4]), false)?;
+        let triangles = scene.meshes.iter().map(|mesh| mesh.indices.len() as u64).sum::<u64>();
+        let mut est = estimate_gpu_bytes(m as u64, lights.len() as u64, triangles, &opts);
+        est.shadow_atlas = max_layers as u64 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64 * 4;
+        let what = format!("a light matrix of {m} view samples, {} lights and {triangles} triangles on the GPU", lights.len());
+        check_gpu_estimate(&ctx, &est, &what)?;
+        // The view samples' BSDF records (blended BSDFs add a second one) in one binding.
+        let bsdf_bytes = view.bsdf.len() as u128 * std::mem::size_of::<crate::shading::GpuBsdf>() as u128;
+        crate::gpu::alloc::check_buffer(limits, &format!("the BSDFs of {m} view samples"), bsdf_bytes, true)?;
         let device = &ctx.device;
         let geometry = SceneGeometry::upload(device, &scene)?;
         let tables = crate::shading::bsdf::roughplastic_table_buffer(&scene.bsdfs);
-        let view_buffers = ViewBuffers::upload(device, &view, &tables);
-        let res = opts.shadow_resolution as u64;
-        let what = format!("shadow maps: {max_layers} layers of {res}^2 texels (shadow_map_size = {res})");
-        crate::memory::check_gpu(&ctx, &what, crate::memory::product(&[max_layers as u64, res, res, 4]), false)?;
-        let atlas = crate::memory::gpu_alloc(device, &what, || ShadowAtlas::new(device, opts.shadow_resolution, max_layers))?;
+        let view_buffers = ViewBuffers::upload(device, &view, &tables)?;
+        let atlas = ShadowAtlas::new(device, opts.shadow_resolution, max_layers).map_err(|e| match e {
+            Error::OutOfMemory(m) => Error::OutOfMemory(format!("{atlas_what}: {m}")),
+            e => e,
+        })?;
         let bvh =
             if opts.visibility == Visibility::ShadowMap { GpuBvh::empty(device)? } else { GpuBvh::upload(device, &scene, max_binding)? };
         let stats = storage_buffer::<u32>(
@@ -119,7 +199,7 @@ impl GpuBackend {
             "LightMatrix::stats",
             &[0; 6],
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        );
+        )?;
         let (texels, spot_texture_offsets) = crate::lights::spot_texture::gpu_table(&lights);
         if texels.len() as u64 * 4 > max_binding {
             return Err(Error::invalid(format!(
@@ -127,7 +207,7 @@ impl GpuBackend {
                 texels.len() as u64 * 4
             )));
         }
-        let spot_textures = storage_buffer(device, "LightMatrix::spot_textures", &texels, wgpu::BufferUsages::STORAGE);
+        let spot_textures = storage_buffer(device, "LightMatrix::spot_textures", &texels, wgpu::BufferUsages::STORAGE)?;
         Ok(GpuBackend {
             spot_textures,
             spot_texture_offsets,
@@ -174,7 +254,7 @@ impl GpuBackend {
     }
 
     /// The batch's lights (`GpuLight`s) and shadow-map layers as GPU buffers, and the light count.
-    fn batch_buffers(&self, js: &[usize], batch: &Batch) -> (wgpu::Buffer, wgpu::Buffer, usize) {
+    fn batch_buffers(&self, js: &[usize], batch: &Batch) -> Result<(wgpu::Buffer, wgpu::Buffer, usize)> {
         let device = &self.ctx.device;
         let res = self.opts.shadow_resolution;
         let mut gpu_lights = Vec::with_capacity(batch.end - batch.start);
@@ -183,9 +263,9 @@ impl GpuBackend {
             gpu_lights.push(GpuLight::new(&self.lights, j, batch.layers[k], uses_cube(&self.lights, j), self.spot_texture_offsets[j]));
             layers.extend(light_layers(&self.lights, j, res));
         }
-        let layers_buf = storage_buffer(device, "LightMatrix::layers", &layers, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE);
-        let lights_buf = storage_buffer(device, "LightMatrix::lights", &gpu_lights, wgpu::BufferUsages::STORAGE);
-        (lights_buf, layers_buf, gpu_lights.len())
+        let layers_buf = storage_buffer(device, "LightMatrix::layers", &layers, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE)?;
+        let lights_buf = storage_buffer(device, "LightMatrix::lights", &gpu_lights, wgpu::BufferUsages::STORAGE)?;
+        Ok((lights_buf, layers_buf, gpu_lights.len()))
     }
 
     /// Record the batch's shadow maps (none with exact rays only).
@@ -206,15 +286,14 @@ impl GpuBackend {
         weights: &[[f32; 4]],
         accum: &wgpu::Buffer,
         columns: Option<&wgpu::Buffer>,
-    ) {
+    ) -> Result<()> {
         let device = &self.ctx.device;
-        let weights_buf = storage_buffer(device, "LightMatrix::weights", weights, wgpu::BufferUsages::STORAGE);
-        let (_, _, dispatch_width) = dispatch_size(view.num_samples);
+        let weights_buf = storage_buffer(device, "LightMatrix::weights", weights, wgpu::BufferUsages::STORAGE)?;
         let dummy;
         let columns_buf = match columns {
             Some(b) => b,
             None => {
-                dummy = storage_buffer::<f32>(device, "LightMatrix::no_columns", &[], wgpu::BufferUsages::STORAGE);
+                dummy = storage_buffer::<f32>(device, "LightMatrix::no_columns", &[], wgpu::BufferUsages::STORAGE)?;
                 &dummy
             }
         };
@@ -223,22 +302,25 @@ impl GpuBackend {
             Visibility::ShadowMap => num_lights,
             Visibility::Hybrid | Visibility::RayTraced => RAYS_PER_INVOCATION as usize,
         };
-        for first in (0..num_lights).step_by(per_dispatch.max(1)) {
+        // And few enough (sample, light) pairs per dispatch for the work budget (`gpu::dispatch`).
+        let rays = self.opts.visibility != Visibility::ShadowMap;
+        for d in crate::gpu::dispatch::plan_columns(view.num_samples, num_lights as u32, per_dispatch as u32, rays) {
+            let (_, _, dispatch_width) = dispatch_size(d.num_samples);
             let params = ColumnParams {
                 num_samples: view.num_samples,
-                num_lights: per_dispatch.min(num_lights - first) as u32,
+                num_lights: d.num_lights,
                 write_columns: columns.is_some() as u32,
                 accumulate: columns.is_none() as u32,
                 resolution: self.opts.shadow_resolution,
                 dispatch_width,
-                first_light: first as u32,
+                first_light: d.first_light,
                 visibility: self.opts.visibility as u32,
                 normal_offset: self.opts.normal_offset,
                 depth_bias: self.opts.depth_bias,
                 slope_bias: self.opts.slope_bias,
-                _pad1: 0.0,
+                first_sample: d.first_sample,
             };
-            let params_buf = storage_buffer(device, "LightMatrix::params", &[params], wgpu::BufferUsages::UNIFORM);
+            let params_buf = storage_buffer(device, "LightMatrix::params", &[params], wgpu::BufferUsages::UNIFORM)?;
             self.columns_pass.encode(
                 device,
                 encoder,
@@ -256,8 +338,10 @@ impl GpuBackend {
                     stats: &self.stats,
                     spot_textures: &self.spot_textures,
                 },
+                d.num_samples,
             );
         }
+        Ok(())
     }
 
     /// Encode and submit one batch: shadow maps, then the column pass. Returns the submission.
@@ -268,12 +352,12 @@ impl GpuBackend {
         weights: &[[f32; 4]],
         accum: &wgpu::Buffer,
         columns: Option<&wgpu::Buffer>,
-    ) -> wgpu::SubmissionIndex {
-        let (lights_buf, layers_buf, n) = self.batch_buffers(js, batch);
+    ) -> Result<wgpu::SubmissionIndex> {
+        let (lights_buf, layers_buf, n) = self.batch_buffers(js, batch)?;
         let mut encoder = self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::batch") });
         self.encode_shadow_maps(&mut encoder, &layers_buf, batch);
-        self.encode_columns(&mut encoder, &self.view_buffers, (&lights_buf, &layers_buf, n), weights, accum, columns);
-        self.ctx.queue.submit(Some(encoder.finish()))
+        self.encode_columns(&mut encoder, &self.view_buffers, (&lights_buf, &layers_buf, n), weights, accum, columns)?;
+        Ok(self.ctx.queue.submit(Some(encoder.finish())))
     }
 
     /// Replaces the light set (same scene, view samples, shadow atlas and BVH): relighting re-uses one
@@ -289,7 +373,7 @@ impl GpuBackend {
                 self.max_binding
             )));
         }
-        self.spot_textures = storage_buffer(&self.ctx.device, "LightMatrix::spot_textures", &texels, wgpu::BufferUsages::STORAGE);
+        self.spot_textures = storage_buffer(&self.ctx.device, "LightMatrix::spot_textures", &texels, wgpu::BufferUsages::STORAGE)?;
         self.spot_texture_offsets = offsets;
         self.row_lights = std::sync::OnceLock::new();
         self.lights = lights;
@@ -306,7 +390,7 @@ impl GpuBackend {
         let mut shadow = 0.0;
         for batch in self.batches(&js, usize::MAX) {
             let t0 = std::time::Instant::now();
-            let (lights_buf, layers_buf, n) = self.batch_buffers(&js, &batch);
+            let (lights_buf, layers_buf, n) = self.batch_buffers(&js, &batch)?;
             let mut encoder =
                 self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::shadow") });
             self.encode_shadow_maps(&mut encoder, &layers_buf, &batch);
@@ -317,7 +401,7 @@ impl GpuBackend {
                 let t1 = std::time::Instant::now();
                 let mut encoder =
                     self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::columns") });
-                self.encode_columns(&mut encoder, view, (&lights_buf, &layers_buf, n), &ones, accum, None);
+                self.encode_columns(&mut encoder, view, (&lights_buf, &layers_buf, n), &ones, accum, None)?;
                 self.wait_for(self.ctx.queue.submit(Some(encoder.finish())))?;
                 seconds[k] += t1.elapsed().as_secs_f64();
             }
@@ -356,18 +440,21 @@ impl GpuBackend {
         )?;
         let batches = self.batches(js, max_columns);
         let largest = batches.iter().map(|b| b.end - b.start).max().unwrap_or(0);
-        let columns_buf = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("LightMatrix::columns"),
-            size: (largest as u64 * column_bytes).max(16),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let accum = storage_buffer::<f32>(&self.ctx.device, "LightMatrix::no_accum", &[], wgpu::BufferUsages::STORAGE);
+        let columns_buf = crate::gpu::alloc::buffer(
+            &self.ctx.device,
+            &wgpu::BufferDescriptor {
+                label: Some("LightMatrix::columns"),
+                size: (largest as u64 * column_bytes).max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            },
+        )?;
+        let accum = storage_buffer::<f32>(&self.ctx.device, "LightMatrix::no_accum", &[], wgpu::BufferUsages::STORAGE)?;
         let pixels = self.view.num_pixels();
         let mut out = Vec::with_capacity(js.len() * pixels * 3);
         for batch in &batches {
             let zeros = vec![[0.0f32; 4]; batch.end - batch.start];
-            self.run_batch(js, batch, &zeros, &accum, Some(&columns_buf));
+            self.run_batch(js, batch, &zeros, &accum, Some(&columns_buf))?;
             let data = self.ctx.read_buffer::<f32>(&columns_buf, 0, (batch.end - batch.start) * m * 3)?;
             if m == pixels {
                 out.extend(data);
@@ -401,17 +488,20 @@ impl GpuBackend {
         }
         let batches = self.batches(js, fit.min(max_columns.max(1)));
         let largest = batches.iter().map(|b| b.end - b.start).max().unwrap_or(0);
-        let columns_buf = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("LightMatrix::gpu_columns"),
-            size: (largest as u64 * column_bytes).max(16),
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let accum = storage_buffer::<f32>(&self.ctx.device, "LightMatrix::no_accum", &[], wgpu::BufferUsages::STORAGE);
+        let columns_buf = crate::gpu::alloc::buffer(
+            &self.ctx.device,
+            &wgpu::BufferDescriptor {
+                label: Some("LightMatrix::gpu_columns"),
+                size: (largest as u64 * column_bytes).max(16),
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            },
+        )?;
+        let accum = storage_buffer::<f32>(&self.ctx.device, "LightMatrix::no_accum", &[], wgpu::BufferUsages::STORAGE)?;
         for batch in &batches {
             let t = std::time::Instant::now();
             let zeros = vec![[0.0f32; 4]; batch.end - batch.start];
-            self.wait_for(self.run_batch(js, batch, &zeros, &accum, Some(&columns_buf)))?;
+            self.wait_for(self.run_batch(js, batch, &zeros, &accum, Some(&columns_buf))?)?;
             each(&columns_buf, batch.start..batch.end, t.elapsed().as_secs_f64())?;
         }
         Ok(())
@@ -423,14 +513,17 @@ impl GpuBackend {
     pub(crate) fn weighted_sum(&self, js: &[usize], weights: &[[f32; 3]], progress: &mut dyn FnMut(usize, usize)) -> Result<Vec<f32>> {
         let w4: Vec<[f32; 4]> = weights.iter().map(|v| [v[0], v[1], v[2], 0.0]).collect();
         let m = self.view.len();
-        let accum = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("LightMatrix::accum"),
-            size: (m as u64 * 16).max(16),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        let accum = crate::gpu::alloc::buffer(
+            &self.ctx.device,
+            &wgpu::BufferDescriptor {
+                label: Some("LightMatrix::accum"),
+                size: (m as u64 * 16).max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            },
+        )?;
         for batch in self.batches(js, usize::MAX) {
-            let submission = self.run_batch(js, &batch, &w4[batch.start..batch.end], &accum, None);
+            let submission = self.run_batch(js, &batch, &w4[batch.start..batch.end], &accum, None)?;
             self.wait_for(submission)?;
             progress(batch.end, js.len());
         }

@@ -155,17 +155,19 @@ impl GpuBackend {
         let t_setup = Instant::now();
         // Lights, in chunks of at most one dispatch and one binding (uploaded on the first call).
         let light_chunk = MAX_LIGHTS_PER_DISPATCH.min((self.max_binding / LIGHT_BYTES) as usize).max(1);
-        let light_chunks = self.row_lights.get_or_init(|| {
-            (0..n)
+        if self.row_lights.get().is_none() {
+            let chunks = (0..n)
                 .step_by(light_chunk)
                 .map(|first| {
                     let gpu: Vec<GpuLight> = (first..(first + light_chunk).min(n))
                         .map(|j| GpuLight::new(&self.lights, j, 0, uses_cube(&self.lights, j), self.spot_texture_offsets[j]))
                         .collect();
-                    (first, storage_buffer(device, "LightMatrix::row_lights", &gpu, wgpu::BufferUsages::STORAGE))
+                    Ok((first, storage_buffer(device, "LightMatrix::row_lights", &gpu, wgpu::BufferUsages::STORAGE)?))
                 })
-                .collect()
-        });
+                .collect::<Result<Vec<_>>>()?;
+            let _ = self.row_lights.set(chunks);
+        }
+        let light_chunks = self.row_lights.get().expect("row lights uploaded above");
 
         // Batches of rows: cube layers of one texture within the memory budget.
         let res = opts.resolution;
@@ -189,16 +191,18 @@ impl GpuBackend {
                 _ => (atlas_layers, out_size),
             };
             *scratch_guard = None;
-            let what = format!("rows: {layers} cube faces of {atlas_res}^2 texels and a {size}-byte output buffer");
-            *scratch_guard = Some(crate::memory::gpu_alloc(device, &what, || RowScratch {
-                atlas: ShadowAtlas::new(device, atlas_res, layers),
-                out_buf: device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("LightMatrix::rows_out"),
-                    size,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                }),
-            })?);
+            *scratch_guard = Some(RowScratch {
+                atlas: ShadowAtlas::new(device, atlas_res, layers)?,
+                out_buf: crate::gpu::alloc::buffer(
+                    device,
+                    &wgpu::BufferDescriptor {
+                        label: Some("LightMatrix::rows_out"),
+                        size,
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                        mapped_at_creation: false,
+                    },
+                )?,
+            });
         }
         let scratch = scratch_guard.as_ref().expect("row scratch allocated above");
         let (atlas, out_buf) = (&scratch.atlas, &scratch.out_buf);
@@ -234,8 +238,8 @@ impl GpuBackend {
                 layers.push(bytemuck::Zeroable::zeroed());
             }
             let layers_buf =
-                storage_buffer(device, "LightMatrix::row_layers", &layers, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE);
-            let rows_buf = storage_buffer(device, "LightMatrix::row_infos", &infos, wgpu::BufferUsages::STORAGE);
+                storage_buffer(device, "LightMatrix::row_layers", &layers, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE)?;
+            let rows_buf = storage_buffer(device, "LightMatrix::row_infos", &infos, wgpu::BufferUsages::STORAGE)?;
             if num_layers > 0 {
                 let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("LightMatrix::row_cubes") });
                 self.shadow_pass.encode(device, &mut encoder, atlas, &layers_buf, num_layers, &self.geometry);
@@ -278,7 +282,7 @@ impl GpuBackend {
                             stats: &self.stats,
                             spot_textures: &self.spot_textures,
                         },
-                    );
+                    )?;
                 }
                 let submission = self.ctx.queue.submit(Some(encoder.finish()));
                 self.wait_for(submission)?;

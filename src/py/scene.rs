@@ -417,19 +417,22 @@ pub fn device_dict<'py>(py: Python<'py>, i: &DeviceInfo) -> PyResult<Bound<'py, 
     info_dict(py, i)
 }
 
-/// The device `device` resolves to (`"auto"`: `MANYLIGHTS_DEVICE`, else a hardware GPU, else the CPU) as a
-/// dict (kind, name, backend, is_software, threads), plus "gpu": the adapter wgpu would use (name,
-/// backend, device_type, driver, driver_info, is_software) or None when there is none.
+/// The device `device` resolves to (`"auto"`: `MANYLIGHTS_DEVICE`, else a hardware GPU that meets every
+/// pass's needs, else the CPU) as a dict (kind, name, backend, is_software, threads, and "reason": why
+/// "auto" took the CPU, else None), plus "gpu": the adapter wgpu would use (name, backend, device_type,
+/// driver, driver_info, is_software, only_software, adapters: every adapter found, unmet: the passes'
+/// needs its limits do not meet, lost) or None when there is none.
 #[pyfunction]
 #[pyo3(signature = (device="auto"))]
 pub fn device_info<'py>(py: Python<'py>, device: &str) -> PyResult<Bound<'py, PyDict>> {
     let dev = Device::parse(device)?;
-    let chosen = py.detach(move || dev.choose())?;
+    let (chosen, reason) = py.detach(move || dev.choose_explained())?;
     let info = match &chosen {
         Chosen::Gpu(ctx) => DeviceInfo::gpu(ctx),
         Chosen::Cpu => DeviceInfo::cpu(),
     };
     let d = info_dict(py, &info)?;
+    d.set_item("reason", reason)?;
     let ctx = match chosen {
         Chosen::Gpu(ctx) => Some(ctx),
         Chosen::Cpu => py.detach(GpuContext::shared).ok(),
@@ -444,6 +447,10 @@ pub fn device_info<'py>(py: Python<'py>, device: &str) -> PyResult<Bound<'py, Py
             g.set_item("driver", &s.driver)?;
             g.set_item("driver_info", &s.driver_info)?;
             g.set_item("is_software", s.is_software)?;
+            g.set_item("only_software", s.only_software)?;
+            g.set_item("adapters", &s.adapters)?;
+            g.set_item("unmet", ctx.unmet.clone())?;
+            g.set_item("lost", ctx.is_lost())?;
             d.set_item("gpu", g)?;
         }
         None => d.set_item("gpu", py.None())?,
@@ -451,7 +458,46 @@ pub fn device_info<'py>(py: Python<'py>, device: &str) -> PyResult<Bound<'py, Py
     Ok(d)
 }
 
+/// Test hook: marks the shared GPU device lost, as a driver reset would; the next GPU call creates a new
+/// device (reading `MANYLIGHTS_GPU_LIMITS` and `MANYLIGHTS_ADAPTER` again). Returns whether a device
+/// existed. Light matrices made on the old device keep working until it is really gone.
+#[pyfunction]
+pub fn _gpu_simulate_loss(py: Python<'_>) -> bool {
+    py.detach(|| match GpuContext::shared() {
+        Ok(ctx) => {
+            ctx.mark_lost();
+            true
+        }
+        Err(_) => false,
+    })
+}
+
+/// The GPU memory a light matrix of `width` x `height` view samples and `lights` lights over
+/// `triangles` triangles would take on the device (`matrix::gpu::estimate_gpu_bytes`, bytes per part),
+/// with the default column options and `shadow_map_size`. Pure arithmetic: no device is made.
+#[pyfunction]
+#[pyo3(signature = (width, height, lights, triangles, shadow_map_size=512))]
+pub fn _gpu_memory_estimate<'py>(
+    py: Python<'py>,
+    width: u32,
+    height: u32,
+    lights: u64,
+    triangles: u64,
+    shadow_map_size: u32,
+) -> PyResult<Bound<'py, PyDict>> {
+    let opts = crate::matrix::ColumnOptions { shadow_resolution: shadow_map_size, ..Default::default() };
+    let parts = crate::matrix::gpu::estimate_gpu_bytes(width as u64 * height as u64, lights, triangles, &opts);
+    let d = PyDict::new(py);
+    for (name, bytes) in parts.parts() {
+        d.set_item(name, bytes)?;
+    }
+    d.set_item("total", parts.total())?;
+    Ok(d)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(_gpu_simulate_loss, m)?)?;
+    m.add_function(wrap_pyfunction!(_gpu_memory_estimate, m)?)?;
     m.add_class::<Scene>()?;
     m.add_function(wrap_pyfunction!(load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(device_info, m)?)?;

@@ -99,9 +99,9 @@ impl SparseParts {
                 first as u32,
                 (end - first) as u32,
                 longest as u32,
-                storage_buffer(device, "GpuRelight::row_start", &start, usage),
-                storage_buffer(device, "GpuRelight::row_index", &index, usage),
-                storage_buffer(device, "GpuRelight::row_value", &value, usage),
+                storage_buffer(device, "GpuRelight::row_start", &start, usage)?,
+                storage_buffer(device, "GpuRelight::row_index", &index, usage)?,
+                storage_buffer(device, "GpuRelight::row_value", &value, usage)?,
             ));
             first = end;
         }
@@ -122,19 +122,20 @@ impl SparseParts {
         passes: &RelightPasses,
         lights: &wgpu::Buffer,
         partial: &wgpu::Buffer,
-    ) {
+    ) -> Result<()> {
         for (first_row, rows, longest, start, index, value) in &self.parts {
             let mut first = 0;
             loop {
                 let p = RelightParams { num_rows: *rows, row_offset: *first_row, first, count: ROW_CHUNK, ..Default::default() };
                 let kernel = if self.channels == 3 { &passes.product_rgb } else { &passes.product };
-                kernel.encode(device, enc, &p, *rows, &[lights, start, index, value, partial]);
+                kernel.encode(device, enc, &p, *rows, &[lights, start, index, value, partial])?;
                 first += ROW_CHUNK;
                 if first >= *longest {
                     break;
                 }
             }
         }
+        Ok(())
     }
 }
 
@@ -264,16 +265,14 @@ impl GpuRelight {
             })
             .collect();
         let white = GpuBsdf { diffuse: [1.0; 3], kind: crate::shading::bsdf::KIND_DIFFUSE, ..bytemuck::Zeroable::zeroed() };
-        let gather_view = ViewBuffers::from_parts(device, &samples, &vec![white; n], &[0.0]);
+        let gather_view = ViewBuffers::from_parts(device, &samples, &vec![white; n], &[0.0])?;
 
         let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
         let vec4s = |label: &str, count: usize| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: (count as u64 * 16).max(16),
-                usage: rw,
-                mapped_at_creation: false,
-            })
+            crate::gpu::alloc::buffer(
+                device,
+                &wgpu::BufferDescriptor { label: Some(label), size: (count as u64 * 16).max(16), usage: rw, mapped_at_creation: false },
+            )
         };
         let k_d_image: Vec<glam::Vec3> = order.iter().map(|&g| c.k_d[g]).collect();
         let mut extra_start = vec![0u32; pixels + 1];
@@ -295,44 +294,43 @@ impl GpuRelight {
             let rows: Vec<&SparseRow> = t.glossy_rows.iter().collect();
             Some(GlossyBuffers {
                 rows: SparseParts::upload(device, &rows, 1, max_binding, "glossy final-gather rows")?,
-                color: storage_buffer(device, "GpuRelight::glossy_color", &rgba(&t.glossy_color), usage),
-                norms: storage_buffer(device, "GpuRelight::glossy_norms", &t.glossy_image_norms, usage),
-                wavelet_lights: vec4s("GpuRelight::glossy_wavelet_lights", n),
-                partial: vec4s("GpuRelight::partial_glossy", pixels),
-                counters: device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("GpuRelight::glossy_counters"),
-                    size: 8,
-                    usage: rw,
-                    mapped_at_creation: false,
-                }),
+                color: storage_buffer(device, "GpuRelight::glossy_color", &rgba(&t.glossy_color), usage)?,
+                norms: storage_buffer(device, "GpuRelight::glossy_norms", &t.glossy_image_norms, usage)?,
+                wavelet_lights: vec4s("GpuRelight::glossy_wavelet_lights", n)?,
+                partial: vec4s("GpuRelight::partial_glossy", pixels)?,
+                counters: crate::gpu::alloc::buffer(
+                    device,
+                    &wgpu::BufferDescriptor { label: Some("GpuRelight::glossy_counters"), size: 8, usage: rw, mapped_at_creation: false },
+                )?,
             })
         };
         let buffers = Buffers {
             gather_view,
-            gather_accum: vec4s("GpuRelight::gather_accum", n),
-            view_accum: vec4s("GpuRelight::view_accum", view.len()),
-            current: vec4s("GpuRelight::current", n),
-            scratch: [vec4s("GpuRelight::scratch0", n), vec4s("GpuRelight::scratch1", n)],
-            coeffs: vec4s("GpuRelight::coeffs", n),
-            wavelet_lights: vec4s("GpuRelight::wavelet_lights", n),
-            partial_pixels: vec4s("GpuRelight::partial_pixels", pixels),
-            partial_gather: vec4s("GpuRelight::partial_gather", n),
-            norms: storage_buffer(device, "GpuRelight::norms", &t.image_norms, usage),
-            gather_k_d: storage_buffer(device, "GpuRelight::gather_k_d", &rgba(&k_d_image), usage),
-            albedo: storage_buffer(device, "GpuRelight::albedo", &rgba(&view.albedo[..pixels]), usage),
-            extra_start: storage_buffer(device, "GpuRelight::extra_start", &extra_start, usage),
-            image: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("GpuRelight::image"),
-                size: (pixels as u64 * 3 + 3) * 4,
-                usage: rw,
-                mapped_at_creation: false,
-            }),
-            counters: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("GpuRelight::counters"),
-                size: 8,
-                usage: rw,
-                mapped_at_creation: false,
-            }),
+            gather_accum: vec4s("GpuRelight::gather_accum", n)?,
+            view_accum: vec4s("GpuRelight::view_accum", view.len())?,
+            current: vec4s("GpuRelight::current", n)?,
+            scratch: [vec4s("GpuRelight::scratch0", n)?, vec4s("GpuRelight::scratch1", n)?],
+            coeffs: vec4s("GpuRelight::coeffs", n)?,
+            wavelet_lights: vec4s("GpuRelight::wavelet_lights", n)?,
+            partial_pixels: vec4s("GpuRelight::partial_pixels", pixels)?,
+            partial_gather: vec4s("GpuRelight::partial_gather", n)?,
+            norms: storage_buffer(device, "GpuRelight::norms", &t.image_norms, usage)?,
+            gather_k_d: storage_buffer(device, "GpuRelight::gather_k_d", &rgba(&k_d_image), usage)?,
+            albedo: storage_buffer(device, "GpuRelight::albedo", &rgba(&view.albedo[..pixels]), usage)?,
+            extra_start: storage_buffer(device, "GpuRelight::extra_start", &extra_start, usage)?,
+            image: crate::gpu::alloc::buffer(
+                device,
+                &wgpu::BufferDescriptor {
+                    label: Some("GpuRelight::image"),
+                    size: (pixels as u64 * 3 + 3) * 4,
+                    usage: rw,
+                    mapped_at_creation: false,
+                },
+            )?,
+            counters: crate::gpu::alloc::buffer(
+                device,
+                &wgpu::BufferDescriptor { label: Some("GpuRelight::counters"), size: 8, usage: rw, mapped_at_creation: false },
+            )?,
             rows: SparseParts::upload(device, &rows, 1, max_binding, "final-gather rows")?,
             bounce_rows: SparseParts::upload(device, &bounce_rows, 1, max_binding, "gather-to-gather rows")?,
             photon_rows: SparseParts::upload(device, &photon_rows, 3, max_binding, "photon-mapped multiple-bounce rows")?,
@@ -364,13 +362,14 @@ impl GpuRelight {
     }
 
     /// Haar transform of `image` into `coeffs` (a copy for a 1 x 1 gather image).
-    fn haar(&self, enc: &mut wgpu::CommandEncoder, image: &wgpu::Buffer) {
+    fn haar(&self, enc: &mut wgpu::CommandEncoder, image: &wgpu::Buffer) -> Result<()> {
         let b = &self.buffers;
         if self.side == 1 {
             enc.copy_buffer_to_buffer(image, 0, &b.coeffs, 0, 16);
         } else {
-            self.passes.encode_haar(&self.ctx.device, enc, self.side, image, [&b.scratch[0], &b.scratch[1]], &b.coeffs);
+            self.passes.encode_haar(&self.ctx.device, enc, self.side, image, [&b.scratch[0], &b.scratch[1]], &b.coeffs)?;
         }
+        Ok(())
     }
 
     /// The relit image (H * W * 3 f32, as `relight::relight`) and the stage times (module docs).
@@ -409,54 +408,54 @@ impl GpuRelight {
             let mut enc = self.encoder();
             enc.copy_buffer_to_buffer(&b.gather_accum, 0, &b.current, 0, n as u64 * 16);
             for _ in 0..self.bounce_passes {
-                self.haar(&mut enc, &b.current);
-                b.bounce_rows.encode(device, &mut enc, &self.passes, &b.coeffs, &b.partial_gather);
+                self.haar(&mut enc, &b.current)?;
+                b.bounce_rows.encode(device, &mut enc, &self.passes, &b.coeffs, &b.partial_gather)?;
                 self.passes.finish_bounce.encode(
                     device,
                     &mut enc,
                     &finish,
                     n,
                     &[&b.current, &b.partial_gather, &b.gather_k_d, &b.gather_accum],
-                );
+                )?;
             }
             self.submit(enc, "the bounce passes")?;
         } else if !b.photon_rows.is_empty() {
             // Once: total = B_1 + k_d / pi (M_E^w W B_1) (`current` takes the unused B_2).
             let mut enc = self.encoder();
-            self.haar(&mut enc, &b.gather_accum);
-            b.photon_rows.encode(device, &mut enc, &self.passes, &b.coeffs, &b.partial_gather);
+            self.haar(&mut enc, &b.gather_accum)?;
+            b.photon_rows.encode(device, &mut enc, &self.passes, &b.coeffs, &b.partial_gather)?;
             self.passes.finish_bounce.encode(
                 device,
                 &mut enc,
                 &finish,
                 n,
                 &[&b.current, &b.partial_gather, &b.gather_k_d, &b.gather_accum],
-            );
+            )?;
             self.submit(enc, "the photon-mapped multiple bounces")?;
         }
         stats.seconds_bounces = t0.elapsed().as_secs_f64();
         // 5: wavelet projection and on-the-fly culling.
         let t0 = Instant::now();
         let mut enc = self.encoder();
-        self.haar(&mut enc, &b.gather_accum);
+        self.haar(&mut enc, &b.gather_accum)?;
         let p = RelightParams { num_rows: n, epsilon, ..Default::default() };
-        self.passes.cull.encode(device, &mut enc, &p, n, &[&b.coeffs, &b.norms, &b.wavelet_lights, &b.counters]);
+        self.passes.cull.encode(device, &mut enc, &p, n, &[&b.coeffs, &b.norms, &b.wavelet_lights, &b.counters])?;
         if let Some(g) = &b.glossy {
-            self.passes.cull.encode(device, &mut enc, &p, n, &[&b.coeffs, &g.norms, &g.wavelet_lights, &g.counters]);
+            self.passes.cull.encode(device, &mut enc, &p, n, &[&b.coeffs, &g.norms, &g.wavelet_lights, &g.counters])?;
         }
         self.submit(enc, "the wavelet transform")?;
         stats.seconds_wavelet = t0.elapsed().as_secs_f64();
         // 6: sparse products, times k_d / pi, plus direct.
         let t0 = Instant::now();
         let mut enc = self.encoder();
-        b.rows.encode(device, &mut enc, &self.passes, &b.wavelet_lights, &b.partial_pixels);
+        b.rows.encode(device, &mut enc, &self.passes, &b.wavelet_lights, &b.partial_pixels)?;
         let p = RelightParams { num_rows: self.pixels, ..Default::default() };
         let tail = self.pixels as u64 * 12;
         enc.copy_buffer_to_buffer(&b.counters, 0, &b.image, tail, 8);
         if let Some(g) = &b.glossy {
-            g.rows.encode(device, &mut enc, &self.passes, &g.wavelet_lights, &g.partial);
+            g.rows.encode(device, &mut enc, &self.passes, &g.wavelet_lights, &g.partial)?;
             let bufs = [&b.partial_pixels, &b.albedo, &b.view_accum, &b.extra_start, &b.image, &g.partial, &g.color];
-            self.passes.combine_glossy.encode(device, &mut enc, &p, self.pixels, &bufs);
+            self.passes.combine_glossy.encode(device, &mut enc, &p, self.pixels, &bufs)?;
             enc.copy_buffer_to_buffer(&g.counters, 4, &b.image, tail + 8, 4);
         } else {
             self.passes.combine.encode(
@@ -465,7 +464,7 @@ impl GpuRelight {
                 &p,
                 self.pixels,
                 &[&b.partial_pixels, &b.albedo, &b.view_accum, &b.extra_start, &b.image],
-            );
+            )?;
         }
         self.submit(enc, "the transfer product")?;
         stats.seconds_transfer = t0.elapsed().as_secs_f64();

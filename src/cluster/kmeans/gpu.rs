@@ -48,10 +48,10 @@ pub(crate) fn kmeans_gpu_with_budget(
         crate::interrupt::check()?;
         let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("kmeans_gpu::iteration") });
         if pending_update {
-            bufs.encode_update(ctx, &mut enc);
+            bufs.encode_update(ctx, &mut enc)?;
         }
-        bufs.encode_assign(ctx, &mut enc);
-        bufs.encode_accumulate(ctx, &mut enc, objective.len() < p.max_iterations);
+        bufs.encode_assign(ctx, &mut enc)?;
+        bufs.encode_accumulate(ctx, &mut enc, objective.len() < p.max_iterations)?;
         ctx.queue.submit(Some(enc.finish()));
         objective.push(bufs.read_objective(ctx)?);
         let t = objective.len() - 1;
@@ -118,8 +118,8 @@ pub(crate) fn fuzzy_membership_gpu_with_budget(
         bufs.params.budget = b;
     }
     let mut enc = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("fuzzy_membership_gpu") });
-    bufs.encode_assign(ctx, &mut enc);
-    bufs.encode_weights(ctx, &mut enc);
+    bufs.encode_assign(ctx, &mut enc)?;
+    bufs.encode_weights(ctx, &mut enc)?;
     ctx.queue.submit(Some(enc.finish()));
     let (idx, d2) = bufs.read_lists(ctx)?;
     let weights: Vec<f32> = ctx.read_buffer(&bufs.weights, 0, idx.len())?;

@@ -37,8 +37,8 @@ fn weighted_accumulation_on_the_gpu() {
     let m = (w * h) as usize;
     let a = mapping(w, h, 4);
     let img: Vec<f32> = (0..m * 3).map(|v| v as f32).collect();
-    let src = &upload_images(&ctx, &img, m)[0];
-    let target = &upload_images(&ctx, &vec![1.0; m * 3], m)[0];
+    let src = &upload_images(&ctx, &img, m).unwrap()[0];
+    let target = &upload_images(&ctx, &vec![1.0; m * 3], m).unwrap()[0];
     let index = upload_mapping(&ctx, &a).unwrap();
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     let pass = MappingPass::shared(&ctx);
@@ -47,7 +47,8 @@ fn weighted_accumulation_on_the_gpu() {
             &ctx,
             &mut enc,
             &MappingInputs { source: src, mapping: &index, target, num_pixels: m as u32, weight, accumulate: true },
-        );
+        )
+        .unwrap();
     }
     ctx.queue.submit(Some(enc.finish()));
     let got: Vec<[f32; 4]> = ctx.read_buffer(target, 0, m).unwrap();

@@ -223,15 +223,15 @@ fn gpu_haar_equals_cpu_haar() {
             })
             .collect();
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-        let image = storage_buffer(device, "test::image", &img, usage);
+        let image = storage_buffer(device, "test::image", &img, usage).unwrap();
         let zeros = vec![[0f32; 4]; n];
         let (s0, s1, coeffs) = (
-            storage_buffer(device, "s0", &zeros, usage),
-            storage_buffer(device, "s1", &zeros, usage),
-            storage_buffer(device, "c", &zeros, usage),
+            storage_buffer(device, "s0", &zeros, usage).unwrap(),
+            storage_buffer(device, "s1", &zeros, usage).unwrap(),
+            storage_buffer(device, "c", &zeros, usage).unwrap(),
         );
         let mut enc = device.create_command_encoder(&Default::default());
-        passes.encode_haar(device, &mut enc, side, &image, [&s0, &s1], &coeffs);
+        passes.encode_haar(device, &mut enc, side, &image, [&s0, &s1], &coeffs).unwrap();
         ctx.queue.submit(Some(enc.finish()));
         let got: Vec<[f32; 4]> = ctx.read_buffer(&coeffs, 0, n).unwrap();
         let mut want: Vec<f32> = img.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
@@ -271,15 +271,15 @@ fn sparse_products_split_over_chunks_and_parts() {
         })
         .collect();
     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-    let light_buf = storage_buffer(device, "lights", &lights, usage);
+    let light_buf = storage_buffer(device, "lights", &lights, usage).unwrap();
     let refs: Vec<&SparseRow> = rows.iter().collect();
     // One part; parts of at most n coefficients (the long row alone); tiny parts of at most 64 (rows 0-3).
     for (max_binding, count) in [(1u64 << 27, rows.len()), (4 * n as u64, rows.len()), (256, 4)] {
         let parts = SparseParts::upload(device, &refs[..count], 1, max_binding, "test rows").unwrap();
         assert_eq!(parts.parts.len() > 1, max_binding < 1 << 27, "{max_binding}: {} parts", parts.parts.len());
-        let partial = storage_buffer(device, "partial", &vec![[0f32; 4]; count], usage);
+        let partial = storage_buffer(device, "partial", &vec![[0f32; 4]; count], usage).unwrap();
         let mut enc = device.create_command_encoder(&Default::default());
-        parts.encode(device, &mut enc, &passes, &light_buf, &partial);
+        parts.encode(device, &mut enc, &passes, &light_buf, &partial).unwrap();
         ctx.queue.submit(Some(enc.finish()));
         let got: Vec<[f32; 4]> = ctx.read_buffer(&partial, 0, count).unwrap();
         for (r, (g, w)) in got.iter().zip(&want).enumerate() {
@@ -317,9 +317,9 @@ fn sparse_products_split_over_chunks_and_parts() {
     for max_binding in [1u64 << 27, 12 * n as u64] {
         let parts = SparseParts::upload(device, &refs, 3, max_binding, "test rgb rows").unwrap();
         assert_eq!(parts.parts.len() > 1, max_binding < 1 << 27, "{max_binding}: {} parts", parts.parts.len());
-        let partial = storage_buffer(device, "partial", &vec![[0f32; 4]; rgb.len()], usage);
+        let partial = storage_buffer(device, "partial", &vec![[0f32; 4]; rgb.len()], usage).unwrap();
         let mut enc = device.create_command_encoder(&Default::default());
-        parts.encode(device, &mut enc, &passes, &light_buf, &partial);
+        parts.encode(device, &mut enc, &passes, &light_buf, &partial).unwrap();
         ctx.queue.submit(Some(enc.finish()));
         let got: Vec<[f32; 4]> = ctx.read_buffer(&partial, 0, rgb.len()).unwrap();
         for (r, (g, w)) in got.iter().zip(&want).enumerate() {
