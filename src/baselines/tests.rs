@@ -10,7 +10,7 @@ use std::sync::Arc;
 fn cbox_lights(res: u32) -> LightMatrix {
     use crate::scene::{load_scene, LoadOptions};
     let xml = crate::testing::scene_file("cbox-lights/scene.xml");
-    let opts = LoadOptions { params: vec![("res".into(), res.to_string())], size: None };
+    let opts = LoadOptions { params: vec![("res".into(), res.to_string())], size: None, ..Default::default() };
     let scene = Arc::new(load_scene(&xml, &opts).unwrap());
     let gen = GenerateOptions { area: 24, environment: 24, indirect: 300, seed: 5, ..Default::default() };
     let lights = Arc::new(generate_lights(&scene, &gen).unwrap());
