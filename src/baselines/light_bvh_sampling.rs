@@ -4,7 +4,9 @@
 //! drawn independently from the light tree's distribution pdf_i (`LightTree::sample`), each shaded
 //! exactly with one shadow ray (`crate::cpu::shade`), and the estimate
 //!
-//!     S_i = (1 / k) sum_s A(i, j_s) / pdf_i(j_s)
+//! ```text
+//! S_i = (1 / k) sum_s A(i, j_s) / pdf_i(j_s)
+//! ```
 //!
 //! is unbiased for sum_j A(i, j) because pdf_i(j) > 0 wherever light j can light view sample i
 //! (`lights::light_tree` module docs). A draw that finds no light (nothing can reach i) adds 0.

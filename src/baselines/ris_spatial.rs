@@ -10,7 +10,9 @@
 //! are combined with the generalized balance heuristic (Bitterli et al. 2020, Sec. 4.3, the MIS form of
 //! Eq. 16): y is chosen among their samples y_n with weights
 //!
-//!     w_n = m_n(y_n) p_hat_q(y_n) W_n,   m_n(y) = M_n p_hat_n(y) / sum_k M_k p_hat_k(y)
+//! ```text
+//! w_n = m_n(y_n) p_hat_q(y_n) W_n,   m_n(y) = M_n p_hat_n(y) / sum_k M_k p_hat_k(y)
+//! ```
 //!
 //! and W = w_sum / p_hat_q(y). The m_n sum to 1 wherever some reservoir could have produced y, which
 //! keeps the estimate unbiased where the neighbours' target functions differ from q's (measured: the
