@@ -271,7 +271,7 @@ def choose_light_counts(scene, target_error: Optional[float], time_budget: Optio
 
 
 def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_depth: int, variance: float,
-                       refine_seconds: Optional[float] = None) -> dict:
+                       refine_seconds: Optional[float] = None, target_error: Optional[float] = None) -> dict:
     """The light model of the rendered image ``res`` (from ``A``), chosen by probe residuals (module doc,
     "Light models"), and the chosen model's error from FRESH probes that took no part in the choice.
 
@@ -283,7 +283,8 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     ``probe_error`` on the same probes, the smallest wins (a model with a known bias source must be
     ``BIAS_MARGIN`` better), and a second, fresh probe set estimates the winner's
     error (so the reported bound is not the minimum of noisy scores); where few probes carry that estimate they
-    are retraced with more paths for at most ``refine_seconds`` (``probe_error.refine_probes``).
+    are retraced with more paths for at most ``refine_seconds`` (``probe_error.refine_probes``), and likewise
+    while ``target_error`` lies between its lower and upper confidence bounds.
 
     Sets ``res.image``, ``res.bias_sources`` (the winner's), the error fields (``attach_probe_error``),
     ``budget['light_model']`` (``chosen``, ``candidates``: model, variance, selection error, ``reason``),
@@ -314,7 +315,8 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
         reason = (f"smallest error at {probes} selection probes: " + ", ".join(
             f"{c['model']} {c['selection']:.3g}" for c in candidates))
     est = probe_error(chosen["image"], scene, probes, spp=spp, max_depth=max_depth, seed=seed,
-                      variance_estimate=chosen["variance"], refine_seconds=refine_seconds)
+                      variance_estimate=chosen["variance"], refine_seconds=refine_seconds,
+                      refine_target=target_error)
     res.image = chosen["image"]
     res.bias_sources = chosen["bias_sources"]
     attach_probe_error(res, scene, probes, seed, variance=chosen["variance"], estimate=est)
@@ -437,7 +439,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         try:
             spent = float(sum(res.timings.values())) + counts["seconds"] + t_lights
             est = choose_light_model(res, A, scene, error_probes, seed, spp=probe_spp, max_depth=max_depth,
-                                     variance=total, refine_seconds=max(REFINE_MIN_SECONDS, REFINE_SHARE * spent))
+                                     variance=total, refine_seconds=max(REFINE_MIN_SECONDS, REFINE_SHARE * spent),
+                                     target_error=target_error)
             probe = res.budget["probes"]
         except ValueError as e:  # a scene the probes do not support: the result stands, without them
             probes_failed, error_probes = str(e), 0

@@ -103,7 +103,8 @@ def integrator_depth(scene) -> tuple[str, int]:
 
 def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_depth: Optional[int] = None,
                 seed: int = 0, confidence: float = 0.9, variance_estimate: Optional[float] = None,
-                lights=None, refine: bool = True, refine_seconds: Optional[float] = None) -> dict:
+                lights=None, refine: bool = True, refine_seconds: Optional[float] = None,
+                refine_target: Optional[float] = None) -> dict:
     """Estimate the relative L2 of ``image`` against the converged scene from unbiased probe pixels
     (module doc: (1), (2)): ``probe_estimate(image, probe_sample(image, scene, ...))``.
 
@@ -123,10 +124,13 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
             (``refine_probes``, (5)); False: one pass of ``spp`` paths per probe.
         refine_seconds: at most this many seconds of retracing (None: ``REFINE_TIMES`` x the first pass's,
             and at least ``REFINE_MIN_SECONDS``).
+        refine_target: a target relative L2: retrace also while it lies between the lower and the upper
+            bound (``refine_probes``' target); None: only while the estimate is unreliable.
 
     Returns:
         dict: ``error_estimate`` (relative L2 at the upper confidence bound), ``error_mean`` (the point
-        estimate (2), relative), ``bias_estimate`` (relative L2 of E[I] - I*, from ``variance_estimate``, or
+        estimate (2), relative), ``error_lower`` (the lower confidence bound, relative), ``bias_estimate``
+        (relative L2 of E[I] - I*, from ``variance_estimate``, or
         None), ``probes`` N, ``spp``, ``max_depth``, ``confidence``, ``effective_probes``, ``reliable``
         (effective_probes >= min(N / 4, ``MIN_EFFECTIVE``)), ``pixels`` (N, 2) int64 (row, column),
         ``probe_mean`` / ``probe_variance`` (N, 3) float32, ``residuals`` (N,) float64 d_k, ``seconds``,
@@ -143,14 +147,16 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
     if refine:
         limit = refine_seconds if refine_seconds is not None else max(REFINE_MIN_SECONDS,
                                                                       REFINE_TIMES * sample["seconds"])
-        sample = refine_probes(image, sample, seed=seed, lights=lights, max_seconds=limit)
+        sample = refine_probes(image, sample, seed=seed, lights=lights, max_seconds=limit, target=refine_target)
     return probe_estimate(image, sample, confidence=confidence, variance_estimate=variance_estimate)
 
 
 def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Optional[int] = None,
-                  factor: Optional[int] = None, max_seconds: Optional[float] = None) -> dict:
-    """Retrace the probes that carry an unreliable estimate (5): while fewer than min(N / 4, ``MIN_EFFECTIVE``)
-    probes carry (2), the fewest probes whose terms |d_k / p_k| make up ``REFINE_MASS`` of the sum (at most
+                  factor: Optional[int] = None, max_seconds: Optional[float] = None,
+                  target: Optional[float] = None) -> dict:
+    """Retrace the probes that carry an unreliable or undecided estimate (5): while fewer than
+    min(N / 4, ``MIN_EFFECTIVE``) probes carry (2), or while a ``target`` lies between the lower and the upper
+    confidence bound (more paths can decide it), the fewest probes whose terms |d_k / p_k| make up ``REFINE_MASS`` of the sum (at most
     N / ``REFINE_CAP``) are traced again with ``factor`` x the paths behind their mean, all FRESH, which
     replace their mean and variance; at most ``rounds`` times, and no round that would take the retracing
     past ``max_seconds`` (predicted from the paths per second of the sample).
@@ -165,6 +171,7 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
         sample: a ``probe_sample`` of its scene (not modified).
         seed: seeds the fresh paths (a stream apart from the sample's).
         lights: as ``probe_sample``.
+        target: a relative L2 the caller compares the bound with (None: retrace only while unreliable).
         rounds: at most this many rounds (>= 0; None: ``REFINE_ROUNDS``).
         factor: paths of a retraced probe, as a multiple of the paths behind its mean (>= 2; None:
             ``REFINE_FACTOR``).
@@ -192,7 +199,8 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     t = time.perf_counter()
     for r in range(rounds):
         est = probe_estimate(image, out)
-        if est["reliable"] or n < 2:
+        undecided = target is not None and est["error_lower"] <= target < est["error_estimate"]
+        if (est["reliable"] and not undecided) or n < 2:
             break
         mag = np.abs(est["residuals"] / out["p"])
         if not np.any(mag):
@@ -305,7 +313,8 @@ def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_est
     pt = float(np.mean(np.sum(v, axis=1) * paths / pk)) / norm2 if norm2 > 0 else float("inf")
     # A point estimate below zero says the error is within the probes' noise: the bound is then that noise
     # (z s), never less -- on glossy probes, whose variances are heavy-tailed, (2) falls below zero often.
-    out = {"error_estimate": rel(max(se, 0.0) + z * sd), "error_mean": rel(se), "bias_estimate": None, "probes": probes,
+    out = {"error_estimate": rel(max(se, 0.0) + z * sd), "error_mean": rel(se), "error_lower": rel(se - z * sd),
+           "bias_estimate": None, "probes": probes,
            "spp": spp, "max_depth": sample["max_depth"], "confidence": confidence, "effective_probes": eff,
            "reliable": bool(eff >= min(probes / 4, MIN_EFFECTIVE)), "pixels": sample["pixels"],
            "probe_mean": mean, "probe_variance": var, "residuals": d, "seconds": sample["seconds"],
