@@ -126,6 +126,15 @@ def flicker(frames, reference) -> float:
     return float(np.sqrt(num / den))
 
 
+def _pair_eps(image, reference, eps):
+    """``_pair`` of the two images (float64) and ``eps`` checked > 0, for relMSE and SMAPE."""
+    eps = real("eps", eps, 0.0)
+    if eps <= 0:
+        raise ValueError(f"eps must be > 0, got {eps}")
+    a, b = _pair(image, reference)
+    return a, b, eps
+
+
 @checked_keywords()
 def relmse(image, reference, eps: float = 1e-2) -> float:
     """Relative mean squared error (Rousselle, Knaus, Zwicker, "Adaptive Sampling and Reconstruction using
@@ -145,10 +154,7 @@ def relmse(image, reference, eps: float = 1e-2) -> float:
 
     Raises:
         ValueError: different shapes, empty images, NaN/inf values, eps <= 0 or NaN."""
-    eps = real("eps", eps, 0.0)
-    if eps <= 0:
-        raise ValueError(f"eps must be > 0, got {eps}")
-    a, b = _pair(image, reference)
+    a, b, eps = _pair_eps(image, reference, eps)
     return float(np.mean((a - b) ** 2 / (b * b + eps)))
 
 
@@ -171,10 +177,7 @@ def smape(image, reference, eps: float = 1e-2) -> float:
 
     Raises:
         ValueError: different shapes, empty images, NaN/inf values, eps <= 0 or NaN."""
-    eps = real("eps", eps, 0.0)
-    if eps <= 0:
-        raise ValueError(f"eps must be > 0, got {eps}")
-    a, b = _pair(image, reference)
+    a, b, eps = _pair_eps(image, reference, eps)
     return float(np.mean(np.abs(a - b) / (np.abs(a) + np.abs(b) + eps)))
 
 
