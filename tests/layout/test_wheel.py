@@ -57,7 +57,7 @@ def wheel(tmp_path_factory) -> Path:
 def test_wheel_contents(wheel):
     names = zipfile.ZipFile(wheel).namelist()
     scenes = {n.split("/")[2] for n in names if n.startswith("manylights/scenes_data/") and n.count("/") >= 3}
-    assert scenes == {"bounce", "cbox", "cbox-lights", "demo", "veach-ajar"}, scenes
+    assert scenes == {"bounce", "cbox", "cbox-lights", "demo", "veach-ajar", "window-room"}, scenes
     for name in scenes:
         assert f"manylights/scenes_data/{name}/SOURCE.txt" in names
         assert f"manylights/scenes_data/{name}/scene.xml" in names
@@ -96,7 +96,7 @@ def test_wheel_quick_start_in_fresh_venv(wheel, tmp_path):
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert Path(out["module"]).resolve().is_relative_to(venv.resolve()), out["module"]
     assert Path(out["scene"]).resolve().is_relative_to(venv.resolve()), out["scene"]
-    assert out["available"] == ["bounce", "cbox", "cbox-lights", "demo", "veach-ajar"]
+    assert out["available"] == ["bounce", "cbox", "cbox-lights", "demo", "veach-ajar", "window-room"]
     assert out["shape"] == [16, 16, 3] and out["finite"] and out["lights"] >= 64
     # the lit Cornell box: a mean well above zero (the full-size brute force has mean ~0.3)
     assert 0.05 < out["mean"] < 2.0, out["mean"]
