@@ -205,9 +205,14 @@ def table(summary: dict) -> str:
         j = c["verdict"]
         claimed_true = [truth(r) for r in c["runs"] if r["claimed"]]
         mx = f"{max(claimed_true):.2%}" if claimed_true else "-"
-        mit = c.get("mitsuba_seconds")
-        mit_s = "-" if mit is None else (f"{mit:.2f} ({c['mitsuba_how']})" if c["mitsuba_how"] != "interpolated"
-                                         else f"{mit:.2f}")
+        mit, lad = c.get("mitsuba_seconds"), c.get("mitsuba_ladder") or []
+        if mit is not None:
+            mit_s = f"{mit:.2f} ({c['mitsuba_how']})" if c["mitsuba_how"] != "interpolated" else f"{mit:.2f}"
+        elif lad:
+            last = lad[-1]
+            mit_s = f"> {last['seconds']:.2f} ({last['true']:.2%} at {last['spp']} spp)"
+        else:
+            mit_s = "-"
         lines.append(f"| {c['cell']} | {c['target']:.0%} | {j['claimed']}/{j['seeds']} | {j['median_true']:.2%}, {mx} "
                      f"| {j['median_estimate']:.2%} | {j.get('unclaimed_estimate_below_half', '-')}, "
                      f"{j.get('unclaimed_estimate_above_2x', '-')} | {'yes' if j['keeps_its_word'] else '**no**'} "
