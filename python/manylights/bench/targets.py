@@ -45,6 +45,7 @@ Symbols
 """
 from __future__ import annotations
 
+import argparse
 import json
 import time
 from pathlib import Path
@@ -92,7 +93,7 @@ def add_parser(sub) -> None:
     p.add_argument("--cells", nargs="+", default=list(CELLS), choices=list(CELLS))
     p.add_argument("--targets", type=float, nargs="+", default=DEFAULT_TARGETS)
     p.add_argument("--seeds", type=int, default=8)
-    p.add_argument("--mitsuba", action=__import__("argparse").BooleanOptionalAction, default=True,
+    p.add_argument("--mitsuba", action=argparse.BooleanOptionalAction, default=True,
                    help="time Mitsuba's path tracer to each cell's median true error (default: on)")
     p.add_argument("--max-spp", type=int, default=4096, help="the last spp level of Mitsuba's ladder")
     p.add_argument("--out", default="docs/bench")

@@ -156,8 +156,8 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
                   target: Optional[float] = None) -> dict:
     """Retrace the probes that carry an unreliable or undecided estimate (5): while fewer than
     min(N / 4, ``MIN_EFFECTIVE``) probes carry (2), or while a ``target`` lies between the lower and the upper
-    confidence bound (more paths can decide it), the fewest probes whose terms |d_k / p_k| make up ``REFINE_MASS`` of the sum (at most
-    N / ``REFINE_CAP``) are traced again with ``factor`` x the paths behind their mean, all FRESH, which
+    confidence bound (more paths can decide it), the fewest probes whose terms |d_k / p_k| make up
+    ``REFINE_MASS`` of the sum (at most N / ``REFINE_CAP``) are traced again with ``factor`` x the paths behind their mean, all FRESH, which
     replace their mean and variance; at most ``rounds`` times, and no round that would take the retracing
     past ``max_seconds`` (predicted from the paths per second of the sample).
 
@@ -193,8 +193,7 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     out = dict(sample)
     out["mean"], out["variance"] = sample["mean"].copy(), sample["variance"].copy()
     out["refined"] = np.zeros(n, np.int64)
-    out["paths"] = np.asarray(sample.get("paths", np.full(n, sample["spp"])), np.int64).copy()
-    out["traced"] = int(sample.get("traced", int(out["paths"].sum())))
+    out["paths"] = sample["paths"].copy()
     rate = out["traced"] / max(sample["seconds"], 1e-9)
     t = time.perf_counter()
     for r in range(rounds):
@@ -238,12 +237,13 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     the probabilities stay those of ``image``, so every estimate is unbiased; only its spread depends on how
     close the other images are to ``image``).
 
-    Args: as ``probe_error``; ``pilot``: trace ``PILOT_SPP`` paths at every pixel (at most ``PILOT_MAX_PIXELS``,
-    uniformly chosen) first and give the pixels where the image differs from them a share of the mixture (6);
-    False: uniform and squared-value shares only. Returns: dict ``pixels`` (N, 2) int64, ``index`` (N,) flat pixel indices,
-    ``p`` (N,) float64 their probabilities, ``mean`` / ``variance`` (N, 3) float32, ``spp``, ``max_depth``,
-    ``seconds`` (pilot included), ``shape_index`` (N,) int64 (-1: background), ``scene`` (the Scene), ``traced``
-    (all paths, the pilot's included). Raises: as ``probe_error``.
+    Args: as ``probe_error``; ``pilot``: trace ``PILOT_SPP`` paths at every pixel (at most
+    ``PILOT_MAX_PIXELS``, uniformly chosen) first and give the pixels where the image differs from them a share
+    of the mixture (6); False: uniform and squared-value shares only. Returns: dict ``pixels`` (N, 2) int64,
+    ``index`` (N,) flat pixel indices, ``p`` (N,) float64 their probabilities, ``mean`` / ``variance`` (N, 3)
+    float32, ``spp``, ``paths`` (N,) int64 (the paths behind each mean: ``spp``), ``max_depth``, ``seconds``
+    (pilot included), ``shape_index`` (N,) int64 (-1: background), ``scene`` (the Scene), ``traced`` (all
+    paths, the pilot's included). Raises: as ``probe_error``.
     """
     img = _check_image(image, scene)
     H, W = scene.height, scene.width
@@ -258,8 +258,6 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     # replacement, each probe weighted by 1 / (N p_k) (Hansen-Hurwitz).
     flat = img.reshape(-1, 3).astype(np.float64)
     sq = np.sum(flat ** 2, axis=1)
-    prob = np.full(M, (1.0 - RISK_SHARE - PILOT_SHARE) / M) + (RISK_SHARE * sq / sq.sum() if sq.sum() > 0
-                                                               else RISK_SHARE / M)
     risk, pilot_paths = np.zeros(M), 0
     if pilot:
         rng = np.random.default_rng(derived_seed(seed, PROBE_STREAM + 8))
@@ -269,7 +267,7 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
                              lights=lights)
         risk[at] = np.sum((flat[at] - pm.astype(np.float64)) ** 2, axis=1)
         pilot_paths = len(at) * PILOT_SPP
-    prob += PILOT_SHARE * risk / risk.sum() if risk.sum() > 0 else PILOT_SHARE / M
+    prob = (1.0 - RISK_SHARE - PILOT_SHARE) / M + _share(sq, RISK_SHARE) + _share(risk, PILOT_SHARE)
     rng = np.random.default_rng(derived_seed(seed, PROBE_STREAM))
     idx = np.sort(rng.choice(M, size=probes, p=prob / prob.sum()))
     pk = prob[idx] / prob.sum()
@@ -279,7 +277,13 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     shape = np.asarray(scene.gbuffer(device="cpu")["shape_index"]).reshape(-1).astype(np.int64)[idx]
     return {"pixels": pixels, "index": idx, "p": pk, "mean": mean, "variance": var, "spp": int(spp),
             "max_depth": int(max_depth), "seconds": time.perf_counter() - t, "shape_index": shape, "scene": scene,
-            "traced": probes * int(spp) + pilot_paths}
+            "paths": np.full(probes, int(spp), np.int64), "traced": probes * int(spp) + pilot_paths}
+
+
+def _share(weights: np.ndarray, share: float) -> np.ndarray:
+    """``share`` of a mixture spread over the pixels in proportion to ``weights`` (evenly where all are 0)."""
+    total = weights.sum()
+    return share * weights / total if total > 0 else np.full(len(weights), share / len(weights))
 
 
 def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_estimate: Optional[float] = None) -> dict:
@@ -309,7 +313,7 @@ def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_est
 
     # (3): one path per pixel of the probes' tracer has per-pixel variance spp * v_k; its total over the image
     # is estimated like (2), relative to ||I||^2.
-    paths = np.asarray(sample.get("paths", np.full(probes, spp)), np.float64)
+    paths = sample["paths"].astype(np.float64)
     pt = float(np.mean(np.sum(v, axis=1) * paths / pk)) / norm2 if norm2 > 0 else float("inf")
     # A point estimate below zero says the error is within the probes' noise: the bound is then that noise
     # (z s), never less -- on glossy probes, whose variances are heavy-tailed, (2) falls below zero often.
@@ -318,7 +322,7 @@ def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_est
            "spp": spp, "max_depth": sample["max_depth"], "confidence": confidence, "effective_probes": eff,
            "reliable": bool(eff >= min(probes / 4, MIN_EFFECTIVE)), "pixels": sample["pixels"],
            "probe_mean": mean, "probe_variance": var, "residuals": d, "seconds": sample["seconds"],
-           "paths_per_second": float(sample.get("traced", paths.sum())) / max(sample["seconds"], 1e-9),
+           "paths_per_second": float(sample["traced"]) / max(sample["seconds"], 1e-9),
            "refined": int(np.count_nonzero(sample.get("refined", 0))), "path_tracer_variance": pt,
            "error_by_shape": error_by_shape(scene, sample["shape_index"], terms)}
     if variance_estimate is not None and norm2 > 0.0:
