@@ -45,7 +45,7 @@ wheel: build
 	$(VENV)/bin/maturin build --release -q -o $(WHEEL_DIR) -i $(PY)
 
 test-python: build wheel
-	MANYLIGHTS_WHEEL="$$(ls $(WHEEL_DIR)/manylights-*.whl)" $(PY) -m pytest -q tests
+	MANYLIGHTS_WHEEL="$$(ls $(WHEEL_DIR)/manylights-*.whl)" $(PY) -m pytest -q --durations=25 tests
 
 # Style: ruff (pyproject.toml: pyflakes, pycodestyle's errors, sorted imports) over the package and the tests.
 lint: venv

@@ -27,6 +27,8 @@ Subcommands:
     targets  ml.render(scene, target_error=e) against converged Mitsuba references: what it claims, its
              estimate and the true error per (scene, target) cell, Mitsuba's time to the same error
              (``bench.targets``).
+    bias     res.bias_estimate against the true bias of the mean over 16 seeds at fixed light counts, on
+             clamped-VPL interiors against converged Mitsuba references (``bench.bias``).
     vs-mitsuba time to 5/2/1% relative L2 of a converged Mitsuba reference: MRCS on the CPU and GPU backends
              against Mitsuba's path tracer (``bench.vs_mitsuba``).
 

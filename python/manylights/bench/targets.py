@@ -139,6 +139,7 @@ def render_once(xml: Path, params: dict, max_depth: int, target: float, seed: in
                                true_error(res.image[~edges], ref[~edges], ref_var[~edges])),
         "seconds": seconds,
         "probe_seconds": float(res.timings.get("probes", 0.0)),
+        "timings": {k: float(v) for k, v in res.timings.items()},
         "advice": b.get("advice"),
     }
 
