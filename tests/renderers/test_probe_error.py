@@ -57,10 +57,16 @@ def test_other_renderers_take_error_probes(cbox):
     A = ml.LightMatrix(scene, ml.generate_lights(scene, area=256, indirect=500, seed=3), device="cpu")
     for res in (ml.power_sampling(A, columns=256, error_probes=64),
                 ml.clustered_visibility(A, light_clusters=64, view_clusters=64, error_probes=64),
-                ml.instant_radiosity(scene, lights=300, error_probes=64, device="cpu")):
+                ml.instant_radiosity(scene, lights=300, error_probes=64, device="cpu"),
+                ml.light_bvh_sampling(A, samples=4, error_probes=64),
+                ml.ris_sampling(A, samples=2, candidates=8, error_probes=64)):
         true = ml.relative_l2(res.image, ref)
         assert res.error_estimate >= 0.5 * true, (res.method, res.error_estimate, true)
         assert res.budget["probes"]["probes"] == 64
+        if res.method in ("light_bvh_sampling", "ris_sampling"):  # the sample variance's estimate is kept
+            plain = getattr(ml, res.method)(A, **{k: res.budget[k] for k in ("samples", "candidates")
+                                                  if k in res.budget})
+            assert res.variance_estimate == plain.error_estimate > 0 and res.bias_estimate is not None
 
 
 def test_render_claims_a_target_only_under_the_probe_bound(tmp_path, monkeypatch):

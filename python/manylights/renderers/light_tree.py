@@ -31,6 +31,7 @@ from .._native import LightTree
 from .._utils import validate as _v
 from .._utils.keywords import checked_keywords
 from .bias import bias_sources
+from .probe_error import attach_probe_error
 from .result import RenderResult, matrix_shape
 
 
@@ -71,7 +72,7 @@ def _checked(A, samples, seed, what):
 
 @checked_keywords()
 def light_bvh_sampling(A, samples: int = 16, seed: int = 0, *, tree: Optional[LightTree] = None,
-                       add_emitted: bool = True) -> RenderResult:
+                       add_emitted: bool = True, error_probes: int = 0) -> RenderResult:
     """Light-BVH importance sampling (module doc): ``samples`` lights per view sample drawn from the light
     tree, each shaded exactly with one shadow ray; unbiased for ``A.column_sum()`` (+ ``A.emitted()``).
 
@@ -81,23 +82,29 @@ def light_bvh_sampling(A, samples: int = 16, seed: int = 0, *, tree: Optional[Li
         seed: random seed (same seed, same image, any thread count).
         tree: a ``LightTree`` over ``A.lights`` to reuse (built here, and timed as ``light_tree``, if None).
         add_emitted: add what the camera sees of the emitters (``A.emitted()``).
+        error_probes: N > 0: N path-traced probe pixels estimate the error against the converged scene, the
+            light set's bias included (``probe_error``: ``error_estimate`` becomes their upper bound,
+            ``variance_estimate`` keeps the sample variance's, ``bias_estimate`` the split); 0: none.
 
     Returns:
         RenderResult: ``image`` (H, W, 3) float32; ``timings`` light_tree, sampling, emitted (s);
         ``budget`` samples, shadow_rays, lights; for k >= 2 ``error_estimate`` (relative L2 from the
-        per-pixel sample variance of the mean) and ``error_image`` (H, W) float32 (RMS over channels).
+        per-pixel sample variance of the mean, against ``A.column_sum()``: the light set's own error is not
+        in it without probes) and ``error_image`` (H, W) float32 (RMS over channels).
 
     Raises:
         TypeError: A is not a LightMatrix, tree not a LightTree. ValueError: samples not an integer >= 1,
-            a negative seed, no lights, a tree over another LightSet."""
+            a negative seed, no lights, a tree over another LightSet, error_probes < 0."""
     samples, seed = _checked(A, samples, seed, "light_bvh_sampling")
+    error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     out = _native.light_bvh_sampling(A._m, samples, seed, _tree(A, tree))
-    return _result(A, out, "light_bvh_sampling", seed, {"samples": samples}, add_emitted)
+    res = _result(A, out, "light_bvh_sampling", seed, {"samples": samples}, add_emitted)
+    return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
 
 
 @checked_keywords()
 def ris_sampling(A, samples: int = 4, candidates: int = 16, seed: int = 0, *, neighbours: int = 0, radius: int = 3,
-                 tree: Optional[LightTree] = None, add_emitted: bool = True) -> RenderResult:
+                 tree: Optional[LightTree] = None, add_emitted: bool = True, error_probes: int = 0) -> RenderResult:
     """Resampled importance sampling over the light tree (module doc): per view sample ``samples``
     independent outputs, each resampled from M = ``candidates`` light-tree candidates by the unshadowed
     contribution, with one shadow ray; unbiased for ``A.column_sum()`` (+ ``A.emitted()``).
@@ -110,7 +117,7 @@ def ris_sampling(A, samples: int = 4, candidates: int = 16, seed: int = 0, *, ne
             shadings per output. Pixels then share reservoirs: ``error_estimate`` (summed per-pixel
             variances) ignores their correlation.
         radius: R >= 1, half-width in pixels of the square the neighbours are drawn from.
-        seed, tree, add_emitted: as ``light_bvh_sampling``.
+        seed, tree, add_emitted, error_probes: as ``light_bvh_sampling``.
 
     Returns:
         RenderResult as ``light_bvh_sampling``'s, ``budget`` with samples, candidates, neighbours, radius,
@@ -118,11 +125,14 @@ def ris_sampling(A, samples: int = 4, candidates: int = 16, seed: int = 0, *, ne
 
     Raises:
         TypeError: A is not a LightMatrix, tree not a LightTree. ValueError: samples, candidates or radius
-            not an integer >= 1, neighbours < 0, a negative seed, no lights, a tree over another LightSet."""
+            not an integer >= 1, neighbours < 0, a negative seed, no lights, a tree over another LightSet,
+            error_probes < 0."""
     samples, seed = _checked(A, samples, seed, "ris_sampling")
     candidates = _v.integer("candidates", candidates, 1, 2**31 - 1)
     neighbours = _v.integer("neighbours", neighbours, 0, 1024)
     radius = _v.integer("radius", radius, 1, 2**31 - 1)
+    error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     out = _native.ris(A._m, samples, candidates, seed, _tree(A, tree), neighbours, radius)
     budget = {"samples": samples, "candidates": candidates, "neighbours": neighbours, "radius": radius}
-    return _result(A, out, "ris_sampling", seed, budget, add_emitted)
+    res = _result(A, out, "ris_sampling", seed, budget, add_emitted)
+    return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
