@@ -29,6 +29,8 @@ Subcommands:
              (``bench.targets``).
     bias     res.bias_estimate against the true bias of the mean over 16 seeds at fixed light counts, on
              clamped-VPL interiors against converged Mitsuba references (``bench.bias``).
+    scale    MRCS 300/900 time and peak memory against pixels (to 1024x768), lights (to 1M) and triangles (a
+             generated room, to 2M), log-log slopes, and the paper-size point (``bench.scale``).
     vs-mitsuba time to 5/2/1% relative L2 of a converged Mitsuba reference: MRCS on the CPU and GPU backends
              against Mitsuba's path tracer (``bench.vs_mitsuba``).
 
