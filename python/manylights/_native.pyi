@@ -141,6 +141,14 @@ class LightMatrix:
         """(n, 3) row i by exact CPU ray casting. Raises ValueError for i >= m."""
     def column_exact(self, j: int) -> npt.NDArray[np.float32]:
         """(H, W, 3) column j by exact CPU ray casting. Raises ValueError for j >= n."""
+    def shadow_rays(self, view_indices: Sequence[int], light_indices: Sequence[int],
+                    order: str = "columns") -> dict[str, Any]:
+        """The exact shadow rays of view_indices x light_indices (src/cpu/shadow_rays.rs): origin, direction
+        (r, 3) float32, t_max (r,) float32, view, light (r,) int64, elements, seconds. ValueError for an index
+        out of range or an unknown order."""
+    def trace_shadow_rays(self, origin: npt.NDArray[np.float32], direction: npt.NDArray[np.float32],
+                          t_max: npt.NDArray[np.float32]) -> tuple[npt.NDArray[np.bool_], float]:
+        """(blocked (r,) bool, seconds): the CPU ray tracer alone on the rays. ValueError for bad shapes."""
 
 class LightTree:
     """A binary BVH over a LightSet with pbrt-v4-style light bounds (src/lights/light_tree.rs). Node arrays

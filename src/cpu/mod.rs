@@ -27,6 +27,8 @@
 //! Symbols: m = view samples (pixels + delta-chain samples), n = lights, i a view sample, j a light,
 //! p position, n shading normal, n_g geometric normal, wi direction to the viewer, wo direction to the
 //! light, L the light's emitted radiance (or irradiance factor) at p, V visibility.
+pub mod shadow_rays;
+
 use crate::error::Result;
 use crate::lights::{coordinate_system, LightSet};
 use crate::matrix::backend::{Backend, DeviceInfo};

@@ -270,6 +270,64 @@ impl LightMatrix {
         let (h, w) = self.inner.image_size();
         array(py, col.into_iter().flatten().collect(), &[h, w, 3])
     }
+    /// The exact shadow rays of the elements `view_indices` x `light_indices` (`crate::cpu::shadow_rays`),
+    /// light by light (`order="columns"`) or view sample by view sample (`"rows"`); elements whose
+    /// unshadowed value is 0 cast none and are left out. Dict: origin, direction (r, 3) float32 (world units,
+    /// unit directions), t_max (r,) float32 (inf toward directional lights), view, light (r,) int64,
+    /// elements (int), seconds (float: the set-up, unshadowed shading included). ValueError for an index out
+    /// of range, an unknown order, more than 2^31 elements.
+    #[pyo3(signature = (view_indices, light_indices, order="columns"))]
+    fn shadow_rays<'py>(
+        &self,
+        py: Python<'py>,
+        view_indices: Vec<usize>,
+        light_indices: Vec<usize>,
+        order: &str,
+    ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        use crate::cpu::shadow_rays::{shadow_rays, Order};
+        let order = match order {
+            "columns" => Order::Columns,
+            "rows" => Order::Rows,
+            o => return Err(Error::invalid(format!("order must be 'columns' or 'rows', got {o:?}")).into()),
+        };
+        let m = self.inner.clone();
+        let r = signals::detach(py, move || shadow_rays(&m.view, &m.lights, &view_indices, &light_indices, order))?;
+        let k = r.view.len();
+        let flat = |a: &[glam::Vec3]| -> Vec<f32> { a.iter().flat_map(|x| [x.x, x.y, x.z]).collect() };
+        let d = pyo3::types::PyDict::new(py);
+        d.set_item("origin", array(py, flat(&r.origin), &[k, 3])?)?;
+        d.set_item("direction", array(py, flat(&r.direction), &[k, 3])?)?;
+        d.set_item("t_max", array(py, r.t_max, &[k])?)?;
+        d.set_item("view", array(py, r.view.iter().map(|&v| v as i64).collect(), &[k])?)?;
+        d.set_item("light", array(py, r.light.iter().map(|&v| v as i64).collect(), &[k])?)?;
+        d.set_item("elements", r.elements)?;
+        d.set_item("seconds", r.seconds)?;
+        Ok(d)
+    }
+    /// Whether each ray is blocked, traced by this matrix's CPU ray tracer alone (the backend's BVH
+    /// traversal and triangle tests, in parallel): (blocked (r,) bool, seconds of the tracing).
+    /// origin, direction (r, 3) float32, t_max (r,) float32. ValueError for arrays of other shapes.
+    fn trace_shadow_rays<'py>(
+        &self,
+        py: Python<'py>,
+        origin: PyReadonlyArray2<'py, f32>,
+        direction: PyReadonlyArray2<'py, f32>,
+        t_max: PyReadonlyArray1<'py, f32>,
+    ) -> PyResult<(Bound<'py, numpy::PyArray1<bool>>, f64)> {
+        let vecs = |a: &PyReadonlyArray2<'py, f32>, what: &str| -> PyResult<Vec<glam::Vec3>> {
+            if a.shape().len() != 2 || a.shape()[1] != 3 {
+                return Err(Error::invalid(format!("{what} must have shape (r, 3), got {:?}", a.shape())).into());
+            }
+            Ok(a.as_array().rows().into_iter().map(|r| glam::Vec3::new(r[0], r[1], r[2])).collect())
+        };
+        let (o, d, t) = (vecs(&origin, "origin")?, vecs(&direction, "direction")?, t_max.as_array().to_vec());
+        let m = self.inner.clone();
+        let (blocked, seconds) = signals::detach(py, move || {
+            let tracer = m.tracer()?;
+            crate::cpu::shadow_rays::trace(&tracer, &o, &d, &t)
+        })?;
+        Ok((numpy::PyArray1::from_vec(py, blocked), seconds))
+    }
 }
 
 /// One view sample index (`y * width + x`) per block of an r-block stratification of a width x height

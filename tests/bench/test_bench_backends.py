@@ -27,3 +27,18 @@ def test_backends_benchmark_writes_both_devices(tmp_path):
 def test_backends_benchmark_refuses_bad_sizes(tmp_path):
     with pytest.raises(ValueError, match="--res"):
         bench.main(["backends", "--scene", "cbox", "--res", "0", "--out", str(tmp_path)])
+
+
+def test_the_peer_traces_the_same_rays_as_mitsuba_and_agrees(tmp_path):
+    from conftest import REPO
+    from manylights.bench.ray_peer import measure
+
+    out = measure("cbox", REPO / "scenes" / "cbox" / "scene.xml", {}, (24, 24), lights=24, row_lights=64, rows=16,
+                  repeats=1)
+    for batch in ("columns", "rows"):
+        b = out["batches"][batch]
+        assert 0 < b["rays"] <= b["elements"]
+        assert 0.05 < b["blocked_share"] < 0.95          # both answers occur
+        assert b["agreement"] >= 0.999, b                 # the same queries, the same answers
+        assert b["visibility_ratio"] == pytest.approx(b["seconds"]["mitsuba"] / b["seconds"]["ours"])
+        assert b["split"]["setup"] > 0 and b["split"]["traversal"] > 0

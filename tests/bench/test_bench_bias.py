@@ -33,3 +33,11 @@ def test_a_group_covers_its_bias_within_a_factor_two_or_half_a_percent():
 
 def test_every_bias_cell_is_a_targets_cell():
     assert set(BIAS_CELLS) <= set(CELLS)
+
+
+def test_the_upper_bound_of_a_run_is_the_probes_or_rebuilt_from_its_estimates():
+    from manylights.bench.bias import upper_bound
+
+    assert upper_bound({"bias_upper": 0.07, "error_estimate": 0.2, "variance_estimate": 0.1}) == 0.07
+    assert upper_bound({"error_estimate": 0.17, "variance_estimate": 0.15}) == pytest.approx(0.08)
+    assert upper_bound({"error_estimate": 0.1, "variance_estimate": 0.15}) == 0.0

@@ -44,6 +44,11 @@ def test_clamped_vpls_error_is_seen_with_bias_and_variance_split(cbox):
     assert res.variance_estimate is not None and res.variance_estimate < true  # halves: variance only
     assert 0.8 * true <= res.error_estimate <= 2.0 * true, (res.error_estimate, true)
     assert res.bias_estimate is not None and res.bias_estimate > 0
+    # The bias's upper bound: above its point estimate, below the total's, and (the clamp's bias being most of
+    # the error here) at least the true error less the variance part.
+    upper = res.budget["probes"]["bias_upper"]
+    assert res.bias_estimate < upper < res.error_estimate
+    assert upper >= np.sqrt(max(true**2 - res.variance_estimate**2, 0.0)) * 0.8, (upper, true)
     assert res.budget["probes"]["probes"] == 256 and res.timings["probes"] > 0
     assert [s["source"] for s in res.bias_sources] == ["vpl_clamp"]
     # Without probes nothing changes: the estimate is the halves' alone.

@@ -8,6 +8,10 @@ GPU / CPU. Columns use the scene's lights at the column budget (``--lights``, de
 issue's measurement); rows use ``--row-lights`` (default 100,000: a row's cost is n lights). Every timing
 is the best of ``--repeats`` after a warm-up call, so one-off setup (shader compilation, the BVH, the
 row pass's light upload) is not counted. Writes ``<out>/backends.json``.
+
+``--peer mitsuba`` adds Mitsuba 3's ``ray_test`` on exactly the shadow rays of a column batch and a row
+batch, beside the backend's visibility alone and the whole element (``bench.ray_peer``); ``--peer-only``
+runs only that.
 """
 from __future__ import annotations
 
@@ -42,6 +46,14 @@ def add_parser(sub) -> None:
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--gpu-visibility", nargs="+", default=["hybrid", "ray_traced"],
                    choices=["hybrid", "ray_traced", "shadow_map"])
+    p.add_argument("--peer", choices=["mitsuba"], default=None,
+                   help="also time Mitsuba's ray_test on the same shadow rays (bench.ray_peer)")
+    p.add_argument("--peer-only", action="store_true", help="only the peer comparison")
+    p.add_argument("--peer-scenes", nargs="+", default=["cbox", "veach-ajar", "bunny", "room-2m"],
+                   choices=["cbox", "veach-ajar", "bunny", "room-2m"])
+    p.add_argument("--peer-lights", type=int, default=256, help="lights of the column batch")
+    p.add_argument("--peer-rows", type=int, default=256, help="view samples of the row batch")
+    p.add_argument("--peer-row-lights", type=int, default=16384, help="lights of the row batch")
     p.add_argument("--out", default="out/bench")
     p.set_defaults(run=run)
 
@@ -70,7 +82,9 @@ def run(args) -> dict:
     report = {"device": ml.device_info(), "scenes": {}}
     print(f"CPU: {report['device']['name']} ({report['device']['threads']} threads); GPU: "
           f"{(report['device'].get('gpu') or {}).get('name', 'none')}")
-    for name in args.scene:
+    if args.peer_only and args.peer is None:
+        raise ValueError("--peer-only needs --peer mitsuba")
+    for name in [] if args.peer_only else args.scene:
         scene = ml.load_scene(resolve(name), **SCENES[name])
         if args.res is not None:
             if args.res < 1:
@@ -111,6 +125,12 @@ def run(args) -> dict:
                   f"weighted {ratios['weighted_column_ms']:.1f}x, row {ratios['row_ms']:.1f}x")
         report["scenes"][name] = {"size": [scene.width, scene.height], "lights": len(lights),
                                   "row_lights": len(row_lights), "results": res}
+        atomic_write_text(out / "backends.json", json.dumps(report, indent=2) + "\n")
+    if args.peer:
+        from .ray_peer import run_peer
+
+        report["peer"] = run_peer(args.peer_scenes, args.peer_lights, args.peer_row_lights, args.peer_rows,
+                                  args.repeats)
         atomic_write_text(out / "backends.json", json.dumps(report, indent=2) + "\n")
     print(f"wrote {out / 'backends.json'}")
     return report

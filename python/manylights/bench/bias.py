@@ -19,7 +19,8 @@ Seeds that choose different light models (``budget['light_model']['chosen']``: t
 with the clamp's compensation) render different expectations; each model's seeds are a group of their own,
 and a group is judged when it has at least ``MIN_GROUP`` seeds. A group **covers its bias** when the median
 ``bias_estimate`` of its seeds is within a factor ``FACTOR`` (2) of the true bias, or within ``ABSOLUTE``
-(0.5%) of it where the bias is that small.
+(0.5%) of it where the bias is that small. Beside it, how many seeds' ``bias_upper`` (the probes' upper
+bound on the bias, ``sqrt(error_estimate^2 - variance_estimate^2)``) is at least the true bias.
 
     python -m manylights.bench bias                          # three indirect-lit cells, 16 seeds
     python -m manylights.bench bias --cells cbox-gi-64 --seeds 4
@@ -109,6 +110,14 @@ def judge(estimates: list[float], truth: float) -> bool:
     return truth > 0 and 1 / FACTOR <= med / truth <= FACTOR
 
 
+def upper_bound(r: dict) -> float:
+    """A run's upper bound on its bias: ``bias_upper`` as the probes report it, else from its error estimate
+    and variance part, ``sqrt(max(error_estimate^2 - variance_estimate^2, 0))`` (the same number)."""
+    if r.get("bias_upper") is not None:
+        return float(r["bias_upper"])
+    return float(np.sqrt(max(r["error_estimate"] ** 2 - (r["variance_estimate"] or 0.0) ** 2, 0.0)))
+
+
 def run(args) -> dict:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -132,6 +141,7 @@ def run(args) -> dict:
             images.append(res.image)
             model = (res.budget.get("light_model") or {}).get("chosen")
             cell["runs"].append({"seed": s, "model": model, "bias_estimate": res.bias_estimate,
+                                 "bias_upper": (res.budget.get("probes") or {}).get("bias_upper"),
                                  "variance_estimate": res.variance_estimate, "error_estimate": res.error_estimate,
                                  "seconds": time.perf_counter() - t,
                                  "counts": {k: v["count"] for k, v in res.budget["light_counts"].items()
@@ -149,6 +159,10 @@ def run(args) -> dict:
                 g.update(true_bias(np.stack([images[i] for i in idx]), ref, ref_var))
             if len(idx) >= MIN_GROUP:
                 g["covers"] = judge(est, g["bias"])
+            if "bias" in g:
+                up = [upper_bound(cell["runs"][i]) for i in idx]
+                g["upper_at_least_true"] = int(sum(u >= g["bias"] for u in up))
+                g["median_bias_upper"] = float(np.median(up))
             cell["groups"].append(g)
         save()
     md = table(summary)
@@ -161,14 +175,17 @@ def run(args) -> dict:
 def table(summary: dict) -> str:
     """The groups as a Markdown table."""
     lines = ["| cell | lights per kind | light model | seeds | true bias (relative L2, +- 1 s.e.) "
-             "| bias_estimate (median, range) | true relMSE of the mean | covered |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| bias_estimate (median, range) | covered | bias_upper (median; seeds >= true bias) "
+             "| true relMSE of the mean |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for c in summary["cells"]:
         for g in c["groups"]:
             tb = f"{g['bias']:.2%} +- {g['bias_se']:.2%}" if "bias" in g else "-"
             rng = f"{min(g['bias_estimates']):.2%}-{max(g['bias_estimates']):.2%}"
             cov = {True: "yes", False: "**no**"}.get(g.get("covers"), "too few seeds")
             rel = f"{g['relmse']:.2g}" if "relmse" in g else "-"
+            up = (f"{g['median_bias_upper']:.2%}; {g['upper_at_least_true']}/{g['seeds']}"
+                  if "median_bias_upper" in g else "-")
             lines.append(f"| {c['cell']} | {c['lights_per_kind']} | {g['model']} | {g['seeds']} | {tb} "
-                         f"| {g['median_bias_estimate']:.2%} ({rng}) | {rel} | {cov} |")
+                         f"| {g['median_bias_estimate']:.2%} ({rng}) | {cov} | {up} | {rel} |")
     return "\n".join(lines) + "\n"

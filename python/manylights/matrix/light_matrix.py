@@ -306,6 +306,51 @@ class LightMatrix:
         """
         return self._m.column_exact(self._index("j", j, self.shape[1], "lights"))
 
+    def shadow_rays(self, view_indices: Sequence[int], light_indices: Sequence[int], *,
+                    order: str = "columns") -> dict:
+        """The exact shadow rays of the elements ``view_indices`` x ``light_indices`` as the CPU backend casts
+        them (Mitsuba's ``spawn_ray_to`` offsets: the rays to hand a peer ray tracer, e.g. Mitsuba's
+        ``ray_test``; ``bench backends --peer mitsuba``). Elements whose unshadowed value is 0 cast no ray and
+        are left out.
+
+        Args:
+            view_indices: view samples i in [0, m). light_indices: lights j in [0, n).
+            order: ``"columns"`` (light by light) or ``"rows"`` (view sample by view sample).
+
+        Returns:
+            dict: ``origin``, ``direction`` (r, 3) float32 (world units; unit directions), ``t_max`` (r,)
+            float32 (inf toward directional lights), ``view``, ``light`` (r,) int64 (the element of each
+            ray), ``elements`` (int: the batch's size), ``seconds`` (float: the set-up, unshadowed shading
+            included).
+
+        Raises:
+            ValueError: indices that are not integers or out of range, an unknown order, more than 2^31
+                elements."""
+        m, n = self.shape
+        views = [int(i) for i in _v.indices("view index", view_indices, m, f"m = {m} view samples")]
+        lights = [int(j) for j in _v.indices("light index", light_indices, n, f"n = {n} lights")]
+        return dict(self._m.shadow_rays(views, lights, order))
+
+    def trace_shadow_rays(self, origin, direction, t_max) -> tuple[np.ndarray, float]:
+        """Whether each ray ``o + t d``, ``0 < t < t_max``, is blocked, by this matrix's CPU ray tracer alone
+        (BVH traversal and triangle tests, in parallel; no shading).
+
+        Args:
+            origin, direction: (r, 3) float32-convertible. t_max: (r,).
+
+        Returns:
+            (blocked (r,) bool, seconds of the tracing: float).
+
+        Raises:
+            ValueError: arrays of other shapes or lengths."""
+        o = np.ascontiguousarray(origin, dtype=np.float32)
+        d = np.ascontiguousarray(direction, dtype=np.float32)
+        t = np.ascontiguousarray(t_max, dtype=np.float32)
+        if t.ndim != 1:
+            raise ValueError(f"t_max must have shape (r,), got {t.shape}")
+        blocked, seconds = self._m.trace_shadow_rays(o, d, t)
+        return np.asarray(blocked), float(seconds)
+
     def __repr__(self) -> str:
         m, n = self.shape
         return f"LightMatrix({m} view samples x {n} lights, {self.device['kind']}: {self.device['name']})"

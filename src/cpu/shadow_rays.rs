@@ -1,0 +1,113 @@
+//! The exact shadow rays of a batch of light-matrix elements, as `shade` casts them, and the ray tracer
+//! alone on them: what `python -m manylights.bench backends --peer mitsuba` hands to Mitsuba's
+//! `Scene::ray_test` so that both tracers answer the same visibility queries, and times side by side.
+//!
+//! For element (i, j) with a non-zero unshadowed value (`shade_unshadowed`), the ray is the one
+//! `light_blocked` traces: toward a light at a finite distance `spawn_ray_to(p, n_g, q)` (origin offset
+//! along n_g, unit direction, `t_max = |q - o| (1 - SHADOW_EPSILON)`), toward a directional light
+//! `(spawn_ray(p, n_g, wo), wo, inf)`. Elements whose unshadowed value is 0 cast no ray and are left out.
+//!
+//! Symbols: i a view sample, j a light, p / n_g the sample's position and geometric normal, q the light's
+//! position, wo the direction to the light, o / d / t_max the ray.
+use super::{shade_unshadowed, ShadingPoint};
+use crate::error::{Error, Result};
+use crate::lights::LightSet;
+use crate::raytrace::{spawn_ray, spawn_ray_to, RayTracer};
+use crate::view::ViewSamples;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// The order of a batch's elements: light by light (columns) or view sample by view sample (rows).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Order {
+    Columns,
+    Rows,
+}
+
+/// Shadow rays of a batch (struct of arrays) with the element each belongs to.
+#[derive(Debug, Default)]
+pub struct ShadowRays {
+    pub origin: Vec<Vec3>,
+    pub direction: Vec<Vec3>,
+    pub t_max: Vec<f32>,
+    pub view: Vec<u32>,
+    pub light: Vec<u32>,
+    /// Elements of the batch (with and without a ray).
+    pub elements: u64,
+    /// Seconds to set the rays up (unshadowed shading included: it decides which elements cast one).
+    pub seconds: f64,
+}
+
+/// The shadow ray of element (i, j), None where it casts none (module docs).
+fn ray(view: &ViewSamples, lights: &LightSet, i: usize, j: usize) -> Option<(Vec3, Vec3, f32)> {
+    let sp = ShadingPoint::new(view, i);
+    let (_, wo, dist) = shade_unshadowed(view, lights, &sp, i, j)?;
+    Some(if dist.is_finite() { spawn_ray_to(sp.p, sp.n_g, lights.position[j]) } else { (spawn_ray(sp.p, sp.n_g, wo), wo, f32::INFINITY) })
+}
+
+/// The shadow rays of every element of `views` x `lights_idx`, in `order` (module docs).
+///
+/// Errors: an index out of range (view sample or light), more than 2^31 elements.
+pub fn shadow_rays(view: &ViewSamples, lights: &LightSet, views: &[usize], lights_idx: &[usize], order: Order) -> Result<ShadowRays> {
+    let (m, n) = (view.len(), lights.len());
+    if let Some(&i) = views.iter().find(|&&i| i >= m) {
+        return Err(Error::invalid(format!("view sample index {i} out of range (m = {m})")));
+    }
+    if let Some(&j) = lights_idx.iter().find(|&&j| j >= n) {
+        return Err(Error::invalid(format!("light index {j} out of range (n = {n})")));
+    }
+    let elements = views.len() as u64 * lights_idx.len() as u64;
+    if elements > 1 << 31 {
+        return Err(Error::invalid(format!("{elements} elements in one batch: at most 2^31")));
+    }
+    let t = Instant::now();
+    let (outer, inner) = match order {
+        Order::Columns => (lights_idx, views),
+        Order::Rows => (views, lights_idx),
+    };
+    let found: Vec<Vec<(u32, u32, Vec3, Vec3, f32)>> = outer
+        .par_iter()
+        .map(|&a| {
+            inner
+                .iter()
+                .filter_map(|&b| {
+                    let (i, j) = if order == Order::Columns { (b, a) } else { (a, b) };
+                    ray(view, lights, i, j).map(|(o, d, tm)| (i as u32, j as u32, o, d, tm))
+                })
+                .collect()
+        })
+        .collect();
+    let mut out = ShadowRays { elements, ..Default::default() };
+    for (i, j, o, d, tm) in found.into_iter().flatten() {
+        out.view.push(i);
+        out.light.push(j);
+        out.origin.push(o);
+        out.direction.push(d);
+        out.t_max.push(tm);
+    }
+    out.seconds = t.elapsed().as_secs_f64();
+    Ok(out)
+}
+
+/// Whether each ray `(o, d, t_max)` is blocked, traced by `tracer` in parallel (the backend's traversal
+/// and triangle tests alone), with the seconds the tracing took.
+///
+/// Errors: arrays of different lengths.
+pub fn trace(tracer: &RayTracer, origin: &[Vec3], direction: &[Vec3], t_max: &[f32]) -> Result<(Vec<bool>, f64)> {
+    if origin.len() != direction.len() || origin.len() != t_max.len() {
+        return Err(Error::invalid(format!(
+            "origin, direction and t_max must have one entry per ray, got {}, {} and {}",
+            origin.len(),
+            direction.len(),
+            t_max.len()
+        )));
+    }
+    let t = Instant::now();
+    let blocked: Vec<bool> =
+        (0..origin.len()).into_par_iter().with_min_len(256).map(|k| tracer.occluded_ray(origin[k], direction[k], t_max[k])).collect();
+    Ok((blocked, t.elapsed().as_secs_f64()))
+}
+
+#[cfg(test)]
+mod tests;
