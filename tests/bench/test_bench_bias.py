@@ -29,6 +29,9 @@ def test_a_group_covers_its_bias_within_a_factor_two_or_half_a_percent():
     assert not judge([0.09, 0.10, 0.11], 0.04)        # 10% against 4%
     assert not judge([0.0, 0.0, 0.01], 0.04)          # an estimate that misses the bias
     assert judge([0.0, 0.0, 0.004], 0.003)            # small: within 0.5% absolute
+    assert judge([0.0, 0.0, 0.0], 0.016, 0.024)       # a bias the seeds cannot tell from 0
+    assert not judge([0.0, 0.0, 0.0], 0.057, 0.021)   # 5.7% +- 2.1%: at least 1.5%, and the estimate says 0
+    assert judge([0.2, 0.2, 0.2], 0.06, 0.02)         # within 2x of 10%, the top of the truth's interval
 
 
 def test_every_bias_cell_is_a_targets_cell():

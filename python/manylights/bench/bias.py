@@ -19,7 +19,7 @@ Seeds that choose different light models (``budget['light_model']['chosen']``: t
 with the clamp's compensation) render different expectations; each model's seeds are a group of their own,
 and a group is judged when it has at least ``MIN_GROUP`` seeds. A group **covers its bias** when the median
 ``bias_estimate`` of its seeds is within a factor ``FACTOR`` (2) of the true bias, or within ``ABSOLUTE``
-(0.5%) of it where the bias is that small. Beside it, how many seeds' ``bias_upper`` (the probes' upper
+(0.5%) of it where the bias is that small, for a true bias within two standard errors of the measured one. Beside it, how many seeds' ``bias_upper`` (the probes' upper
 bound on the bias, ``sqrt(error_estimate^2 - variance_estimate^2)``) is at least the true bias.
 
     python -m manylights.bench bias                          # three indirect-lit cells, 16 seeds
@@ -102,12 +102,17 @@ def true_bias(images: np.ndarray, ref: np.ndarray, ref_var: np.ndarray) -> dict:
     return {"bias": bias, "bias_squared": full, "bias_se": se, "relmse": max(rel, 0.0)}
 
 
-def judge(estimates: list[float], truth: float) -> bool:
-    """A group covers its bias: the median estimate within ``FACTOR`` of ``truth`` or ``ABSOLUTE`` of it."""
+def judge(estimates: list[float], truth: float, truth_se: float = 0.0) -> bool:
+    """A group covers its bias: the median estimate within ``FACTOR`` of the true bias or ``ABSOLUTE`` of it,
+    for some true bias within 2 standard errors (``truth_se``) of the measured ``truth`` (the seeds measure
+    the bias no better than that)."""
     med = float(np.median(estimates))
-    if abs(med - truth) <= ABSOLUTE:
+    lo, hi = max(truth - 2.0 * truth_se, 0.0), truth + 2.0 * truth_se
+    nearest = min(max(med, lo), hi)  # the true bias in [lo, hi] closest to the estimate
+    if abs(med - nearest) <= ABSOLUTE:
         return True
-    return truth > 0 and 1 / FACTOR <= med / truth <= FACTOR
+    # within FACTOR of some b in [lo, hi]: the intervals [b / FACTOR, FACTOR b] cover [lo / FACTOR, FACTOR hi]
+    return hi > 0 and lo / FACTOR <= med <= FACTOR * hi
 
 
 def upper_bound(r: dict) -> float:
@@ -158,7 +163,7 @@ def run(args) -> dict:
             if len(idx) >= 2:
                 g.update(true_bias(np.stack([images[i] for i in idx]), ref, ref_var))
             if len(idx) >= MIN_GROUP:
-                g["covers"] = judge(est, g["bias"])
+                g["covers"] = judge(est, g["bias"], g["bias_se"])
             if "bias" in g:
                 up = [upper_bound(cell["runs"][i]) for i in idx]
                 g["upper_at_least_true"] = int(sum(u >= g["bias"] for u in up))
