@@ -325,3 +325,4 @@ def test_sweep_reports_relmse_and_smape_and_the_light_tree_samplers(tmp_path):
     row = df[df.method == "light_bvh_sampling"].iloc[0]
     assert row.clusters == 4 and row.relmse == pytest.approx(ml.relmse(img, ref), rel=1e-5)
     assert row.smape == pytest.approx(ml.smape(img, ref), rel=1e-5) and row.smape > 0
+    assert row.flip == pytest.approx(ml.metrics.flip(img, ref), rel=1e-5) and 0 < row.flip < 1

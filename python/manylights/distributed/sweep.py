@@ -49,7 +49,7 @@ from .specs import (
 META_KEY = b"manylights.sweep"
 #: The columns every row has, in this order (then ``seconds_<stage>`` columns, sorted).
 COLUMNS = ["task", "scene", "params", "scene_hash", "lights", "light_model", "method", "rows", "columns", "clusters",
-           "seed", "status", "error", "rel_l2", "relmse", "smape", "truth", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "frames", "max_rel_l2", "flicker", "shadow_maps_per_frame",
+           "seed", "status", "error", "rel_l2", "relmse", "smape", "flip", "truth", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "frames", "max_rel_l2", "flicker", "shadow_maps_per_frame",
            "seconds", "setup_seconds", "reference_key",
            "reference_seconds", "reference_cached", "device", "adapter", "host"]
 
@@ -107,7 +107,7 @@ def _frame(rows: list[dict], order: dict):
     df = df.reset_index(drop=True)
     for c in ("lights", "rows", "columns", "clusters", "seed", "frames"):
         df[c] = df[c].astype("Int64")
-    for c in ["rel_l2", "relmse", "smape", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds",
+    for c in ["rel_l2", "relmse", "smape", "flip", "rel_l2_brute_force", "reference_rel_l2", "error_estimate", "max_rel_l2", "flicker", "shadow_maps_per_frame", "seconds", "setup_seconds",
               "reference_seconds", *stages]:
         df[c] = df[c].astype("float64")
     df["reference_cached"] = df["reference_cached"].astype("boolean")
@@ -232,7 +232,8 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
         row's key), scene (as given), params (JSON), scene_hash (sha256 of the scene folder), lights (n),
         method, rows, columns, clusters (columns rendered), seed (Int64), status ("ok" / "error"), error
         (type: message, or None), light_model (its name, or None), rel_l2 (relative L2 against the truth, float64),
-        relmse and smape (``metrics.relmse`` / ``metrics.smape`` against the same truth; NaN for animations),
+        relmse, smape and flip (``metrics.relmse`` / ``metrics.smape`` / ``metrics.flip``, HDR-FLIP, against the
+        same truth; NaN for animations, flip NaN without the optional ``flip-evaluator`` package),
         truth ("brute_force" or "image:<file name>"), rel_l2_brute_force (against the brute-force reference),
         reference_rel_l2 (the brute force against the truth image; NaN without one),
         error_estimate (the method's own estimate of its error where it makes one, e.g. ``options={"mrcs": {"halves": True}}``; NaN otherwise); for animations frames, max_rel_l2

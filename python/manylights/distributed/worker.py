@@ -31,7 +31,7 @@ from ..animation.tensor_clustering import tensor_clustering
 from ..io.images import read_exr
 from ..lights.generate import generate_lights
 from ..matrix.light_matrix import LightMatrix
-from ..metrics import flicker, relative_l2, relative_l2_per_frame, relmse, smape
+from ..metrics import flicker, flip, relative_l2, relative_l2_per_frame, relmse, smape
 from ..renderers.baselines import instant_radiosity, power_sampling
 from ..renderers.clustered_visibility import clustered_visibility
 from ..renderers.light_tree import light_bvh_sampling, ris_sampling
@@ -214,6 +214,15 @@ def reference(scene_spec: dict, lights_spec: dict, matrix_spec: dict, reference_
     return {**out, "image": image, "seconds": seconds, "cached": False}
 
 
+def _flip_or_nan(image, truth) -> float:
+    """HDR-FLIP of ``image`` against ``truth`` (``metrics.flip``), NaN where ``flip-evaluator`` is not installed
+    (an optional dependency: the other metrics do not need it)."""
+    try:
+        return float(flip(image, truth))
+    except ImportError:
+        return float("nan")
+
+
 def render(task: dict, ref: dict) -> dict:
     """One render of ``task`` (method, rows, columns, seed on its scene / lights / matrix) and its row.
 
@@ -294,6 +303,7 @@ def render(task: dict, ref: dict) -> dict:
             row["truth"] = f"image:{Path(task['truth']).name}"
         row["relmse"] = float(relmse(image, truth_img))
         row["smape"] = float(smape(image, truth_img))
+        row["flip"] = _flip_or_nan(image, truth_img)
         if getattr(res, "error_estimate", None) is not None:
             row["error_estimate"] = float(res.error_estimate)
         row["seconds"] = seconds
