@@ -18,11 +18,18 @@
 //! lost; `shared()` drops a lost context and creates a new one on the next call. Light matrices made on
 //! the old device keep failing with `GpuError`; new ones use the new device.
 //!
+//! Errors outside the guarded allocations (`gpu::alloc`): a pipeline the driver refuses, a dispatch or a
+//! submission that fails validation go to the device's uncaptured-error handler, which keeps them (wgpu's
+//! default handler panics); the next `wait` (every readback waits) returns them as `GpuError`.
+//!
 //! See `docs/development/wgpu-headless.md` for what software adapters can and cannot do (loop limit of
 //! 65,535 iterations per invocation on Mesa 22.3, 128 MiB per storage binding).
 use crate::error::{Error, Result};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
+
+/// Uncaptured device errors kept between two `wait`s (the first ones; later ones are usually their echoes).
+const MAX_KEPT_ERRORS: usize = 8;
 
 /// What `manylights.device_info()` reports.
 #[derive(Debug, Clone)]
@@ -51,6 +58,9 @@ pub struct GpuContext {
     pub unmet: Vec<String>,
     /// Set by the device-lost callback (or `mark_lost`).
     lost: Arc<AtomicBool>,
+    /// Errors no error scope caught (pipeline creation, dispatch encoding, submission), kept by the device's
+    /// uncaptured-error handler instead of wgpu's default, which panics; `wait` turns them into `Err`.
+    errors: Arc<Mutex<Vec<String>>>,
 }
 
 /// The install hint given when no adapter exists.
@@ -193,7 +203,15 @@ impl GpuContext {
         let lost = Arc::new(AtomicBool::new(false));
         let flag = lost.clone();
         device.set_device_lost_callback(move |_reason, _message| flag.store(true, Ordering::SeqCst));
-        Ok(GpuContext { device, queue, adapter, summary, limits, unmet, lost })
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            let mut v = sink.lock().unwrap_or_else(|p| p.into_inner());
+            if v.len() < MAX_KEPT_ERRORS {
+                v.push(e.to_string());
+            }
+        }));
+        Ok(GpuContext { device, queue, adapter, summary, limits, unmet, lost, errors })
     }
 
     /// The process-wide shared context, created on first use and again after a loss (module docs).
@@ -233,14 +251,26 @@ impl GpuContext {
         )))
     }
 
-    /// Wait for all submitted work; turn a lost device into an error. Interruptible
-    /// (`crate::interrupt::wait_gpu`): `Error::Interrupted` leaves the work running.
+    /// Wait for all submitted work; turn a lost device, and any error the device reported outside an error
+    /// scope since the last wait (`errors`), into an error. Interruptible (`crate::interrupt::wait_gpu`):
+    /// `Error::Interrupted` leaves the work running.
     pub fn wait(&self) -> Result<()> {
         crate::interrupt::wait_gpu(&self.device, None, "the device").inspect_err(|e| {
             if matches!(e, Error::Gpu(m) if m.contains("lost") || m.contains("Lost")) {
                 self.mark_lost();
             }
-        })
+        })?;
+        self.take_errors()
+    }
+
+    /// `Err(Gpu)` listing the errors the device reported outside any error scope since the last call (and
+    /// forgetting them), Ok when there were none.
+    pub fn take_errors(&self) -> Result<()> {
+        let errors = std::mem::take(&mut *self.errors.lock().unwrap_or_else(|p| p.into_inner()));
+        if errors.is_empty() {
+            return Ok(());
+        }
+        Err(Error::Gpu(format!("the GPU device reported {} error(s) outside a guarded call: {}", errors.len(), errors.join("; "))))
     }
 
     /// Copy a storage buffer back to the host (the buffer needs COPY_SRC usage).

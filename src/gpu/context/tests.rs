@@ -101,3 +101,17 @@ fn every_pass_builds_or_is_refused_under_lowered_limits() {
         assert!(err.contains("ColumnsPass needs max_storage_buffers_per_shader_stage"), "{err}");
     }
 }
+
+#[test]
+fn a_pipeline_the_device_refuses_outside_any_scope_is_an_error_at_the_next_wait_not_a_panic() {
+    // 8 storage buffers per stage: the columns pass (13) cannot be built on this device.
+    let ctx = GpuContext::with_limits(Some("max_storage_buffers_per_shader_stage=8")).unwrap();
+    ctx.wait().unwrap();
+    drop(crate::gpu::columns::ColumnsPass::new(&ctx.device)); // wgpu's default handler would panic here
+    let err = ctx.wait().unwrap_err().to_string();
+    assert!(err.contains("outside a guarded call") && err.contains("ColumnsPass"), "{err}");
+    ctx.wait().expect("the errors are reported once");
+    // The device still works for what it can do.
+    let buf = crate::gpu::alloc::buffer_init(&ctx.device, "test", bytemuck::cast_slice(&[1u32, 2]), wgpu::BufferUsages::COPY_SRC).unwrap();
+    assert_eq!(ctx.read_buffer::<u32>(&buf, 0, 2).unwrap(), [1, 2]);
+}
