@@ -33,7 +33,6 @@ from .._utils.keywords import checked_keywords
 from .bias import bias_sources
 from .result import RenderResult, matrix_shape
 
-
 CRITERIA = ("cluster", "pixel")
 
 
