@@ -2,12 +2,15 @@
 //! scalable approach to illumination", SIGGRAPH 2005, Sec. 3-4) over a `LightSet`, and the upper bounds
 //! of a cluster's contribution at a view sample.
 //!
-//! Topology: the light tree's (`lights::light_tree`, binned SAOH over positions and orientation cones)
-//! for the lights with a position, pruned to the boundable ones (a node left with one child is replaced
-//! by it); a second tree over the directional lights (environment strata included) split at the median
-//! of their directions along the longest axis of the direction box. Deviation: the paper builds its
-//! trees by greedy agglomerative clustering, one tree per light type; here one tree mixes point, spot,
-//! oriented and VPL lights and its node bounds hold for the mix (rules below).
+//! Topology: one tree per light type, as in the paper: omni (point and spot lights), oriented points
+//! (area-light samples) and VPLs each get the light tree's topology (`lights::light_tree`, binned SAOH
+//! over positions and orientation cones, built once over all lights) pruned to that type's boundable
+//! lights (a node left with one child is replaced by it); directional lights (environment strata
+//! included) get a tree split at the median of their directions along the longest axis of the direction
+//! box. Deviation: the paper builds its trees by greedy agglomerative clustering, and keeps area-light
+//! samples and VPLs in one oriented tree (separate here: their intensities differ by orders of magnitude,
+//! and a mixed cluster's representative then stands badly for the other kind). The node bounds below
+//! hold for any mix of kinds.
 //!
 //! Per node: a box (positions; for directional nodes the directions wo = -direction), an emission cone
 //! (axis w, theta_o, theta_e as `LightBounds`), the summed intensity bound I_C (RGB), the representative
@@ -97,7 +100,7 @@ impl Node {
 #[derive(Debug, Clone)]
 pub struct CutTree {
     pub nodes: Vec<Node>,
-    /// Roots: the positional tree's and the directional tree's (each when not empty).
+    /// Roots: the omni, oriented-point, VPL and directional trees' (each when not empty).
     pub roots: Vec<u32>,
     /// Lights without a bound, evaluated exactly.
     pub exact: Vec<u32>,
@@ -192,8 +195,14 @@ impl CutTree {
         let mut rng = crate::lights::generate::sampling::stream(seed, 0x6c63_7574, 0);
         let mut choose = |a: &Node, b: &Node| uniform(&mut rng) * (a.weight + b.weight) >= a.weight;
         if !tree.nodes.is_empty() {
-            if let Some(r) = t.convert(&tree, 0, &leaves, &mut choose) {
-                t.roots.push(r);
+            for kind in [LightKind::Point, LightKind::OrientedPoint, LightKind::Vpl] {
+                let group = |j: usize| {
+                    let k = if lights.kind[j] == LightKind::Spot { LightKind::Point } else { lights.kind[j] };
+                    k == kind
+                };
+                if let Some(r) = t.convert(&tree, 0, &leaves, &group, &mut choose) {
+                    t.roots.push(r);
+                }
             }
         }
         let mut dir: Vec<Node> = leaves.iter().flatten().filter(|l| l.directional).copied().collect();
@@ -204,22 +213,27 @@ impl CutTree {
         Ok(t)
     }
 
-    /// Node k of the light tree, pruned to boundable lights (module docs).
+    /// Node k of the light tree, pruned to the boundable lights j with `group(j)` (module docs).
     fn convert(
         &mut self,
         tree: &LightTree,
         k: usize,
         leaves: &[Option<Node>],
+        group: &impl Fn(usize) -> bool,
         choose: &mut impl FnMut(&Node, &Node) -> bool,
     ) -> Option<u32> {
         if tree.is_leaf(k) {
-            let l = leaves[tree.leaf_light[k] as usize]?;
+            let j = tree.leaf_light[k] as usize;
+            if !group(j) {
+                return None;
+            }
+            let l = leaves[j]?;
             self.nodes.push(l);
             return Some(self.nodes.len() as u32 - 1);
         }
         let [c0, c1] = tree.children[k];
-        let a = self.convert(tree, c0 as usize, leaves, choose);
-        let b = self.convert(tree, c1 as usize, leaves, choose);
+        let a = self.convert(tree, c0 as usize, leaves, group, choose);
+        let b = self.convert(tree, c1 as usize, leaves, group, choose);
         match (a, b) {
             (Some(a), Some(b)) => Some(self.merge(a, b, choose)),
             (a, b) => a.or(b),
