@@ -31,7 +31,10 @@
 //! - G = ang_ub / d_min^2, d_min the distance from p to the box (infinite inside it). ang_ub: with
 //!   theta' = max(0, theta_w - theta_o - theta_b) (theta_w between w and p - box centre, theta_b the
 //!   half-angle of the box's bounding sphere seen from p, 0 inside it), cos(theta') where every light of
-//!   the node is cosine-weighted, else 1; 0 when theta' >= theta_e. Directional nodes: G = 1.
+//!   the node is cosine-weighted, else 1; 0 when theta' >= theta_e. A cosine-weighted node whose normals
+//!   lie within theta_o <= 0.1 of w (a planar patch of area-light samples or of VPLs) also takes
+//!   max(0, h) / d_min + theta_o, h the largest (p - x) . w over the box corners x: receivers behind
+//!   the plane of every light get (nearly) 0. Directional nodes: G = 1.
 //! - cos_ub >= |cos| between n and any direction to the box (the paper's bound: the box in the shading
 //!   frame, max |z| / sqrt(min x^2 + min y^2 + max z^2)).
 //! - the receiver's BSDF bounded as f_r |cos_o| <= D |cos_o| + S (`material_bound`): diffuse R / pi;
@@ -300,7 +303,7 @@ impl CutTree {
         if !(d2 > 0.0) || (node.near > 0.0 && d2 < node.near * node.near) {
             return DVec3::INFINITY;
         }
-        let ang = angular_bound(node, p);
+        let ang = angular_bound(node, p, d2.sqrt());
         if ang == 0.0 {
             return DVec3::ZERO;
         }
@@ -311,8 +314,29 @@ impl CutTree {
     }
 }
 
-/// ang_ub of a positional node seen from p (module docs).
-fn angular_bound(node: &Node, p: DVec3) -> f64 {
+/// ang_ub of a positional node seen from p at distance `d_min` from its box (module docs).
+fn angular_bound(node: &Node, p: DVec3, d_min: f64) -> f64 {
+    let cone = cone_bound(node, p);
+    if !node.cosine || node.theta_o > 0.1 {
+        return cone;
+    }
+    // A nearly planar cluster (normals within theta_o of w): n_k . v <= w . v + theta_o, and
+    // w . v <= h / d_min with h the largest (p - x) . w over the box (<= 0: p behind every light).
+    let mut h = f64::NEG_INFINITY;
+    for c in 0..8 {
+        let x = DVec3::new(
+            if c & 1 == 0 { node.lo.x } else { node.hi.x },
+            if c & 2 == 0 { node.lo.y } else { node.hi.y },
+            if c & 4 == 0 { node.lo.z } else { node.hi.z },
+        );
+        h = h.max((p - x).dot(node.w));
+    }
+    let plane = (h.max(0.0) / d_min + node.theta_o) * PAD + 1e-6;
+    cone.min(plane)
+}
+
+/// ang_ub from the cone alone (module docs).
+fn cone_bound(node: &Node, p: DVec3) -> f64 {
     let c = (node.lo + node.hi) * 0.5;
     let r = (node.hi - node.lo).length() * 0.5;
     let dist = (p - c).length();
