@@ -9,7 +9,7 @@
 //! cut holds `max_cut` nodes. `Criterion::Pixel` refines until the SUM of the cut's bounds is at most
 //! `error` times the estimate instead: since each node's error is at most its bound, the view sample's
 //! error is then within `error` of its estimate (a guarantee the per-cluster rule does not give: its
-//! errors add up over the cut; measured on cbox-lights at 2%, 82% of the pixels stay within 2%).
+//! errors add up over the cut; measured on cbox at 2%, 60-80% of the pixels stay within 2%).
 //! In both the node with the largest bound is split first. Single lights (leaves) are exact (bound 0). Lights without a bound (`cut_tree` fallbacks) are
 //! evaluated exactly at every view sample and count in the cut size; a view sample whose BSDF has no
 //! bound (`principled`) evaluates every light exactly (its cut size is then n, above `max_cut`).

@@ -9,7 +9,7 @@ SIGGRAPH 2005) on the light matrix's exact shading and shadow rays (CPU, rayon).
   cluster with the largest bound is split until every bound is at most ``error`` times the pixel's
   current estimate (``criterion="cluster"``, the paper's relative criterion, luminance) or the cut holds
   ``max_cut`` nodes. The per-cluster rule does not bound a pixel's error: the clusters' errors add up
-  (on cbox-lights at 2%, about 80% of the pixels end within 2% of brute force). ``criterion="pixel"``
+  (on cbox at 2%, 60-80% of the pixels end within 2% of brute force). ``criterion="pixel"``
   refines until the SUM of the cut's bounds is at most ``error`` times the estimate, which bounds every
   pixel's relative error by ``error`` (unless ``max_cut`` stops it first), at larger cuts.
 - ``reconstruction_cuts`` (the paper's Sec. 5, the algorithm the MRCS paper timed): full lightcuts only on
