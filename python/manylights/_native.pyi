@@ -178,6 +178,12 @@ def ris(matrix: LightMatrix, samples: int, candidates: int, seed: int, tree: Opt
         neighbours: int = 0, radius: int = 3) -> dict[str, Any]:
     """RIS over the light tree (neighbours > 0: spatial reuse over that many pixels within radius pixels):
     the same dict as light_bvh_sampling. Raises ValueError for samples, candidates or radius = 0."""
+def lightcuts(matrix: LightMatrix, error: float, max_cut: int, seed: int, block: int = 0,
+              criterion: str = "cluster") -> dict[str, Any]:
+    """Lightcuts (block = 0) or reconstruction cuts (grid every block pixels), refined per cluster ("cluster")
+    or by the sum of the bounds ("pixel"): image (H, W, 3) f32, cut_sizes
+    (H, W) f32, shadow_rays, seconds (stage -> s), tree_seconds, full_cuts, tree_nodes, exact_lights.
+    Raises ValueError for error <= 0 or NaN, max_cut = 0."""
 
 def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None,
                media: str = "mitsuba") -> Scene:

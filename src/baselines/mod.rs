@@ -10,6 +10,8 @@
 //!   unshadowed contribution, one shadow ray.
 //! - `ris_spatial`: the same reservoirs combined with those of neighbouring pixels (ReSTIR DI's spatial
 //!   reuse with unbiased balance-heuristic MIS weights, Bitterli et al. 2020, Sec. 4.3).
+//! - `lightcuts` and `reconstruction_cuts` (Walter et al. 2005): deterministic cuts of a cluster tree
+//!   (`cut_tree`) refined by upper bounds of each cluster's contribution, not unbiased estimators.
 //!
 //! `estimate_per_sample` runs an estimator k times per view sample (in parallel over view samples,
 //! one random stream per view sample so that results do not depend on threads) and returns the image
@@ -18,11 +20,16 @@
 //!
 //! Symbols: i view sample, j light, k samples per view sample, f the exact (shadowed) element A(i, j),
 //! pdf the light tree's probability of j at i, m view samples.
+pub mod cut_tree;
 pub mod light_bvh_sampling;
+pub mod lightcuts;
+pub mod reconstruction_cuts;
 pub mod ris;
 pub mod ris_spatial;
 
 pub use light_bvh_sampling::light_bvh_sampling;
+pub use lightcuts::{lightcuts, Criterion, CutsEstimate};
+pub use reconstruction_cuts::reconstruction_cuts;
 pub use ris::ris;
 pub use ris_spatial::ris_spatial;
 

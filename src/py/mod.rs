@@ -10,6 +10,7 @@ pub mod errors;
 pub mod gather;
 pub mod image;
 pub mod kmeans;
+pub mod lightcuts;
 pub mod lights;
 pub mod lightset;
 pub mod matrix;
@@ -31,6 +32,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     scene::register(m)?;
     matrix::register(m)?;
     baselines::register(m)?;
+    lightcuts::register(m)?;
     image::register(m)?;
     bsdf::register(m)?;
     lights::register(m)?;

@@ -16,12 +16,12 @@ from manylights.bench import compare as bench_compare
 def test_compare_puts_every_renderer_on_one_chart(tmp_path):
     cmd = [sys.executable, "-m", "manylights.bench", "compare", "--scene", "cbox", "--lights", "600", "--res", "16",
            "--seeds", "2", "--columns", "30", "90", "--clusters", "30x20", "120x80", "--grid-light", "30", "120",
-           "--grid-view", "20", "80", "--samples", "16", "64", "--device", "cpu", "--out", str(tmp_path)]
+           "--grid-view", "20", "80", "--samples", "16", "64", "--cuts", "60", "--device", "cpu", "--out", str(tmp_path)]
     subprocess.run(cmd, check=True, capture_output=True, text=True)
     summary = json.loads((tmp_path / "compare-cbox.json").read_text())
     methods = {r["method"] for r in summary["records"]}
     assert methods == {"power_sampling", "instant_radiosity", "mrcs", "clustered_visibility", "light_bvh_sampling",
-                       "ris_sampling"}
+                       "ris_sampling", "lightcuts", "reconstruction_cuts"}
     assert {r["budget"]["samples"] for r in summary["records"] if r["method"] == "ris_sampling"} == {16, 64}
     for r in summary["records"]:
         assert r["seeds"] == 2 and 0 < r["rel_l2_mean"] < 0.5 and r["seconds"] > 0, r

@@ -1235,6 +1235,23 @@ cases_for("ris_sampling", [
     ("zero radius", lambda c: c.ml.ris_sampling(c.A, neighbours=2, radius=0), ["radius"]),
     ("not a matrix", lambda c: c.ml.ris_sampling(None), ["LightMatrix"]),
 ], raises=("ValueError", "TypeError"))
+cases_for("lightcuts", [
+    ("zero error", lambda c: c.ml.lightcuts(c.A, error=0), ["error"]),
+    ("NaN error", lambda c: c.ml.lightcuts(c.A, error=float("nan")), ["error"]),
+    ("zero max_cut", lambda c: c.ml.lightcuts(c.A, max_cut=0), ["max_cut"]),
+    ("unknown criterion", lambda c: c.ml.lightcuts(c.A, criterion="sum"), ["criterion"]),
+    ("not a matrix", lambda c: c.ml.lightcuts(None), ["LightMatrix"]),
+], raises=("ValueError", "TypeError"))
+cases_for("reconstruction_cuts", [
+    ("zero block", lambda c: c.ml.reconstruction_cuts(c.A, block=0), ["block"]),
+    ("negative error", lambda c: c.ml.reconstruction_cuts(c.A, error=-0.02), ["error"]),
+    ("zero max_cut", lambda c: c.ml.reconstruction_cuts(c.A, max_cut=0), ["max_cut"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.lightcuts", [
+    ("zero error", lambda c: c.native.lightcuts(c.A._m, 0.0, 10, 0), ["error"]),
+    ("zero max_cut", lambda c: c.native.lightcuts(c.A._m, 0.02, 0, 0), ["max_cut"]),
+    ("unknown criterion", lambda c: c.native.lightcuts(c.A._m, 0.02, 10, 0, 0, "sum"), ["criterion"]),
+])
 cases_for("native.light_bvh_sampling", [
     ("zero samples", lambda c: c.native.light_bvh_sampling(c.A._m, 0, 0), ["samples"]),
 ])

@@ -6,8 +6,9 @@ content hash under ``--reference-dir``):
 
 1. power sampling and instant radiosity at each column count, MRCS at rows = columns / 3, clustered
    visibility (GPU fuzzy K-means, F = ``--fuzzy``) at each ``LIGHTxVIEW`` pair of ``--clusters``, and
-   light-BVH sampling and RIS (M = ``--candidates``) at each ``--samples`` count per view sample; every one
-   at ``--seeds`` seeds. Chart ``compare-<scene>.png``: relative L2 (mean, error bars = std over seeds)
+   light-BVH sampling and RIS (M = ``--candidates``) at each ``--samples`` count per view sample, Lightcuts
+   and reconstruction cuts (error ``--cut-error``) at each ``--cuts`` largest cut; every one at ``--seeds``
+   seeds. Chart ``compare-<scene>.png``: relative L2 (mean, error bars = std over seeds)
    against seconds, log-log, brute force's time as a vertical line.
 2. clustered visibility over the grid ``--grid-light`` x ``--grid-view`` (light clusters x view clusters):
    chart ``compare-<scene>-clusters.png``, error and time against both counts (the paper's study of K_vpl
@@ -32,7 +33,7 @@ from .common import display_path, finish_loglog, method_records, ok_rows, resolv
 from .dask_options import add_dask_arguments, check_dask_arguments
 
 COLORS = {"power_sampling": "C0", "instant_radiosity": "C1", "mrcs": "C2", "clustered_visibility": "C3",
-          "light_bvh_sampling": "C4", "ris_sampling": "C5"}
+          "light_bvh_sampling": "C4", "ris_sampling": "C5", "lightcuts": "C6", "reconstruction_cuts": "C7"}
 
 
 def _pair(text: str) -> tuple[int, int]:
@@ -59,6 +60,9 @@ def add_parser(sub) -> None:
     p.add_argument("--samples", type=int, nargs="*", default=[4, 16, 64],
                    help="light samples (shadow rays) per view sample of light-BVH sampling and RIS (none: skip them)")
     p.add_argument("--candidates", type=int, default=16, help="RIS candidates per sample (M)")
+    p.add_argument("--cuts", type=int, nargs="*", default=[100, 1000],
+                   help="largest cut per view sample of Lightcuts and reconstruction cuts (none: skip them)")
+    p.add_argument("--cut-error", type=float, default=0.02, help="Lightcuts' relative error bound per cluster")
     p.add_argument("--fuzzy", type=int, default=6, help="clustered visibility's F (view clusters per sample)")
     p.add_argument("--grid-light", type=int, nargs="*", default=[100, 300, 1000], help="light clusters of the study")
     p.add_argument("--grid-view", type=int, nargs="*", default=[50, 200, 800], help="view clusters of the study")
@@ -84,6 +88,8 @@ def run(args) -> dict:
         raise ValueError(f"--fuzzy must be >= 1, got {args.fuzzy}")
     if any(k < 1 for k in args.samples) or args.candidates < 1:
         raise ValueError(f"--samples and --candidates must be >= 1, got {args.samples} and {args.candidates}")
+    if any(k < 1 for k in args.cuts) or not args.cut_error > 0:
+        raise ValueError(f"--cuts must be >= 1 and --cut-error > 0, got {args.cuts} and {args.cut_error}")
     pairs = [_pair(c) for c in args.clusters]
     path = resolve_scene(args.scene)
     film = ml.load_scene(path)
@@ -115,6 +121,11 @@ def run(args) -> dict:
                                budgets=[(1, k) for k in args.samples],
                                options={"ris_sampling": {"candidates": args.candidates}},
                                out=out / f"{stem}-lighttree-{tag}.parquet", **common))
+    if args.cuts:
+        err = {"error": args.cut_error}
+        frames.append(ml.sweep(scene, methods=["lightcuts", "reconstruction_cuts"], budgets=[(1, k) for k in args.cuts],
+                               options={"lightcuts": err, "reconstruction_cuts": err},
+                               out=out / f"{stem}-lightcuts-{tag}.parquet", **common))
     wall = time.perf_counter() - t
     import pandas as pd
 
@@ -129,6 +140,10 @@ def run(args) -> dict:
             r["budget"] = {"samples": r["budget"]["columns"]}
             if method == "ris_sampling":
                 r["budget"]["candidates"] = args.candidates
+            records.append(r)
+    for method in ("lightcuts", "reconstruction_cuts"):
+        for r in method_records(ok, method, ["columns"]):
+            r["budget"] = {"max_cut": r["budget"]["columns"], "error": args.cut_error}
             records.append(r)
     cv_records = method_records(ok, "clustered_visibility", ["columns", "rows"])
     for r in cv_records:

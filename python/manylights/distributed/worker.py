@@ -35,12 +35,14 @@ from ..metrics import flicker, flip, relative_l2, relative_l2_per_frame, relmse,
 from ..renderers.baselines import instant_radiosity, power_sampling
 from ..renderers.clustered_visibility import clustered_visibility
 from ..renderers.light_tree import light_bvh_sampling, ris_sampling
+from ..renderers.lightcuts import lightcuts, reconstruction_cuts
 from ..renderers.mrcs import mrcs
 from ..scene import load_scene
 
 #: Methods and whether they take rows (methods without rows use the columns of each budget).
 METHODS = {"mrcs": True, "power_sampling": False, "instant_radiosity": False, "clustered_visibility": True,
-           "light_bvh_sampling": False, "ris_sampling": False, "tensor_clustering": True, "mrcs_per_frame": True}
+           "light_bvh_sampling": False, "ris_sampling": False, "tensor_clustering": True, "mrcs_per_frame": True,
+           "lightcuts": False, "reconstruction_cuts": False}
 #: clustered_visibility reads a budget (rows, columns) as (view clusters, light clusters).
 #: Methods that render animations (a scene whose parameters hold ``frames``); the others render one image.
 ANIMATION_METHODS = {"tensor_clustering", "mrcs_per_frame"}
@@ -272,6 +274,12 @@ def render(task: dict, ref: dict) -> dict:
             # A budget's columns are the light samples (shadow rays) per view sample.
             render_fn = light_bvh_sampling if method == "light_bvh_sampling" else ris_sampling
             res = render_fn(A, samples=c, seed=seed, **opts)
+            row["clusters"] = c
+            row["rays"] = int(res.budget["shadow_rays"])
+        elif method in ("lightcuts", "reconstruction_cuts"):
+            # A budget's columns are the largest cut per view sample (error: options, default 2%).
+            render_fn = lightcuts if method == "lightcuts" else reconstruction_cuts
+            res = render_fn(A, max_cut=c, seed=seed, **opts)
             row["clusters"] = c
             row["rays"] = int(res.budget["shadow_rays"])
         elif method == "clustered_visibility":

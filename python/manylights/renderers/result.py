@@ -103,6 +103,8 @@ class RenderResult:
     variance_estimate: Optional[float] = None
     #: With probes: relative L2 of the image's expectation against the converged scene (variance removed).
     bias_estimate: Optional[float] = None
+    #: (H, W) int32 clusters and lights shaded per pixel, where the renderer picks a cut per pixel (Lightcuts).
+    cut_sizes: Optional[np.ndarray] = None
 
     @property
     def seconds(self) -> float:

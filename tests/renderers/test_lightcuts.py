@@ -1,0 +1,89 @@
+"""Lightcuts and reconstruction cuts: the per-pixel error against brute force of the same lights stays
+within the requested bound at >= 99% of pixels (cbox-lights with every light kind, and a VPL set),
+cut sizes per pixel, fewer rays for reconstruction cuts, bad input."""
+import numpy as np
+import pytest
+
+import manylights as ml
+from conftest import SCENE_CONFIGS
+
+LUM = np.array([0.2126, 0.7152, 0.0722])
+
+
+@pytest.fixture(scope="module")
+def cbox_lights():
+    xml, _, _ = SCENE_CONFIGS["cbox-lights"]
+    scene = ml.load_scene(xml, res=24)
+    lights = ml.generate_lights(scene, area=256, environment=128, indirect=1024, seed=3)
+    A = ml.LightMatrix(scene, lights, device="cpu")
+    return A, A.column_sum(progress=False)
+
+
+@pytest.fixture(scope="module")
+def cbox_vpls():
+    xml, _, _ = SCENE_CONFIGS["cbox"]
+    scene = ml.load_scene(xml, res=24)
+    lights = ml.generate_lights(scene, area=0, indirect=2000, seed=4)
+    A = ml.LightMatrix(scene, lights, device="cpu")
+    return A, A.column_sum(progress=False)
+
+
+def within(image, truth, bound):
+    """Fraction of lit pixels whose relative luminance error is <= bound."""
+    x, t = image.astype(np.float64) @ LUM, truth.astype(np.float64) @ LUM
+    lit = t > 0
+    return float(np.mean(np.abs(x[lit] - t[lit]) <= bound * t[lit]))
+
+
+@pytest.mark.parametrize("scene", ["cbox_lights", "cbox_vpls"])
+def test_lightcuts_error_within_bound_at_99_percent_of_pixels(scene, request):
+    A, truth = request.getfixturevalue(scene)
+    # The per-pixel criterion (the sum of the cut's bounds) bounds each pixel's error.
+    res = ml.lightcuts(A, error=0.02, max_cut=1000, criterion="pixel", add_emitted=False)
+    assert res.method == "lightcuts" and res.image.shape == truth.shape
+    assert within(res.image, truth, 0.02) >= 0.99
+    sizes = res.cut_sizes
+    surface = A.view_samples()["surface"].reshape(sizes.shape)
+    assert sizes.dtype == np.int32 and sizes.shape == truth.shape[:2]
+    assert (sizes[surface] > 1).all() and (sizes <= 1000).all() and (sizes[~surface] == 0).all()
+    # Fewer shadow rays than brute force's one per (surface pixel, light).
+    brute = surface.sum() * A.shape[1]
+    assert 0 < res.budget["shadow_rays"] < 0.6 * brute
+    assert res.budget["mean_cut"] == pytest.approx(sizes[surface].mean(), rel=1e-6)
+    assert set(res.timings) == {"cut_tree", "cuts"}  # add_emitted=False
+    # The paper's per-cluster criterion: smaller cuts; the clusters' errors add up (measured: 67-82% of the
+    # pixels within 2%, all within 10%).
+    paper = ml.lightcuts(A, error=0.02, max_cut=1000, add_emitted=False)
+    assert paper.budget["criterion"] == "cluster" and paper.budget["mean_cut"] < 0.5 * res.budget["mean_cut"]
+    assert within(paper.image, truth, 0.1) >= 0.99 and within(paper.image, truth, 0.02) >= 0.5
+    assert paper.budget["shadow_rays"] < 0.15 * brute
+
+
+def test_reconstruction_cuts_cast_fewer_rays_at_a_small_error(cbox_lights):
+    A, truth = cbox_lights
+    lc = ml.lightcuts(A, error=0.02, add_emitted=False)
+    rc = ml.reconstruction_cuts(A, error=0.02, block=4, add_emitted=False)
+    assert rc.method == "reconstruction_cuts" and rc.budget["block"] == 4
+    # At 24 x 24 most blocks of cbox-lights straddle an edge and get full cuts: a small saving only.
+    assert rc.budget["shadow_rays"] < lc.budget["shadow_rays"]
+    assert 49 <= rc.budget["full_cuts"] < A.shape[0]
+    # Reconstruction interpolates visibility: close to Lightcuts, not bounded per cluster.
+    assert ml.relative_l2(rc.image, truth) < 0.03
+    assert within(rc.image, truth, 0.05) >= 0.9
+    # block = 1: every pixel gets a full lightcut, the same image as Lightcuts.
+    full = ml.reconstruction_cuts(A, error=0.02, block=1, add_emitted=False)
+    np.testing.assert_allclose(full.image, lc.image, rtol=1e-5, atol=1e-7)
+
+
+def test_bad_input_is_a_value_error(cbox_lights):
+    A, _ = cbox_lights
+    for kwargs, word in [({"error": 0}, "error"), ({"error": -0.1}, "error"), ({"error": float("nan")}, "error"),
+                         ({"max_cut": 0}, "max_cut"), ({"max_cut": 2.5}, "max_cut")]:
+        with pytest.raises(ValueError, match=word):
+            ml.lightcuts(A, **kwargs)
+    with pytest.raises(ValueError, match="block"):
+        ml.reconstruction_cuts(A, block=0)
+    with pytest.raises(ValueError, match="criterion"):
+        ml.lightcuts(A, criterion="total")
+    with pytest.raises(TypeError, match="LightMatrix"):
+        ml.lightcuts(None)
