@@ -55,6 +55,7 @@ from .renderers.clustered_visibility import clustered_shading, clustered_visibil
 from .renderers.clustering import cluster_reduced_columns, clustering_cost
 from .renderers.kmeans import KMeansResult, fuzzy_membership, kmeans
 from .renderers.light_tree import light_bvh_sampling, ris_sampling
+from .renderers.lightslice import lightslice
 from .renderers.mrcs import mrcs
 from .renderers.probes import probe_pixels
 from .renderers.progressive import mrcs_progressive
@@ -62,6 +63,7 @@ from .renderers.render import render
 
 # Renderers
 from .renderers.result import RenderResult
+from .renderers.stochastic_lightcuts import stochastic_lightcuts
 from .scene import load_scene
 
 __all__ = [
@@ -74,6 +76,7 @@ __all__ = [
     "RenderResult", "render", "render_brute_force", "mrcs", "mrcs_progressive", "cluster_reduced_columns",
     "clustering_cost", "power_sampling", "instant_radiosity", "clustered_visibility", "clustered_shading",
     "KMeansResult", "kmeans", "fuzzy_membership", "antialias", "probe_pixels", "light_bvh_sampling", "ris_sampling",
+    "stochastic_lightcuts", "lightslice",
     # animation
     "Animation", "load_animation", "apply_mapping", "AnimationLights", "generate_animation_lights",
     "LightTensor", "AnimationResult", "mrcs_per_frame", "TensorClustering", "cluster_tensor", "tensor_clustering",

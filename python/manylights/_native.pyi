@@ -170,6 +170,15 @@ def ris(matrix: LightMatrix, samples: int, candidates: int, seed: int, tree: Opt
         neighbours: int = 0, radius: int = 3) -> dict[str, Any]:
     """RIS over the light tree (neighbours > 0: spatial reuse over that many pixels within radius pixels):
     the same dict as light_bvh_sampling. Raises ValueError for samples, candidates or radius = 0."""
+def stochastic_lightcuts(matrix: LightMatrix, cut_size: int, samples: int, seed: int,
+                         tree: Optional[LightTree] = None) -> dict[str, Any]:
+    """Stochastic Lightcuts (cut of cut_size tree nodes, one light each, samples estimates per view sample):
+    the same dict as light_bvh_sampling. Raises ValueError for cut_size or samples = 0."""
+def lightslice(matrix: LightMatrix, slices: int, columns: int, global_columns: int, neighbours: int,
+               normal_weight: float, seed: int) -> dict[str, Any]:
+    """LightSlice: image (H, W, 3) f32, slices (H, W) int32 (-1: no surface), rows (S,) i64,
+    global_assignment (n,) i64, clusters_per_slice (S,) i64, shadow_rays, timings {stage: seconds}.
+    Raises ValueError for a zero count, global_columns > columns, a bad normal_weight, no lights."""
 
 def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None,
                media: str = "mitsuba") -> Scene:
