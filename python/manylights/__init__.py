@@ -54,7 +54,7 @@ from .renderers.brute_force import render_brute_force
 from .renderers.clustered_visibility import clustered_shading, clustered_visibility
 from .renderers.clustering import cluster_reduced_columns, clustering_cost
 from .renderers.kmeans import KMeansResult, fuzzy_membership, kmeans
-from .renderers.light_tree import light_bvh_sampling, ris_sampling
+from .renderers.light_tree import light_bvh_sampling, ris_sampling, stochastic_lightcuts
 from .renderers.lightslice import lightslice
 from .renderers.mrcs import mrcs
 from .renderers.probes import probe_pixels
@@ -63,7 +63,6 @@ from .renderers.render import render
 
 # Renderers
 from .renderers.result import RenderResult
-from .renderers.stochastic_lightcuts import stochastic_lightcuts
 from .scene import load_scene
 
 __all__ = [

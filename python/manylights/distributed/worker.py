@@ -34,10 +34,9 @@ from ..matrix.light_matrix import LightMatrix
 from ..metrics import flicker, relative_l2, relative_l2_per_frame, relmse, smape
 from ..renderers.baselines import instant_radiosity, power_sampling
 from ..renderers.clustered_visibility import clustered_visibility
-from ..renderers.light_tree import light_bvh_sampling, ris_sampling
+from ..renderers.light_tree import light_bvh_sampling, ris_sampling, stochastic_lightcuts
 from ..renderers.lightslice import lightslice
 from ..renderers.mrcs import mrcs
-from ..renderers.stochastic_lightcuts import stochastic_lightcuts
 from ..scene import load_scene
 
 #: Methods and whether they take rows (methods without rows use the columns of each budget).
