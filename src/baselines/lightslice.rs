@@ -47,6 +47,8 @@ pub const ZERO_SHARE: f64 = 0.25;
 /// The random-stream phases of LightSlice (`crate::cluster::phase_rng` of the seed).
 const PHASE_ROWS: u64 = 16;
 const PHASE_SLICE: u64 = 17;
+/// Representatives per block of the reconstruction (their light data stays in cache over a slice).
+const RENDER_BLOCK: usize = 256;
 
 /// Parameters of [`lightslice`].
 #[derive(Debug, Clone)]
@@ -311,23 +313,38 @@ pub fn lightslice(a: &LightMatrix, opts: &LightSliceOptions) -> Result<LightSlic
 
     let t = Instant::now();
     let tracer = a.tracer()?;
-    let rays = AtomicU64::new(0);
-    let per_sample: Vec<Vec3> = crate::interrupt::par_map_chunked(view.len(), 4096, |i| {
+    // Slice by slice (a slice's representatives stay in cache), in blocks of RENDER_BLOCK lights.
+    let mut samples_of_slice: Vec<Vec<u32>> = vec![Vec::new(); slices.len()];
+    for i in 0..view.len() {
         let pixel = if i < pixels { i } else { view.extra_pixel[i - pixels] as usize };
-        let s = slice_of_pixel[pixel];
-        let sp = crate::cpu::ShadingPoint::new(view, i);
-        if s < 0 || !sp.surface {
-            return Vec3::ZERO;
+        if slice_of_pixel[pixel] >= 0 && view.shape_index[i] >= 0 {
+            samples_of_slice[slice_of_pixel[pixel] as usize].push(i as u32);
         }
-        let (mut sum, mut tested) = (Vec3::ZERO, 0u64);
-        for &(j, w) in &per_slice[s as usize] {
-            let v = crate::cpu::shade(&tracer, view, &a.lights, &sp, i, j as usize);
-            tested += v.tested as u64;
-            sum += v.value * w;
+    }
+    let rays = AtomicU64::new(0);
+    let shaded: Vec<Vec<Vec3>> = crate::interrupt::par_map_chunked(slices.len(), 64, |s| {
+        let samples = &samples_of_slice[s];
+        let points: Vec<_> = samples.iter().map(|&i| crate::cpu::ShadingPoint::new(view, i as usize)).collect();
+        let mut sums = vec![Vec3::ZERO; samples.len()];
+        let mut tested = 0u64;
+        for block in per_slice[s].chunks(RENDER_BLOCK) {
+            for ((&i, sp), sum) in samples.iter().zip(&points).zip(sums.iter_mut()) {
+                for &(j, w) in block {
+                    let v = crate::cpu::shade(&tracer, view, &a.lights, sp, i as usize, j as usize);
+                    tested += v.tested as u64;
+                    *sum += v.value * w;
+                }
+            }
         }
         rays.fetch_add(tested, Ordering::Relaxed);
-        sum
+        sums
     })?;
+    let mut per_sample = vec![Vec3::ZERO; view.len()];
+    for (samples, sums) in samples_of_slice.iter().zip(&shaded) {
+        for (&i, &v) in samples.iter().zip(sums) {
+            per_sample[i as usize] = v;
+        }
+    }
     let flat: Vec<f32> = per_sample.iter().flat_map(|v| v.to_array()).collect();
     let image = if view.len() == pixels { flat } else { view.fold(&flat, 3) };
     timings.push(("columns", t.elapsed().as_secs_f64()));
