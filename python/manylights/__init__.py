@@ -54,8 +54,9 @@ from .renderers.brute_force import render_brute_force
 from .renderers.clustered_visibility import clustered_shading, clustered_visibility
 from .renderers.clustering import cluster_reduced_columns, clustering_cost
 from .renderers.kmeans import KMeansResult, fuzzy_membership, kmeans
-from .renderers.light_tree import light_bvh_sampling, ris_sampling
+from .renderers.light_tree import light_bvh_sampling, ris_sampling, stochastic_lightcuts
 from .renderers.lightcuts import lightcuts, reconstruction_cuts
+from .renderers.lightslice import lightslice
 from .renderers.mrcs import mrcs
 from .renderers.probes import probe_pixels
 from .renderers.progressive import mrcs_progressive
@@ -76,6 +77,7 @@ __all__ = [
     "clustering_cost", "power_sampling", "instant_radiosity", "clustered_visibility", "clustered_shading",
     "KMeansResult", "kmeans", "fuzzy_membership", "antialias", "probe_pixels", "light_bvh_sampling", "ris_sampling",
     "lightcuts", "reconstruction_cuts",
+    "stochastic_lightcuts", "lightslice",
     # animation
     "Animation", "load_animation", "apply_mapping", "AnimationLights", "generate_animation_lights",
     "LightTensor", "AnimationResult", "mrcs_per_frame", "TensorClustering", "cluster_tensor", "tensor_clustering",

@@ -184,6 +184,15 @@ def lightcuts(matrix: LightMatrix, error: float, max_cut: int, seed: int, block:
     or by the sum of the bounds ("pixel"): image (H, W, 3) f32, cut_sizes
     (H, W) f32, shadow_rays, seconds (stage -> s), tree_seconds, full_cuts, tree_nodes, exact_lights.
     Raises ValueError for error <= 0 or NaN, max_cut = 0."""
+def stochastic_lightcuts(matrix: LightMatrix, cut_size: int, samples: int, seed: int,
+                         tree: Optional[LightTree] = None) -> dict[str, Any]:
+    """Stochastic Lightcuts (cut of cut_size tree nodes, one light each, samples estimates per view sample):
+    the same dict as light_bvh_sampling. Raises ValueError for cut_size or samples = 0."""
+def lightslice(matrix: LightMatrix, slices: int, columns: int, global_columns: int, neighbours: int,
+               normal_weight: float, seed: int) -> dict[str, Any]:
+    """LightSlice: image (H, W, 3) f32, slices (H, W) int32 (-1: no surface), rows (S,) i64,
+    global_assignment (n,) i64, clusters_per_slice (S,) i64, shadow_rays, timings {stage: seconds}.
+    Raises ValueError for a zero count, global_columns > columns, a bad normal_weight, no lights."""
 
 def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[int, int]] = None,
                media: str = "mitsuba") -> Scene:

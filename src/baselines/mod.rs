@@ -12,6 +12,10 @@
 //!   reuse with unbiased balance-heuristic MIS weights, Bitterli et al. 2020, Sec. 4.3).
 //! - `lightcuts` and `reconstruction_cuts` (Walter et al. 2005): deterministic cuts of a cluster tree
 //!   (`cut_tree`) refined by upper bounds of each cluster's contribution, not unbiased estimators.
+//! - `stochastic_lightcuts`: a cut of the light tree per view sample and one light sampled below each
+//!   cut node (Yuksel 2019).
+//! - `lightslice`: matrix slices with per-slice light clusterings refined from a global one (Ou and
+//!   Pellacini 2011); not a sampler of the tree, it reuses MRCS's clustering (`crate::cluster`).
 //!
 //! `estimate_per_sample` runs an estimator k times per view sample (in parallel over view samples,
 //! one random stream per view sample so that results do not depend on threads) and returns the image
@@ -23,15 +27,19 @@
 pub mod cut_tree;
 pub mod light_bvh_sampling;
 pub mod lightcuts;
+pub mod lightslice;
 pub mod reconstruction_cuts;
 pub mod ris;
 pub mod ris_spatial;
+pub mod stochastic_lightcuts;
 
 pub use light_bvh_sampling::light_bvh_sampling;
 pub use lightcuts::{lightcuts, Criterion, CutsEstimate};
+pub use lightslice::{lightslice, LightSliceOptions};
 pub use reconstruction_cuts::reconstruction_cuts;
 pub use ris::ris;
 pub use ris_spatial::ris_spatial;
+pub use stochastic_lightcuts::stochastic_lightcuts;
 
 use crate::cpu::ShadingPoint;
 use crate::error::{Error, Result};
@@ -82,6 +90,19 @@ pub(crate) fn estimate_per_sample(
     stream: u64,
     one: impl Fn(usize, &ShadingPoint, &mut Pcg32, &mut u64) -> Vec3 + Sync,
 ) -> Result<Estimate> {
+    estimate_per_sample_with(a, k, seed, stream, |_, _| (), |i, sp, _: &(), rng, rays| one(i, sp, rng, rays))
+}
+
+/// `estimate_per_sample` with per-view-sample state: `prepare(i, sp)` runs once per surface view sample
+/// and its result is passed to each of the k calls of `one`.
+pub(crate) fn estimate_per_sample_with<S>(
+    a: &LightMatrix,
+    k: usize,
+    seed: u64,
+    stream: u64,
+    prepare: impl Fn(usize, &ShadingPoint) -> S + Sync,
+    one: impl Fn(usize, &ShadingPoint, &S, &mut Pcg32, &mut u64) -> Vec3 + Sync,
+) -> Result<Estimate> {
     let t0 = Instant::now();
     let view = &a.view;
     let rays = AtomicU64::new(0);
@@ -91,9 +112,10 @@ pub(crate) fn estimate_per_sample(
             return (DVec3::ZERO, DVec3::ZERO);
         }
         let mut rng = crate::lights::generate::sampling::stream(seed, stream, i as u64);
+        let state = prepare(i, &sp);
         let (mut sum, mut sum2, mut r) = (DVec3::ZERO, DVec3::ZERO, 0u64);
         for _ in 0..k {
-            let v = one(i, &sp, &mut rng, &mut r).as_dvec3();
+            let v = one(i, &sp, &state, &mut rng, &mut r).as_dvec3();
             sum += v;
             sum2 += v * v;
         }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 /// cbox-lights at res x res on the CPU backend: point, spot, directional, 24 area, 24 environment and
 /// 300 indirect lights (seed 5).
-fn cbox_lights(res: u32) -> LightMatrix {
+pub(crate) fn cbox_lights(res: u32) -> LightMatrix {
     use crate::scene::{load_scene, LoadOptions};
     let xml = crate::testing::scene_file("cbox-lights/scene.xml");
     let opts = LoadOptions { params: vec![("res".into(), res.to_string())], size: None, ..Default::default() };
@@ -47,7 +47,7 @@ fn tree_pdf_covers_every_nonzero_element_and_sums_to_one() {
 }
 
 /// z of the image total against the exact column sum, from the estimator's own variance.
-fn total_z(e: &Estimate, reference: &[f32], scale: f64) -> f64 {
+pub(crate) fn total_z(e: &Estimate, reference: &[f32], scale: f64) -> f64 {
     let est: f64 = e.image.iter().map(|&v| v as f64).sum();
     let r: f64 = reference.iter().map(|&v| v as f64).sum::<f64>() * scale;
     let var: f64 = e.variance.as_ref().unwrap().iter().map(|&v| v as f64).sum();

@@ -182,9 +182,69 @@ fn ris<'py>(
     Ok(d)
 }
 
+/// Stochastic Lightcuts over the light tree (cut of `cut_size` nodes, `samples` estimates per view
+/// sample): the same dict as `light_bvh_sampling`.
+#[pyfunction]
+#[pyo3(signature = (matrix, cut_size, samples, seed, tree=None))]
+fn stochastic_lightcuts<'py>(
+    py: Python<'py>,
+    matrix: &LightMatrix,
+    cut_size: usize,
+    samples: usize,
+    seed: u64,
+    tree: Option<&LightTree>,
+) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    let t0 = std::time::Instant::now();
+    let t = LightTree::for_matrix(py, tree, matrix)?;
+    let tree_seconds = t0.elapsed().as_secs_f64();
+    let a = matrix.inner.clone();
+    let e = signals::detach(py, move || crate::baselines::stochastic_lightcuts(&a, &t, cut_size, samples, seed))?;
+    let d = estimate_dict(py, matrix, e)?;
+    d.set_item("tree_seconds", tree_seconds)?;
+    Ok(d)
+}
+
+/// LightSlice: dict of image (H, W, 3) float32, slices (H, W) int32 (-1 without a surface), rows (S,)
+/// int64, global_assignment (n,) int64, clusters_per_slice (S,) int64, shadow_rays, timings {stage: s}.
+#[pyfunction]
+#[pyo3(signature = (matrix, slices, columns, global_columns, neighbours, normal_weight, seed))]
+#[allow(clippy::too_many_arguments)]
+fn lightslice<'py>(
+    py: Python<'py>,
+    matrix: &LightMatrix,
+    slices: usize,
+    columns: usize,
+    global_columns: usize,
+    neighbours: usize,
+    normal_weight: f64,
+    seed: u64,
+) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    let a = matrix.inner.clone();
+    let opts = crate::baselines::LightSliceOptions { slices, columns, global_columns, neighbours, normal_weight, seed };
+    let out = signals::detach(py, move || crate::baselines::lightslice(&a, &opts))?;
+    let (h, w) = matrix.inner.image_size();
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("image", array(py, out.image, &[h, w, 3])?)?;
+    d.set_item("slices", array(py, out.slice_of_pixel, &[h, w])?)?;
+    let s = out.rows.len();
+    d.set_item("rows", array(py, out.rows.iter().map(|&r| r as i64).collect(), &[s])?)?;
+    let n = out.global_assignment.len();
+    d.set_item("global_assignment", array(py, out.global_assignment.iter().map(|&x| x as i64).collect(), &[n])?)?;
+    d.set_item("clusters_per_slice", array(py, out.clusters_per_slice.iter().map(|&x| x as i64).collect(), &[s])?)?;
+    d.set_item("shadow_rays", out.shadow_rays)?;
+    let t = pyo3::types::PyDict::new(py);
+    for (k, v) in out.timings {
+        t.set_item(k, v)?;
+    }
+    d.set_item("timings", t)?;
+    Ok(d)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<LightTree>()?;
     m.add_function(wrap_pyfunction!(light_bvh_sampling, m)?)?;
     m.add_function(wrap_pyfunction!(ris, m)?)?;
+    m.add_function(wrap_pyfunction!(stochastic_lightcuts, m)?)?;
+    m.add_function(wrap_pyfunction!(lightslice, m)?)?;
     Ok(())
 }

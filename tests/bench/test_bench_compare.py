@@ -21,8 +21,10 @@ def test_compare_puts_every_renderer_on_one_chart(tmp_path):
     summary = json.loads((tmp_path / "compare-cbox.json").read_text())
     methods = {r["method"] for r in summary["records"]}
     assert methods == {"power_sampling", "instant_radiosity", "mrcs", "clustered_visibility", "light_bvh_sampling",
-                       "ris_sampling", "lightcuts", "reconstruction_cuts"}
+                       "ris_sampling", "lightcuts", "reconstruction_cuts", "stochastic_lightcuts", "lightslice"}
     assert {r["budget"]["samples"] for r in summary["records"] if r["method"] == "ris_sampling"} == {16, 64}
+    assert {r["budget"]["cut_size"] for r in summary["records"] if r["method"] == "stochastic_lightcuts"} == {16, 64}
+    assert {r["budget"]["slices"] for r in summary["records"] if r["method"] == "lightslice"} == {10, 30}
     for r in summary["records"]:
         assert r["seeds"] == 2 and 0 < r["rel_l2_mean"] < 0.5 and r["seconds"] > 0, r
     cv = [r for r in summary["records"] if r["method"] == "clustered_visibility"]

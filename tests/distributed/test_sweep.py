@@ -326,3 +326,22 @@ def test_sweep_reports_relmse_and_smape_and_the_light_tree_samplers(tmp_path):
     assert row.clusters == 4 and row.relmse == pytest.approx(ml.relmse(img, ref), rel=1e-5)
     assert row.smape == pytest.approx(ml.smape(img, ref), rel=1e-5) and row.smape > 0
     assert row.flip == pytest.approx(ml.metrics.flip(img, ref), rel=1e-5) and 0 < row.flip < 1
+
+
+def test_sweep_runs_stochastic_lightcuts_and_lightslice(tmp_path):
+    df = ml.sweep([("cbox", {"res": 16})], methods=["stochastic_lightcuts", "lightslice"], budgets=[(8, 16)],
+                  seeds=[0], lights=LIGHTS, device="cpu", progress=False, workers=0, reference_dir=tmp_path / "refs")
+    assert (df.status == "ok").all(), df.error.tolist()
+    scene = ml.load_scene(scene_path("cbox"), res=16)
+    lights = ml.generate_lights(scene, area=LIGHTS // 4, indirect=LIGHTS - LIGHTS // 4, seed=0)
+    A = ml.LightMatrix(scene, lights, device="cpu")
+    ref = A.column_sum(progress=False) + A.emitted()
+    slc = df[df.method == "stochastic_lightcuts"].iloc[0]
+    assert slc.rows == 0 and slc.clusters == 16
+    img = ml.stochastic_lightcuts(A, cut_size=16, seed=0).image
+    assert slc.rel_l2 == pytest.approx(ml.relative_l2(img, ref), rel=1e-5) and slc.seconds_sampling > 0
+    ls = df[df.method == "lightslice"].iloc[0]
+    assert ls.rows == 8 and ls.clusters == 16
+    img = ml.lightslice(A, slices=8, columns=16, seed=0).image
+    assert ls.rel_l2 == pytest.approx(ml.relative_l2(img, ref), rel=1e-5) and 0 < ls.rel_l2 < 0.5
+    assert ls.seconds_refinement > 0

@@ -132,7 +132,7 @@ def test_dir_holds_only_the_public_api():
     public = set(json.loads(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                                            check=True).stdout))
     assert public == set(ml.__all__) | SUBMODULES, sorted(public ^ (set(ml.__all__) | SUBMODULES))
-    assert len(ml.__all__) == len(set(ml.__all__)) == 61
+    assert len(ml.__all__) == len(set(ml.__all__)) == 63
     for name in ml.__all__:
         assert getattr(ml, name) is not None, name
     for name in ("mrcs", "render", "LightMatrix", "load_scene", "generate_lights", "tensor_clustering",

@@ -1252,6 +1252,31 @@ cases_for("native.lightcuts", [
     ("zero max_cut", lambda c: c.native.lightcuts(c.A._m, 0.02, 0, 0), ["max_cut"]),
     ("unknown criterion", lambda c: c.native.lightcuts(c.A._m, 0.02, 10, 0, 0, "sum"), ["criterion"]),
 ])
+cases_for("stochastic_lightcuts", [
+    ("zero cut size", lambda c: c.ml.stochastic_lightcuts(c.A, cut_size=0), ["cut_size"]),
+    ("fractional cut size", lambda c: c.ml.stochastic_lightcuts(c.A, cut_size=2.5), ["cut_size"]),
+    ("zero samples", lambda c: c.ml.stochastic_lightcuts(c.A, samples=0), ["samples"]),
+    ("negative seed", lambda c: c.ml.stochastic_lightcuts(c.A, seed=-1), ["seed"]),
+    ("not a matrix", lambda c: c.ml.stochastic_lightcuts(None), ["LightMatrix"]),
+    ("tree over other lights", lambda c: c.ml.stochastic_lightcuts(c.A, tree=c.ml.LightTree(c.lights[:1])),
+     ["another LightSet"]),
+], raises=("ValueError", "TypeError"))
+cases_for("lightslice", [
+    ("zero slices", lambda c: c.ml.lightslice(c.A, slices=0), ["slices"]),
+    ("zero columns", lambda c: c.ml.lightslice(c.A, columns=0), ["columns"]),
+    ("global above columns", lambda c: c.ml.lightslice(c.A, columns=4, global_columns=5), ["global_columns"]),
+    ("zero neighbours", lambda c: c.ml.lightslice(c.A, neighbours=0), ["neighbours"]),
+    ("NaN normal weight", lambda c: c.ml.lightslice(c.A, normal_weight=np.nan), ["normal_weight"]),
+    ("negative seed", lambda c: c.ml.lightslice(c.A, seed=-1), ["seed"]),
+    ("not a matrix", lambda c: c.ml.lightslice(None), ["LightMatrix"]),
+], raises=("ValueError", "TypeError"))
+cases_for("native.stochastic_lightcuts", [
+    ("zero cut size", lambda c: c.native.stochastic_lightcuts(c.A._m, 0, 1, 0), ["cut_size"]),
+])
+cases_for("native.lightslice", [
+    ("global above columns", lambda c: c.native.lightslice(c.A._m, 4, 4, 5, 2, 0.25, 0), ["global_columns"]),
+    ("NaN normal weight", lambda c: c.native.lightslice(c.A._m, 4, 4, 2, 2, float("nan"), 0), ["normal_weight"]),
+])
 cases_for("native.light_bvh_sampling", [
     ("zero samples", lambda c: c.native.light_bvh_sampling(c.A._m, 0, 0), ["samples"]),
 ])

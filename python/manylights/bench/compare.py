@@ -4,11 +4,12 @@ chart per scene, and the clustered-visibility paper's cluster-count study (its F
 Two ``ml.sweep`` runs against the brute-force image of the scene's light matrix (rendered once, cached by
 content hash under ``--reference-dir``):
 
-1. power sampling and instant radiosity at each column count, MRCS at rows = columns / 3, clustered
-   visibility (GPU fuzzy K-means, F = ``--fuzzy``) at each ``LIGHTxVIEW`` pair of ``--clusters``, and
-   light-BVH sampling and RIS (M = ``--candidates``) at each ``--samples`` count per view sample, Lightcuts
-   and reconstruction cuts (error ``--cut-error``) at each ``--cuts`` largest cut; every one at ``--seeds``
-   seeds. Chart ``compare-<scene>.png``: relative L2 (mean, error bars = std over seeds)
+1. power sampling and instant radiosity at each column count, MRCS and LightSlice at rows (slices) =
+   columns / 3, clustered visibility (GPU fuzzy K-means, F = ``--fuzzy``) at each ``LIGHTxVIEW`` pair of
+   ``--clusters``, light-BVH sampling, RIS (M = ``--candidates``) and Stochastic Lightcuts (cut size) at
+   each ``--samples`` count per view sample, Lightcuts and reconstruction cuts (error ``--cut-error``) at
+   each ``--cuts`` largest cut; every one at ``--seeds`` seeds. Chart ``compare-<scene>.png``: relative L2
+   (mean, error bars = std over seeds)
    against seconds, log-log, brute force's time as a vertical line.
 2. clustered visibility over the grid ``--grid-light`` x ``--grid-view`` (light clusters x view clusters):
    chart ``compare-<scene>-clusters.png``, error and time against both counts (the paper's study of K_vpl
@@ -33,7 +34,8 @@ from .common import display_path, finish_loglog, method_records, ok_rows, resolv
 from .dask_options import add_dask_arguments, check_dask_arguments
 
 COLORS = {"power_sampling": "C0", "instant_radiosity": "C1", "mrcs": "C2", "clustered_visibility": "C3",
-          "light_bvh_sampling": "C4", "ris_sampling": "C5", "lightcuts": "C6", "reconstruction_cuts": "C7"}
+          "light_bvh_sampling": "C4", "ris_sampling": "C5", "lightcuts": "C6", "reconstruction_cuts": "C7",
+          "stochastic_lightcuts": "C8", "lightslice": "C9"}
 
 
 def _pair(text: str) -> tuple[int, int]:
@@ -58,7 +60,8 @@ def add_parser(sub) -> None:
     p.add_argument("--clusters", nargs="+", default=["100x100", "300x400", "1000x1600"],
                    help="clustered visibility: LIGHTxVIEW cluster pairs")
     p.add_argument("--samples", type=int, nargs="*", default=[4, 16, 64],
-                   help="light samples (shadow rays) per view sample of light-BVH sampling and RIS (none: skip them)")
+                   help="light samples (shadow rays) per view sample of light-BVH sampling and RIS, cut size of "
+                        "Stochastic Lightcuts (none: skip them)")
     p.add_argument("--candidates", type=int, default=16, help="RIS candidates per sample (M)")
     p.add_argument("--cuts", type=int, nargs="*", default=[100, 1000],
                    help="largest cut per view sample of Lightcuts and reconstruction cuts (none: skip them)")
@@ -107,7 +110,7 @@ def run(args) -> dict:
     t = time.perf_counter()
     base = ml.sweep(scene, methods=["power_sampling", "instant_radiosity"], budgets=[(1, c) for c in args.columns],
                     out=out / f"{stem}-baselines-{tag}.parquet", **common)
-    mrcs = ml.sweep(scene, methods=["mrcs"], budgets=[(max(1, c // 3), c) for c in args.columns],
+    mrcs = ml.sweep(scene, methods=["mrcs", "lightslice"], budgets=[(max(1, c // 3), c) for c in args.columns],
                     out=out / f"{stem}-mrcs-{tag}.parquet", **common)
     # clustered_visibility reads a budget as (view clusters, light clusters).
     grid = [(v, l) for l in args.grid_light for v in args.grid_view]
@@ -117,7 +120,7 @@ def run(args) -> dict:
                   out=out / f"{stem}-clustered-{tag}.parquet", **common)
     frames = [base, mrcs, cv]
     if args.samples:
-        frames.append(ml.sweep(scene, methods=["light_bvh_sampling", "ris_sampling"],
+        frames.append(ml.sweep(scene, methods=["light_bvh_sampling", "ris_sampling", "stochastic_lightcuts"],
                                budgets=[(1, k) for k in args.samples],
                                options={"ris_sampling": {"candidates": args.candidates}},
                                out=out / f"{stem}-lighttree-{tag}.parquet", **common))
@@ -135,9 +138,13 @@ def run(args) -> dict:
     t_brute = float(first["reference_seconds"])
     records = (method_records(ok, "power_sampling", ["columns"]) + method_records(ok, "instant_radiosity", ["columns"])
                + method_records(ok, "mrcs", ["rows", "columns"]))
-    for method in ("light_bvh_sampling", "ris_sampling"):
+    for r in method_records(ok, "lightslice", ["rows", "columns"]):
+        r["budget"] = {"slices": r["budget"]["rows"], "columns": r["budget"]["columns"]}
+        records.append(r)
+    for method in ("light_bvh_sampling", "ris_sampling", "stochastic_lightcuts"):
         for r in method_records(ok, method, ["columns"]):
-            r["budget"] = {"samples": r["budget"]["columns"]}
+            key = "cut_size" if method == "stochastic_lightcuts" else "samples"
+            r["budget"] = {key: r["budget"]["columns"]}
             if method == "ris_sampling":
                 r["budget"]["candidates"] = args.candidates
             records.append(r)
@@ -191,7 +198,7 @@ def _chart(records, t_brute: float, png: Path, title: str) -> None:
         if rs:
             ax.errorbar([r["seconds"] for r in rs], [r["rel_l2_mean"] for r in rs],
                         yerr=[r["rel_l2_std"] for r in rs], marker="o", capsize=3, color=color,
-                        label=method.replace("_", " ") + (" (1:3)" if method == "mrcs" else ""))
+                        label=method.replace("_", " ") + (" (1:3)" if method in ("mrcs", "lightslice") else ""))
     ax.axvline(t_brute, color="k", linestyle=":", linewidth=1, label=f"brute force ({t_brute:.1f} s)")
     ax.axhline(0.02, color="grey", linestyle="--", linewidth=1, label="2%")
     finish_loglog(fig, ax, png, "time (s)", "relative L2 error vs brute force", title, 8)

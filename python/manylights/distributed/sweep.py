@@ -185,10 +185,11 @@ def sweep(scenes, methods: Sequence[str] = ("mrcs", "power_sampling"), budgets=(
             dict per frame] the scene is an animation (``load_animation``; the other parameters are common to
             every frame). Paths must be valid on the workers (a shared file system on a real cluster).
         methods: for still scenes any of ``"mrcs"`` (takes rows and columns), ``"power_sampling"``,
-            ``"instant_radiosity"``, ``"light_bvh_sampling"`` and ``"ris_sampling"`` (columns only: they take
-            each distinct column count of ``budgets`` once, their rows are 0; the light-tree samplers read it
-            as light samples per view sample), ``"lightcuts"`` and ``"reconstruction_cuts"`` (columns only:
-            the largest cut per view sample, ``options`` may set ``error``), ``"clustered_visibility"``; for animations ``"tensor_clustering"`` and ``"mrcs_per_frame"`` (rows and
+            ``"instant_radiosity"``, ``"light_bvh_sampling"``, ``"ris_sampling"`` and ``"stochastic_lightcuts"``
+            (columns only: they take each distinct column count of ``budgets`` once, their rows are 0; the
+            light-tree samplers read it as light samples per view sample, Stochastic Lightcuts as its cut
+            size), ``"lightcuts"`` and ``"reconstruction_cuts"`` (columns only: the largest cut per view
+            sample, ``options`` may set ``error``), ``"lightslice"`` (rows = slices, columns = clusters per slice), ``"clustered_visibility"``; for animations ``"tensor_clustering"`` and ``"mrcs_per_frame"`` (rows and
             columns per frame).
         budgets: (rows, columns) pairs of integers >= 1 (MRCS: r sampled rows, c clusters; power sampling: c
             sampled lights; instant radiosity: c generated lights).

@@ -34,15 +34,16 @@ from ..matrix.light_matrix import LightMatrix
 from ..metrics import flicker, flip, relative_l2, relative_l2_per_frame, relmse, smape
 from ..renderers.baselines import instant_radiosity, power_sampling
 from ..renderers.clustered_visibility import clustered_visibility
-from ..renderers.light_tree import light_bvh_sampling, ris_sampling
+from ..renderers.light_tree import light_bvh_sampling, ris_sampling, stochastic_lightcuts
 from ..renderers.lightcuts import lightcuts, reconstruction_cuts
+from ..renderers.lightslice import lightslice
 from ..renderers.mrcs import mrcs
 from ..scene import load_scene
 
 #: Methods and whether they take rows (methods without rows use the columns of each budget).
 METHODS = {"mrcs": True, "power_sampling": False, "instant_radiosity": False, "clustered_visibility": True,
            "light_bvh_sampling": False, "ris_sampling": False, "tensor_clustering": True, "mrcs_per_frame": True,
-           "lightcuts": False, "reconstruction_cuts": False}
+           "lightcuts": False, "reconstruction_cuts": False, "stochastic_lightcuts": False, "lightslice": True}
 #: clustered_visibility reads a budget (rows, columns) as (view clusters, light clusters).
 #: Methods that render animations (a scene whose parameters hold ``frames``); the others render one image.
 ANIMATION_METHODS = {"tensor_clustering", "mrcs_per_frame"}
@@ -281,6 +282,16 @@ def render(task: dict, ref: dict) -> dict:
             render_fn = lightcuts if method == "lightcuts" else reconstruction_cuts
             res = render_fn(A, max_cut=c, seed=seed, **opts)
             row["clusters"] = c
+            row["rays"] = int(res.budget["shadow_rays"])
+        elif method == "stochastic_lightcuts":
+            # A budget's columns are the cut size (shadow rays per view sample).
+            res = stochastic_lightcuts(A, cut_size=c, seed=seed, **opts)
+            row["clusters"] = c
+            row["rays"] = int(res.budget["shadow_rays"])
+        elif method == "lightslice":
+            # rows = slices, columns = clusters per slice.
+            res = lightslice(A, slices=task["rows"], columns=c, seed=seed, **opts)
+            row["clusters"] = int(res.budget["columns"])
             row["rays"] = int(res.budget["shadow_rays"])
         elif method == "clustered_visibility":
             res = clustered_visibility(A, light_clusters=c, view_clusters=task["rows"], seed=seed, **opts)
