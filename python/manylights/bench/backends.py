@@ -25,6 +25,7 @@ import manylights as ml
 
 from .._utils.files import atomic_write_text
 from ..scenes import resolve
+from .common import mixed_lights
 
 # scene -> loader params (bundled scenes/<name>/scene.xml)
 SCENES = {
@@ -58,14 +59,6 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def _lights(ml, scene, n: int, seed: int = 0):
-    has_area = any(e["type"] == "area" for e in scene.emitters)
-    has_env = any(e["type"] in ("envmap", "constant") for e in scene.emitters)
-    n_area = n // 2 if has_area else 0
-    n_env = n // 4 if has_env else 0
-    return ml.generate_lights(scene, area=n_area, environment=n_env, indirect=n - n_area - n_env, seed=seed)
-
-
 def _best(f, repeats: int) -> float:
     f()  # warm-up
     best = float("inf")
@@ -91,8 +84,8 @@ def run(args) -> dict:
                 raise ValueError(f"--res must be >= 1, got {args.res}")
             scene = ml.load_scene(resolve(name), size=(args.res, max(1, round(args.res * scene.height / scene.width))),
                                   **SCENES[name])
-        lights = _lights(ml, scene, args.lights)
-        row_lights = _lights(ml, scene, args.row_lights, seed=1)
+        lights = mixed_lights(scene, args.lights)
+        row_lights = mixed_lights(scene, args.row_lights, seed=1)
         m = scene.width * scene.height
         rng = np.random.default_rng(0)
         js = [int(j) for j in rng.choice(len(lights), size=min(args.columns, len(lights)), replace=False)]

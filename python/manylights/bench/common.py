@@ -108,3 +108,15 @@ def parse_budgets(specs) -> list[tuple[int, int]]:
             raise ValueError(f"a budget is rows:columns, e.g. 32:128; got {s!r}")
         out.append((int(r), int(c)))
     return out
+
+
+def mixed_lights(scene, n: int, seed: int = 0):
+    """About ``n`` lights of every kind the scene has: half area points (if it has area emitters), a quarter
+    environment strata (if it has an environment), the rest VPLs (``generate_lights``, with its delta lights)."""
+    from ..lights.generate import generate_lights
+
+    has_area = any(e["type"] == "area" for e in scene.emitters)
+    has_env = any(e["type"] in ("envmap", "constant") for e in scene.emitters)
+    n_area = n // 2 if has_area else 0
+    n_env = n // 4 if has_env else 0
+    return generate_lights(scene, area=n_area, environment=n_env, indirect=n - n_area - n_env, seed=seed)

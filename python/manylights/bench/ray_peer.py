@@ -44,7 +44,7 @@ import numpy as np
 
 import manylights as ml
 
-from .common import REPO
+from .common import REPO, mixed_lights
 
 #: scene -> (XML relative to the clone, or "generated", loader params, size)
 PEER_SCENES = {
@@ -106,14 +106,12 @@ def measure(name: str, xml: Path, params: dict, size, lights: int, row_lights: i
     """Both batches of one scene (module doc): per batch rays, elements, Mrays/s of the backend's
     visibility, of Mitsuba's ray_test and of the whole element, the agreement and the time split."""
     from ..testing import mitsuba as reference
-    from .backends import _lights
-
     scene = ml.load_scene(xml, size=size, **params)
     peer = reference.load(xml, **params)
     out = {"size": list(size), "batches": {}}
-    col_lights = _lights(ml, scene, lights)
+    col_lights = mixed_lights(scene, lights)
     A = ml.LightMatrix(scene, col_lights, device="cpu")
-    B = ml.LightMatrix(scene, _lights(ml, scene, row_lights, seed=1), device="cpu")
+    B = ml.LightMatrix(scene, mixed_lights(scene, row_lights, seed=1), device="cpu")
     m, n = A.shape
     js = list(range(n))
     view_rows = [int(i) for i in ml.stratified_rows(scene, rows, seed=0)]
