@@ -189,7 +189,7 @@ fn directions(a: &PyReadonlyArray2<'_, f32>, name: &str) -> Result<Vec<Vec3>> {
 ///         bsdf_0 and bsdf_1 (nested spec dicts, not blends)) with Mitsuba's defaults, "twosided": True
 ///         wraps it; "perturbed_normal": three floats, the unit normal n' of a bumpmap / normalmap around it
 ///         in the local frame (not with blendbsdf; with "twosided" the twosided is around the bumpmap /
-///         normalmap, as `<bsdf type="twosided"><bsdf type="bumpmap">...`)}.
+///         normalmap, as `<bsdf type="twosided"><bsdf type="bumpmap">...`, unless "twosided_inside": True)}.
 ///     wi: (N, 3) float32 unit directions toward the viewer.
 ///     wo: (N, 3) float32 unit directions toward the light.
 ///     device: "cpu" (Rust reference) or "gpu" (the WGSL twin).
@@ -218,6 +218,7 @@ fn bsdf_eval<'py>(
             return Err(Error::invalid(format!("spec[\"perturbed_normal\"] must be 3 finite floats of unit length, got {n:?}")).into())
         }
     };
+    let twosided_inside = get::<bool>(spec, "twosided_inside")?.unwrap_or(false);
     let (wi, wo) = (directions(&wi, "wi")?, directions(&wo, "wo")?);
     if wi.len() != wo.len() {
         return Err(Error::invalid(format!("wi and wo must have the same length, got {} and {}", wi.len(), wo.len())).into());
@@ -227,7 +228,7 @@ fn bsdf_eval<'py>(
         let (mut b, second) = resolve_records(&bsdfs, &[], index, Vec2::ZERO);
         if let Some(n) = perturbed {
             use crate::shading::bsdf::{FLAG_TWOSIDED, FLAG_TWOSIDED_OUTER};
-            if b.flags & FLAG_TWOSIDED != 0 {
+            if b.flags & FLAG_TWOSIDED != 0 && !twosided_inside {
                 b.flags = (b.flags & !FLAG_TWOSIDED) | FLAG_TWOSIDED_OUTER;
             }
             crate::shading::perturb::set_normal(&mut b, n);

@@ -104,8 +104,9 @@ impl Builder<'_> {
         if plugin == "normalmap" {
             let raw = tnode.props.iter().find(|q| q.name == "raw");
             if !matches!(raw.map(|q| &q.value), Some(Value::Bool(true))) {
-                let got = match raw {
-                    Some(q) => format!("raw = {:?}", q.value),
+                let got = match raw.map(|q| &q.value) {
+                    Some(Value::Bool(b)) => format!("raw = {b}"),
+                    Some(v) => format!("raw as a <{}>", v.type_name()),
                     None => "no raw property (default false)".to_string(),
                 };
                 return Err(Error::scene(
