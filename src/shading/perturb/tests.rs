@@ -143,3 +143,34 @@ fn height_gradient_is_the_bilinear_patch_derivative() {
     assert!((g - fd).length() < 2e-3 * fd.length(), "{g} vs finite differences {fd}");
     assert!(g.length() > 1.0);
 }
+
+#[test]
+fn samples_weigh_eval_over_pdf() {
+    use crate::lights::generate::sampling::{pdf_bsdf, stream};
+    use crate::shading::bsdf::{FLAG_GGX, KIND_ROUGHPLASTIC};
+    let mut rough =
+        GpuBsdf { kind: KIND_ROUGHPLASTIC, flags: FLAG_GGX, diffuse: [0.5, 0.4, 0.3], specular: [1.0; 3], ..bytemuck::Zeroable::zeroed() };
+    rough.eta = [1.5, 1.0 / 2.25, 0.0];
+    rough.alpha_u = 0.3;
+    rough.alpha_v = 0.3;
+    rough.extra[0] = crate::shading::bsdf_tables::roughplastic_tables(true, 0.3, 1.5).internal_reflectance;
+    let diffuse = GpuBsdf { kind: KIND_DIFFUSE, diffuse: [0.5, 0.4, 0.3], ..bytemuck::Zeroable::zeroed() };
+    let mut rng = stream(7, 99, 0);
+    for mut b in [diffuse, rough] {
+        set_normal(&mut b, Vec3::new(0.35, -0.2, 0.9).normalize());
+        let wi = Vec3::new(-0.3, 0.4, 0.85).normalize();
+        let mut n = 0;
+        for _ in 0..2000 {
+            let Some(s) = sample(&b, wi, &mut rng) else { continue };
+            let (e, p) = (eval(&b, wi, s.wo), pdf(&b, wi, s.wo));
+            assert!(
+                p > 0.0 && ((e / p) - s.weight).abs().max_element() < 1e-3 * s.weight.max_element().max(1.0),
+                "{e} / {p} vs {}",
+                s.weight
+            );
+            assert_eq!(p, pdf_bsdf(&b, wi, s.wo));
+            n += 1;
+        }
+        assert!(n > 1500, "{n} of 2000 samples");
+    }
+}
