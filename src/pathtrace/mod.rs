@@ -139,6 +139,7 @@ fn uses(scene: &Scene, root: usize, target: usize) -> bool {
     }
     match scene.bsdfs.get(root) {
         Some(Bsdf::TwoSided { front, .. }) if *front != root => uses(scene, *front, target),
+        Some(Bsdf::BumpMap { nested, .. } | Bsdf::NormalMap { nested, .. }) if *nested != root => uses(scene, *nested, target),
         Some(Bsdf::Blend { first, second, .. }) => uses(scene, *first, target) || uses(scene, *second, target),
         _ => false,
     }
