@@ -274,6 +274,23 @@ exr = (OUT / "exr" / "half_rgb_piz.exr").read_bytes()
 assert MARK.encode() not in png + exr
 put("xml", "all_plugins.xml", ALL.encode() + MARK.encode() + b"t.png\n" + png + MARK.encode() + b"e.exr\n" + exr)
 
+# Bump and normal maps: a top-level bumpmap used by reference, one no shape uses, a normalmap in a twosided.
+PERTURB = f"""<scene version="3.0.0"><default name="res" value="4"/><default name="axis" value="x"/>{SENSOR}
+    <bsdf type="bumpmap" id="b"><texture type="bitmap"><string name="filename" value="h.png"/>
+        <transform name="to_uv"><scale x="2" y="3"/></transform></texture><float name="scale" value="0.5"/>
+        <bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>
+    <bsdf type="bumpmap" id="unused"><texture type="bitmap"><string name="filename" value="h.png"/></texture>
+        <bsdf type="diffuse" id="inner"/></bsdf>
+    <shape type="rectangle"><ref id="b"/></shape>
+    <shape type="sphere"><ref id="inner"/></shape>
+    <shape type="cube"><bsdf type="twosided"><bsdf type="normalmap"><texture name="normalmap" type="bitmap">
+        <boolean name="raw" value="true"/><string name="filename" value="n.png"/></texture>
+        <bsdf type="diffuse"/></bsdf></bsdf></shape>
+    <emitter type="point"><point name="position" value="0, 3, 0"/><rgb name="intensity" value="5"/></emitter>
+</scene>"""
+put("xml", "perturb.xml", PERTURB.encode() + MARK.encode() + b"h.png\n" + pil_bytes(grey, "PNG") + MARK.encode()
+    + b"n.png\n" + png)
+
 put("xml", "minimal.xml", f"""<scene version="3.0.0"><default name="res" value="4"/><default name="axis" value="y"/>
 {SENSOR}<shape type="sphere"/></scene>""")
 put("xml", "include_chain.xml", f"""<scene version="3.0.0"><include filename="a.xml"/></scene>{MARK}a.xml

@@ -97,6 +97,12 @@ REFERENCES = {
     # A glass sphere with an absorbing coloured interior (homogeneous medium, albedo 0) over a floor, point light,
     # under volpath with max_depth 4: the floor seen through the glass gets direct light (tests/scene/test_media.py).
     "glass-medium-direct": (HERE / "data" / "glass_medium.xml", {"width": 64, "height": 48}, (64, 48), 4, 0.002, None),
+    # Bump and normal maps (tests/scene/test_perturb.py), direct light: a floor and a sphere under two point
+    # lights, with Mitsuba's ``bumpmap`` (height textures/bump_ripples.png; the floor's wrapper declared at the top
+    # level and referenced) and ``normalmap`` (textures/normal_waves.png; the floor's inside a twosided), 64 x 48.
+    # Point lights at pixel centres: Mitsuba's estimate is deterministic (noise 0 after the first batch).
+    "bumpmap-direct": (HERE / "data" / "bumpmap_ripples.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002, None),
+    "normalmap-direct": (HERE / "data" / "normalmap_waves.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002, None),
 }
 
 # Integrator of the references that do not use ``path`` (with the max_depth above).

@@ -283,7 +283,9 @@ def bsdf_eval(spec: dict[str, Any], wi: npt.NDArray[np.float32], wo: npt.NDArray
     Types: diffuse, plastic, roughplastic, roughconductor, conductor, dielectric, principled (base_color,
     roughness, anisotropic, metallic, specular or eta, spec_tint, spec_trans, sheen, sheen_tint, clearcoat,
     clearcoat_gloss, flatness; floats), blendbsdf (weight: float, bsdf_0 / bsdf_1: nested spec dicts, not
-    blends), with Mitsuba 3.9.1's defaults.
+    blends), with Mitsuba 3.9.1's defaults. "perturbed_normal": [x, y, z] (unit, local) evaluates it inside a
+    bumpmap / normalmap of that perturbed normal (a "twosided" then goes around the wrapper, unless
+    "twosided_inside": True).
 
     Raises:
         ValueError: bad spec or shapes, NaN/inf directions or spec values. GpuUnavailableError / GpuError for

@@ -39,6 +39,8 @@ const BSDF_FLAG_TWOSIDED: u32 = 1u;
 const BSDF_FLAG_NONLINEAR: u32 = 2u;
 const BSDF_FLAG_GGX: u32 = 4u;
 const BSDF_FLAG_BLEND: u32 = 8u;
+const BSDF_FLAG_BUMP: u32 = 16u;
+const BSDF_FLAG_TWOSIDED_OUTER: u32 = 32u;
 const BSDF_TABLE_RES: u32 = 64u;
 const BSDF_PI: f32 = 3.14159265358979;
 const BSDF_INV_PI: f32 = 0.318309886183791;
@@ -140,8 +142,79 @@ fn bsdf_eval(b: Bsdf, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     return v0 * (1.0 - w) + v1 * w;
 }
 
-// One record's lobe.
+// Mitsuba's coordinate_system(n): the s and t axes completing unit n (twin of `lights::coordinate_system`).
+fn bsdf_frame_s(n: vec3<f32>) -> vec3<f32> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+}
+
+fn bsdf_frame_t(n: vec3<f32>) -> vec3<f32> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return vec3<f32>(b, sign + n.y * n.y * a, -n.y);
+}
+
+// The perturbed normal of a bumpmap / normalmap record (`shading::perturb::normal`).
+fn bsdf_bump_normal(b: Bsdf) -> vec3<f32> {
+    if b.kind == BSDF_KIND_PLASTIC || b.kind == BSDF_KIND_ROUGHPLASTIC {
+        return b.k;
+    }
+    return b.extra.yzw;
+}
+
+fn bsdf_tan_theta_2(v: vec3<f32>) -> f32 {
+    let c2 = v.z * v.z;
+    return max(1.0 - c2, 0.0) / c2;
+}
+
+// One record's lobe; a bumpmap / normalmap record (or a twosided around one) as `shading::perturb::eval`.
 fn bsdf_eval_lobe(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
+    if (b.flags & (BSDF_FLAG_BUMP | BSDF_FLAG_TWOSIDED_OUTER)) == 0u {
+        return bsdf_eval_plain(b, wi_in, wo_in);
+    }
+    var wi = wi_in;
+    var wo = wo_in;
+    if (b.flags & BSDF_FLAG_TWOSIDED_OUTER) != 0u && wi.z < 0.0 {
+        wi.z = -wi.z;
+        wo.z = -wo.z;
+    }
+    var inner = b;
+    inner.flags = b.flags & ~(BSDF_FLAG_BUMP | BSDF_FLAG_TWOSIDED_OUTER);
+    if (b.flags & BSDF_FLAG_BUMP) == 0u {
+        return bsdf_eval_plain(inner, wi, wo);
+    }
+    var n = bsdf_bump_normal(b);
+    if wi.z * dot(wi, n) <= 0.0 {
+        n = vec3<f32>(-n.x, -n.y, n.z);
+    }
+    if !positive(wo.z * dot(wo, n)) {
+        return vec3<f32>(0.0);
+    }
+    let s = bsdf_frame_s(n);
+    let t = bsdf_frame_t(n);
+    let wi_p = vec3<f32>(dot(wi, s), dot(wi, t), dot(wi, n));
+    let wo_p = vec3<f32>(dot(wo, s), dot(wo, t), dot(wo, n));
+    let alpha2 = min(0.125 * bsdf_tan_theta_2(n), 1.0);
+    let shadow = 2.0 / (1.0 + sqrt(1.0 + alpha2 * bsdf_tan_theta_2(wo)));
+    return bsdf_eval_plain(inner, wi_p, wo_p) * shadow;
+}
+
+// A VPL's BSDF, light arriving along `incident` and leaving toward `out` (`shading::perturb::adjoint_eval`).
+fn bsdf_adjoint_eval(b: Bsdf, incident: vec3<f32>, out: vec3<f32>) -> vec3<f32> {
+    if (b.flags & BSDF_FLAG_BUMP) == 0u {
+        return bsdf_eval(b, incident, out);
+    }
+    if incident.z == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return bsdf_eval_lobe(b, out, incident) * (abs(out.z) / abs(incident.z));
+}
+
+// One record's lobe without a perturbation.
+fn bsdf_eval_plain(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
     var wi = wi_in;
     var wo = wo_in;
     if (b.flags & BSDF_FLAG_TWOSIDED) != 0u && wi.z < 0.0 {

@@ -267,7 +267,7 @@ fn vsl_cap_shade(l: Light, p: vec3<f32>, wo: vec3<f32>, fs: vec3<f32>, ft: vec3<
             if !positive(cos_g_out * cos_g_in) || out_local.z == 0.0 {
                 continue;
             }
-            let f_cos = bsdf_eval(l.bsdf, wi_v, out_local);
+            let f_cos = bsdf_adjoint_eval(l.bsdf, wi_v, out_local);
             let w_local = vec3<f32>(dot(w, fs), dot(w, ft), dot(w, n));
             sum += bsdf_eval(b, wi_local, w_local) * f_cos * (abs(cos_g_out) / abs(out_local.z));
         }
@@ -410,7 +410,7 @@ fn light_emitted(l: Light, p: vec3<f32>, n: vec3<f32>) -> Emitted {
         if wo_local.z == 0.0 {
             return e;
         }
-        let f_cos = bsdf_eval(l.bsdf, wi_local, wo_local);
+        let f_cos = bsdf_adjoint_eval(l.bsdf, wi_local, wo_local);
         let intensity = l.intensity * f_cos * (abs(cos_g_out) / abs(wo_local.z));
         if l.cutoff_angle > 0.0 {
             let cos_r = abs(dot(e.wo, n));

@@ -118,3 +118,16 @@ fn fuzz_corpus_replays_without_panics() {
     }
     assert!(panics.is_empty(), "these corpus inputs panic: {panics:#?}");
 }
+
+/// The bump / normal map seed (`fuzz/seeds.py`, `perturb.xml`) loads: the wrapper used by reference, the unused one
+/// dropped, the normalmap inside a twosided.
+#[test]
+fn perturbation_seed_loads() {
+    let data =
+        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/xml/ae38fe46a94893577bd94d381a49cdab6c0c9b41")).unwrap();
+    let scene = xml(&data).unwrap();
+    use crate::scene::Bsdf;
+    assert!(scene.bsdfs.iter().filter(|b| matches!(b, Bsdf::BumpMap { .. })).count() == 1);
+    assert!(scene.bsdfs.iter().any(|b| matches!(b, Bsdf::NormalMap { .. })));
+    cleanup();
+}

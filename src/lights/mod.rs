@@ -433,7 +433,7 @@ impl LightSet {
                     return None;
                 }
                 // eval = f |w . n_s|; I(w) = Phi f |w . n_g|.
-                let f_cos = crate::shading::bsdf::eval(&self.bsdf[j], wi_local, wo_local);
+                let f_cos = crate::shading::perturb::adjoint_eval(&self.bsdf[j], wi_local, wo_local);
                 let intensity = self.intensity[j] * f_cos * (cos_g_out.abs() / wo_local.z.abs());
                 let r = self.vsl_radius[j];
                 if r > 0.0 {
@@ -489,7 +489,8 @@ pub fn vpl_reflectance(bsdf: &GpuBsdf, n_s: Vec3, n_g: Vec3, incident: Vec3) -> 
     let wi = local(incident);
     let side = if incident.dot(n_g) >= 0.0 { 1.0 } else { -1.0 };
     let zs = if wi.z >= 0.0 { 1.0 } else { -1.0 };
-    if bsdf.kind == crate::shading::bsdf::KIND_DIFFUSE && n_s.dot(n_g).abs() > 1.0 - 1e-4 {
+    let plain = bsdf.flags & (crate::shading::bsdf::FLAG_BUMP | crate::shading::bsdf::FLAG_TWOSIDED_OUTER) == 0;
+    if plain && bsdf.kind == crate::shading::bsdf::KIND_DIFFUSE && n_s.dot(n_g).abs() > 1.0 - 1e-4 {
         return crate::shading::bsdf::eval(bsdf, wi, Vec3::new(0.0, 0.0, zs)) * std::f32::consts::PI;
     }
     let mut sum = Vec3::ZERO;
@@ -506,7 +507,7 @@ pub fn vpl_reflectance(bsdf: &GpuBsdf, n_s: Vec3, n_g: Vec3, incident: Vec3) -> 
                 continue;
             }
             // eval / pdf with pdf = z / pi; times |w . n_g| / |w . n_s|.
-            sum += crate::shading::bsdf::eval(bsdf, wi, wo) * (std::f32::consts::PI * cos_g / (z * z));
+            sum += crate::shading::perturb::adjoint_eval(bsdf, wi, wo) * (std::f32::consts::PI * cos_g / (z * z));
         }
     }
     sum / (N * N) as f32

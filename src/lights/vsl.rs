@@ -130,7 +130,7 @@ pub fn cap_shade(lights: &super::LightSet, j: usize, p: Vec3, wo: Vec3, receiver
             if !(cos_g_out * cos_g_in > 0.0) || out_local.z == 0.0 {
                 continue;
             }
-            let f_cos = crate::shading::bsdf::eval(&lights.bsdf[j], wi_v, out_local);
+            let f_cos = crate::shading::perturb::adjoint_eval(&lights.bsdf[j], wi_v, out_local);
             sum += receiver(w) * f_cos * (cos_g_out.abs() / out_local.z.abs());
         }
     }

@@ -182,7 +182,8 @@ impl Compensator<'_> {
             weight /= q;
         }
         let mesh = &self.scene.meshes[hit.mesh];
-        let (first, second) = resolve_records(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, hit.uv);
+        let (mut first, second) = resolve_records(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, hit.uv);
+        crate::shading::perturb::apply(self.scene, hit.mesh, hit.prim, hit.p, hit.n_g, hit.n_s, hit.uv, &mut [&mut first]);
         let strip = |mut r: GpuBsdf| {
             r.flags &= !FLAG_BLEND;
             (r.extra[2], r.extra[3]) = (0.0, 0.0);

@@ -139,6 +139,7 @@ fn uses(scene: &Scene, root: usize, target: usize) -> bool {
     }
     match scene.bsdfs.get(root) {
         Some(Bsdf::TwoSided { front, .. }) if *front != root => uses(scene, *front, target),
+        Some(Bsdf::BumpMap { nested, .. } | Bsdf::NormalMap { nested, .. }) if *nested != root => uses(scene, *nested, target),
         Some(Bsdf::Blend { first, second, .. }) => uses(scene, *first, target) || uses(scene, *second, target),
         _ => false,
     }
@@ -319,9 +320,11 @@ impl<'a> PathTracer<'a> {
         }
     }
 
-    fn vertex(&self, mesh: usize, p: Vec3, n_s: Vec3, n_g: Vec3, wi: Vec3, uv: glam::Vec2) -> Vertex {
+    #[allow(clippy::too_many_arguments)]
+    fn vertex(&self, mesh: usize, prim: usize, p: Vec3, n_s: Vec3, n_g: Vec3, wi: Vec3, uv: glam::Vec2) -> Vertex {
         let m = &self.scene.meshes[mesh];
         let (mut first, second) = resolve_records(&self.scene.bsdfs, &self.scene.textures, m.bsdf, uv);
+        crate::shading::perturb::apply(self.scene, mesh, prim, p, n_g, n_s, uv, &mut [&mut first]);
         let second = second.map(|s| (s, first.extra[2]));
         if second.is_some() {
             first.flags &= !FLAG_BLEND;
@@ -411,7 +414,15 @@ impl<'a> PathTracer<'a> {
         let mesh = shape as usize;
         let le = if self.scene_emission { self.area_radiance.at(mesh, view.uv[i]) } else { Vec3::ZERO };
         let mut result = if le != Vec3::ZERO && view.wi[i].dot(view.normal[i]) > 0.0 { le } else { Vec3::ZERO };
-        let mut x = self.vertex(mesh, view.position[i], view.normal[i], view.geo_normal[i], view.wi[i], view.uv[i]);
+        let mut x = self.vertex(
+            mesh,
+            view.prim_index[i].max(0) as usize,
+            view.position[i],
+            view.normal[i],
+            view.geo_normal[i],
+            view.wi[i],
+            view.uv[i],
+        );
         let mut beta = Vec3::ONE;
         let mut eta = 1.0f32;
         let mut depth = 0u32;
@@ -457,7 +468,7 @@ impl<'a> PathTracer<'a> {
                 };
                 result += beta * le * mis;
             }
-            x = self.vertex(si.mesh, si.p, si.n_s, si.n_g, si.wi, si.uv);
+            x = self.vertex(si.mesh, si.prim, si.p, si.n_s, si.n_g, si.wi, si.uv);
         }
         if result.is_finite() {
             result

@@ -187,7 +187,9 @@ fn directions(a: &PyReadonlyArray2<'_, f32>, name: &str) -> Result<Vec<Vec3>> {
 ///         principled: base_color, roughness, anisotropic, metallic, specular or eta, spec_tint, spec_trans,
 ///         sheen, sheen_tint, clearcoat, clearcoat_gloss, flatness as floats; "blendbsdf": weight (float),
 ///         bsdf_0 and bsdf_1 (nested spec dicts, not blends)) with Mitsuba's defaults, "twosided": True
-///         wraps it}.
+///         wraps it; "perturbed_normal": three floats, the unit normal n' of a bumpmap / normalmap around it
+///         in the local frame (not with blendbsdf; with "twosided" the twosided is around the bumpmap /
+///         normalmap, as `<bsdf type="twosided"><bsdf type="bumpmap">...`, unless "twosided_inside": True)}.
 ///     wi: (N, 3) float32 unit directions toward the viewer.
 ///     wo: (N, 3) float32 unit directions toward the light.
 ///     device: "cpu" (Rust reference) or "gpu" (the WGSL twin).
@@ -204,6 +206,19 @@ fn bsdf_eval<'py>(
     device: &str,
 ) -> PyResult<Bound<'py, PyArray2<f32>>> {
     let (bsdfs, index) = bsdf_from_spec(spec)?;
+    let perturbed = match get::<Vec<f32>>(spec, "perturbed_normal")? {
+        None => None,
+        Some(n) if n.len() == 3 && n.iter().all(|x| x.is_finite()) && (Vec3::from_slice(&n).length() - 1.0).abs() < 1e-3 => {
+            if matches!(bsdfs[index], Bsdf::Blend { .. }) {
+                return Err(Error::invalid("spec[\"perturbed_normal\"] cannot be combined with a blendbsdf").into());
+            }
+            Some(Vec3::from_slice(&n).normalize())
+        }
+        Some(n) => {
+            return Err(Error::invalid(format!("spec[\"perturbed_normal\"] must be 3 finite floats of unit length, got {n:?}")).into())
+        }
+    };
+    let twosided_inside = get::<bool>(spec, "twosided_inside")?.unwrap_or(false);
     let (wi, wo) = (directions(&wi, "wi")?, directions(&wo, "wo")?);
     if wi.len() != wo.len() {
         return Err(Error::invalid(format!("wi and wo must have the same length, got {} and {}", wi.len(), wo.len())).into());
@@ -211,6 +226,13 @@ fn bsdf_eval<'py>(
     let device = device.to_string();
     let out: Vec<Vec3> = py.detach(|| -> Result<Vec<Vec3>> {
         let (mut b, second) = resolve_records(&bsdfs, &[], index, Vec2::ZERO);
+        if let Some(n) = perturbed {
+            use crate::shading::bsdf::{FLAG_TWOSIDED, FLAG_TWOSIDED_OUTER};
+            if b.flags & FLAG_TWOSIDED != 0 && !twosided_inside {
+                b.flags = (b.flags & !FLAG_TWOSIDED) | FLAG_TWOSIDED_OUTER;
+            }
+            crate::shading::perturb::set_normal(&mut b, n);
+        }
         let records = match second {
             Some(s) => {
                 link_blend(&mut b, 1);

@@ -273,6 +273,17 @@ impl Scene {
                         d.set_item("bsdf_0", *first)?;
                         d.set_item("bsdf_1", *second)?;
                     }
+                    Bsdf::BumpMap { texture, scale, nested } => {
+                        d.set_item("type", "bumpmap")?;
+                        d.set_item("texture", format!("texture[{texture}]"))?;
+                        d.set_item("scale", *scale)?;
+                        d.set_item("bsdf", *nested)?;
+                    }
+                    Bsdf::NormalMap { texture, nested } => {
+                        d.set_item("type", "normalmap")?;
+                        d.set_item("normalmap", format!("texture[{texture}]"))?;
+                        d.set_item("bsdf", *nested)?;
+                    }
                 }
                 Ok(d)
             })

@@ -465,7 +465,7 @@ fn params_mut(b: &mut Bsdf) -> Vec<&mut Param> {
                 &mut p.flatness,
             ]
         }
-        Bsdf::TwoSided { .. } | Bsdf::Blend { .. } => vec![],
+        Bsdf::TwoSided { .. } | Bsdf::Blend { .. } | Bsdf::BumpMap { .. } | Bsdf::NormalMap { .. } => vec![],
     }
 }
 
@@ -493,6 +493,13 @@ fn bsdf_key(scene: &Scene, i: usize, out: &mut Vec<u8>, depth: u32) {
             texture_keys(scene, &tex, out);
             bsdf_key(scene, *first, out, depth + 1);
             bsdf_key(scene, *second, out, depth + 1);
+            out.extend_from_slice(b");");
+        }
+        Bsdf::BumpMap { texture, nested, .. } | Bsdf::NormalMap { texture, nested } => {
+            let scale = if let Bsdf::BumpMap { scale, .. } = b { format!("{scale:?}") } else { "normal".into() };
+            out.extend_from_slice(format!("Perturb({scale}").as_bytes());
+            texture_keys(scene, &[*texture], out);
+            bsdf_key(scene, *nested, out, depth + 1);
             out.extend_from_slice(b");");
         }
         _ => {

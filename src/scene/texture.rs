@@ -91,6 +91,25 @@ pub fn load_bitmap(path: &Path, loc: &Location, raw: bool) -> Result<(u32, u32, 
     Ok((w, h, data))
 }
 
+/// Colour channels of a bitmap file, alpha not counted (1 for grey images, 3 for RGB); float formats
+/// (EXR, RGBE, PFM) count as 3, the RGB they are read as. Reads the header only.
+/// Errors: `FileNotFound`; `Scene` (at `loc`) for an unreadable header.
+pub fn bitmap_channels(path: &Path, loc: &Location) -> Result<u8> {
+    if !path.exists() {
+        return Err(Error::FileNotFound { loc: loc.clone(), path: path.to_path_buf() });
+    }
+    if matches!(magic(path)?, [0x76, 0x2f, 0x31, 0x01, ..] | [b'#', b'?', ..] | [b'P', b'F' | b'f', ..]) {
+        return Ok(3);
+    }
+    use image::ImageDecoder;
+    let bad = |e: image::ImageError| Error::scene(loc, format!("cannot decode image \"{}\": {e}", path.display()));
+    let mut reader =
+        image::ImageReader::open(path).map_err(|e| Error::io(path, e))?.with_guessed_format().map_err(|e| Error::io(path, e))?;
+    reader.limits(crate::image::size_policy::decoder_limits(crate::image::size_policy::DECODER_OVERHEAD_BYTES));
+    let color = reader.into_decoder().map_err(bad)?.color_type();
+    Ok(color.channel_count() - u8::from(color.has_alpha()))
+}
+
 /// RGB texels of interleaved samples with `channels` per pixel (1 or 2: grey replicated).
 fn texels<T: Copy>(samples: &[T], channels: usize, f: impl Fn(T) -> f32) -> Vec<Vec3> {
     samples.chunks_exact(channels).map(|p| if channels < 3 { Vec3::splat(f(p[0])) } else { Vec3::new(f(p[0]), f(p[1]), f(p[2])) }).collect()
@@ -283,6 +302,31 @@ pub fn eval_1(tex: &Texture, uv: Vec2) -> f32 {
             (c.x + c.y + c.z) / 3.0
         }
     }
+}
+
+/// Mitsuba 3.9.1's `eval_1_grad` of a texture at `uv` (`bitmap.cpp`): the derivative of the scalar
+/// value (a texel's luminance) with respect to (u, v). Bilinear bitmaps: the bilinear patch's partial
+/// derivatives in texel units, `df/dx = w0.y (f10 - f00) + w1.y (f11 - f01)`,
+/// `df/dy = w0.x (f01 - f00) + w1.x (f11 - f10)`, through the transpose of `to_uv`'s linear part, times
+/// the resolution; nearest-filtered bitmaps: 0. Checkerboards: 0 (Mitsuba implements no gradient for
+/// them; the loader refuses them in a bumpmap).
+pub fn eval_1_grad(tex: &Texture, uv: Vec2) -> Vec2 {
+    let Texture::Bitmap { width, height, data, filter: FilterType::Bilinear, wrap: mode, to_uv: m, .. } = tex else {
+        return Vec2::ZERO;
+    };
+    let uv = to_uv(m, uv);
+    let (w, h) = (*width as i64, *height as i64);
+    let f = |x: i64, y: i64| luminance(data[wrap(y, h, *mode) * *width as usize + wrap(x, w, *mode)]);
+    let p = Vec2::new(uv.x.mul_add(*width as f32, -0.5), uv.y.mul_add(*height as f32, -0.5));
+    let i = p.floor();
+    let w1 = p - i;
+    let w0 = Vec2::ONE - w1;
+    let (ix, iy) = (i.x as i64, i.y as i64);
+    let (f00, f10, f01, f11) = (f(ix, iy), f(ix + 1, iy), f(ix, iy + 1), f(ix + 1, iy + 1));
+    let dx = w0.y.mul_add(f10 - f00, w1.y * (f11 - f01));
+    let dy = w0.x.mul_add(f01 - f00, w1.x * (f11 - f10));
+    let (du, dv) = (m.x_axis.x * dx + m.x_axis.y * dy, m.y_axis.x * dx + m.y_axis.y * dy);
+    Vec2::new(*width as f32 * du, *height as f32 * dv)
 }
 
 /// Evaluates an RGB parameter: its value, or `eval` of `textures[i]`.

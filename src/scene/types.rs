@@ -244,6 +244,20 @@ pub enum Bsdf {
         first: usize,
         second: usize,
     },
+    /// Mitsuba's `bumpmap`: `nested` (index into `Scene::bsdfs`) evaluated in the shading frame tilted by
+    /// the uv gradient of the height texture `texture` (index into `Scene::textures`, a bitmap) times
+    /// `scale` (`crate::shading::perturb`).
+    BumpMap {
+        texture: usize,
+        scale: f32,
+        nested: usize,
+    },
+    /// Mitsuba's `normalmap`: `nested` evaluated in the shading frame whose normal is `2 c - 1` of the RGB
+    /// texel `c` of `texture` (a raw bitmap), in the tangent frame of the unperturbed shading normal.
+    NormalMap {
+        texture: usize,
+        nested: usize,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

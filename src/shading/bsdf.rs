@@ -15,6 +15,8 @@
 //! - `blendbsdf`: two records (`resolve_records`, `eval_records`): (1 - w) f_0 + w f_1.
 //! - `principled`: `shading::principled` (its own field table; reflection from both sides and
 //!   transmission, not only the upper hemisphere).
+//! - `bumpmap`, `normalmap`: the nested BSDF's record with the perturbed normal (`FLAG_BUMP`, evaluated
+//!   by `shading::perturb`).
 //!
 //! `GpuBsdf` field use per kind (`eta_s` = int_ior / ext_ior):
 //! | kind | diffuse | specular | eta | k | alpha_u, alpha_v | extra |
@@ -60,6 +62,11 @@ pub const FLAG_GGX: u32 = 4;
 /// First record of a `blendbsdf`: `extra[2]` = weight w of the second record, `extra[3]` = its index
 /// (bits) in the same record array; eval = (1 - w) f_this + w f_second (`eval_records`).
 pub const FLAG_BLEND: u32 = 8;
+/// A `bumpmap` / `normalmap` wraps this record: its perturbed normal is stored in it
+/// (`shading::perturb`, which evaluates it).
+pub const FLAG_BUMP: u32 = 16;
+/// A `twosided` around a `bumpmap` / `normalmap`: flips before the perturbation (`shading::perturb`).
+pub const FLAG_TWOSIDED_OUTER: u32 = 32;
 
 const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 
@@ -87,7 +94,14 @@ pub fn resolve(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: Vec2) -> 
             if *front != index {
                 b = resolve(bsdfs, textures, *front, uv);
             }
-            b.flags |= FLAG_TWOSIDED;
+            let wraps = matches!(bsdfs.get(*front), Some(Bsdf::BumpMap { .. } | Bsdf::NormalMap { .. }));
+            b.flags |= if wraps { FLAG_TWOSIDED_OUTER } else { FLAG_TWOSIDED };
+        }
+        Bsdf::BumpMap { nested, .. } | Bsdf::NormalMap { nested, .. } => {
+            // The nested BSDF; the perturbed normal is added where the geometry is known (`perturb::apply`).
+            if *nested != index {
+                b = resolve(bsdfs, textures, *nested, uv);
+            }
         }
         Bsdf::Plastic { diffuse_reflectance, specular_reflectance, int_ior, ext_ior, nonlinear } => {
             let eta = int_ior / ext_ior;
@@ -223,6 +237,9 @@ pub fn roughplastic_table_buffer(bsdfs: &[Bsdf]) -> Vec<f32> {
 /// shading normal). Returns f(wi, wo) |cos theta_o| (0 wherever Mitsuba gives 0). One record only: a
 /// blend's first record evaluates its own lobe (`eval_records` adds the second).
 pub fn eval(b: &GpuBsdf, wi: Vec3, wo: Vec3) -> Vec3 {
+    if b.flags & (FLAG_BUMP | FLAG_TWOSIDED_OUTER) != 0 {
+        return super::perturb::eval(b, wi, wo);
+    }
     if b.kind == KIND_PRINCIPLED {
         return super::principled::eval(b, wi, wo);
     }

@@ -265,7 +265,8 @@ impl Tracer<'_> {
                 out.emitted += tp * l;
             }
             let mesh = &self.scene.meshes[si.mesh];
-            let bsdf = crate::shading::bsdf::resolve(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, si.uv);
+            let mut bsdf = crate::shading::bsdf::resolve(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, si.uv);
+            crate::shading::perturb::apply(self.scene, si.mesh, si.prim, si.p, si.n_g, si.n_s, si.uv, &mut [&mut bsdf]);
             if bsdf.kind != KIND_SMOOTH && bsdf.kind != KIND_NONE && self.opts.samples(k1) {
                 if out.extras.len() < self.opts.max_samples_per_pixel {
                     out.stats.in_medium += medium.is_some() as usize;

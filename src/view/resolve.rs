@@ -15,8 +15,9 @@
 //!   a rotation; `ShapeKind::Sphere` keeps only centre and radius, so a rotated sphere's uv differ.
 //!   `prim_index` of a sphere sample is the tessellation triangle the raster found (Mitsuba's is 0).
 //!   When the f64 ray misses the sphere (grazing rays at the silhouette), the triangle is used.
-//! - `wi = -d`; bsdf = `shading::bsdf::resolve` of the mesh's BSDF at uv, albedo = its diffuse
-//!   reflectance (diffuse, plastic, roughplastic; 0 for conductors and dielectrics).
+//! - `wi = -d`; bsdf = `shading::bsdf::resolve` of the mesh's BSDF at uv (with the perturbed normal of a
+//!   bumpmap / normalmap, `shading::perturb::apply`), albedo = its diffuse reflectance (diffuse, plastic,
+//!   roughplastic; 0 for conductors and dielectrics).
 //!
 //! Background pixels: `shape_index = prim_index = -1`, every vector 0, bsdf zeroed.
 use crate::error::{Error, Result};
@@ -184,11 +185,13 @@ fn resolve_pixel(scene: &Scene, cam: &Camera, m: usize, prim: u32, x: u32, y: u3
             (position, normal, n_geo, uv)
         }
     };
-    let bsdf = resolve_bsdf(scene, m, uv)?;
+    let mut bsdf = resolve_bsdf(scene, m, uv)?;
+    let (position, normal, geo_normal) = (position.as_vec3(), normal.as_vec3(), geo_normal.as_vec3());
+    crate::shading::perturb::apply(scene, m, prim as usize, position, geo_normal, normal, uv, &mut [&mut bsdf]);
     Ok(Sample {
-        position: position.as_vec3(),
-        normal: normal.as_vec3(),
-        geo_normal: geo_normal.as_vec3(),
+        position,
+        normal,
+        geo_normal,
         wi: -d32,
         uv,
         albedo: Vec3::from(bsdf.diffuse),

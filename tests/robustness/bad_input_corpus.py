@@ -258,6 +258,30 @@ cases_for("load_scene[medium]", [
             '<film type="hdrfilm">', '<film type="hdrfilm"><integer name="crop_width" value="9"/>').encode())),
      ["scene.xml:5", "invalid crop window"]),
 ], raises=("SceneError",))
+_BUMP_TEX = '<texture type="bitmap"><string name="filename" value="h.png"/></texture>'
+_NORMAL_TEX = '<texture name="normalmap" type="bitmap"><string name="filename" value="n.png"/>{}</texture>'
+cases_for("load_scene[bumpmap]", [
+    ("bumpmap without a texture", lambda c: c.ml.load_scene(c.scene_with("bump-notex", _GLASS.replace(
+        '<bsdf type="dielectric"/>', '<bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf>').format(""))),
+     ["scene.xml:8", "bumpmap", "texture", "got none"]),
+    ("bumpmap without a nested BSDF", lambda c: c.ml.load_scene(c.scene_with("bump-nobsdf", _GLASS.replace(
+        '<bsdf type="dielectric"/>', f'<bsdf type="bumpmap">{_BUMP_TEX}</bsdf>').format(""), {"h.png": c.png_bytes})),
+     ["scene.xml:8", "bumpmap", "nested BSDF", "got none"]),
+    ("bumpmap over a checkerboard", lambda c: c.ml.load_scene(c.scene_with("bump-checker", _GLASS.replace(
+        '<bsdf type="dielectric"/>', '<bsdf type="bumpmap"><texture type="checkerboard"/><bsdf type="diffuse"/></bsdf>')
+        .format(""))), ["scene.xml:8", "bitmap", "checkerboard"]),
+    ("bumpmap with a truncated texture", lambda c: c.ml.load_scene(c.scene_with("bump-trunc", _GLASS.replace(
+        '<bsdf type="dielectric"/>', f'<bsdf type="bumpmap">{_BUMP_TEX}<bsdf type="diffuse"/></bsdf>').format(""),
+        {"h.png": c.png_bytes[:40]})), ["h.png"]),
+    ("normalmap not raw", lambda c: c.ml.load_scene(c.scene_with("normal-raw", _GLASS.replace(
+        '<bsdf type="dielectric"/>', '<bsdf type="normalmap">' + _NORMAL_TEX.format('<boolean name="raw" value="false"/>')
+        + '<bsdf type="diffuse"/></bsdf>').format(""), {"n.png": c.png_bytes})), ["scene.xml:8", "raw", "false"]),
+    ("normalmap of a grey image", lambda c: c.ml.load_scene(c.scene_with("normal-grey", _GLASS.replace(
+        '<bsdf type="dielectric"/>', '<bsdf type="normalmap">' + _NORMAL_TEX.format('<boolean name="raw" value="true"/>')
+        + '<bsdf type="diffuse"/></bsdf>').format(""),
+        {"n.png": (REPO / "tests" / "data" / "textures" / "bump_ripples.png").read_bytes()})),
+     ["scene.xml:8", "n.png", "1 channel"]),
+], raises=FILE_ERRORS + ("FileNotFoundError",))
 cases_for("load_scene[medium]", [
     ("bad media option", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", media="ignore"), ["media"]),
 ], raises=("ValueError",))

@@ -46,7 +46,8 @@ def _clearcoat_alpha(bsdf: dict):
 
 
 def skipped_lobes(bsdfs: list[dict], index: int, threshold: float, depth: int = 0) -> list[str]:
-    """The narrow lobes of BSDF ``index`` (resolved through ``twosided`` and ``blendbsdf``) that glossy MIS
+    """The narrow lobes of BSDF ``index`` (resolved through ``twosided``, ``blendbsdf``, ``bumpmap`` and
+    ``normalmap``) that glossy MIS
     does not sample: rough plastic, rough conductor and principled's specular lobe are sampled (alone or in a
     blend, ``src/matrix/glossy.rs``); principled's clearcoat lobe is not. A description of each (e.g.
     ``"principled 3 clearcoat alpha 0.001"``)."""
@@ -56,6 +57,8 @@ def skipped_lobes(bsdfs: list[dict], index: int, threshold: float, depth: int = 
     t = b["type"]
     if t == "twosided":
         return skipped_lobes(bsdfs, int(b["front"]), threshold, depth + 1)
+    if t in ("bumpmap", "normalmap"):
+        return skipped_lobes(bsdfs, int(b["bsdf"]), threshold, depth + 1)
     if t == "blendbsdf":
         return [f"{s} inside blendbsdf {index}" for k in ("bsdf_0", "bsdf_1")
                 for s in skipped_lobes(bsdfs, int(b[k]), threshold, depth + 1)]

@@ -386,7 +386,10 @@ impl GatherCloud {
             total += self.area[i] as f64;
             let (n_g, n_s) = if p.primitive_area > 0.0 { (p.n_g, p.n_s) } else { (Vec3::ZERO, Vec3::ZERO) };
             (self.position[i], self.normal[i], self.geo_normal[i], self.uv[i]) = (p.p, n_s, n_g, p.uv);
-            let (first, second) = resolve_records(&scene.bsdfs, &scene.textures, scene.meshes[s].bsdf, p.uv);
+            let (mut first, second) = resolve_records(&scene.bsdfs, &scene.textures, scene.meshes[s].bsdf, p.uv);
+            if p.primitive_area > 0.0 {
+                crate::shading::perturb::apply(scene, s, self.triangle[i] as usize, p.p, n_g, n_s, p.uv, &mut [&mut first]);
+            }
             let (mut kd, mut kg, mut alpha) = record_coefficients(&first);
             if let Some(b) = second {
                 let w = first.extra[2];

@@ -13,11 +13,12 @@
 //! - smooth conductor: delta reflection, weight = Fresnel(eta + i k) * specular_reflectance.
 //! - smooth dielectric: reflect with probability F, else refract; weight 1 (importance transport: no
 //!   1/eta^2 radiance scaling for particles).
+//! - bumpmap / normalmap records: `shading::perturb::sample` (the nested BSDF in the perturbed frame).
 //! - principled: `shading::principled::sample` (a mixture with an exact pdf; reflection from both
 //!   sides and glossy transmission, importance-mode weights).
 use crate::shading::bsdf::{
-    eval, fresnel, fresnel_conductor, microfacet_d, FLAG_GGX, FLAG_TWOSIDED, KIND_DIFFUSE, KIND_PLASTIC, KIND_PRINCIPLED,
-    KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC, KIND_SMOOTH,
+    eval, fresnel, fresnel_conductor, microfacet_d, FLAG_BUMP, FLAG_GGX, FLAG_TWOSIDED, FLAG_TWOSIDED_OUTER, KIND_DIFFUSE, KIND_PLASTIC,
+    KIND_PRINCIPLED, KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC, KIND_SMOOTH,
 };
 use crate::shading::GpuBsdf;
 use glam::{Vec2, Vec3};
@@ -183,6 +184,9 @@ pub(crate) fn reflect(wi: Vec3, h: Vec3) -> Vec3 {
 /// Samples the BSDF for a particle arriving from local `wi` (toward where it came from). `None` when
 /// the particle is absorbed (black BSDF, back side of a one-sided BSDF, zero weight).
 pub fn sample_bsdf(b: &GpuBsdf, wi_in: Vec3, rng: &mut Pcg32) -> Option<BsdfSample> {
+    if b.flags & (FLAG_BUMP | FLAG_TWOSIDED_OUTER) != 0 {
+        return crate::shading::perturb::sample(b, wi_in, rng);
+    }
     let (u0, u1, u2) = (uniform(rng), uniform(rng), uniform(rng));
     if b.kind == KIND_PRINCIPLED {
         let (wo, weight) = crate::shading::principled::sample(b, wi_in, u0, u1, u2)?;
@@ -271,6 +275,9 @@ pub fn sample_bsdf(b: &GpuBsdf, wi_in: Vec3, rng: &mut Pcg32) -> Option<BsdfSamp
 /// hemisphere, the back of a one-sided BSDF). For `plastic` the density of the diffuse branch times its
 /// probability (1 - p_spec); the delta branch has no density. Principled BSDFs are not covered (0).
 pub fn pdf_bsdf(b: &GpuBsdf, wi_in: Vec3, wo_in: Vec3) -> f32 {
+    if b.flags & (FLAG_BUMP | FLAG_TWOSIDED_OUTER) != 0 {
+        return crate::shading::perturb::pdf(b, wi_in, wo_in);
+    }
     let (mut wi, mut wo) = (wi_in, wo_in);
     if b.flags & FLAG_TWOSIDED != 0 && wi.z < 0.0 {
         wi.z = -wi.z;

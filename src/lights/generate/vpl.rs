@@ -202,13 +202,16 @@ pub(crate) fn walk(
             }
             (b, None) => b,
         };
+        let mut b = b;
+        crate::shading::perturb::apply(scene, hit.mesh, hit.prim, hit.p, hit.n_g, hit.n_s, hit.uv, &mut [&mut b]);
         let (n_s, n_g, w_in) = (hit.n_s, hit.n_g, hit.wi);
         let (cos_s_in, cos_g_in) = (w_in.dot(n_s), w_in.dot(n_g));
         let non_delta = !has_smooth_lobe_only(&b);
         let mut phi_vpl = phi;
         if non_delta {
             // Reflecting side: w_in on the same side of n_s and n_g, and the front unless two-sided.
-            let back_ok = b.flags & FLAG_TWOSIDED != 0 || crate::shading::principled::has_back_side(&b);
+            let back_ok =
+                b.flags & (FLAG_TWOSIDED | crate::shading::bsdf::FLAG_TWOSIDED_OUTER) != 0 || crate::shading::principled::has_back_side(&b);
             if !(cos_s_in * cos_g_in > 0.0) || (!back_ok && cos_s_in <= 0.0) {
                 return;
             }
@@ -220,7 +223,14 @@ pub(crate) fn walk(
         if depth >= max_depth {
             return;
         }
-        let Some(sample) = sample_bsdf(&b, to_local(n_s, w_in), rng) else { return };
+        let wi_local = to_local(n_s, w_in);
+        let Some(mut sample) = sample_bsdf(&b, wi_local, rng) else { return };
+        if b.flags & crate::shading::bsdf::FLAG_BUMP != 0 && !sample.delta {
+            // The perturbation is not reciprocal: weight by Mitsuba's direction (`perturb::adjoint_eval`).
+            let (e, a) =
+                (crate::shading::bsdf::eval(&b, wi_local, sample.wo), crate::shading::perturb::adjoint_eval(&b, wi_local, sample.wo));
+            sample.weight = Vec3::select(e.cmpgt(Vec3::ZERO), sample.weight * a / e, Vec3::ZERO);
+        }
         let w = to_world(n_s, sample.wo);
         let cos_g_out = w.dot(n_g);
         let mut phi_next = if sample.delta {

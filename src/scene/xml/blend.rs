@@ -24,6 +24,10 @@ impl Builder<'_> {
                 Bsdf::TwoSided { front, .. } => *front,
                 _ => i,
             };
+            if self.is_perturbation(inner) {
+                let kind = if matches!(self.bsdfs[inner], Bsdf::BumpMap { .. }) { "bumpmap" } else { "normalmap" };
+                return Err(Error::scene(&r.loc, format!("{}: a {kind} inside it is not supported", p.what())));
+            }
             if matches!(self.bsdfs[inner], Bsdf::Blend { .. }) {
                 return Err(Error::scene(&r.loc, format!("{}: a nested blendbsdf is not supported", p.what())));
             }

@@ -246,6 +246,11 @@ impl<'a> Builder<'a> {
         Ok(i)
     }
 
+    /// The image file of bitmap texture `t` (empty for other textures).
+    pub(super) fn texture_path(&self, t: usize) -> PathBuf {
+        self.texture_paths.get(&t).cloned().unwrap_or_default()
+    }
+
     /// Refuse an emitter's bitmap texture with NaN, infinite or negative texels (`check_emitter_texels`).
     fn check_emitter_texture(&self, t: usize, what: &str) -> Result<()> {
         if let Texture::Bitmap { data, loc, .. } = &self.textures[t] {
@@ -422,6 +427,7 @@ impl<'a> Builder<'a> {
             }
             "principled" => self.principled(&mut p)?,
             "blendbsdf" => self.blendbsdf(&mut p)?,
+            "bumpmap" | "normalmap" => self.perturbation(&mut p)?,
             _ => return Err(unknown_plugin(&p)),
         };
         p.finish()?;
