@@ -664,6 +664,19 @@ cases_for("LightMatrix.bias_compensation", [
 ])
 cases_for("LightMatrix.row_exact", _IDX_CASES(lambda c, i: c.A.row_exact(i), lambda c: c.m))
 cases_for("LightMatrix.column_exact", _IDX_CASES(lambda c, i: c.A.column_exact(i), lambda c: c.n))
+cases_for("LightMatrix.shadow_rays", [
+    ("view sample out of range", lambda c: c.A.shadow_rays([c.m], [0]), ["range"]),
+    ("light out of range", lambda c: c.A.shadow_rays([0], [c.n]), ["range"]),
+    ("negative light", lambda c: c.A.shadow_rays([0], [-1]), ["range"]),
+    ("unknown order", lambda c: c.A.shadow_rays([0], [0], order="diagonal"), ["order"]),
+    ("float indices", lambda c: c.A.shadow_rays([0.5], [0]), ["integer"]),
+])
+cases_for("LightMatrix.trace_shadow_rays", [
+    ("two columns", lambda c: c.A.trace_shadow_rays(np.zeros((2, 2)), np.zeros((2, 3)), np.ones(2)), ["shape"]),
+    ("lengths differ", lambda c: c.A.trace_shadow_rays(np.zeros((2, 3)), np.zeros((3, 3)), np.ones(2)),
+     ["one entry per ray"]),
+    ("t_max 2-D", lambda c: c.A.trace_shadow_rays(np.zeros((2, 3)), np.zeros((2, 3)), np.ones((2, 1))), ["t_max"]),
+])
 cases_for("LightMatrix.rows", _IDX_CASES(lambda c, i: c.A.rows([0, i], progress=False), lambda c: c.m) + [
     ("no rows", lambda c: c.A.rows([], progress=False), ["at least one"]),
     ("bool mask", lambda c: c.A.rows(np.ones(4, bool), progress=False), ["integer"]),
