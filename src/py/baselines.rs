@@ -117,6 +117,24 @@ impl LightTree {
     }
 }
 
+/// The light tree of `matrix` (`tree`, or built here and timed as `tree_seconds`), then `sampler` on both
+/// with the GIL released: the estimate as `estimate_dict` gives it, plus `tree_seconds`.
+fn with_tree<'py>(
+    py: Python<'py>,
+    matrix: &LightMatrix,
+    tree: Option<&LightTree>,
+    sampler: impl FnOnce(&crate::matrix::LightMatrix, &light_tree::LightTree) -> crate::error::Result<Estimate> + Send,
+) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    let t0 = std::time::Instant::now();
+    let t = LightTree::for_matrix(py, tree, matrix)?;
+    let tree_seconds = t0.elapsed().as_secs_f64();
+    let a = matrix.inner.clone();
+    let e = signals::detach(py, move || sampler(&a, &t))?;
+    let d = estimate_dict(py, matrix, e)?;
+    d.set_item("tree_seconds", tree_seconds)?;
+    Ok(d)
+}
+
 fn estimate_dict<'py>(py: Python<'py>, a: &LightMatrix, e: Estimate) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
     let (h, w) = a.inner.image_size();
     let d = pyo3::types::PyDict::new(py);
@@ -141,14 +159,7 @@ fn light_bvh_sampling<'py>(
     seed: u64,
     tree: Option<&LightTree>,
 ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-    let t0 = std::time::Instant::now();
-    let t = LightTree::for_matrix(py, tree, matrix)?;
-    let tree_seconds = t0.elapsed().as_secs_f64();
-    let a = matrix.inner.clone();
-    let e = signals::detach(py, move || crate::baselines::light_bvh_sampling(&a, &t, samples, seed))?;
-    let d = estimate_dict(py, matrix, e)?;
-    d.set_item("tree_seconds", tree_seconds)?;
-    Ok(d)
+    with_tree(py, matrix, tree, move |a, t| crate::baselines::light_bvh_sampling(a, t, samples, seed))
 }
 
 /// RIS over the light tree (`neighbours` > 0: with spatial reuse over that many pixels within `radius`):
@@ -166,20 +177,13 @@ fn ris<'py>(
     neighbours: usize,
     radius: u32,
 ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-    let t0 = std::time::Instant::now();
-    let t = LightTree::for_matrix(py, tree, matrix)?;
-    let tree_seconds = t0.elapsed().as_secs_f64();
-    let a = matrix.inner.clone();
-    let e = signals::detach(py, move || {
+    with_tree(py, matrix, tree, move |a, t| {
         if neighbours > 0 {
-            crate::baselines::ris_spatial(&a, &t, samples, candidates, neighbours, radius, seed)
+            crate::baselines::ris_spatial(a, t, samples, candidates, neighbours, radius, seed)
         } else {
-            crate::baselines::ris(&a, &t, samples, candidates, seed)
+            crate::baselines::ris(a, t, samples, candidates, seed)
         }
-    })?;
-    let d = estimate_dict(py, matrix, e)?;
-    d.set_item("tree_seconds", tree_seconds)?;
-    Ok(d)
+    })
 }
 
 /// Stochastic Lightcuts over the light tree (cut of `cut_size` nodes, `samples` estimates per view
@@ -194,14 +198,7 @@ fn stochastic_lightcuts<'py>(
     seed: u64,
     tree: Option<&LightTree>,
 ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-    let t0 = std::time::Instant::now();
-    let t = LightTree::for_matrix(py, tree, matrix)?;
-    let tree_seconds = t0.elapsed().as_secs_f64();
-    let a = matrix.inner.clone();
-    let e = signals::detach(py, move || crate::baselines::stochastic_lightcuts(&a, &t, cut_size, samples, seed))?;
-    let d = estimate_dict(py, matrix, e)?;
-    d.set_item("tree_seconds", tree_seconds)?;
-    Ok(d)
+    with_tree(py, matrix, tree, move |a, t| crate::baselines::stochastic_lightcuts(a, t, cut_size, samples, seed))
 }
 
 /// LightSlice: dict of image (H, W, 3) float32, slices (H, W) int32 (-1 without a surface), rows (S,)

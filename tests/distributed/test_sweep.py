@@ -313,14 +313,20 @@ def test_error_estimate_column_is_the_methods_own(tmp_path):
     assert np.isnan(df[df.method == "power_sampling"].iloc[0].error_estimate)
 
 
-def test_sweep_reports_relmse_and_smape_and_the_light_tree_samplers(tmp_path):
-    df = ml.sweep([("cbox", {"res": 16})], methods=["light_bvh_sampling", "ris_sampling"], budgets=[(1, 4)],
-                  seeds=[0], lights=LIGHTS, device="cpu", progress=False, workers=0, reference_dir=tmp_path / "refs")
+def _sweep_cbox16(tmp_path, methods, budget):
+    """A serial sweep of ``methods`` on cbox 16^2 at one budget, seed 0, with the same matrix and its brute
+    force (the sweep's truth) rebuilt here: (DataFrame, LightMatrix, brute force image)."""
+    df = ml.sweep([("cbox", {"res": 16})], methods=methods, budgets=[budget], seeds=[0], lights=LIGHTS, device="cpu",
+                  progress=False, workers=0, reference_dir=tmp_path / "refs")
     assert (df.status == "ok").all(), df.error.tolist()
     scene = ml.load_scene(scene_path("cbox"), res=16)
     lights = ml.generate_lights(scene, area=LIGHTS // 4, indirect=LIGHTS - LIGHTS // 4, seed=0)
     A = ml.LightMatrix(scene, lights, device="cpu")
-    ref = A.column_sum(progress=False) + A.emitted()
+    return df, A, A.column_sum(progress=False) + A.emitted()
+
+
+def test_sweep_reports_relmse_and_smape_and_the_light_tree_samplers(tmp_path):
+    df, A, ref = _sweep_cbox16(tmp_path, ["light_bvh_sampling", "ris_sampling"], (1, 4))
     img = ml.light_bvh_sampling(A, samples=4, seed=0).image
     row = df[df.method == "light_bvh_sampling"].iloc[0]
     assert row.clusters == 4 and row.relmse == pytest.approx(ml.relmse(img, ref), rel=1e-5)
@@ -329,13 +335,7 @@ def test_sweep_reports_relmse_and_smape_and_the_light_tree_samplers(tmp_path):
 
 
 def test_sweep_runs_stochastic_lightcuts_and_lightslice(tmp_path):
-    df = ml.sweep([("cbox", {"res": 16})], methods=["stochastic_lightcuts", "lightslice"], budgets=[(8, 16)],
-                  seeds=[0], lights=LIGHTS, device="cpu", progress=False, workers=0, reference_dir=tmp_path / "refs")
-    assert (df.status == "ok").all(), df.error.tolist()
-    scene = ml.load_scene(scene_path("cbox"), res=16)
-    lights = ml.generate_lights(scene, area=LIGHTS // 4, indirect=LIGHTS - LIGHTS // 4, seed=0)
-    A = ml.LightMatrix(scene, lights, device="cpu")
-    ref = A.column_sum(progress=False) + A.emitted()
+    df, A, ref = _sweep_cbox16(tmp_path, ["stochastic_lightcuts", "lightslice"], (8, 16))
     slc = df[df.method == "stochastic_lightcuts"].iloc[0]
     assert slc.rows == 0 and slc.clusters == 16
     img = ml.stochastic_lightcuts(A, cut_size=16, seed=0).image
