@@ -61,3 +61,15 @@ def mitsuba_ref():
 
     reference.mitsuba()
     return reference
+
+
+def seed_total_z(runs, truth, bias: float = 1.0) -> float:
+    """z of the image total of the mean over ``runs`` (RenderResults of independent seeds, each with its
+    per-pixel ``error_image``, the RMS over channels of the sample variance's square root) against
+    ``bias x truth``: the variance of the mean is sum(error_image^2) / seeds^2 per pixel, x 3 channels."""
+    import numpy as np
+
+    seeds = len(runs)
+    mean = np.mean([r.image for r in runs], axis=0).astype(np.float64)
+    var = np.sum([np.square(r.error_image.astype(np.float64)) for r in runs], axis=0) / seeds**2
+    return float((mean - bias * truth).sum() / np.sqrt(3 * var.sum()))

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import SCENE_CONFIGS
+from conftest import SCENE_CONFIGS, seed_total_z
 
 
 @pytest.fixture(scope="module")
@@ -64,14 +64,10 @@ def test_unbiased_z_test_over_seeds(cbox_lights, method):
     else:
         runs = [ml.ris_sampling(A, samples=16, candidates=8, seed=s, tree=tree, add_emitted=False)
                 for s in range(seeds)]
-    mean = np.mean([r.image for r in runs], axis=0).astype(np.float64)
-    # Variance of the mean over seeds, from each run's per-pixel sample variance.
-    var = np.sum([np.square(r.error_image.astype(np.float64)) for r in runs], axis=0) / seeds**2
-    # z of the image total (error_image is the RMS over channels: the total variance is 3 x its square).
-    z = (mean - truth).sum() / np.sqrt(3 * var.sum())
+    z = seed_total_z(runs, truth)
     assert abs(z) < 4, z
     # The test has the power to see a 2% bias.
-    z_biased = (mean - 1.02 * truth).sum() / np.sqrt(3 * var.sum())
+    z_biased = seed_total_z(runs, truth, bias=1.02)
     assert abs(z_biased) > 4, z_biased
     assert runs[0].budget["shadow_rays"] > 0 and runs[0].error_estimate > 0
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import manylights as ml
-from conftest import SCENE_CONFIGS
+from conftest import SCENE_CONFIGS, seed_total_z
 
 
 @pytest.fixture(scope="module")
@@ -30,11 +30,8 @@ def test_stochastic_lightcuts_unbiased_z_test_over_seeds(cbox_lights):
     seeds = 4
     runs = [ml.stochastic_lightcuts(A, cut_size=8, samples=16, seed=s, tree=tree, add_emitted=False)
             for s in range(seeds)]
-    mean = np.mean([r.image for r in runs], axis=0).astype(np.float64)
-    var = np.sum([np.square(r.error_image.astype(np.float64)) for r in runs], axis=0) / seeds**2
-    z = (mean - truth).sum() / np.sqrt(3 * var.sum())
+    z, z_biased = seed_total_z(runs, truth), seed_total_z(runs, truth, bias=1.02)
     assert abs(z) < 4, z
-    z_biased = (mean - 1.02 * truth).sum() / np.sqrt(3 * var.sum())
     assert abs(z_biased) > 4, z_biased
     r = runs[0]
     assert r.budget["cut_size"] == 8 and 0 < r.budget["shadow_rays"] <= 8 * 16 * 32 * 32

@@ -20,7 +20,7 @@ from ..matrix.light_matrix import LightMatrix
 from .bias import bias_sources
 from .kmeans import COS_30_DEG
 from .probe_error import attach_probe_error
-from .result import RenderResult, matrix_shape
+from .result import RenderResult, matrix_shape, with_emitted
 
 
 def _points(name: str, a) -> np.ndarray:
@@ -103,10 +103,7 @@ def clustered_shading(A, light_labels, light_centroids, view_centroids, view_nor
     # Validation, representatives, uploads and readback (the rest of the native call).
     timings["setup"] = max(wall - timings["visibility"] - timings["shading"], 0.0)
     image = out["image"]
-    if add_emitted:
-        t = time.perf_counter()
-        image = image + A.emitted()
-        timings["emitted"] = time.perf_counter() - t
+    image = with_emitted(A, image, timings, add_emitted)
     budget = {"light_clusters": int(out["light_clusters"]), "view_clusters": int(out["view_clusters"]),
               "fuzziness": int(clusters.shape[1]), "rays": int(out["rays"]), "gave_up": int(out["gave_up"]),
               "lights": int(n), "view_samples": int(clusters.shape[0])}

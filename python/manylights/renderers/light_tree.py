@@ -44,7 +44,7 @@ from .._utils import validate as _v
 from .._utils.keywords import checked_keywords
 from .bias import bias_sources
 from .probe_error import attach_probe_error
-from .result import RenderResult, matrix_shape
+from .result import RenderResult, matrix_shape, with_emitted
 
 
 def _tree(A, tree) -> Optional[LightTree]:
@@ -63,11 +63,7 @@ def _result(A, out: dict, method: str, seed: int, budget: dict, add_emitted: boo
         error_image = np.sqrt(var.mean(axis=-1)).astype(np.float32)
         norm = float(np.linalg.norm(image.astype(np.float64)))
         error_estimate = float(np.sqrt(var.sum()) / norm) if norm > 0 else None
-    if add_emitted:
-        import time
-        t = time.perf_counter()
-        image = image + A.emitted()
-        timings["emitted"] = time.perf_counter() - t
+    image = with_emitted(A, image, timings, add_emitted)
     budget = dict(budget, shadow_rays=int(out["shadow_rays"]), lights=int(A.shape[1]))
     return RenderResult(image=image, method=method, seed=seed, timings=timings, budget=budget, device=A.device,
                         error_estimate=error_estimate, error_image=error_image, bias_sources=bias_sources(A))

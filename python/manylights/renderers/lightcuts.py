@@ -23,15 +23,13 @@ lights and BSDFs have no bound and are evaluated exactly): ``src/baselines/cut_t
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from .. import _native
 from .._utils import validate as _v
 from .._utils.keywords import checked_keywords
 from .bias import bias_sources
-from .result import RenderResult, matrix_shape
+from .result import RenderResult, matrix_shape, with_emitted
 
 CRITERIA = ("cluster", "pixel")
 
@@ -53,10 +51,7 @@ def _checked(A, error, max_cut, seed, criterion, what):
 def _result(A, out: dict, method: str, seed: int, budget: dict, add_emitted: bool) -> RenderResult:
     timings = {"cut_tree": float(out["tree_seconds"]), **{k: float(v) for k, v in out["seconds"].items()}}
     image = np.asarray(out["image"], dtype=np.float32)
-    if add_emitted:
-        t = time.perf_counter()
-        image = image + A.emitted()
-        timings["emitted"] = time.perf_counter() - t
+    image = with_emitted(A, image, timings, add_emitted)
     sizes = np.asarray(out["cut_sizes"], dtype=np.float32)
     lit = sizes > 0
     budget = dict(budget, shadow_rays=int(out["shadow_rays"]), lights=int(A.shape[1]),

@@ -21,7 +21,6 @@ Symbols: S slices, c = ``columns`` clusters per slice, c_g = ``global_columns``,
 """
 from __future__ import annotations
 
-import time
 from typing import Optional
 
 import numpy as np
@@ -30,7 +29,7 @@ from .. import _native
 from .._utils import validate as _v
 from .._utils.keywords import checked_keywords
 from .bias import bias_sources
-from .result import RenderResult, matrix_shape
+from .result import RenderResult, matrix_shape, with_emitted
 
 
 @checked_keywords()
@@ -76,10 +75,7 @@ def lightslice(A, slices: int = 256, columns: int = 300, seed: int = 0, *, globa
                              seed)
     timings = {k: float(v) for k, v in out["timings"].items()}
     image = np.asarray(out["image"], dtype=np.float32)
-    if add_emitted:
-        t = time.perf_counter()
-        image = image + A.emitted()
-        timings["emitted"] = time.perf_counter() - t
+    image = with_emitted(A, image, timings, add_emitted)
     rows = np.asarray(out["rows"], dtype=np.int64)
     budget = {"rows": int(len(rows)), "columns": int(min(columns, n)), "global_columns": int(min(global_columns, n)),
               "neighbours": neighbours, "shadow_rays": int(out["shadow_rays"]), "lights": int(n)}

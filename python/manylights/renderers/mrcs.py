@@ -40,7 +40,7 @@ from . import estimates
 from .bias import bias_sources
 from .clustering import cluster_reduced_columns
 from .probe_error import attach_probe_error
-from .result import RenderResult, light_luminance_power, matrix_shape
+from .result import RenderResult, light_luminance_power, matrix_shape, with_emitted
 
 
 def reconstruct(A, reps, weights, timings: dict, add_emitted: bool, progress: bool) -> np.ndarray:
@@ -48,10 +48,7 @@ def reconstruct(A, reps, weights, timings: dict, add_emitted: bool, progress: bo
     t = time.perf_counter()
     image = A.weighted_sum(reps, weights, progress=progress)
     timings["columns"] = time.perf_counter() - t
-    if add_emitted:
-        t = time.perf_counter()
-        image = image + A.emitted()
-        timings["emitted"] = time.perf_counter() - t
+    image = with_emitted(A, image, timings, add_emitted)
     return image
 
 

@@ -1,6 +1,7 @@
 """What every renderer returns (``RenderResult``) and the checks and light weights the renderers share."""
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -128,6 +129,17 @@ class RenderResult:
 
     def _repr_png_(self) -> bytes:
         return png_bytes(self.image)
+
+
+def with_emitted(A, image: np.ndarray, timings: dict, add_emitted: bool = True) -> np.ndarray:
+    """``image + A.emitted()`` (what the camera sees of the emitters) when ``add_emitted``, timed into
+    ``timings['emitted']`` (seconds); ``image`` unchanged otherwise."""
+    if not add_emitted:
+        return image
+    t = time.perf_counter()
+    out = image + A.emitted()
+    timings["emitted"] = time.perf_counter() - t
+    return out
 
 
 def light_luminance_power(lights) -> np.ndarray:
