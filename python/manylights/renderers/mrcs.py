@@ -130,11 +130,7 @@ def mrcs(A, rows: int = 300, columns: int = 900, seed: int = 0, *, row_indices=N
         cl, reps, weights, X1, X2 = estimates.mrcs_halves(A, R, _v.integer("columns", columns, 2, n), seed,
                                                         light_luminance_power(A.lights), timings, progress,
                                                         **cluster_options)
-        image = 0.5 * (X1 + X2)
-        if add_emitted:
-            t = time.perf_counter()
-            image = image + A.emitted()
-            timings["emitted"] = time.perf_counter() - t
+        image = with_emitted(A, 0.5 * (X1 + X2), timings, add_emitted)
         res = RenderResult(image=image, method="mrcs", seed=seed, timings=timings, rows=row_indices,
                            clusters=cl["assignment"], representatives=reps, weights=weights,
                            budget={"rows": int(len(row_indices)), "columns": int(len(reps)), "lights": int(n),
