@@ -6,7 +6,7 @@ use crate::gpu::pipeline::{compute_pipeline, encode_dispatch, storage, uniform};
 use crate::gpu::shaders;
 use crate::shading::GpuBsdf;
 use glam::Vec3;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::Arc;
 
 /// Threads per workgroup (mirrored in `shaders/bsdf_eval.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
@@ -39,14 +39,7 @@ impl BsdfEvalPass {
 
     /// The pass for `ctx`'s device, built on first use.
     fn shared(ctx: &GpuContext) -> Arc<BsdfEvalPass> {
-        static PASSES: OnceLock<Mutex<Vec<(wgpu::Device, Arc<BsdfEvalPass>)>>> = OnceLock::new();
-        let mut passes = PASSES.get_or_init(|| Mutex::new(Vec::new())).lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, p)) = passes.iter().find(|(d, _)| *d == ctx.device) {
-            return p.clone();
-        }
-        let p = Arc::new(BsdfEvalPass::new(&ctx.device));
-        passes.push((ctx.device.clone(), p.clone()));
-        p
+        crate::gpu::pipeline::shared_pass(&ctx.device, BsdfEvalPass::new)
     }
 }
 

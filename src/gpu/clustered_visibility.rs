@@ -137,7 +137,7 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
         },
     )?;
     let gave_up_buf = storage_buffer(device, "ClusteredVisibility::gave_up", &[0u32; 4], usage | wgpu::BufferUsages::COPY_SRC)?;
-    let pass = backend.clustered_pass.get_or_init(|| ClusteredVisibilityPass::new(device));
+    let pass = super::pipeline::shared_pass(device, ClusteredVisibilityPass::new);
     let base = ClusteredParams {
         stage: STAGE_VISIBILITY,
         num_samples: m as u32,

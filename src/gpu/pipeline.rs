@@ -1,5 +1,24 @@
 //! Bind-group-layout entries and compute-pipeline creation shared by the compute passes (one bind group,
-//! entry point `main`, labels `"<Pass>::<object>"`).
+//! entry point `main`, labels `"<Pass>::<object>"`), and the per-device cache of built passes.
+
+use std::any::{Any, TypeId};
+use std::sync::{Arc, Mutex};
+
+/// The pass of type `T` for `device`: built by `build` on first use, then shared by every light matrix on
+/// that device. Compiling the shadow-map and column passes took ~2 s per `LightMatrix` on Mesa's software
+/// driver before; a pass holds only its pipeline and layout, so sharing it changes no result.
+pub fn shared_pass<T: Send + Sync + 'static>(device: &wgpu::Device, build: impl FnOnce(&wgpu::Device) -> T) -> Arc<T> {
+    type Entry = (TypeId, wgpu::Device, Arc<dyn Any + Send + Sync>);
+    static CACHE: Mutex<Vec<Entry>> = Mutex::new(Vec::new());
+    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+    let hit = cache.iter().find(|(t, d, _)| *t == TypeId::of::<T>() && d == device).map(|(_, _, p)| p.clone());
+    if let Some(pass) = hit.and_then(|p| p.downcast::<T>().ok()) {
+        return pass;
+    }
+    let pass = Arc::new(build(device));
+    cache.push((TypeId::of::<T>(), device.clone(), pass.clone()));
+    pass
+}
 
 /// A uniform buffer at `binding`, visible to compute.
 pub fn uniform(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -84,3 +103,6 @@ pub fn encode_dispatch(
     pass.set_bind_group(0, &bind_group, &[]);
     pass.dispatch_workgroups(groups.0, groups.1, 1);
 }
+
+#[cfg(test)]
+mod tests;

@@ -28,8 +28,8 @@ pub struct GpuBackend {
     pub view: Arc<ViewSamples>,
     pub lights: Arc<LightSet>,
     pub opts: ColumnOptions,
-    pub(crate) shadow_pass: ShadowMapPass,
-    pub(crate) columns_pass: ColumnsPass,
+    pub(crate) shadow_pass: Arc<ShadowMapPass>,
+    pub(crate) columns_pass: Arc<ColumnsPass>,
     /// The scene's triangles (unshared vertices), drawn into every shadow map.
     pub(crate) geometry: SceneGeometry,
     pub(crate) view_buffers: ViewBuffers,
@@ -44,16 +44,12 @@ pub struct GpuBackend {
     /// record offset in them.
     pub(crate) spot_textures: wgpu::Buffer,
     pub(crate) spot_texture_offsets: Vec<u32>,
-    /// The row pass (`rows.rs`), compiled on first use.
-    pub(crate) rows_pass: std::sync::OnceLock<crate::gpu::rows::RowsPass>,
     /// All lights as `GpuLight`s for the row pass, in chunks (first light, buffer); uploaded once.
     pub(crate) row_lights: std::sync::OnceLock<Vec<(usize, wgpu::Buffer)>>,
     /// The row pass's cube atlas and output buffer, reused by later calls.
     pub(crate) row_scratch: std::sync::Mutex<Option<super::rows::RowScratch>>,
     /// CPU ray tracer of the exact oracle (`oracle.rs`), built on first use (or given).
     pub(crate) oracle: std::sync::OnceLock<Arc<RayTracer>>,
-    /// The clustered-visibility pass (`gpu::clustered_visibility`), compiled on first use.
-    pub(crate) clustered_pass: std::sync::OnceLock<crate::gpu::clustered_visibility::ClusteredVisibilityPass>,
 }
 
 /// The GPU memory of one light matrix, by part (bytes): what `GpuBackend::new` allocates up front, and
@@ -213,17 +209,15 @@ impl GpuBackend {
             spot_texture_offsets,
             bvh,
             stats,
-            shadow_pass: ShadowMapPass::new(device),
-            columns_pass: ColumnsPass::new(device),
+            shadow_pass: crate::gpu::pipeline::shared_pass(device, ShadowMapPass::new),
+            columns_pass: crate::gpu::pipeline::shared_pass(device, ColumnsPass::new),
             geometry,
             view_buffers,
             atlas,
             max_binding,
-            rows_pass: std::sync::OnceLock::new(),
             row_lights: std::sync::OnceLock::new(),
             row_scratch: std::sync::Mutex::new(None),
             oracle: std::sync::OnceLock::new(),
-            clustered_pass: std::sync::OnceLock::new(),
             ctx,
             scene,
             view,

@@ -150,7 +150,7 @@ impl GpuBackend {
             )?;
         }
         let device = &self.ctx.device;
-        let pass = self.rows_pass.get_or_init(|| RowsPass::new(device));
+        let pass = crate::gpu::pipeline::shared_pass(device, RowsPass::new);
 
         let t_setup = Instant::now();
         // Lights, in chunks of at most one dispatch and one binding (uploaded on the first call).

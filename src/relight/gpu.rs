@@ -184,7 +184,7 @@ struct GlossyBuffers {
 /// Relighting on one GPU for one transfer (module docs).
 pub struct GpuRelight {
     ctx: Arc<GpuContext>,
-    passes: RelightPasses,
+    passes: Arc<RelightPasses>,
     /// The light-matrix backend: shadow maps and column passes; its lights are replaced per relight.
     backend: Mutex<GpuBackend>,
     buffers: Buffers,
@@ -337,7 +337,7 @@ impl GpuRelight {
             glossy,
         };
         Ok(GpuRelight {
-            passes: RelightPasses::new(device),
+            passes: crate::gpu::pipeline::shared_pass(device, RelightPasses::new),
             backend: Mutex::new(backend),
             buffers,
             side,
