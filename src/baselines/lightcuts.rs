@@ -59,6 +59,9 @@ pub struct CutsEstimate {
     pub seconds: Vec<(&'static str, f64)>,
     /// View samples that got a full lightcut.
     pub full_cuts: usize,
+    /// Full lightcuts that stopped at `max_cut` before their criterion held: there the error is not
+    /// bounded by `error`.
+    pub capped_cuts: usize,
 }
 
 /// One view sample's cut: its estimate, size, shadow rays and (when kept) its nodes sorted by id with
@@ -71,6 +74,8 @@ pub struct SampleCut {
     pub nodes: Vec<(u32, u8)>,
     /// The view sample's BSDF had no bound (every light evaluated exactly).
     pub unbounded: bool,
+    /// The cut stopped at `max_cut` before its criterion held.
+    pub capped: bool,
 }
 
 /// The scene a cut is computed in.
@@ -140,7 +145,7 @@ pub(crate) fn lightcut(ctx: &Ctx, sp: &ShadingPoint, i: usize, error: f64, max_c
     let mut rays = 0u32;
     let (mut total, exact) = ctx.exact(sp, i, mat.unbounded, &mut rays);
     if mat.unbounded {
-        return SampleCut { value: total, size: exact, rays, nodes: Vec::new(), unbounded: true };
+        return SampleCut { value: total, size: exact, rays, nodes: Vec::new(), unbounded: true, capped: false };
     }
     let clamp = ctx.lights.vpl_clamp;
     let mut cut: Vec<Entry> = Vec::with_capacity(64);
@@ -167,6 +172,7 @@ pub(crate) fn lightcut(ctx: &Ctx, sp: &ShadingPoint, i: usize, error: f64, max_c
         bound_sum += b;
     }
     let mut size = tree.roots.len() + exact as usize;
+    let mut capped = false;
     while let Some(&(bits, e)) = heap.peek() {
         let b = f64::from_bits(bits);
         let done = match criterion {
@@ -174,6 +180,7 @@ pub(crate) fn lightcut(ctx: &Ctx, sp: &ShadingPoint, i: usize, error: f64, max_c
             Criterion::Pixel => b.is_finite() && bound_sum <= error * lum(total),
         };
         if done || size >= max_cut {
+            capped = !done;
             break;
         }
         heap.pop();
@@ -201,7 +208,7 @@ pub(crate) fn lightcut(ctx: &Ctx, sp: &ShadingPoint, i: usize, error: f64, max_c
     } else {
         Vec::new()
     };
-    SampleCut { value: total.max(DVec3::ZERO), size: size as u32, rays, nodes, unbounded: false }
+    SampleCut { value: total.max(DVec3::ZERO), size: size as u32, rays, nodes, unbounded: false, capped }
 }
 
 /// Checks the options shared by the cut renderers.
@@ -245,16 +252,18 @@ pub fn lightcuts(a: &LightMatrix, tree: &CutTree, error: f64, max_cut: usize, cr
     let per_sample = crate::interrupt::par_map_chunked(a.view.len(), CHUNK, |i| {
         let sp = ShadingPoint::new(&a.view, i);
         if !sp.surface {
-            return (DVec3::ZERO, 0, 0);
+            return (DVec3::ZERO, 0, 0, false);
         }
         let c = lightcut(&ctx, &sp, i, error, max_cut, criterion, false);
-        (c.value, c.size, c.rays)
+        (c.value, c.size, c.rays, c.capped)
     })?;
     let shadow_rays = per_sample.iter().map(|s| s.2 as u64).sum();
+    let capped_cuts = per_sample.iter().filter(|s| s.3).count();
     let vs: Vec<(DVec3, u32)> = per_sample.iter().map(|s| (s.0, s.1)).collect();
     let (image, cut_sizes) = fold(&a.view, &vs);
     let full_cuts = a.view.len();
-    Ok(CutsEstimate { image, cut_sizes, shadow_rays, seconds: vec![("cuts", t0.elapsed().as_secs_f64())], full_cuts })
+    let seconds = vec![("cuts", t0.elapsed().as_secs_f64())];
+    Ok(CutsEstimate { image, cut_sizes, shadow_rays, seconds, full_cuts, capped_cuts })
 }
 
 #[cfg(test)]

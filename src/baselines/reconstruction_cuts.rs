@@ -129,6 +129,7 @@ pub fn reconstruction_cuts(
     let sparse_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let full = std::sync::atomic::AtomicUsize::new(sparse.iter().flatten().count());
+    let capped = std::sync::atomic::AtomicUsize::new(sparse.iter().flatten().filter(|c| c.capped).count());
     let per_sample = crate::interrupt::par_map_chunked(view.len(), CHUNK, |i| {
         let sp = point(i);
         if !sp.surface {
@@ -152,6 +153,7 @@ pub fn reconstruction_cuts(
         if !ok || nb.is_empty() {
             full.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let c = lightcut(&ctx, &sp, i, error, max_cut, criterion, false);
+            capped.fetch_add(c.capped as usize, std::sync::atomic::Ordering::Relaxed);
             return (c.value, c.size, c.rays);
         }
         let mut rays = 0u32;
@@ -167,5 +169,5 @@ pub fn reconstruction_cuts(
     let vs: Vec<(DVec3, u32)> = per_sample.iter().map(|s| (s.0, s.1)).collect();
     let (image, cut_sizes) = fold(view, &vs);
     let seconds = vec![("sparse_cuts", sparse_seconds), ("reconstruction", t1.elapsed().as_secs_f64())];
-    Ok(CutsEstimate { image, cut_sizes, shadow_rays, seconds, full_cuts: full.into_inner() })
+    Ok(CutsEstimate { image, cut_sizes, shadow_rays, seconds, full_cuts: full.into_inner(), capped_cuts: capped.into_inner() })
 }

@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 /// Lightcuts (block = 0) or reconstruction cuts with sparse blocks of `block` pixels, refined by
 /// `criterion` ("cluster": every bound, the paper's; "pixel": the sum of the bounds): dict of image
 /// (H, W, 3) float32, cut_sizes (H, W) float32, shadow_rays, seconds (dict of stage -> s), tree_seconds,
-/// full_cuts, tree_nodes, exact_lights.
+/// full_cuts, capped_cuts (full cuts stopped by max_cut before the criterion held), tree_nodes, exact_lights.
 #[pyfunction]
 #[pyo3(signature = (matrix, error, max_cut, seed, block=0, criterion="cluster"))]
 fn lightcuts<'py>(
@@ -51,6 +51,7 @@ fn lightcuts<'py>(
     d.set_item("seconds", seconds)?;
     d.set_item("tree_seconds", tree_seconds)?;
     d.set_item("full_cuts", e.full_cuts)?;
+    d.set_item("capped_cuts", e.capped_cuts)?;
     d.set_item("tree_nodes", tree.nodes.len())?;
     d.set_item("exact_lights", tree.exact.len())?;
     Ok(d)

@@ -54,11 +54,19 @@ def _result(A, out: dict, method: str, seed: int, budget: dict, add_emitted: boo
     image = with_emitted(A, image, timings, add_emitted)
     sizes = np.asarray(out["cut_sizes"], dtype=np.float32)
     lit = sizes > 0
+    capped = int(out["capped_cuts"])
     budget = dict(budget, shadow_rays=int(out["shadow_rays"]), lights=int(A.shape[1]),
                   mean_cut=float(sizes[lit].mean()) if lit.any() else 0.0, exact_lights=int(out["exact_lights"]),
-                  full_cuts=int(out["full_cuts"]))
+                  full_cuts=int(out["full_cuts"]), capped_cuts=capped)
+    sources = list(bias_sources(A))
+    if capped:
+        rule = "every cluster's bound" if budget["criterion"] == "cluster" else "the sum of the cut's bounds"
+        sources.append({"source": "max_cut", "view_samples": capped, "full_cuts": int(out["full_cuts"]),
+                        "reason": f"{capped} of {out['full_cuts']} cuts stopped at max_cut={budget['max_cut']} "
+                                  f"before {rule} was within error={budget['error']:g} of the estimate: their "
+                                  "error is not bounded (raise max_cut)"})
     return RenderResult(image=image, method=method, seed=seed, timings=timings, budget=budget, device=A.device,
-                        bias_sources=bias_sources(A), cut_sizes=sizes.astype(np.int32))
+                        bias_sources=sources, cut_sizes=sizes.astype(np.int32))
 
 
 @checked_keywords()
@@ -80,8 +88,10 @@ def lightcuts(A, error: float = 0.02, max_cut: int = 1000, seed: int = 0, *, cri
     Returns:
         RenderResult: ``image`` (H, W, 3) float32; ``cut_sizes`` (H, W) int32, clusters and single lights
         shaded per pixel (0 for background); ``budget`` error, max_cut, shadow_rays, lights, mean_cut
-        (over surface pixels), exact_lights (lights without a bound, shaded everywhere), full_cuts;
-        ``timings`` cut_tree, cuts, emitted (s).
+        (over surface pixels), exact_lights (lights without a bound, shaded everywhere), full_cuts,
+        capped_cuts (cuts that reached ``max_cut`` before the criterion held; when > 0, ``bias_sources``
+        lists them as ``"max_cut"``: there the error is not bounded by ``error``); ``timings`` cut_tree, cuts,
+        emitted (s).
 
     Raises:
         TypeError: A is not a LightMatrix. ValueError: error not a finite number > 0, max_cut not an integer
