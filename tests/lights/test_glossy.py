@@ -203,6 +203,11 @@ def test_clustered_visibility_uses_the_weights():
     assert np.linalg.norm(out["gpu"][0] - out["cpu"][0]) <= 0.01 * np.linalg.norm(out["cpu"][0])
 
 
+# glossy_roughness per backend: with (0.2) and without (0.0) the BSDF strategy. The strata-only image does not
+# depend on the backend's MIS code and is checked on the CPU only (software GPU time).
+ROUGHNESS = {"cpu": (0.0, 0.2), "gpu": (0.2,)}
+
+
 @pytest.mark.parametrize("device", ["cpu", "gpu"])
 @pytest.mark.parametrize("name,xml,tol", [("glossy-blend-direct", "glossy_blend.xml", TOL_BLEND),
                                           ("glossy-principled-direct", "glossy_principled.xml", TOL_PRINCIPLED)])
@@ -216,7 +221,7 @@ def test_blended_and_principled_highlights_converge_to_mitsuba(device, name, xml
     lights = ml.generate_lights(scene, area=0, environment=2048)
     vis = {"visibility": "ray_traced"} if device == "gpu" else {}
     errs = {}
-    for rough in (0.0, 0.2):
+    for rough in ROUGHNESS[device]:
         A = ml.LightMatrix(scene, lights, device=device, max_depth=2, glossy_roughness=rough, bsdf_samples=4096,
                            **vis)
         img = np.asarray(A.column_sum(progress=False)) + A.emitted()
@@ -226,11 +231,12 @@ def test_blended_and_principled_highlights_converge_to_mitsuba(device, name, xml
         noise = float(np.sqrt(var[surface].sum() / denom))
         # Every plate pixel has a rough lobe below 0.2: all get BSDF samples.
         assert A.glossy_work == ((int(surface.sum()), 4096 * int(surface.sum())) if rough else (0, 0))
-    print(f"\n{name} ({device}): MIS {errs[0.2]:.2%}, strata only {errs[0.0]:.2%}, noise {noise:.2%} "
-          f"({meta['spp']} spp)")
+    print(f"\n{name} ({device}): MIS {errs[0.2]:.2%}, strata only {errs.get(0.0, float('nan')):.2%}, "
+          f"noise {noise:.2%} ({meta['spp']} spp)")
     assert noise * NOISE_MARGIN <= tol
     assert errs[0.2] <= tol
-    assert errs[0.0] >= 5 * errs[0.2]
+    if 0.0 in errs:
+        assert errs[0.0] >= 5 * errs[0.2]
 
 
 @pytest.mark.parametrize("device", ["cpu", "gpu"])
@@ -247,15 +253,16 @@ def test_matpreview_blend_highlights(device, tmp_path):
     lights = ml.generate_lights(scene, area=0, environment=2048)
     vis = {"visibility": "ray_traced"} if device == "gpu" else {}
     errs = {}
-    for rough in (0.0, 0.2):
+    for rough in ROUGHNESS[device]:
         A = ml.LightMatrix(scene, lights, device=device, max_depth=2, glossy_roughness=rough, bsdf_samples=1024,
                            **vis)
         img = np.asarray(A.column_sum(progress=False)) + A.emitted()
         errs[rough] = ml.relative_l2(img, ref)
         assert (A.glossy_work[0] > 500) == (rough > 0)  # the object's pixels (~764 of 3,072)
     noise = float(np.sqrt(var.sum() / (ref ** 2).sum()))
-    print(f"\nmatpreview blend ({device}): MIS {errs[0.2]:.2%}, strata only {errs[0.0]:.2%}, noise {noise:.2%} "
-          f"({meta['spp']} spp)")
+    print(f"\nmatpreview blend ({device}): MIS {errs[0.2]:.2%}, strata only {errs.get(0.0, float('nan')):.2%}, "
+          f"noise {noise:.2%} ({meta['spp']} spp)")
     assert noise * NOISE_MARGIN <= TOL_MATPREVIEW_BLEND
     assert errs[0.2] <= TOL_MATPREVIEW_BLEND
-    assert errs[0.0] >= 10 * errs[0.2]
+    if 0.0 in errs:
+        assert errs[0.0] >= 10 * errs[0.2]
