@@ -258,6 +258,22 @@ fn meshes_from_search_paths() {
 }
 
 #[test]
+fn errors_deep_in_a_large_file_and_in_an_include_name_their_own_line() {
+    // Three thousand shapes, one per line, then a refused plugin: the line comes from the newline index.
+    let shapes: String = (0..3000).map(|k| format!("<shape type=\"rectangle\"><!-- {k} --></shape>\n")).collect();
+    assert_err(load_str("deep", &format!("{shapes}<bsdf type=\"hair\"/>")), 3004, &["\"hair\""]);
+    // An include's error names the included file's line, and lines after the include are the outer file's.
+    let inner = "<scene version=\"3.0.0\">\n\n<bsdf type=\"diffuse\" id=\"a\"/>\n</scene>\n";
+    let outer = scene("<include filename=\"inner.xml\"/>\n\n\n<bsdf type=\"hair\"/>");
+    let path = write("include-lines", &[("scene.xml", &outer), ("inner.xml", inner)]);
+    assert_err(load_scene(&path, &LoadOptions::default()), 7, &["\"hair\""]);
+    let bad_inner = "<scene version=\"3.0.0\">\n\n\n<bsdf type=\"hair\"/>\n</scene>\n";
+    let path = write("include-lines-inner", &[("scene.xml", &scene("<include filename=\"inner.xml\"/>")), ("inner.xml", bad_inner)]);
+    let e = load_scene(&path, &LoadOptions::default()).expect_err("hair is refused").to_string();
+    assert!(e.contains("inner.xml:4"), "{e}");
+}
+
+#[test]
 fn refusals_name_file_and_line() {
     assert_err(load_str("malformed", "<shape type=\"rectangle\">\n</shap>"), 5, &["malformed XML"]);
     assert_err(load_str("hair", "<bsdf type=\"hair\"/>"), 4, &["bsdf", "\"hair\""]);
