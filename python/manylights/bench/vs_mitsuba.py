@@ -19,6 +19,13 @@ Mitsuba 3's ``path`` integrator faster, on this machine? One run answers it side
    ``ml.mrcs``. One untimed warm-up render per backend first (GPU adapter and pipeline creation). Scene
    loading is left out of both methods' times.
 
+4. With ``--samplers``: light-BVH sampling, RIS and / or Stochastic Lightcuts (CPU backend, exact rays) at
+   each ``--samples`` count (shadow rays per view sample; the cut size for Stochastic Lightcuts) over
+   ``--sampler-lights`` lights, timed like MRCS (light generation, matrix, render).
+
+``--scene many-emitters:N`` writes the generated hall with N emitters (``bench.many_emitters``) under
+``--cache`` and measures it: the scene those samplers were designed for.
+
 Every budget and every spp level is rendered with ``--seeds`` seeds (default 3): its error is the root mean
 square of the per-seed errors, its time the median (a single seed's MRCS error scatters by ~10% around it,
 enough to move a threshold crossing by a ladder step).
@@ -39,6 +46,8 @@ thresholds as horizontal lines).
 
     python -m manylights.bench vs-mitsuba --scene cbox
     python -m manylights.bench vs-mitsuba --scene cbox-lights --devices cpu --res 64 --budgets 1000:30:100
+    python -m manylights.bench vs-mitsuba --scene many-emitters:5000 --devices cpu \
+        --samplers light_bvh_sampling ris_sampling stochastic_lightcuts
 """
 from __future__ import annotations
 
@@ -59,6 +68,7 @@ from .._utils.files import folder_hash as scene_hash
 from .._utils.progress import progress_bar
 from ..scenes import resolve
 from ..testing import mitsuba as reference
+from . import many_emitters
 from .common import display_path
 
 #: Lanes per Mitsuba wavefront (W * H * spp per batch): ~1M keeps memory at a few hundred MB and is as
@@ -111,13 +121,25 @@ DEFAULTS = {
                           budgets=list(DIRECT_BUDGETS)),  # noise ~0.29%
 }
 GENERIC = SceneDefaults(width=128, size_params=())
+#: The generated many-emitter hall (``bench.many_emitters``): direct light; Mitsuba picks one of thousands of
+#: emitters per sample, so its reference needs many samples.
+MANY_EMITTERS = SceneDefaults(width=128, size_params=(), max_depth=2, ref_spp=16384, max_spp=4096,
+                              budgets=[(4000, 100, 300), (16000, 200, 600), (64000, 300, 900)],
+                              thresholds=(0.2, 0.1, 0.05, 0.02))
+#: The light-tree samplers ``--samplers`` can add: name -> f(A, samples, seed) -> RenderResult.
+SAMPLERS = {
+    "light_bvh_sampling": lambda A, k, seed: ml.light_bvh_sampling(A, samples=k, seed=seed),
+    "ris_sampling": lambda A, k, seed: ml.ris_sampling(A, samples=k, seed=seed),
+    "stochastic_lightcuts": lambda A, k, seed: ml.stochastic_lightcuts(A, cut_size=k, seed=seed),
+}
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("vs-mitsuba", help="time to 5/2/1%% relative L2: MRCS (CPU/GPU) against Mitsuba's path tracer",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", required=True,
-                   help=f"bundled scene ({', '.join(DEFAULTS)}) or a scene XML path")
+                   help=f"bundled scene ({', '.join(DEFAULTS)}), {many_emitters.PREFIX}:N (the generated hall with N "
+                        "emitters, written under --cache) or a scene XML path")
     p.add_argument("--res", type=int, default=None, help="image width (height from the film's aspect); "
                    "default per scene (128; veach-ajar 64)")
     p.add_argument("--max-depth", type=int, default=None,
@@ -139,6 +161,12 @@ def add_parser(sub) -> None:
     p.add_argument("--seed", type=int, default=1, help="first seed of MRCS (lights and sampling) and of Mitsuba's renders")
     p.add_argument("--seeds", type=int, default=3,
                    help="seeds per budget and per spp level: errors are the RMS over them, times the median")
+    p.add_argument("--samplers", nargs="*", default=[], choices=list(SAMPLERS),
+                   help="also chart these light-tree samplers (CPU backend, exact rays) at each --samples count")
+    p.add_argument("--samples", type=int, nargs="+", default=[1, 4, 16, 64],
+                   help="shadow rays per view sample of the samplers (Stochastic Lightcuts: the cut size)")
+    p.add_argument("--sampler-lights", type=int, default=None,
+                   help="lights the samplers draw from (default: the largest MRCS budget's)")
     p.add_argument("--no-early-stop", action="store_true",
                    help="run every level even after the smallest threshold is reached")
     p.add_argument("--out", default="out/bench")
@@ -163,10 +191,16 @@ def parse_budget(text: str) -> tuple[int, int, int]:
 
 def _settings(args) -> dict:
     """Resolve the per-scene defaults and check every argument (ValueError naming the bad value)."""
-    path = resolve(args.scene)
-    name = path.parent.name if path.name == "scene.xml" else path.stem
-    d = DEFAULTS.get(name) if path.parent.parent.name == "scenes" else None
-    d = d or GENERIC
+    emitters = many_emitters.parse_name(args.scene)
+    if emitters is not None:
+        name = f"{many_emitters.PREFIX}-{emitters}"
+        path = many_emitters.write_scene(Path(args.cache) / "scenes" / name, emitters)
+        d = MANY_EMITTERS
+    else:
+        path = resolve(args.scene)
+        name = path.parent.name if path.name == "scene.xml" else path.stem
+        d = DEFAULTS.get(name) if path.parent.parent.name == "scenes" else None
+        d = d or GENERIC
     width = d.width if args.res is None else args.res
     max_depth = d.max_depth if args.max_depth is None else args.max_depth
     ref_spp = d.ref_spp if args.ref_spp is None else args.ref_spp
@@ -191,6 +225,14 @@ def _settings(args) -> dict:
             raise ValueError(f"--thresholds must be positive fractions (0.01 = 1%), got {t}")
     if args.seeds < 1:
         raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
+    samplers = list(dict.fromkeys(getattr(args, "samplers", None) or []))
+    samples = sorted(set(getattr(args, "samples", None) or [1]))
+    if min(samples) < 1:
+        raise ValueError(f"--samples must be positive integers, got {samples}")
+    sampler_lights = getattr(args, "sampler_lights", None)
+    sampler_lights = max(b[0] for b in budgets) if sampler_lights is None else sampler_lights
+    if sampler_lights < 1:
+        raise ValueError(f"--sampler-lights must be >= 1, got {sampler_lights}")
     if args.ref_seed < 0 or args.seed < 0:
         raise ValueError(f"seeds must be >= 0, got --ref-seed {args.ref_seed}, --seed {args.seed}")
     film = ml.load_scene(path)
@@ -203,7 +245,8 @@ def _settings(args) -> dict:
         params = {}
     return {"path": path, "name": name, "size": (width, height), "params": params, "max_depth": max_depth,
             "ref_spp": ref_spp, "spp": sorted(set(spp)), "budgets": sorted(set(budgets)),
-            "thresholds": tuple(sorted(set(thresholds), reverse=True)), "report_edges": d.report_edges}
+            "thresholds": tuple(sorted(set(thresholds), reverse=True)), "report_edges": d.report_edges,
+            "samplers": samplers, "samples": samples, "sampler_lights": sampler_lights}
 
 
 def relative_noise(mean: np.ndarray, var: np.ndarray) -> float:
@@ -321,7 +364,7 @@ def print_tables(summary: dict) -> None:
         names = list(table[0]["curves"]) if table else []
         others = [n for n in names if n != "mitsuba"]
         head = f"{'rel. L2':>8s} | {'mitsuba':>12s}" + "".join(f" | {n:>12s} | {'ratio':>7s}" for n in others)
-        print(f"\ntime to relative L2 ({what}; ratio = Mitsuba time / MRCS time, > 1: MRCS faster)")
+        print(f"\ntime to relative L2 ({what}; ratio = Mitsuba time / the method's time, > 1: the method is faster)")
         print(head)
         print("-" * len(head))
         for row in table:
@@ -359,7 +402,8 @@ def chart(summary: dict, png: Path) -> None:
     ax.set_xlabel("seconds per image (wall clock)")
     ax.set_ylabel("relative L2 vs converged Mitsuba reference")
     W, H = summary["size"]
-    ax.set_title(f"{summary['scene_name']} {W}x{H}, max_depth {summary['max_depth']}: MRCS vs Mitsuba path")
+    ax.set_title(f"{summary['scene_name']} {W}x{H}, max_depth {summary['max_depth']}: many-light methods vs Mitsuba path",
+                 fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -410,6 +454,18 @@ def run_mrcs(scene, budget, max_depth: int, device: str, gpu_visibility: str, se
     res = ml.mrcs(A, rows=min(rows, A.shape[0]), columns=min(columns, n), seed=seed)
     stages = {"generate_lights": t1 - t0, "light_matrix": t2 - t1, **res.timings}
     return res.image, stages, A.device, n
+
+
+def run_sampler(scene, method: str, lights_n: int, samples: int, max_depth: int, seed: int):
+    """One image of light-tree sampler ``method`` (``SAMPLERS``) on the CPU backend, all of it timed: (image,
+    stages in seconds, number of lights). The lights are split as MRCS's budgets split them."""
+    t0 = time.perf_counter()
+    lights = ml.generate_lights(scene, **_light_counts(scene, lights_n, max_depth), max_depth=max_depth, seed=seed)
+    t1 = time.perf_counter()
+    A = ml.LightMatrix(scene, lights, device="cpu", max_depth=max_depth)
+    t2 = time.perf_counter()
+    res = SAMPLERS[method](A, samples, seed)
+    return res.image, {"generate_lights": t1 - t0, "light_matrix": t2 - t1, **res.timings}, len(lights)
 
 
 def run(args) -> dict:
@@ -470,15 +526,19 @@ def run(args) -> dict:
         records.append(rec)
         extra = (f", {rec['relative_l2_no_edges']:.3%} without edge pixels"
                  if s["report_edges"] and rec.get("relative_l2_no_edges") is not None else "")
-        what = f"{rec['spp']} spp" if rec["method"] == "mitsuba" else \
-            f"{rec['lights']} lights, {rec['rows']} rows, {rec['columns']} columns"
-        print(f"  {rec['curve']:<10s} {what:<42s} {rec['seconds']:9.3f} s   rel L2 {rec['relative_l2']:.3%}{extra}",
+        if rec["method"] == "mitsuba":
+            what = f"{rec['spp']} spp"
+        elif "samples" in rec:
+            what = f"{rec['lights']} lights, {rec['samples']} samples"
+        else:
+            what = f"{rec['lights']} lights, {rec['rows']} rows, {rec['columns']} columns"
+        print(f"  {rec['curve']:<20s} {what:<42s} {rec['seconds']:9.3f} s   rel L2 {rec['relative_l2']:.3%}{extra}",
               flush=True)
         save()
         return rec
 
     min_thr = min(s["thresholds"])
-    total = len(s["spp"]) + len(s["budgets"]) * len(args.devices)
+    total = len(s["spp"]) + len(s["budgets"]) * len(args.devices) + len(s["samplers"]) * len(s["samples"])
     scene = ml.load_scene(s["path"], size=(W, H), **s["params"])
     mscene = reference.load(s["path"], **s["params"])
     batch = max(1, LANES // (W * H))
@@ -514,6 +574,19 @@ def run(args) -> dict:
                     step()
                     if rec["relative_l2"] <= min_thr and not args.no_early_stop:
                         for _ in s["budgets"][j + 1:]:
+                            step()
+                        break
+            for method in s["samplers"]:
+                for j, k in enumerate(s["samples"]):
+                    per_seed = [timed(lambda: run_sampler(scene, method, s["sampler_lights"], k, s["max_depth"],
+                                                          args.seed + q)) for q in range(args.seeds)]
+                    (img, stages, n), _, _ = per_seed[0]
+                    rec = record({"method": method, "curve": method, "device": "cpu", "lights_budget":
+                                  s["sampler_lights"], "lights": n, "samples": k,
+                                  **over_seeds(per_seed, lambda r: r[0]), "stages": stages})
+                    step()
+                    if rec["relative_l2"] <= min_thr and not args.no_early_stop:
+                        for _ in s["samples"][j + 1:]:
                             step()
                         break
             # Mitsuba runs until it is below the smallest threshold and below the lowest MRCS error (so that
