@@ -191,16 +191,16 @@ DISK_RECESS_REF = HERE / "references" / "disk-recess-direct"
 
 
 def _psa(p, n, corners):
-    """Lambert's formula: the projected solid angle of a planar polygon from p on a plane of normal n."""
-    total = 0.0
-    for a, b in zip(corners, corners[1:] + corners[:1]):
-        a, b = a - p, b - p
-        g = np.cross(a, b)
-        gl = np.linalg.norm(g)
-        if gl > 0:
-            theta = np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1.0, 1.0))
-            total += theta * (n @ g) / gl
-    return 0.5 * abs(total)
+    """Lambert's formula: the projected solid angle of a planar polygon (corners (K, 3), in order) from p on
+    a plane of normal n: 1/2 |sum over edges of theta_k (n . g_k) / |g_k||, g_k = a_k x a_{k+1}."""
+    a = np.asarray(corners, dtype=np.float64) - p
+    b = np.roll(a, -1, axis=0)
+    g = np.cross(a, b)
+    gl = np.linalg.norm(g, axis=1)
+    cos = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+    theta = np.arccos(np.clip(cos, -1.0, 1.0))
+    ok = gl > 0
+    return 0.5 * abs(float(np.sum(theta[ok] * (g[ok] @ n) / gl[ok])))
 
 
 def test_disk_light_in_a_ceiling_recess_converges():
@@ -245,7 +245,7 @@ def test_disk_light_in_a_ceiling_recess_converges():
     recess = np.flatnonzero(np.isin(ids, ["recess-left", "recess-back"]) & (pos[:, 1] < 2.64))
     assert len(recess) >= 60
     angle = 2 * np.pi * np.arange(4096) / 4096
-    disk = [np.array([0.12 * np.cos(t), 2.64, 0.12 * np.sin(t)]) for t in angle]
+    disk = np.stack([0.12 * np.cos(angle), np.full_like(angle, 2.64), 0.12 * np.sin(angle)], axis=1)
     radiance = np.array([30.0, 28.0, 25.0])
     exact = np.array([albedo[i] / np.pi * radiance * _psa(pos[i], nrm[i], disk) for i in recess])
     got = np.mean([images[16384, s].reshape(-1, 3)[recess] for s in (0, 1)], axis=0)

@@ -64,7 +64,10 @@ def test_other_renderers_take_error_probes(cbox):
                 ml.clustered_visibility(A, light_clusters=64, view_clusters=64, error_probes=64),
                 ml.instant_radiosity(scene, lights=300, error_probes=64, device="cpu"),
                 ml.light_bvh_sampling(A, samples=4, error_probes=64),
-                ml.ris_sampling(A, samples=2, candidates=8, error_probes=64)):
+                ml.ris_sampling(A, samples=2, candidates=8, error_probes=64),
+                ml.lightcuts(A, max_cut=200, error_probes=64),
+                ml.reconstruction_cuts(A, max_cut=200, error_probes=64),
+                ml.lightslice(A, slices=32, columns=64, error_probes=64)):
         true = ml.relative_l2(res.image, ref)
         assert res.error_estimate >= 0.5 * true, (res.method, res.error_estimate, true)
         assert res.budget["probes"]["probes"] == 64

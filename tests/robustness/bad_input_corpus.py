@@ -1278,11 +1278,13 @@ cases_for("lightcuts", [
     ("zero max_cut", lambda c: c.ml.lightcuts(c.A, max_cut=0), ["max_cut"]),
     ("unknown criterion", lambda c: c.ml.lightcuts(c.A, criterion="sum"), ["criterion"]),
     ("not a matrix", lambda c: c.ml.lightcuts(None), ["LightMatrix"]),
+    ("negative probes", lambda c: c.ml.lightcuts(c.A, error_probes=-1), ["error_probes"]),
 ], raises=("ValueError", "TypeError"))
 cases_for("reconstruction_cuts", [
     ("zero block", lambda c: c.ml.reconstruction_cuts(c.A, block=0), ["block"]),
     ("negative error", lambda c: c.ml.reconstruction_cuts(c.A, error=-0.02), ["error"]),
     ("zero max_cut", lambda c: c.ml.reconstruction_cuts(c.A, max_cut=0), ["max_cut"]),
+    ("negative probes", lambda c: c.ml.reconstruction_cuts(c.A, error_probes=-3), ["error_probes"]),
 ], raises=("ValueError", "TypeError"))
 cases_for("native.lightcuts", [
     ("zero error", lambda c: c.native.lightcuts(c.A._m, 0.0, 10, 0), ["error"]),
@@ -1306,6 +1308,7 @@ cases_for("lightslice", [
     ("NaN normal weight", lambda c: c.ml.lightslice(c.A, normal_weight=np.nan), ["normal_weight"]),
     ("negative seed", lambda c: c.ml.lightslice(c.A, seed=-1), ["seed"]),
     ("not a matrix", lambda c: c.ml.lightslice(None), ["LightMatrix"]),
+    ("probes not an integer", lambda c: c.ml.lightslice(c.A, error_probes=2.5), ["error_probes"]),
 ], raises=("ValueError", "TypeError"))
 cases_for("native.stochastic_lightcuts", [
     ("zero cut size", lambda c: c.native.stochastic_lightcuts(c.A._m, 0, 1, 0), ["cut_size"]),

@@ -29,6 +29,7 @@ from .. import _native
 from .._utils import validate as _v
 from .._utils.keywords import checked_keywords
 from .bias import bias_sources
+from .probe_error import attach_probe_error
 from .result import RenderResult, matrix_shape, with_emitted
 
 CRITERIA = ("cluster", "pixel")
@@ -71,7 +72,7 @@ def _result(A, out: dict, method: str, seed: int, budget: dict, add_emitted: boo
 
 @checked_keywords()
 def lightcuts(A, error: float = 0.02, max_cut: int = 1000, seed: int = 0, *, criterion: str = "cluster",
-              add_emitted: bool = True) -> RenderResult:
+              add_emitted: bool = True, error_probes: int = 0) -> RenderResult:
     """Lightcuts (module doc): a cut of the light cluster tree per view sample, refined until every
     cluster's error bound (``criterion="cluster"``) or their sum (``"pixel"``) is at most ``error`` x the
     pixel's estimate; approximates ``A.column_sum()`` (+ ``A.emitted()``).
@@ -84,6 +85,9 @@ def lightcuts(A, error: float = 0.02, max_cut: int = 1000, seed: int = 0, *, cri
         criterion: ``"cluster"`` (the paper's: every cluster's bound) or ``"pixel"`` (the sum of the cut's
             bounds: every pixel's relative error is then within ``error``, or its cut reached ``max_cut``).
         add_emitted: add what the camera sees of the emitters (``A.emitted()``).
+        error_probes: N > 0: N path-traced probe pixels estimate the error against the converged scene (the
+            cuts' error and the light set's bias: ``probe_error``; ``error_estimate`` becomes their upper
+            bound, ``bias_estimate`` and ``budget["probes"]`` their details, ``timings["probes"]`` their cost).
 
     Returns:
         RenderResult: ``image`` (H, W, 3) float32; ``cut_sizes`` (H, W) int32, clusters and single lights
@@ -95,16 +99,18 @@ def lightcuts(A, error: float = 0.02, max_cut: int = 1000, seed: int = 0, *, cri
 
     Raises:
         TypeError: A is not a LightMatrix. ValueError: error not a finite number > 0, max_cut not an integer
-            >= 1, a negative seed, an unknown criterion, no lights."""
+            >= 1, a negative seed, an unknown criterion, no lights, error_probes < 0."""
     error, max_cut, seed = _checked(A, error, max_cut, seed, criterion, "lightcuts")
+    error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     out = _native.lightcuts(A._m, error, max_cut, seed, 0, criterion)
     budget = {"error": error, "max_cut": max_cut, "criterion": criterion}
-    return _result(A, out, "lightcuts", seed, budget, add_emitted)
+    res = _result(A, out, "lightcuts", seed, budget, add_emitted)
+    return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
 
 
 @checked_keywords()
 def reconstruction_cuts(A, error: float = 0.02, max_cut: int = 1000, seed: int = 0, *, block: int = 4,
-                        criterion: str = "cluster", add_emitted: bool = True) -> RenderResult:
+                        criterion: str = "cluster", add_emitted: bool = True, error_probes: int = 0) -> RenderResult:
     """Reconstruction cuts (module doc): lightcuts on a grid every ``block`` pixels, cuts rebuilt from
     the block's corners elsewhere (shadow rays only where they disagree about visibility).
 
@@ -112,7 +118,8 @@ def reconstruction_cuts(A, error: float = 0.02, max_cut: int = 1000, seed: int =
     or lack a bound gets a full lightcut.
 
     Args:
-        A, error, max_cut, seed, criterion, add_emitted: as ``lightcuts`` (the criterion of the grid's cuts).
+        A, error, max_cut, seed, criterion, add_emitted, error_probes: as ``lightcuts`` (the criterion of the
+            grid's cuts).
         block: grid spacing in pixels (>= 1; 1 = a full lightcut everywhere).
 
     Returns:
@@ -123,6 +130,8 @@ def reconstruction_cuts(A, error: float = 0.02, max_cut: int = 1000, seed: int =
         TypeError: A is not a LightMatrix. ValueError: as ``lightcuts``, and block not an integer >= 1."""
     error, max_cut, seed = _checked(A, error, max_cut, seed, criterion, "reconstruction_cuts")
     block = _v.integer("block", block, 1, 2**31 - 1)
+    error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     out = _native.lightcuts(A._m, error, max_cut, seed, block, criterion)
     budget = {"error": error, "max_cut": max_cut, "criterion": criterion, "block": block}
-    return _result(A, out, "reconstruction_cuts", seed, budget, add_emitted)
+    res = _result(A, out, "reconstruction_cuts", seed, budget, add_emitted)
+    return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res

@@ -29,12 +29,14 @@ from .. import _native
 from .._utils import validate as _v
 from .._utils.keywords import checked_keywords
 from .bias import bias_sources
+from .probe_error import attach_probe_error
 from .result import RenderResult, matrix_shape, with_emitted
 
 
 @checked_keywords()
 def lightslice(A, slices: int = 256, columns: int = 300, seed: int = 0, *, global_columns: Optional[int] = None,
-               neighbours: int = 16, normal_weight: float = 0.25, add_emitted: bool = True) -> RenderResult:
+               neighbours: int = 16, normal_weight: float = 0.25, add_emitted: bool = True,
+               error_probes: int = 0) -> RenderResult:
     """Render the column sum of light matrix ``A`` by LightSlice (module doc).
 
     Args:
@@ -47,6 +49,9 @@ def lightslice(A, slices: int = 256, columns: int = 300, seed: int = 0, *, globa
         normal_weight: >= 0, weight of the unit normal against the position (scaled to the visible
             points' bounding-box diagonal) in the slicing features.
         add_emitted: add what the camera sees of emitters (``A.emitted()``).
+        error_probes: N > 0: N path-traced probe pixels estimate the error against the converged scene, the
+            light set's bias included (``probe_error``: ``error_estimate`` becomes their upper bound,
+            ``bias_estimate`` and ``budget["probes"]`` their details, ``timings["probes"]`` their cost).
 
     Returns:
         RenderResult with image (H, W, 3) float32, rows (S,) int64 (each slice's row), clusters (n,) int64
@@ -57,7 +62,7 @@ def lightslice(A, slices: int = 256, columns: int = 300, seed: int = 0, *, globa
     Raises:
         TypeError: A is not a LightMatrix. ValueError: slices, columns, global_columns or neighbours not
             an integer >= 1, global_columns > columns, normal_weight negative or not finite, a negative
-            seed, no lights, no pixel that sees a surface."""
+            seed, no lights, no pixel that sees a surface, error_probes < 0."""
     m, n = matrix_shape(A)
     if n == 0:
         raise ValueError("lightslice needs lights (the light matrix has n = 0)")
@@ -71,6 +76,7 @@ def lightslice(A, slices: int = 256, columns: int = 300, seed: int = 0, *, globa
     neighbours = _v.integer("neighbours", neighbours, 1, 2**31 - 1)
     normal_weight = _v.real("normal_weight", normal_weight, 0.0, float("inf"))
     seed = _v.seed(seed)
+    error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     out = _native.lightslice(A._m, slices, min(columns, n), min(global_columns, n), neighbours, normal_weight,
                              seed)
     timings = {k: float(v) for k, v in out["timings"].items()}
@@ -83,4 +89,4 @@ def lightslice(A, slices: int = 256, columns: int = 300, seed: int = 0, *, globa
                        clusters=np.asarray(out["global_assignment"], dtype=np.int64), budget=budget,
                        device=A.device, bias_sources=bias_sources(A))
     res.slices = np.asarray(out["slices"], dtype=np.int32)
-    return res
+    return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
