@@ -59,3 +59,51 @@ fn bsdf_sampling_weights_are_unbiased() {
         }
     }
 }
+
+/// roughdielectric (importance mode): the sampled weights' mean equals the reflected plus transmitted
+/// albedo by quadrature over the whole sphere, from either side, and `pdf_bsdf` is the density sampled
+/// (its integral is the probability of not rejecting, <= 1).
+#[test]
+fn roughdielectric_sampling_is_unbiased_from_both_sides() {
+    use crate::scene::{Bsdf, MicrofacetDistribution, Param};
+    use crate::shading::bsdf::roughdielectric_eval;
+    let s = |x: f32| Param::Value(Vec3::splat(x));
+    let bsdfs = [Bsdf::RoughDielectric {
+        distribution: MicrofacetDistribution::Ggx,
+        alpha_u: s(0.15),
+        alpha_v: s(0.35),
+        int_ior: 1.5,
+        ext_ior: 1.0,
+        specular_reflectance: Param::Value(Vec3::new(1.0, 0.8, 0.6)),
+        specular_transmittance: Param::Value(Vec3::new(0.5, 0.7, 1.0)),
+    }];
+    let b = resolve(&bsdfs, &[], 0, Vec2::ZERO);
+    for wi in [Vec3::new(0.5, 0.2, 0.84).normalize(), Vec3::new(-0.3, 0.4, -0.87).normalize()] {
+        // Reference: 1024^2 stratified uniform-sphere quadrature of eval and of the pdf.
+        let n = 1024;
+        let (mut reference, mut pdf_total) = (glam::DVec3::ZERO, 0.0f64);
+        for a in 0..n {
+            for c in 0..n {
+                let z = 1.0 - 2.0 * (a as f32 + 0.5) / n as f32;
+                let phi = 2.0 * PI * (c as f32 + 0.5) / n as f32;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let wo = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+                reference += roughdielectric_eval(&b, wi, wo, false).as_dvec3();
+                pdf_total += pdf_bsdf(&b, wi, wo) as f64;
+            }
+        }
+        let cell = 4.0 * std::f64::consts::PI / (n * n) as f64;
+        reference *= cell;
+        pdf_total *= cell;
+        let mut rng = stream(2, 99, 0);
+        let (mean, err) = crate::testing::mean_and_std_err(400_000, || Some(sample_bsdf(&b, wi, &mut rng)?.weight.as_dvec3()));
+        for c in 0..3 {
+            assert!(
+                (mean[c] - reference[c]).abs() <= 4.0 * err[c] + 3e-3 * reference[c],
+                "wi {wi}: sampled {mean} vs quadrature {reference} (std err {err})"
+            );
+        }
+        assert!(pdf_total > 0.9 && pdf_total < 1.0 + 2e-3, "wi {wi}: pdf integrates to {pdf_total}");
+        assert!(reference.min_element() > 0.4, "{reference}");
+    }
+}
