@@ -193,7 +193,9 @@ impl Vertex {
 
     /// Whether some lobe is not delta (emitter sampling applies).
     fn has_smooth(&self) -> bool {
-        !has_smooth_lobe_only(&self.first) || self.second.is_some_and(|(b, _)| !has_smooth_lobe_only(&b))
+        // A roughdielectric carries no VPL (`has_smooth_lobe_only`) but its glossy lobes are sampled here.
+        let glossy = |b: &GpuBsdf| !has_smooth_lobe_only(b) || b.kind == KIND_ROUGHDIELECTRIC;
+        glossy(&self.first) || self.second.is_some_and(|(b, _)| glossy(&b))
     }
 
     fn sample(&self, rng: &mut Pcg32) -> Option<Sampled> {

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 import manylights._native as native
-from scene.test_bsdf import max_rel, random_pairs
 
 # Max relative difference to Mitsuba (values below FLOOR compared absolutely).
 RTOL = 1e-4
@@ -31,6 +30,13 @@ SPECS = {
     "beckmann_aniso_diamond": {"type": "roughdielectric", "distribution": "beckmann", "alpha_u": 0.3,
                                "alpha_v": 0.05, "int_ior": 2.42, "ext_ior": 1.0},
 }
+
+
+def random_pairs(n, seed):
+    """n (wi, wo) pairs uniform on the sphere, float32."""
+    v = np.random.default_rng(seed).normal(size=(2, n, 3))
+    v /= np.linalg.norm(v, axis=2, keepdims=True)
+    return np.ascontiguousarray(v[0], dtype=np.float32), np.ascontiguousarray(v[1], dtype=np.float32)
 
 
 def mitsuba_eval(spec, wi, wo):

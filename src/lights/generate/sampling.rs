@@ -341,7 +341,8 @@ fn sample_roughdielectric(b: &GpuBsdf, wi: Vec3, u0: f32, u1: f32, u2: f32) -> O
         return None;
     }
     let f = fresnel(wi_h, b.eta[0]);
-    let wo = if u0 < f {
+    let reflected = u0 < f;
+    let wo = if reflected {
         reflect(wi, h)
     } else {
         // Refraction through h (Mitsuba's `refract(wi, m, cos_theta_t, eta_ti)`).
@@ -353,6 +354,11 @@ fn sample_roughdielectric(b: &GpuBsdf, wi: Vec3, u0: f32, u1: f32, u2: f32) -> O
         let cos_t = -cos_t2.sqrt().copysign(wi_h);
         (h * (wi_h * eta_ti + cos_t) - wi * eta_ti).normalize()
     };
+    // A branch that lands on the other lobe's side is rejected (as Mitsuba does), so that every direction
+    // has one proposal and `pdf_roughdielectric` is its density.
+    if (wo.z * wi.z > 0.0) != reflected {
+        return None;
+    }
     let pdf = pdf_roughdielectric(b, wi, wo);
     if !(pdf > 0.0) {
         return None;

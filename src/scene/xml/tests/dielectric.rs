@@ -95,7 +95,11 @@ fn refusals_name_file_line_and_value() {
     err("dist", "<bsdf type=\"roughdielectric\"><string name=\"distribution\" value=\"phong\"/></bsdf>", &["phong", "beckmann"]);
     err("alpha", "<bsdf type=\"roughdielectric\"><float name=\"alpha\" value=\"-0.5\"/></bsdf>", &["alpha", "-0.5"]);
     err("ior0", "<bsdf type=\"roughdielectric\"><float name=\"int_ior\" value=\"0\"/></bsdf>", &["int_ior", "got 0"]);
-    err("same", "<bsdf type=\"roughdielectric\"><float name=\"int_ior\" value=\"1\"/></bsdf>", &["differ"]);
+    err(
+        "same",
+        "<bsdf type=\"roughdielectric\"><float name=\"int_ior\" value=\"1\"/><float name=\"ext_ior\" value=\"1\"/></bsdf>",
+        &["differ"],
+    );
     err(
         "both",
         "<bsdf type=\"roughdielectric\"><float name=\"alpha\" value=\"0.1\"/><float name=\"alpha_u\" value=\"0.1\"/></bsdf>",
