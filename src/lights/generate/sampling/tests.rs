@@ -107,3 +107,37 @@ fn roughdielectric_sampling_is_unbiased_from_both_sides() {
         assert!(reference.min_element() > 0.4, "{reference}");
     }
 }
+
+/// thindielectric: the mirror with probability R' = 2R / (1 + R) (weight specular_reflectance), else
+/// straight through (weight specular_transmittance), from either side.
+#[test]
+fn thindielectric_sampling_picks_the_slab_lobes() {
+    use crate::scene::{Bsdf, Param};
+    let bsdfs = [Bsdf::ThinDielectric {
+        int_ior: 1.5,
+        ext_ior: 1.0,
+        specular_reflectance: Param::Value(Vec3::new(1.0, 0.5, 0.25)),
+        specular_transmittance: Param::Value(Vec3::new(0.9, 0.8, 0.7)),
+    }];
+    let b = resolve(&bsdfs, &[], 0, Vec2::ZERO);
+    assert!(!is_dielectric(&b));
+    for wi in [Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.0, -0.8, -0.6)] {
+        let r = fresnel(wi.z.abs(), 1.5);
+        let r = 2.0 * r / (1.0 + r);
+        let mut rng = stream(3, 99, 0);
+        let n = 200_000;
+        let mut reflected = 0usize;
+        for _ in 0..n {
+            let s = sample_bsdf(&b, wi, &mut rng).unwrap();
+            assert!(s.delta);
+            if s.wo == Vec3::new(-wi.x, -wi.y, wi.z) {
+                reflected += 1;
+                assert_eq!(s.weight, Vec3::new(1.0, 0.5, 0.25));
+            } else {
+                assert_eq!((s.wo, s.weight), (-wi, Vec3::new(0.9, 0.8, 0.7)));
+            }
+        }
+        let p = reflected as f32 / n as f32;
+        assert!((p - r).abs() < 4.0 * (r * (1.0 - r) / n as f32).sqrt(), "wi {wi}: reflected {p}, R' {r}");
+    }
+}
