@@ -103,6 +103,9 @@ REFERENCES = {
     # Point lights at pixel centres: Mitsuba's estimate is deterministic (noise 0 after the first batch).
     "bumpmap-direct": (HERE / "data" / "bumpmap_ripples.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002, None),
     "normalmap-direct": (HERE / "data" / "normalmap_waves.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002, None),
+    # roughdielectric and thindielectric (tests/scene/test_dielectric.py), direct light: rough glass panes lit
+    # through reflection and transmission by two point lights, an area light seen only through a thin pane.
+    "rough-glass-direct": (HERE / "data" / "rough_glass.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.004, None),
 }
 
 # Integrator of the references that do not use ``path`` (with the max_depth above).

@@ -35,6 +35,7 @@ const BSDF_KIND_DIFFUSE: u32 = 1u;
 const BSDF_KIND_ROUGHPLASTIC: u32 = 2u;
 const BSDF_KIND_PLASTIC: u32 = 3u;
 const BSDF_KIND_ROUGHCONDUCTOR: u32 = 4u;
+const BSDF_KIND_ROUGHDIELECTRIC: u32 = 7u;
 const BSDF_FLAG_TWOSIDED: u32 = 1u;
 const BSDF_FLAG_NONLINEAR: u32 = 2u;
 const BSDF_FLAG_GGX: u32 = 4u;
@@ -103,6 +104,26 @@ fn bsdf_fresnel(cos_theta_i: f32, eta: f32) -> f32 {
     return 0.5 * (a_s * a_s + a_p * a_p);
 }
 
+// Dielectric Fresnel reflectance with Mitsuba's multiply-adds (twin of `shading::bsdf::fresnel_fused`).
+fn bsdf_fresnel_fused(cos_theta_i: f32, eta: f32) -> f32 {
+    let outside = cos_theta_i >= 0.0;
+    let rcp_eta = 1.0 / eta;
+    let eta_it = select(rcp_eta, eta, outside);
+    let eta_ti = select(eta, rcp_eta, outside);
+    let cos_theta_t_sqr = fma(-fma(-cos_theta_i, cos_theta_i, 1.0), eta_ti * eta_ti, 1.0);
+    let ci = abs(cos_theta_i);
+    let ct = sqrt(max(cos_theta_t_sqr, 0.0));
+    if eta == 1.0 {
+        return 0.0;
+    }
+    if ci == 0.0 {
+        return 1.0;
+    }
+    let a_s = fma(-eta_it, ct, ci) / fma(eta_it, ct, ci);
+    let a_p = fma(-eta_it, ci, ct) / fma(eta_it, ci, ct);
+    return 0.5 * (a_s * a_s + a_p * a_p);
+}
+
 // Conductor Fresnel reflectance per channel (complex IOR eta + i k).
 fn bsdf_fresnel_conductor(cos_theta_i: f32, eta: vec3<f32>, k: vec3<f32>) -> vec3<f32> {
     let cos_theta_i_2 = cos_theta_i * cos_theta_i;
@@ -118,6 +139,36 @@ fn bsdf_fresnel_conductor(cos_theta_i: f32, eta: vec3<f32>, k: vec3<f32>) -> vec
     let term_4 = term_2 * sin_theta_i_2;
     let r_p = r_s * (term_3 - term_4) / (term_3 + term_4);
     return 0.5 * (r_s + r_p);
+}
+
+// Mitsuba's roughdielectric eval in radiance mode (reflection and transmission, both sides; twin of
+// `shading::bsdf::roughdielectric_eval(.., true)`): eta = (eta, 1/eta) in b.eta.xy, specular_transmittance in b.k.
+fn bsdf_roughdielectric_eval(b: Bsdf, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let cos_i = wi.z;
+    let cos_o = wo.z;
+    if cos_i == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let reflect = cos_i * cos_o > 0.0;
+    let front = cos_i > 0.0;
+    let eta = select(b.eta.y, b.eta.x, front);
+    let inv_eta = select(b.eta.x, b.eta.y, front);
+    var m = normalize(wi + wo * select(eta, 1.0, reflect));
+    if (bitcast<u32>(m.z) & 0x80000000u) != 0u {
+        m = -m;
+    }
+    let ggx = (b.flags & BSDF_FLAG_GGX) != 0u;
+    let d = bsdf_microfacet_d(ggx, b.alpha_u, b.alpha_v, m);
+    let wi_m = dot(wi, m);
+    let wo_m = dot(wo, m);
+    let f = bsdf_fresnel_fused(wi_m, b.eta.x);
+    let g = bsdf_smith_g1(ggx, b.alpha_u, b.alpha_v, wi, m) * bsdf_smith_g1(ggx, b.alpha_u, b.alpha_v, wo, m);
+    if reflect {
+        return b.specular * (f * d * g / (4.0 * abs(cos_i)));
+    }
+    let denom = wi_m + eta * wo_m;
+    let value = abs((inv_eta * inv_eta * (1.0 - f) * d * g * eta * eta * wi_m * wo_m) / (cos_i * (denom * denom)));
+    return b.k * value;
 }
 
 // Mitsuba's lerp_gather over the 64-entry table starting at `offset`.
@@ -223,6 +274,9 @@ fn bsdf_eval_plain(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
     }
     if b.kind == BSDF_KIND_PRINCIPLED {
         return bsdf_principled_eval(b, wi, wo);
+    }
+    if b.kind == BSDF_KIND_ROUGHDIELECTRIC {
+        return bsdf_roughdielectric_eval(b, wi, wo);
     }
     let cos_i = wi.z;
     let cos_o = wo.z;

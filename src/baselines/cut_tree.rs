@@ -404,7 +404,7 @@ fn d_max(b: &GpuBsdf) -> f64 {
 
 fn record_bound(b: &GpuBsdf, wi: Vec3) -> (DVec3, DVec3, bool) {
     let cos_i = if b.flags & bsdf::FLAG_TWOSIDED != 0 { wi.z.abs() } else { wi.z } as f64;
-    if b.kind == KIND_PRINCIPLED {
+    if b.kind == KIND_PRINCIPLED || b.kind == bsdf::KIND_ROUGHDIELECTRIC {
         return (DVec3::ZERO, DVec3::ZERO, true);
     }
     if !(cos_i > 0.0) {

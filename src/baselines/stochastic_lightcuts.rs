@@ -96,10 +96,12 @@ pub(crate) struct Receiver {
 impl Receiver {
     /// View sample i of `view` (prepared as `sp`).
     pub(crate) fn new(view: &crate::view::ViewSamples, sp: &ShadingPoint, i: usize) -> Receiver {
-        use crate::shading::bsdf::{FLAG_BLEND, KIND_PRINCIPLED};
+        use crate::shading::bsdf::{FLAG_BLEND, KIND_PRINCIPLED, KIND_ROUGHDIELECTRIC};
         let b = &view.bsdf[i];
         let second = (b.flags & FLAG_BLEND != 0).then(|| view.bsdf.get(b.extra[3].to_bits() as usize)).flatten();
-        let two_sided = b.kind == KIND_PRINCIPLED || second.is_some_and(|s| s.kind == KIND_PRINCIPLED);
+        // Lobes on both sides of the surface (transmission): no hemisphere culling.
+        let both = |k: u32| k == KIND_PRINCIPLED || k == KIND_ROUGHDIELECTRIC;
+        let two_sided = both(b.kind) || second.is_some_and(|s| both(s.kind));
         let n = sp.n.as_dvec3();
         let n = if sp.wi_local.z < 0.0 { -n } else { n };
         Receiver { p: sp.p.as_dvec3(), n, two_sided }

@@ -33,7 +33,10 @@
 //! eq. 9.10) whatever the proposals.
 //!
 //! Radiance transport: a refraction through a smooth dielectric multiplies beta by eta_ti^2 (Mitsuba's
-//! `dielectric` in radiance mode; `sample_bsdf` itself gives importance-mode weight 1). Blended BSDFs
+//! `dielectric` in radiance mode; `sample_bsdf` itself gives importance-mode weight 1), a transmission
+//! through a `roughdielectric` by 1 / eta^2 (eta the relative IOR on wi's side; its importance-mode
+//! weight times Mitsuba's radiance-mode scale). A `thindielectric` is a delta BSDF sampled as Mitsuba
+//! does (no scaling); it blocks shadow rays, as every surface does for Mitsuba's `path`. Blended BSDFs
 //! sample one record by its weight; a non-delta direction is weighted by the blend's eval over the
 //! mixture density (1 - w) p_0 + w p_1.
 //!
@@ -63,6 +66,7 @@ use crate::lights::LightSet;
 use crate::matrix::emitted::{sanitized, AreaRadiance};
 use crate::raytrace::{spawn_ray, RayTracer};
 use crate::scene::{Bsdf, Scene};
+use crate::shading::bsdf::KIND_ROUGHDIELECTRIC;
 use crate::shading::bsdf::{eval, resolve_records, FLAG_BLEND};
 use crate::shading::GpuBsdf;
 use crate::view::ViewSamples;
@@ -189,7 +193,9 @@ impl Vertex {
 
     /// Whether some lobe is not delta (emitter sampling applies).
     fn has_smooth(&self) -> bool {
-        !has_smooth_lobe_only(&self.first) || self.second.is_some_and(|(b, _)| !has_smooth_lobe_only(&b))
+        // A roughdielectric carries no VPL (`has_smooth_lobe_only`) but its glossy lobes are sampled here.
+        let glossy = |b: &GpuBsdf| !has_smooth_lobe_only(b) || b.kind == KIND_ROUGHDIELECTRIC;
+        glossy(&self.first) || self.second.is_some_and(|(b, _)| glossy(&b))
     }
 
     fn sample(&self, rng: &mut Pcg32) -> Option<Sampled> {
@@ -213,7 +219,13 @@ impl Vertex {
         }
         if self.second.is_none() {
             let pdf = pdf_bsdf(&b, wi, s.wo);
-            return (pdf > 0.0).then_some(Sampled { w, weight: s.weight, pdf, delta: false, eta: 1.0 });
+            let (mut weight, mut eta) = (s.weight, 1.0);
+            if b.kind == KIND_ROUGHDIELECTRIC && s.wo.z * wi.z < 0.0 {
+                // Radiance mode: Mitsuba's roughdielectric scales a transmission by 1 / eta^2.
+                eta = if wi.z > 0.0 { b.eta[0] } else { b.eta[1] };
+                weight /= eta * eta;
+            }
+            return (pdf > 0.0).then_some(Sampled { w, weight, pdf, delta: false, eta });
         }
         let pdf = self.pdf(w);
         if !(pdf > 0.0) {

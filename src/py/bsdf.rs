@@ -84,6 +84,10 @@ fn build(spec: &Bound<'_, PyDict>, list: &mut Vec<Bsdf>, depth: usize) -> PyResu
     } else {
         leaf_from_spec(spec, &ty)?
     };
+    let transmits = matches!(bsdf, Bsdf::RoughDielectric { .. } | Bsdf::ThinDielectric { .. });
+    if transmits && (depth > 0 || get::<bool>(spec, "twosided")?.unwrap_or(false)) {
+        return Err(Error::invalid(format!("{ty}: not allowed inside twosided or blendbsdf (as in scene files)")).into());
+    }
     list.push(bsdf);
     if get::<bool>(spec, "twosided")?.unwrap_or(false) {
         list.push(Bsdf::TwoSided { front: list.len() - 1, back: list.len() - 1 });
@@ -138,6 +142,24 @@ fn leaf_from_spec(spec: &Bound<'_, PyDict>, ty: &str) -> PyResult<Bsdf> {
             Bsdf::Conductor { eta, k, specular_reflectance: value(rgb(spec, "specular_reflectance", 1.0)?) }
         }
         "dielectric" => Bsdf::Dielectric { int_ior: f("int_ior", 1.5046)?, ext_ior: f("ext_ior", 1.000277)? },
+        "roughdielectric" => {
+            let alpha = f("alpha", 0.1)?;
+            Bsdf::RoughDielectric {
+                distribution: distribution(spec)?,
+                alpha_u: value(Vec3::splat(f("alpha_u", alpha)?)),
+                alpha_v: value(Vec3::splat(f("alpha_v", alpha)?)),
+                int_ior: f("int_ior", 1.5046)?,
+                ext_ior: f("ext_ior", 1.000277)?,
+                specular_reflectance: value(rgb(spec, "specular_reflectance", 1.0)?),
+                specular_transmittance: value(rgb(spec, "specular_transmittance", 1.0)?),
+            }
+        }
+        "thindielectric" => Bsdf::ThinDielectric {
+            int_ior: f("int_ior", 1.5046)?,
+            ext_ior: f("ext_ior", 1.000277)?,
+            specular_reflectance: value(rgb(spec, "specular_reflectance", 1.0)?),
+            specular_transmittance: value(rgb(spec, "specular_transmittance", 1.0)?),
+        },
         "principled" => {
             let s = |key: &str, default: f32| -> PyResult<Param> { Ok(value(Vec3::splat(f(key, default)?))) };
             let has_spec_trans = get::<f32>(spec, "spec_trans")?.is_some_and(|v| v != 0.0);
@@ -182,8 +204,8 @@ fn directions(a: &PyReadonlyArray2<'_, f32>, name: &str) -> Result<Vec<Vec3>> {
 ///
 /// Args:
 ///     spec: {"type": "diffuse" | "plastic" | "roughplastic" | "roughconductor" | "conductor" | "dielectric"
-///         | "principled", parameters by Mitsuba's names (reflectance, diffuse_reflectance,
-///         specular_reflectance, alpha, alpha_u, alpha_v, distribution, int_ior, ext_ior, nonlinear, eta, k;
+///         | "roughdielectric" | "thindielectric" | "principled", parameters by Mitsuba's names (reflectance, diffuse_reflectance,
+///         specular_reflectance, specular_transmittance, alpha, alpha_u, alpha_v, distribution, int_ior, ext_ior, nonlinear, eta, k;
 ///         principled: base_color, roughness, anisotropic, metallic, specular or eta, spec_tint, spec_trans,
 ///         sheen, sheen_tint, clearcoat, clearcoat_gloss, flatness as floats; "blendbsdf": weight (float),
 ///         bsdf_0 and bsdf_1 (nested spec dicts, not blends)) with Mitsuba's defaults, "twosided": True

@@ -259,6 +259,31 @@ impl Scene {
                         d.set_item("int_ior", *int_ior)?;
                         d.set_item("ext_ior", *ext_ior)?;
                     }
+                    Bsdf::RoughDielectric {
+                        distribution,
+                        alpha_u,
+                        alpha_v,
+                        int_ior,
+                        ext_ior,
+                        specular_reflectance,
+                        specular_transmittance,
+                    } => {
+                        d.set_item("type", "roughdielectric")?;
+                        d.set_item("distribution", format!("{distribution:?}").to_lowercase())?;
+                        d.set_item("alpha_u", param(py, alpha_u)?)?;
+                        d.set_item("alpha_v", param(py, alpha_v)?)?;
+                        d.set_item("int_ior", *int_ior)?;
+                        d.set_item("ext_ior", *ext_ior)?;
+                        d.set_item("specular_reflectance", param(py, specular_reflectance)?)?;
+                        d.set_item("specular_transmittance", param(py, specular_transmittance)?)?;
+                    }
+                    Bsdf::ThinDielectric { int_ior, ext_ior, specular_reflectance, specular_transmittance } => {
+                        d.set_item("type", "thindielectric")?;
+                        d.set_item("int_ior", *int_ior)?;
+                        d.set_item("ext_ior", *ext_ior)?;
+                        d.set_item("specular_reflectance", param(py, specular_reflectance)?)?;
+                        d.set_item("specular_transmittance", param(py, specular_transmittance)?)?;
+                    }
                     Bsdf::Principled(p) => {
                         d.set_item("type", "principled")?;
                         d.set_item("base_color", param(py, &p.base_color)?)?;

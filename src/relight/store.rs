@@ -449,6 +449,10 @@ fn params_mut(b: &mut Bsdf) -> Vec<&mut Param> {
         Bsdf::RoughConductor { alpha_u, alpha_v, specular_reflectance, .. } => vec![alpha_u, alpha_v, specular_reflectance],
         Bsdf::Conductor { specular_reflectance, .. } => vec![specular_reflectance],
         Bsdf::Dielectric { .. } => vec![],
+        Bsdf::RoughDielectric { alpha_u, alpha_v, specular_reflectance, specular_transmittance, .. } => {
+            vec![alpha_u, alpha_v, specular_reflectance, specular_transmittance]
+        }
+        Bsdf::ThinDielectric { specular_reflectance, specular_transmittance, .. } => vec![specular_reflectance, specular_transmittance],
         Bsdf::Principled(p) => {
             let p = &mut **p;
             vec![

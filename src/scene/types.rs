@@ -235,6 +235,26 @@ pub enum Bsdf {
         int_ior: f32,
         ext_ior: f32,
     },
+    /// Mitsuba's `roughdielectric`: microfacet reflection and transmission (Walter et al. 2007) at an
+    /// interface of relative IOR `int_ior / ext_ior`, both sides (`crate::shading::bsdf`).
+    RoughDielectric {
+        distribution: MicrofacetDistribution,
+        /// `alpha_u`, `alpha_v` (equal when the file gives `alpha`).
+        alpha_u: ScalarParam,
+        alpha_v: ScalarParam,
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Param,
+        specular_transmittance: Param,
+    },
+    /// Mitsuba's `thindielectric`: a thin slab (delta reflection of 2R / (1 + R), straight-through null
+    /// transmission of the rest); `eval` is 0 (`crate::view::chains` follows its lobes).
+    ThinDielectric {
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Param,
+        specular_transmittance: Param,
+    },
     /// Mitsuba's `principled` (`crate::shading::principled`); `eta` resolved from `eta` / `specular`.
     Principled(Box<crate::scene::principled::Principled>),
     /// Mitsuba's `blendbsdf`: `(1 - w) f_first + w f_second`, w = clip(weight, 0, 1) (`eval_1` of a

@@ -9,6 +9,12 @@
 //!   Fresnel reflectance R, the refracted one with `(1 - R) * eta_ti^2`, radiance mode: the solid-angle
 //!   compression when crossing the interface); total internal reflection keeps only the reflection.
 //!   `specular_reflectance` / `specular_transmittance` are 1 (the loader keeps no other value).
+//! - `thindielectric` (both sides, `thindielectric.cpp`): the mirror branch with the slab's reflectance
+//!   R' = R + T^2 R / (1 - R^2) = 2 R / (1 + R) (R = fresnel(|cos_theta_i|, eta)) times
+//!   `specular_reflectance`, and the straight-through branch (`-wi`, Mitsuba's null transmission, no eta^2
+//!   scaling) with 1 - R' times `specular_transmittance`. Its transmission is a null lobe, yet Mitsuba's
+//!   `path` integrator tests shadow rays with `ray_test`, which any surface blocks: a light behind a
+//!   thin pane reaches a view sample only through these chains, never through a shadow ray.
 //! - `plastic` (one-sided): the specular branch `specular_reflectance * F(cos_theta_i, eta)`; the
 //!   plastic surface itself stays a view sample for its diffuse lobe.
 //! Directions are built in the shading frame (reflection: `2 (wi . n_s) n_s - wi`; refraction:
@@ -123,6 +129,7 @@ enum Delta {
     Conductor { eta: Vec3, k: Vec3, specular: Vec3 },
     Dielectric { eta: f32 },
     Plastic { eta: f32, specular: Vec3 },
+    Thin { eta: f32, specular: Vec3, transmittance: Vec3 },
 }
 
 /// The delta lobes of scene BSDF `index` (resolved at the point as `b`), with its two-sidedness.
@@ -131,6 +138,9 @@ fn delta_of(bsdfs: &[Bsdf], index: usize, b: &GpuBsdf, twosided: bool) -> Option
         Bsdf::TwoSided { front, .. } if *front != index => delta_of(bsdfs, *front, b, true),
         Bsdf::Conductor { eta, k, .. } => Some((Delta::Conductor { eta: *eta, k: *k, specular: Vec3::from(b.specular) }, twosided)),
         Bsdf::Dielectric { int_ior, ext_ior } => Some((Delta::Dielectric { eta: int_ior / ext_ior }, twosided)),
+        Bsdf::ThinDielectric { int_ior, ext_ior, .. } => {
+            Some((Delta::Thin { eta: int_ior / ext_ior, specular: Vec3::from(b.specular), transmittance: Vec3::from(b.k) }, twosided))
+        }
         Bsdf::Plastic { int_ior, ext_ior, .. } => {
             let specular = Vec3::from(b.specular);
             (specular != Vec3::ZERO).then_some((Delta::Plastic { eta: int_ior / ext_ior, specular }, twosided))
@@ -167,9 +177,21 @@ fn branches(delta: Delta, twosided: bool, wi: Vec3, n: Vec3) -> Vec<(Vec3, Vec3)
                         * Vec3::new(fresnel_conductor(c, eta.x, k.x), fresnel_conductor(c, eta.y, k.y), fresnel_conductor(c, eta.z, k.z))
                 }
                 Delta::Plastic { eta, specular } => specular * fresnel(c, eta),
-                Delta::Dielectric { .. } => unreachable!(),
+                Delta::Dielectric { .. } | Delta::Thin { .. } => unreachable!(),
             };
             vec![(reflect(n, c), w)]
+        }
+        Delta::Thin { eta, specular, transmittance } => {
+            let r = fresnel(cos_i.abs(), eta);
+            let r = r * (2.0 / (1.0 + r));
+            let mut out = Vec::with_capacity(2);
+            if r > 0.0 && specular != Vec3::ZERO {
+                out.push((reflect(n, cos_i), specular * r));
+            }
+            if r < 1.0 && transmittance != Vec3::ZERO {
+                out.push((-wi, transmittance * (1.0 - r)));
+            }
+            out
         }
         Delta::Dielectric { eta } => {
             let (r, cos_t, eta_ti) = fresnel_full(cos_i, eta);
@@ -296,7 +318,7 @@ impl Tracer<'_> {
 /// Whether any BSDF of the scene has a delta lobe (then `trace_chains` has work to do).
 pub fn scene_has_delta(scene: &Scene) -> bool {
     scene.bsdfs.iter().any(|b| match b {
-        Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => true,
+        Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => true,
         Bsdf::Plastic { specular_reflectance, .. } => !matches!(specular_reflectance, crate::scene::Param::Value(v) if *v == Vec3::ZERO),
         _ => false,
     })

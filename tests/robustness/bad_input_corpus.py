@@ -282,6 +282,35 @@ cases_for("load_scene[bumpmap]", [
         {"n.png": (REPO / "tests" / "data" / "textures" / "bump_ripples.png").read_bytes()})),
      ["scene.xml:8", "n.png", "1 channel"]),
 ], raises=FILE_ERRORS + ("FileNotFoundError",))
+_DIEL = '<shape type="sphere"><bsdf type="{}">{}</bsdf></shape>'
+
+
+def _diel(c, tag, kind, props):
+    return c.ml.load_scene(c.scene_with(tag, _DIEL.format(kind, props)))
+
+
+cases_for("load_scene[dielectric]", [
+    ("roughdielectric unknown distribution", lambda c: _diel(c, "rd-dist", "roughdielectric",
+     '<string name="distribution" value="phong"/>'), ["scene.xml:8", "phong", "beckmann"]),
+    ("roughdielectric negative alpha", lambda c: _diel(c, "rd-alpha", "roughdielectric",
+     '<float name="alpha" value="-0.2"/>'), ["scene.xml:8", "alpha", "-0.2"]),
+    ("roughdielectric NaN alpha_u", lambda c: _diel(c, "rd-nan", "roughdielectric",
+     '<float name="alpha_u" value="nan"/><float name="alpha_v" value="0.1"/>'), ["scene.xml:8", "alpha_u", "nan"]),
+    ("roughdielectric alpha_u without alpha_v", lambda c: _diel(c, "rd-uv", "roughdielectric",
+     '<float name="alpha_u" value="0.1"/>'), ["scene.xml:8", "alpha_v"]),
+    ("roughdielectric zero int_ior", lambda c: _diel(c, "rd-ior0", "roughdielectric",
+     '<float name="int_ior" value="0"/>'), ["scene.xml:8", "int_ior", "got 0"]),
+    ("roughdielectric equal IORs", lambda c: _diel(c, "rd-eq", "roughdielectric",
+     '<float name="int_ior" value="1.5"/><float name="ext_ior" value="1.5"/>'), ["scene.xml:8", "differ", "1.5"]),
+    ("roughdielectric unknown IOR name", lambda c: _diel(c, "rd-name", "roughdielectric",
+     '<string name="int_ior" value="glas"/>'), ["scene.xml:8", "glas", "bk7"]),
+    ("thindielectric negative ext_ior", lambda c: _diel(c, "td-neg", "thindielectric",
+     '<float name="ext_ior" value="-1"/>'), ["scene.xml:8", "ext_ior", "-1"]),
+    ("thindielectric reflectance above 1", lambda c: _diel(c, "td-rgb", "thindielectric",
+     '<rgb name="specular_reflectance" value="2, 0.5, 0.5"/>'), ["scene.xml:8", "specular_reflectance", "[0, 1]"]),
+    ("twosided around roughdielectric", lambda c: _diel(c, "rd-two", "twosided",
+     '<bsdf type="roughdielectric"/>'), ["scene.xml:8", "twosided", "transmission"]),
+], raises=FILE_ERRORS)
 cases_for("load_scene[medium]", [
     ("bad media option", lambda c: c.ml.load_scene(REPO / "scenes" / "demo" / "scene.xml", media="ignore"), ["media"]),
 ], raises=("ValueError",))

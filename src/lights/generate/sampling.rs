@@ -13,12 +13,18 @@
 //! - smooth conductor: delta reflection, weight = Fresnel(eta + i k) * specular_reflectance.
 //! - smooth dielectric: reflect with probability F, else refract; weight 1 (importance transport: no
 //!   1/eta^2 radiance scaling for particles).
+//! - roughdielectric (both sides): a microfacet normal h with density D(h) cos(theta_h) (isotropic alpha
+//!   = sqrt(alpha_u alpha_v), upper hemisphere; wi . h must have the sign of wi.z), then reflection about h with probability
+//!   F(wi . h), else refraction through h; pdf D cos_h F / (4 |wo . h|) or D cos_h (1 - F) eta^2 |wo . h|
+//!   / (wi . h + eta wo . h)^2, weight = importance-mode eval / pdf (`bsdf::roughdielectric_eval`).
+//! - thindielectric: reflect with probability R' = 2R / (1 + R), weight specular_reflectance, else pass
+//!   straight through, weight specular_transmittance (Mitsuba's `sample` with both lobes).
 //! - bumpmap / normalmap records: `shading::perturb::sample` (the nested BSDF in the perturbed frame).
 //! - principled: `shading::principled::sample` (a mixture with an exact pdf; reflection from both
 //!   sides and glossy transmission, importance-mode weights).
 use crate::shading::bsdf::{
     eval, fresnel, fresnel_conductor, microfacet_d, FLAG_BUMP, FLAG_GGX, FLAG_TWOSIDED, FLAG_TWOSIDED_OUTER, KIND_DIFFUSE, KIND_PLASTIC,
-    KIND_PRINCIPLED, KIND_ROUGHCONDUCTOR, KIND_ROUGHPLASTIC, KIND_SMOOTH,
+    KIND_PRINCIPLED, KIND_ROUGHCONDUCTOR, KIND_ROUGHDIELECTRIC, KIND_ROUGHPLASTIC, KIND_SMOOTH,
 };
 use crate::shading::GpuBsdf;
 use glam::{Vec2, Vec3};
@@ -150,7 +156,9 @@ pub fn to_local(n: Vec3, v: Vec3) -> Vec3 {
     Vec3::new(v.dot(s), v.dot(t), v.dot(n))
 }
 
-/// BSDF kinds with a non-delta lobe (a VPL can sit there).
+/// BSDF kinds without a non-delta lobe a VPL can sit on. `roughdielectric` counts as such: a particle
+/// scatters through it (`sample_bsdf`) but leaves no VPL there (a VPL emits on its incident side only,
+/// and a VPL's BSDF is evaluated reciprocally, which its transmission is not).
 pub fn has_smooth_lobe_only(b: &GpuBsdf) -> bool {
     !matches!(b.kind, KIND_DIFFUSE | KIND_PLASTIC | KIND_ROUGHPLASTIC | KIND_ROUGHCONDUCTOR | KIND_PRINCIPLED)
 }
@@ -191,6 +199,16 @@ pub fn sample_bsdf(b: &GpuBsdf, wi_in: Vec3, rng: &mut Pcg32) -> Option<BsdfSamp
     if b.kind == KIND_PRINCIPLED {
         let (wo, weight) = crate::shading::principled::sample(b, wi_in, u0, u1, u2)?;
         return Some(BsdfSample { wo, weight, delta: false });
+    }
+    if b.kind == KIND_ROUGHDIELECTRIC {
+        return sample_roughdielectric(b, wi_in, u0, u1, u2);
+    }
+    if b.kind == KIND_SMOOTH && b.flags & crate::shading::bsdf::FLAG_THIN != 0 {
+        let r = fresnel(wi_in.z.abs(), b.eta[0]);
+        let r = r * (2.0 / (1.0 + r));
+        let (wo, weight) =
+            if u0 < r { (Vec3::new(-wi_in.x, -wi_in.y, wi_in.z), Vec3::from_array(b.specular)) } else { (-wi_in, Vec3::from_array(b.k)) };
+        return (weight.max_element() > 0.0).then_some(BsdfSample { wo, weight, delta: true });
     }
     if b.kind == KIND_SMOOTH && is_dielectric(b) {
         let eta = b.eta[0];
@@ -278,6 +296,9 @@ pub fn pdf_bsdf(b: &GpuBsdf, wi_in: Vec3, wo_in: Vec3) -> f32 {
     if b.flags & (FLAG_BUMP | FLAG_TWOSIDED_OUTER) != 0 {
         return crate::shading::perturb::pdf(b, wi_in, wo_in);
     }
+    if b.kind == KIND_ROUGHDIELECTRIC {
+        return pdf_roughdielectric(b, wi_in, wo_in);
+    }
     let (mut wi, mut wo) = (wi_in, wo_in);
     if b.flags & FLAG_TWOSIDED != 0 && wi.z < 0.0 {
         wi.z = -wi.z;
@@ -306,9 +327,82 @@ pub fn pdf_bsdf(b: &GpuBsdf, wi_in: Vec3, wo_in: Vec3) -> f32 {
     }
 }
 
+/// `sample_bsdf` for a `roughdielectric` record (module docs); importance-mode weights.
+fn sample_roughdielectric(b: &GpuBsdf, wi: Vec3, u0: f32, u1: f32, u2: f32) -> Option<BsdfSample> {
+    if wi.z == 0.0 {
+        return None;
+    }
+    let ggx = b.flags & FLAG_GGX != 0;
+    let alpha = (b.alpha_u * b.alpha_v).sqrt();
+    // Upper hemisphere, as Mitsuba samples m for mulsign(wi, cos_theta_i); wi must face it.
+    let h = sample_microfacet(ggx, alpha, u1, u2);
+    let wi_h = wi.dot(h);
+    if !(wi_h * wi.z > 0.0) {
+        return None;
+    }
+    let f = fresnel(wi_h, b.eta[0]);
+    let reflected = u0 < f;
+    let wo = if reflected {
+        reflect(wi, h)
+    } else {
+        // Refraction through h (Mitsuba's `refract(wi, m, cos_theta_t, eta_ti)`).
+        let eta_ti = if wi_h >= 0.0 { 1.0 / b.eta[0] } else { b.eta[0] };
+        let cos_t2 = 1.0 - (1.0 - wi_h * wi_h) * eta_ti * eta_ti;
+        if cos_t2 <= 0.0 {
+            return None;
+        }
+        let cos_t = -cos_t2.sqrt().copysign(wi_h);
+        (h * (wi_h * eta_ti + cos_t) - wi * eta_ti).normalize()
+    };
+    // A branch that lands on the other lobe's side is rejected (as Mitsuba does), so that every direction
+    // has one proposal and `pdf_roughdielectric` is its density.
+    if (wo.z * wi.z > 0.0) != reflected {
+        return None;
+    }
+    let pdf = pdf_roughdielectric(b, wi, wo);
+    if !(pdf > 0.0) {
+        return None;
+    }
+    let weight = crate::shading::bsdf::roughdielectric_eval(b, wi, wo, false) / pdf;
+    (weight.is_finite() && weight.max_element() > 0.0).then_some(BsdfSample { wo, weight, delta: false })
+}
+
+/// The density of `sample_roughdielectric`'s direction wo (solid angle).
+pub fn pdf_roughdielectric(b: &GpuBsdf, wi: Vec3, wo: Vec3) -> f32 {
+    if wi.z == 0.0 || wo.z == 0.0 {
+        return 0.0;
+    }
+    let ggx = b.flags & FLAG_GGX != 0;
+    let alpha = (b.alpha_u * b.alpha_v).sqrt();
+    let reflect = wi.z * wo.z > 0.0;
+    let eta = if wi.z > 0.0 { b.eta[0] } else { b.eta[1] };
+    let mut h = (wi + wo * if reflect { 1.0 } else { eta }).normalize();
+    if h.z < 0.0 {
+        h = -h;
+    }
+    let (wi_h, wo_h) = (wi.dot(h), wo.dot(h));
+    // h must face wi (as sampled), and wo must be on the side of h the lobe sends it to.
+    if !(wi_h * wi.z > 0.0) || (reflect && wo_h * wi_h <= 0.0) || (!reflect && wo_h * wi_h >= 0.0) {
+        return 0.0;
+    }
+    let d = microfacet_d(ggx, alpha, alpha, h) * h.z;
+    let f = fresnel(wi_h, b.eta[0]);
+    if reflect {
+        d * f / (4.0 * wo_h.abs())
+    } else {
+        let denom = wi_h + eta * wo_h;
+        d * (1.0 - f) * eta * eta * wo_h.abs() / (denom * denom)
+    }
+}
+
 /// A smooth BSDF resolved from `dielectric` (eta = (int/ext, 0, 0), no specular or k).
 pub fn is_dielectric(b: &GpuBsdf) -> bool {
-    b.kind == KIND_SMOOTH && b.specular == [0.0; 3] && b.k == [0.0; 3] && b.eta[1] == 0.0 && b.eta[2] == 0.0
+    b.flags & crate::shading::bsdf::FLAG_THIN == 0
+        && b.kind == KIND_SMOOTH
+        && b.specular == [0.0; 3]
+        && b.k == [0.0; 3]
+        && b.eta[1] == 0.0
+        && b.eta[2] == 0.0
 }
 
 #[cfg(test)]

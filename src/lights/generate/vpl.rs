@@ -19,7 +19,11 @@
 //! (`sampling::sample_bsdf`) with flux Phi_vpl f |w . n_g| / pdf(w) (= I(w) / pdf, the same correction)
 //! for non-delta lobes and Phi * weight for delta lobes (smooth conductor / dielectric / plastic's
 //! coating, where no VPL is stored); a blendbsdf acts as one of its two BSDFs, picked with its weight;
-//! principled's glossy transmission continues through the surface. A
+//! principled's glossy transmission continues through the surface. A `roughdielectric` stores no VPL (its
+//! transmission is not reciprocal, and a VPL lights only its incident side) but scatters the particle by
+//! sampling it (reflection or glossy transmission, importance-mode weight, the same shading-normal
+//! correction); its glossy reflection of VPL light is therefore missing from the VPL set. A
+//! `thindielectric` is a delta BSDF (mirror or straight through). A
 //! reflection whose sampled direction crosses the geometric surface (or a transmission that does not)
 //! ends the particle. A VPL only lights its incident side (transmission from a VPL is not modelled). Russian roulette from the 3rd bounce on: continue with
 //! probability q = min(0.95, lum(Phi_next) / lum(Phi_0)), dividing the flux by q.
@@ -207,7 +211,6 @@ pub(crate) fn walk(
         let (n_s, n_g, w_in) = (hit.n_s, hit.n_g, hit.wi);
         let (cos_s_in, cos_g_in) = (w_in.dot(n_s), w_in.dot(n_g));
         let non_delta = !has_smooth_lobe_only(&b);
-        let mut phi_vpl = phi;
         if non_delta {
             // Reflecting side: w_in on the same side of n_s and n_g, and the front unless two-sided.
             let back_ok =
@@ -215,7 +218,7 @@ pub(crate) fn walk(
             if !(cos_s_in * cos_g_in > 0.0) || (!back_ok && cos_s_in <= 0.0) {
                 return;
             }
-            phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
+            let phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
             if depth <= max_depth && depth >= min_depth {
                 store(Vpl { position: offset_p(hit.p, n_g, w_in), n_s, n_g, incident: w_in, flux: phi_vpl, bsdf: b });
             }
@@ -238,11 +241,12 @@ pub(crate) fn walk(
         } else {
             // Reflection lobes stay on w_in's side, glossy transmission (principled) crosses, for both
             // normals alike; f |w . n_g| / pdf = weight |w . n_g| / |w . n_s|.
+            // A roughdielectric (no VPL stored) takes the same shading-normal factor |cos_s_in| / |cos_g_in|.
             let transmitted = sample.wo.z * cos_s_in < 0.0;
-            if !(cos_g_out * cos_g_in > 0.0) != transmitted || cos_g_out == 0.0 || sample.wo.z == 0.0 {
+            if !(cos_g_out * cos_g_in > 0.0) != transmitted || cos_g_out == 0.0 || sample.wo.z == 0.0 || !(cos_s_in * cos_g_in > 0.0) {
                 return;
             }
-            phi_vpl * sample.weight * (cos_g_out.abs() / sample.wo.z.abs())
+            phi * (cos_s_in.abs() / cos_g_in.abs()) * sample.weight * (cos_g_out.abs() / sample.wo.z.abs())
         };
         if depth >= RR_DEPTH {
             let q = (luminance(phi_next) / lum_0).min(0.95);

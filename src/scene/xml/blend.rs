@@ -28,6 +28,12 @@ impl Builder<'_> {
                 let kind = if matches!(self.bsdfs[inner], Bsdf::BumpMap { .. }) { "bumpmap" } else { "normalmap" };
                 return Err(Error::scene(&r.loc, format!("{}: a {kind} inside it is not supported", p.what())));
             }
+            if matches!(self.bsdfs[inner], Bsdf::RoughDielectric { .. } | Bsdf::ThinDielectric { .. }) {
+                return Err(Error::scene(
+                    &r.loc,
+                    format!("{}: a roughdielectric or thindielectric inside it is not supported (a blended surface holds no VPL with transmission)", p.what()),
+                ));
+            }
             if matches!(self.bsdfs[inner], Bsdf::Blend { .. }) {
                 return Err(Error::scene(&r.loc, format!("{}: a nested blendbsdf is not supported", p.what())));
             }

@@ -143,6 +143,12 @@ impl Builder<'_> {
             let kind = if matches!(self.bsdfs[inner], Bsdf::Blend { .. }) { "a blendbsdf" } else { "a bumpmap or normalmap" };
             return Err(Error::scene(&nested.loc, format!("{what}: {kind} inside it is not supported")));
         }
+        if let Bsdf::RoughDielectric { .. } | Bsdf::ThinDielectric { .. } = self.bsdfs[inner] {
+            return Err(Error::scene(
+                &nested.loc,
+                format!("{what}: a nested roughdielectric or thindielectric is not supported (perturbed transmission)"),
+            ));
+        }
         if let Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::Plastic { .. } = self.bsdfs[inner] {
             return Err(Error::scene(
                 &nested.loc,

@@ -297,7 +297,7 @@ impl<'a> Builder<'a> {
 
     // ---- BSDFs ----
 
-    fn ior(&self, p: &mut Props, name: &str, default: &str) -> Result<f32> {
+    pub(super) fn ior(&self, p: &mut Props, name: &str, default: &str) -> Result<f32> {
         if let Some(prop) = p.prop(name) {
             return match &prop.value {
                 Value::Float(v) => Ok(*v as f32),
@@ -311,7 +311,7 @@ impl<'a> Builder<'a> {
         Ok(materials::lookup_ior(default).unwrap_or(1.0))
     }
 
-    fn distribution(&self, p: &mut Props) -> Result<MicrofacetDistribution> {
+    pub(super) fn distribution(&self, p: &mut Props) -> Result<MicrofacetDistribution> {
         match p.string("distribution")? {
             None => Ok(MicrofacetDistribution::Beckmann),
             Some((v, l)) => match v.to_lowercase().as_str() {
@@ -350,7 +350,15 @@ impl<'a> Builder<'a> {
                 let mut inner = Vec::new();
                 for r in &children {
                     self.expect_class(r, "bsdf", "a child of twosided")?;
-                    inner.push(self.bsdf(r.node)?);
+                    let i = self.bsdf(r.node)?;
+                    if let Bsdf::RoughDielectric { .. } | Bsdf::ThinDielectric { .. } = self.bsdfs[i] {
+                        // Mitsuba's twosided: "Only materials without a transmission component can be nested!"
+                        return Err(Error::scene(
+                            &r.loc,
+                            format!("{}: a nested BSDF with transmission (roughdielectric, thindielectric) is not allowed (it is two-sided already)", p.what()),
+                        ));
+                    }
+                    inner.push(i);
                 }
                 match inner[..] {
                     [front] => Bsdf::TwoSided { front, back: front },
@@ -425,6 +433,8 @@ impl<'a> Builder<'a> {
                 }
                 Bsdf::Dielectric { int_ior, ext_ior }
             }
+            "roughdielectric" => self.roughdielectric(&mut p)?,
+            "thindielectric" => self.thindielectric(&mut p)?,
             "principled" => self.principled(&mut p)?,
             "blendbsdf" => self.blendbsdf(&mut p)?,
             "bumpmap" | "normalmap" => self.perturbation(&mut p)?,

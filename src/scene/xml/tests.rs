@@ -3,6 +3,7 @@
 //! `mi.traverse(sensor)["x_fov"]`, `sensor.world_transform()`).
 // Reference numbers are pasted verbatim from Mitsuba's printouts (f32 values printed as f64).
 #![allow(clippy::excessive_precision)]
+mod dielectric;
 mod formats;
 mod small;
 

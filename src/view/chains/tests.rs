@@ -42,6 +42,29 @@ fn dielectric_branches_follow_snell_and_fresnel() {
 }
 
 #[test]
+fn thin_dielectric_branches_are_the_slab_sums() {
+    // Normal incidence, eta 1.5: R = 0.04, R' = R + T^2 R / (1 - R^2) = 2R / (1 + R) = 0.076923; the
+    // transmitted branch goes straight on, unscaled, from either side.
+    let t = Delta::Thin { eta: 1.5, specular: Vec3::new(1.0, 0.5, 0.25), transmittance: Vec3::new(0.9, 1.0, 1.0) };
+    let r = 0.04f32 + 0.96 * 0.96 * 0.04 / (1.0 - 0.04 * 0.04);
+    assert!((r - 2.0 * 0.04 / 1.04).abs() < 1e-6);
+    for side in [1.0f32, -1.0] {
+        let wi = Vec3::new(0.0, 0.0, side);
+        let b = branches(t, false, wi, Vec3::Z);
+        assert_eq!(b.len(), 2, "{b:?}");
+        assert!(close(b[0].0, wi, 1e-6) && close(b[0].1, Vec3::new(1.0, 0.5, 0.25) * r, 1e-6), "{b:?}");
+        assert!(close(b[1].0, -wi, 1e-6) && close(b[1].1, Vec3::new(0.9, 1.0, 1.0) * (1.0 - r), 1e-6), "{b:?}");
+    }
+    // 60 degrees from below: Fresnel of |cos_theta_i|, mirror about the normal, straight through.
+    let wi = Vec3::new(0.75f32.sqrt(), 0.0, -0.5);
+    let b = branches(t, false, wi, Vec3::Z);
+    let r = fresnel(0.5, 1.5);
+    let r = 2.0 * r / (1.0 + r);
+    assert!(close(b[0].0, Vec3::new(-(0.75f32.sqrt()), 0.0, -0.5), 1e-6) && close(b[1].0, -wi, 1e-6), "{b:?}");
+    assert!((b[1].1.y - (1.0 - r)).abs() < 1e-6 && r > 0.1, "{b:?} {r}");
+}
+
+#[test]
 fn conductor_and_plastic_branches_are_one_sided_unless_twosided() {
     let (eta, k, specular) = (Vec3::new(0.2, 0.9, 1.1), Vec3::new(3.9, 2.4, 2.2), Vec3::new(1.0, 0.5, 0.25));
     let c = Delta::Conductor { eta, k, specular };
