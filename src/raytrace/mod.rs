@@ -31,6 +31,7 @@
 //! local `si.wi`), `b1`, `b2` barycentrics of vertices 1 and 2.
 mod bvh;
 mod intersect;
+mod occlusion;
 
 use crate::error::{Error, Result};
 use crate::scene::{Mesh, Scene, ShapeKind};
@@ -168,6 +169,12 @@ impl RayTracer {
     /// Whether anything lies on `o + t d` for `0 < t < t_max` (no offsetting: use [`spawn_ray_to`]).
     pub fn occluded_ray(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         ray_is_valid(o, d) && self.bvh.any(o, d, 0.0, t_max)
+    }
+
+    /// [`RayTracer::occluded_ray`] through the reference traversal (obvhs's own, per ray).
+    #[cfg(test)]
+    pub(crate) fn occluded_ray_reference(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
+        ray_is_valid(o, d) && self.bvh.any_reference(o, d, 0.0, t_max)
     }
 
     /// Shadow ray from surface point `p` (geometric normal `n_g`) to point `q`, as Mitsuba traces it
