@@ -4,7 +4,8 @@
 //!
 //! Primitives are the triangles of every mesh, except `ShapeKind::Sphere` meshes, which are one
 //! analytic sphere primitive each (their tessellation is for rasterisers only). Primitives are stored
-//! in BVH leaf order so a leaf's primitives are contiguous in memory.
+//! in BVH leaf order so a leaf's primitives are contiguous in memory. Closest hits use obvhs's
+//! traversal; shadow rays (`SceneBvh::any`) use `occlusion.rs` over the same nodes.
 use super::intersect::{intersect_sphere, WatertightRay};
 use super::occlusion::TriangleSoa;
 use crate::scene::{Scene, ShapeKind};

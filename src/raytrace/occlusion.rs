@@ -256,7 +256,8 @@ mod sse {
         let [kx, ky, kz] = wt.k;
         let op = [_mm_set1_ps(o[kx]), _mm_set1_ps(o[ky]), _mm_set1_ps(o[kz])];
         // A word: first child node index << 16 | internal-child mask << 8 | children left (permuted).
-        let mut stack = [0u64; STACK];
+        // Uninitialised (a zeroed stack was a memset per ray); only written words are read.
+        let mut stack = [std::mem::MaybeUninit::<u64>::uninit(); STACK];
         let mut sp = 0;
         let mut node = bvh.nodes.get_unchecked(0);
         loop {
@@ -280,14 +281,14 @@ mod sse {
                 if sp == STACK {
                     return None;
                 }
-                *stack.get_unchecked_mut(sp) = (node.child_base_idx as u64) << 16 | (imask as u64) << 8 | permute(inner, oct) as u64;
+                stack.get_unchecked_mut(sp).write((node.child_base_idx as u64) << 16 | (imask as u64) << 8 | permute(inner, oct) as u64);
                 sp += 1;
             }
             // The next child: the nearest one left on the top of the stack.
             if sp == 0 {
                 return Some(false);
             }
-            let top = stack.get_unchecked_mut(sp - 1);
+            let top = stack.get_unchecked_mut(sp - 1).assume_init_mut();
             let left = (*top & 0xff) as u32;
             let slot = left.trailing_zeros() ^ oct;
             if left & (left - 1) == 0 {
@@ -441,7 +442,8 @@ mod avx2 {
         let wt = WatertightRay::new(o, d);
         let [kx, ky, kz] = wt.k;
         let op = [_mm256_set1_ps(o[kx]), _mm256_set1_ps(o[ky]), _mm256_set1_ps(o[kz])];
-        let mut stack = [0u64; STACK];
+        // Uninitialised (a zeroed stack was a memset per ray); only written words are read.
+        let mut stack = [std::mem::MaybeUninit::<u64>::uninit(); STACK];
         let mut sp = 0;
         let mut node = bvh.nodes.get_unchecked(0);
         loop {
@@ -467,13 +469,13 @@ mod avx2 {
                 if sp == STACK {
                     return None;
                 }
-                *stack.get_unchecked_mut(sp) = (node.child_base_idx as u64) << 16 | (imask as u64) << 8 | permute(inner, oct) as u64;
+                stack.get_unchecked_mut(sp).write((node.child_base_idx as u64) << 16 | (imask as u64) << 8 | permute(inner, oct) as u64);
                 sp += 1;
             }
             if sp == 0 {
                 return Some(false);
             }
-            let top = stack.get_unchecked_mut(sp - 1);
+            let top = stack.get_unchecked_mut(sp - 1).assume_init_mut();
             let left = (*top & 0xff) as u32;
             let slot = left.trailing_zeros() ^ oct;
             if left & (left - 1) == 0 {
