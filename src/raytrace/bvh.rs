@@ -67,6 +67,7 @@ pub(crate) struct SceneBvh {
     /// `None` for a scene without primitives.
     bvh: Option<CwBvh>,
     /// The triangles again, as the shadow-ray traversal reads them (`occlusion.rs`).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     soa: TriangleSoa,
 }
 
@@ -118,12 +119,12 @@ impl SceneBvh {
     /// Whether anything is hit with `t_min < t < t_max` (stops at the first hit): `occlusion.rs`, which
     /// answers as [`SceneBvh::any_reference`] does, bit for bit.
     pub fn any(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else { return false };
         #[cfg(target_arch = "x86_64")]
-        if let Some(hit) = super::occlusion::any_hit(bvh, &self.soa, &self.primitives, o, d, t_min, t_max) {
-            return hit;
+        if let Some(bvh) = self.bvh.as_ref() {
+            if let Some(hit) = super::occlusion::any_hit(bvh, &self.soa, &self.primitives, o, d, t_min, t_max) {
+                return hit;
+            }
         }
-        let _ = bvh;
         self.any_reference(o, d, t_min, t_max)
     }
 
