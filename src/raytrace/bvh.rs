@@ -4,8 +4,10 @@
 //!
 //! Primitives are the triangles of every mesh, except `ShapeKind::Sphere` meshes, which are one
 //! analytic sphere primitive each (their tessellation is for rasterisers only). Primitives are stored
-//! in BVH leaf order so a leaf's primitives are contiguous in memory.
+//! in BVH leaf order so a leaf's primitives are contiguous in memory. Closest hits use obvhs's
+//! traversal; shadow rays (`SceneBvh::any`) use `occlusion.rs` over the same nodes.
 use super::intersect::{intersect_sphere, WatertightRay};
+use super::occlusion::TriangleSoa;
 use crate::scene::{Scene, ShapeKind};
 use glam::{Vec3, Vec3A};
 use obvhs::aabb::Aabb;
@@ -54,7 +56,7 @@ pub(crate) struct PrimitiveHit {
 /// The obvhs ray for `o + t d`. Negative zeros in `d` become positive: obvhs picks a slab's near
 /// side from `d < 0` but inverts `-0.0` to a large negative number, which would cull every box (axis-
 /// aligned rays such as `-Vec3::Z` would miss everything).
-fn obvhs_ray(o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Ray {
+pub(super) fn obvhs_ray(o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Ray {
     Ray::new(Vec3A::from(o), Vec3A::from(d) + Vec3A::ZERO, t_min, t_max)
 }
 
@@ -64,6 +66,9 @@ pub(crate) struct SceneBvh {
     pub primitives: Vec<Primitive>,
     /// `None` for a scene without primitives.
     bvh: Option<CwBvh>,
+    /// The triangles again, as the shadow-ray traversal reads them (`occlusion.rs`).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    soa: TriangleSoa,
 }
 
 impl SceneBvh {
@@ -81,14 +86,14 @@ impl SceneBvh {
             }
         }
         if primitives.is_empty() {
-            return SceneBvh { primitives, bvh: None };
+            return SceneBvh { soa: TriangleSoa::new(&primitives), primitives, bvh: None };
         }
         let mut build_time = std::time::Duration::ZERO;
         let mut bvh = build_cwbvh(&primitives, BvhBuildParams::medium_build(), &mut build_time);
         // Reorder primitives into leaf order; the BVH then indexes them directly.
         primitives = bvh.primitive_indices.iter().map(|&i| primitives[i as usize]).collect();
         bvh.primitive_indices = (0..primitives.len() as u32).collect();
-        SceneBvh { primitives, bvh: Some(bvh) }
+        SceneBvh { soa: TriangleSoa::new(&primitives), primitives, bvh: Some(bvh) }
     }
 
     /// Closest primitive hit by `o + t d` with `t_min < t < t_max`.
@@ -111,8 +116,28 @@ impl SceneBvh {
         (best.index != usize::MAX).then_some(best)
     }
 
-    /// Whether anything is hit with `t_min < t < t_max` (stops at the first hit).
+    /// Whether anything is hit with `t_min < t < t_max` (stops at the first hit): `occlusion.rs`, which
+    /// answers as [`SceneBvh::any_reference`] does, bit for bit.
     pub fn any(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(bvh) = self.bvh.as_ref() {
+            if let Some(hit) = super::occlusion::any_hit(bvh, &self.soa, &self.primitives, o, d, t_min, t_max) {
+                return hit;
+            }
+        }
+        self.any_reference(o, d, t_min, t_max)
+    }
+
+    /// [`SceneBvh::any`] with the SSE2 box and triangle tests even where AVX2 is available (`None` when
+    /// the traversal's stack overflowed).
+    #[cfg(all(test, target_arch = "x86_64"))]
+    pub fn any_sse(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<bool> {
+        super::occlusion::any_hit_sse(self.bvh.as_ref()?, &self.soa, &self.primitives, o, d, t_min, t_max)
+    }
+
+    /// [`SceneBvh::any`] through obvhs's own traversal (`CwBvh::ray_traverse_miss`): the reference of
+    /// the tests, and the path of targets without SSE2 and of trees too deep for `occlusion.rs`'s stack.
+    pub fn any_reference(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let wt = WatertightRay::new(o, d);
         let ray = obvhs_ray(o, d, t_min, t_max);

@@ -28,9 +28,11 @@ pub(crate) struct WatertightRay {
     ey: Vec3,
     ez: Vec3,
     /// Shear constants `d[kx]/d[kz]`, `d[ky]/d[kz]`, `1/d[kz]`.
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    pub sx: f32,
+    pub sy: f32,
+    pub sz: f32,
+    /// The axis permutation as indices (`kx`, `ky`, `kz`), for the struct-of-arrays test in `occlusion.rs`.
+    pub k: [usize; 3],
 }
 
 /// A triangle hit: parametric distance and the barycentrics of vertices 1 and 2.
@@ -61,7 +63,16 @@ impl WatertightRay {
         }
         const UNIT: [Vec3; 3] = [Vec3::X, Vec3::Y, Vec3::Z];
         let unit = |k: usize| UNIT[k];
-        WatertightRay { o, ex: unit(kx), ey: unit(ky), ez: unit(kz), sx: d[kx] / d[kz], sy: d[ky] / d[kz], sz: 1.0 / d[kz] }
+        WatertightRay {
+            o,
+            ex: unit(kx),
+            ey: unit(ky),
+            ez: unit(kz),
+            sx: d[kx] / d[kz],
+            sy: d[ky] / d[kz],
+            sz: 1.0 / d[kz],
+            k: [kx, ky, kz],
+        }
     }
 
     /// Intersects the triangle (`p0`, `p1`, `p2`); a hit needs `t_min < t < t_max`.

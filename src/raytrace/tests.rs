@@ -331,3 +331,75 @@ fn benchmark_bunny() {
     single.install(|| time("shadow rays, 1 thread", shadow.len(), &|| drop(rt.visible_batch(&shadow))));
     time(&format!("shadow rays, {threads} threads"), shadow.len(), &|| drop(rt.visible_batch(&shadow)));
 }
+
+/// Shadow rays for the traversal comparison: `random_rays` with `t_max` infinite, beyond and before
+/// their first hit; rays aimed exactly at vertices and at points of edges (shared by two triangles in a
+/// mesh) with `t_max` at, before and past the target; and `spawn_ray_to` segments between surface points.
+fn shadow_test_rays(rt: &RayTracer, scene: &Scene, n: usize, seed: u64) -> Vec<(Vec3, Vec3, f32)> {
+    let mut rng = Pcg32::seed_from_u64(seed);
+    let mut rays = Vec::new();
+    for (o, d) in random_rays(scene, n, seed) {
+        let t_hit = rt.bvh.closest(o, d, 0.0, f32::INFINITY).map_or(1.0, |h| h.t);
+        rays.push((o, d, f32::INFINITY));
+        rays.push((o, d, t_hit * (1.0 + 1e-6)));
+        rays.push((o, d, t_hit * (1.0 - 1e-6)));
+    }
+    let (lo, hi) = scene.bounds();
+    let tris: Vec<[Vec3; 3]> = rt
+        .bvh
+        .primitives
+        .iter()
+        .filter_map(|p| match p.geometry {
+            Geometry::Triangle(v) => Some(v),
+            Geometry::Sphere { .. } => None,
+        })
+        .collect();
+    for _ in 0..n {
+        let [p0, p1, p2] = tris[rng.random_range(0..tris.len())];
+        let s = [0.0, 0.5, rng.random::<f32>()][rng.random_range(0..3)];
+        let target = if rng.random::<bool>() { [p0, p1, p2][rng.random_range(0..3)] } else { p0 + (p1 - p0) * s };
+        let o = lo + (hi - lo) * Vec3::new(rng.random(), rng.random(), rng.random()) * 1.2 - (hi - lo) * 0.1;
+        let d = target - o;
+        for t_max in [1.0, 1.0 - SHADOW_EPSILON, 1.0 + SHADOW_EPSILON, f32::INFINITY] {
+            rays.push((o, d, t_max));
+        }
+    }
+    let surface: Vec<SurfaceInteraction> =
+        random_rays(scene, n, seed + 1).iter().filter_map(|&(o, d)| rt.intersect(o, d, 0.0, f32::INFINITY)).collect();
+    for pair in surface.windows(2) {
+        rays.push(spawn_ray_to(pair[0].p, pair[0].n_g, pair[1].p));
+    }
+    rays
+}
+
+#[test]
+fn shadow_traversal_answers_as_the_reference_bit_for_bit() {
+    use crate::scene::{load_scene, LoadOptions};
+    let veach = load_scene(&crate::testing::scene_file("veach-ajar/scene.xml"), &LoadOptions::default()).unwrap();
+    for (name, scene, n) in [
+        ("cbox", raytrace_scenes::cbox(true), 20_000),
+        ("cbox+spheres", raytrace_scenes::cbox_spheres(), 20_000),
+        ("veach-ajar", veach, 4_000),
+        ("bunny", raytrace_scenes::bunny(), 2_000),
+    ] {
+        let rt = RayTracer::new(&scene).unwrap();
+        let rays = shadow_test_rays(&rt, &scene, n, 11);
+        let results: Vec<(bool, bool, Option<bool>)> = rays
+            .par_iter()
+            .map(|&(o, d, t_max)| {
+                #[cfg(target_arch = "x86_64")]
+                let sse = rt.bvh.any_sse(o, d, 0.0, t_max);
+                #[cfg(not(target_arch = "x86_64"))]
+                let sse = None;
+                (rt.occluded_ray(o, d, t_max), rt.occluded_ray_reference(o, d, t_max), sse)
+            })
+            .collect();
+        let differ = results.iter().filter(|r| r.0 != r.1).count();
+        let sse_differ = results.iter().filter(|r| r.2.is_some_and(|s| s != r.1)).count();
+        let blocked = results.iter().filter(|r| r.1).count();
+        println!("{name}: {} rays, {blocked} blocked, {differ} differ, {sse_differ} differ on SSE2", rays.len());
+        assert_eq!((differ, sse_differ), (0, 0), "{name}");
+        assert!(cfg!(not(target_arch = "x86_64")) || results.iter().all(|r| r.2.is_some()), "{name}: stack overflow");
+        assert!(blocked > rays.len() / 5 && blocked < rays.len() * 4 / 5, "{name}: {blocked} of {} blocked", rays.len());
+    }
+}

@@ -47,3 +47,59 @@ fn traced_rays_reproduce_the_matrix_visibility_element_by_element() {
     assert!(shadow_rays(&a.view, &a.lights, &views, &[n], Order::Rows).is_err());
     assert!(trace(&tracer, &[Vec3::ZERO], &[], &[1.0]).is_err());
 }
+
+/// About `n` lights of the kinds the scene has (as the benchmark's `mixed_lights`): half area points, a
+/// quarter environment strata, the rest VPLs; kinds the scene lacks are dropped.
+fn mixed_lights(scene: &crate::scene::Scene, n: usize, seed: u64) -> LightSet {
+    use crate::lights::{generate_lights, GenerateOptions};
+    let tries = [(n / 2, n / 4), (n / 2, 0), (0, n / 4), (0, 0)];
+    tries
+        .iter()
+        .find_map(|&(area, environment)| {
+            generate_lights(scene, &GenerateOptions { area, environment, indirect: n - area - environment, seed, ..Default::default() })
+                .ok()
+        })
+        .expect("lights")
+}
+
+/// Shadow rays per second of `trace` against the reference traversal (obvhs's own, per ray) on the
+/// benchmark's column batch (every view sample to 256 lights) and row batch (256 stratified view samples to
+/// 16,384 lights) of cbox, veach-ajar and bunny at 128^2, interleaved, best of 7; both must agree on every
+/// ray. Run with `cargo test --release benchmark_shadow -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn benchmark_shadow_rays_against_the_reference_traversal() {
+    use std::time::Instant;
+    for name in ["cbox", "veach-ajar", "bunny"] {
+        let (scene, view, tracer) = crate::testing::scene_view_tracer(&crate::testing::scene_file(&format!("{name}/scene.xml")), 128);
+        for order in [Order::Columns, Order::Rows] {
+            let (views, lights) = match order {
+                Order::Columns => ((0..view.len()).collect::<Vec<_>>(), mixed_lights(&scene, 256, 0)),
+                Order::Rows => (crate::matrix::rows::stratified_rows(128, 128, 256, 0).unwrap(), mixed_lights(&scene, 16_384, 1)),
+            };
+            let js: Vec<usize> = (0..lights.len()).collect();
+            let rays = shadow_rays(&view, &lights, &views, &js, order).unwrap();
+            let r = rays.t_max.len();
+            let (mut old_best, mut new_best) = (f64::INFINITY, f64::INFINITY);
+            for _ in 0..7 {
+                let t = Instant::now();
+                let old: Vec<bool> = (0..r)
+                    .into_par_iter()
+                    .with_min_len(256)
+                    .map(|k| tracer.occluded_ray_reference(rays.origin[k], rays.direction[k], rays.t_max[k]))
+                    .collect();
+                old_best = old_best.min(t.elapsed().as_secs_f64());
+                let (new, seconds) = trace(&tracer, &rays.origin, &rays.direction, &rays.t_max).unwrap();
+                new_best = new_best.min(seconds);
+                assert!(old == new, "{name} {order:?}: the traversals disagree");
+            }
+            println!(
+                "{name} {order:?}: {r} rays ({} primitives): reference {:.1} Mrays/s, trace {:.1} Mrays/s ({:.2}x)",
+                tracer.num_primitives(),
+                r as f64 / old_best / 1e6,
+                r as f64 / new_best / 1e6,
+                old_best / new_best
+            );
+        }
+    }
+}
