@@ -31,6 +31,7 @@
 //!   the most delta-chain samples folded into one pixel.
 //! - batched shadow rays (`plan_rays`, `gpu::bvh::OccludedPass`): one ray per query, at most 2^20 queries
 //!   per upload.
+//!
 //! Every item is computed by exactly one invocation of exactly one dispatch, with the same arithmetic
 //! in the same order whatever the split, so a split pass gives bit-identical results (tested by forcing
 //! a tiny budget through `with_budget`). The row pass is bounded by its output binding (at most 128 MiB
