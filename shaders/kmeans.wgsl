@@ -60,7 +60,9 @@ struct Params {
     max_shell: u32,
     // Absolute slack of the shell stopping test (float rounding of cell coordinates).
     slack: f32,
-    _pad0: u32,
+    // First point (or centroid) of this dispatch: a kernel over n items runs as several dispatches
+    // within the work budget (src/gpu/dispatch.rs), each a whole number of workgroups but the last.
+    first_item: u32,
 }
 
 // A data point or centroid: position (xyz) then unit normal (xyz) (zero normal when normals are absent).
@@ -88,8 +90,12 @@ struct Point {
 var<workgroup> wg_sum: array<f32, WORKGROUP_SIZE>;
 var<workgroup> wg_scan: array<u32, WORKGROUP_SIZE>;
 
+fn km_is_nan(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;
+}
+
 fn linear_id(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
-    return gid.x + gid.y * nwg.x * WORKGROUP_SIZE;
+    return params.first_item + gid.x + gid.y * nwg.x * WORKGROUP_SIZE;
 }
 
 fn cell_coord(x: vec3<f32>) -> vec3<u32> {
@@ -108,7 +114,10 @@ fn candidate(c: u32, p: vec3<f32>, np: vec3<f32>) -> vec2<u32> {
     let q = centroids[c];
     let d = p - q.p.xyz;
     var idx = c;
-    if params.has_threshold != 0u && !(dot(np, q.n.xyz) > params.cos_threshold) {
+    // A NaN cosine (a degenerate normal) is inadmissible: tested on the bits, since a compiler that
+    // assumes no NaN may fold `!(cos > threshold)` into `cos <= threshold`.
+    let cos_pq = dot(np, q.n.xyz);
+    if params.has_threshold != 0u && (km_is_nan(cos_pq) || cos_pq <= params.cos_threshold) {
         idx = c | INADMISSIBLE;
     }
     return vec2<u32>(idx, bitcast<u32>(dot(d, d)));
@@ -431,8 +440,9 @@ fn accumulate(
         }
         workgroupBarrier();
     }
+    // The dispatches' workgroups tile the points in order: workgroup w of the whole pass owns slot w.
     if lid.x == 0u {
-        partials[wid.x + wid.y * nwg.x] = wg_sum[0];
+        partials[params.first_item / WORKGROUP_SIZE + wid.x + wid.y * nwg.x] = wg_sum[0];
     }
 }
 

@@ -28,7 +28,9 @@ struct Params {
     window_start: u32,
     // Frames of the Rec rows (the stretch's frame count).
     rec_frames: u32,
-    _pad2: u32,
+    // First (frame, pixel) item of this dispatch: one window's items run as several dispatches within
+    // the work budget (src/gpu/dispatch.rs), each a whole number of workgroups but the last.
+    first_item: u32,
     // Workgroups along x (the dispatch is 2D when it exceeds the per-dimension limit).
     dispatch_width: u32,
     _pad0: u32,
@@ -58,7 +60,7 @@ fn sample_rgb(c: u32, s: u32) -> vec3<f32> {
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let t = gid.x + gid.y * params.dispatch_width * WORKGROUP_SIZE;
+    let t = params.first_item + gid.x + gid.y * params.dispatch_width * WORKGROUP_SIZE;
     let P = params.num_pixels;
     if t >= P * params.num_frames {
         return;

@@ -109,33 +109,111 @@ fn watertight_ray(o: vec3<f32>, d: vec3<f32>) -> WatertightRay {
     return r;
 }
 
-// Dekker's split of an f32 into two 12-bit halves.
-fn split_f32(a: f32) -> vec2<f32> {
-    let c = 4097.0 * a;
-    let hi = c - (c - a);
+// Edge functions robust to fused multiply-adds. WGSL cannot forbid contraction, and drivers (Metal's
+// fast math, others) may evaluate a*b - c*d as fma(a, b, -c*d) or fma(-c, d, a*b). Without contraction
+// the rounded difference has the exact sign or is 0 (rounding is monotonic), which is what makes
+// Woop's test watertight; with it, the sign can be wrong, so that a ray through an edge shared by two
+// triangles (or a vertex) misses all of them. Under any grouping the rounded result is within
+// 2 u (|a b| + |c d|) of the exact one (u = 2^-24), so a result above EDGE_FILTER (|a b| + |c d|) has
+// the exact sign; the others are recomputed exactly by `exact_diff_of_products`. Valid while the
+// products stay normal floats (above 2^-126).
+const EDGE_FILTER: f32 = 4.76837158203125e-7;
+
+// a = hi + lo, each of at most 12 significant bits (hi: a with the low 12 bits of its significand
+// cleared; lo = a - hi is exact): every product of two halves is exact, so a fused multiply-add of
+// one rounds like a multiply then an add. Integer masking leaves nothing to contract (Dekker's
+// 4097 a split does not survive contraction).
+fn split_bits(a: f32) -> vec2<f32> {
+    let hi = bitcast<f32>(bitcast<u32>(a) & 0xfffff000u);
     return vec2<f32>(hi, a - hi);
 }
 
-// a*b - c*d with the products computed exactly (Dekker's two-product): stands in for the CPU's f64
-// fallback on edge functions that round to exactly 0 (WGSL has no f64 on downlevel devices).
-fn diff_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
-    let p = a * b;
-    let q = c * d;
-    let sa = split_f32(a);
-    let sb = split_f32(b);
-    let sc = split_f32(c);
-    let sd = split_f32(d);
-    let ep = ((sa.x * sb.x - p) + sa.x * sb.y + sa.y * sb.x) + sa.y * sb.y;
-    let eq = ((sc.x * sd.x - q) + sc.x * sd.y + sc.y * sd.x) + sc.y * sd.y;
-    return (p - q) + (ep - eq);
+// Knuth's TwoSum: (s, e) with s = fl(a + b) and a + b = s + e exactly (additions only).
+fn two_sum(a: f32, b: f32) -> vec2<f32> {
+    let s = a + b;
+    let bb = s - a;
+    return vec2<f32>(s, (a - (s - bb)) + (b - bb));
 }
 
-// Watertight ray-triangle test (both faces); a hit needs t_min < t < t_max. Deviation: the CPU tracer
-// (and Mitsuba) accept any t > 0; when the origin lies exactly in a triangle's plane (a shadow ray from
-// a wall/ceiling contact edge, offset along the wall's normal, starts in the ceiling's plane) the sign
-// of t is rounding noise, and the GPU's rounding (fused multiply-adds) differs from the CPU's. Hits
-// closer than about 1e-6 relative to the origin's magnitude (100x below Mitsuba's ray offset) are
-// treated as that degenerate case and ignored.
+// Shewchuk's Grow-Expansion of the nonoverlapping expansion e (increasing magnitude) by b: the five
+// components of e + b, exactly, in `lo` (four) and `top`.
+struct Expansion5 {
+    lo: vec4<f32>,
+    top: f32,
+}
+
+fn grow4(e: vec4<f32>, b: f32) -> Expansion5 {
+    let q0 = two_sum(b, e.x);
+    let q1 = two_sum(q0.x, e.y);
+    let q2 = two_sum(q1.x, e.z);
+    let q3 = two_sum(q2.x, e.w);
+    return Expansion5(vec4<f32>(q0.y, q1.y, q2.y, q3.y), q3.x);
+}
+
+fn grow2(e: vec2<f32>, b: f32) -> vec3<f32> {
+    let q0 = two_sum(b, e.x);
+    let q1 = two_sum(q0.x, e.y);
+    return vec3<f32>(q0.y, q1.y, q1.x);
+}
+
+// Expansion-Sum of two 2-component expansions (each (error, sum)): 4 components, exactly.
+fn sum22(e: vec2<f32>, f: vec2<f32>) -> vec4<f32> {
+    let g = grow2(e, f.x);
+    let h = grow2(g.yz, f.y);
+    return vec4<f32>(g.x, h);
+}
+
+// a*b - c*d with the sign exact under any contraction: eight exact partial products summed into a
+// nonoverlapping expansion (Shewchuk 1997, Expansion-Sum), whose largest nonzero component carries the
+// sign. Returns the expansion's rounded sum, or that component where rounding disagreed in sign.
+fn exact_diff_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
+    let sa = split_bits(a);
+    let sb = split_bits(b);
+    let sc = split_bits(c);
+    let sd = split_bits(d);
+    let e0 = two_sum(sa.x * sb.x, -(sc.x * sd.x));
+    let e1 = two_sum(sa.x * sb.y, -(sc.x * sd.y));
+    let e2 = two_sum(sa.y * sb.x, -(sc.y * sd.x));
+    let e3 = two_sum(sa.y * sb.y, -(sc.y * sd.y));
+    let f = sum22(e0.yx, e1.yx);
+    let g = sum22(e2.yx, e3.yx);
+    // Expansion-Sum of f and g: g's components grow the upper part of the expansion one at a time.
+    let h0 = grow4(f, g.x);
+    let h1 = grow4(vec4<f32>(h0.lo.yzw, h0.top), g.y);
+    let h2 = grow4(vec4<f32>(h1.lo.yzw, h1.top), g.z);
+    let h3 = grow4(vec4<f32>(h2.lo.yzw, h2.top), g.w);
+    let low = vec4<f32>(h0.lo.x, h1.lo.x, h2.lo.x, h3.lo.x);
+    let high = vec4<f32>(h3.lo.yzw, h3.top);
+    // The largest nonzero component, without loops (they would count against Mesa's iteration cap).
+    var top = select(0.0, low.x, low.x != 0.0);
+    top = select(top, low.y, low.y != 0.0);
+    top = select(top, low.z, low.z != 0.0);
+    top = select(top, low.w, low.w != 0.0);
+    top = select(top, high.x, high.x != 0.0);
+    top = select(top, high.y, high.y != 0.0);
+    top = select(top, high.z, high.z != 0.0);
+    top = select(top, high.w, high.w != 0.0);
+    let sum = (((low.x + low.y) + (low.z + low.w)) + high.x + high.y) + high.z + high.w;
+    return select(top, sum, sign(sum) == sign(top));
+}
+
+// The edge function a*b - c*d: rounded when that has the exact sign, else exact (see EDGE_FILTER).
+fn edge_function(a: f32, b: f32, c: f32, d: f32) -> f32 {
+    let e = a * b - c * d;
+    if abs(e) <= EDGE_FILTER * (abs(a * b) + abs(c * d)) {
+        return exact_diff_of_products(a, b, c, d);
+    }
+    return e;
+}
+
+// Watertight ray-triangle test (both faces); a hit needs t_min < t < t_max. Each edge function has its
+// exact sign under any contraction (`edge_function`), so triangles sharing an edge or a vertex agree.
+// Deviation: the CPU tracer (and Mitsuba) accept any t > 0; when the origin lies exactly in a
+// triangle's plane (a shadow ray from a wall/ceiling contact edge, offset along the wall's normal,
+// starts in the ceiling's plane) the sign of t is rounding noise, and the GPU's rounding (fused
+// multiply-adds) differs from the CPU's. Hits closer than about 1e-6 relative to the origin's magnitude
+// (100x below Mitsuba's ray offset) are treated as that degenerate case and ignored.
+// src/gpu/watertight.rs mirrors this function line for line (its tests contract every a*b +- c*d).
 fn hit_triangle(r: WatertightRay, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, t_max: f32) -> bool {
     let a = p0 - r.o;
     let b = p1 - r.o;
@@ -146,14 +224,9 @@ fn hit_triangle(r: WatertightRay, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, t
     let by = b[r.ky] - r.sy * b[r.kz];
     let cx = c[r.kx] - r.sx * c[r.kz];
     let cy = c[r.ky] - r.sy * c[r.kz];
-    var u = cx * by - cy * bx;
-    var v = ax * cy - ay * cx;
-    var w = bx * ay - by * ax;
-    if u == 0.0 || v == 0.0 || w == 0.0 {
-        u = diff_of_products(cx, by, cy, bx);
-        v = diff_of_products(ax, cy, ay, cx);
-        w = diff_of_products(bx, ay, by, ax);
-    }
+    let u = edge_function(cx, by, cy, bx);
+    let v = edge_function(ax, cy, ay, cx);
+    let w = edge_function(bx, ay, by, ax);
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return false;
     }
@@ -163,7 +236,9 @@ fn hit_triangle(r: WatertightRay, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, t
     }
     let t_scaled = u * (r.sz * a[r.kz]) + v * (r.sz * b[r.kz]) + w * (r.sz * c[r.kz]);
     let t = t_scaled * (1.0 / det);
-    return t > r.t_min && t < t_max;
+    // A NaN t (degenerate or non-finite vertices) misses, tested on the bits (bsdf.wgsl's `is_nan_f32`
+    // is not in every module that includes this file).
+    return t > r.t_min && t < t_max && (bitcast<u32>(t) & 0x7fffffffu) <= 0x7f800000u;
 }
 
 // Ray-sphere test as Mitsuba's sphere.cpp: the origin is moved to the foot of the perpendicular from the

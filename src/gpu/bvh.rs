@@ -11,8 +11,12 @@
 //! scene).
 //!
 //! Deviations from the CPU tracer: the sphere test runs in f32 (the CPU uses f64), and an edge function
-//! that rounds to exactly 0 is recomputed with Dekker's exact products instead of f64. Node boxes are
-//! padded by a few ulps and the box exit distance scaled by `1 + 2 gamma(3)` (Ize, JCGT 2013), so
+//! whose rounded value might have the wrong sign (within 2^-21 of its operands' products, which covers
+//! exactly 0) is recomputed exactly in f32 expansion arithmetic instead of f64. The rounded edge
+//! functions are only trusted where their sign is exact whether or not a driver fuses their products
+//! into fused multiply-adds (WGSL cannot forbid that), so triangles sharing an edge or a vertex agree
+//! on every GPU (`gpu::watertight` models the test under every contraction and checks it). Node boxes
+//! are padded by a few ulps and the box exit distance scaled by `1 + 2 gamma(3)` (Ize, JCGT 2013), so
 //! rounding never culls a box a ray touches.
 //!
 //! Storage: nodes are 32 bytes and primitives 48 bytes, each array one storage binding; scenes whose
@@ -268,11 +272,17 @@ impl OccludedPass {
         OccludedPass { pipeline, bind_group_layout }
     }
 
-    /// Runs `queries` (split into dispatches of at most 1M) and reads the results back.
+    /// Runs `queries` (split into dispatches within the ray budget, `gpu::dispatch::plan_rays`) and
+    /// reads the results back.
     pub fn run(&self, ctx: &GpuContext, bvh: &GpuBvh, queries: &[OcclusionQuery]) -> Result<Vec<OcclusionResult>> {
         let device = &ctx.device;
         let mut out = Vec::with_capacity(queries.len());
-        for chunk in queries.chunks(1 << 20) {
+        if queries.len() > u32::MAX as usize {
+            return Err(Error::invalid(format!("{} shadow-ray queries in one batch: at most {}", queries.len(), u32::MAX)));
+        }
+        let plan = super::dispatch::plan_rays(queries.len() as u32, &super::dispatch::budget());
+        for d in plan.into_iter().filter(|d| d.count > 0) {
+            let chunk = &queries[d.first as usize..(d.first + d.count) as usize];
             let n = chunk.len() as u32;
             let (gx, gy, width) = dispatch_size(n);
             let params = storage_buffer(device, "OccludedPass::params", &[n, width, 0, 0], wgpu::BufferUsages::UNIFORM)?;

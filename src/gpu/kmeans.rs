@@ -40,7 +40,8 @@ pub struct GpuKMeansParams {
     pub budget: u32,
     pub max_shell: u32,
     pub slack: f32,
-    pub _pad0: u32,
+    /// First point (or centroid) of this dispatch (`gpu::dispatch::plan_kmeans`).
+    pub first_item: u32,
 }
 
 /// A data point or centroid as the WGSL `Point` (32 bytes): position, normal.
@@ -159,13 +160,22 @@ impl KMeansPass {
     }
 }
 
-/// The (x, y) workgroups of a dispatch of `threads` invocations: x at most `max_per_dimension`. Every
-/// workgroup of the grid runs (x * y may exceed the groups `threads` needs), so buffers written per
-/// workgroup are sized x * y.
-pub fn dispatch_grid(threads: usize, max_per_dimension: u32) -> (u32, u32) {
-    let groups = threads.div_ceil(WORKGROUP_SIZE as usize).max(1) as u64;
-    let gx = groups.min(max_per_dimension.max(1) as u64);
-    (gx as u32, groups.div_ceil(gx) as u32)
+/// Steps one item of `kernel` may take (`gpu::dispatch` module docs): `params.budget` per point for
+/// `assign` (its worst case), the chunk's centroids times F for `assign_chunk`, 2 F for the weights.
+fn kernel_cost(kernel: Kernel, params: &GpuKMeansParams) -> u64 {
+    let f = params.f.max(1) as u64;
+    match kernel {
+        Kernel::Assign => params.budget.max(1) as u64,
+        Kernel::AssignChunk => CHUNK.min(params.k.saturating_sub(params.chunk_start)).max(1) as u64 * f,
+        Kernel::FuzzyWeights => 2 * f,
+        _ => 1,
+    }
+}
+
+/// Objective partials of `n` points: one per workgroup of the accumulate dispatches, whose ranges are
+/// whole workgroups (but the last) in one row each, so they tile `ceil(n / 256)` slots.
+pub fn num_partials(n: usize) -> usize {
+    n.div_ceil(WORKGROUP_SIZE as usize).max(1)
 }
 
 /// Everything one K-means run or one fuzzy assignment keeps on the GPU.
@@ -245,7 +255,7 @@ impl KMeansBuffers {
             budget: DEFAULT_BUDGET,
             max_shell: *grid.dims.iter().max().unwrap_or(&1),
             slack: 1e-4 * grid.h + 8.0 * max_abs * f32::EPSILON,
-            _pad0: 0,
+            first_item: 0,
         };
         let upload = |label: &str, data: Vec<GpuPoint>| {
             super::alloc::buffer_init(
@@ -257,10 +267,8 @@ impl KMeansBuffers {
         };
         let pts = upload("KMeansPass::points", points.iter().zip(normals).map(|(p, q)| GpuPoint::new(*p, *q)).collect())?;
         let cts = upload("KMeansPass::centroids", centroids.iter().zip(centroid_normals).map(|(p, q)| GpuPoint::new(*p, *q)).collect())?;
-        // One objective partial per workgroup of the accumulate dispatch: its 2D grid can hold more
-        // workgroups than n needs (beyond 65,535 x 256 points), and each writes its slot.
-        let (gx, gy) = dispatch_grid(n, ctx.limits.max_compute_workgroups_per_dimension);
-        let groups = gx as usize * gy as usize;
+        // One objective partial per workgroup of the accumulate dispatches (`num_partials`).
+        let groups = num_partials(n);
         Ok(KMeansBuffers {
             pass: KMeansPass::shared(ctx),
             params,
@@ -279,13 +287,32 @@ impl KMeansBuffers {
         })
     }
 
+    /// `kernel` over `items` points or centroids, split into dispatches within the K-means work budget
+    /// (`gpu::dispatch::plan_kmeans`); each item is one invocation of one dispatch whatever the split.
     fn dispatch(
         &self,
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
         kernel: Kernel,
         params: &GpuKMeansParams,
-        threads: usize,
+        items: usize,
+    ) -> Result<()> {
+        let budget = super::dispatch::budget();
+        for d in super::dispatch::plan_kmeans(items as u32, kernel_cost(kernel, params), &budget) {
+            let p = GpuKMeansParams { first_item: d.first, ..*params };
+            self.dispatch_range(ctx, enc, kernel, &p, d.count)?;
+        }
+        Ok(())
+    }
+
+    /// One dispatch of `kernel` over `count` items from `params.first_item` (one row of workgroups).
+    fn dispatch_range(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        kernel: Kernel,
+        params: &GpuKMeansParams,
+        count: u32,
     ) -> Result<()> {
         let params_buf =
             super::alloc::buffer_init(&ctx.device, "KMeansPass::params", bytemuck::bytes_of(params), wgpu::BufferUsages::UNIFORM)?;
@@ -313,14 +340,14 @@ impl KMeansBuffers {
             layout: &self.pass.bind_group_layout,
             entries: &entries,
         });
-        let (gx, gy) = dispatch_grid(threads, ctx.limits.max_compute_workgroups_per_dimension);
+        let gx = count.div_ceil(WORKGROUP_SIZE).max(1);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(&format!("KMeansPass::{}", ENTRY_POINTS[kernel as usize])),
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.pass.pipelines[kernel as usize]);
         pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(gx, gy, 1);
+        pass.dispatch_workgroups(gx, 1, 1);
         Ok(())
     }
 

@@ -18,6 +18,8 @@ pub mod rows;
 pub mod scene_buffers;
 pub mod shaders;
 pub mod shadow;
+#[cfg(test)]
+pub mod watertight;
 pub mod wsi_env;
 
 pub use context::GpuContext;

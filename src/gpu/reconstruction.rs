@@ -7,10 +7,11 @@
 //!   frame_k(i) = sum_c Rec(c, k) * col_c(pi_{k0_c -> k}(i)).
 //!
 //! [`reconstruct`] renders every representative column in its own frame k0 with that frame's
-//! `GpuBackend` (`columns_on_gpu`: shadow maps + column pass into a GPU buffer), then one dispatch per
-//! (batch, window of target frames) walks each target pixel's chain of mappings back to frame k0, folds
-//! the delta-chain samples of the source pixel and adds the Rec-scaled columns of the batch to the
-//! frame's accumulator. Nothing is read back until every batch is done; then the accumulators are read
+//! `GpuBackend` (`columns_on_gpu`: shadow maps + column pass into a GPU buffer), then the dispatches of
+//! each (batch, window of target frames), split within the work budget (`gpu::dispatch`), walk each
+//! target pixel's chain of mappings back to frame k0, fold the delta-chain samples of the source pixel
+//! and add the Rec-scaled columns of the batch to the frame's accumulator (each (frame, pixel) by one
+//! invocation, so the split does not change a bit). Nothing is read back until every batch is done; then the accumulators are read
 //! once.
 //!
 //! Memory: the pixel mappings of the stretch of frames (2 (f - 1) P u32: call it per chunk of frames,
@@ -47,7 +48,7 @@ struct Params {
     num_frames: u32,
     window_start: u32,
     rec_frames: u32,
-    _pad2: u32,
+    first_item: u32,
     dispatch_width: u32,
     _pad0: u32,
     _pad1: u32,
@@ -203,6 +204,7 @@ pub fn reconstruct(
         })
         .collect::<Result<_>>()?;
     let (mut columns_seconds, mut reconstruction_seconds) = (0.0, 0.0);
+    let budget = super::dispatch::budget();
     for k0 in 0..f {
         let group: Vec<usize> = (0..representatives.len()).filter(|&c| source[c] as usize == k0).collect();
         if group.is_empty() {
@@ -224,6 +226,7 @@ pub fn reconstruct(
             extra_index[fill[px as usize] as usize] = (p + e) as u32;
             fill[px as usize] += 1;
         }
+        let max_extras = extra_start.windows(2).map(|w| (w[1] - w[0]) as u64).max().unwrap_or(0);
         let extra_start_buf = buffer(&ctx, "ReconstructionPass::extra_start", &extra_start)?;
         let extra_index_buf = buffer(&ctx, "ReconstructionPass::extra_index", &extra_index)?;
         let js: Vec<usize> = group.iter().map(|&c| representatives[c].0 as usize).collect();
@@ -253,47 +256,50 @@ pub fn reconstruct(
                     continue;
                 }
                 let num_frames = (last - first + 1) as u32;
-                let invocations = num_frames as u64 * p as u64;
-                let groups = invocations.div_ceil(WORKGROUP_SIZE as u64).max(1);
-                let gx = groups.min(ctx.limits.max_compute_workgroups_per_dimension.max(1) as u64) as u32;
-                let gy = groups.div_ceil(gx as u64) as u32;
-                let params = Params {
-                    num_pixels: p as u32,
-                    num_samples: m as u32,
-                    num_columns: batch.len() as u32,
-                    source_frame: k0 as u32,
-                    first_frame: first as u32,
-                    num_frames,
-                    window_start: a as u32,
-                    rec_frames: f as u32,
-                    _pad2: 0,
-                    dispatch_width: gx,
-                    _pad0: 0,
-                    _pad1: 0,
-                };
-                let params_buf = super::alloc::buffer_init(
-                    &ctx.device,
-                    "ReconstructionPass::params",
-                    bytemuck::bytes_of(&params),
-                    wgpu::BufferUsages::UNIFORM,
-                )?;
-                encode_dispatch(
-                    &ctx.device,
-                    &mut encoder,
-                    "ReconstructionPass",
-                    (&pass.pipeline, &pass.bind_group_layout),
-                    &[
-                        params_buf.as_entire_binding(),
-                        columns.as_entire_binding(),
-                        rec_buf.as_entire_binding(),
-                        forward_buf.as_entire_binding(),
-                        backward_buf.as_entire_binding(),
-                        extra_start_buf.as_entire_binding(),
-                        extra_index_buf.as_entire_binding(),
-                        accs[wi].as_entire_binding(),
-                    ],
-                    (gx, gy),
-                );
+                // Work per (target frame, pixel): the mapping chain back to k0, then every column's
+                // sample and the most extras of one pixel (`gpu::dispatch::plan_reconstruction`).
+                let chain = (first.abs_diff(k0)).max(last.abs_diff(k0)) as u64;
+                let cost = chain + batch.len() as u64 * (1 + max_extras);
+                for d in super::dispatch::plan_reconstruction(num_frames * p as u32, cost, &budget) {
+                    let gx = d.count.div_ceil(WORKGROUP_SIZE).max(1);
+                    let params = Params {
+                        num_pixels: p as u32,
+                        num_samples: m as u32,
+                        num_columns: batch.len() as u32,
+                        source_frame: k0 as u32,
+                        first_frame: first as u32,
+                        num_frames,
+                        window_start: a as u32,
+                        rec_frames: f as u32,
+                        first_item: d.first,
+                        dispatch_width: gx,
+                        _pad0: 0,
+                        _pad1: 0,
+                    };
+                    let params_buf = super::alloc::buffer_init(
+                        &ctx.device,
+                        "ReconstructionPass::params",
+                        bytemuck::bytes_of(&params),
+                        wgpu::BufferUsages::UNIFORM,
+                    )?;
+                    encode_dispatch(
+                        &ctx.device,
+                        &mut encoder,
+                        "ReconstructionPass",
+                        (&pass.pipeline, &pass.bind_group_layout),
+                        &[
+                            params_buf.as_entire_binding(),
+                            columns.as_entire_binding(),
+                            rec_buf.as_entire_binding(),
+                            forward_buf.as_entire_binding(),
+                            backward_buf.as_entire_binding(),
+                            extra_start_buf.as_entire_binding(),
+                            extra_index_buf.as_entire_binding(),
+                            accs[wi].as_entire_binding(),
+                        ],
+                        (gx, 1),
+                    );
+                }
             }
             let submission = ctx.queue.submit(Some(encoder.finish()));
             crate::interrupt::wait_gpu(&ctx.device, Some(submission), "a tensor reconstruction batch")?;

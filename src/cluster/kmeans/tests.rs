@@ -303,3 +303,25 @@ fn view_sample_clustering_downsamples_then_assigns_everything() {
     assert_eq!(gpu.subset, cpu.subset);
     assert_eq!(gpu.kmeans.initial, cpu.kmeans.initial);
 }
+
+#[test]
+fn split_dispatches_give_bit_identical_results() {
+    // A tiny work budget sends every kernel out in dispatches of one 256-point workgroup (the objective
+    // partials at their offsets, the exhaustive chunks split by points): nothing may change by a bit.
+    use crate::gpu::dispatch::with_budget;
+    let ctx = ctx();
+    let (pts, nrm) = uniform_points(3000, 41);
+    let q = KMeansParams { k: 40, max_iterations: 3, cos_threshold: Some(DEFAULT_COS_THRESHOLD), ..KMeansParams::new(40) };
+    let whole = kmeans_gpu_with_budget(&ctx, &pts, &nrm, &q, None).unwrap();
+    let split = with_budget(100, || kmeans_gpu_with_budget(&ctx, &pts, &nrm, &q, None)).unwrap();
+    assert_eq!(split.assignment, whole.assignment);
+    assert_eq!(split.centroids, whole.centroids);
+    assert_eq!(split.objective, whole.objective);
+    assert!(whole.objective.len() == 4 && whole.objective[0] > 0.0);
+    let (c, cn) = (&whole.centroids, &whole.centroid_normals);
+    for grid in [true, false] {
+        let a = fuzzy_membership_gpu_with_budget(&ctx, &pts, &nrm, c, cn, 4, None, grid, None).unwrap();
+        let b = with_budget(100, || fuzzy_membership_gpu_with_budget(&ctx, &pts, &nrm, c, cn, 4, None, grid, None)).unwrap();
+        assert_eq!((&a.clusters, &a.distances2, &a.weights), (&b.clusters, &b.distances2, &b.weights));
+    }
+}

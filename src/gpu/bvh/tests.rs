@@ -170,3 +170,20 @@ fn contact_edge_rays_are_free() {
         assert!(!tracer.occluded(*p, *n, q) && !g.occluded && !g.gave_up, "p {p} n {n}: gpu {g:?}");
     }
 }
+
+#[test]
+fn split_dispatches_give_identical_results() {
+    // A tiny ray budget sends 3,000 queries out in dispatches of 64: the same hits and the same steps.
+    let ctx = GpuContext::shared().unwrap();
+    let scene = load_shared("cbox-lights");
+    let tracer = RayTracer::new(&scene).unwrap();
+    let bvh = GpuBvh::upload(&ctx.device, &scene, 1 << 27).unwrap();
+    let queries = random_queries(&scene, &tracer, 3000, 5);
+    let pass = OccludedPass::new(&ctx.device);
+    let whole = pass.run(&ctx, &bvh, &queries).unwrap();
+    let split = crate::gpu::dispatch::with_budget(64, || pass.run(&ctx, &bvh, &queries)).unwrap();
+    assert_eq!(crate::gpu::dispatch::with_budget(64, || crate::gpu::dispatch::plan_rays(3000, &crate::gpu::dispatch::budget())).len(), 47);
+    assert_eq!(split, whole);
+    let blocked = whole.iter().filter(|r| r.occluded).count();
+    assert!(blocked > 300 && blocked < 2700, "{blocked} of 3000 blocked");
+}

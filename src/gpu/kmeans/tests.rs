@@ -26,13 +26,10 @@ fn grid_sizes_follow_the_target_and_flat_boxes() {
 }
 
 #[test]
-fn objective_partials_cover_every_workgroup_of_the_dispatch() {
-    // Beyond 65,535 x 256 points the 2D grid holds more workgroups than the points need; each writes a
-    // partial, so the buffer is sized for the grid (the old 1D count wrote past its end).
-    let n = 65_535 * 256 + 1;
-    let (gx, gy) = dispatch_grid(n, 65_535);
-    assert_eq!((gx, gy), (65_535, 2));
-    assert!(gx as usize * gy as usize > n.div_ceil(256));
-    assert_eq!(dispatch_grid(1000, 65_535), (4, 1));
-    assert_eq!(dispatch_grid(0, 65_535), (1, 1));
+fn objective_partials_are_one_per_workgroup() {
+    // The accumulate dispatches are rows of whole workgroups (`gpu::dispatch::plan_kmeans`), so the
+    // partials tile ceil(n / 256) slots; 65,535 x 256 + 1 points take two dispatches, not a 2D grid.
+    assert_eq!(num_partials(65_535 * 256 + 1), 65_536);
+    assert_eq!(num_partials(1000), 4);
+    assert_eq!(num_partials(0), 1);
 }

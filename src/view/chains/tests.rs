@@ -248,6 +248,10 @@ fn gpu_tensor_reconstruction_folds_chain_samples_like_the_cpu() {
         cpu.iter().zip(&gpu.frames).fold((0f64, 0f64), |(n, d), (&c, &g)| (n + ((c - g) as f64).powi(2), d + (c as f64).powi(2)));
     assert!(den > 0.0 && (num / den).sqrt() < 1e-6, "relative L2 {}", (num / den).sqrt());
     assert!(gpu.columns_seconds > 0.0 && gpu.reconstruction_seconds > 0.0);
+    // A tiny work budget splits the column passes and the reconstruction into dispatches of one
+    // workgroup: the same frames bit for bit.
+    let split = crate::gpu::dispatch::with_budget(64, || crate::gpu::reconstruction::reconstruct(&frames, &reps, &rec, &fw, &bw)).unwrap();
+    assert!(split.frames == gpu.frames, "split reconstruction differs");
     // A light out of range and a matrix on the CPU are named errors.
     let e = crate::gpu::reconstruction::reconstruct(&frames, &[(n as u32, 0)], &rec[..f * 3], &fw, &bw).unwrap_err().to_string();
     assert!(e.contains(&format!("light {n} of frame 0")), "{e}");
