@@ -7,7 +7,7 @@ use crate::cluster::kmeans::{bounds, Quantiser};
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{storage, uniform};
 use crate::gpu::shaders;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::Arc;
 
 /// Threads per workgroup (mirrored in `shaders/kmeans.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 256;
@@ -149,14 +149,7 @@ impl KMeansPass {
 
     /// The pass for `ctx`'s device, built on first use.
     pub fn shared(ctx: &GpuContext) -> Arc<KMeansPass> {
-        static PASSES: OnceLock<Mutex<Vec<(wgpu::Device, Arc<KMeansPass>)>>> = OnceLock::new();
-        let mut passes = PASSES.get_or_init(|| Mutex::new(Vec::new())).lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, p)) = passes.iter().find(|(d, _)| *d == ctx.device) {
-            return p.clone();
-        }
-        let p = Arc::new(KMeansPass::new(&ctx.device));
-        passes.push((ctx.device.clone(), p.clone()));
-        p
+        crate::gpu::pipeline::shared_pass(&ctx.device, KMeansPass::new)
     }
 }
 

@@ -28,7 +28,7 @@ use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::gpu::shaders;
 use crate::matrix::LightMatrix;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::Arc;
 
 /// Threads per workgroup (mirrored in `shaders/reconstruction.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
@@ -82,14 +82,7 @@ impl ReconstructionPass {
 
     /// The pass for `ctx`'s device, built on first use.
     pub fn shared(ctx: &GpuContext) -> Arc<ReconstructionPass> {
-        static PASSES: OnceLock<Mutex<Vec<(wgpu::Device, Arc<ReconstructionPass>)>>> = OnceLock::new();
-        let mut passes = PASSES.get_or_init(|| Mutex::new(Vec::new())).lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, p)) = passes.iter().find(|(d, _)| *d == ctx.device) {
-            return p.clone();
-        }
-        let p = Arc::new(ReconstructionPass::new(&ctx.device));
-        passes.push((ctx.device.clone(), p.clone()));
-        p
+        crate::gpu::pipeline::shared_pass(&ctx.device, ReconstructionPass::new)
     }
 }
 
