@@ -490,10 +490,12 @@ fn fuzzy_weights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     // Eq. 10 over the admissible clusters (1/inf = 0 for the others); all of them when none is.
     let any_admissible = (best_idx[b] & INADMISSIBLE) == 0u;
     var zeros = 0u;
+    var n_used = 0u;
     var total = 0.0;
     for (var j = 0u; j < f; j = j + 1u) {
         let used = !any_admissible || (best_idx[b + j] & INADMISSIBLE) == 0u;
         if used {
+            n_used = n_used + 1u;
             let d2 = best_d2[b + j];
             if d2 == 0.0 {
                 zeros = zeros + 1u;
@@ -509,6 +511,9 @@ fn fuzzy_weights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
         if used {
             if zeros > 0u {
                 w = select(0.0, 1.0 / f32(zeros), d2 == 0.0);
+            } else if n_used == 1u {
+                // Exactly 1: hardware division and sqrt are approximate (WGSL allows 2.5 ULP), x / x need not be 1.
+                w = 1.0;
             } else {
                 w = (1.0 / sqrt(d2)) / total;
             }

@@ -20,6 +20,7 @@ pub mod scene;
 pub mod shading;
 #[cfg(test)]
 pub(crate) mod testing;
+pub mod threads;
 pub mod view;
 
 #[cfg(feature = "python")]

@@ -109,7 +109,7 @@ fn read_u64(path: &str) -> Option<u64> {
 /// Room left under the process's address-space and data-segment limits (`ulimit -v`, RLIMIT_AS, against
 /// `VmSize`; `ulimit -d`, RLIMIT_DATA, against `VmData`), the smaller; None when neither is set. An
 /// allocation past either fails, and Rust aborts the process on a failed allocation.
-fn rlimit_remaining() -> Option<u64> {
+pub fn rlimit_remaining() -> Option<u64> {
     let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     rlimit_room(&limits, &status)

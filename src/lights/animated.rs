@@ -222,7 +222,7 @@ pub fn generate_animation_lights(frames: &[&Scene], opts: &AnimationLightOptions
             } else if env_set.len() != env_count {
                 return Err(Error::invalid(format!("frame {k} has {} environment lights but frame 0 has {env_count}", env_set.len())));
             }
-            set.extend(&env_set);
+            set.extend(&env_set)?;
         } else if k > 0 && env_count > 0 {
             return Err(Error::invalid(format!("frame {k} has no environment emitter but frame 0 has one")));
         }

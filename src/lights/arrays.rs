@@ -279,7 +279,7 @@ impl LightSet {
         let mut out = LightSet::new(first.scene_center, first.scene_radius);
         out.vpl_clamp = clamp.unwrap_or(first.vpl_clamp);
         for s in sets {
-            out.extend(s);
+            out.extend(s)?;
         }
         Ok(out)
     }

@@ -139,6 +139,36 @@ fn check_vec(what: &str, j: usize, v: Vec3, nonneg: bool) -> Result<()> {
 
 impl LightSet {
     /// An empty set for the scene whose bounding sphere is (center, radius).
+    /// Reserve room for `additional` more lights in every array at once, exactly (no doubling), failing
+    /// with `OutOfMemory` instead of aborting the process when the allocator refuses (an address-space
+    /// or data limit that other threads' allocations used up after `memory::check_host` passed).
+    pub fn try_reserve(&mut self, additional: usize) -> Result<()> {
+        let fail = |e: std::collections::TryReserveError| {
+            Error::OutOfMemory(format!("LightSet: room for {additional} more lights could not be allocated ({e})"))
+        };
+        macro_rules! reserve {
+            ($($f:ident),*) => { $( self.$f.try_reserve_exact(additional).map_err(fail)?; )* };
+        }
+        reserve!(
+            kind,
+            position,
+            direction,
+            intensity,
+            normal,
+            geo_normal,
+            incident,
+            bsdf,
+            cutoff_angle,
+            beam_width,
+            spot_texture,
+            patch,
+            vsl_radius,
+            mis_measure,
+            mis_mesh
+        );
+        Ok(())
+    }
+
     pub fn new(scene_center: Vec3, scene_radius: f32) -> Self {
         LightSet { scene_center, scene_radius, vpl_clamp: f32::INFINITY, ..Default::default() }
     }
@@ -261,7 +291,10 @@ impl LightSet {
     }
 
     /// Append every light of `other` (same scene sphere expected; `vpl_clamp` is kept from `self`).
-    pub fn extend(&mut self, other: &LightSet) {
+    ///
+    /// Errors: `OutOfMemory` when the room cannot be allocated (`try_reserve`).
+    pub fn extend(&mut self, other: &LightSet) -> Result<()> {
+        self.try_reserve(other.len())?;
         self.kind.extend_from_slice(&other.kind);
         self.position.extend_from_slice(&other.position);
         self.direction.extend_from_slice(&other.direction);
@@ -277,6 +310,7 @@ impl LightSet {
         self.mis_measure.extend_from_slice(&other.mis_measure);
         self.mis_mesh.extend_from_slice(&other.mis_mesh);
         self.vsl_radius.extend_from_slice(&other.vsl_radius);
+        Ok(())
     }
 
     /// Make VPL j a virtual spherical light of radius `r` (m; `vsl` module), or a point VPL with r = 0.

@@ -27,6 +27,7 @@ pub mod variance;
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
+    crate::threads::start_global_pool()?;
     signals::install();
     crate::gpu::wsi_env::quiet_device_select();
     scene::register(m)?;

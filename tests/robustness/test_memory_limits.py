@@ -90,25 +90,44 @@ def test_bad_memory_limit_setting(matrix, monkeypatch):
 
 # --- Address-space and data-segment limits (ulimit -v / ulimit -d) -------------------------------------------
 # Each request runs in a child process whose limit is set before it starts; without the limit in the policy
-# the allocation fails inside Rust and the process aborts (SIGABRT, "memory allocation failed").
+# the allocation fails inside Rust and the process aborts (SIGABRT, "memory allocation failed"). The limit is
+# the address space the child itself uses before the request (measured in an unlimited child: it differs
+# between machines, with the number of cores and the libraries numpy brings) plus a margin smaller than the
+# request, so the test asks the same question everywhere.
 ULIMIT_CHILD = r"""
 import sys, manylights as ml
-which = sys.argv[1]
+which, measure = sys.argv[1], len(sys.argv) > 3
+
+def vm_kib():
+    f = {l.split(":")[0]: l.split()[1] for l in open("/proc/self/status") if l.startswith(("VmSize:", "VmData:"))}
+    return f["VmSize"] + " " + f["VmData"]
+
 s = ml.load_scene(sys.argv[2], res=32)
 try:
     if which == "columns":
-        ml.LightMatrix(s, ml.generate_lights(s, area=64, seed=0), device="cpu").columns([0] * 150000)
+        A = ml.LightMatrix(s, ml.generate_lights(s, area=64, seed=0), device="cpu")
+        A.columns([0] * 16)
+        if measure:
+            print("VM", vm_kib()); sys.exit(0)
+        A.columns([0] * 150000)
     elif which == "generate_lights":
+        ml.generate_lights(s, area=1000, seed=0)
+        if measure:
+            print("VM", vm_kib()); sys.exit(0)
         ml.generate_lights(s, area=8_000_000, seed=0)
-    elif which == "gpu columns":
+    elif which in ("gpu columns", "gpu device"):
         L = ml.generate_lights(s, area=64, seed=0)
+        if measure and which == "gpu device":
+            print("VM", vm_kib()); sys.exit(0)
         try:
             A = ml.LightMatrix(s, L, device="gpu", shadow_map_size=64)
-        except MemoryError:
-            raise
-        except Exception as e:  # no adapter on this machine
-            print("NO GPU:", e)
+        except ml.GpuUnavailableError as e:
+            print("GpuUnavailableError:", e)
+            print("auto:", ml.LightMatrix(s, L, device="auto", shadow_map_size=64).device["kind"], ml.device_info("auto"))
             sys.exit(0)
+        A.columns([0] * 16)
+        if measure:
+            print("VM", vm_kib()); sys.exit(0)
         A.columns([0] * 300000)
     print("RETURNED")
 except MemoryError as e:
@@ -116,32 +135,65 @@ except MemoryError as e:
 """
 
 
-@pytest.mark.parametrize("limit", ["RLIMIT_AS", "RLIMIT_DATA"])
-@pytest.mark.parametrize("which", ["columns", "generate_lights", "gpu columns"])
-def test_requests_past_an_address_space_limit_raise_memoryerror_in_a_child(which, limit):
+def _ulimit_child(which: str, limit: str | None, kib: int = 0):
     import resource
     import subprocess
     import sys
     from pathlib import Path
 
-    if limit == "RLIMIT_DATA" and which == "gpu columns":
-        pytest.skip("one GPU case (ulimit -v) suffices")
     repo = Path(__file__).resolve().parents[2]
-    lim = getattr(resource, limit)
-
-    # ulimit -v 1500000 (KiB) / ulimit -d 1500000; 2000000 with a GPU device: Mesa's software driver reserves
-    # about 1.5 GB of address space compiling the passes' shaders, and crashes (SIGSEGV) when it cannot.
-    kib = 2_000_000 if which == "gpu columns" else 1_500_000
 
     def set_limit():
-        resource.setrlimit(lim, (kib * 1024, resource.RLIM_INFINITY))
+        if limit:
+            lim = getattr(resource, limit)
+            resource.setrlimit(lim, (kib * 1024, resource.RLIM_INFINITY))
 
-    p = subprocess.run([sys.executable, "-c", ULIMIT_CHILD, which, str(repo / "scenes" / "demo" / "scene.xml")],
-                       preexec_fn=set_limit, capture_output=True, text=True, timeout=300,
-                       env={**__import__("os").environ, "PYTHONPATH": str(repo / "python")})
+    args = [sys.executable, "-c", ULIMIT_CHILD, which, str(repo / "scenes" / "demo" / "scene.xml")]
+    if limit is None:
+        args.append("measure")
+    # The first adapter (hardware before software): MANYLIGHTS_ADAPTER would turn device="auto"'s fallback
+    # into an error.
+    env = {k: v for k, v in __import__("os").environ.items() if k != "MANYLIGHTS_ADAPTER"}
+    p = subprocess.run(args, preexec_fn=set_limit, capture_output=True, text=True, timeout=300,
+                       env={**env, "PYTHONPATH": str(repo / "python")})
     assert p.returncode == 0, f"exit status {p.returncode} (an abort is -6): {p.stderr[-1500:]}"
-    if p.stdout.startswith("NO GPU:"):
-        pytest.skip(p.stdout.strip())
+    return p
+
+
+def _vm_kib(which: str, limit: str = "RLIMIT_AS") -> int:
+    """KiB of address space (RLIMIT_AS: VmSize) or data segment (RLIMIT_DATA: VmData) the child uses before its
+    request."""
+    p = _ulimit_child(which, None)
+    if p.stdout.startswith("GpuUnavailableError:"):
+        pytest.skip("no GPU adapter: " + p.stdout.splitlines()[0])
+    size, data = p.stdout.split("VM")[1].split()[:2]
+    return int(size if limit == "RLIMIT_AS" else data)
+
+
+@pytest.mark.parametrize("limit", ["RLIMIT_AS", "RLIMIT_DATA"])
+@pytest.mark.parametrize("which", ["columns", "generate_lights", "gpu columns"])
+def test_requests_past_an_address_space_limit_raise_memoryerror_in_a_child(which, limit):
+    if limit == "RLIMIT_DATA" and which == "gpu columns":
+        pytest.skip("one GPU case (ulimit -v) suffices")
+    # Room of 1 GB (1.5 GB with a GPU device, which must keep its driver's reserve at device creation) for
+    # requests of 1.84, 1.89 and 3.69 GB.
+    margin = 1_500_000 if which == "gpu columns" else 1_000_000
+    kib = _vm_kib(which, limit) + margin
+    if which == "gpu columns":
+        kib = max(kib, _vm_kib("gpu device", limit) + 2_400_000)
+    p = _ulimit_child(which, limit, kib)
     assert p.stdout.startswith("MemoryError:"), p.stdout + p.stderr[-1500:]
     needs = {"columns": "1.84 GB", "gpu columns": "3.69 GB", "generate_lights": "1.89 GB"}[which]
     assert needs in p.stdout and "ulimit -v / -d" in p.stdout, p.stdout
+
+
+def test_no_gpu_device_is_created_under_a_limit_its_driver_cannot_work_in():
+    """GPU drivers reserve about 2 GB of address space creating a device and compiling shaders and abort the
+    process when they cannot (NVIDIA's: "LLVM ERROR: out of memory"); under a limit leaving 1 GB of room,
+    device="gpu" raises GpuUnavailableError naming the limit and device="auto" runs on the CPU, saying why."""
+    kib = _vm_kib("gpu device") + 1_000_000
+    p = _ulimit_child("gpu device", "RLIMIT_AS", kib)
+    assert p.stdout.startswith("GpuUnavailableError:"), p.stdout + p.stderr[-1500:]
+    assert "ulimit -v" in p.stdout and "2.15 GB" in p.stdout, p.stdout
+    auto = p.stdout.split("auto:")[1]
+    assert auto.split()[0] == "cpu" and "ulimit -v" in auto, auto

@@ -115,3 +115,13 @@ fn a_pipeline_the_device_refuses_outside_any_scope_is_an_error_at_the_next_wait_
     let buf = crate::gpu::alloc::buffer_init(&ctx.device, "test", bytemuck::cast_slice(&[1u32, 2]), wgpu::BufferUsages::COPY_SRC).unwrap();
     assert_eq!(ctx.read_buffer::<u32>(&buf, 0, 2).unwrap(), [1, 2]);
 }
+
+#[test]
+fn no_device_is_created_where_the_address_space_limit_leaves_less_than_a_driver_reserves() {
+    assert!(check_driver_room(None).is_ok());
+    assert!(check_driver_room(Some(DRIVER_ADDRESS_SPACE)).is_ok());
+    match check_driver_room(Some(DRIVER_ADDRESS_SPACE - 1)) {
+        Err(Error::GpuUnavailable(m)) => assert!(m.contains("ulimit -v") && m.contains("2.15 GB"), "{m}"),
+        other => panic!("expected GpuUnavailable, got {other:?}"),
+    }
+}

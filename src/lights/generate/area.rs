@@ -29,7 +29,7 @@
 //! emitters for particles) is then the mean of L over 4096 stratified surface points; particles carry
 //! L at their own uv.
 use super::sampling::{equal_area_cells, stream, uniform, uniform_triangle, STREAM_AREA};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::lights::{patch, LightSet};
 use crate::scene::texture::eval as eval_texture;
 use crate::scene::{Emitter, Scene, ShapeKind, Texture};
@@ -291,7 +291,9 @@ pub fn area_lights_tied(
     radius: f32,
 ) -> Result<(LightSet, Vec<(usize, SurfaceTie)>)> {
     let mut set = LightSet::new(center, radius);
+    set.try_reserve(n)?;
     let mut ties = Vec::new();
+    ties.try_reserve_exact(n).map_err(|e| Error::OutOfMemory(format!("area lights: room for {n} lights' ties ({e})")))?;
     let weights: Vec<f64> = emitters.iter().map(|e| e.power().element_sum() as f64).collect();
     let counts = split_counts(&weights, n);
     for (e, (emitter, &n_e)) in emitters.iter().zip(&counts).enumerate() {

@@ -172,6 +172,7 @@ impl Environment {
         if n == 0 {
             return Ok(set);
         }
+        set.try_reserve(n)?;
         let push = |set: &mut LightSet, e: Vec3, centroid: Vec3, fallback: Vec3| -> Result<()> {
             let c = centroid.normalize_or_zero();
             let d = if c == Vec3::ZERO { fallback } else { c };

@@ -156,10 +156,10 @@ pub fn generate_lights(scene: &Scene, opts: &GenerateOptions) -> Result<LightSet
     let mut set = LightSet::from_scene(scene)?;
     set.vpl_clamp = clamp;
     let areas = area::area_emitters(scene);
-    set.extend(&area::area_lights(&areas, opts.area, opts.seed, center, radius)?);
+    set.extend(&area::area_lights(&areas, opts.area, opts.seed, center, radius)?)?;
     let env = environment::Environment::from_scene(scene);
     if let Some(env) = &env {
-        set.extend(&env.strata_lights(opts.environment, opts.env_importance, opts.seed, center, radius)?);
+        set.extend(&env.strata_lights(opts.environment, opts.env_importance, opts.seed, center, radius)?)?;
     }
     if let Some(v) = &opts.vsl {
         crate::lights::vsl::check_scale(v.scale)?;
@@ -172,7 +172,7 @@ pub fn generate_lights(scene: &Scene, opts: &GenerateOptions) -> Result<LightSet
         if let Some(v) = &opts.vsl {
             vpls.vsl_radius = crate::lights::vsl::radii(&vpls.position, v.neighbours, v.scale, radius)?;
         }
-        set.extend(&vpls);
+        set.extend(&vpls)?;
     }
     Ok(set)
 }
