@@ -56,8 +56,15 @@ def save_failure_images(name: str, **images) -> Path:
 
 @pytest.fixture(scope="session")
 def mitsuba_ref():
-    """The reference module with Mitsuba imported (skips nothing: Mitsuba is a test dependency)."""
+    """The reference module with Mitsuba imported. Mitsuba is a test dependency, so nothing is skipped, except
+    where ``MANYLIGHTS_SKIP_MITSUBA=1`` says this machine has none (``make gpu-check`` on a GPU machine that
+    has only the built extension)."""
+    import os
+
     from manylights.testing import mitsuba as reference
+
+    if os.environ.get("MANYLIGHTS_SKIP_MITSUBA") == "1":
+        pytest.skip("MANYLIGHTS_SKIP_MITSUBA=1: no Mitsuba on this machine")
 
     reference.mitsuba()
     return reference

@@ -53,6 +53,13 @@ SWEEPS = {
     "lights": [1024, 4096, 16384, 65536, 262144, 1048576],
     "triangles": [8192, 32768, 131072, 524288, 2097152],
 }
+#: ``--small``: a quick sweep (seconds per point) for checking a backend, e.g. on a GPU machine.
+BASE_SMALL = (128, 96, 4096, 32768)
+SWEEPS_SMALL = {
+    "pixels": [(64, 48), (128, 96), (256, 192)],
+    "lights": [1024, 4096, 16384],
+    "triangles": [8192, 32768, 131072],
+}
 ROWS, COLUMNS = 300, 900
 
 
@@ -61,6 +68,13 @@ def add_parser(sub) -> None:
                                      "and the paper-size point (1024x768, 100k lights, 2M triangles)")
     p.add_argument("--axes", nargs="+", default=["pixels", "lights", "triangles", "paper"],
                    choices=["pixels", "lights", "triangles", "paper"])
+    p.add_argument("--device", default="cpu", choices=["cpu", "gpu", "auto"],
+                   help="the LightMatrix backend (default cpu)")
+    p.add_argument("--visibility", default=None, choices=["ray_traced", "hybrid", "shadow_map"],
+                   help="the LightMatrix's shadow tests (default: the backend's own)")
+    p.add_argument("--small", action="store_true",
+                   help="a quick sweep around 128x96 pixels, 4,096 lights, 32,768 triangles (the paper point stays "
+                        "the paper's size)")
     p.add_argument("--point", help="internal: run one point (JSON [width, height, lights, triangles]) in this "
                                    "process and print its result as JSON")
     p.add_argument("--out", default="docs/bench")
@@ -122,10 +136,12 @@ def write_scene(folder: Path, triangles: int) -> Path:
     return path
 
 
-def point(width: int, height: int, lights: int, triangles: int) -> dict:
+def point(width: int, height: int, lights: int, triangles: int, device: str = "cpu",
+          visibility: str | None = None) -> dict:
     """One point in this process: write and load the scene at ``width`` x ``height``, generate ``lights``
-    lights (a quarter area points, the rest VPLs; seed 0), build the CPU ``LightMatrix`` and render MRCS
-    300/900. Returns seconds per stage, the matrix shape and the process's peak resident memory (MB)."""
+    lights (a quarter area points, the rest VPLs; seed 0), build the ``LightMatrix`` on ``device``
+    (``"cpu"``, ``"gpu"`` or ``"auto"``; ``visibility`` as ``LightMatrix`` takes it) and render MRCS 300/900. Returns seconds per stage, the matrix shape,
+    the device that ran and the process's peak resident memory (MB; host memory only)."""
     import manylights as ml
 
     sec = {}
@@ -141,23 +157,25 @@ def point(width: int, height: int, lights: int, triangles: int) -> dict:
     ls = ml.generate_lights(scene, area=area, indirect=lights - area, seed=0)
     sec["lights"] = time.perf_counter() - t
     t = time.perf_counter()
-    A = ml.LightMatrix(scene, ls, device="cpu")
+    A = ml.LightMatrix(scene, ls, device=device, visibility=visibility)
     sec["matrix"] = time.perf_counter() - t
     t = time.perf_counter()
     res = ml.mrcs(A, rows=ROWS, columns=COLUMNS, seed=0, progress=False)
     sec["mrcs"] = time.perf_counter() - t
     return {"width": width, "height": height, "pixels": width * height, "lights": int(A.shape[1]),
-            "view_samples": int(A.shape[0]), "triangles": triangles, "seconds": sec,
+            "view_samples": int(A.shape[0]), "triangles": triangles, "device": A.device,
+            "visibility": A.visibility, "seconds": sec,
             "mrcs_stages": {k: float(v) for k, v in res.timings.items()},
             "total_seconds": float(sum(sec.values())),
             "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
 
 
-def run_point(width: int, height: int, lights: int, triangles: int) -> dict:
+def run_point(width: int, height: int, lights: int, triangles: int, device: str = "cpu",
+              visibility: str | None = None) -> dict:
     """``point`` in a fresh Python process (its own peak memory). Raises RuntimeError when it fails."""
     arg = json.dumps([width, height, lights, triangles])
-    p = subprocess.run([sys.executable, "-m", "manylights.bench", "scale", "--point", arg],
-                       capture_output=True, text=True)
+    p = subprocess.run([sys.executable, "-m", "manylights.bench", "scale", "--point", arg, "--device", device]
+                       + (["--visibility", visibility] if visibility else []), capture_output=True, text=True)
     if p.returncode != 0:
         raise RuntimeError(f"bench scale point {arg} failed ({p.returncode}):\n{p.stderr[-2000:]}")
     return json.loads(p.stdout.strip().splitlines()[-1])
@@ -168,16 +186,18 @@ def slope(xs, ys) -> float:
     return float(np.polyfit(np.log(np.asarray(xs, float)), np.log(np.asarray(ys, float)), 1)[0])
 
 
-def plan(axes) -> list[tuple[str, tuple]]:
-    """(axis, (width, height, lights, triangles)) of every point the ``axes`` ask for, in order."""
-    w, h, n, tri = BASE
+def plan(axes, small: bool = False) -> list[tuple[str, tuple]]:
+    """(axis, (width, height, lights, triangles)) of every point the ``axes`` ask for, in order (``small``:
+    the quick sweep around ``BASE_SMALL``)."""
+    w, h, n, tri = BASE_SMALL if small else BASE
+    sweeps = SWEEPS_SMALL if small else SWEEPS
     out = []
     if "pixels" in axes:
-        out += [("pixels", (pw, ph, n, tri)) for pw, ph in SWEEPS["pixels"]]
+        out += [("pixels", (pw, ph, n, tri)) for pw, ph in sweeps["pixels"]]
     if "lights" in axes:
-        out += [("lights", (w, h, pn, tri)) for pn in SWEEPS["lights"]]
+        out += [("lights", (w, h, pn, tri)) for pn in sweeps["lights"]]
     if "triangles" in axes:
-        out += [("triangles", (w, h, n, pt)) for pt in SWEEPS["triangles"]]
+        out += [("triangles", (w, h, n, pt)) for pt in sweeps["triangles"]]
     if "paper" in axes:
         out.append(("paper", PAPER))
     return out
@@ -186,18 +206,19 @@ def plan(axes) -> list[tuple[str, tuple]]:
 def run(args) -> dict:
     if args.point:
         w, h, n, tri = json.loads(args.point)
-        print(json.dumps(point(int(w), int(h), int(n), int(tri))), flush=True)
+        print(json.dumps(point(int(w), int(h), int(n), int(tri), args.device, args.visibility)), flush=True)
         return {}
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    summary = {"rows": ROWS, "columns": COLUMNS, "base": BASE, "paper": PAPER, "points": [], "slopes": {}}
+    summary = {"rows": ROWS, "columns": COLUMNS, "base": BASE_SMALL if args.small else BASE, "paper": PAPER,
+               "device": args.device, "visibility": args.visibility, "points": [], "slopes": {}}
 
     def save():
         atomic_write_text(out / "scale.json", json.dumps(summary, indent=1) + "\n")
 
     key = {"pixels": "pixels", "lights": "lights", "triangles": "triangles"}
-    for axis, p in plan(args.axes):
-        r = run_point(*p)
+    for axis, p in plan(args.axes, args.small):
+        r = run_point(*p, device=args.device, visibility=args.visibility)
         r["axis"] = axis
         summary["points"].append(r)
         print(f"{axis:>9}: {r['width']}x{r['height']} {r['lights']:>8} lights {r['triangles']:>8} triangles: "
