@@ -56,7 +56,7 @@ impl LightMatrix {
             device = Device::Gpu;
         }
         let chosen = py.detach(move || device.choose())?;
-        let visibility = visibility.unwrap_or(if chosen.is_cpu() { Visibility::RayTraced } else { Visibility::Hybrid });
+        let visibility = visibility.unwrap_or_else(|| chosen.default_visibility());
         let mut view = scene.view_samples_on(py, chains, &chosen)?;
         if glossy.roughness > 0.0
             && (0..view.len()).any(|i| crate::matrix::glossy::glossy_alpha(&view.bsdf, i).is_some_and(|a| a < glossy.roughness))

@@ -76,8 +76,10 @@ def test_renderers_give_the_same_image_on_both_backends(pair, method):
 
 def test_gpu_hybrid_visibility_is_close_to_the_cpu(pair):
     scene, lights, cpu, _ = pair
-    hybrid = ml.LightMatrix(scene, lights, device="gpu")
+    hybrid = ml.LightMatrix(scene, lights, device="gpu", visibility="hybrid")
     assert hybrid.visibility == "hybrid"
+    default = ml.LightMatrix(scene, lights, device="gpu")
+    assert default.visibility == ("hybrid" if default.device["is_software"] else "ray_traced")
     err = ml.relative_l2(hybrid.column_sum(progress=False), cpu.column_sum(progress=False))
     assert err < 2e-3, f"hybrid GPU visibility is {err:.2e} from exact rays"
 

@@ -3,7 +3,8 @@
 For each scene, in one run on this machine: milliseconds per column (``A.columns``, one at a time and in a
 batch), per weighted column in a reconstruction (``A.weighted_sum`` of 300 representatives, as MRCS ends),
 and per row (``A.rows``) on the CPU backend (exact rays, rayon) and on the GPU backend with each
-visibility mode asked for (default: ``hybrid``, the GPU's default, and ``ray_traced``), with the ratio
+visibility mode asked for (default: ``hybrid``, the default on a software adapter, and ``ray_traced``, the
+default on a hardware GPU), with the ratio
 GPU / CPU. Columns use the scene's lights at the column budget (``--lights``, default ~1,000 as the
 issue's measurement); rows use ``--row-lights`` (default 100,000: a row's cost is n lights). Every timing
 is the best of ``--repeats`` after a warm-up call, so one-off setup (shader compilation, the BVH, the

@@ -39,9 +39,10 @@ class LightMatrix:
             texels for rays: on cbox 128^2 columns at 512^2 cost 8.4 ms against 16.4 ms at 1024^2 with the
             same image to 1e-4), 1024 for ``"shadow_map"`` (where the size sets the accuracy).
         visibility: how shadow tests are decided: ``"ray_traced"`` (an exact ray for every test; the only
-            mode of the CPU backend and its default), ``"hybrid"`` (the GPU's default: shadow maps where they
-            are certain, an exact GPU ray elsewhere) or ``"shadow_map"`` (biased shadow maps only; fastest on
-            a GPU, small errors at contact edges). ``"hybrid"`` and ``"shadow_map"`` need the GPU: with
+            mode of the CPU backend, and the default on the CPU and on a hardware GPU, where it is the
+            fastest: on an H200, 3-16x faster column sums than ``"hybrid"``), ``"hybrid"`` (the default on a
+            software adapter such as lavapipe: shadow maps where they are certain, an exact GPU ray
+            elsewhere) or ``"shadow_map"`` (biased shadow maps only; small errors at contact edges). ``"hybrid"`` and ``"shadow_map"`` need the GPU: with
             ``device="auto"`` they choose it.
         max_depth: Mitsuba's ``path`` ``max_depth`` for what pixels see through mirrors and glass: a camera
             ray hitting a smooth conductor, dielectric or plastic's specular layer follows every delta

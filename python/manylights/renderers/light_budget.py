@@ -423,7 +423,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     res.budget["integrator"] = {"type": integ, "max_depth": max_depth}
     if A.device.get("kind") == "gpu":
         res.budget["shadow_map_size"] = {"value": A.shadow_map_size, "reason": (
-            "hybrid visibility (default): every uncertain shadow-map test is an exact ray, so the size "
+            "exact GPU rays: no shadow maps" if A.visibility == "ray_traced" else
+            "hybrid visibility: every uncertain shadow-map test is an exact ray, so the size "
             "changes the cost, not the image; the default is kept")}
     else:
         res.budget["shadow_map_size"] = {"value": None,
