@@ -112,3 +112,16 @@ def test_light_model_settings_are_checked(tmp_path):
     assert blm.find_reference(Path("tests/data/veach_plates.xml"), (64, 48)).name == "veach-plates-direct.exr"
     assert blm.find_reference(Path("scenes/veach-ajar/scene.xml"), (30, 18)) is None
     assert blm.scene_stem(Path("tests/data/veach_plates.xml")) == "veach-plates"
+
+
+def test_equal_time_takes_the_best_budget_within_each_time():
+    recs = [{"method": "a", "budget": {"c": 1}, "seconds": 0.05, "rel_l2_mean": 0.10, "rel_l2_std": 0.01},
+            {"method": "a", "budget": {"c": 2}, "seconds": 0.2, "rel_l2_mean": 0.04, "rel_l2_std": 0.01},
+            {"method": "a", "budget": {"c": 3}, "seconds": 0.9, "rel_l2_mean": 0.05, "rel_l2_std": 0.02},
+            {"method": "b", "budget": {"c": 1}, "seconds": 0.5, "rel_l2_mean": 0.02, "rel_l2_std": 0.001}]
+    t = bench_compare.equal_time(recs, times=(0.1, 0.3, 1.0))
+    assert [t["a"][x]["budget"]["c"] for x in (0.1, 0.3, 1.0)] == [1, 2, 2]  # the slower budget erred more
+    assert t["b"][0.1] is None and t["b"][1.0]["rel_l2_mean"] == 0.02
+    md = bench_compare.equal_time_table([{"scene": "scenes/x/scene.xml", "records": recs, "seeds": 4,
+                                          "brute_force_seconds": 2.0}], times=(0.1, 0.3, 1.0))
+    assert "| a | 10% +- 1.0% | 4.0% +- 1.0% | 4.0% +- 1.0% |" in md and "| b | - | - | 2.0% +- 0.10% |" in md, md

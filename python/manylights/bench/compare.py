@@ -15,6 +15,10 @@ content hash under ``--reference-dir``):
    chart ``compare-<scene>-clusters.png``, error and time against both counts (the paper's study of K_vpl
    and K_sp).
 
+Each run also prints the **equal-time table**: per method, the lowest mean error among its budgets that took
+at most T seconds (``EQUAL_TIMES``), with its spread over seeds; ``--table compare-a.json compare-b.json ...``
+prints that table for several scenes from their JSON files, rendering nothing.
+
 ``compare-<scene>.json`` holds every record (method, budget, seconds per stage, error mean and std); the
 rows stay in Parquet files beside it (a stopped run resumes). ``--workers`` / ``--scheduler`` run the
 renders on Dask as ``bench mrcs`` does. ``--light-models vpl vpl+bc vsl no-mis`` charts the light models and
@@ -38,6 +42,51 @@ COLORS = {"power_sampling": "C0", "instant_radiosity": "C1", "mrcs": "C2", "clus
           "stochastic_lightcuts": "C8", "lightslice": "C9"}
 
 
+#: The times (s) of the equal-time table.
+EQUAL_TIMES = (0.1, 0.3, 1.0)
+
+
+def equal_time(records: list[dict], times=EQUAL_TIMES) -> dict[str, dict[float, dict | None]]:
+    """Per method and time T: the record of least mean relative L2 among those of ``seconds <= T`` (None when
+    every budget of the method took longer). ``records``: ``compare``'s records (method, budget, seconds,
+    rel_l2_mean, rel_l2_std). Methods in the order they first appear."""
+    out: dict[str, dict[float, dict | None]] = {}
+    for r in records:
+        out.setdefault(r["method"], {})
+    for method, cells in out.items():
+        own = [r for r in records if r["method"] == method]
+        for t in times:
+            fit = [r for r in own if r["seconds"] <= t]
+            cells[t] = min(fit, key=lambda r: r["rel_l2_mean"]) if fit else None
+    return out
+
+
+def _pct(x: float) -> str:
+    """A fraction as a percentage with 2-3 significant digits, no exponent."""
+    p = 100.0 * x
+    return f"{p:.0f}%" if p >= 10 else f"{p:.1f}%" if p >= 1 else f"{p:.2f}%"
+
+
+def equal_time_table(summaries: list[dict], times=EQUAL_TIMES) -> str:
+    """The equal-time table of ``compare`` summaries (one per scene) as Markdown: a row per method, a column
+    per scene and time, cells "mean% +- std%" ("-" when no budget fits in the time)."""
+    names = [Path(s["scene"]).parent.name for s in summaries]
+    head = "| method | " + " | ".join(f"{n} <= {t:g} s" for n in names for t in times) + " |"
+    lines = [head, "|---" * (1 + len(names) * len(times)) + "|"]
+    tables = [equal_time(s["records"], times) for s in summaries]
+    methods = list(dict.fromkeys(m for t in tables for m in t))
+    for m in methods:
+        cells = []
+        for tab in tables:
+            for t in times:
+                r = tab.get(m, {}).get(t)
+                cells.append("-" if r is None else f"{_pct(r['rel_l2_mean'])} +- {_pct(r['rel_l2_std'])}")
+        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    seeds = sorted({s["seeds"] for s in summaries})
+    brute = ", ".join(f"{n} {s['brute_force_seconds']:.1f} s" for n, s in zip(names, summaries))
+    return "\n".join(lines) + f"\n\nSeeds: {', '.join(map(str, seeds))}; brute force: {brute}.\n"
+
+
 def _pair(text: str) -> tuple[int, int]:
     """``"300x2400"`` -> (300, 2400): light clusters x view clusters."""
     try:
@@ -52,7 +101,10 @@ def _pair(text: str) -> tuple[int, int]:
 
 def add_parser(sub) -> None:
     p = sub.add_parser("compare", help="all renderers on one error-against-time chart + the cluster-count study")
-    p.add_argument("--scene", required=True, help="scene XML, or a bundled scene's name (cbox, veach-ajar, demo)")
+    p.add_argument("--scene", help="scene XML, or a bundled scene's name (cbox, veach-ajar, demo); required "
+                                   "unless --table")
+    p.add_argument("--table", nargs="+", metavar="JSON", default=None,
+                   help="only print the equal-time table of these compare-<scene>.json files")
     p.add_argument("--lights", type=int, default=20_000, help="total generated lights (area + indirect)")
     p.add_argument("--res", type=int, default=64, help="image width (height follows the film's aspect)")
     p.add_argument("--columns", type=int, nargs="+", default=[100, 300, 900],
@@ -86,6 +138,12 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> dict:
+    if args.table:
+        summaries = [json.loads(Path(f).read_text()) for f in args.table]
+        print(equal_time_table(summaries))
+        return {"table": summaries}
+    if not args.scene:
+        raise ValueError("--scene is required (or --table with compare JSON files)")
     check_dask_arguments(args)
     if args.fuzzy < 1:
         raise ValueError(f"--fuzzy must be >= 1, got {args.fuzzy}")
@@ -176,6 +234,11 @@ def run(args) -> dict:
                                                   "rel_l2": best["rel_l2_mean"], "seconds": best["seconds"]}
     print(f"brute force {t_brute:.2f} s; speed-up at <= 2% error: "
           + ", ".join(f"{m} {v['speedup']:.1f}x" for m, v in summary["speedup_at_2pct"].items()), flush=True)
+    summary["equal_time"] = {m: {str(t): (None if r is None else {"budget": r["budget"], "seconds": r["seconds"],
+                                                                  "rel_l2_mean": r["rel_l2_mean"],
+                                                                  "rel_l2_std": r["rel_l2_std"]})
+                                 for t, r in cells.items()} for m, cells in equal_time(records).items()}
+    print(equal_time_table([summary]), flush=True)
     atomic_write_text(out / f"{stem}.json", json.dumps(summary, indent=2) + "\n")
     title = f"{path.parent.name}: {summary['lights']} lights, {size[0]}x{size[1]}, {args.seeds} seeds"
     _chart(records, t_brute, out / f"{stem}.png", title)
