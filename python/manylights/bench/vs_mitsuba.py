@@ -122,10 +122,13 @@ DEFAULTS = {
 }
 GENERIC = SceneDefaults(width=128, size_params=())
 #: The generated many-emitter hall (``bench.many_emitters``): direct light; Mitsuba picks one of thousands of
-#: emitters per sample, so its reference needs many samples.
+#: emitters per sample, so its reference needs many samples. Its emitters are smaller than a pixel's footprint,
+#: so some pixel centres lie on an emitter's edge, where the hit is decided by rounding: at 64 x 48 with 5,000
+#: emitters 5 such pixels carried 99.96% of every method's squared error (a 19.5% floor), so the table is also
+#: printed without the shape-edge pixels.
 MANY_EMITTERS = SceneDefaults(width=128, size_params=(), max_depth=2, ref_spp=16384, max_spp=4096,
                               budgets=[(4000, 100, 300), (16000, 200, 600), (64000, 300, 900)],
-                              thresholds=(0.2, 0.1, 0.05, 0.02))
+                              thresholds=(0.2, 0.1, 0.05, 0.02, 0.01), report_edges=True)
 #: The light-tree samplers ``--samplers`` can add: name -> f(A, samples, seed) -> RenderResult.
 SAMPLERS = {
     "light_bvh_sampling": lambda A, k, seed: ml.light_bvh_sampling(A, samples=k, seed=seed),
