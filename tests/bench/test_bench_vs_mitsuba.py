@@ -247,3 +247,33 @@ def test_unknown_device_rejected(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         bench.main(["vs-mitsuba", "--scene", "cbox", "--devices", "tpu"])
     assert e.value.code == 2 and "tpu" in capsys.readouterr().err
+
+
+def test_the_many_emitter_hall_has_no_overlapping_emitters():
+    """Coplanar overlapping emitters make the camera's hit a matter of rounding: every pair of emitter squares
+    on the same plane must be disjoint (5,000 emitters, the benchmark's size)."""
+    import re
+
+    from manylights.bench import many_emitters as me
+
+    xml = me.scene_xml(5000, seed=0)
+    rects = re.findall(r'<scale value="([0-9.]+)"/><rotate (x|y)="1" angle="(-?[0-9]+)"/>'
+                       r'<translate x="(-?[0-9.]+)" y="(-?[0-9.]+)" z="(-?[0-9.]+)"/></transform>\s*<ref id="black"/>', xml)
+    assert len(rects) == 5000
+    planes: dict = {}
+    for half, axis, angle, x, y, z in rects:
+        h, x, y, z = float(half), float(x), float(y), float(z)
+        key = ("ceiling",) if axis == "x" else ("wall", angle)
+        u, v = (x, z) if axis == "x" else (y, z)
+        planes.setdefault(key, []).append((u - h, u + h, v - h, v + h))
+    assert set(planes) == {("ceiling",), ("wall", "90"), ("wall", "-90")}
+    for key, boxes in planes.items():
+        b = np.array(boxes)
+        order = np.argsort(b[:, 0])
+        b = b[order]
+        for i in range(len(b)):
+            # Candidates whose u-interval starts before this one ends.
+            j = i + 1
+            while j < len(b) and b[j, 0] < b[i, 1]:
+                assert not (b[j, 2] < b[i, 3] and b[i, 2] < b[j, 3]), f"{key}: emitters {b[i]} and {b[j]} overlap"
+                j += 1

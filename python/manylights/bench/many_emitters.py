@@ -11,7 +11,8 @@ The hall (seeded, so the same ``emitters`` and ``seed`` give the same file byte 
 - a 10 x 3 x 10 m box (white floor and ceiling, grey walls; the wall behind the camera is open) with twelve
   grey boxes on the floor (pillars and crates: shadows at every scale);
 - 70% of the emitters face down from the ceiling on a jittered grid, 6 to 12 cm squares; the rest face into
-  the room from the left and right walls, 4 to 8 cm squares between 0.5 and 2.8 m up;
+  the room from the left and right walls, 4 to 8 cm squares between 0.5 and 2.8 m up, also on jittered grids
+  (each square inside its own cell, smaller where the cells are small: no two emitters overlap);
 - radiance log-normal (sigma 1.5: a few emitters carry most of the power), colours drawn from five tints;
 - Mitsuba's ``path`` integrator with ``max_depth`` 2 (direct light), a 4:3 ``hdrfilm`` with a box filter.
 
@@ -79,24 +80,35 @@ def scene_xml(emitters: int, seed: int = 0) -> str:
         return ('<emitter type="area"><rgb name="radiance" value="'
                 + ", ".join(f"{v:.4g}" for v in radiance) + '"/></emitter>')
 
-    # Ceiling: a k x k jittered grid over 9.6 x 9.6 m, the first n_ceiling cells; rotate x 90 faces down.
+    # Every emitter lies inside its own cell of a grid, so no two overlap: coplanar overlapping emitters
+    # would make which one a ray hits a matter of rounding (renderers then disagree on what the camera sees).
+    def in_cell(lo: float, cell: float, half: float) -> float:
+        return lo + rng.uniform(half, cell - half)
+
+    # Ceiling: a k x k grid over 9.6 x 9.6 m, the first n_ceiling cells; rotate x 90 faces down.
     k = int(np.ceil(np.sqrt(n_ceiling)))
     cell = 9.6 / k
     for c in range(n_ceiling):
         i, j = divmod(c, k)
-        x = -4.8 + (i + rng.uniform(0.2, 0.8)) * cell
-        z = -4.8 + (j + rng.uniform(0.2, 0.8)) * cell
-        half = rng.uniform(0.03, 0.06)
+        half = min(rng.uniform(0.03, 0.06), 0.45 * cell)
+        x, z = in_cell(-4.8 + i * cell, cell, half), in_cell(-4.8 + j * cell, cell, half)
         parts.append(_rect(f'<scale value="{half:.4f}"/><rotate x="1" angle="90"/>'
                            f'<translate x="{x:.4f}" y="2.995" z="{z:.4f}"/>', "black", emitter()))
-    # Walls x = -5 (facing +x) and x = +5 (facing -x).
-    for c in range(n_wall):
-        side = -1.0 if c % 2 == 0 else 1.0
-        y = rng.uniform(0.5, 2.8)
-        z = rng.uniform(-4.8, 4.8)
-        half = rng.uniform(0.02, 0.04)
-        parts.append(_rect(f'<scale value="{half:.4f}"/><rotate y="1" angle="{-90 * side:.0f}"/>'
-                           f'<translate x="{4.995 * side:.4f}" y="{y:.4f}" z="{z:.4f}"/>', "black", emitter()))
+    # Walls x = -5 (facing +x) and x = +5 (facing -x): per wall a grid over 0.5-2.8 m up and 9.6 m along,
+    # its cells in random order.
+    per_wall = [(n_wall + 1) // 2, n_wall // 2]
+    for side, count in zip((-1.0, 1.0), per_wall):
+        if count == 0:
+            continue
+        cols = int(np.ceil(np.sqrt(count * 9.6 / 2.3)))
+        rows = int(np.ceil(count / cols))
+        cw, ch = 9.6 / cols, 2.3 / rows
+        for c in rng.permutation(rows * cols)[:count]:
+            r, q = divmod(int(c), cols)
+            half = min(rng.uniform(0.02, 0.04), 0.45 * min(cw, ch))
+            y, z = in_cell(0.5 + r * ch, ch, half), in_cell(-4.8 + q * cw, cw, half)
+            parts.append(_rect(f'<scale value="{half:.4f}"/><rotate y="1" angle="{-90 * side:.0f}"/>'
+                               f'<translate x="{4.995 * side:.4f}" y="{y:.4f}" z="{z:.4f}"/>', "black", emitter()))
     boxes = []
     for _ in range(12):
         tall = rng.uniform() < 0.4
