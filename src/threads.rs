@@ -5,7 +5,7 @@
 //! or other libraries have nearly used up, a worker's stack cannot be mapped and the start fails. So the pool
 //! is started at import, when the least address space is in use, with as many threads as can be started: the
 //! requested count (`RAYON_NUM_THREADS`, else every core) first, halved while a trial start of that many
-//! threads fails. Only when not even one thread starts does the import fail, with `MemoryError`.
+//! threads fails (trials only under such a limit, so an unlimited import spawns no extra threads). Only when not even one thread starts does the import fail, with `MemoryError`.
 
 use crate::error::{Error, Result};
 use std::sync::{Arc, RwLock};
@@ -42,7 +42,9 @@ pub fn start_global_pool() -> Result<usize> {
         .filter(|&n| n > 0)
         .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     let mut n = wanted;
-    while n > 1 && !trial(n) {
+    // Trials only under an address-space or data limit: without one the start does not run out of room.
+    let limited = crate::memory::rlimit_remaining().is_some();
+    while limited && n > 1 && !trial(n) {
         n /= 2;
     }
     match rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
