@@ -3,12 +3,15 @@
 //!
 //! The `area` lights are split among the scene's area emitters in proportion to their power
 //! pi A_e mean(L_e) (largest-remainder rounding, so the counts sum to `area` whenever some emitter has
-//! power). Emitter e's n_e lights are stratified by area: light k sits in the k-th of n_e equal-area
-//! strata (meshes: the 1D stratum [k, k+1) / n_e of the triangles' cumulative area, jittered, then a
-//! uniform point of the triangle it falls in; spheres: the k-th cell of the equal-area partition of
-//! `sampling::equal_area_cells`, jittered). Each light carries I0 = L_e A_e / n_e (W/sr) with a cosine
-//! lobe around the surface normal, so its power is pi L_e A_e / n_e and the lights of an emitter sum to
-//! pi A_e L_e exactly (up to float rounding). Spheres use their analytic area 4 pi r^2.
+//! power). Emitter e's n_e lights are stratified by area: light k sits in the k-th of n_e strata (meshes
+//! with at least as many lights as triangles: the compact pieces of `strata::compact_strata`, each
+//! triangle cut into pieces of equal area by longest-edge bisection, a uniform point in each; meshes with
+//! fewer lights than triangles: the 1D stratum [k, k+1) / n_e of the triangles' cumulative area,
+//! jittered, then a uniform point of the triangle it falls in; spheres: the k-th cell of the equal-area
+//! partition of `sampling::equal_area_cells`, jittered). Each light carries I0 = L_e A_k (W/sr), A_k its
+//! stratum's area (A_e / n_e, or A_t / m_t for a compact piece of triangle t), with a cosine lobe around
+//! the surface normal, so the lights of an emitter sum to pi A_e L_e exactly (up to float rounding).
+//! Spheres use their analytic area 4 pi r^2.
 //!
 //! Mitsuba's area emitters emit on the +normal side only: the lobe's normal is the triangle's geometric
 //! normal, flipped to agree with the mesh's vertex normals when it has any (sphere: outward, inward with
@@ -17,8 +20,9 @@
 //! (a light offset off its surface saw more of itself through an opening: 1.4% too much light on walls lit
 //! through a ceiling recess). Zero-area or zero-radiance emitters get no lights (zero contribution).
 //!
-//! Each mesh light carries its patch (`LightSet::patch`, `lights::patch`): the part of its stratum in
-//! the triangle it fell in (`AreaEmitter::stratum_piece`), within which it is uniform; receivers in the
+//! Each mesh light carries its patch (`LightSet::patch`, `lights::patch`): its compact piece, or the part
+//! of its cumulative-area stratum in the triangle it fell in (`AreaEmitter::stratum_piece`), within which
+//! it is uniform; receivers in the
 //! patch's near field use the patch's projected solid angle instead of 1 / d^2. Sphere lights and
 //! textured emitters have none (the patch formula assumes L constant over the patch).
 //!
@@ -303,7 +307,30 @@ pub fn area_lights_tied(
         let mut rng: Pcg32 = stream(seed, STREAM_AREA, e as u64);
         let scale = emitter.area / n_e as f32;
         match &emitter.shape {
-            AreaShape::Triangles { .. } => {
+            AreaShape::Triangles { triangles, uvs, cdf, tri } => {
+                let corners: Vec<[Vec3; 3]> = triangles.iter().map(|(p, _)| *p).collect();
+                if let Some(pieces) = super::strata::compact_strata(&corners, cdf, n_e) {
+                    for piece in pieces {
+                        let t = piece.triangle;
+                        let ([p0, p1, p2], normal) = triangles[t];
+                        let [t0, t1, t2] = uvs[t];
+                        let local = uniform_triangle(uniform(&mut rng), uniform(&mut rng));
+                        let [c0, c1, c2] = piece.bary;
+                        let w = c0 * (1.0 - local.x - local.y) + c1 * local.x + c2 * local.y;
+                        let p = p0 * w.x + p1 * w.y + p2 * w.z;
+                        let uv = t0 * w.x + t1 * w.y + t2 * w.z;
+                        let a = piece.area as f32;
+                        set.push_oriented_point(p, normal, emitter.radiance_at(uv) * a)?;
+                        let q = piece.bary.map(|b| p0 * b.x + p1 * b.y + p2 * b.z);
+                        // Textured emitters keep the point formula (below).
+                        if emitter.texture.is_none() && a > 0.0 {
+                            set.set_patch(set.len() - 1, [q[0], q[1], q[2], q[2]])?;
+                        }
+                        ties.push((e, SurfaceTie::Triangle { mesh: emitter.mesh, triangle: tri[t], b: Vec2::new(w.y, w.z) }));
+                        set.set_mis(set.len() - 1, a, emitter.mesh as i32);
+                    }
+                    continue;
+                }
                 for k in 0..n_e {
                     let u0 = ((k as f64 + uniform(&mut rng) as f64) / n_e as f64) as f32;
                     let u0 = u0.min(1.0 - f32::EPSILON);

@@ -32,6 +32,7 @@
 pub mod area;
 pub mod environment;
 pub mod sampling;
+pub mod strata;
 #[cfg(test)]
 mod tests;
 pub mod vpl;
