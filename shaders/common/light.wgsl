@@ -114,7 +114,7 @@ fn spot_texture_eval(l: Light, v: vec3<f32>) -> vec3<f32> {
 
 // ---- Patches of oriented points: the near field without 1 / d^2 (twin of src/lights/patch.rs) ----
 
-const PATCH_NEAR_FIELD_RADII: f32 = 3.0;
+const PATCH_NEAR_FIELD_RADII: f32 = 8.0;
 
 // Whether p is within PATCH_NEAR_FIELD_RADII patch radii of the patch's centre (false without a patch).
 fn patch_is_near(l: Light, p: vec3<f32>) -> bool {

@@ -38,7 +38,7 @@ use crate::error::{Error, Result};
 use glam::Vec3;
 
 /// The near-field rule applies within this many patch radii of the patch's centre.
-pub const NEAR_FIELD_RADII: f32 = 3.0;
+pub const NEAR_FIELD_RADII: f32 = 8.0;
 
 /// Whether the 4 corners are "no patch".
 #[inline]
