@@ -33,7 +33,7 @@
 //! Symbols: f frames, k a frame, j a light, E irradiance (W/m^2), Phi flux (W), A area (m^2), k_d diffuse
 //! reflectance, L_e emitted radiance, n_e the points of emitter e.
 use super::gather::{GatherCloud, GatherOptions};
-use super::generate::area::{area_emitters, area_lights_tied, emitting_normal, sphere_uv, AreaEmitter, SurfaceTie};
+use super::generate::area::{area_emitters, area_lights_tied, emitting_normal, sphere_uv, AreaEmitter, SurfaceTie, TiedLight};
 use super::generate::environment::Environment;
 use super::generate::{default_clamp, vpl, GenerateOptions, MAX_LIGHTS};
 use super::{scene_sphere, LightKind, LightSet};
@@ -86,10 +86,8 @@ pub struct AnimationLights {
 
 /// The tied area points of frame 0.
 struct TiedArea {
-    /// (index into the emitter list, tie) per point.
-    ties: Vec<(usize, SurfaceTie)>,
-    /// Points per emitter.
-    counts: Vec<usize>,
+    /// Emitter, tie and area share per point.
+    ties: Vec<TiedLight>,
 }
 
 /// Where a tied area point is in `scene`: (position on the surface, emitting normal, uv), or None when its
@@ -117,11 +115,11 @@ fn evaluate_tie(scene: &Scene, tie: &SurfaceTie, frame: usize) -> Result<Option<
 
 /// The area points of one frame (module docs).
 fn area_frame(scene: &Scene, tied: &TiedArea, areas: &[AreaEmitter], frame0: &LightSet, frame: usize, set: &mut LightSet) -> Result<()> {
-    for (j, (e, tie)) in tied.ties.iter().enumerate() {
-        let emitter = &areas[*e];
-        match evaluate_tie(scene, tie, frame)? {
+    for (j, light) in tied.ties.iter().enumerate() {
+        let emitter = &areas[light.emitter];
+        match evaluate_tie(scene, &light.tie, frame)? {
             Some((p, n, uv)) => {
-                let i0 = emitter.radiance_at(uv) * (emitter.area / tied.counts[*e] as f32);
+                let i0 = emitter.radiance_at(uv) * light.share.area(emitter.area);
                 set.push_oriented_point(p, n, i0)?;
             }
             // A collapsed triangle emits nothing; the light keeps frame 0's place.
@@ -177,11 +175,7 @@ pub fn generate_animation_lights(frames: &[&Scene], opts: &AnimationLightOptions
     let (center, radius) = scene_sphere(first);
     let areas0 = area_emitters(first);
     let (area0, ties) = area_lights_tied(&areas0, opts.area, opts.seed, center, radius)?;
-    let mut counts = vec![0usize; areas0.len()];
-    for (e, _) in &ties {
-        counts[*e] += 1;
-    }
-    let tied = TiedArea { ties, counts };
+    let tied = TiedArea { ties };
     let delta0 = LightSet::from_scene(first)?.len();
     let cloud0 = if opts.indirect > 0 {
         Some(GatherCloud::new_any_count(first, &GatherOptions { n: opts.indirect, seed: opts.seed, include_emitters: true })?)

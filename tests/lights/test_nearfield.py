@@ -1,5 +1,5 @@
 """Area-light samples that know their area: oriented points carry their patch, and
-receivers within 3 patch radii get the patch's projected solid angle instead of the point's 1 / d^2.
+receivers within 8 patch radii get the patch's projected solid angle instead of the point's 1 / d^2.
 
 Against a converged Mitsuba 3.9.1 pixel-centre reference (``tests/references/nearfield-panel-direct``,
 ``path`` max_depth=2) of ``tests/data/nearfield_panel.xml``: a 10 x 6 cm panel 5 mm above a diffuse floor.
@@ -20,10 +20,12 @@ XML = HERE / "data" / "nearfield_panel.xml"
 REF = HERE / "references" / "nearfield-panel-direct"
 SIZE = (64, 64)
 # Relative L2 on the floor that the patch formula must reach at every area-point count (measured
-# 0.4-0.5% against a reference whose floor noise is ~0.3%), and that the point formula fails
-# (measured 15.4% / 9.7% / 6.6% at 64 / 256 / 1024 points).
+# 0.46-0.52% against a reference whose floor noise is ~0.3%). The point formula fails while the
+# panel's pieces are large against their 5 mm gap to the floor (measured 11.3% / 3.5% / 1.1% at
+# 64 / 256 / 1024 compact pieces: at 1024 a piece is 2.4 mm across and the points alone nearly do).
 TOL = 0.015
 COUNTS = (64, 256, 1024)
+POINT_SPIKE_COUNTS = (64, 256)
 # The reference's floor noise must be this much below TOL (>= 3x).
 NOISE_MARGIN = 3.0
 
@@ -68,7 +70,8 @@ def test_near_field_converges_to_mitsuba_where_points_spike(scene, reference):
               f" (reference floor noise {noise:.2%}, tolerance {TOL:.1%})")
         assert noise * NOISE_MARGIN <= TOL, f"reference floor noise {noise:.3%} is not {NOISE_MARGIN}x below {TOL}"
         assert errs["patch"] <= TOL
-        assert errs["point"] > 2 * TOL, "the scene no longer shows the point formula's near-field spike"
+        if n in POINT_SPIKE_COUNTS:
+            assert errs["point"] > 2 * TOL, "the scene no longer shows the point formula's near-field spike"
 
 
 STAIRCASE = HERE / "data" / "staircase_recessed.xml"

@@ -17,12 +17,14 @@ def cbox():
     return scene, ref, meta
 
 
-def test_an_image_scaled_by_0_9_is_estimated_11_percent_off(cbox):
-    """0.9 I*: its relative L2 against I* is 0.1 ||I*|| / ||0.9 I*|| = 1/9, all of it bias."""
+def test_an_image_scaled_by_0_9_is_estimated_10_percent_off(cbox):
+    """0.9 I*: its relative L2 against I* is ||0.1 I*|| / ||I*|| = 0.1 (``relative_l2(0.9 I*, I*)``), all of
+    it bias; relative to the image's own norm it would read 1/9, so this also checks the estimate of ||I*|| (7)."""
     scene, ref, _ = cbox
     est = probe_error(0.9 * ref, scene, probes=256, spp=256, seed=1)
-    assert est["error_mean"] == pytest.approx(1 / 9, rel=0.15)
-    assert 1 / 9 <= est["error_estimate"] <= 1.3 / 9  # the upper bound covers it, not by much
+    assert est["error_mean"] == pytest.approx(ml.relative_l2(0.9 * ref, ref), rel=0.15)
+    assert 0.1 <= est["error_estimate"] <= 0.13  # the upper bound covers it, not by much
+    assert est["reference_norm_ratio"] == pytest.approx(1 / 0.9, rel=0.02)
     assert est["reliable"] and est["effective_probes"] > 64
     assert est["pixels"].shape == (256, 2) and est["probe_mean"].shape == (256, 3)
 
@@ -222,10 +224,11 @@ def test_retracing_the_probes_that_carry_the_estimate_removes_firefly_residuals(
 
 
 def test_the_pilot_finds_an_error_that_sits_in_a_few_pixels():
-    """MRCS at 32 columns of 256 area points on the 13-light staircase leaves a few near-field pixels dark
-    (the brightest one carries 24-63% of the squared error). Uniform and squared-value probes rarely land
-    there: their estimate is 0.5-3.6x the truth and carried by 1-2 probes. With the pilot's share (6) of the
-    mixture the bound covers the truth, within 1.4x, and is carried by dozens of probes."""
+    """MRCS at 32 columns of 256 area points on the 13-light staircase leaves a few near-field pixels far off
+    (one pixel carries 22-94% of the squared error; the column sum itself is within 0.13% of Mitsuba).
+    Uniform and squared-value probes rarely land there: over seeds 0-7 their estimate is 0.9-2.9x the truth
+    and unreliable in 6 of 8. With the pilot's share (6) of the mixture, relative to the estimated ||I*|| (7),
+    the bound is 0.95-1.33x the truth and carried by dozens of probes."""
     from manylights.renderers.probe_error import probe_estimate, probe_sample, refine_probes
 
     scene = ml.load_scene(REFERENCES.parent / "data" / "staircase_recessed.xml", res=64)

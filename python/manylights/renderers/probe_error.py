@@ -19,7 +19,13 @@ fixed before the probes' own paths are traced, from paths independent of them)
     SE = sum_k w_k d_k,   d_k = sum_ch (I_k - P_k)^2 - sum_ch v_k                                   (2)
 
 is an unbiased estimate of the total squared error ``||I - I*||^2`` of this image. Reported as a relative
-L2, ``sqrt(SE) / ||I||``, at an upper confidence bound: ``max(SE, 0) + z_q s``, ``s = std(d_k / p_k) / sqrt(N)``
+L2, ``sqrt(SE) / ||I*||`` as ``relative_l2(image, reference)`` measures it, with ``||I*||^2`` estimated by the
+difference estimator
+
+    ||I*||^2 ~= ||I||^2 - sum_k w_k (sum_ch I_k^2 - sum_ch (P_k^2 - v_k))                             (7)
+
+(exact where the image is right; ``||I||^2`` alone would understate the error of an image whose error is a
+few far too bright pixels: measured 0.66-0.91x of the truth), at an upper confidence bound: ``max(SE, 0) + z_q s``, ``s = std(d_k / p_k) / sqrt(N)``
 the standard error of (2) (a negative SE says the error is within the probes' noise, and the bound is that
 noise), ``z_q`` the one-sided normal
 quantile of ``confidence``. Fireflies: a probe whose paths rarely find a bright, small light underestimates
@@ -130,14 +136,16 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
             bound (``refine_probes``' target); None: only while the estimate is unreliable.
 
     Returns:
-        dict: ``error_estimate`` (relative L2 at the upper confidence bound), ``error_mean`` (the point
+        dict: ``error_estimate`` (relative L2 against the converged image, ||I - I*|| / ||I*||, at the
+        upper confidence bound), ``error_mean`` (the point
         estimate (2), relative), ``error_lower`` (the lower confidence bound, relative), ``bias_estimate``
         (relative L2 of E[I] - I*, from ``variance_estimate``, or None) and ``bias_upper`` (its upper
         confidence bound; only with ``variance_estimate``), ``probes`` N, ``spp``, ``max_depth``, ``confidence``, ``effective_probes``, ``reliable``
         (effective_probes >= min(N / 4, ``MIN_EFFECTIVE``)), ``pixels`` (N, 2) int64 (row, column),
         ``probe_mean`` / ``probe_variance`` (N, 3) float32, ``residuals`` (N,) float64 d_k, ``seconds``,
         ``paths_per_second``, ``path_tracer_variance`` (equation (3): the squared relative L2 of a one-path
-        per pixel image of the probes' path tracer) and ``error_by_shape`` (equation (4)).
+        per pixel image of the probes' path tracer), ``error_by_shape`` (equation (4)) and
+        ``reference_norm_ratio`` (the estimate (7) of ||I*|| / ||I||, relative errors are divided by ||I*||).
 
     Raises:
         ValueError: an image whose shape is not the scene's (H, W, 3), probes outside [1, M], spp < 2, a
@@ -305,7 +313,12 @@ def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_est
     se = float(terms.mean())
     sd = float(terms.std(ddof=1)) / np.sqrt(probes) if probes > 1 else abs(se)
     z = statistics.NormalDist().inv_cdf(confidence)
-    norm2 = float(np.sum(img.astype(np.float64) ** 2))
+    # The denominator: ||I*||^2, the converged image's (as ``relative_l2(image, reference)`` measures), by the
+    # difference estimator ||I||^2 - sum_k w_k (|I_k|^2 - (|P_k|^2 - v_k)) (7); ||I||^2 itself where that is
+    # not positive (probes too few to say).
+    image_norm2 = float(np.sum(img.astype(np.float64) ** 2))
+    correction = float(np.mean((np.sum(x * x, axis=1) - (np.sum(p * p, axis=1) - np.sum(v, axis=1))) / pk))
+    norm2 = image_norm2 - correction if image_norm2 - correction > 0.0 else image_norm2
     eff = float(np.abs(terms).sum() ** 2 / np.sum(terms * terms)) if np.any(terms) else float(probes)
 
     def rel(sq: float) -> float:
@@ -326,7 +339,8 @@ def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_est
            "probe_mean": mean, "probe_variance": var, "residuals": d, "seconds": sample["seconds"],
            "paths_per_second": float(sample["traced"]) / max(sample["seconds"], 1e-9),
            "refined": int(np.count_nonzero(sample.get("refined", 0))), "path_tracer_variance": pt,
-           "error_by_shape": error_by_shape(scene, sample["shape_index"], terms)}
+           "error_by_shape": error_by_shape(scene, sample["shape_index"], terms),
+           "reference_norm_ratio": float(np.sqrt(norm2 / image_norm2)) if image_norm2 > 0 else 1.0}
     if variance_estimate is not None and norm2 > 0.0:
         out["bias_estimate"] = float(np.sqrt(max(se / norm2 - float(variance_estimate) ** 2, 0.0)))
         # What the split can promise: where the variance dominates, a bias well below it hardly moves the

@@ -165,6 +165,34 @@ pub enum SurfaceTie {
     Sphere { mesh: usize, direction: Vec3 },
 }
 
+/// The part of its emitter's area that one area light stands for: `Equal(n_e)` for the n_e equal strata
+/// of spheres and of meshes with fewer lights than triangles, `Fraction(f)` for a compact piece
+/// (`strata::compact_strata`: A_t / m_t of the emitter's area A_e, as f = A_t / (m_t A_e)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum AreaShare {
+    Equal(u32),
+    Fraction(f32),
+}
+
+impl AreaShare {
+    /// The stratum's area (m^2) on an emitter of area `emitter_area` (the frame's, for animations).
+    pub fn area(self, emitter_area: f32) -> f32 {
+        match self {
+            AreaShare::Equal(n) => emitter_area / n as f32,
+            AreaShare::Fraction(f) => emitter_area * f,
+        }
+    }
+}
+
+/// One area light of [`area_lights_tied`]: its emitter (index into the emitter list), where it sits on
+/// the emitter's shape, and the part of the emitter's area it stands for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TiedLight {
+    pub emitter: usize,
+    pub tie: SurfaceTie,
+    pub share: AreaShare,
+}
+
 /// Mitsuba's sphere uv of a unit direction from the centre: (phi / 2pi, theta / pi).
 pub(crate) fn sphere_uv(d: Vec3) -> Vec2 {
     let theta = d.z.clamp(-1.0, 1.0).acos();
@@ -293,7 +321,7 @@ pub fn area_lights_tied(
     seed: u64,
     center: Vec3,
     radius: f32,
-) -> Result<(LightSet, Vec<(usize, SurfaceTie)>)> {
+) -> Result<(LightSet, Vec<TiedLight>)> {
     let mut set = LightSet::new(center, radius);
     set.try_reserve(n)?;
     let mut ties = Vec::new();
@@ -305,11 +333,13 @@ pub fn area_lights_tied(
             continue;
         }
         let mut rng: Pcg32 = stream(seed, STREAM_AREA, e as u64);
-        let scale = emitter.area / n_e as f32;
+        let equal = AreaShare::Equal(n_e as u32);
+        let scale = equal.area(emitter.area);
         match &emitter.shape {
             AreaShape::Triangles { triangles, uvs, cdf, tri } => {
                 let corners: Vec<[Vec3; 3]> = triangles.iter().map(|(p, _)| *p).collect();
                 if let Some(pieces) = super::strata::compact_strata(&corners, cdf, n_e) {
+                    let total = *cdf.last().unwrap_or(&0.0);
                     for piece in pieces {
                         let t = piece.triangle;
                         let ([p0, p1, p2], normal) = triangles[t];
@@ -317,16 +347,21 @@ pub fn area_lights_tied(
                         let local = uniform_triangle(uniform(&mut rng), uniform(&mut rng));
                         let [c0, c1, c2] = piece.bary;
                         let w = c0 * (1.0 - local.x - local.y) + c1 * local.x + c2 * local.y;
-                        let p = p0 * w.x + p1 * w.y + p2 * w.z;
-                        let uv = t0 * w.x + t1 * w.y + t2 * w.z;
-                        let a = piece.area as f32;
+                        // The position as a tie's barycentrics (b1, b2) give it, so an animation's
+                        // frame 0 (`lights::animated`) reproduces it bit for bit.
+                        let b = Vec2::new(w.y, w.z);
+                        let b0 = 1.0 - b.x - b.y;
+                        let p = p0 * b0 + p1 * b.x + p2 * b.y;
+                        let uv = t0 * b0 + t1 * b.x + t2 * b.y;
+                        let share = AreaShare::Fraction((piece.area / total) as f32);
+                        let a = share.area(emitter.area);
                         set.push_oriented_point(p, normal, emitter.radiance_at(uv) * a)?;
-                        let q = piece.bary.map(|b| p0 * b.x + p1 * b.y + p2 * b.z);
+                        let q = piece.bary.map(|c| p0 * c.x + p1 * c.y + p2 * c.z);
                         // Textured emitters keep the point formula (below).
                         if emitter.texture.is_none() && a > 0.0 {
                             set.set_patch(set.len() - 1, [q[0], q[1], q[2], q[2]])?;
                         }
-                        ties.push((e, SurfaceTie::Triangle { mesh: emitter.mesh, triangle: tri[t], b: Vec2::new(w.y, w.z) }));
+                        ties.push(TiedLight { emitter: e, tie: SurfaceTie::Triangle { mesh: emitter.mesh, triangle: tri[t], b }, share });
                         set.set_mis(set.len() - 1, a, emitter.mesh as i32);
                     }
                     continue;
@@ -343,7 +378,7 @@ pub fn area_lights_tied(
                     if emitter.texture.is_none() && patch::quad_area(&piece) > 0.0 {
                         set.set_patch(set.len() - 1, piece)?;
                     }
-                    ties.push((e, tie));
+                    ties.push(TiedLight { emitter: e, tie, share: equal });
                     set.set_mis(set.len() - 1, scale, emitter.mesh as i32);
                 }
             }
@@ -353,7 +388,7 @@ pub fn area_lights_tied(
                     let normal = if *flip { -d } else { d };
                     let p = *center + d * *radius;
                     set.push_oriented_point(p, normal, emitter.radiance_at(sphere_uv(d)) * scale)?;
-                    ties.push((e, SurfaceTie::Sphere { mesh: emitter.mesh, direction: d }));
+                    ties.push(TiedLight { emitter: e, tie: SurfaceTie::Sphere { mesh: emitter.mesh, direction: d }, share: equal });
                     set.set_mis(set.len() - 1, scale, emitter.mesh as i32);
                 }
             }
