@@ -62,7 +62,7 @@ class LightSet:
     bsdf: npt.NDArray[np.uint32]
     """(n, 20) uint32: each VPL's 80-byte BSDF record (opaque; for from_arrays of the same scene)."""
     patch: npt.NDArray[np.float32]
-    """(n, 4, 3) float32: each oriented point's patch corners (m); all zero = none. Receivers within 3
+    """(n, 4, 3) float32: each oriented point's patch corners (m); all zero = none. Receivers within 8
     patch radii get the patch's projected solid angle instead of 1/d^2."""
     vsl_radius: npt.NDArray[np.float32]
     """(n,) float32: each VPL's virtual-spherical-light radius (m); 0 = a point VPL (clamped)."""

@@ -46,9 +46,13 @@
 //!   of the node is one; infinite otherwise.
 //! Fallbacks (lights and receivers without a bound): VSLs, VPLs on non-diffuse BSDFs and spots with a
 //! projected texture are kept outside the trees and evaluated exactly at every view sample; an oriented
-//! point's near field (receiver within 3 patch radii of its patch, `lights::patch`) has no bound: a node
-//! whose box is that close gets an infinite bound (so it is refined down to single lights); a receiver
-//! with a `principled` BSDF has no bound: every light is evaluated exactly there.
+//! point's near field (receiver within `NEAR_FIELD_RADII` = 8 patch radii of its patch, `lights::patch`)
+//! has no angular bound: there the patch rule gives `f_r(wo_j) I_j PSA(P+) / A(P+)`, and since
+//! `PSA(P+) = int_{P+} |cos_r| cos_l / r^2 dA <= A(P+) / d_min^2` (the box holds every patch corner) a
+//! node whose box is that close is bounded by `U = I_C D / d_min^2` on receivers without a constant part
+//! (S = 0: f_r <= D); on glossy receivers (S > 0) and inside the box the bound is infinite (refined down
+//! to single lights). A receiver with a `principled` BSDF has no bound: every light is evaluated exactly
+//! there.
 //!
 //! Symbols: i view sample, j light, p / n receiver position and shading normal, I_C cluster intensity,
 //! D / S the BSDF bound's cosine and constant parts, G geometric bound, U the node's bound.
@@ -300,8 +304,13 @@ impl CutTree {
         }
         let p = v3(sp.p);
         let d2 = (node.lo - p).max(DVec3::ZERO).max(p - node.hi).length_squared();
-        if !(d2 > 0.0) || (node.near > 0.0 && d2 < node.near * node.near) {
+        if !(d2 > 0.0) {
             return DVec3::INFINITY;
+        }
+        if node.near > 0.0 && d2 < node.near * node.near {
+            // Near field (module docs): f_r I_j PSA(P+) / A(P+) <= D I_j / d_min^2 per light, as in the
+            // far field without the angular factors; a glossy receiver (S > 0) has no such bound.
+            return if m.s == DVec3::ZERO { node.intensity * m.d / d2 * PAD * PAD } else { DVec3::INFINITY };
         }
         let ang = angular_bound(node, p, d2.sqrt());
         if ang == 0.0 {

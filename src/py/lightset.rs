@@ -125,7 +125,7 @@ impl LightSet {
     }
     /// (n, 4, 3) float32: each oriented point's patch, the 4 corners (m, in order around a planar convex
     /// quadrilateral; a triangle repeats one) of the piece of area emitter it stands for; receivers
-    /// within 3 patch radii of its centre get the patch's projected solid angle instead of 1 / d^2.
+    /// within 8 patch radii of its centre get the patch's projected solid angle instead of 1 / d^2.
     /// All zero = none (other kinds, sphere emitters, user-made points without one).
     #[getter]
     fn patch<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {

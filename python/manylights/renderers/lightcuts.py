@@ -80,7 +80,8 @@ def lightcuts(A, error: float = 0.02, max_cut: int = 1000, seed: int = 0, *, cri
     Args:
         A: a ``LightMatrix`` (any device; the cuts run on the CPU with the matrix's ray tracer).
         error: relative error bound per cluster (> 0; the paper's 2% by default).
-        max_cut: the largest cut (clusters + lights without a bound) per view sample, >= 1.
+        max_cut: the largest cut (tree nodes; lights without a bound come on top, evaluated exactly) per
+            view sample, >= 1.
         seed: seed of the representatives' draw (same seed, same image).
         criterion: ``"cluster"`` (the paper's: every cluster's bound) or ``"pixel"`` (the sum of the cut's
             bounds: every pixel's relative error is then within ``error``, or its cut reached ``max_cut``).

@@ -76,6 +76,35 @@ fn bounds_hold_for_every_light_kind_and_clamped_vpls() {
 }
 
 #[test]
+fn near_field_bounds_hold_next_to_area_lights() {
+    // A panel 5 mm above a floor, a floor within millimetres of a panel's plane lit from its back, a disk
+    // light in a ceiling recess: receivers inside the near field of many compact pieces.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    for (file, area) in [("nearfield_panel.xml", 256), ("twosided_wall.xml", 512), ("disk_recess.xml", 512)] {
+        let gen = GenerateOptions { area, environment: 0, indirect: 0, seed: 3, ..Default::default() };
+        let a = matrix(&root.join(file), &[("res", 16)], gen);
+        let tree = CutTree::build(&a.lights, 1).unwrap();
+        // Finite bounds of nodes whose box is within the near field of the receiver.
+        let mut near_finite = 0;
+        for i in 0..a.view.len() {
+            let sp = ShadingPoint::new(&a.view, i);
+            if !sp.surface {
+                continue;
+            }
+            let m = material_bound(&a.view.bsdf, i, &sp);
+            let p = sp.p.as_dvec3();
+            for (k, node) in tree.nodes.iter().enumerate() {
+                let d2 = (node.lo - p).max(DVec3::ZERO).max(p - node.hi).length_squared();
+                let u = tree.bound(k, &sp, &m, a.lights.vpl_clamp).max_element();
+                near_finite += (node.near > 0.0 && d2 > 0.0 && d2 < node.near * node.near && u.is_finite() && u > 0.0) as usize;
+            }
+        }
+        let (checks, finite) = check_bounds(&a, 1);
+        assert!(near_finite > 50 && finite > checks / 4, "{file}: {near_finite} near-field finite bounds, {finite} of {checks}");
+    }
+}
+
+#[test]
 fn bounds_hold_on_glossy_receivers() {
     let xml = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/glossy_blend.xml");
     let gen = GenerateOptions { area: 0, environment: 48, indirect: 60, seed: 2, ..Default::default() };
