@@ -22,11 +22,14 @@
 //! directional lights share the rest by their power, because environment maps here are many strata.
 //!
 //! Importance of a node at a receiver point p with normal n (pbrt-v4 `LightBounds::Importance`):
-//! with c the box centre, d^2 = max(|p - c|^2, |diagonal| / 2), theta_w the angle between w and p - c,
+//! with c the box centre, d^2 = max(|p - c|^2, |diagonal|^2 / 4), theta_w the angle between w and p - c,
 //! theta_b the half-angle of the box's bounding sphere seen from p (pi when p is inside it),
 //! theta' = max(0, theta_w - theta_o - theta_b) and theta_i the angle between n and p - c,
 //! `importance = phi cos(theta') / d^2 * cos(max(0, theta_i - theta_b))`, and 0 when theta' >= theta_e.
-//! The receiver term uses |cos theta_i| (two-sided receivers). A node is 0 only when no light below it
+//! The receiver term uses |cos theta_i| (two-sided receivers). Deviation: pbrt floors d^2 at |diagonal| / 2,
+//! a length; here at the squared half-diagonal, so a compact area-light piece 1 mm across is not treated as
+//! 2 cm away from every receiver nearer than that (measured, light-BVH sampling at 16 samples, 4 seeds:
+//! cbox with 5,000 area pieces and 15,000 VPLs 4.3% -> 3.2% relative L2, demo 29% -> 28%). A node is 0 only when no light below it
 //! can emit toward p or p's tangent plane contains them all, so every light that can light p has pdf > 0.
 //! Traversal picks a child with probability proportional to its importance; deviation from pbrt: where
 //! both children are 0 (the parent's looser bounds were not), it picks by phi instead of failing, so
@@ -161,7 +164,7 @@ impl LightBounds {
         let c = (self.lo + self.hi) * 0.5;
         let diag = (self.hi - self.lo).length();
         let dist2 = p.distance_squared(c);
-        let d2 = dist2.max(diag / 2.0).max(1e-30);
+        let d2 = dist2.max(diag * diag / 4.0).max(1e-30);
         // Half-angle of the bounding sphere seen from p.
         let r2 = (diag / 2.0) * (diag / 2.0);
         let (sin_b, cos_b) = if dist2 <= r2 {
