@@ -252,7 +252,9 @@ def chart(summary: dict, png: Path) -> None:
 def run(args) -> dict:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    summary = {"machine_note": "wall seconds on this machine, Mitsuba timed in the same run",
+    note = ("Mitsuba timed in the same run" if args.mitsuba
+            else "Mitsuba not run (--no-mitsuba): no times beside the cells, true errors on all pixels")
+    summary = {"machine_note": f"wall seconds on this machine, {note}",
                "cells": [], "targets": args.targets, "seeds": args.seeds}
 
     def save():
