@@ -62,7 +62,7 @@ def test_lightcuts_error_within_bound_at_99_percent_of_pixels(scene, request):
 def test_cuts_stopped_by_max_cut_are_reported_and_the_others_are_within_the_bound(cbox_lights):
     """The per-pixel criterion guarantees |estimate - truth| <= error x estimate wherever the cut stopped on
     its own; cuts that reached max_cut first are counted and listed as a bias source, never silent. (The
-    bounds are loose: here 1,000 of 1,401 nodes leave 317 of 576 cuts capped; all stop by ~1,200.)"""
+    bounds are loose: here 1,000 of 1,401 nodes leave 315 of the 400 surface cuts capped; all stop by 1,304.)"""
     A, truth = cbox_lights
     max_cut = 1000
     res = ml.lightcuts(A, error=0.02, max_cut=max_cut, criterion="pixel", add_emitted=False)
