@@ -69,11 +69,12 @@ The halving of the counts sees the spread between two light sets, not an error b
 of an environment map with a small bright sun both place the sun's highlight on a near-specular plate badly
 (measured on the glossy plates, seed 6: 32% true error, the halving satisfied, the probes' bound 38%; at
 65,536 strata 2.0%). When the probes find the target missed, reliably, with no known bias source and their
-bound within ``ESCALATION_REACH`` = 16 x the target, every kind gets ``ESCALATION_FACTOR`` = 4 x its lights (at
-most ``max_lights``) once, and the scene is rendered and probed again with fresh probes; the first attempt
+bound within ``ESCALATION_REACH`` = 16 x the target, every kind gets 2x its lights (a bound within sqrt(2) x the
+target: an error falling like 1 / sqrt(count) then reaches it) or ``ESCALATION_FACTOR`` = 4 x (at most
+``max_lights``) once, and the scene is rendered and probed again with fresh probes; the first attempt
 is set aside (``budget['escalation']``: its counts, bound, seconds and why; ``timings['escalation']``). The
 claim rests on the second attempt's probes alone. Deciding to go on from one probe set and then claiming
-from another keeps each claim's 90% bound; the time grows about 5x where it happens.
+from another keeps each claim's 90% bound; the time grows about 3-5x where it happens.
 
 Which kinds exist (``budget['light_counts'][kind]['reason']``):
 
@@ -148,8 +149,9 @@ COMPENSATION_SPP = 1
 #: Retracing the probes that carry an unreliable estimate may take this share of the render so far, and at
 #: least REFINE_MIN_SECONDS (on short renders the estimate's accuracy comes first).
 REFINE_SHARE = 0.15
-#: (Module doc, "Escalation") Lights per kind are multiplied by this once when the probes find the target missed
-#: with no known bias source and their bound within ESCALATION_REACH x the target.
+#: (Module doc, "Escalation") Lights per kind are multiplied by 2 (a bound within sqrt(2) x the target) or by
+#: ESCALATION_FACTOR once when the probes find the target missed with no known bias source and their bound
+#: within ESCALATION_REACH x the target.
 ESCALATION_FACTOR = 4
 ESCALATION_REACH = 16.0
 #: A light model with a known bias source must score this much better at the selection probes to be kept
@@ -382,7 +384,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         sqrt(E_gen^2 + error_estimate^2)), ``target_reached`` (that total <= target_error and no known bias
         source active (``RenderResult.bias_sources``): the estimates cover variance only; None without a
         target) and ``target_reason`` (a sentence: why it is or is not claimed), ``escalation`` (None, or the
-        first attempt that the probes sent back for 4x the lights: its counts, error_estimate, seconds, reason;
+        first attempt that the probes sent back for 2x or 4x the lights: its counts, error_estimate, seconds, reason;
         module doc); ``timings['light_counts']``, ``timings['lights']`` and ``timings['escalation']`` (the
         first attempt's seconds, where there was one).
         With probes ``error_estimate`` is their upper bound on the error against the converged scene,
@@ -474,19 +476,20 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         first = {"counts": {k: counts[k]["count"] for k in KINDS}, "error_estimate": float(res.error_estimate),
                  "seconds": float(sum(res.timings.values())) + counts["seconds"] + t_lights}
         grown = copy.deepcopy(counts)
-        # Variance of the light generation falls like 1 / count (module doc, "Light counts").
-        grown["estimated_generation_error"] = counts["estimated_generation_error"] / float(np.sqrt(ESCALATION_FACTOR))
+        # An error that falls like 1 / sqrt(count): 2x the lights for a bound within sqrt(2) x the target.
+        factor = 2 if res.error_estimate <= np.sqrt(2.0) * target_error else ESCALATION_FACTOR
+        grown["estimated_generation_error"] = counts["estimated_generation_error"] / float(np.sqrt(factor))
         for k in KINDS:
             c = grown[k]["count"]
             if c > 0:
-                grown[k]["count"] = min(ESCALATION_FACTOR * c, max_lights)
+                grown[k]["count"] = min(factor * c, max_lights)
                 grown[k]["reason"] = (f"escalated from {c}: the probes' bound {res.error_estimate:.3g} > target "
                                       f"{target_error:g} with no known bias source")
         res, A, est, t_lights, failed = attempt(grown, derived_seed(seed, _STREAM["escalation"]))
         counts = grown
         escalation = {**first, "reason": (
             f"the probes' bound {first['error_estimate']:.3g} > target {target_error:g} at "
-            f"{sum(first['counts'].values())} lights, no known bias source: {ESCALATION_FACTOR}x the lights of "
+            f"{sum(first['counts'].values())} lights, no known bias source: {factor}x the lights of "
             f"every kind (at most max_lights {max_lights}), fresh probes")}
         if failed:
             probes_failed, error_probes = failed, 0
