@@ -315,13 +315,7 @@ pub fn area_lights(emitters: &[AreaEmitter], n: usize, seed: u64, center: Vec3, 
 
 /// `area_lights` and, per light, its emitter (index into `emitters`) and where it sits on the emitter's
 /// shape (to move it with the shape in other frames of an animation).
-pub fn area_lights_tied(
-    emitters: &[AreaEmitter],
-    n: usize,
-    seed: u64,
-    center: Vec3,
-    radius: f32,
-) -> Result<(LightSet, Vec<TiedLight>)> {
+pub fn area_lights_tied(emitters: &[AreaEmitter], n: usize, seed: u64, center: Vec3, radius: f32) -> Result<(LightSet, Vec<TiedLight>)> {
     let mut set = LightSet::new(center, radius);
     set.try_reserve(n)?;
     let mut ties = Vec::new();
