@@ -164,9 +164,10 @@ impl LightBounds {
         let c = (self.lo + self.hi) * 0.5;
         let diag = (self.hi - self.lo).length();
         let dist2 = p.distance_squared(c);
-        let d2 = dist2.max(diag * diag / 4.0).max(1e-30);
-        // Half-angle of the bounding sphere seen from p.
+        // r2: the squared radius of the box's bounding sphere, also the floor of d^2 (module docs).
         let r2 = (diag / 2.0) * (diag / 2.0);
+        let d2 = dist2.max(r2).max(1e-30);
+        // Half-angle of the bounding sphere seen from p.
         let (sin_b, cos_b) = if dist2 <= r2 {
             (0.0, -1.0)
         } else {

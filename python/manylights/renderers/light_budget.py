@@ -465,7 +465,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         error_probes = 0
     # (Module doc, "Escalation") The counts' halving can be satisfied while the probes find the target missed,
     # with no known bias source: an error that more lights remove (a small bright feature of an environment
-    # map that 16,384 strata place badly). Then every kind gets ESCALATION_FACTOR x its lights (at most
+    # map that 16,384 strata place badly). Then every kind gets 2x or ESCALATION_FACTOR x its lights (at most
     # max_lights), once, with fresh probes, when the probes' bound is within ESCALATION_REACH x the target.
     escalation = None
     if (error_probes and target_error is not None and est is not None and est["reliable"]
@@ -473,8 +473,9 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
             and res.error_estimate <= ESCALATION_REACH * target_error
             and any(0 < counts[k]["count"] < max_lights for k in KINDS)
             and (time_budget is None or time.perf_counter() - t_start < time_budget / (1 + ESCALATION_FACTOR))):
+        # The first attempt's own seconds: the count phase stays in timings['light_counts'].
         first = {"counts": {k: counts[k]["count"] for k in KINDS}, "error_estimate": float(res.error_estimate),
-                 "seconds": float(sum(res.timings.values())) + counts["seconds"] + t_lights}
+                 "seconds": float(sum(res.timings.values())) + t_lights}
         grown = copy.deepcopy(counts)
         # An error that falls like 1 / sqrt(count): 2x the lights for a bound within sqrt(2) x the target.
         factor = 2 if res.error_estimate <= np.sqrt(2.0) * target_error else ESCALATION_FACTOR
