@@ -17,8 +17,15 @@
 //! of the unclamped VPL image (over the VPLs' seeds and the compensation's).
 //!
 //! The light-set sum at y: with `light_samples` = 0 every light is shaded and traced (exact); otherwise
-//! every light's unshadowed value is evaluated and `light_samples` lights are drawn with probability
-//! proportional to its luminance (with replacement; each traced, value / (S p_j)): unbiased.
+//! `light_samples` lights are drawn with replacement, each traced, value / (S p_j): unbiased whenever p_j > 0
+//! for every light that lights y. For sets of at most `TREE_LIGHTS_PER_SAMPLE` x S lights, p_j is
+//! proportional to every light's unshadowed value at y (all of them evaluated: O(n) per vertex); for larger
+//! sets it is the light tree's (`lights::light_tree`, Conty Estevez and Kulla 2018: O(S log n) per vertex,
+//! p_j > 0 for every light that can reach y), built once over the whole set and once over its direct lights
+//! (for the vertices where only those count). Measured on the Cornell box at 256^2 with 65,536 VPLs: the
+//! exact distribution made the compensation 30 s of a 35 s render; the tree's 2 s. At 17k VPLs on the
+//! staircase the tree's estimate is 3x faster with 1.04x the exact one's noise; below the threshold the
+//! exact distribution's lower noise is worth its cost.
 //!
 //! Path length (Mitsuba's `max_depth` M, of the paths the light set represents): a compensation vertex
 //! at recursion level l (l = 1 for the first y) adds l bounces, so at level l the direct lights (area,
@@ -33,6 +40,7 @@
 use crate::cpu::light_blocked;
 use crate::error::{Error, Result};
 use crate::lights::generate::sampling::{sample_bsdf, stream, to_local, to_world, uniform};
+use crate::lights::light_tree::LightTree;
 use crate::lights::{LightKind, LightSet};
 use crate::raytrace::{spawn_ray, RayTracer};
 use crate::scene::Scene;
@@ -46,6 +54,8 @@ use rand_pcg::Pcg32;
 const STREAM_BIAS: u64 = 7;
 /// Recursion level from which Russian roulette applies.
 const RR_LEVEL: u32 = 3;
+/// Sets of more than this many lights per light sample are sampled from the light tree (module docs).
+pub const TREE_LIGHTS_PER_SAMPLE: usize = 128;
 
 /// What `bias_compensation` does.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,11 +110,27 @@ impl Surface {
     }
 }
 
+/// The light trees of a large set (module docs): over every light, and over the direct lights with their
+/// indices in the set.
+struct Trees {
+    all: LightTree,
+    direct: Option<(LightTree, Vec<usize>)>,
+}
+
+impl Trees {
+    fn build(lights: &LightSet) -> Result<Trees> {
+        let direct_idx: Vec<usize> = (0..lights.len()).filter(|&j| lights.kind[j] != LightKind::Vpl).collect();
+        let direct = if direct_idx.is_empty() { None } else { Some((LightTree::build(&lights.select(&direct_idx)?)?, direct_idx)) };
+        Ok(Trees { all: LightTree::build(lights)?, direct })
+    }
+}
+
 struct Compensator<'a> {
     scene: &'a Scene,
     tracer: &'a RayTracer,
     lights: &'a LightSet,
     opts: BiasCompensationOptions,
+    trees: Option<Trees>,
 }
 
 impl Compensator<'_> {
@@ -131,6 +157,26 @@ impl Compensator<'_> {
                 .filter_map(|j| unshadowed(j).filter(|&(_, wo, d)| lit(j, wo, d)).map(|(v, _, _)| v))
                 .fold(Vec3::ZERO, |a, b| a + b);
         }
+        let s_count = self.opts.light_samples;
+        if let Some(trees) = &self.trees {
+            // The tree of the lights that count here: all of them, or the direct ones (VPLs do not count).
+            let (tree, map) = match (vpls, direct, &trees.direct) {
+                (true, _, _) => (&trees.all, None),
+                (false, true, Some((t, idx))) => (t, Some(idx)),
+                _ => return Vec3::ZERO,
+            };
+            let mut sum = Vec3::ZERO;
+            for _ in 0..s_count {
+                let Some((k, p)) = tree.sample(s.p, s.n, || uniform(rng) as f64) else { return Vec3::ZERO };
+                let j = map.map_or(k, |m| m[k]);
+                if let Some((v, wo, d)) = unshadowed(j) {
+                    if p > 0.0 && lit(j, wo, d) {
+                        sum += (v.as_dvec3() / p).as_vec3();
+                    }
+                }
+            }
+            return sum / s_count as f32;
+        }
         let mut cdf = Vec::with_capacity(l.len());
         let mut vals = Vec::with_capacity(l.len());
         let mut total = 0.0f64;
@@ -144,7 +190,6 @@ impl Compensator<'_> {
         if !(total > 0.0) {
             return Vec3::ZERO;
         }
-        let s_count = self.opts.light_samples;
         let mut sum = Vec3::ZERO;
         for _ in 0..s_count {
             let u = uniform(rng) as f64 * total;
@@ -232,7 +277,9 @@ pub fn bias_compensation(
     if !has_vpls || !lights.vpl_clamp.is_finite() || (opts.max_depth != u32::MAX && opts.max_depth < 3) {
         return Ok(vec![0.0; view.num_pixels() * 3]);
     }
-    let comp = Compensator { scene, tracer, lights, opts: *opts };
+    let large = opts.light_samples > 0 && lights.len() > TREE_LIGHTS_PER_SAMPLE.saturating_mul(opts.light_samples);
+    let trees = if large { Some(Trees::build(lights)?) } else { None };
+    let comp = Compensator { scene, tracer, lights, opts: *opts, trees };
     let per_sample: Vec<Vec3> = crate::interrupt::par_map_chunked(m, 64, |i| {
         if view.shape_index[i] < 0 {
             return Vec3::ZERO;

@@ -20,20 +20,37 @@ fn mean_se(v: &[f64]) -> (f64, f64) {
 }
 
 /// Over VPL and compensation seeds, clamped columns + compensation = the unclamped VPL image within
-/// its standard error, while the clamped columns alone are far below it (max_depth 3: exact).
+/// its standard error, while the clamped columns alone are far below it (max_depth 3: exact). Every
+/// light traced at each vertex (`light_samples` 0).
 #[test]
 fn clamped_plus_compensation_is_unbiased() {
+    compensation_is_unbiased(3, 0);
+}
+
+/// The same with one light a vertex drawn from the light tree (more than `TREE_LIGHTS_PER_SAMPLE` lights per
+/// sample), at max_depth 3 (only the direct lights' tree counts at the first vertex) and unlimited (the whole
+/// set's tree).
+#[test]
+fn tree_sampled_compensation_is_unbiased() {
+    compensation_is_unbiased(3, 1);
+    compensation_is_unbiased(u32::MAX, 1);
+}
+
+fn compensation_is_unbiased(max_depth: u32, light_samples: usize) {
+    // Enough lights that light_samples > 0 takes the tree.
+    let indirect = if light_samples == 0 { 60 } else { 2 * TREE_LIGHTS_PER_SAMPLE * light_samples };
     let scene = furnace_box(0.7, vec![], true);
     let view = cast_view(&scene);
     let tracer = RayTracer::new(&scene).unwrap();
     let reference = CpuReference::new(&scene);
     let (mut paired, mut clamp_only, mut unclamped) = (Vec::new(), Vec::new(), Vec::new());
     for seed in 0..96u64 {
-        let opts = GenerateOptions { area: 16, indirect: 60, max_depth: 3, clamp: Some(1.0), seed, ..Default::default() };
+        let opts = GenerateOptions { area: 16, indirect, max_depth, clamp: Some(1.0), seed, ..Default::default() };
         let clamped = generate_lights(&scene, &opts).unwrap();
+        assert!(light_samples == 0 || clamped.len() > TREE_LIGHTS_PER_SAMPLE * light_samples);
         let mut free = clamped.clone();
         free.vpl_clamp = f32::INFINITY;
-        let comp_opts = BiasCompensationOptions { max_depth: 3, spp: 2, light_samples: 0, seed: 1000 + seed };
+        let comp_opts = BiasCompensationOptions { max_depth, spp: 2, light_samples, seed: 1000 + seed };
         let comp: f64 = bias_compensation(&scene, &tracer, &view, &clamped, &comp_opts).unwrap().iter().map(|&v| v as f64).sum();
         let (c, u) = (vpl_energy(&reference, &view, &clamped), vpl_energy(&reference, &view, &free));
         paired.push(c + comp - u);
@@ -43,10 +60,13 @@ fn clamped_plus_compensation_is_unbiased() {
     let (d, se) = mean_se(&paired);
     let (b, se_b) = mean_se(&clamp_only);
     let (u, _) = mean_se(&unclamped);
-    eprintln!("unclamped VPL energy {u:.3}; clamped - unclamped {b:.3} +- {se_b:.3}; clamped + compensation - unclamped {d:.3} +- {se:.3}");
+    eprintln!("max_depth {max_depth}, light_samples {light_samples}: unclamped VPL energy {u:.3}; clamped - unclamped {b:.3} +- {se_b:.3}; clamped + compensation - unclamped {d:.3} +- {se:.3}");
     assert!(b < -6.0 * se_b && -b > 0.05 * u, "the clamp must remove a clear share: {b} +- {se_b} of {u}");
     assert!(d.abs() <= 3.5 * se, "compensated: {d} +- {se}");
     assert!(se < 0.25 * b.abs(), "the test must resolve the bias: se {se} vs bias {b}");
+    if light_samples > 0 {
+        return;
+    }
     // Same seed, same bits; spp 0 and VSL sets are refused; no clamp = zero.
     let opts = GenerateOptions { area: 16, indirect: 60, max_depth: 3, clamp: Some(1.0), seed: 3, ..Default::default() };
     let lights = generate_lights(&scene, &opts).unwrap();
