@@ -128,8 +128,8 @@ pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &Sha
     let Some((f, wo, dist)) = shade_unshadowed(view, lights, sp, i, j) else {
         return Shaded::default();
     };
-    if let Some(&budget) = view.mask_budget.get(i) {
-        let v = mask_visibility(tracer, lights, j, sp, wo, dist, budget);
+    if !view.mask_budget.is_empty() {
+        let v = visibility(tracer, view, lights, i, j, sp, wo, dist);
         return Shaded { value: f * v, tested: true, lit: v > 0.0 };
     }
     if light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) {
@@ -148,6 +148,27 @@ pub fn light_blocked(tracer: &RayTracer, lights: &LightSet, j: usize, p: Vec3, n
         tracer.occluded(p, n_g, lights.position[j])
     } else {
         tracer.occluded_ray(spawn_ray(p, n_g, wo), wo, f32::INFINITY)
+    }
+}
+
+/// Visibility of light j from view sample i (prepared as `sp`) toward `wo` at distance `dist` (as
+/// `LightSet::emitted` returns them): 0 or 1 (`light_blocked`), or in a scene with masked surfaces (the
+/// view has `mask_budget`) the expected transmittance of [`mask_visibility`].
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn visibility(
+    tracer: &RayTracer,
+    view: &ViewSamples,
+    lights: &LightSet,
+    i: usize,
+    j: usize,
+    sp: &ShadingPoint,
+    wo: Vec3,
+    dist: f32,
+) -> f32 {
+    match view.mask_budget.get(i) {
+        Some(&budget) => mask_visibility(tracer, lights, j, sp, wo, dist, budget),
+        None => !light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) as u8 as f32,
     }
 }
 

@@ -132,6 +132,19 @@ pub fn scene_has_masks(scene: &Scene) -> bool {
     scene.meshes.iter().any(|m| mask_opacity_param(&scene.bsdfs, m.bsdf).is_some())
 }
 
+/// `InvalidParameter` naming `what` when the scene has masked surfaces: for the methods whose shadow
+/// rays do not implement them (a mask would silently block as an opaque surface there).
+pub fn refuse_masks(scene: &Scene, what: &str) -> crate::error::Result<()> {
+    if scene_has_masks(scene) {
+        return Err(crate::error::Error::invalid(format!(
+            "{what} does not support the mask BSDF (opacity cut-outs) yet: its shadow rays would treat masked \
+             surfaces as opaque; the light matrix's CPU backend (LightMatrix(device=\"cpu\"), brute force, MRCS, \
+             lightcuts) implements them"
+        )));
+    }
+    Ok(())
+}
+
 /// Mitsuba's opacity `clip(eval_1(opacity, uv), 0, 1)`.
 pub fn eval_opacity(textures: &[Texture], p: &Param, uv: Vec2) -> f32 {
     let a = eval_param_1(textures, p, uv);
