@@ -1,5 +1,6 @@
 //! View samples: the deep framebuffer, one surface point per pixel centre, plus the surfaces seen
-//! through delta BSDF chains (mirrors, glass, smooth plastic's specular layer; `crate::view::chains`).
+//! through delta BSDF chains (mirrors, glass, smooth plastic's specular layer, the null lobe of masked
+//! surfaces; `crate::view::chains`).
 //!
 //! Produced by `crate::gpu::gbuffer` (rasterised visibility at pixel centres, then resolved exactly on the
 //! CPU from the camera ray and the hit triangle / analytic sphere). Samples `0 .. width * height` are the
@@ -7,7 +8,8 @@
 //! Samples past `width * height` ("extra" samples) are the first non-delta surfaces reached through
 //! delta chains; each belongs to the pixel `extra_pixel[k - width * height]` and carries the RGB
 //! `throughput` of its chain. A row of the light matrix is a pixel: the throughput-weighted sum of the
-//! pixel's samples (`ViewSamples::fold`). Without delta BSDFs there are no extra samples.
+//! pixel's samples (`ViewSamples::fold`). Without delta BSDFs or masks there are no extra samples. A masked
+//! surface seen by the camera is a sample of its nested BSDF with throughput times its opacity.
 pub mod chains;
 pub mod features;
 pub mod resolve;
