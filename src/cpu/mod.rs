@@ -128,9 +128,18 @@ pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &Sha
     let Some((f, wo, dist)) = shade_unshadowed(view, lights, sp, i, j) else {
         return Shaded::default();
     };
-    if !view.mask_budget.is_empty() {
-        let v = visibility(tracer, view, lights, i, j, sp, wo, dist);
-        return Shaded { value: f * v, tested: true, lit: v > 0.0 };
+    if let Some(&budget) = view.mask_budget.get(i) {
+        let (v, crossed) = mask_visibility_crossed(tracer, lights, j, sp, wo, dist, budget);
+        let mut value = f * v;
+        if crossed && !view.bsdf_samples.is_empty() {
+            // Through a mask only Mitsuba's BSDF sampling reaches the light (weight 1), and the glossy
+            // BSDF rays (`matrix::glossy::bsdf_image`) stop at masks: the light column carries it all.
+            let w = crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, sp.local(wo), j);
+            if w > 0.0 {
+                value /= w;
+            }
+        }
+        return Shaded { value, tested: true, lit: v > 0.0 };
     }
     if light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) {
         Shaded { value: Vec3::ZERO, tested: true, lit: false }
@@ -179,6 +188,20 @@ pub fn visibility(
 /// which masks block as any surface (Mitsuba's `ray_test`).
 #[inline]
 pub fn mask_visibility(tracer: &RayTracer, lights: &LightSet, j: usize, sp: &ShadingPoint, wo: Vec3, dist: f32, budget: u32) -> f32 {
+    mask_visibility_crossed(tracer, lights, j, sp, wo, dist, budget).0
+}
+
+/// [`mask_visibility`] and whether the shadow ray crossed a masked surface.
+#[inline]
+pub fn mask_visibility_crossed(
+    tracer: &RayTracer,
+    lights: &LightSet,
+    j: usize,
+    sp: &ShadingPoint,
+    wo: Vec3,
+    dist: f32,
+    budget: u32,
+) -> (f32, bool) {
     use crate::lights::LightKind;
     let passes = match lights.kind[j] {
         LightKind::OrientedPoint | LightKind::Vpl => true,
@@ -186,7 +209,7 @@ pub fn mask_visibility(tracer: &RayTracer, lights: &LightSet, j: usize, sp: &Sha
         LightKind::Point | LightKind::Spot => false,
     };
     let q = dist.is_finite().then(|| lights.position[j]);
-    tracer.mask_transmittance(sp.p, sp.n_g, q, wo, if passes { budget } else { 0 })
+    tracer.mask_transmittance_crossed(sp.p, sp.n_g, q, wo, if passes { budget } else { 0 })
 }
 
 /// The CPU backend of one light matrix (module docs).

@@ -46,6 +46,10 @@
 //! p_L is the area density (Mitsuba samples its visible cone). Exact when P_valid = 1 (a surface or an
 //! environment behind every masked pixel).
 //!
+//! Glossy view samples (`matrix::glossy`): light through a mask reaches Mitsuba only by BSDF sampling,
+//! with MIS weight 1, and the glossy BSDF rays stop at masks, so `cpu::shade` gives a light column whose
+//! shadow ray crossed a mask its full value (w_L divided out).
+//!
 //! Validation (`tests/scene/test_mask.py`, `tests/data/mask_leaves.xml`: quads of opacity 0.5 and a
 //! 0.1 / 0.85 checkerboard over a floor, an area light, 64 x 48, pixel-centre `llvm_ad_rgb` references):
 //! the brute-force light matrix is within 0.402% / 0.398% / 0.218% relative L2 of the references at
@@ -207,6 +211,12 @@ impl RayTracer {
     /// [`RayTracer::occluded`] / `spawn_ray`; each crossing continues from the hit with Mitsuba's
     /// `spawn_ray_to` / `spawn_ray` offsets.
     pub fn mask_transmittance(&self, p: Vec3, n_g: Vec3, q: Option<Vec3>, d: Vec3, budget: u32) -> f32 {
+        self.mask_transmittance_crossed(p, n_g, q, d, budget).0
+    }
+
+    /// [`RayTracer::mask_transmittance`] and whether the ray crossed at least one masked surface (then
+    /// only Mitsuba's BSDF sampling reaches the light, with MIS weight 1).
+    pub fn mask_transmittance_crossed(&self, p: Vec3, n_g: Vec3, q: Option<Vec3>, d: Vec3, budget: u32) -> (f32, bool) {
         let (mut o, mut dir, mut t_max) = match q {
             Some(q) => spawn_ray_to(p, n_g, q),
             None => (spawn_ray(p, n_g, d), d, f32::INFINITY),
@@ -216,25 +226,25 @@ impl RayTracer {
         // Bounded: each step moves past one hit; a pathological scene stops after this many.
         for _ in 0..1024 {
             let Some(si) = self.intersect(o, dir, 0.0, t_max) else {
-                return tr;
+                return (tr, left != budget);
             };
             let Some(a) = self.masks.opacity(si.mesh, si.uv) else {
-                return 0.0;
+                return (0.0, false);
             };
             if left == 0 {
-                return 0.0;
+                return (0.0, false);
             }
             left -= 1;
             tr *= 1.0 - a;
             if tr <= 0.0 {
-                return 0.0;
+                return (0.0, false);
             }
             match q {
                 Some(q) => (o, dir, t_max) = spawn_ray_to(si.p, si.n_g, q),
                 None => o = offset_p(si.p, si.n_g, dir),
             }
         }
-        0.0
+        (0.0, false)
     }
 }
 
