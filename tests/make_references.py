@@ -106,6 +106,13 @@ REFERENCES = {
     # roughdielectric and thindielectric (tests/scene/test_dielectric.py), direct light: rough glass panes lit
     # through reflection and transmission by two point lights, an area light seen only through a thin pane.
     "rough-glass-direct": (HERE / "data" / "rough_glass.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.004, None),
+    # Masked surfaces (tests/scene/test_mask.py): two `mask` quads (opacity 0.5 and a checkerboard 0.1 / 0.85)
+    # over a floor under a small area light, 64 x 48. max_depth -1: the floor through the quads and their
+    # shadows at (1 - opacity) (no indirect light exists in this scene); max_depth 2 and 3: Mitsuba's depth
+    # accounting of null events and its `valid_ray` rule.
+    "mask-leaves": (HERE / "data" / "mask_leaves.xml", {"width": 64, "height": 48}, (64, 48), -1, 0.004, None),
+    "mask-leaves-depth2": (HERE / "data" / "mask_leaves.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002, None),
+    "mask-leaves-depth3": (HERE / "data" / "mask_leaves.xml", {"width": 64, "height": 48}, (64, 48), 3, 0.004, None),
 }
 
 # Integrator of the references that do not use ``path`` (with the max_depth above).

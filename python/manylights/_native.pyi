@@ -210,12 +210,16 @@ def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[in
         UserWarning: input Mitsuba accepts with a warning (a mesh whose triangles all have zero area; a
             medium under an integrator that ignores media, or one that scatters)."""
 
-def device_info(device: str = "auto") -> dict[str, Any]:
-    """The device ``device`` resolves to: kind ("cpu"/"gpu"), name, backend, is_software, threads, and
-    "gpu": the adapter wgpu would use (name, backend, device_type, driver, driver_info, is_software) or None.
+def device_info(device: str = "auto", scene: Scene | None = None) -> dict[str, Any]:
+    """The device ``device`` resolves to: kind ("cpu"/"gpu"), name, backend, is_software, threads,
+    "reason" (why "auto" took the CPU, else None) and "gpu": the adapter wgpu would use (name, backend,
+    device_type, driver, driver_info, is_software) or None. With ``scene``, the device a ``LightMatrix``
+    of that scene takes: "auto" falls back to the CPU for a scene the GPU backend does not support
+    (masked surfaces, ``<bsdf type="mask">``), with the reason.
 
     Raises:
-        ValueError: an unknown device name or MANYLIGHTS_DEVICE.
+        ValueError: an unknown device name or MANYLIGHTS_DEVICE; device="gpu" with a ``scene`` the GPU
+            backend does not support.
         GpuUnavailableError: device="gpu" without an adapter, or MANYLIGHTS_ADAPTER naming none; the
             message names the package to install."""
 

@@ -39,10 +39,12 @@ pub fn ris(a: &LightMatrix, tree: &LightTree, samples: usize, candidates: usize,
             return Vec3::ZERO;
         };
         *rays += 1;
-        if crate::cpu::light_blocked(&tracer, lights, j, sp.p, sp.n_g, wo, dist) {
+        // 0 / 1, or a masked scene's expected transmittance.
+        let v = crate::cpu::visibility(&tracer, view, lights, i, j, sp, wo, dist);
+        if v == 0.0 {
             return Vec3::ZERO;
         }
-        f * r.w as f32
+        f * (r.w as f32 * v)
     })
 }
 

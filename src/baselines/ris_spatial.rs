@@ -140,10 +140,12 @@ pub fn ris_spatial(
                 None => Vec3::ZERO,
                 Some((j, f, wo, dist, p_hat)) => {
                     r += 1;
-                    if crate::cpu::light_blocked(&tracer, lights, j, sp.p, sp.n_g, wo, dist) {
+                    // 0 / 1, or a masked scene's expected transmittance.
+                    let v = crate::cpu::visibility(&tracer, view, lights, q, j, &sp, wo, dist);
+                    if v == 0.0 {
                         Vec3::ZERO
                     } else {
-                        f * (w_sum / p_hat) as f32
+                        f * ((w_sum / p_hat) as f32 * v)
                     }
                 }
             };

@@ -113,6 +113,12 @@ pub fn shade_unshadowed(view: &ViewSamples, lights: &LightSet, sp: &ShadingPoint
     if !view.bsdf_samples.is_empty() {
         f *= crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, wo_local, j);
     }
+    if let Some(&valid) = view.mask_valid.get(i) {
+        // Mitsuba's `valid_ray` factor of a masked sample: direct light only (`raytrace::mask`).
+        if valid < 1.0 && lights.kind[j] != crate::lights::LightKind::Vpl {
+            f *= crate::raytrace::mask::direct_factor(view, lights, i, sp.p, sp.wi_local, wo_local, j);
+        }
+    }
     (f != Vec3::ZERO).then_some((f, wo, dist))
 }
 
@@ -122,6 +128,19 @@ pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &Sha
     let Some((f, wo, dist)) = shade_unshadowed(view, lights, sp, i, j) else {
         return Shaded::default();
     };
+    if let Some(&budget) = view.mask_budget.get(i) {
+        let (v, crossed) = mask_visibility_crossed(tracer, lights, j, sp, wo, dist, budget);
+        let mut value = f * v;
+        if crossed && !view.bsdf_samples.is_empty() {
+            // Through a mask only Mitsuba's BSDF sampling reaches the light (weight 1), and the glossy
+            // BSDF rays (`matrix::glossy::bsdf_image`) stop at masks: the light column carries it all.
+            let w = crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, sp.local(wo), j);
+            if w > 0.0 {
+                value /= w;
+            }
+        }
+        return Shaded { value, tested: true, lit: v > 0.0 };
+    }
     if light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) {
         Shaded { value: Vec3::ZERO, tested: true, lit: false }
     } else {
@@ -139,6 +158,58 @@ pub fn light_blocked(tracer: &RayTracer, lights: &LightSet, j: usize, p: Vec3, n
     } else {
         tracer.occluded_ray(spawn_ray(p, n_g, wo), wo, f32::INFINITY)
     }
+}
+
+/// Visibility of light j from view sample i (prepared as `sp`) toward `wo` at distance `dist` (as
+/// `LightSet::emitted` returns them): 0 or 1 (`light_blocked`), or in a scene with masked surfaces (the
+/// view has `mask_budget`) the expected transmittance of [`mask_visibility`].
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn visibility(
+    tracer: &RayTracer,
+    view: &ViewSamples,
+    lights: &LightSet,
+    i: usize,
+    j: usize,
+    sp: &ShadingPoint,
+    wo: Vec3,
+    dist: f32,
+) -> f32 {
+    match view.mask_budget.get(i) {
+        Some(&budget) => mask_visibility(tracer, lights, j, sp, wo, dist, budget),
+        None => !light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) as u8 as f32,
+    }
+}
+
+/// Expected visibility of light j from view sample `sp` in a scene with masked surfaces
+/// (`crate::raytrace::mask`): the product of (1 - opacity) over the masked surfaces crossed, at most
+/// `budget` of them (the sample's `ViewSamples::mask_budget`), for lights BSDF sampling can reach (area
+/// light samples, environment strata, VPLs); 0 or 1 for point and spot lights and directional emitters,
+/// which masks block as any surface (Mitsuba's `ray_test`).
+#[inline]
+pub fn mask_visibility(tracer: &RayTracer, lights: &LightSet, j: usize, sp: &ShadingPoint, wo: Vec3, dist: f32, budget: u32) -> f32 {
+    mask_visibility_crossed(tracer, lights, j, sp, wo, dist, budget).0
+}
+
+/// [`mask_visibility`] and whether the shadow ray crossed a masked surface.
+#[inline]
+pub fn mask_visibility_crossed(
+    tracer: &RayTracer,
+    lights: &LightSet,
+    j: usize,
+    sp: &ShadingPoint,
+    wo: Vec3,
+    dist: f32,
+    budget: u32,
+) -> (f32, bool) {
+    use crate::lights::LightKind;
+    let passes = match lights.kind[j] {
+        LightKind::OrientedPoint | LightKind::Vpl => true,
+        LightKind::Directional => tracer.masks().directional_is_environment,
+        LightKind::Point | LightKind::Spot => false,
+    };
+    let q = dist.is_finite().then(|| lights.position[j]);
+    tracer.mask_transmittance_crossed(sp.p, sp.n_g, q, wo, if passes { budget } else { 0 })
 }
 
 /// The CPU backend of one light matrix (module docs).

@@ -162,6 +162,7 @@ pub fn generate_animation_lights(frames: &[&Scene], opts: &AnimationLightOptions
     let Some(first) = frames.first() else {
         return Err(Error::invalid("the animation has no frames"));
     };
+    crate::raytrace::mask::refuse_masks(first, "animation light generation")?;
     for (name, v) in [("area", opts.area), ("environment", opts.environment), ("indirect", opts.indirect), ("photons", opts.photons)] {
         if v > MAX_LIGHTS {
             return Err(Error::invalid(format!("{name} must be at most {MAX_LIGHTS}, got {v}")));

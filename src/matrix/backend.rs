@@ -204,6 +204,34 @@ impl Device {
     }
 }
 
+/// Why the GPU backend cannot compute `scene`'s light matrix, or None when it can: masked surfaces
+/// (`mask` BSDF) are implemented on the CPU backend only (`crate::raytrace::mask`).
+pub fn gpu_unsupported(scene: &crate::scene::Scene) -> Option<String> {
+    crate::raytrace::mask::scene_has_masks(scene).then(|| {
+        "the scene uses the mask BSDF (opacity cut-outs), which only the CPU backend implements (its shadow rays \
+         cross masked surfaces with Mitsuba's null-lobe transmittance)"
+            .to_string()
+    })
+}
+
+impl Device {
+    /// `choose_explained` for `scene`: "auto" takes the CPU, saying why, for a scene the GPU backend
+    /// does not support (`gpu_unsupported`).
+    ///
+    /// Errors: `InvalidParameter` when "gpu" (also through `MANYLIGHTS_DEVICE`) is asked for such a
+    /// scene; else those of `choose_explained`.
+    pub fn choose_for_scene(self, scene: &crate::scene::Scene) -> Result<(Chosen, Option<String>)> {
+        if let Some(why) = gpu_unsupported(scene) {
+            match self.with_env()? {
+                Device::Auto => return Ok((Chosen::Cpu, Some(why))),
+                Device::Gpu => return Err(Error::invalid(format!("device \"gpu\": {why}; use device=\"cpu\" or \"auto\""))),
+                Device::Cpu => {}
+            }
+        }
+        self.choose_explained()
+    }
+}
+
 /// Whether `MANYLIGHTS_ADAPTER` asks for a particular adapter (anything but empty / "auto").
 fn adapter_requested() -> bool {
     std::env::var("MANYLIGHTS_ADAPTER").is_ok_and(|v| !v.trim().is_empty() && !v.trim().eq_ignore_ascii_case("auto"))

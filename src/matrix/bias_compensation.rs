@@ -263,6 +263,7 @@ pub fn bias_compensation(
     lights: &LightSet,
     opts: &BiasCompensationOptions,
 ) -> Result<Vec<f32>> {
+    crate::raytrace::mask::refuse_masks(scene, "bias compensation")?;
     if opts.spp == 0 {
         return Err(Error::invalid("spp must be >= 1 BSDF samples per view sample, got 0"));
     }

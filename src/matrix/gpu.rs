@@ -147,6 +147,9 @@ impl GpuBackend {
         lights: Arc<LightSet>,
         opts: ColumnOptions,
     ) -> Result<GpuBackend> {
+        if let Some(why) = super::backend::gpu_unsupported(&scene) {
+            return Err(Error::invalid(format!("the GPU backend cannot compute this light matrix: {why}; use device=\"cpu\"")));
+        }
         super::check_view(&view)?;
         let m = view.len();
         let limits = &ctx.limits;

@@ -204,7 +204,8 @@ impl LightMatrix {
         lights: Arc<LightSet>,
         opts: ColumnOptions,
     ) -> Result<LightMatrix> {
-        LightMatrix::with_device(&device.choose()?, scene, view, lights, opts, None)
+        let (chosen, _) = device.choose_for_scene(&scene)?;
+        LightMatrix::with_device(&chosen, scene, view, lights, opts, None)
     }
 
     /// Which device computes this matrix.

@@ -45,6 +45,13 @@
 //! `sampling::stream(seed, STREAM_PATH, k << 32 | b)`; blocks run in parallel and are summed in block
 //! order in f64, so one seed gives bit-identical output on any thread count.
 //!
+//! Masked surfaces (`mask`, Mitsuba's `mask.cpp`; semantics measured in `crate::raytrace::mask`): eval and
+//! pdf are the nested BSDF's times the opacity a; a BSDF sample passes straight through with probability
+//! 1 - a (weight 1, a delta event: the emitter it then hits has MIS weight 1, and it is one unit of depth);
+//! shadow rays stop at masked surfaces as at any other (Mitsuba's `ray_test`). A path whose BSDF samples
+//! were all null events is worth 0 unless the scene has an environment (Mitsuba's `valid_ray`); as in
+//! `llvm_ad_rgb`, the vertex where the depth runs out also draws its null-or-not decision.
+//!
 //! Not supported (refused with `InvalidParameter`): `principled` BSDFs (no pdf for their sampling
 //! mixture in radiance mode yet). Deviations from Mitsuba (expectation unchanged unless noted): emitter
 //! selection (all emitters when few) and the area / environment proposals differ from Mitsuba's (its
@@ -159,6 +166,9 @@ struct Vertex {
     first: GpuBsdf,
     /// A blend's second record and its weight w.
     second: Option<(GpuBsdf, f32)>,
+    /// The opacity a of a masked surface (`mask`): eval and pdf are the nested BSDF's times a, and
+    /// sampling passes straight through (a null event) with probability 1 - a.
+    opacity: Option<f32>,
 }
 
 /// A BSDF sample in world space.
@@ -170,25 +180,29 @@ struct Sampled {
     delta: bool,
     /// Relative IOR crossed (1 unless refracted).
     eta: f32,
+    /// A masked surface's null event (straight through; Mitsuba's `BSDFFlags::Null`, part of `Delta`).
+    null: bool,
 }
 
 impl Vertex {
     fn eval(&self, w: Vec3) -> Vec3 {
         let (wi, wo) = (to_local(self.n_s, self.wi), to_local(self.n_s, w));
         let f = eval(&self.first, wi, wo);
-        match &self.second {
+        let f = match &self.second {
             Some((b, t)) => f * (1.0 - t) + eval(b, wi, wo) * *t,
             None => f,
-        }
+        };
+        f * self.opacity.unwrap_or(1.0)
     }
 
     fn pdf(&self, w: Vec3) -> f32 {
         let (wi, wo) = (to_local(self.n_s, self.wi), to_local(self.n_s, w));
         let p = pdf_bsdf(&self.first, wi, wo);
-        match &self.second {
+        let p = match &self.second {
             Some((b, t)) => p * (1.0 - t) + pdf_bsdf(b, wi, wo) * *t,
             None => p,
-        }
+        };
+        p * self.opacity.unwrap_or(1.0)
     }
 
     /// Whether some lobe is not delta (emitter sampling applies).
@@ -199,6 +213,11 @@ impl Vertex {
     }
 
     fn sample(&self, rng: &mut Pcg32) -> Option<Sampled> {
+        // Mitsuba's `mask.cpp` `sample`: the null lobe with probability 1 - a (weight 1, pdf 1 - a).
+        let a = self.opacity.unwrap_or(1.0);
+        if self.opacity.is_some() && uniform(rng) >= a {
+            return Some(Sampled { w: -self.wi, weight: Vec3::ONE, pdf: 1.0 - a, delta: true, eta: 1.0, null: true });
+        }
         let b = match &self.second {
             Some((b, t)) if uniform(rng) < *t => *b,
             _ => self.first,
@@ -215,24 +234,25 @@ impl Vertex {
                 weight *= eta_ti * eta_ti;
                 eta = 1.0 / eta_ti;
             }
-            return Some(Sampled { w, weight, pdf: 0.0, delta: true, eta });
+            return Some(Sampled { w, weight, pdf: 0.0, delta: true, eta, null: false });
         }
         if self.second.is_none() {
-            let pdf = pdf_bsdf(&b, wi, s.wo);
+            // The nested BSDF of a mask: its weight unchanged, its pdf times a.
+            let pdf = a * pdf_bsdf(&b, wi, s.wo);
             let (mut weight, mut eta) = (s.weight, 1.0);
             if b.kind == KIND_ROUGHDIELECTRIC && s.wo.z * wi.z < 0.0 {
                 // Radiance mode: Mitsuba's roughdielectric scales a transmission by 1 / eta^2.
                 eta = if wi.z > 0.0 { b.eta[0] } else { b.eta[1] };
                 weight /= eta * eta;
             }
-            return (pdf > 0.0).then_some(Sampled { w, weight, pdf, delta: false, eta });
+            return (pdf > 0.0).then_some(Sampled { w, weight, pdf, delta: false, eta, null: false });
         }
         let pdf = self.pdf(w);
         if !(pdf > 0.0) {
             return None;
         }
         let weight = self.eval(w) / pdf;
-        (weight.is_finite() && weight.max_element() > 0.0).then_some(Sampled { w, weight, pdf, delta: false, eta: 1.0 })
+        (weight.is_finite() && weight.max_element() > 0.0).then_some(Sampled { w, weight, pdf, delta: false, eta: 1.0, null: false })
     }
 }
 
@@ -342,7 +362,7 @@ impl<'a> PathTracer<'a> {
             first.flags &= !FLAG_BLEND;
             (first.extra[2], first.extra[3]) = (0.0, 0.0);
         }
-        Vertex { p, n_s, n_g, wi, first, second }
+        Vertex { p, n_s, n_g, wi, first, second, opacity: self.rt.masks().opacity(mesh, uv) }
     }
 
     /// Emitter `e` (module order) sampled at `x`: its MIS-weighted contribution / selection probability.
@@ -438,14 +458,22 @@ impl<'a> PathTracer<'a> {
         let mut beta = Vec3::ONE;
         let mut eta = 1.0f32;
         let mut depth = 0u32;
+        // Mitsuba's `valid_ray` (`raytrace::mask` module docs): true with an environment, else once a
+        // vertex draws a non-null BSDF sample (also the last vertex, as `llvm_ad_rgb` does).
+        let mut valid = self.env.is_some() || !self.rt.masks().any();
         loop {
             if !self.may_continue(depth) {
+                valid |= x.opacity.is_none_or(|a| uniform(rng) < a);
                 break;
             }
             if x.has_smooth() {
                 result += beta * self.direct(&x, rng);
             }
-            let Some(bs) = x.sample(rng) else { break };
+            let Some(bs) = x.sample(rng) else {
+                valid = true;
+                break;
+            };
+            valid |= !bs.null;
             beta *= bs.weight;
             eta *= bs.eta;
             depth += 1;
@@ -482,7 +510,7 @@ impl<'a> PathTracer<'a> {
             }
             x = self.vertex(si.mesh, si.prim, si.p, si.n_s, si.n_g, si.wi, si.uv);
         }
-        if result.is_finite() {
+        if result.is_finite() && valid {
             result
         } else {
             Vec3::ZERO

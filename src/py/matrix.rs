@@ -55,7 +55,8 @@ impl LightMatrix {
             // Shadow maps were asked for: only the GPU renders them.
             device = Device::Gpu;
         }
-        let chosen = py.detach(move || device.choose())?;
+        let s = scene.inner.clone();
+        let (chosen, _) = py.detach(move || device.choose_for_scene(&s))?;
         let visibility = visibility.unwrap_or_else(|| chosen.default_visibility());
         let mut view = scene.view_samples_on(py, chains, &chosen)?;
         if glossy.roughness > 0.0

@@ -304,6 +304,14 @@ impl Scene {
                         d.set_item("scale", *scale)?;
                         d.set_item("bsdf", *nested)?;
                     }
+                    Bsdf::Mask { opacity, nested } => {
+                        d.set_item("type", "mask")?;
+                        match opacity {
+                            Param::Value(v) => d.set_item("opacity", v.x)?,
+                            Param::Texture(_) => d.set_item("opacity", param(py, opacity)?)?,
+                        }
+                        d.set_item("bsdf", *nested)?;
+                    }
                     Bsdf::NormalMap { texture, nested } => {
                         d.set_item("type", "normalmap")?;
                         d.set_item("normalmap", format!("texture[{texture}]"))?;
@@ -457,12 +465,18 @@ pub fn device_dict<'py>(py: Python<'py>, i: &DeviceInfo) -> PyResult<Bound<'py, 
 /// pass's needs, else the CPU) as a dict (kind, name, backend, is_software, threads, and "reason": why
 /// "auto" took the CPU, else None), plus "gpu": the adapter wgpu would use (name, backend, device_type,
 /// driver, driver_info, is_software, only_software, adapters: every adapter found, unmet: the passes'
-/// needs its limits do not meet, lost) or None when there is none.
+/// needs its limits do not meet, lost) or None when there is none. With `scene`: the device a light
+/// matrix of that scene takes (`Device::choose_for_scene`: "auto" takes the CPU for a masked scene, with
+/// the reason; "gpu" is a ValueError for one).
 #[pyfunction]
-#[pyo3(signature = (device="auto"))]
-pub fn device_info<'py>(py: Python<'py>, device: &str) -> PyResult<Bound<'py, PyDict>> {
+#[pyo3(signature = (device="auto", scene=None))]
+pub fn device_info<'py>(py: Python<'py>, device: &str, scene: Option<&Scene>) -> PyResult<Bound<'py, PyDict>> {
     let dev = Device::parse(device)?;
-    let (chosen, reason) = py.detach(move || dev.choose_explained())?;
+    let s = scene.map(|s| s.inner.clone());
+    let (chosen, reason) = py.detach(move || match s {
+        Some(s) => dev.choose_for_scene(&s),
+        None => dev.choose_explained(),
+    })?;
     let info = match &chosen {
         Chosen::Gpu(ctx) => DeviceInfo::gpu(ctx),
         Chosen::Cpu => DeviceInfo::cpu(),

@@ -36,6 +36,7 @@
 //! local `si.wi`), `b1`, `b2` barycentrics of vertices 1 and 2.
 mod bvh;
 mod intersect;
+pub mod mask;
 mod occlusion;
 
 use crate::error::{Error, Result};
@@ -85,6 +86,8 @@ struct MeshShading {
 pub struct RayTracer {
     bvh: SceneBvh,
     meshes: Vec<MeshShading>,
+    /// The scene's masked surfaces (`mask` module).
+    masks: mask::Masks,
 }
 
 /// Mitsuba's `Interaction::offset_p`: `p` moved along `n_g` (toward the side `d` points to) by
@@ -154,7 +157,7 @@ impl RayTracer {
                 face_normals: m.face_normals,
             })
             .collect();
-        Ok(RayTracer { bvh: SceneBvh::build(scene), meshes })
+        Ok(RayTracer { bvh: SceneBvh::build(scene), meshes, masks: mask::Masks::new(scene) })
     }
 
     /// Number of primitives in the BVH (triangles plus one per sphere).

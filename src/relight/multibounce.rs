@@ -169,7 +169,7 @@ pub fn photon_rows(
                 continue;
             }
             let o = offset_p(emit_position[g], n_g, w);
-            walk(scene, tracer, o, w, phi, &mut rng, 1, max_depth, &mut |v| {
+            walk(scene, tracer, o, w, phi, false, &mut rng, 1, max_depth, &mut |v| {
                 let side = if v.incident.dot(v.n_g) >= 0.0 { v.n_g } else { -v.n_g };
                 out.push(Photon { position: v.position, normal: side, flux: v.flux, source: g as u32 });
             });

@@ -469,7 +469,7 @@ fn params_mut(b: &mut Bsdf) -> Vec<&mut Param> {
                 &mut p.flatness,
             ]
         }
-        Bsdf::TwoSided { .. } | Bsdf::Blend { .. } | Bsdf::BumpMap { .. } | Bsdf::NormalMap { .. } => vec![],
+        Bsdf::TwoSided { .. } | Bsdf::Blend { .. } | Bsdf::BumpMap { .. } | Bsdf::NormalMap { .. } | Bsdf::Mask { .. } => vec![],
     }
 }
 
@@ -497,6 +497,14 @@ fn bsdf_key(scene: &Scene, i: usize, out: &mut Vec<u8>, depth: u32) {
             texture_keys(scene, &tex, out);
             bsdf_key(scene, *first, out, depth + 1);
             bsdf_key(scene, *second, out, depth + 1);
+            out.extend_from_slice(b");");
+        }
+        Bsdf::Mask { opacity, nested } => {
+            let mut o = *opacity;
+            let tex = param_key(&mut o);
+            out.extend_from_slice(format!("Mask({o:?}").as_bytes());
+            texture_keys(scene, &tex, out);
+            bsdf_key(scene, *nested, out, depth + 1);
             out.extend_from_slice(b");");
         }
         Bsdf::BumpMap { texture, nested, .. } | Bsdf::NormalMap { texture, nested } => {

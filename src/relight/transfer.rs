@@ -303,6 +303,7 @@ impl Transfer {
         opts: &TransferOptions,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Transfer> {
+        crate::raytrace::mask::refuse_masks(scene, "direct-to-indirect relighting")?;
         crate::lights::gather::gather_levels(opts.gather)?;
         if !(1..=opts.gather).contains(&opts.coefficients) {
             return Err(Error::invalid(format!(

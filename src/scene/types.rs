@@ -272,6 +272,13 @@ pub enum Bsdf {
         scale: f32,
         nested: usize,
     },
+    /// Mitsuba's `mask` (`src/bsdfs/mask.cpp`): `nested` (index into `Scene::bsdfs`) weighted by the
+    /// opacity a = clip(eval_1(opacity), 0, 1), plus a null lobe (straight through) of weight 1 - a
+    /// (`crate::view::chains`, `crate::raytrace::mask`).
+    Mask {
+        opacity: ScalarParam,
+        nested: usize,
+    },
     /// Mitsuba's `normalmap`: `nested` evaluated in the shading frame whose normal is `2 c - 1` of the RGB
     /// texel `c` of `texture` (a raw bitmap), in the tangent frame of the unperturbed shading normal.
     NormalMap {

@@ -8,7 +8,7 @@
 //!
 //! Supported plugins: shapes obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, shapegroup +
 //! instance (`instancing`); BSDFs diffuse, twosided, plastic,
-//! roughplastic, conductor, roughconductor, dielectric, roughdielectric and thindielectric (`dielectric`), principled, blendbsdf, bumpmap, normalmap (`perturb`); textures bitmap (PNG, JPEG, BMP, PPM, TGA,
+//! roughplastic, conductor, roughconductor, dielectric, roughdielectric and thindielectric (`dielectric`), principled, blendbsdf, bumpmap, normalmap (`perturb`), mask (`mask`); textures bitmap (PNG, JPEG, BMP, PPM, TGA,
 //! EXR, HDR, PFM), checkerboard; emitters point,
 //! spot, directional, area, envmap, constant; sensor perspective with film hdrfilm (crop window included; `banner` of
 //! Mitsuba 0.x files ignored and `gamma` refused, as Mitsuba 3.9.1 does). Integrators, samplers
@@ -27,6 +27,7 @@ mod blend;
 mod cie;
 mod dielectric;
 mod instancing;
+mod mask;
 mod materials;
 mod parse;
 mod perturb;

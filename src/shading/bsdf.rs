@@ -111,6 +111,12 @@ pub fn resolve(bsdfs: &[Bsdf], textures: &[Texture], index: usize, uv: Vec2) -> 
             let wraps = matches!(bsdfs.get(*front), Some(Bsdf::BumpMap { .. } | Bsdf::NormalMap { .. }));
             b.flags |= if wraps { FLAG_TWOSIDED_OUTER } else { FLAG_TWOSIDED };
         }
+        Bsdf::Mask { nested, .. } => {
+            // The nested BSDF; the opacity weights the view sample (`view::chains::mask_opacity`).
+            if *nested != index {
+                b = resolve(bsdfs, textures, *nested, uv);
+            }
+        }
         Bsdf::BumpMap { nested, .. } | Bsdf::NormalMap { nested, .. } => {
             // The nested BSDF; the perturbed normal is added where the geometry is known (`perturb::apply`).
             if *nested != index {

@@ -44,9 +44,18 @@
 //! counts them): exact when its lights are outside the medium's closed boundary, which blocks their shadow
 //! rays anyway (Mitsuba's shadow rays pass only null BSDFs).
 //!
+//! Masked surfaces (`mask`, semantics and measurements in `crate::raytrace::mask`): a vertex on a masked
+//! surface of opacity a (at its uv) is a view sample of the nested BSDF with throughput times a, and the
+//! chain continues straight through (`-wi`, Mitsuba's null lobe) with throughput times 1 - a, one delta
+//! bounce deeper. Each sample records `ViewSamples::mask_budget` (max_depth - 2 - k: how many masked
+//! surfaces its shadow rays toward area and environment lights and VPLs may cross; unlimited for
+//! max_depth -1) and a masked sample reached from the camera through null events only records
+//! `ViewSamples::mask_valid` (Mitsuba's `valid_ray` factor P_valid on its direct light).
+//!
 //! Emission at the camera's own hit (k = 0) is `matrix::emitted`'s; this module collects k >= 1.
 use crate::error::{Error, Result};
 use crate::lights::generate::environment::Environment;
+use crate::raytrace::mask::Masks;
 use crate::raytrace::{spawn_ray, RayTracer};
 use crate::scene::{Bsdf, Scene};
 use crate::shading::bsdf::{fresnel, fresnel_conductor, KIND_NONE, KIND_SMOOTH};
@@ -106,6 +115,16 @@ impl ChainOptions {
     fn samples(&self, k: u32) -> bool {
         self.max_depth < 0 || (k as i64) + 1 < self.max_depth as i64
     }
+
+    /// How many masked surfaces a shadow ray of a vertex after k bounces may cross: j with
+    /// k + 1 + j < max_depth (`crate::raytrace::mask`); `u32::MAX` for max_depth -1.
+    pub fn mask_budget(&self, k: u32) -> u32 {
+        if self.max_depth < 0 {
+            u32::MAX
+        } else {
+            (self.max_depth as i64 - 2 - k as i64).clamp(0, u32::MAX as i64 - 1) as u32
+        }
+    }
 }
 
 /// What `trace_chains` did.
@@ -126,10 +145,27 @@ pub struct ChainStats {
 /// The delta lobes of a BSDF.
 #[derive(Debug, Clone, Copy)]
 enum Delta {
-    Conductor { eta: Vec3, k: Vec3, specular: Vec3 },
-    Dielectric { eta: f32 },
-    Plastic { eta: f32, specular: Vec3 },
-    Thin { eta: f32, specular: Vec3, transmittance: Vec3 },
+    Conductor {
+        eta: Vec3,
+        k: Vec3,
+        specular: Vec3,
+    },
+    Dielectric {
+        eta: f32,
+    },
+    Plastic {
+        eta: f32,
+        specular: Vec3,
+    },
+    Thin {
+        eta: f32,
+        specular: Vec3,
+        transmittance: Vec3,
+    },
+    /// A masked surface's null lobe: straight through with weight 1 - opacity.
+    Null {
+        opacity: f32,
+    },
 }
 
 /// The delta lobes of scene BSDF `index` (resolved at the point as `b`), with its two-sidedness.
@@ -177,9 +213,16 @@ fn branches(delta: Delta, twosided: bool, wi: Vec3, n: Vec3) -> Vec<(Vec3, Vec3)
                         * Vec3::new(fresnel_conductor(c, eta.x, k.x), fresnel_conductor(c, eta.y, k.y), fresnel_conductor(c, eta.z, k.z))
                 }
                 Delta::Plastic { eta, specular } => specular * fresnel(c, eta),
-                Delta::Dielectric { .. } | Delta::Thin { .. } => unreachable!(),
+                Delta::Dielectric { .. } | Delta::Thin { .. } | Delta::Null { .. } => unreachable!(),
             };
             vec![(reflect(n, c), w)]
+        }
+        Delta::Null { opacity } => {
+            if opacity < 1.0 {
+                vec![(-wi, Vec3::splat(1.0 - opacity))]
+            } else {
+                Vec::new()
+            }
         }
         Delta::Thin { eta, specular, transmittance } => {
             let r = fresnel(cos_i.abs(), eta);
@@ -233,6 +276,10 @@ struct Extra {
     prim_index: i32,
     bsdf: GpuBsdf,
     throughput: Vec3,
+    /// `ViewSamples::mask_budget` and `ViewSamples::mask_valid` of the sample.
+    mask_budget: u32,
+    mask_valid: f32,
+    mask_opacity: f32,
 }
 
 struct Tracer<'a> {
@@ -241,6 +288,7 @@ struct Tracer<'a> {
     env: Option<Environment>,
     area: crate::matrix::emitted::AreaRadiance<'a>,
     opts: ChainOptions,
+    masks: &'a Masks,
 }
 
 /// The result of one pixel.
@@ -254,8 +302,9 @@ struct PixelChains {
 impl Tracer<'_> {
     /// Follow the delta lobes at a vertex reached after `k` delta bounces.
     #[allow(clippy::too_many_arguments)]
-    fn follow(&self, out: &mut PixelChains, v: Vertex, delta: (Delta, bool), throughput: Vec3, k: u32) {
+    fn follow(&self, out: &mut PixelChains, v: Vertex, delta: (Delta, bool), throughput: Vec3, k: u32, all_null: bool) {
         let Vertex { p, n_g, n_s, wi, mesh: from, medium } = v;
+        let all_null = all_null && matches!(delta.0, Delta::Null { .. });
         for (wo, w) in branches(delta.0, delta.1, wi, n_s) {
             let mut tp = throughput * w;
             let medium = self.scene.media.after(medium, from, wo, n_g);
@@ -289,8 +338,13 @@ impl Tracer<'_> {
             let mesh = &self.scene.meshes[si.mesh];
             let mut bsdf = crate::shading::bsdf::resolve(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, si.uv);
             crate::shading::perturb::apply(self.scene, si.mesh, si.prim, si.p, si.n_g, si.n_s, si.uv, &mut [&mut bsdf]);
-            if bsdf.kind != KIND_SMOOTH && bsdf.kind != KIND_NONE && self.opts.samples(k1) {
+            let opacity = self.masks.opacity(si.mesh, si.uv);
+            if bsdf.kind != KIND_SMOOTH && bsdf.kind != KIND_NONE && self.opts.samples(k1) && opacity != Some(0.0) {
                 if out.extras.len() < self.opts.max_samples_per_pixel {
+                    let (throughput, mask_valid) = match opacity {
+                        Some(a) => (tp * a, if all_null { self.valid_probability(si.p, si.n_g, si.wi, a, k1) } else { 1.0 }),
+                        None => (tp, 1.0),
+                    };
                     out.stats.in_medium += medium.is_some() as usize;
                     out.extras.push(Extra {
                         position: si.p,
@@ -301,27 +355,80 @@ impl Tracer<'_> {
                         shape_index: si.mesh as i32,
                         prim_index: si.prim as i32,
                         bsdf,
-                        throughput: tp,
+                        throughput,
+                        mask_budget: self.opts.mask_budget(k1),
+                        mask_valid,
+                        mask_opacity: opacity.unwrap_or(1.0),
                     });
                 } else {
                     out.stats.dropped_samples += 1;
                 }
             }
-            if let Some(d) = delta_of(&self.scene.bsdfs, mesh.bsdf, &bsdf, false) {
+            if let Some(d) = vertex_delta(self.scene, self.masks, si.mesh, &bsdf, si.uv) {
                 let next = Vertex { p: si.p, n_g: si.n_g, n_s: si.n_s, wi: si.wi, mesh: si.mesh, medium };
-                self.follow(out, next, d, tp, k1);
+                self.follow(out, next, d, tp, k1, all_null);
             }
         }
     }
+
+    /// Mitsuba's `valid_ray` factor (`crate::raytrace::mask` module docs) of an active masked vertex
+    /// of opacity `a` at depth `k`, reached from the camera through null events only: a + (1 - a) P_next.
+    fn valid_probability(&self, p: Vec3, n_g: Vec3, wi: Vec3, a: f32, k: u32) -> f32 {
+        if self.masks.environment {
+            return 1.0;
+        }
+        let (mut p, mut n_g, mut k) = (p, n_g, k);
+        let d = -wi;
+        // Product of the null probabilities so far, and the valid probability accumulated.
+        let (mut null, mut valid) = (1.0 - a, a);
+        for _ in 0..=self.opts.max_bounces {
+            if null <= 0.0 {
+                break;
+            }
+            let Some(si) = self.rt.intersect(spawn_ray(p, n_g, d), d, 0.0, f32::INFINITY) else {
+                break;
+            };
+            k += 1;
+            if !self.opts.samples(k) {
+                // The last vertex: Mitsuba's vectorised loop still draws its BSDF sample (module docs).
+                valid += null * self.masks.opacity(si.mesh, si.uv).unwrap_or(1.0);
+                break;
+            }
+            match self.masks.opacity(si.mesh, si.uv) {
+                Some(b) => {
+                    valid += null * b;
+                    null *= 1.0 - b;
+                }
+                None => {
+                    valid += null;
+                    break;
+                }
+            }
+            (p, n_g) = (si.p, si.n_g);
+        }
+        valid.min(1.0)
+    }
 }
 
-/// Whether any BSDF of the scene has a delta lobe (then `trace_chains` has work to do).
+/// The delta lobes at a vertex of mesh `mesh` (BSDF resolved there as `b`, at `uv`): a masked surface's
+/// null lobe (the loader refuses delta BSDFs inside a mask), else `delta_of`.
+fn vertex_delta(scene: &Scene, masks: &Masks, mesh: usize, b: &GpuBsdf, uv: Vec2) -> Option<(Delta, bool)> {
+    if let Some(opacity) = masks.opacity(mesh, uv) {
+        return Some((Delta::Null { opacity }, false));
+    }
+    delta_of(&scene.bsdfs, scene.meshes.get(mesh)?.bsdf, b, false)
+}
+
+/// Whether any BSDF of the scene has a delta lobe or a null lobe (`mask`; then `trace_chains` has work to do).
 pub fn scene_has_delta(scene: &Scene) -> bool {
-    scene.bsdfs.iter().any(|b| match b {
-        Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => true,
-        Bsdf::Plastic { specular_reflectance, .. } => !matches!(specular_reflectance, crate::scene::Param::Value(v) if *v == Vec3::ZERO),
-        _ => false,
-    })
+    crate::raytrace::mask::scene_has_masks(scene)
+        || scene.bsdfs.iter().any(|b| match b {
+            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => true,
+            Bsdf::Plastic { specular_reflectance, .. } => {
+                !matches!(specular_reflectance, crate::scene::Param::Value(v) if *v == Vec3::ZERO)
+            }
+            _ => false,
+        })
 }
 
 /// Appends to `view` (whose samples are exactly its `width * height` camera hits) the extra samples
@@ -339,23 +446,35 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
     if !scene_has_delta(scene) {
         return Ok(ChainStats::default());
     }
+    let masks = Masks::new(scene);
+    if masks.any() {
+        view.mask_budget = vec![opts.mask_budget(0); m];
+        view.mask_valid = vec![1.0; m];
+        view.mask_opacity = vec![1.0; m];
+        view.mask_emitter_pdf = crate::raytrace::mask::emitter_area_pdfs(scene);
+    }
     let starts: Vec<(usize, (Delta, bool))> = (0..m)
         .filter_map(|i| {
             let s = view.shape_index[i];
             if s < 0 {
                 return None;
             }
-            let mesh = scene.meshes.get(s as usize)?;
-            delta_of(&scene.bsdfs, mesh.bsdf, &view.bsdf[i], false).map(|d| (i, d))
+            vertex_delta(scene, &masks, s as usize, &view.bsdf[i], view.uv[i]).map(|d| (i, d))
         })
         .collect();
     if starts.is_empty() {
         return Ok(ChainStats::default());
     }
     let rt = RayTracer::new(scene)?;
-    let tracer =
-        Tracer { scene, rt: &rt, env: Environment::from_scene(scene), area: crate::matrix::emitted::AreaRadiance::new(scene), opts: *opts };
-    let results: Vec<(usize, PixelChains)> = starts
+    let tracer = Tracer {
+        scene,
+        rt: &rt,
+        env: Environment::from_scene(scene),
+        area: crate::matrix::emitted::AreaRadiance::new(scene),
+        opts: *opts,
+        masks: &masks,
+    };
+    let results: Vec<(usize, PixelChains, Option<(f32, f32)>)> = starts
         .par_iter()
         .with_min_len(16)
         .map(|&(i, d)| {
@@ -368,14 +487,27 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
                 mesh: view.shape_index[i] as usize,
                 medium: None,
             };
-            tracer.follow(&mut out, v, d, Vec3::ONE, 0);
-            (i, out)
+            tracer.follow(&mut out, v, d, Vec3::ONE, 0, true);
+            // A masked camera hit: its own sample is weighted by the opacity (module docs).
+            let own = match d.0 {
+                Delta::Null { opacity } => {
+                    let valid = if opts.samples(0) { tracer.valid_probability(v.p, v.n_g, v.wi, opacity, 0) } else { 1.0 };
+                    Some((opacity, valid))
+                }
+                _ => None,
+            };
+            (i, out, own)
         })
         .collect();
     let mut stats = ChainStats::default();
     view.throughput = vec![Vec3::ONE; m];
     view.chain_emitted = vec![Vec3::ZERO; m];
-    for (i, r) in results {
+    for (i, r, own) in results {
+        if let Some((opacity, valid)) = own {
+            view.throughput[i] = Vec3::splat(opacity);
+            view.mask_valid[i] = valid;
+            view.mask_opacity[i] = opacity;
+        }
         view.chain_emitted[i] = r.emitted;
         stats.dropped_throughput += r.stats.dropped_throughput;
         stats.dropped_bounces += r.stats.dropped_bounces;
@@ -393,6 +525,11 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
             view.prim_index.push(e.prim_index);
             view.bsdf.push(e.bsdf);
             view.throughput.push(e.throughput);
+            if masks.any() {
+                view.mask_budget.push(e.mask_budget);
+                view.mask_valid.push(e.mask_valid);
+                view.mask_opacity.push(e.mask_opacity);
+            }
             view.extra_pixel.push(i as u32);
         }
     }

@@ -1,5 +1,6 @@
 //! View samples: the deep framebuffer, one surface point per pixel centre, plus the surfaces seen
-//! through delta BSDF chains (mirrors, glass, smooth plastic's specular layer; `crate::view::chains`).
+//! through delta BSDF chains (mirrors, glass, smooth plastic's specular layer, the null lobe of masked
+//! surfaces; `crate::view::chains`).
 //!
 //! Produced by `crate::gpu::gbuffer` (rasterised visibility at pixel centres, then resolved exactly on the
 //! CPU from the camera ray and the hit triangle / analytic sphere). Samples `0 .. width * height` are the
@@ -7,7 +8,8 @@
 //! Samples past `width * height` ("extra" samples) are the first non-delta surfaces reached through
 //! delta chains; each belongs to the pixel `extra_pixel[k - width * height]` and carries the RGB
 //! `throughput` of its chain. A row of the light matrix is a pixel: the throughput-weighted sum of the
-//! pixel's samples (`ViewSamples::fold`). Without delta BSDFs there are no extra samples.
+//! pixel's samples (`ViewSamples::fold`). Without delta BSDFs or masks there are no extra samples. A masked
+//! surface seen by the camera is a sample of its nested BSDF with throughput times its opacity.
 pub mod chains;
 pub mod features;
 pub mod resolve;
@@ -47,6 +49,19 @@ pub struct ViewSamples {
     /// Per pixel (`width * height`), the emission seen along its delta chains (area emitters and the
     /// environment reached after >= 1 delta bounce), throughput applied. Empty = none.
     pub chain_emitted: Vec<Vec3>,
+    /// Per sample, how many masked surfaces (`mask` BSDF) its shadow rays toward area and environment
+    /// lights and VPLs may cross (Mitsuba counts each null event as a bounce: `crate::raytrace::mask`);
+    /// `u32::MAX` = unlimited. Empty = the scene has no masks (shadow rays stop at any surface).
+    pub mask_budget: Vec<u32>,
+    /// Per sample, the factor on its direct light (not on VPLs) from Mitsuba's `valid_ray` rule for a
+    /// masked surface reached through null events only (`crate::raytrace::mask`). Empty = 1.
+    pub mask_valid: Vec<f32>,
+    /// Per sample, the opacity of a masked sample (1 for the others). Empty = no masks.
+    pub mask_opacity: Vec<f32>,
+    /// Per `Scene::meshes` index, Mitsuba's area-emitter sampling density 1 / (A N) (A the mesh's area,
+    /// N the scene's emitter count; 0 for meshes without an area emitter), for the MIS weights of the
+    /// `valid_ray` factor (`crate::raytrace::mask::direct_factor`). Empty = no masks.
+    pub mask_emitter_pdf: Vec<f32>,
     /// n_B per sample: BSDF samples of a glossy view sample (`matrix::glossy`; its light columns carry
     /// the MIS weight w_L), 0 for the others. Empty = no glossy sample.
     pub bsdf_samples: Vec<u32>,

@@ -298,7 +298,8 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     """The light model of the rendered image ``res`` (from ``A``), chosen by probe residuals (module doc,
     "Light models"), and the chosen model's error from FRESH probes that took no part in the choice.
 
-    Candidates: the lights as generated; with clamped VPLs (``bias`` source ``vpl_clamp``) also the same image
+    Candidates: the lights as generated; with clamped VPLs (``bias`` source ``vpl_clamp``, in a scene without
+    ``mask`` BSDFs, which bias compensation refuses) also the same image
     plus the clamp's energy (``LightMatrix.bias_compensation``, two independent estimates of ``COMPENSATION_SPP``
     paths per pixel averaged: their half difference is the compensation's own variance, added to
     ``variance`` in quadrature). With one candidate no choice is made and one probe set estimates the error;
@@ -322,7 +323,9 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     t = time.perf_counter()
     candidates = [{"model": "lights as generated", "image": res.image, "variance": float(variance),
                    "bias_sources": list(res.bias_sources)}]
-    if any(b["source"] == "vpl_clamp" for b in res.bias_sources):
+    # Bias compensation does not cross masked surfaces (it refuses a scene with ``mask`` BSDFs): no candidate.
+    masked = any(b.get("type") == "mask" for b in scene.bsdfs)
+    if any(b["source"] == "vpl_clamp" for b in res.bias_sources) and not masked:
         comp = [A.bias_compensation(max_depth, spp=COMPENSATION_SPP * (2 if h == 2 else 1), light_samples=64,
                                     seed=derived_seed(seed, 100 * _STREAM["compensation"] + h)) for h in (0, 1, 2)]
         norm = float(np.linalg.norm(res.image.astype(np.float64)))

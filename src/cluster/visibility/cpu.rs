@@ -102,7 +102,16 @@ pub fn shade(view: &ViewSamples, job: &ClusteredShading, vis: &VisibilityMatrix)
 }
 
 /// The whole clustered render on the CPU: visibility matrix, then shading, each timed.
+///
+/// Errors also: `InvalidParameter` for a view of a scene with masked surfaces (a visibility bit cannot hold
+/// their fractional transmittance).
 pub fn render(tracer: &RayTracer, view: &ViewSamples, job: &ClusteredShading) -> Result<ClusteredImage> {
+    if !view.mask_budget.is_empty() {
+        return Err(crate::error::Error::invalid(
+            "clustered visibility does not support the mask BSDF (opacity cut-outs) yet: a visibility bit cannot hold \
+             a masked surface's fractional transmittance",
+        ));
+    }
     let t0 = Instant::now();
     let visibility = visibility_matrix(tracer, view, job)?;
     let visibility_seconds = seconds(t0);

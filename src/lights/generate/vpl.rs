@@ -28,6 +28,12 @@
 //! ends the particle. A VPL only lights its incident side (transmission from a VPL is not modelled). Russian roulette from the 3rd bounce on: continue with
 //! probability q = min(0.95, lum(Phi_next) / lum(Phi_0)), dividing the flux by q.
 //!
+//! Masked surfaces (`mask`, `crate::raytrace::mask`): a particle passes straight through with probability
+//! 1 - a (the flux unchanged, one bounce of depth, no record), else it meets the nested BSDF as above
+//! (a VPL of the nested BSDF with the full flux: in expectation a times the flux, Mitsuba's `eval`). A
+//! particle from a delta emitter (point, spot, directional) that meets a mask on its first segment does not
+//! pass: Mitsuba reaches a delta emitter only by emitter sampling, whose shadow rays masks block.
+//!
 //! Unbiasedness: E[sum over VPLs at bounce k of Phi_vpl] = the flux arriving at bounce k; so the set's
 //! total reflected flux (sum of `LightSet::power`) estimates the power the scene reflects at bounces
 //! 1 ..= max_depth - 2 (tested on a closed diffuse box against Phi sum_k rho^k).
@@ -96,8 +102,9 @@ fn luminance(v: Vec3) -> f32 {
 }
 
 impl<'a> Tracer<'a> {
-    /// Emits one particle: (origin, direction, flux before division by N).
-    fn emit(&self, rng: &mut Pcg32) -> Option<(Vec3, Vec3, Vec3)> {
+    /// Emits one particle: (origin, direction, flux before division by N, whether it comes from a delta
+    /// emitter: point, spot, directional).
+    fn emit_from(&self, rng: &mut Pcg32) -> Option<(Vec3, Vec3, Vec3, bool)> {
         let total = *self.cdf.last()?;
         let u = uniform(rng) as f64 * total;
         let s = self.cdf.partition_point(|&c| c <= u).min(self.sources.len() - 1);
@@ -110,7 +117,8 @@ impl<'a> Tracer<'a> {
             let phi = 2.0 * PI * b;
             self.center + to_world(d, Vec3::new(r * phi.cos(), r * phi.sin(), 1.01 * self.radius))
         };
-        match source {
+        let delta = matches!(source, Source::Delta(_));
+        let emitted = match source {
             Source::Area(e) => {
                 let (p, n, uv) = e.sample_point_uv(u0, u1);
                 let w = to_world(n, cosine_hemisphere(u2, u3));
@@ -152,7 +160,8 @@ impl<'a> Tracer<'a> {
                     }
                 }
             }
-        }
+        };
+        emitted.map(|(o, d, phi)| (o, d, phi, delta))
     }
 
     fn env_radiance(&self, d: Vec3) -> Vec3 {
@@ -162,8 +171,8 @@ impl<'a> Tracer<'a> {
     /// Traces particle `index` of stream family `family`; VPL fluxes still to be divided by N.
     pub(crate) fn trace(&self, seed: u64, family: u64, index: u64, out: &mut Vec<Vpl>) {
         let mut rng = stream(seed, family, index);
-        let Some((o, d, phi_0)) = self.emit(&mut rng) else { return };
-        walk(self.scene, &self.rt, o, d, phi_0, &mut rng, self.min_vpl_depth, self.max_vpl_depth, &mut |v| out.push(v));
+        let Some((o, d, phi_0, delta)) = self.emit_from(&mut rng) else { return };
+        walk(self.scene, &self.rt, o, d, phi_0, delta, &mut rng, self.min_vpl_depth, self.max_vpl_depth, &mut |v| out.push(v));
     }
 }
 
@@ -179,6 +188,7 @@ pub(crate) fn walk(
     o: Vec3,
     d: Vec3,
     phi_0: Vec3,
+    delta_source: bool,
     rng: &mut Pcg32,
     min_depth: u32,
     max_depth: u32,
@@ -194,6 +204,17 @@ pub(crate) fn walk(
     loop {
         let Some(hit) = rt.intersect(o, d, 0.0, f32::INFINITY) else { return };
         depth += 1;
+        if let Some(a) = rt.masks().opacity(hit.mesh, hit.uv) {
+            // A masked surface: its null lobe with probability 1 - a, straight on with the flux unchanged
+            // (one bounce of depth, no record); else its nested BSDF below (module docs).
+            if uniform(rng) >= a {
+                if (depth == 1 && delta_source) || depth >= max_depth {
+                    return;
+                }
+                o = spawn_ray(hit.p, hit.n_g, d);
+                continue;
+            }
+        }
         let mesh = &scene.meshes[hit.mesh];
         // A blendbsdf: one of its two records, the second with probability w (unbiased: the expected
         // VPL BSDF and continuation weight are (1 - w) f_0 + w f_1).

@@ -34,6 +34,12 @@ impl Builder<'_> {
                     format!("{}: a roughdielectric or thindielectric inside it is not supported (a blended surface holds no VPL with transmission)", p.what()),
                 ));
             }
+            if self.is_mask(inner) {
+                return Err(Error::scene(
+                    &r.loc,
+                    format!("{}: a mask inside it is not supported (put the mask around the blendbsdf)", p.what()),
+                ));
+            }
             if matches!(self.bsdfs[inner], Bsdf::Blend { .. }) {
                 return Err(Error::scene(&r.loc, format!("{}: a nested blendbsdf is not supported", p.what())));
             }

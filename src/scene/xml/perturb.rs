@@ -143,6 +143,9 @@ impl Builder<'_> {
             let kind = if matches!(self.bsdfs[inner], Bsdf::Blend { .. }) { "a blendbsdf" } else { "a bumpmap or normalmap" };
             return Err(Error::scene(&nested.loc, format!("{what}: {kind} inside it is not supported")));
         }
+        if self.is_mask(inner) {
+            return Err(Error::scene(&nested.loc, format!("{what}: a mask inside it is not supported (put the mask around the {plugin})")));
+        }
         if let Bsdf::RoughDielectric { .. } | Bsdf::ThinDielectric { .. } = self.bsdfs[inner] {
             return Err(Error::scene(
                 &nested.loc,

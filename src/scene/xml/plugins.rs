@@ -438,6 +438,7 @@ impl<'a> Builder<'a> {
             "principled" => self.principled(&mut p)?,
             "blendbsdf" => self.blendbsdf(&mut p)?,
             "bumpmap" | "normalmap" => self.perturbation(&mut p)?,
+            "mask" => self.mask(&mut p)?,
             _ => return Err(unknown_plugin(&p)),
         };
         p.finish()?;
