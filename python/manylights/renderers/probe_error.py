@@ -45,7 +45,8 @@ The variance part: a renderer that also estimates its own variance (MRCS halves:
 ``bias^2 ~= SE / ||I||^2 - sigma^2``, the squared relative L2 of ``E[I] - I*`` (``bias_estimate``; noisy:
 both terms are estimates), and ``bias_upper^2 = SE_upper / ||I||^2 - sigma^2`` with ``SE_upper`` the upper
 confidence bound of (2). Where sigma dominates, a bias well below it hardly moves SE and the point estimate
-reads 0 (``bench bias``: the staircase's 5.7% bias under 15% of variance); ``bias_upper`` still covers it.
+reads 0 (``bench bias``: seeds of the compensated staircase, under 15-30% of variance); ``bias_upper`` is the
+bound.
 
 | symbol | meaning |
 |---|---|
