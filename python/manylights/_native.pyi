@@ -124,8 +124,9 @@ class LightMatrix:
         """(H, W, 3): emitted radiance seen directly (area emitters, environment background), plus the
         BSDF strategy of glossy MIS when the matrix has glossy view samples."""
     def bias_compensation(self, max_depth: int = -1, spp: int = 1, light_samples: int = 64,
-                          seed: int = 0) -> npt.NDArray[np.float32]:
-        """(H, W, 3): Kollig-Keller estimate of the energy the VPL clamp removes (CPU)."""
+                          seed: int = 0, pixels: Optional[Sequence[int]] = None) -> npt.NDArray[np.float32]:
+        """(H, W, 3): Kollig-Keller estimate of the energy the VPL clamp removes (CPU); at `pixels` (flat
+        indices) only when given, 0 elsewhere. ValueError for an index out of range."""
     def weighted_sum(self, indices: Sequence[int], weights: npt.NDArray[np.float32],
                      progress: Optional[Callable[[int, int], None]] = None) -> npt.NDArray[np.float32]:
         """(H, W, 3): sum_k weights[k] * column[indices[k]], (k, 3) RGB weights; only those columns are rendered."""

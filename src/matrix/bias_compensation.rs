@@ -253,15 +253,19 @@ impl Compensator<'_> {
 }
 
 /// The compensation image (H * W * 3 floats, row 0 at the top; module docs) of `lights` at `view`.
+/// `pixels`: only these pixels (flat indices y * W + x) are estimated, the others are 0; each estimated
+/// pixel has the same value as in the whole image (every view sample draws from its own stream).
 ///
-/// Errors: `InvalidParameter` for `spp` = 0 or a set holding virtual spherical lights (they are not
-/// clamped: compensation applies to point VPLs). Zero everywhere for an infinite clamp or no VPLs.
+/// Errors: `InvalidParameter` for `spp` = 0, a set holding virtual spherical lights (they are not
+/// clamped: compensation applies to point VPLs) or a pixel index out of range. Zero everywhere for an
+/// infinite clamp or no VPLs.
 pub fn bias_compensation(
     scene: &Scene,
     tracer: &RayTracer,
     view: &ViewSamples,
     lights: &LightSet,
     opts: &BiasCompensationOptions,
+    pixels: Option<&[usize]>,
 ) -> Result<Vec<f32>> {
     crate::raytrace::mask::refuse_masks(scene, "bias compensation")?;
     if opts.spp == 0 {
@@ -274,6 +278,18 @@ pub fn bias_compensation(
         )));
     }
     let m = view.len();
+    let np = view.num_pixels();
+    let wanted = match pixels {
+        None => None,
+        Some(px) => {
+            if let Some((k, &p)) = px.iter().enumerate().find(|(_, &p)| p >= np) {
+                return Err(Error::invalid(format!("pixel index {p} (at position {k}) is out of range for {np} pixels")));
+            }
+            let mut w = vec![false; np];
+            px.iter().for_each(|&p| w[p] = true);
+            Some(w)
+        }
+    };
     let has_vpls = lights.kind.contains(&LightKind::Vpl);
     if !has_vpls || !lights.vpl_clamp.is_finite() || (opts.max_depth != u32::MAX && opts.max_depth < 3) {
         return Ok(vec![0.0; view.num_pixels() * 3]);
@@ -284,6 +300,12 @@ pub fn bias_compensation(
     let per_sample: Vec<Vec3> = crate::interrupt::par_map_chunked(m, 64, |i| {
         if view.shape_index[i] < 0 {
             return Vec3::ZERO;
+        }
+        if let Some(w) = &wanted {
+            let pixel = if i < np { i } else { view.extra_pixel[i - np] as usize };
+            if !w[pixel] {
+                return Vec3::ZERO;
+            }
         }
         let mut rng = stream(opts.seed, STREAM_BIAS, i as u64);
         let b = view.bsdf[i];
@@ -305,10 +327,11 @@ pub fn bias_compensation(
 }
 
 impl super::LightMatrix {
-    /// `bias_compensation` of this matrix's lights at its view samples, with the scene's ray tracer.
-    pub fn bias_compensation(&self, opts: &BiasCompensationOptions) -> Result<Vec<f32>> {
+    /// `bias_compensation` of this matrix's lights at its view samples (at `pixels` only, when given),
+    /// with the scene's ray tracer.
+    pub fn bias_compensation(&self, opts: &BiasCompensationOptions, pixels: Option<&[usize]>) -> Result<Vec<f32>> {
         let tracer = RayTracer::new(&self.scene)?;
-        bias_compensation(&self.scene, &tracer, &self.view, &self.lights, opts)
+        bias_compensation(&self.scene, &tracer, &self.view, &self.lights, opts, pixels)
     }
 }
 

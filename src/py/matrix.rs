@@ -200,8 +200,9 @@ impl LightMatrix {
         array(py, data, &[h, w, 3])
     }
     /// Kollig-Keller compensation of the VPL clamp (`matrix::bias_compensation`), (H, W, 3) float32.
-    /// `max_depth` < 0 = unlimited; `light_samples` = 0 traces every light at each path vertex.
-    #[pyo3(signature = (max_depth=-1, spp=1, light_samples=64, seed=0))]
+    /// `max_depth` < 0 = unlimited; `light_samples` = 0 traces every light at each path vertex;
+    /// `pixels`: flat pixel indices to estimate (the rest 0), None = all.
+    #[pyo3(signature = (max_depth=-1, spp=1, light_samples=64, seed=0, pixels=None))]
     fn bias_compensation<'py>(
         &self,
         py: Python<'py>,
@@ -209,6 +210,7 @@ impl LightMatrix {
         spp: u32,
         light_samples: usize,
         seed: u64,
+        pixels: Option<Vec<usize>>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let m = self.inner.clone();
         let opts = crate::matrix::bias_compensation::BiasCompensationOptions {
@@ -217,7 +219,7 @@ impl LightMatrix {
             light_samples,
             seed,
         };
-        let data = signals::detach(py, move || m.bias_compensation(&opts))?;
+        let data = signals::detach(py, move || m.bias_compensation(&opts, pixels.as_deref()))?;
         let (h, w) = self.inner.image_size();
         array(py, data, &[h, w, 3])
     }

@@ -58,6 +58,13 @@ def test_bias_compensation_restores_clamped_energy(cbox):
     assert before < 0.985
     assert abs(after - 1.0) < 0.005
     assert np.array_equal(comp, A.bias_compensation(spp=2, light_samples=32, seed=4))
+    # At some pixels only (as the light-model choice scores it at its probes): the same values there, 0 elsewhere.
+    W = img.shape[1]
+    px = np.array([5 * W + 7, 40 * W + 31, 63 * W + 2, 40 * W + 31])
+    part = A.bias_compensation(spp=2, light_samples=32, seed=4, pixels=px)
+    flat, whole = part.reshape(-1, 3), comp.reshape(-1, 3)
+    assert np.array_equal(flat[px], whole[px]) and whole[px].any()
+    assert not np.delete(flat, px, axis=0).any()
 
 
 def test_vsl_lightset_fields_roundtrip(cbox):
@@ -113,6 +120,12 @@ def test_bad_vsl_radius_arrays_and_compensation_input(cbox):
         A.bias_compensation(spp=0)
     with pytest.raises(ValueError, match="light_samples"):
         A.bias_compensation(light_samples=-1)
+    with pytest.raises(ValueError, match=r"pixels\[1\] = 4096 is out of range for 4096 pixels"):
+        A.bias_compensation(pixels=[0, 4096])
+    with pytest.raises(ValueError, match="1-D array of integer"):
+        A.bias_compensation(pixels=[[0, 1]])
+    with pytest.raises(ValueError, match="1-D array of integer"):
+        A.bias_compensation(pixels=[0.5])
     vsl = ml.LightSet.from_arrays(scene, vsl_radius=0.05, **base)
     with pytest.raises(ValueError, match="virtual spherical light"):
         ml.LightMatrix(scene, vsl, visibility="ray_traced", device="cpu").bias_compensation()

@@ -143,7 +143,7 @@ def test_the_compensated_light_model_is_chosen_where_the_clamp_costs(cbox):
     assert true < 0.9 * plain, (true, plain)
     assert res.bias_sources == []  # the clamp is compensated
     assert 0.8 * true <= res.error_estimate <= 2.0 * true, (res.error_estimate, true)
-    assert res.timings["light_model"] > 0 and res.budget["probes"]["probes"] == 256
+    assert res.timings["light_model"] > 0 and res.timings["compensation"] > 0 and res.budget["probes"]["probes"] == 256
 
 
 def test_the_path_tracer_projection_predicts_its_own_error(cbox):

@@ -252,7 +252,8 @@ class LightMatrix:
         weighted by w_B = 1 - w_L; seeded by ``glossy_seed``), so every renderer's image includes it."""
         return self._m.emitted()
 
-    def bias_compensation(self, max_depth: int = -1, spp: int = 1, light_samples: int = 64, seed: int = 0) -> np.ndarray:
+    def bias_compensation(self, max_depth: int = -1, spp: int = 1, light_samples: int = 64, seed: int = 0,
+                          pixels=None) -> np.ndarray:
         """The energy the VPL geometry-term clamp removes, estimated without bias by short BSDF-sampled
         paths (Kollig and Keller 2004; ``src/matrix/bias_compensation.rs``), (H, W, 3) float32, to add
         to an image like ``emitted()``: ``column_sum() + emitted() + bias_compensation()`` estimates the
@@ -266,15 +267,29 @@ class LightMatrix:
             light_samples: lights drawn per path vertex proportionally to their unshadowed
                 contribution (0 = all lights traced, exact).
             seed: same seed -> identical image.
+            pixels: None (every pixel) or flat pixel indices ``y * W + x`` (1-D integers): only those are
+                estimated, each with the value it has in the whole image (every view sample draws from its
+                own stream), the others are 0 (e.g. the compensation at probe pixels alone).
 
         Raises:
-            ValueError: spp < 1, a negative light_samples, or a light set holding virtual spherical
-                lights (not clamped). Zero for an infinite clamp or a set without VPLs.
+            ValueError: spp < 1, a negative light_samples, a light set holding virtual spherical
+                lights (not clamped), a pixel index outside [0, H W) or pixels not 1-D integers. Zero for
+                an infinite clamp or a set without VPLs.
         """
         spp = _v.integer("spp", spp, 1, 1 << 24)
         light_samples = _v.integer("light_samples", light_samples, 0, 1 << 24)
         max_depth = _v.integer("max_depth", max_depth, -1, 1 << 30)
-        return self._m.bias_compensation(int(max_depth), int(spp), int(light_samples), _v.seed(seed))
+        if pixels is not None:
+            px = np.asarray(pixels)
+            if px.ndim != 1 or (px.size and not np.issubdtype(px.dtype, np.integer)):
+                raise ValueError(f"pixels must be a 1-D array of integer pixel indices, got shape {px.shape} "
+                                 f"dtype {px.dtype}")
+            n = self.shape[0]
+            bad = np.flatnonzero((px < 0) | (px >= n))
+            if bad.size:
+                raise ValueError(f"pixels[{int(bad[0])}] = {int(px[bad[0]])} is out of range for {n} pixels")
+            pixels = [int(p) for p in px]
+        return self._m.bias_compensation(int(max_depth), int(spp), int(light_samples), _v.seed(seed), pixels)
 
     def _index(self, name: str, v, size: int, what: str) -> int:
         if isinstance(v, (bool, np.bool_)) or int(v) != v:

@@ -308,45 +308,63 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     ``BIAS_MARGIN`` better), and a second, fresh probe set estimates the winner's error (so the reported
     bound is not the minimum of noisy scores); where few probes carry that estimate they are retraced with
     more paths for at most ``refine_seconds`` (``probe_error.refine_probes``), and likewise
-    while ``target_error`` lies between its lower and upper confidence bounds. The compensated candidate is
+    while ``target_error`` lies between its lower and upper confidence bounds. Both candidates' scores are
+    relative to one estimate of ||I*|| (the generated image's, (7)). The compensated candidate is
     scored with a third, independent compensation estimate of 2 ``COMPENSATION_SPP`` paths (the noise of the
-    pair's mean), never with the pair it adds: the compensation is heavy-tailed, and a choice made on its own
+    pair's mean) computed at the selection probes alone, and the pair is computed only when it wins; never is
+    it scored with the pair it adds: the compensation is heavy-tailed, and a choice made on its own
     draws keeps the draws that missed its rare bright paths, a mean too dark (measured on the staircase,
     4,096 VPLs, 64 seeds: the mean of the seeds that chose it was 2.7% +- 0.8% (relative L2) from the
     converged image and 1.4% too dark; all seeds' compensated images 0.0% +- 0.7%; scored independently,
     the seeds that chose it 0.0% +- 1.0%).
 
     Sets ``res.image``, ``res.bias_sources`` (the winner's), the error fields (``attach_probe_error``),
-    ``budget['light_model']`` (``chosen``, ``candidates``: model, variance, selection error, ``reason``),
-    ``timings['light_model']`` (the candidates' extra work) and adds the selection probes to
+    ``budget['light_model']`` (``chosen``, ``candidates``: model, variance (the compensated one's only when
+    chosen), selection error, ``reason``),
+    ``timings['light_model']`` (the choice: the scoring compensation at the selection probes),
+    ``timings['compensation']`` (the chosen compensation's image, when it wins) and adds the selection probes to
     ``timings['probes']``. Returns the fresh ``probe_estimate``. Raises: what ``probe_error`` raises."""
-    t = time.perf_counter()
-    candidates = [{"model": "lights as generated", "image": res.image, "variance": float(variance),
-                   "bias_sources": list(res.bias_sources)}]
+    generated = {"model": "lights as generated", "image": res.image, "variance": float(variance),
+                 "bias_sources": list(res.bias_sources)}
+    candidates = [generated]
+    t_models = select_seconds = 0.0
     # Bias compensation does not cross masked surfaces (it refuses a scene with ``mask`` BSDFs): no candidate.
     masked = any(b.get("type") == "mask" for b in scene.bsdfs)
     if any(b["source"] == "vpl_clamp" for b in res.bias_sources) and not masked:
-        comp = [A.bias_compensation(max_depth, spp=COMPENSATION_SPP * (2 if h == 2 else 1), light_samples=64,
-                                    seed=derived_seed(seed, 100 * _STREAM["compensation"] + h)) for h in (0, 1, 2)]
-        norm = float(np.linalg.norm(res.image.astype(np.float64)))
-        spread = float(np.linalg.norm(comp[0].astype(np.float64) - comp[1])) / 2.0 / norm if norm > 0 else 0.0
-        candidates.append({"model": "VPLs + bias compensation", "image": res.image + 0.5 * (comp[0] + comp[1]),
-                           "scored": res.image + comp[2], "variance": float(np.hypot(variance, spread)),
-                           "bias_sources": [b for b in res.bias_sources if b["source"] != "vpl_clamp"]})
-    t_models = time.perf_counter() - t
-    select_seconds = 0.0
-    if len(candidates) == 1:
-        chosen, reason = candidates[0], "one light model for this scene: no choice"
-    else:
+        compensated = {"model": "VPLs + bias compensation",
+                       "bias_sources": [b for b in res.bias_sources if b["source"] != "vpl_clamp"]}
+        candidates.append(compensated)
         sample = probe_sample(res.image, scene, probes, spp=spp, max_depth=max_depth,
                               seed=derived_seed(seed, _STREAM["model_probes"]))
         select_seconds = sample["seconds"]
-        for c in candidates:
-            c["selection"] = probe_estimate(c.get("scored", c["image"]), sample,
-                                            variance_estimate=c["variance"])["error_mean"]
+        t = time.perf_counter()
+        # The score's own compensation estimate, at the selection probes only (their values are those of
+        # the whole image: every view sample draws from its own stream).
+        scored = res.image + A.bias_compensation(max_depth, spp=2 * COMPENSATION_SPP, light_samples=64,
+                                                 seed=derived_seed(seed, 100 * _STREAM["compensation"] + 2),
+                                                 pixels=sample["index"])
+        t_models += time.perf_counter() - t
+        # Both scored by the point estimate (2) of their squared error at the same probes, relative to one
+        # estimate of ||I*||^2 (the generated image's, (7)).
+        ref = probe_estimate(res.image, sample)
+        norm2 = (ref["reference_norm_ratio"] * float(np.linalg.norm(res.image.astype(np.float64)))) ** 2
+        for c, img in ((generated, res.image), (compensated, scored)):
+            se = float(np.mean(probe_estimate(img, sample)["residuals"] / sample["p"]))
+            c["selection"] = float(np.sqrt(max(se, 0.0) / norm2)) if norm2 > 0 else 0.0
         chosen = min(candidates, key=lambda c: c["selection"] * (1.0 + BIAS_MARGIN * bool(c["bias_sources"])))
         reason = (f"smallest error at {probes} selection probes: " + ", ".join(
             f"{c['model']} {c['selection']:.3g}" for c in candidates))
+        if chosen is compensated:
+            t = time.perf_counter()
+            comp = [A.bias_compensation(max_depth, spp=COMPENSATION_SPP, light_samples=64,
+                                        seed=derived_seed(seed, 100 * _STREAM["compensation"] + h)) for h in (0, 1)]
+            norm = float(np.linalg.norm(res.image.astype(np.float64)))
+            spread = float(np.linalg.norm(comp[0].astype(np.float64) - comp[1])) / 2.0 / norm if norm > 0 else 0.0
+            compensated["image"] = res.image + 0.5 * (comp[0] + comp[1])
+            compensated["variance"] = float(np.hypot(variance, spread))
+            res.timings["compensation"] = time.perf_counter() - t
+    else:
+        chosen, reason = generated, "one light model for this scene: no choice"
     est = probe_error(chosen["image"], scene, probes, spp=spp, max_depth=max_depth, seed=seed,
                       variance_estimate=chosen["variance"], refine_seconds=refine_seconds,
                       refine_target=target_error)
@@ -400,7 +418,9 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         first attempt's seconds, where there was one).
         With probes ``error_estimate`` is their upper bound on the error against the converged scene,
         ``variance_estimate`` the variance part (equation (5)), ``bias_estimate`` the rest, ``budget['probes']``
-        the details and ``timings['probes']`` their cost; without, ``error_estimate`` stays the MRCS
+        the details and ``timings['probes']`` their cost, ``budget['light_model']`` the light model chosen
+        (``choose_light_model``: ``timings['light_model']`` the choice, ``timings['compensation']`` the
+        compensation image where it is chosen); without, ``error_estimate`` stays the MRCS
         estimate against the brute force of the generated lights.
 
     Raises:

@@ -51,7 +51,7 @@ fn compensation_is_unbiased(max_depth: u32, light_samples: usize) {
         let mut free = clamped.clone();
         free.vpl_clamp = f32::INFINITY;
         let comp_opts = BiasCompensationOptions { max_depth, spp: 2, light_samples, seed: 1000 + seed };
-        let comp: f64 = bias_compensation(&scene, &tracer, &view, &clamped, &comp_opts).unwrap().iter().map(|&v| v as f64).sum();
+        let comp: f64 = bias_compensation(&scene, &tracer, &view, &clamped, &comp_opts, None).unwrap().iter().map(|&v| v as f64).sum();
         let (c, u) = (vpl_energy(&reference, &view, &clamped), vpl_energy(&reference, &view, &free));
         paired.push(c + comp - u);
         clamp_only.push(c - u);
@@ -71,16 +71,27 @@ fn compensation_is_unbiased(max_depth: u32, light_samples: usize) {
     let opts = GenerateOptions { area: 16, indirect: 60, max_depth: 3, clamp: Some(1.0), seed: 3, ..Default::default() };
     let lights = generate_lights(&scene, &opts).unwrap();
     let o = BiasCompensationOptions { max_depth: 3, spp: 1, light_samples: 8, seed: 9 };
-    let a = bias_compensation(&scene, &tracer, &view, &lights, &o).unwrap();
-    assert_eq!(a, bias_compensation(&scene, &tracer, &view, &lights, &o).unwrap());
+    let a = bias_compensation(&scene, &tracer, &view, &lights, &o, None).unwrap();
+    assert_eq!(a, bias_compensation(&scene, &tracer, &view, &lights, &o, None).unwrap());
     assert!(a.iter().any(|&v| v > 0.0));
-    let e = bias_compensation(&scene, &tracer, &view, &lights, &BiasCompensationOptions { spp: 0, ..o }).unwrap_err().to_string();
+    // At some pixels only: their values as in the whole image, zeros elsewhere; an index out of range refused.
+    let np = view.num_pixels();
+    let some: Vec<usize> = (0..np).filter(|p| p % 7 == 3).collect();
+    let part = bias_compensation(&scene, &tracer, &view, &lights, &o, Some(&some)).unwrap();
+    for p in 0..np {
+        let expect = if p % 7 == 3 { &a[3 * p..3 * p + 3] } else { &[0.0f32; 3][..] };
+        assert_eq!(&part[3 * p..3 * p + 3], expect, "pixel {p}");
+    }
+    assert!(part.iter().any(|&v| v > 0.0));
+    let e = bias_compensation(&scene, &tracer, &view, &lights, &o, Some(&[np])).unwrap_err().to_string();
+    assert!(e.contains("out of range"), "{e}");
+    let e = bias_compensation(&scene, &tracer, &view, &lights, &BiasCompensationOptions { spp: 0, ..o }, None).unwrap_err().to_string();
     assert!(e.contains("spp"), "{e}");
     let mut vsl = lights.clone();
     let j = (0..vsl.len()).find(|&j| vsl.kind[j] == LightKind::Vpl).unwrap();
     vsl.set_vsl_radius(j, 0.1).unwrap();
-    assert!(bias_compensation(&scene, &tracer, &view, &vsl, &o).unwrap_err().to_string().contains("virtual spherical light"));
+    assert!(bias_compensation(&scene, &tracer, &view, &vsl, &o, None).unwrap_err().to_string().contains("virtual spherical light"));
     let mut free = lights.clone();
     free.vpl_clamp = f32::INFINITY;
-    assert!(bias_compensation(&scene, &tracer, &view, &free, &o).unwrap().iter().all(|&v| v == 0.0));
+    assert!(bias_compensation(&scene, &tracer, &view, &free, &o, None).unwrap().iter().all(|&v| v == 0.0));
 }
