@@ -61,8 +61,9 @@ variance from two independent estimates). A selection probe set scores both, the
 the draws that happened to miss the compensation's rare bright paths), and fresh probes that took no part in
 the choice give the reported error (``budget['light_model']``). The probes' per-path variance also prices
 the alternative: the paths per pixel an unbiased path tracer needs for the target and their time on this
-machine (``probe_error``'s (3)); ``budget['advice']`` says so when that is less than this render took. Not offered as models yet: virtual spherical lights, importance-sampled VPLs and
-the glossy threshold (they are chosen by the caller through ``generate_lights`` / ``LightMatrix``).
+machine (``probe_error``'s (3)); ``budget['advice']`` says so when that is less than this render took. Not
+offered as models yet: virtual spherical lights, importance-sampled VPLs and the glossy threshold (they are
+chosen by the caller through ``generate_lights`` / ``LightMatrix``).
 
 Escalation
 ----------
