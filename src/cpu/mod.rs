@@ -162,7 +162,7 @@ pub fn light_blocked(tracer: &RayTracer, lights: &LightSet, j: usize, p: Vec3, n
 
 /// Visibility of light j from view sample i (prepared as `sp`) toward `wo` at distance `dist` (as
 /// `LightSet::emitted` returns them): 0 or 1 (`light_blocked`), or in a scene with masked surfaces (the
-/// view has `mask_budget`) the expected transmittance of [`mask_visibility`].
+/// view has `mask_budget`) the expected transmittance of [`mask_visibility_crossed`].
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn visibility(
@@ -176,22 +176,17 @@ pub fn visibility(
     dist: f32,
 ) -> f32 {
     match view.mask_budget.get(i) {
-        Some(&budget) => mask_visibility(tracer, lights, j, sp, wo, dist, budget),
+        Some(&budget) => mask_visibility_crossed(tracer, lights, j, sp, wo, dist, budget).0,
         None => !light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) as u8 as f32,
     }
 }
 
 /// Expected visibility of light j from view sample `sp` in a scene with masked surfaces
-/// (`crate::raytrace::mask`): the product of (1 - opacity) over the masked surfaces crossed, at most
-/// `budget` of them (the sample's `ViewSamples::mask_budget`), for lights BSDF sampling can reach (area
-/// light samples, environment strata, VPLs); 0 or 1 for point and spot lights and directional emitters,
-/// which masks block as any surface (Mitsuba's `ray_test`).
-#[inline]
-pub fn mask_visibility(tracer: &RayTracer, lights: &LightSet, j: usize, sp: &ShadingPoint, wo: Vec3, dist: f32, budget: u32) -> f32 {
-    mask_visibility_crossed(tracer, lights, j, sp, wo, dist, budget).0
-}
-
-/// [`mask_visibility`] and whether the shadow ray crossed a masked surface.
+/// (`crate::raytrace::mask`), and whether the shadow ray crossed a masked surface: the product of
+/// (1 - opacity) over the masked surfaces crossed, at most `budget` of them (the sample's
+/// `ViewSamples::mask_budget`), for lights BSDF sampling can reach (area light samples, environment
+/// strata, VPLs); 0 or 1 for point and spot lights and directional emitters, which masks block as any
+/// surface (Mitsuba's `ray_test`).
 #[inline]
 pub fn mask_visibility_crossed(
     tracer: &RayTracer,

@@ -347,10 +347,10 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
         t_models += time.perf_counter() - t
         # Both scored by the point estimate (2) of their squared error at the same probes, relative to one
         # estimate of ||I*||^2 (the generated image's, (7)).
-        ref = probe_estimate(res.image, sample)
-        norm2 = (ref["reference_norm_ratio"] * float(np.linalg.norm(res.image.astype(np.float64)))) ** 2
-        for c, img in ((generated, res.image), (compensated, scored)):
-            se = float(np.mean(probe_estimate(img, sample)["residuals"] / sample["p"]))
+        est_g, est_c = probe_estimate(res.image, sample), probe_estimate(scored, sample)
+        norm2 = (est_g["reference_norm_ratio"] * float(np.linalg.norm(res.image.astype(np.float64)))) ** 2
+        for c, e in ((generated, est_g), (compensated, est_c)):
+            se = float(np.mean(e["residuals"] / sample["p"]))
             c["selection"] = float(np.sqrt(max(se, 0.0) / norm2)) if norm2 > 0 else 0.0
         chosen = min(candidates, key=lambda c: c["selection"] * (1.0 + BIAS_MARGIN * bool(c["bias_sources"])))
         reason = (f"smallest error at {probes} selection probes: " + ", ".join(
