@@ -42,5 +42,7 @@ def test_the_upper_bound_of_a_run_is_the_probes_or_rebuilt_from_its_estimates():
     from manylights.bench.bias import upper_bound
 
     assert upper_bound({"bias_upper": 0.07, "error_estimate": 0.2, "variance_estimate": 0.1}) == 0.07
-    assert upper_bound({"error_estimate": 0.17, "variance_estimate": 0.15}) == pytest.approx(0.08)
-    assert upper_bound({"error_estimate": 0.1, "variance_estimate": 0.15}) == 0.0
+    # The variance part is subtracted at its lower bound, 0.0158 sigma^2 at 90% (one degree of freedom).
+    assert upper_bound({"error_estimate": 0.17, "variance_estimate": 0.15}) == pytest.approx(
+        np.sqrt(0.17**2 - 0.015791 * 0.15**2), rel=1e-4)
+    assert upper_bound({"error_estimate": 0.01, "variance_estimate": 0.15}) == 0.0

@@ -20,7 +20,8 @@ with the clamp's compensation) render different expectations; each model's seeds
 and a group is judged when it has at least ``MIN_GROUP`` seeds. A group **covers its bias** when the median
 ``bias_estimate`` of its seeds is within a factor ``FACTOR`` (2) of the true bias, or within ``ABSOLUTE``
 (0.5%) of it where the bias is that small, for a true bias within two standard errors of the measured one. Beside it, how many seeds' ``bias_upper`` (the probes' upper
-bound on the bias, ``sqrt(error_estimate^2 - variance_estimate^2)``) is at least the true bias.
+bound on the bias, ``sqrt(error_estimate^2 - q variance_estimate^2)``, ``q`` the variance's lower-bound factor)
+is at least the true bias.
 
     python -m manylights.bench bias                          # three indirect-lit cells, 16 seeds
     python -m manylights.bench bias --cells cbox-gi-64 --seeds 4
@@ -47,6 +48,7 @@ import numpy as np
 import manylights as ml
 
 from .._utils.files import atomic_write_text
+from ..renderers.probe_error import variance_lower
 from .common import REPO, display_path
 from .targets import CELLS, load_reference
 
@@ -117,10 +119,12 @@ def judge(estimates: list[float], truth: float, truth_se: float = 0.0) -> bool:
 
 def upper_bound(r: dict) -> float:
     """A run's upper bound on its bias: ``bias_upper`` as the probes report it, else from its error estimate
-    and variance part, ``sqrt(max(error_estimate^2 - variance_estimate^2, 0))`` (the same number)."""
+    and variance part, ``sqrt(max(error_estimate^2 - q variance_estimate^2, 0))`` with ``q`` the variance's
+    lower-bound factor at 90% (``probe_error.variance_lower``; the same number)."""
     if r.get("bias_upper") is not None:
         return float(r["bias_upper"])
-    return float(np.sqrt(max(r["error_estimate"] ** 2 - (r["variance_estimate"] or 0.0) ** 2, 0.0)))
+    q = variance_lower(0.9)
+    return float(np.sqrt(max(r["error_estimate"] ** 2 - q * (r["variance_estimate"] or 0.0) ** 2, 0.0)))
 
 
 def run(args) -> dict:

@@ -43,10 +43,12 @@ positive terms of (2) summed by the shape each probe pixel sees (``error_by_shap
 
 The variance part: a renderer that also estimates its own variance (MRCS halves: relative ``sigma``) gives
 ``bias^2 ~= SE / ||I||^2 - sigma^2``, the squared relative L2 of ``E[I] - I*`` (``bias_estimate``; noisy:
-both terms are estimates), and ``bias_upper^2 = SE_upper / ||I||^2 - sigma^2`` with ``SE_upper`` the upper
-confidence bound of (2). Where sigma dominates, a bias well below it hardly moves SE and the point estimate
-reads 0 (``bench bias``: seeds of the compensated staircase, under 15-30% of variance); ``bias_upper`` is the
-bound.
+both terms are estimates), and ``bias_upper^2 = SE_upper / ||I*||^2 - q sigma^2`` with ``SE_upper`` the upper
+confidence bound of (2) and ``q sigma^2`` the variance's lower bound at the same confidence (8): sigma comes
+from two halves, as uncertain as one degree of freedom (``variance_lower``; subtracting sigma^2 itself left
+the bound below the true bias in 30-50% of seeds). Where sigma dominates, a bias well below it hardly moves SE
+and the point estimate reads 0 (``bench bias``: seeds of the compensated staircase, under 15-30% of variance);
+``bias_upper`` is the bound, and there it is close to the total's.
 
 | symbol | meaning |
 |---|---|
@@ -57,6 +59,7 @@ bound.
 | ``Q_i``, ``r_i`` | the pilot's mean at pixel i (``PILOT_SPP`` paths), the pilot residual |
 | ``d_k``, ``w_k``, ``SE`` | probe k's residual (1), its weight, the estimated total squared error (2) |
 | ``z_q`` | normal quantile of the confidence (one-sided) |
+| ``sigma``, ``q`` | the renderer's own relative error from variance, its lower-bound factor (8) |
 """
 from __future__ import annotations
 
@@ -84,6 +87,9 @@ REFINE_CAP = 8
 #: ``probe_error``'s default limit on retracing: this many times the first pass's seconds, at least the minimum.
 REFINE_TIMES = 4.0
 REFINE_MIN_SECONDS = 0.5
+#: A target's "missed" (the lower bound above it) is retraced like an undecided one while fewer than this share
+#: of the probes carry the estimate (``refine_probes``).
+DECIDE_SHARE = 0.25
 #: Share of the probes' distribution proportional to the image's squared value (the rest uniform).
 RISK_SHARE = 0.25
 #: (6) Share of the mixture proportional to the pilot residual sum_ch (I_i - Q_i)^2, Q_i the mean of PILOT_SPP
@@ -167,7 +173,8 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
                   target: Optional[float] = None) -> dict:
     """Retrace the probes that carry an unreliable or undecided estimate (5): while fewer than
     min(N / 4, ``MIN_EFFECTIVE``) probes carry (2), or while a ``target`` lies between the lower and the upper
-    confidence bound (more paths can decide it), the fewest probes whose terms |d_k / p_k| make up
+    confidence bound (more paths can decide it) or below a lower bound that fewer than ``DECIDE_SHARE`` x N
+    probes carry (a "missed" that a few heavy residuals decide), the fewest probes whose terms |d_k / p_k| make up
     ``REFINE_MASS`` of the sum (at most N / ``REFINE_CAP``) are traced again with ``factor`` x the paths behind their mean, all FRESH, which
     replace their mean and variance; at most ``rounds`` times, and no round that would take the retracing
     past ``max_seconds`` (predicted from the paths per second of the sample).
@@ -209,7 +216,11 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     t = time.perf_counter()
     for r in range(rounds):
         est = probe_estimate(image, out)
-        undecided = target is not None and est["error_lower"] <= target < est["error_estimate"]
+        # Undecided: the target between the bounds, or a "missed" (lower bound above it) that rests on fewer
+        # than ``DECIDE_SHARE`` of the probes -- a few heavy residuals of glossy probes can lift the lower bound
+        # of a converged image to 5x its error, and a render would then deny a target it reached.
+        undecided = target is not None and (est["error_lower"] <= target < est["error_estimate"] or (
+            target < est["error_lower"] and est["effective_probes"] < DECIDE_SHARE * n))
         if (est["reliable"] and not undecided) or n < 2:
             break
         mag = np.abs(est["residuals"] / out["p"])
@@ -347,8 +358,18 @@ def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_est
         # What the split can promise: where the variance dominates, a bias well below it hardly moves the
         # total (a 6% bias under 15% of variance adds 1%) and the point estimate reads 0; the upper bound
         # (the total's upper bound less the variance) still covers it.
-        out["bias_upper"] = rel((max(se, 0.0) + z * sd) - float(variance_estimate) ** 2 * norm2)
+        out["bias_upper"] = rel((max(se, 0.0) + z * sd) - variance_lower(confidence) * float(variance_estimate) ** 2
+                                * norm2)
     return out
+
+
+def variance_lower(confidence: float) -> float:
+    """The factor q with ``q sigma^2`` a lower confidence bound of a variance estimated as ``sigma^2``, taken as
+    one degree of freedom (8): the variance parts here come from two halves (MRCS, the light counts' halving,
+    the compensation pair), whose difference can be one image-wide mode, so ``sigma^2 / sigma_true^2`` may be
+    as spread as chi^2_1. ``q = chi^2_1`` quantile at ``1 - confidence`` = ``Phi^-1(1 - confidence / 2)^2``
+    (0.0158 at 90%)."""
+    return statistics.NormalDist().inv_cdf(1.0 - confidence / 2.0) ** 2
 
 
 def error_by_shape(scene: Scene, shape_index: np.ndarray, terms: np.ndarray, top: int = 3) -> list:
