@@ -181,8 +181,8 @@ def ris(matrix: LightMatrix, samples: int, candidates: int, seed: int, tree: Opt
     the same dict as light_bvh_sampling. Raises ValueError for samples, candidates or radius = 0."""
 def lightcuts(matrix: LightMatrix, error: float, max_cut: int, seed: int, block: int = 0,
               criterion: str = "cluster") -> dict[str, Any]:
-    """Lightcuts (block = 0) or reconstruction cuts (grid every block pixels), refined per cluster ("cluster")
-    or by the sum of the bounds ("pixel"): image (H, W, 3) f32, cut_sizes
+    """Lightcuts (block = 0) or reconstruction cuts (grid every block pixels), refined per cluster ("cluster"),
+    by the sum of the bounds ("pixel") or by their root-sum-square ("hoeffding"): image (H, W, 3) f32, cut_sizes
     (H, W) f32, shadow_rays, seconds (stage -> s), tree_seconds, full_cuts, tree_nodes, exact_lights.
     Raises ValueError for error <= 0 or NaN, max_cut = 0."""
 def stochastic_lightcuts(matrix: LightMatrix, cut_size: int, samples: int, seed: int,

@@ -8,7 +8,8 @@ use crate::baselines::Criterion;
 use pyo3::prelude::*;
 
 /// Lightcuts (block = 0) or reconstruction cuts with sparse blocks of `block` pixels, refined by
-/// `criterion` ("cluster": every bound, the paper's; "pixel": the sum of the bounds): dict of image
+/// `criterion` ("cluster": every bound, the paper's; "pixel": the sum of the bounds; "hoeffding": their
+/// root-sum-square times sqrt(ln(200) / 2)): dict of image
 /// (H, W, 3) float32, cut_sizes (H, W) float32, shadow_rays, seconds (dict of stage -> s), tree_seconds,
 /// full_cuts, capped_cuts (full cuts stopped by max_cut before the criterion held), tree_nodes, exact_lights.
 #[pyfunction]
@@ -25,7 +26,10 @@ fn lightcuts<'py>(
     let criterion = match criterion {
         "cluster" => Criterion::Cluster,
         "pixel" => Criterion::Pixel,
-        other => return Err(crate::error::Error::invalid(format!("criterion must be 'cluster' or 'pixel', got {other:?}")).into()),
+        "hoeffding" => Criterion::Hoeffding,
+        other => {
+            return Err(crate::error::Error::invalid(format!("criterion must be 'cluster', 'pixel' or 'hoeffding', got {other:?}")).into())
+        }
     };
     let a = matrix.inner.clone();
     let (tree, tree_seconds, e) = signals::detach(py, move || {

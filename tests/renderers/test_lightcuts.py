@@ -133,3 +133,32 @@ def test_lights_without_a_bound_do_not_use_up_max_cut():
     assert ml.relative_l2(res.image, truth) < 0.08
     big = ml.lightcuts(A, error=0.02, max_cut=A.shape[1], criterion="pixel", add_emitted=False)
     assert big.budget["capped_cuts"] == 0 and within(big.image, truth, 0.02 * 1.0001) >= 0.99
+
+
+@pytest.mark.parametrize("scene", ["cbox_lights", "cbox_vpls"])
+def test_the_hoeffding_criterion_bounds_99_percent_of_pixels_with_smaller_cuts(scene, request):
+    """Each cluster's estimate lies in [0, U_C] and is unbiased over its representative, so k sqrt(sum U_C^2)
+    <= error x estimate (k = sqrt(ln(200) / 2)) keeps a pixel within the bound with probability >= 99%, at
+    cuts smaller than the sum's (measured here: mean cuts 762 against 1,039 on cbox-lights, 1,184 against 1,514
+    on the VPLs; every pixel within 2%)."""
+    A, truth = request.getfixturevalue(scene)
+    room = A.shape[1] + 64
+    hoeff = ml.lightcuts(A, error=0.02, max_cut=room, criterion="hoeffding", add_emitted=False)
+    total = ml.lightcuts(A, error=0.02, max_cut=room, criterion="pixel", add_emitted=False)
+    assert hoeff.budget["capped_cuts"] == 0 and hoeff.budget["error_probability"] == 0.01
+    assert within(hoeff.image, truth, 0.02) >= 0.99
+    assert hoeff.budget["mean_cut"] < 0.85 * total.budget["mean_cut"]
+
+
+def test_a_dominant_first_bound_does_not_end_the_cut_early():
+    """Veach Ajar's lights: the first nodes' bounds dwarf the last ones, and subtracting their squares from a
+    running sum left rounding noise that could read 0, ending cuts at once (measured at 32 x 18 with the
+    Hoeffding criterion: 94.8% of the pixels within 2%, relative L2 15.9%). The sums are now taken again over
+    the cut when the node split dominates them."""
+    xml, _, _ = SCENE_CONFIGS["veach-ajar"]
+    scene = ml.load_scene(xml, resx=32, resy=18)
+    A = ml.LightMatrix(scene, ml.generate_lights(scene, area=1024, indirect=3072, seed=0), device="cpu")
+    truth = A.column_sum(progress=False)
+    for criterion in ("hoeffding", "pixel"):
+        res = ml.lightcuts(A, error=0.02, max_cut=A.shape[1] + 64, criterion=criterion, add_emitted=False)
+        assert res.budget["capped_cuts"] == 0 and within(res.image, truth, 0.02) >= 0.99, criterion

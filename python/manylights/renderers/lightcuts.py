@@ -12,6 +12,11 @@ SIGGRAPH 2005) on the light matrix's exact shading and shadow rays (CPU, rayon).
   (on cbox at 2%, 60-80% of the pixels end within 2% of brute force). ``criterion="pixel"``
   refines until the SUM of the cut's bounds is at most ``error`` times the estimate, which bounds every
   pixel's relative error by ``error`` (unless ``max_cut`` stops it first), at larger cuts.
+  ``criterion="hoeffding"`` refines until ``k sqrt(sum_C U_C^2)`` is at most ``error`` times the estimate,
+  ``k = sqrt(ln(2 / delta) / 2)`` = 1.63 for ``delta`` = 1%: each cluster's estimate lies in ``[0, U_C]`` and is
+  unbiased over its representative, drawn independently of the other clusters', so by Hoeffding's inequality
+  a pixel's error exceeds ``error`` with probability at most ``delta`` -- a bound for 99% of the pixels at
+  cuts far smaller than the sum's.
 - ``reconstruction_cuts`` (the paper's Sec. 5, the algorithm the MRCS paper timed): full lightcuts only on
   a grid every ``block`` pixels; the pixels in between rebuild a cut from their block's corners' cuts and
   cast shadow rays only where the corners disagree about a cluster's visibility (clusters all corners saw
@@ -32,7 +37,9 @@ from .bias import bias_sources
 from .probe_error import attach_probe_error
 from .result import RenderResult, matrix_shape, with_emitted
 
-CRITERIA = ("cluster", "pixel")
+CRITERIA = ("cluster", "pixel", "hoeffding")
+#: ``criterion="hoeffding"``: the probability that a view sample's error exceeds ``error`` (``delta``).
+HOEFFDING_DELTA = 0.01
 
 
 def _checked(A, error, max_cut, seed, criterion, what):
@@ -61,7 +68,8 @@ def _result(A, out: dict, method: str, seed: int, budget: dict, add_emitted: boo
                   full_cuts=int(out["full_cuts"]), capped_cuts=capped)
     sources = list(bias_sources(A))
     if capped:
-        rule = "every cluster's bound" if budget["criterion"] == "cluster" else "the sum of the cut's bounds"
+        rule = {"cluster": "every cluster's bound", "pixel": "the sum of the cut's bounds",
+                "hoeffding": "the root-sum-square of the cut's bounds"}[budget["criterion"]]
         sources.append({"source": "max_cut", "view_samples": capped, "full_cuts": int(out["full_cuts"]),
                         "reason": f"{capped} of {out['full_cuts']} cuts stopped at max_cut={budget['max_cut']} "
                                   f"before {rule} was within error={budget['error']:g} of the estimate: their "
@@ -74,8 +82,8 @@ def _result(A, out: dict, method: str, seed: int, budget: dict, add_emitted: boo
 def lightcuts(A, error: float = 0.02, max_cut: int = 1000, seed: int = 0, *, criterion: str = "cluster",
               add_emitted: bool = True, error_probes: int = 0) -> RenderResult:
     """Lightcuts (module doc): a cut of the light cluster tree per view sample, refined until every
-    cluster's error bound (``criterion="cluster"``) or their sum (``"pixel"``) is at most ``error`` x the
-    pixel's estimate; approximates ``A.column_sum()`` (+ ``A.emitted()``).
+    cluster's error bound (``criterion="cluster"``), their sum (``"pixel"``) or 1.63 x their root-sum-square
+    (``"hoeffding"``) is at most ``error`` x the pixel's estimate; approximates ``A.column_sum()`` (+ ``A.emitted()``).
 
     Args:
         A: a ``LightMatrix`` (any device; the cuts run on the CPU with the matrix's ray tracer).
@@ -84,7 +92,10 @@ def lightcuts(A, error: float = 0.02, max_cut: int = 1000, seed: int = 0, *, cri
             view sample, >= 1.
         seed: seed of the representatives' draw (same seed, same image).
         criterion: ``"cluster"`` (the paper's: every cluster's bound) or ``"pixel"`` (the sum of the cut's
-            bounds: every pixel's relative error is then within ``error``, or its cut reached ``max_cut``).
+            bounds: every pixel's relative error is then within ``error``, or its cut reached ``max_cut``)
+            or ``"hoeffding"`` (k x the root-sum-square of the bounds, module doc: each pixel's relative error
+            is within ``error`` with probability >= 1 - ``HOEFFDING_DELTA`` over the representatives, or its
+            cut reached ``max_cut``; ``budget["error_probability"]`` says so).
         add_emitted: add what the camera sees of the emitters (``A.emitted()``).
         error_probes: N > 0: N path-traced probe pixels estimate the error against the converged scene (the
             cuts' error and the light set's bias: ``probe_error``; ``error_estimate`` becomes their upper
@@ -105,6 +116,8 @@ def lightcuts(A, error: float = 0.02, max_cut: int = 1000, seed: int = 0, *, cri
     error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     out = _native.lightcuts(A._m, error, max_cut, seed, 0, criterion)
     budget = {"error": error, "max_cut": max_cut, "criterion": criterion}
+    if criterion == "hoeffding":
+        budget["error_probability"] = HOEFFDING_DELTA
     res = _result(A, out, "lightcuts", seed, budget, add_emitted)
     return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
 
@@ -134,5 +147,7 @@ def reconstruction_cuts(A, error: float = 0.02, max_cut: int = 1000, seed: int =
     error_probes = _v.integer("error_probes", error_probes, 0, 2**31 - 1)
     out = _native.lightcuts(A._m, error, max_cut, seed, block, criterion)
     budget = {"error": error, "max_cut": max_cut, "criterion": criterion, "block": block}
+    if criterion == "hoeffding":
+        budget["error_probability"] = HOEFFDING_DELTA
     res = _result(A, out, "reconstruction_cuts", seed, budget, add_emitted)
     return attach_probe_error(res, A.scene, error_probes, seed) if error_probes else res
