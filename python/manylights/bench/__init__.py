@@ -15,6 +15,8 @@ Subcommands:
     mrcs     error against time for MRCS and its baselines (``bench.mrcs``).
     compare  power sampling, instant radiosity, MRCS and clustered visibility on one error-against-time
              chart per scene, and clustered visibility over light x view cluster counts (``bench.compare``).
+    cuts     MRCS against reconstruction cuts at equal error on the same lights and rays, the MRCS paper's
+             comparison, on cbox, veach-ajar and the many-emitter hall (``bench.cuts``).
     backends the CPU backend against the GPU backend: ms per column, weighted column and row (``bench.backends``).
     tensor   tensor clustering against per-frame MRCS on an animation: error and flicker against shadow maps
              per frame, speed-up over brute force (``bench.tensor``).

@@ -4,9 +4,23 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import backends, bias, budgets, calibrate, compare, lights, mrcs, relight, scale, targets, tensor, vs_mitsuba
+from . import (
+    backends,
+    bias,
+    budgets,
+    calibrate,
+    compare,
+    cuts,
+    lights,
+    mrcs,
+    relight,
+    scale,
+    targets,
+    tensor,
+    vs_mitsuba,
+)
 
-SUBCOMMANDS = (lights, mrcs, compare, backends, tensor, relight, vs_mitsuba, calibrate, budgets, targets, bias, scale)
+SUBCOMMANDS = (lights, mrcs, compare, cuts, backends, tensor, relight, vs_mitsuba, calibrate, budgets, targets, bias, scale)
 
 
 def main(argv=None) -> int:
