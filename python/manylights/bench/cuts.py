@@ -50,7 +50,7 @@ from .common import display_path, resolve_scene
 SCENES = {
     "cbox": (lambda w: {"res": w}, -1, 1024, 3072),
     "veach-ajar": (lambda w: {"resx": w, "resy": w * 9 // 16}, -1, 1024, 3072),
-    "many-emitters": (lambda w: {"size": (w, w * 3 // 4)}, 2, 4096, 0),
+    "many-emitters": (lambda w: {"size": (w, w * 3 // 4)}, 2, 16384, 0),
 }
 DEFAULT_SCENES = ("cbox", "veach-ajar", "many-emitters:5000")
 
@@ -65,7 +65,7 @@ def add_parser(sub) -> None:
                    help="reconstruction cuts' relative error bounds per cluster")
     p.add_argument("--columns", type=int, nargs="+", default=[50, 100, 200, 400, 800, 1600],
                    help="MRCS columns (rows = columns / 3)")
-    p.add_argument("--seeds", type=int, default=2, help="MRCS seeds per budget")
+    p.add_argument("--seeds", type=int, default=4, help="MRCS seeds per budget")
     p.add_argument("--block", type=int, default=4, help="reconstruction cuts' grid spacing (pixels)")
     p.add_argument("--out", default="out/bench")
     p.set_defaults(run=run)
