@@ -169,9 +169,12 @@ def fit_columns(round_seconds, lo: int, hi: int, left: float) -> Optional[int]:
     return a - a % 2
 def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
                   first_columns: Optional[int] = None, max_rounds: int = 16, rows_per_column: Optional[float] = None,
-                  add_emitted: bool = True, progress: Optional[bool] = None) -> RenderResult:
+                  add_emitted: bool = True, progress: Optional[bool] = None,
+                  first_rows: Optional[int] = None) -> RenderResult:
     """``render`` of a ``LightMatrix`` (its doc: arguments, result, errors): progressive MRCS rounds with the
-    budget chosen from the estimates and the measured costs (this module's doc)."""
+    budget chosen from the estimates and the measured costs (this module's doc). ``first_rows``: rows of
+    round 0 (1 <= r <= m; default ``FIRST_ROWS``, or ``rows_per_column`` x ``first_columns``): a floor a caller
+    sets when it knows the pilot's own estimate cannot see the error (``light_budget``'s escalation)."""
     m, n = matrix_shape(A)
     if n == 0:
         raise ValueError("the light matrix has no lights (n = 0): nothing to render")
@@ -197,6 +200,8 @@ def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional
     pending: list = []
     if first_columns <= n:
         r0 = FIRST_ROWS if rows_per_column is None else max(FIRST_ROWS, round(rows_per_column * first_columns))
+        if first_rows is not None:
+            r0 = _v.integer("first_rows", first_rows, 1, max(m, 1))
         pending.append((min(r0, m), first_columns))
     state: dict = {}
     last = None

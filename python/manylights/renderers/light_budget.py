@@ -70,11 +70,16 @@ Escalation
 The halving of the counts sees the spread between two light sets, not an error both share: 16,384 strata
 of an environment map with a small bright sun both place the sun's highlight on a near-specular plate badly
 (measured on the glossy plates, seed 6: 32% true error, the halving satisfied, the probes' bound 38%; at
-65,536 strata 2.0%). When the probes find the target missed, reliably, with no known bias source and their
-bound within ``ESCALATION_REACH`` = 16 x the target, every kind gets 2x its lights (a bound within sqrt(2) x the
-target: an error falling like 1 / sqrt(count) then reaches it) or ``ESCALATION_FACTOR`` = 4 x (at most
-``max_lights``) once, and the scene is rendered and probed again with fresh probes; the first attempt
-is set aside (``budget['escalation']``: its counts, bound, seconds and why; ``timings['escalation']``). The
+65,536 strata 2.0%). MRCS's own estimate has the same blind spot: its rows can all miss a highlight (seed 7
+of the same plates: a pilot of 8 rows and 32 columns satisfied, the image 38% off). When the probes find the
+target missed (reliably, or with a lower bound above it, which the retracing of ``refine_probes`` confirms
+where few probes carry it), with no known bias source and their bound within ``ESCALATION_REACH`` = 16 x the
+target, every kind gets 2x its lights (a bound within sqrt(2) x the target: an error falling like
+1 / sqrt(count) then reaches it) or ``ESCALATION_FACTOR`` = 4 x (at most ``max_lights``) once, MRCS's first
+round gets the same factor times the first attempt's rows and columns (at most half the lights), and the
+scene is rendered and probed again with fresh probes; the first attempt is set aside
+(``budget['escalation']``: its counts, MRCS rows and columns, bound, seconds and why;
+``timings['escalation']``). The
 claim rests on the second attempt's probes alone. Deciding to go on from one probe set and then claiming
 from another keeps each claim's 90% bound; the time grows about 3-5x where it happens.
 
@@ -414,8 +419,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         sqrt(E_gen^2 + error_estimate^2)), ``target_reached`` (that total <= target_error and no known bias
         source active (``RenderResult.bias_sources``): the estimates cover variance only; None without a
         target) and ``target_reason`` (a sentence: why it is or is not claimed), ``escalation`` (None, or the
-        first attempt that the probes sent back for 2x or 4x the lights: its counts, error_estimate, seconds, reason;
-        module doc); ``timings['light_counts']``, ``timings['lights']`` and ``timings['escalation']`` (the
+        first attempt that the probes sent back for 2x or 4x the lights: its counts, mrcs (its MRCS rows and
+        columns), error_estimate, seconds, reason; module doc); ``timings['light_counts']``, ``timings['lights']`` and ``timings['escalation']`` (the
         first attempt's seconds, where there was one).
         With probes ``error_estimate`` is their upper bound on the error against the converged scene,
         ``variance_estimate`` the variance part (equation (5)), ``bias_estimate`` the rest, ``budget['probes']``
@@ -464,8 +469,9 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     counts = choose_light_counts(scene, target_error, time_budget, seed, max_depth=max_depth,
                                  first_lights=first_lights, max_lights=max_lights, count_rows=count_rows,
                                  generation_share=generation_share, matrix_options=matrix_options)
-    def attempt(counts: dict, probe_seed: int):
-        """Lights at ``counts``, the matrix, its render and its probes: (res, A, est, t_lights, probes_failed)."""
+    def attempt(counts: dict, probe_seed: int, mrcs_floor: Optional[dict] = None):
+        """Lights at ``counts``, the matrix, its render (MRCS's first round at least ``mrcs_floor``'s rows and
+        columns when given) and its probes: (res, A, est, t_lights, probes_failed)."""
         t = time.perf_counter()
         n = {k: counts[k]["count"] for k in KINDS}
         lights = generate_lights(scene, area=n["area"], environment=n["environment"], indirect=n["indirect"],
@@ -473,8 +479,14 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         A = LightMatrix(scene, lights, **matrix_options)
         t_lights = time.perf_counter() - t
         left = None if time_budget is None else max(time_budget - (time.perf_counter() - t_start), 1e-3)
+        options = dict(render_options)
+        if mrcs_floor is not None:
+            m, n_lights = A.shape
+            options["first_columns"] = max(options.get("first_columns") or 0,
+                                           min(mrcs_floor["columns"], max(2, n_lights // 2)))
+            options["first_rows"] = min(m, mrcs_floor["rows"])
         res = render_matrix(A, None if target_error is None else float(np.sqrt(1.0 - generation_share)) * target_error,
-                            left, seed, **render_options)
+                            left, seed, **options)
         res.budget["light_counts"] = counts
         total = float(np.hypot(counts["estimated_generation_error"], res.error_estimate))
         res.budget["estimated_total_error"] = total
@@ -500,7 +512,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     # map that 16,384 strata place badly). Then every kind gets 2x or ESCALATION_FACTOR x its lights (at most
     # max_lights), once, with fresh probes, when the probes' bound is within ESCALATION_REACH x the target.
     escalation = None
-    if (error_probes and target_error is not None and est is not None and est["reliable"]
+    if (error_probes and target_error is not None and est is not None
+            and (est["reliable"] or est["error_lower"] > target_error)
             and res.error_estimate > target_error and not res.bias_sources
             and res.error_estimate <= ESCALATION_REACH * target_error
             and any(0 < counts[k]["count"] < max_lights for k in KINDS)
@@ -518,12 +531,21 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
                 grown[k]["count"] = min(factor * c, max_lights)
                 grown[k]["reason"] = (f"escalated from {c}: the probes' bound {res.error_estimate:.3g} > target "
                                       f"{target_error:g} with no known bias source")
-        res, A, est, t_lights, failed = attempt(grown, derived_seed(seed, _STREAM["escalation"]))
+        # The error may also be MRCS's: its own estimate (from its rows) was satisfied, which is how it stopped.
+        # The second attempt's first round gets factor x the first attempt's rows and columns (not past half
+        # the lights), so MRCS cannot stop at a pilot as blind as the first one.
+        floor = None
+        if res.method != "brute_force":
+            floor = {"rows": factor * int(res.budget["rows"]), "columns": factor * int(res.budget["columns"])}
+            first["mrcs"] = {"rows": int(res.budget["rows"]), "columns": int(res.budget["columns"])}
+        res, A, est, t_lights, failed = attempt(grown, derived_seed(seed, _STREAM["escalation"]), floor)
         counts = grown
         escalation = {**first, "reason": (
             f"the probes' bound {first['error_estimate']:.3g} > target {target_error:g} at "
             f"{sum(first['counts'].values())} lights, no known bias source: {factor}x the lights of "
-            f"every kind (at most max_lights {max_lights}), fresh probes")}
+            f"every kind (at most max_lights {max_lights})"
+            + (f" and MRCS's first round at {factor}x its {first['mrcs']['rows']} rows and "
+               f"{first['mrcs']['columns']} columns" if floor else "") + ", fresh probes")}
         if failed:
             probes_failed, error_probes = failed, 0
         res.timings["escalation"] = first["seconds"]  # the first attempt, whose image was set aside
