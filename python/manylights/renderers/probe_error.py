@@ -80,7 +80,7 @@ PROBE_STREAM = 1 << 26
 MIN_EFFECTIVE = 16
 #: (5) Rounds of retracing, the factor on the paths of a retraced probe, the share of sum |d_k / p_k| retraced,
 #: and at most N / REFINE_CAP probes a round (``refine_probes``).
-REFINE_ROUNDS = 4
+REFINE_ROUNDS = 12
 REFINE_FACTOR = 8
 REFINE_MASS = 0.8
 REFINE_CAP = 8
