@@ -43,7 +43,7 @@ pub enum Criterion {
     Cluster,
     /// The sum of the nodes' bounds <= error * estimate.
     Pixel,
-    /// `HOEFFDING_K` * sqrt(sum of the squared bounds) <= error * estimate (module docs): within `error`
+    /// `hoeffding_k()` * sqrt(sum of the squared bounds) <= error * estimate (module docs): within `error`
     /// with probability >= 1 - `HOEFFDING_DELTA` over the representatives.
     Hoeffding,
 }
