@@ -454,3 +454,16 @@ def test_envmap_under_rotation_matches_mitsuba(rotate, tmp_path, mitsuba_ref):
     assert bg.mean() > 0.9
     rel = np.abs(ours - ref)[bg] / np.maximum(ref[bg], 1e-3)
     assert np.quantile(rel, 0.99) < 1e-3, np.quantile(rel, 0.99)
+
+
+@pytest.mark.parametrize("version, name", [("3.0.0", "high_quality_edges"), ("0.5.0", "highQualityEdges")])
+def test_film_high_quality_edges_refused_as_mitsuba(tmp_path, version, name):
+    """Bitterli's Mitsuba exports set the film's ``high_quality_edges`` (Mitsuba 0.5's highQualityEdges), which
+    Mitsuba 3.9.1 refuses as an unreferenced property; so do we, naming file and line."""
+    p = _scene(tmp_path, '<shape type="sphere"/>', version=version)
+    p.write_text(p.read_text().replace('</film>', f'<boolean name="{name}" value="true"/></film>'))
+    mi = _mi()
+    with pytest.raises(RuntimeError, match="unreferenced property"):
+        mi.load_file(str(p))
+    with pytest.raises(ml.SceneError, match=r"scene\.xml:\d+: unreferenced property .*high_quality_edges"):
+        ml.load_scene(p)
