@@ -34,7 +34,7 @@ MITSUBA_DATA = ("mitsuba-renderer+mitsuba-data", "01100fa9b0b154492061a92404f26d
 SCENES = {
     "bitterli-living-room": (BITTERLI, "living-room/scene.xml", (96, 54), {"area": 0, "environment": 131072}, 240),
     "bitterli-bathroom2": (BITTERLI, "bathroom2/scene.xml", (96, 54), {"area": 4096}, 240),
-    "bitterli-bathroom": (BITTERLI, "bathroom/scene.xml", (96, 54), {"area": 4096}, 120),
+    "bitterli-bathroom": (BITTERLI, "bathroom/scene.xml", (96, 54), {"area": 4096}, 240),
     "mitsuba-data-mask": (MITSUBA_DATA, "docs/scenes/bsdf_mask_after.xml", (96, 72),
                           {"area": 0, "environment": 16384}, 200),
     "mitsuba-data-bumpmap": (MITSUBA_DATA, "docs/scenes/bsdf_bumpmap_with.xml", (96, 72),
