@@ -39,6 +39,8 @@ SCENES = {
                           {"area": 0, "environment": 16384}, 200),
     "mitsuba-data-bumpmap": (MITSUBA_DATA, "docs/scenes/bsdf_bumpmap_with.xml", (96, 72),
                              {"area": 0, "environment": 16384}, 200),
+    "mitsuba-data-normalmap": (MITSUBA_DATA, "docs/scenes/bsdf_normalmap_with.xml", (96, 72),
+                               {"area": 0, "environment": 16384}, 200),
     "mitsuba-data-roughdielectric": (MITSUBA_DATA, "docs/scenes/bsdf_roughdielectric_rough.xml", (96, 72),
                                      {"area": 0, "environment": 16384}, 200),
 }
