@@ -39,5 +39,11 @@ def test_one_small_run_measures_both_methods_against_the_same_brute_force(tmp_pa
     assert "| cbox (" in (tmp_path / "cuts.md").read_text()
     with pytest.raises(ValueError, match="none of"):
         measure_scene("bunny", args)
+    # Names are checked before any work; budgets past the pixels' rows or the lights are cut or skipped.
+    with pytest.raises(ValueError, match="none of"):
+        run(argparse.Namespace(**{**vars(args), "scenes": ["cbox", "bogus"], "out": str(tmp_path / "x")}))
+    assert not (tmp_path / "x" / "cuts.json").exists()
+    big = measure_scene("cbox", argparse.Namespace(**{**vars(args), "columns": [900, 10**6], "errors": [0.05]}))
+    assert [(r["columns"], r["rows"]) for r in big["mrcs"]] == [(900, 256)]
     with pytest.raises(ValueError, match="--errors"):
         run(argparse.Namespace(**{**vars(args), "errors": [0.0]}))

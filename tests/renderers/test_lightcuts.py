@@ -148,6 +148,9 @@ def test_the_hoeffding_criterion_bounds_99_percent_of_pixels_with_smaller_cuts(s
     assert hoeff.budget["capped_cuts"] == 0 and hoeff.budget["error_probability"] == 0.01
     assert within(hoeff.image, truth, 0.02) >= 0.99
     assert hoeff.budget["mean_cut"] < 0.85 * total.budget["mean_cut"]
+    # Reconstruction cuts' rebuilt pixels are not covered by the criterion: no probability is reported.
+    rc = ml.reconstruction_cuts(A, error=0.02, max_cut=room, criterion="hoeffding", add_emitted=False)
+    assert rc.budget["criterion"] == "hoeffding" and "error_probability" not in rc.budget
 
 
 def test_a_dominant_first_bound_does_not_end_the_cut_early():

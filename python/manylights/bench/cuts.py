@@ -9,8 +9,8 @@ shadow rays:
 - reconstruction cuts (``ml.reconstruction_cuts``, blocks of 4 pixels, the paper's per-cluster criterion,
   ``max_cut`` 1000) at each ``--errors`` bound: seconds ``t_rc`` (cut tree included) and relative L2 ``e_rc``
   against ``T``;
-- MRCS (``ml.mrcs``, rows = columns / 3) at each ``--columns`` budget, mean seconds and mean relative L2 over
-  ``--seeds`` seeds;
+- MRCS (``ml.mrcs``, rows = columns / 3, at most the pixels) at each ``--columns`` budget up to the number of
+  lights, mean seconds and mean relative L2 over ``--seeds`` seeds;
 - the ratio at equal error: MRCS's time to ``e_rc``, ``t_mrcs(e_rc)``, by log-log interpolation of its mean
   (seconds, error) curve, and ``t_rc / t_mrcs(e_rc)`` (> 1: MRCS is faster). Where ``e_rc`` is below every
   MRCS error the ratio is not measured ("MRCS does not reach it"); where it is above every one, MRCS's
@@ -99,14 +99,23 @@ def time_to_error(seconds, errors, target: float) -> tuple[Optional[float], str]
     return float(np.exp(np.log(t[k - 1]) + f * (np.log(t[k]) - np.log(t[k - 1])))), "interpolated"
 
 
-def _scene(name: str, width: int, out: Path):
+def check_scene_name(name: str) -> Optional[int]:
+    """The emitter count of ``many-emitters:N`` (None for a bundled scene).
+
+    Raises:
+        ValueError: a name that is none of the scenes (or a bad N)."""
     emitters = many_emitters.parse_name(name)
+    if emitters is None and name not in SCENES:
+        raise ValueError(f"--scenes: {name!r} is none of {', '.join(list(SCENES)[:2])}, many-emitters:N")
+    return emitters
+
+
+def _scene(name: str, width: int, out: Path):
+    emitters = check_scene_name(name)
     if emitters is not None:
         path = many_emitters.write_scene(out / "scenes" / f"{many_emitters.PREFIX}-{emitters}", emitters)
         key = "many-emitters"
     else:
-        if name not in SCENES:
-            raise ValueError(f"--scenes: {name!r} is none of {', '.join(list(SCENES)[:2])}, many-emitters:N")
         path, key = resolve_scene(name), name
     kw, max_depth, area, indirect = SCENES[key]
     scene = ml.load_scene(path, **kw(width))
@@ -125,24 +134,29 @@ def measure_scene(name: str, args) -> dict:
     out = {"scene": name, "path": display_path(path), "size": [scene.width, scene.height], "lights": A.shape[1],
            "brute_force_seconds": brute, "cuts": [], "mrcs": []}
     print(f"{name}: {scene.width}x{scene.height}, {A.shape[1]} lights, brute force {brute:.2f} s", flush=True)
+    m, n = A.shape
     for c in args.columns:
+        if c > n:
+            print(f"  MRCS {c}: skipped, more columns than the {n} lights", flush=True)
+            continue
+        rows = min(max(1, c // 3), m)
         ts, es = [], []
         for s in range(args.seeds):
             t = time.perf_counter()
-            res = ml.mrcs(A, rows=max(1, c // 3), columns=c, seed=s, add_emitted=False)
+            res = ml.mrcs(A, rows=rows, columns=c, seed=s, add_emitted=False)
             ts.append(time.perf_counter() - t)
             es.append(ml.relative_l2(res.image, truth))
-        out["mrcs"].append({"columns": c, "rows": max(1, c // 3), "seconds": float(np.mean(ts)),
+        out["mrcs"].append({"columns": c, "rows": rows, "seconds": float(np.mean(ts)),
                             "error": float(np.mean(es)), "error_std": float(np.std(es))})
         print(f"  MRCS {c}: {out['mrcs'][-1]['error']:.3%} in {out['mrcs'][-1]['seconds']:.3f} s", flush=True)
-    mt = [m["seconds"] for m in out["mrcs"]]
-    me = [m["error"] for m in out["mrcs"]]
+    mt = [r["seconds"] for r in out["mrcs"]]
+    me = [r["error"] for r in out["mrcs"]]
     for err in args.errors:
         t = time.perf_counter()
         res = ml.reconstruction_cuts(A, error=err, seed=0, block=args.block, add_emitted=False)
         t_rc = time.perf_counter() - t
         e_rc = ml.relative_l2(res.image, truth)
-        t_m, kind = time_to_error(mt, me, e_rc) if e_rc > 0 else (None, "not reached")
+        t_m, kind = time_to_error(mt, me, e_rc) if e_rc > 0 and mt else (None, "not reached")
         row = {"error_bound": err, "seconds": t_rc, "error": e_rc, "mean_cut": res.budget["mean_cut"],
                "shadow_rays": res.budget["shadow_rays"], "full_cuts": res.budget["full_cuts"],
                "capped_cuts": res.budget["capped_cuts"], "mrcs_seconds": t_m, "mrcs_kind": kind,
@@ -174,6 +188,8 @@ def run(args) -> dict:
         raise ValueError(f"--res must be >= 4, --seeds and --block >= 1, got {args.res}, {args.seeds}, {args.block}")
     if not args.errors or any(not e > 0 for e in args.errors) or not args.columns or min(args.columns) < 1:
         raise ValueError(f"--errors must be > 0 and --columns >= 1, got {args.errors} and {args.columns}")
+    for name in args.scenes:  # every name checked before any work
+        check_scene_name(name)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     summary = {"res": args.res, "seeds": args.seeds, "block": args.block, "scenes": []}

@@ -446,7 +446,9 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     first_lights = _v.integer("first_lights", first_lights, 2, 1 << 30)
     if first_lights % 2:
         raise ValueError(f"first_lights must be even (two halves), got {first_lights}")
-    max_lights = _v.integer("max_lights", max_lights, first_lights, 1 << 30)
+    max_lights = _v.integer("max_lights", max_lights, 2, 1 << 30)
+    if max_lights < first_lights:
+        raise ValueError(f"max_lights ({max_lights}) must be >= first_lights ({first_lights})")
     count_rows = _v.integer("count_rows", count_rows, 1, 1 << 30)
     generation_share = _v.real("generation_share", generation_share)
     error_probes = _v.integer("error_probes", error_probes, 0, 1 << 30)  # capped at the pixel count below

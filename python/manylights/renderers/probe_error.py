@@ -30,8 +30,8 @@ the standard error of (2) (a negative SE says the error is within the probes' no
 noise), ``z_q`` the one-sided normal
 quantile of ``confidence``. Fireflies: a probe whose paths rarely find a bright, small light underestimates
 its own ``v_k`` and its ``d_k`` can dominate (2); ``effective_probes`` = (sum |d_k|)^2 / sum d_k^2 says
-how many probes carry the estimate (of the terms d_k / p_k), and below min(N / 4, 16) the estimate is marked
-unreliable. Then the probes that carry it are traced again with more, fresh paths (``refine_probes``)    (5)
+how many probes carry the estimate (of the terms d_k / p_k), and below min(N / 4, 16), or with fewer than 16
+probes, the estimate is marked unreliable. Then the probes that carry it are traced again with more, fresh paths (``refine_probes``)    (5)
 
 The probes' path tracer itself: a probe's per-path variance is ``spp v_k``, so an image of ``S`` paths per
 pixel from the same tracer has the expected squared relative L2
@@ -76,7 +76,8 @@ from .probes import probe_pixels
 
 #: Random stream of the probes' pixels and paths (apart from every renderer's own streams).
 PROBE_STREAM = 1 << 26
-#: Fewer effective probes than this (or N / 4) mark the estimate unreliable.
+#: Fewer effective probes than this (or N / 4) mark the estimate unreliable, and so do fewer probes than this
+#: (with 1 or 2 probes a single one carries the estimate: measured claims at 1.4-7x the target).
 MIN_EFFECTIVE = 16
 #: (5) Rounds of retracing, the factor on the paths of a retraced probe, the share of sum |d_k / p_k| retraced,
 #: and at most N / REFINE_CAP probes a round (``refine_probes``).
@@ -148,14 +149,14 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
         estimate (2), relative), ``error_lower`` (the lower confidence bound, relative), ``bias_estimate``
         (relative L2 of E[I] - I*, from ``variance_estimate``, or None) and ``bias_upper`` (its upper
         confidence bound; only with ``variance_estimate``), ``probes`` N, ``spp``, ``max_depth``, ``confidence``, ``effective_probes``, ``reliable``
-        (effective_probes >= min(N / 4, ``MIN_EFFECTIVE``)), ``pixels`` (N, 2) int64 (row, column),
+        (N >= ``MIN_EFFECTIVE`` and effective_probes >= min(N / 4, ``MIN_EFFECTIVE``)), ``pixels`` (N, 2) int64 (row, column),
         ``probe_mean`` / ``probe_variance`` (N, 3) float32, ``residuals`` (N,) float64 d_k, ``seconds``,
         ``paths_per_second``, ``path_tracer_variance`` (equation (3): the squared relative L2 of a one-path
         per pixel image of the probes' path tracer), ``error_by_shape`` (equation (4)) and
         ``reference_norm_ratio`` (the estimate (7) of ||I*|| / ||I||, relative errors are divided by ||I*||).
 
     Raises:
-        ValueError: an image whose shape is not the scene's (H, W, 3), probes outside [1, M], spp < 2, a
+        ValueError: an image whose shape is not the scene's (H, W, 3) or with NaN / inf values, probes outside [1, M], spp < 2, a
             confidence outside (0, 1), a negative seed, an integrator whose depth is unknown (give max_depth),
             what ``probe_pixels`` refuses (e.g. a BSDF it does not support).
         TypeError: scene not a Scene; a non-numeric image.
@@ -172,7 +173,7 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
                   factor: Optional[int] = None, max_seconds: Optional[float] = None,
                   target: Optional[float] = None) -> dict:
     """Retrace the probes that carry an unreliable or undecided estimate (5): while fewer than
-    min(N / 4, ``MIN_EFFECTIVE``) probes carry (2), or while a ``target`` lies between the lower and the upper
+    min(N / 4, ``MIN_EFFECTIVE``) probes carry (2) (or N itself is below it), or while a ``target`` lies between the lower and the upper
     confidence bound (more paths can decide it) or below the lower bound before a first round of retracing
     or while fewer than ``DECIDE_SHARE`` x N probes carry it (a "missed" that a few heavy residuals decide),
     the fewest probes whose terms |d_k / p_k| make up
@@ -252,6 +253,11 @@ def _check_image(image, scene: Scene) -> np.ndarray:
     H, W = scene.height, scene.width
     if img.shape != (H, W, 3):
         raise ValueError(f"image must have the scene's shape ({H}, {W}, 3), got {img.shape}")
+    bad = ~np.isfinite(img)
+    if bad.any():
+        y, x, c = (int(v[0]) for v in np.nonzero(bad))
+        raise ValueError(f"image has {int(bad.sum())} non-finite values (NaN or inf), the first at pixel "
+                         f"(row {y}, column {x}), channel {c}: no error can be estimated for it")
     return img
 
 
@@ -350,7 +356,8 @@ def probe_estimate(image, sample: dict, *, confidence: float = 0.9, variance_est
     out = {"error_estimate": rel(max(se, 0.0) + z * sd), "error_mean": rel(se), "error_lower": rel(se - z * sd),
            "bias_estimate": None, "probes": probes,
            "spp": spp, "max_depth": sample["max_depth"], "confidence": confidence, "effective_probes": eff,
-           "reliable": bool(eff >= min(probes / 4, MIN_EFFECTIVE)), "pixels": sample["pixels"],
+           "reliable": bool(probes >= MIN_EFFECTIVE and eff >= min(probes / 4, MIN_EFFECTIVE)),
+           "pixels": sample["pixels"],
            "probe_mean": mean, "probe_variance": var, "residuals": d, "seconds": sample["seconds"],
            "paths_per_second": float(sample["traced"]) / max(sample["seconds"], 1e-9),
            "refined": int(np.count_nonzero(sample.get("refined", 0))), "path_tracer_variance": pt,
