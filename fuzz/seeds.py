@@ -291,6 +291,18 @@ PERTURB = f"""<scene version="3.0.0"><default name="res" value="4"/><default nam
 put("xml", "perturb.xml", PERTURB.encode() + MARK.encode() + b"h.png\n" + pil_bytes(grey, "PNG") + MARK.encode()
     + b"n.png\n" + png)
 
+# Masks: a bitmap opacity around a twosided diffuse (leaves), a constant one, a mask inside a twosided.
+MASKED = f"""<scene version="3.0.0"><default name="res" value="4"/><default name="axis" value="y"/>{SENSOR}
+    <shape type="rectangle"><bsdf type="mask"><texture name="opacity" type="bitmap">
+        <string name="filename" value="a.png"/></texture>
+        <bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf></shape>
+    <shape type="sphere"><bsdf type="mask"><float name="opacity" value="0.25"/><bsdf type="roughplastic"/></bsdf></shape>
+    <shape type="cube"><bsdf type="twosided"><bsdf type="mask"><float name="opacity" value="0.5"/>
+        <bsdf type="diffuse"/></bsdf></bsdf></shape>
+    <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+</scene>"""
+put("xml", "mask.xml", MASKED.encode() + MARK.encode() + b"a.png\n" + pil_bytes(grey, "PNG"))
+
 put("xml", "minimal.xml", f"""<scene version="3.0.0"><default name="res" value="4"/><default name="axis" value="y"/>
 {SENSOR}<shape type="sphere"/></scene>""")
 put("xml", "include_chain.xml", f"""<scene version="3.0.0"><include filename="a.xml"/></scene>{MARK}a.xml
