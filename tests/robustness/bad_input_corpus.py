@@ -282,6 +282,18 @@ cases_for("load_scene[bumpmap]", [
         {"n.png": (REPO / "tests" / "data" / "textures" / "bump_ripples.png").read_bytes()})),
      ["scene.xml:8", "n.png", "1 channel"]),
 ], raises=FILE_ERRORS + ("FileNotFoundError",))
+_MASK_TEX = '<texture name="opacity" type="bitmap"><string name="filename" value="a.png"/></texture>'
+cases_for("load_scene[mask]", [
+    ("mask without a nested BSDF", lambda c: c.ml.load_scene(c.scene_with("mask-nobsdf", _GLASS.replace(
+        '<bsdf type="dielectric"/>', f'<bsdf type="mask">{_MASK_TEX}</bsdf>').format(""), {"a.png": c.png_bytes})),
+     ["scene.xml:8", "mask", "nested BSDF", "got none"]),
+    ("mask whose opacity texture is missing", lambda c: c.ml.load_scene(c.scene_with("mask-notex", _GLASS.replace(
+        '<bsdf type="dielectric"/>', f'<bsdf type="mask">{_MASK_TEX}<bsdf type="diffuse"/></bsdf>').format(""))),
+     ["a.png"]),
+    ("mask opacity above 1", lambda c: c.ml.load_scene(c.scene_with("mask-big", _GLASS.replace(
+        '<bsdf type="dielectric"/>', '<bsdf type="mask"><float name="opacity" value="1.5"/><bsdf type="diffuse"/>'
+        '</bsdf>').format(""))), ["scene.xml:8", "opacity", "[0, 1]", "1.5"]),
+], raises=FILE_ERRORS + ("FileNotFoundError",))
 _DIEL = '<shape type="sphere"><bsdf type="{}">{}</bsdf></shape>'
 
 
