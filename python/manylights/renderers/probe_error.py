@@ -46,7 +46,7 @@ The variance part: a renderer that also estimates its own variance (MRCS halves:
 both terms are estimates), and ``bias_upper^2 = SE_upper / ||I*||^2 - q sigma^2`` with ``SE_upper`` the upper
 confidence bound of (2) and ``q sigma^2`` the variance's lower bound at the same confidence (8): sigma comes
 from two halves, as uncertain as one degree of freedom (``variance_lower``; subtracting sigma^2 itself left
-the bound below the true bias in 30-50% of seeds). Where sigma dominates, a bias well below it hardly moves SE
+the bound below the true bias in 17-50% of a model's seeds). Where sigma dominates, a bias well below it hardly moves SE
 and the point estimate reads 0 (``bench bias``: seeds of the compensated staircase, under 15-30% of variance);
 ``bias_upper`` is the bound, and there it is close to the total's.
 
