@@ -316,7 +316,7 @@ pub fn lightslice(a: &LightMatrix, opts: &LightSliceOptions) -> Result<LightSlic
     // Slice by slice (a slice's representatives stay in cache), in blocks of RENDER_BLOCK lights.
     let mut samples_of_slice: Vec<Vec<u32>> = vec![Vec::new(); slices.len()];
     for i in 0..view.len() {
-        let pixel = if i < pixels { i } else { view.extra_pixel[i - pixels] as usize };
+        let pixel = view.pixel_of(i);
         if slice_of_pixel[pixel] >= 0 && view.shape_index[i] >= 0 {
             samples_of_slice[slice_of_pixel[pixel] as usize].push(i as u32);
         }

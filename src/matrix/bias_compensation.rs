@@ -302,8 +302,7 @@ pub fn bias_compensation(
             return Vec3::ZERO;
         }
         if let Some(w) = &wanted {
-            let pixel = if i < np { i } else { view.extra_pixel[i - np] as usize };
-            if !w[pixel] {
+            if !w[view.pixel_of(i)] {
                 return Vec3::ZERO;
             }
         }

@@ -127,9 +127,8 @@ impl LightMatrix {
     fn view_samples<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
         let v = &self.inner.view;
         let m = v.len();
-        let p = v.num_pixels();
         let flat = |a: &[glam::Vec3]| -> Vec<f32> { a.iter().flat_map(|x| [x.x, x.y, x.z]).collect() };
-        let pixel: Vec<i64> = (0..m).map(|i| if i < p { i as i64 } else { v.extra_pixel[i - p] as i64 }).collect();
+        let pixel: Vec<i64> = (0..m).map(|i| v.pixel_of(i) as i64).collect();
         let surface: Vec<bool> = v.shape_index.iter().map(|&s| s >= 0).collect();
         let d = pyo3::types::PyDict::new(py);
         d.set_item("position", array(py, flat(&v.position), &[m, 3])?)?;

@@ -99,6 +99,15 @@ impl ViewSamples {
     pub fn throughput_of(&self, i: usize) -> Vec3 {
         self.throughput.get(i).copied().unwrap_or(Vec3::ONE)
     }
+    /// The pixel of sample `i`: `i` itself for the pixels' own samples, else its extra sample's pixel.
+    pub fn pixel_of(&self, i: usize) -> usize {
+        let m = self.num_pixels();
+        if i < m {
+            i
+        } else {
+            self.extra_pixel[i - m] as usize
+        }
+    }
     /// Sample indices of pixel `p`: `p` itself, then its extra samples.
     pub fn samples_of_pixel(&self, p: usize) -> impl Iterator<Item = usize> + '_ {
         let lo = self.extra_pixel.partition_point(|&q| (q as usize) < p);
