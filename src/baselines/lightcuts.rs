@@ -211,8 +211,7 @@ pub(crate) fn lightcut(ctx: &Ctx, sp: &ShadingPoint, i: usize, error: f64, max_c
                 // The node dominates the sums: subtracting it would leave rounding noise, so they are
                 // summed again over the rest of the cut.
                 cut[e as usize].live = false;
-                bound_sum = cut.iter().filter(|x| x.live).map(|x| x.bound).sum();
-                bound_sq = cut.iter().filter(|x| x.live).map(|x| x.bound * x.bound).sum();
+                (bound_sum, bound_sq) = cut.iter().filter(|x| x.live).fold((0.0, 0.0), |(s, q), x| (s + x.bound, q + x.bound * x.bound));
             } else {
                 bound_sum -= b;
                 bound_sq -= b * b;

@@ -538,8 +538,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         # the lights), so MRCS cannot stop at a pilot as blind as the first one.
         floor = None
         if res.method != "brute_force":
-            floor = {"rows": factor * int(res.budget["rows"]), "columns": factor * int(res.budget["columns"])}
             first["mrcs"] = {"rows": int(res.budget["rows"]), "columns": int(res.budget["columns"])}
+            floor = {k: factor * v for k, v in first["mrcs"].items()}
         res, A, est, t_lights, failed = attempt(grown, derived_seed(seed, _STREAM["escalation"]), floor)
         counts = grown
         escalation = {**first, "reason": (
