@@ -60,6 +60,15 @@ pub(super) fn obvhs_ray(o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Ray {
     Ray::new(Vec3A::from(o), Vec3A::from(d) + Vec3A::ZERO, t_min, t_max)
 }
 
+/// obvhs's traversal enters no child box before t = 1e-4 (its `cwbvh::node::EPSILON`, crate-private:
+/// "ray.tmin?"), so a primitive closer than that to the origin is never tested: a wall point 0.1 mm above
+/// the floor saw the sky under it (4.7x too bright against Mitsuba, whose traversal has no such floor).
+/// Queries through obvhs's traversal trace that stretch again from an origin moved back by `NEAR_SHIFT`
+/// along the ray, where those boxes lie past the clamp; `occlusion.rs`'s traversal clamps at the ray's
+/// own `t_min` instead.
+const OBVHS_BOX_T_MIN: f32 = 1e-4;
+const NEAR_SHIFT: f32 = 4.0 * OBVHS_BOX_T_MIN;
+
 /// Every primitive of a scene and the BVH over them.
 pub(crate) struct SceneBvh {
     /// In BVH leaf order.
@@ -96,8 +105,25 @@ impl SceneBvh {
         SceneBvh { soa: TriangleSoa::new(&primitives), primitives, bvh: Some(bvh) }
     }
 
-    /// Closest primitive hit by `o + t d` with `t_min < t < t_max`.
+    /// Closest primitive hit by `o + t d` with `t_min < t < t_max` (obvhs's traversal, and its near
+    /// stretch again: `OBVHS_BOX_T_MIN`).
     pub fn closest(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<PrimitiveHit> {
+        let far = self.closest_obvhs(o, d, t_min, t_max);
+        if t_min >= OBVHS_BOX_T_MIN {
+            return far;
+        }
+        let end = far.map_or(t_max, |h| h.t).min(t_max).min(2.0 * OBVHS_BOX_T_MIN);
+        let near = self.closest_obvhs(o - d * NEAR_SHIFT, d, t_min + NEAR_SHIFT, end + NEAR_SHIFT);
+        match near {
+            Some(h) if h.t - NEAR_SHIFT < far.map_or(f32::INFINITY, |f| f.t) => {
+                Some(PrimitiveHit { t: (h.t - NEAR_SHIFT).max(t_min.max(0.0)), ..h })
+            }
+            _ => far,
+        }
+    }
+
+    /// Closest hit through obvhs's traversal alone (blind below `OBVHS_BOX_T_MIN`).
+    fn closest_obvhs(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<PrimitiveHit> {
         let bvh = self.bvh.as_ref()?;
         let wt = WatertightRay::new(o, d);
         let mut best = PrimitiveHit { index: usize::MAX, t: f32::INFINITY, b1: 0.0, b2: 0.0 };
@@ -135,9 +161,16 @@ impl SceneBvh {
         super::occlusion::any_hit_sse(self.bvh.as_ref()?, &self.soa, &self.primitives, o, d, t_min, t_max)
     }
 
-    /// [`SceneBvh::any`] through obvhs's own traversal (`CwBvh::ray_traverse_miss`): the reference of
-    /// the tests, and the path of targets without SSE2 and of trees too deep for `occlusion.rs`'s stack.
+    /// [`SceneBvh::any`] through obvhs's own traversal (`CwBvh::ray_traverse_miss`, and its near stretch
+    /// again: `OBVHS_BOX_T_MIN`): the reference of the tests, and the path of targets without SSE2 and of
+    /// trees too deep for `occlusion.rs`'s stack.
     pub fn any_reference(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
+        self.any_obvhs(o, d, t_min, t_max)
+            || (t_min < OBVHS_BOX_T_MIN
+                && self.any_obvhs(o - d * NEAR_SHIFT, d, t_min + NEAR_SHIFT, t_max.min(2.0 * OBVHS_BOX_T_MIN) + NEAR_SHIFT))
+    }
+
+    fn any_obvhs(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let wt = WatertightRay::new(o, d);
         let ray = obvhs_ray(o, d, t_min, t_max);

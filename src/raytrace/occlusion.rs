@@ -78,8 +78,6 @@ mod sse {
     use obvhs::cwbvh::CwBvh;
     use std::arch::x86_64::*;
 
-    /// obvhs's lower clamp of a child box's entry distance (`cwbvh::node::EPSILON`, crate-private there).
-    pub(super) const BOX_T_MIN: f32 = 0.0001;
     /// Stack words; deeper trees (never seen: a CWBVH is about a third as deep as its BVH2) fall back to
     /// obvhs's traversal.
     pub(super) const STACK: usize = 64;
@@ -247,7 +245,8 @@ mod sse {
             origin: r.origin,
             inv_direction: r.inv_direction,
             neg: [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0],
-            t_min: _mm_set1_ps(BOX_T_MIN),
+            // The ray's own t_min: obvhs clamps at 1e-4 and misses what is nearer (`bvh::OBVHS_BOX_T_MIN`).
+            t_min: _mm_set1_ps(r.tmin.max(0.0)),
             t_max: _mm_set1_ps(r.tmax),
         };
         // obvhs orders children by the octant of the ray direction.
@@ -309,7 +308,7 @@ mod sse {
 /// own one run of up to 24 primitives from `primitive_base_idx`).
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::sse::{leaf_hit_scalar, obvhs_ray, permute, Primitive, BOX_T_MIN, STACK};
+    use super::sse::{leaf_hit_scalar, obvhs_ray, permute, Primitive, STACK};
     use super::{TriangleSoa, WatertightRay};
     use glam::{Vec3, Vec3A};
     use obvhs::cwbvh::node::CwBvhNode;
@@ -435,7 +434,7 @@ mod avx2 {
             origin: r.origin,
             inv_direction: r.inv_direction,
             neg: [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0],
-            t_min: _mm256_set1_ps(BOX_T_MIN),
+            t_min: _mm256_set1_ps(r.tmin.max(0.0)),
             t_max: _mm256_set1_ps(r.tmax),
         };
         let oct = (ray.neg[0] as u32) << 2 | (ray.neg[1] as u32) << 1 | ray.neg[2] as u32;
