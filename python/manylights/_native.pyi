@@ -231,13 +231,13 @@ def generate_lights(scene: Scene, area: int = 4096, environment: int = 0, indire
                     clamp: Optional[float] = None, env_importance: bool = False, seed: int = 0,
                     indirect_kind: str = "vpl", vsl_radius_scale: float = 1.0, vsl_neighbours: int = 16,
                     vpl_importance: bool = False, vpl_view_samples: int = 256,
-                    vpl_accept_min: float = 0.01) -> LightSet:
+                    vpl_accept_min: float = 0.01, env_visibility: bool = False) -> LightSet:
     """Delta emitters plus area, environment and indirect (VPL) lights; see ``manylights.generate_lights``.
 
     Raises:
         ValueError: negative or too large counts, NaN / non-positive clamp, max_depth < 3 with indirect,
             a scene without emitters, vpl_view_samples outside 1..=65536, vpl_accept_min outside (0, 1],
-            a view importance sampling cannot use."""
+            a view importance sampling cannot use, env_importance and env_visibility both True."""
 
 def stratified_rows(width: int, height: int, r: int, seed: int = 0) -> npt.NDArray[np.int64]:
     """(r,) int64 pixel indices, one drawn uniformly per block of an r-block stratification of the image.

@@ -273,6 +273,7 @@ fn photon_irradiance(scene: &Scene, cloud: &GatherCloud, chosen: &[usize], opts:
         max_depth: opts.max_depth,
         clamp: None,
         env_importance: false,
+        env_visibility: false,
         seed: opts.seed ^ 0x7068_6f74,
         vsl: None,
         vpl_importance: None,

@@ -19,7 +19,8 @@
 //! - an area-light sample j (stratum area A_j = A_e / n_e, `LightSet::mis_measure`) at distance d with
 //!   emission cosine cos_l: q_L = d^2 / (A_j cos_l) (area density 1 / A_j turned into solid angle);
 //!   a BSDF ray hitting emitter e at distance t with cos_l: q_L = t^2 / (A_j cos_l), the same density;
-//! - an environment stratum of solid angle Omega: q_L = 1 / Omega (a BSDF ray that escapes).
+//! - an environment stratum of solid angle Omega: q_L = 1 / Omega (a BSDF ray that escapes: the Omega
+//!   of the stratum whose direction is nearest, where the strata differ in size, `env_visibility`).
 //! The matrix entry A(i, j) of such a light is multiplied by w_L (`light_weight`; columns, rows, the
 //! oracle, CPU and GPU alike: `shaders/common/glossy.wgsl` is the WGSL twin), so there is still one column
 //! per light and MRCS and every renderer use the matrix unchanged; the BSDF strategy is a per-pixel image
@@ -66,7 +67,8 @@
 //!
 //! Lights that BSDF sampling cannot hit, or whose density is unknown, keep w_L = 1 and the BSDF strategy
 //! ignores them (so nothing is counted twice or dropped): delta lights, VPLs, user-made oriented points,
-//! importance-allocated environment strata (`env_importance`: runs of unequal solid angle), subsets of a
+//! importance-allocated environment strata (`env_importance`: runs of unequal solid angle; the
+//! visibility-allocated strata of `env_visibility` are cells, and keep MIS), subsets of a
 //! light set (`LightSet::select`), textured emitters are included (the strata stay equal-area).
 //! Deviations: the environment's light strategy is the deterministic stratum quadrature (one direction per
 //! stratum), weighted as if its direction were uniform in the stratum; near an area-light patch
@@ -320,16 +322,41 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 }
 
 /// The light densities BSDF rays meet: 1 / A_j per mesh (0 = the light set holds no MIS sample of it)
-/// and 1 / Omega for the environment (0 = none).
+/// and the environment's (`EnvDensity`).
 struct HitDensities {
     per_mesh: Vec<f32>,
-    environment: f32,
+    environment: EnvDensity,
+}
+
+/// 1 / Omega of the environment stratum an escaping BSDF ray falls in: one value when every stratum has
+/// the same solid angle (the uniform strata), else that of the stratum whose direction is nearest
+/// (visibility-allocated strata, `env_visibility`, whose size changes from coarse cell to coarse cell:
+/// exact inside a cell, the neighbour's near a cell's border).
+enum EnvDensity {
+    None,
+    Uniform(f32),
+    Nearest { tree: crate::lights::photon_map::PhotonMap, density: Vec<f32> },
+}
+
+impl EnvDensity {
+    fn any(&self) -> bool {
+        !matches!(self, EnvDensity::None)
+    }
+
+    /// The density toward `wo` (world, toward the sky).
+    fn at(&self, wo: Vec3) -> f32 {
+        match self {
+            EnvDensity::None => 0.0,
+            EnvDensity::Uniform(d) => *d,
+            EnvDensity::Nearest { tree, density } => tree.nearest(wo, 1).0.first().map_or(0.0, |&k| density[k]),
+        }
+    }
 }
 
 impl HitDensities {
     fn new(scene: &Scene, lights: &LightSet) -> Self {
         let mut per_mesh = vec![0f32; scene.meshes.len()];
-        let mut environment = 0f32;
+        let (mut sky, mut density) = (Vec::new(), Vec::new());
         for j in 0..lights.len() {
             let m = lights.mis_measure[j];
             if !(m > 0.0) {
@@ -341,10 +368,18 @@ impl HitDensities {
                         *slot = 1.0 / m;
                     }
                 }
-                LightKind::Directional => environment = 1.0 / m,
+                LightKind::Directional => {
+                    sky.push(-lights.direction[j]);
+                    density.push(1.0 / m);
+                }
                 _ => {}
             }
         }
+        let environment = match density.first() {
+            None => EnvDensity::None,
+            Some(&d) if density.iter().all(|&x| (x - d).abs() <= 1e-4 * d) => EnvDensity::Uniform(d),
+            Some(_) => EnvDensity::Nearest { tree: crate::lights::photon_map::PhotonMap::new(&sky), density },
+        };
         HitDensities { per_mesh, environment }
     }
 }
@@ -359,7 +394,7 @@ pub fn bsdf_image(scene: &Scene, tracer: &RayTracer, view: &ViewSamples, lights:
     }
     let dens = HitDensities::new(scene, lights);
     let area = AreaRadiance::new(scene);
-    let env = if dens.environment > 0.0 { Environment::from_scene(scene) } else { None };
+    let env = if dens.environment.any() { Environment::from_scene(scene) } else { None };
     let per_sample: Vec<Vec3> = (0..m)
         .into_par_iter()
         .with_min_len(64)
@@ -394,7 +429,7 @@ pub fn bsdf_image(scene: &Scene, tracer: &RayTracer, view: &ViewSamples, lights:
                         (area.at(hit.mesh, hit.uv), inv_a * t * t / cos_l)
                     }
                     None => match &env {
-                        Some(e) => (crate::matrix::emitted::sanitized(e.radiance(wo)), dens.environment),
+                        Some(e) => (crate::matrix::emitted::sanitized(e.radiance(wo)), dens.environment.at(wo)),
                         None => continue,
                     },
                 };

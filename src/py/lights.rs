@@ -9,12 +9,13 @@ use pyo3::prelude::*;
 /// `indirect` VPLs. Args as `manylights.generate_lights`; `max_depth < 0` = unlimited,
 /// `clamp = None` = the scene-scaled default; `indirect_kind = "vsl"` makes the VPLs virtual spherical
 /// lights (`lights::vsl`); `vpl_importance` accepts VPL candidates by their image contribution
-/// (`lights::generate::vpl_importance`). Raises ValueError for bad values or a scene without emitters.
+/// (`lights::generate::vpl_importance`); `env_visibility` allocates the environment strata by the
+/// camera's pilot view (`lights::generate::env_visibility`). Raises ValueError for bad values or a scene without emitters.
 #[pyfunction]
 #[pyo3(signature = (scene, area=4096, environment=0, indirect=0, max_depth=5, clamp=None, env_importance=false, seed=0,
                     indirect_kind="vpl", vsl_radius_scale=1.0, vsl_neighbours=crate::lights::vsl::DEFAULT_NEIGHBOURS,
                     vpl_importance=false, vpl_view_samples=crate::lights::generate::vpl_importance::DEFAULT_VIEW_SAMPLES as i64,
-                    vpl_accept_min=crate::lights::generate::vpl_importance::DEFAULT_ACCEPT_MIN))]
+                    vpl_accept_min=crate::lights::generate::vpl_importance::DEFAULT_ACCEPT_MIN, env_visibility=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn generate_lights(
     py: Python<'_>,
@@ -32,6 +33,7 @@ pub fn generate_lights(
     vpl_importance: bool,
     vpl_view_samples: i64,
     vpl_accept_min: f32,
+    env_visibility: bool,
 ) -> PyResult<LightSet> {
     let count = |name: &str, v: i64| -> PyResult<usize> {
         usize::try_from(v).map_err(|_| Error::invalid(format!("{name} must be a count >= 0, got {v}")).into())
@@ -43,6 +45,7 @@ pub fn generate_lights(
         max_depth: if max_depth < 0 { u32::MAX } else { u32::try_from(max_depth).unwrap_or(u32::MAX) },
         clamp,
         env_importance,
+        env_visibility,
         seed,
         vsl: match indirect_kind {
             "vpl" => None,

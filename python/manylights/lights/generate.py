@@ -36,6 +36,7 @@ def generate_lights(
     vpl_importance: bool = False,
     vpl_view_samples: int = 256,
     vpl_accept_min: float = 0.01,
+    env_visibility: bool = False,
 ) -> LightSet:
     """Turn a scene's emitters and its indirect light into point-like lights (many-light columns).
 
@@ -76,6 +77,16 @@ def generate_lights(
             Default False (measured accuracy and cost: docs/validation/accuracy.md).
         vpl_view_samples: integer in 1 ..= 65536, pilot view samples (``vpl_importance`` only).
         vpl_accept_min: eps in (0, 1], the floor of the acceptance probability (1 = plain VPLs).
+        env_visibility: allocate the ``environment`` strata by what the camera sees of them: a coarse
+            equal-area partition (``environment / 16`` cells, 8 to 4,096) is weighed by its cells'
+            contributions to about 1,024 pilot pixel centres (exact shadow rays, the receivers' BSDFs),
+            and each cell is cut into equal-area strata, a quarter of the lights spread evenly and the rest
+            in proportion to contribution^(2/3). A room lit through a window gets its strata in the
+            window. Still one directional light per stratum carrying its integral (the sum is the
+            environment's, whatever the pilot saw); the seed jitters the pilot. Exclusive with
+            ``env_importance``; with fewer than 128 environment lights, or a camera that sees no
+            surface, the uniform strata. ``src/lights/generate/env_visibility.rs``; measured in
+            docs/validation/accuracy.md.
 
     Returns:
         LightSet with numpy views ``kind`` (0 point, 1 spot, 2 directional, 3 oriented point, 4 VPL),
@@ -87,7 +98,7 @@ def generate_lights(
             vsl_radius_scale that is 0, negative, NaN or infinite, vsl_neighbours < 1, a non-bool
             vpl_importance, vpl_view_samples outside 1 ..= 65536, a vpl_accept_min that is NaN or
             outside (0, 1], vpl_importance on a camera that sees no surface (or that no pilot VPL
-            reaches), or a scene without emitters. Zero-area or zero-radiance
+            reaches), env_importance and env_visibility both True, or a scene without emitters. Zero-area or zero-radiance
             emitters contribute nothing (no lights, no NaN).
     """
     counts = {"area": area, "environment": environment, "indirect": indirect, "max_depth": max_depth}
@@ -106,8 +117,10 @@ def generate_lights(
     if not (vsl_radius_scale > 0.0 and math.isfinite(vsl_radius_scale)):
         raise ValueError(f"vsl_radius_scale must be finite and > 0, got {vsl_radius_scale}")
     vsl_neighbours = _v.integer("vsl_neighbours", vsl_neighbours, 1, 1 << 20)
-    if not isinstance(vpl_importance, (bool, np.bool_)):
-        raise ValueError(f"vpl_importance must be True or False, got {vpl_importance!r}")
+    for name, flag in (("vpl_importance", vpl_importance), ("env_importance", env_importance),
+                       ("env_visibility", env_visibility)):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise ValueError(f"{name} must be True or False, got {flag!r}")
     vpl_view_samples = _v.integer("vpl_view_samples", vpl_view_samples, 1, 1 << 16)
     vpl_accept_min = _v.real("vpl_accept_min", vpl_accept_min, 0.0, 1.0)
     if not vpl_accept_min > 0.0:
@@ -115,5 +128,5 @@ def generate_lights(
     return _native.generate_lights(
         scene, int(area), int(environment), int(indirect), int(max_depth), clamp, bool(env_importance), int(seed),
         indirect_kind, vsl_radius_scale, int(vsl_neighbours), bool(vpl_importance), int(vpl_view_samples),
-        vpl_accept_min,
+        vpl_accept_min, bool(env_visibility),
     )

@@ -11,7 +11,9 @@
 //! - `area` (`area.rs`): `OrientedPoint` lights, stratified by area over all emitting surfaces, counts
 //!   split among emitters by power; the total power equals sum_e pi A_e L_e exactly.
 //! - `environment` (`environment.rs`): `Directional` lights, one per stratum of an equal-area
-//!   (cylindrical) partition of the sphere, each carrying the radiance integrated over its stratum.
+//!   (cylindrical) partition of the sphere, each carrying the radiance integrated over its stratum;
+//!   optionally allocated by what the camera sees of them (`GenerateOptions::env_visibility`,
+//!   `env_visibility.rs`: a room lit through a window gets its strata in the window).
 //! - `indirect` (`vpl.rs`): `Vpl` lights from particle tracing (paths with >= 1 bounce); optionally
 //!   virtual spherical lights (`GenerateOptions::vsl`, `lights::vsl`): the same VPLs with a radius each;
 //!   optionally importance sampled by their contribution to the camera's view
@@ -30,7 +32,9 @@
 //! per stratum family and per particle), so the same seed gives a bit-identical `LightSet` whatever the
 //! rayon thread count.
 pub mod area;
+pub mod env_visibility;
 pub mod environment;
+mod pilot_view;
 pub mod sampling;
 pub mod strata;
 #[cfg(test)]
@@ -67,6 +71,9 @@ pub struct GenerateOptions {
     pub clamp: Option<f32>,
     /// Allocate environment strata by luminance (each stratum carries an equal share of the power).
     pub env_importance: bool,
+    /// Allocate environment strata by the camera's pilot view of them (`env_visibility`); exclusive with
+    /// `env_importance`.
+    pub env_visibility: bool,
     pub seed: u64,
     /// `Some`: the VPLs become virtual spherical lights (`lights::vsl`) with these radii (no clamp);
     /// `None`: point VPLs with the geometry-term clamp.
@@ -98,6 +105,7 @@ impl Default for GenerateOptions {
             max_depth: 5,
             clamp: None,
             env_importance: false,
+            env_visibility: false,
             seed: 0,
             vsl: None,
             vpl_importance: None,
@@ -141,6 +149,11 @@ pub fn generate_lights(scene: &Scene, opts: &GenerateOptions) -> Result<LightSet
         Some(c) if c > 0.0 => c,
         Some(c) => return Err(Error::invalid(format!("clamp must be > 0 (or infinite for no clamp), got {c}"))),
     };
+    if opts.env_importance && opts.env_visibility {
+        return Err(Error::invalid(
+            "env_importance and env_visibility are two allocations of the environment strata: choose one".to_string(),
+        ));
+    }
     if opts.indirect > 0 && opts.max_depth < 3 {
         return Err(Error::invalid(format!(
             "max_depth must be >= 3 for indirect light (Mitsuba's max_depth: 2 = direct only), got {}",
@@ -160,7 +173,12 @@ pub fn generate_lights(scene: &Scene, opts: &GenerateOptions) -> Result<LightSet
     set.extend(&area::area_lights(&areas, opts.area, opts.seed, center, radius)?)?;
     let env = environment::Environment::from_scene(scene);
     if let Some(env) = &env {
-        set.extend(&env.strata_lights(opts.environment, opts.env_importance, opts.seed, center, radius)?)?;
+        let strata = if opts.env_visibility {
+            env_visibility::visibility_strata_lights(env, scene, opts.environment, opts.seed, center, radius)?
+        } else {
+            env.strata_lights(opts.environment, opts.env_importance, opts.seed, center, radius)?
+        };
+        set.extend(&strata)?;
     }
     if let Some(v) = &opts.vsl {
         crate::lights::vsl::check_scale(v.scale)?;

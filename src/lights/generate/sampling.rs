@@ -42,6 +42,8 @@ pub const STREAM_GLOSSY: u64 = 5;
 /// Pilot candidates and acceptance decisions of VPL importance sampling (`vpl_importance`).
 pub const STREAM_IMPORTANCE_PILOT: u64 = 8;
 pub const STREAM_ACCEPT: u64 = 9;
+/// Pilot directions of visibility-allocated environment strata (`env_visibility`), per coarse cell.
+pub const STREAM_ENV_PILOT: u64 = 11;
 
 /// SplitMix64 finaliser: decorrelates seeds.
 fn mix(mut z: u64) -> u64 {

@@ -45,20 +45,19 @@
 //!
 //! | paper / symbol | name here |
 //! |---|---|
-//! | Phi_i (a VPL's estimated image contribution) | `phi` (`PilotView::contributions`) |
+//! | Phi_i (a VPL's estimated image contribution) | `phi` (`contributions`, `PilotView`) |
 //! | Phi_v (target contribution per VPL) | `tau / N` (`ImportanceStats::phi_v`) |
 //! | p_i (acceptance probability) | `p_accept` |
 //! | eps | `VplImportance::accept_min` |
 //! | camera points (importons) | `PilotView` (`VplImportance::view_samples`) |
 //! | N (requested VPLs) | M = `GenerateOptions::indirect` |
 //! | paths traced | N = `ImportanceStats::particles` |
+use super::pilot_view::PilotView;
 use super::sampling::{stream, uniform, STREAM_ACCEPT, STREAM_IMPORTANCE_PILOT, STREAM_PARTICLE};
 use super::vpl::{Tracer, Vpl};
 use super::GenerateOptions;
-use crate::cpu::{shade, ShadingPoint};
 use crate::error::{Error, Result};
 use crate::lights::LightSet;
-use crate::view::ViewSamples;
 
 /// Default number of pilot view samples (pixel centres of the pilot film).
 pub const DEFAULT_VIEW_SAMPLES: usize = 256;
@@ -122,54 +121,15 @@ pub struct ImportanceStats {
     pub accepted: usize,
 }
 
-/// Surface view samples of the pilot film, prepared for shading.
-pub(crate) struct PilotView {
-    view: ViewSamples,
-    points: Vec<(usize, ShadingPoint)>,
-}
-
-impl PilotView {
-    /// The camera of `tracer.scene` at about `n` pixels of its aspect (module docs).
-    pub(crate) fn new(tracer: &Tracer, n: usize) -> Result<PilotView> {
-        let cam = &tracer.scene.camera;
-        let aspect = cam.width.max(1) as f64 / cam.height.max(1) as f64;
-        let w = ((n as f64 * aspect).sqrt().round() as u32).clamp(1, n as u32);
-        let h = ((n as f64 / w as f64).round() as u32).max(1);
-        let mut cam = cam.clone();
-        (cam.width, cam.height) = (w, h);
-        let scene = &tracer.scene;
-        let ids = crate::view::resolve::cast_visibility_traced_for(scene, &cam, &tracer.rt)?;
-        let chains = crate::view::chains::ChainOptions::default();
-        let view = crate::view::resolve::resolve_view_samples_for(scene, &cam, &ids, &chains)?;
-        let points = (0..view.len()).map(|i| (i, ShadingPoint::new(&view, i))).filter(|(_, sp)| sp.surface).collect();
-        Ok(PilotView { view, points })
+/// Phi_j of each candidate (module docs): the luminance of its elements summed over the pilot view, with
+/// the flux the candidate carries and the geometry-term clamp `clamp`.
+fn contributions(pilot: &PilotView, tracer: &Tracer, vpls: &[Vpl], clamp: f32) -> Result<Vec<f64>> {
+    let mut set = LightSet::new(tracer.center, tracer.radius);
+    set.vpl_clamp = clamp;
+    for v in vpls {
+        set.push_vpl(v.position, v.n_s, v.n_g, v.incident, v.flux, v.bsdf)?;
     }
-
-    /// Surface samples of the pilot view.
-    pub(crate) fn len(&self) -> usize {
-        self.points.len()
-    }
-
-    /// Phi_j of each candidate (module docs): the luminance of its elements summed over the pilot view,
-    /// with the flux the candidate carries and the geometry-term clamp `clamp`.
-    pub(crate) fn contributions(&self, tracer: &Tracer, vpls: &[Vpl], clamp: f32) -> Result<Vec<f64>> {
-        let mut set = LightSet::new(tracer.center, tracer.radius);
-        set.vpl_clamp = clamp;
-        for v in vpls {
-            set.push_vpl(v.position, v.n_s, v.n_g, v.incident, v.flux, v.bsdf)?;
-        }
-        Ok((0..vpls.len())
-            .map(|j| {
-                self.points
-                    .iter()
-                    .map(|(i, sp)| {
-                        let c = shade(&tracer.rt, &self.view, &set, sp, *i, j).value;
-                        (c.element_sum() / 3.0) as f64
-                    })
-                    .sum()
-            })
-            .collect())
-    }
+    Ok((0..vpls.len()).map(|j| pilot.contribution(&tracer.rt, &set, j)).collect())
 }
 
 /// p_accept = min(1, phi / tau + eps).
@@ -212,7 +172,7 @@ pub fn solve_tau(phis: &[f64], n: usize, eps: f64) -> Option<f64> {
 pub(crate) fn trace_importance(tracer: &Tracer, opts: &GenerateOptions, imp: &VplImportance) -> Result<(LightSet, ImportanceStats)> {
     imp.check()?;
     let mut out = LightSet::new(tracer.center, tracer.radius);
-    let pilot_view = PilotView::new(tracer, imp.view_samples)?;
+    let pilot_view = PilotView::new(tracer.scene, &tracer.rt, imp.view_samples)?;
     if pilot_view.len() == 0 {
         return Err(Error::invalid(format!(
             "vpl_importance: the camera sees no surface at the pixel centres of the pilot film (vpl_view_samples={}); \
@@ -224,7 +184,7 @@ pub(crate) fn trace_importance(tracer: &Tracer, opts: &GenerateOptions, imp: &Vp
     let candidates = |family: u64, k: usize| -> Result<(Vec<Vpl>, Vec<f64>)> {
         let mut v = Vec::new();
         tracer.trace(opts.seed, family, k as u64, &mut v);
-        let phi = pilot_view.contributions(tracer, &v, clamp)?;
+        let phi = contributions(&pilot_view, tracer, &v, clamp)?;
         Ok((v, phi))
     };
     // Pilot batch: tau and N.

@@ -93,7 +93,7 @@ fn accepted_count_and_stats() {
     let opts = GenerateOptions { area: 0, indirect: 2000, seed: 3, ..Default::default() };
     let t = Tracer::new(&scene, &areas, env.as_ref(), &opts, 1).unwrap().unwrap();
     let imp = VplImportance::default();
-    let pilot = PilotView::new(&t, imp.view_samples).unwrap();
+    let pilot = PilotView::new(&scene, &t.rt, imp.view_samples).unwrap();
     assert!(pilot.len() >= 100 && pilot.len() <= 300, "{} pilot samples", pilot.len());
     let (set, stats) = trace_importance(&t, &opts, &imp).unwrap();
     assert_eq!(set.len(), stats.accepted);
