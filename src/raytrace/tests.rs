@@ -414,13 +414,14 @@ fn shadow_traversal_answers_as_the_reference_bit_for_bit() {
 
 /// A primitive closer than 1e-4 to the origin is hit: obvhs's traversal enters no child box before
 /// t = 1e-4, and a wall point 0.1 mm above the window room's floor saw the sky under it (4.7x too bright
-/// against Mitsuba). Shadow rays (`any`), the reference traversal and closest hits, down to 1e-6.
+/// against Mitsuba). Shadow rays (`any`), the reference traversal and closest hits, down to 1e-5 (the
+/// floor of every query is `(1 + max |o|) 2^-20`, 4.7e-6 here, as on the GPU).
 #[test]
 fn hits_closer_than_obvhs_box_clamp_are_found() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/window-room/scene.xml");
     let scene = crate::scene::load_scene(&path, &Default::default()).unwrap();
     let rt = RayTracer::new(&scene).unwrap();
-    for y in [1e-3f32, 2e-4, 1e-4, 8.4543914e-5, 3e-5, 1e-5, 1e-6] {
+    for y in [1e-3f32, 2e-4, 1e-4, 8.4543914e-5, 3e-5, 1e-5] {
         for d in [Vec3::new(0.0, -1.0, 0.0), Vec3::new(-3.8222453e-4, -0.88923794, -0.45744503).normalize()] {
             let o = Vec3::new(1.9995593, y, 3.9292707);
             let brute = rt.bvh.closest_brute_force(o, d, 0.0, f32::INFINITY).unwrap();

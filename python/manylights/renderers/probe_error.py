@@ -85,6 +85,8 @@ REFINE_ROUNDS = 12
 REFINE_FACTOR = 8
 REFINE_MASS = 0.8
 REFINE_CAP = 8
+#: (5') The factor on the paths of every probe when the point estimate is within the probes' own noise.
+NOISE_FACTOR = 4
 #: ``probe_error``'s default limit on retracing: this many times the first pass's seconds, at least the minimum.
 REFINE_TIMES = 4.0
 REFINE_MIN_SECONDS = 0.5
@@ -175,10 +177,12 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     """Retrace the probes that carry an unreliable or undecided estimate (5): while fewer than
     min(N / 4, ``MIN_EFFECTIVE``) probes carry (2) (or N itself is below it), or while a ``target`` lies between the lower and the upper
     confidence bound (more paths can decide it) or below the lower bound before a first round of retracing
-    or while fewer than ``DECIDE_SHARE`` x N probes carry it (a "missed" that a few heavy residuals decide),
+    the heaviest probes or while fewer than ``DECIDE_SHARE`` x N probes carry it (a "missed" that a few heavy residuals decide),
     the fewest probes whose terms |d_k / p_k| make up
     ``REFINE_MASS`` of the sum (at most N / ``REFINE_CAP``) are traced again with ``factor`` x the paths behind their mean, all FRESH, which
-    replace their mean and variance; at most ``rounds`` times, and no round that would take the retracing
+    replace their mean and variance -- or, with a ``target`` and a lower confidence bound at 0 (the error
+    not told from the probes' own noise, which all of them carry), every probe with ``NOISE_FACTOR`` x the
+    most paths behind any (5'); at most ``rounds`` times, and no round that would take the retracing
     past ``max_seconds`` (predicted from the paths per second of the sample).
 
     Which probes are retraced depends on their earlier paths only, and their new paths are independent of
@@ -216,26 +220,37 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     out["paths"] = sample["paths"].copy()
     rate = out["traced"] / max(sample["seconds"], 1e-9)
     t = time.perf_counter()
+    checked = False  # a round of the heaviest probes has run (a "missed" before it is retraced)
     for r in range(rounds):
         est = probe_estimate(image, out)
-        # Undecided: the target between the bounds, or a "missed" (lower bound above it) that no retracing has
-        # checked yet or that rests on fewer than ``DECIDE_SHARE`` of the probes -- heavy residuals of noisy
+        # Undecided: the target between the bounds, or a "missed" (lower bound above it) that no retracing of
+        # the heaviest probes has checked yet (a round of all probes at 4x leaves a few of them several sigma
+        # off where paths rarely find the sky through a window) or that rests on fewer than ``DECIDE_SHARE`` of the probes -- heavy residuals of noisy
         # probes can lift the lower bound of a converged image to 5x its error (glossy plates) and the upper
         # bound of a 1.7% image to 13% with 66 probes carrying it (a room lit through a window), and a render
         # would then deny a target it reached.
         undecided = target is not None and (est["error_lower"] <= target < est["error_estimate"] or (
-            target < est["error_lower"] and (r == 0 or est["effective_probes"] < DECIDE_SHARE * n)))
+            target < est["error_lower"] and (not checked or est["effective_probes"] < DECIDE_SHARE * n)))
         if (est["reliable"] and not undecided) or n < 2:
             break
         mag = np.abs(est["residuals"] / out["p"])
         if not np.any(mag):
             break
-        order = np.argsort(-mag, kind="stable")
-        take = int(np.searchsorted(np.cumsum(mag[order]) / mag.sum(), REFINE_MASS) + 1)
-        which = np.sort(order[:max(1, min(take, n // REFINE_CAP))])
-        spp = int(min(out["paths"][which].max() * factor, 1 << 30))
-        if max_seconds is not None and time.perf_counter() - t + len(which) * spp / rate > max_seconds:
-            break
+        # (5') A lower bound at 0 says the error cannot be told from the probes' own noise, which every
+        # probe carries alike: all of them are traced again with NOISE_FACTOR x the paths, if that fits
+        # (the noise of (2) falls as 1 / paths there: measured on the window room's 1.2% image, bounds of
+        # 1.3-1.4% where the heaviest probes alone reached 1.9-2.8%); else the heaviest probes only.
+        which = np.arange(n)
+        spp = int(min(out["paths"].max() * NOISE_FACTOR, 1 << 30))
+        fits = max_seconds is None or time.perf_counter() - t + n * spp / rate <= max_seconds
+        if not (target is not None and est["error_lower"] == 0.0 and fits):
+            order = np.argsort(-mag, kind="stable")
+            take = int(np.searchsorted(np.cumsum(mag[order]) / mag.sum(), REFINE_MASS) + 1)
+            which = np.sort(order[:max(1, min(take, n // REFINE_CAP))])
+            spp = int(min(out["paths"][which].max() * factor, 1 << 30))
+            if max_seconds is not None and time.perf_counter() - t + len(which) * spp / rate > max_seconds:
+                break
+            checked = True
         mean, var = probe_pixels(out["scene"], out["pixels"][which], spp=spp, max_depth=out["max_depth"],
                                  seed=derived_seed(seed, PROBE_STREAM + 2 + r), progress=False, lights=lights)
         out["mean"][which], out["variance"][which] = mean, var
