@@ -154,6 +154,8 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, help="references folder (default <root>/refs)")
     ap.add_argument("--environment", type=int, help="override the environment light count")
     ap.add_argument("--bsdf-samples", type=int, help="glossy MIS BSDF samples per view sample")
+    ap.add_argument("--env-visibility", action="store_true",
+                    help="environment strata allocated by visibility (generate_lights(env_visibility=True))")
     a = ap.parse_args(argv)
     out = a.out or a.root / "refs"
     for name in a.names or list(SCENES):
@@ -163,6 +165,8 @@ def main(argv=None):
             res = reference(a.root, name, out, SCENES[name][4])
         else:
             over = {} if a.environment is None else {"environment": a.environment}
+            if a.env_visibility:
+                over["env_visibility"] = True
             res = compare(a.root, name, out, a.bsdf_samples, **over)
         print(json.dumps(res), flush=True)
 
