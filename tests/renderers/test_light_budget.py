@@ -233,6 +233,22 @@ def test_an_escalation_also_gives_mrcs_a_larger_first_round():
     assert first["rows"][0] >= 32 and first["columns"][0] >= 128, first
 
 
+def test_an_mrcs_pilot_miss_escalates_beyond_the_reach():
+    """Seed 6 of the plates at 2%: MRCS stops at its pilot (8 rows) whose rows miss the sun's highlight, and
+    the probes' bound (47%) is past ``ESCALATION_REACH`` x the target, where more lights alone would not
+    help; a larger first round does (measured: 57% true without the escalation, 1.55% with it)."""
+    xml = REPO / "tests" / "data" / "veach_plates_env.xml"
+    ref = ml.read_exr(REPO / "tests" / "references" / "veach-plates-env-direct.exr")[..., :3]
+    res = ml.render(xml, target_error=0.02, seed=6, params={"width": 64, "height": 48}, max_depth=2,
+                    progress=False)
+    esc = res.budget["escalation"]
+    assert esc is not None and esc["mrcs"] == {"rows": 8, "columns": 32}, esc
+    assert esc["error_estimate"] > light_budget.ESCALATION_REACH * 0.02, esc
+    true = ml.relative_l2(res.image, ref)
+    assert true <= 0.02 * 1.25, true
+    assert res.error_estimate >= true / 2 and (res.error_estimate <= 0.02) == res.budget["target_reached"]
+
+
 def test_probes_that_find_the_target_missed_escalate_the_lights():
     """Glossy plates under an environment map with a small bright sun (``tests/data/veach_plates_env.xml``),
     seed 6: the halving is satisfied at 8,192 strata while the probes find the target missed (no known bias
