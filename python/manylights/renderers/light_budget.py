@@ -82,7 +82,9 @@ target -- or at any bound when MRCS stopped at its first round (seed 6 of the pl
 rows missed the sun's highlight, the probes' bound 47%, the image 57% off; a larger pilot is what removes
 that) -- every kind gets 2x its lights (a bound within sqrt(2) x the target: an error falling like
 1 / sqrt(count) then reaches it) or ``ESCALATION_FACTOR`` = 4 x (at most ``max_lights``) once, MRCS's first
-round gets the same factor times the first attempt's rows and columns (at most half the lights), and the
+round gets the same factor times the first attempt's rows and columns (at most half the lights) when the first
+attempt's MRCS stopped at its pilot (after more rounds its estimate rests on many rows; a floor of 4x their
+thousands of rows and columns made the window room's second attempts 4x slower), and the
 scene is rendered and probed again with fresh probes; the first attempt is set aside
 (``budget['escalation']``: its counts, MRCS rows and columns, bound, seconds and why;
 ``timings['escalation']``). The
@@ -552,12 +554,15 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
                 grown[k]["reason"] = (f"escalated from {c}: the probes' bound {res.error_estimate:.3g} > target "
                                       f"{target_error:g} with no known bias source")
         # The error may also be MRCS's: its own estimate (from its rows) was satisfied, which is how it stopped.
-        # The second attempt's first round gets factor x the first attempt's rows and columns (not past half
-        # the lights), so MRCS cannot stop at a pilot as blind as the first one.
+        # When that was at its pilot, the second attempt's first round gets factor x the first attempt's rows
+        # and columns (not past half the lights), so MRCS cannot stop at a pilot as blind as the first one.
         floor = None
         if res.method != "brute_force":
             first["mrcs"] = {"rows": int(res.budget["rows"]), "columns": int(res.budget["columns"])}
-            floor = {k: factor * v for k, v in first["mrcs"].items()}
+            # Only a pilot can be that blind: after more rounds MRCS's estimate rests on many rows, and a floor of
+            # factor x thousands of rows and columns made the window room's second attempts 4x slower.
+            if _mrcs_stopped_at_pilot(res):
+                floor = {k: factor * v for k, v in first["mrcs"].items()}
         res, A, est, t_lights, failed = attempt(grown, derived_seed(seed, _STREAM["escalation"]), floor)
         counts = grown
         escalation = {**first, "reason": (
