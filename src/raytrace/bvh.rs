@@ -69,12 +69,15 @@ pub(super) fn obvhs_ray(o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Ray {
 const OBVHS_BOX_T_MIN: f32 = 1e-4;
 const NEAR_SHIFT: f32 = 4.0 * OBVHS_BOX_T_MIN;
 
-/// The smallest t a query accepts: `(1 + max_i |o_i|) 2^-20`, as the GPU's traversal (`shaders/common/
-/// bvh.wgsl`), so both backends answer alike for a shading point exactly on an edge, whose offset origin
-/// lies in the plane of the other face (cbox-lights' corner pixels); far below any offset (`offset_p`).
+/// The smallest t a query accepts: a distance of `(1 + max_i |o_i|) 2^-20` along `d`, as the GPU's traversal
+/// (`shaders/common/bvh.wgsl`, unit directions), so both backends answer alike for a shading point exactly on
+/// an edge, whose offset origin lies in the plane of the other face (cbox-lights' corner pixels); far below
+/// any offset (`offset_p`: 1500 x that).
 #[inline]
-pub(super) fn t_floor(o: Vec3, t_min: f32) -> f32 {
-    t_min.max((1.0 + o.abs().max_element()) * 9.536_743e-7)
+pub(crate) fn t_floor(o: Vec3, d: Vec3, t_min: f32) -> f32 {
+    let len = d.length();
+    let floor = (1.0 + o.abs().max_element()) * 9.536_743e-7;
+    t_min.max(if len > 0.0 { floor / len } else { floor })
 }
 
 /// Every primitive of a scene and the BVH over them.
@@ -116,7 +119,7 @@ impl SceneBvh {
     /// Closest primitive hit by `o + t d` with `t_min < t < t_max` (obvhs's traversal, and its near
     /// stretch again: `OBVHS_BOX_T_MIN`).
     pub fn closest(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<PrimitiveHit> {
-        let t_min = t_floor(o, t_min);
+        let t_min = t_floor(o, d, t_min);
         let far = self.closest_obvhs(o, d, t_min, t_max);
         if t_min >= OBVHS_BOX_T_MIN {
             return far;
@@ -154,7 +157,7 @@ impl SceneBvh {
     /// Whether anything is hit with `t_min < t < t_max` (stops at the first hit): `occlusion.rs`, which
     /// answers as [`SceneBvh::any_reference`] does, bit for bit.
     pub fn any(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
-        let t_min = t_floor(o, t_min);
+        let t_min = t_floor(o, d, t_min);
         #[cfg(target_arch = "x86_64")]
         if let Some(bvh) = self.bvh.as_ref() {
             if let Some(hit) = super::occlusion::any_hit(bvh, &self.soa, &self.primitives, o, d, t_min, t_max) {
@@ -168,14 +171,14 @@ impl SceneBvh {
     /// the traversal's stack overflowed).
     #[cfg(all(test, target_arch = "x86_64"))]
     pub fn any_sse(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<bool> {
-        super::occlusion::any_hit_sse(self.bvh.as_ref()?, &self.soa, &self.primitives, o, d, t_floor(o, t_min), t_max)
+        super::occlusion::any_hit_sse(self.bvh.as_ref()?, &self.soa, &self.primitives, o, d, t_floor(o, d, t_min), t_max)
     }
 
     /// [`SceneBvh::any`] through obvhs's own traversal (`CwBvh::ray_traverse_miss`, and its near stretch
     /// again: `OBVHS_BOX_T_MIN`): the reference of the tests, and the path of targets without SSE2 and of
     /// trees too deep for `occlusion.rs`'s stack.
     pub fn any_reference(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
-        let t_min = t_floor(o, t_min);
+        let t_min = t_floor(o, d, t_min);
         self.any_obvhs(o, d, t_min, t_max)
             || (t_min < OBVHS_BOX_T_MIN
                 && self.any_obvhs(o - d * NEAR_SHIFT, d, t_min + NEAR_SHIFT, t_max.min(2.0 * OBVHS_BOX_T_MIN) + NEAR_SHIFT))

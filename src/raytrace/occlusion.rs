@@ -78,6 +78,12 @@ mod sse {
     use obvhs::cwbvh::CwBvh;
     use std::arch::x86_64::*;
 
+    /// A child box's exit distance is widened by this factor (8 ulps of 1): the slab test's products and
+    /// sums round, and a ray leaving a closed cube exactly through the edge of two faces found the entry of
+    /// both faces' flat boxes a rounding step past their exit (Ize, "Robust BVH Ray Traversal", JCGT 2013,
+    /// widens by 1 + 2 gamma(3) for the same reason). Only more boxes are visited; hits are the triangle
+    /// test's.
+    pub(super) const BOX_T_MAX_SCALE: f32 = 1.0 + 8.0 * f32::EPSILON;
     /// Stack words; deeper trees (never seen: a CWBVH is about a third as deep as its BVH2) fall back to
     /// obvhs's traversal.
     pub(super) const STACK: usize = 64;
@@ -135,7 +141,7 @@ mod sse {
             let tmin = _mm_max_ps(tmin_x, _mm_max_ps(tmin_y, tmin_z));
             let tmax = _mm_min_ps(tmax_x, _mm_min_ps(tmax_y, tmax_z));
             let tmin = _mm_max_ps(tmin, ray.t_min);
-            let tmax = _mm_min_ps(tmax, ray.t_max);
+            let tmax = _mm_min_ps(_mm_mul_ps(tmax, _mm_set1_ps(BOX_T_MAX_SCALE)), ray.t_max);
             mask |= (_mm_movemask_ps(_mm_cmple_ps(tmin, tmax)) as u32) << (4 * h);
         }
         mask
@@ -308,7 +314,7 @@ mod sse {
 /// own one run of up to 24 primitives from `primitive_base_idx`).
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::sse::{leaf_hit_scalar, obvhs_ray, permute, Primitive, STACK};
+    use super::sse::{leaf_hit_scalar, obvhs_ray, permute, Primitive, BOX_T_MAX_SCALE, STACK};
     use super::{TriangleSoa, WatertightRay};
     use glam::{Vec3, Vec3A};
     use obvhs::cwbvh::node::CwBvhNode;
@@ -349,7 +355,7 @@ mod avx2 {
         let tmin = _mm256_max_ps(tmin_x, _mm256_max_ps(tmin_y, tmin_z));
         let tmax = _mm256_min_ps(tmax_x, _mm256_min_ps(tmax_y, tmax_z));
         let tmin = _mm256_max_ps(tmin, ray.t_min);
-        let tmax = _mm256_min_ps(tmax, ray.t_max);
+        let tmax = _mm256_min_ps(_mm256_mul_ps(tmax, _mm256_set1_ps(BOX_T_MAX_SCALE)), ray.t_max);
         _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tmin, tmax)) as u32
     }
 

@@ -721,6 +721,12 @@ cases_for("LightMatrix.trace_shadow_rays", [
     ("lengths differ", lambda c: c.A.trace_shadow_rays(np.zeros((2, 3)), np.zeros((3, 3)), np.ones(2)),
      ["one entry per ray"]),
     ("t_max 2-D", lambda c: c.A.trace_shadow_rays(np.zeros((2, 3)), np.zeros((2, 3)), np.ones((2, 1))), ["t_max"]),
+    ("NaN origin", lambda c: c.A.trace_shadow_rays(np.array([[0, 0, 0], [0, np.nan, 0]]), np.ones((2, 3)),
+                                                   np.ones(2)), ["origin of ray 1"]),
+    ("inf direction", lambda c: c.A.trace_shadow_rays(np.zeros((1, 3)), np.array([[np.inf, 0, 0]]), np.ones(1)),
+     ["direction of ray 0"]),
+    ("NaN t_max", lambda c: c.A.trace_shadow_rays(np.zeros((2, 3)), np.ones((2, 3)), np.array([1.0, np.nan])),
+     ["t_max of ray 1"]),
 ])
 cases_for("LightMatrix.rows", _IDX_CASES(lambda c, i: c.A.rows([0, i], progress=False), lambda c: c.m) + [
     ("no rows", lambda c: c.A.rows([], progress=False), ["at least one"]),

@@ -350,22 +350,34 @@ class LightMatrix:
         return dict(self._m.shadow_rays(views, lights, order))
 
     def trace_shadow_rays(self, origin, direction, t_max) -> tuple[np.ndarray, float]:
-        """Whether each ray ``o + t d``, ``0 < t < t_max``, is blocked, by this matrix's CPU ray tracer alone
-        (BVH traversal and triangle tests, in parallel; no shading).
+        """Whether each ray ``o + t d``, ``t_0 < t < t_max``, is blocked, by this matrix's CPU ray tracer alone
+        (BVH traversal and triangle tests, in parallel; no shading). ``t_0`` is a distance of
+        ``(1 + max_i |o_i|) 2^-20`` world units along ``d`` (the GPU traversal's floor: 1e-6 near the origin,
+        1 mm at 1,000 units), far below the offsets with which shading points spawn their rays.
 
         Args:
-            origin, direction: (r, 3) float32-convertible. t_max: (r,).
+            origin, direction: (r, 3) float32-convertible, finite (a zero direction is never blocked).
+            t_max: (r,), not NaN (inf: an unbounded ray).
 
         Returns:
             (blocked (r,) bool, seconds of the tracing: float).
 
         Raises:
-            ValueError: arrays of other shapes or lengths."""
+            ValueError: arrays of other shapes or lengths, a NaN or infinite origin or direction, a NaN
+                t_max (naming the first such ray)."""
         o = np.ascontiguousarray(origin, dtype=np.float32)
         d = np.ascontiguousarray(direction, dtype=np.float32)
         t = np.ascontiguousarray(t_max, dtype=np.float32)
         if t.ndim != 1:
             raise ValueError(f"t_max must have shape (r,), got {t.shape}")
+        for name, a in (("origin", o), ("direction", d)):
+            bad = ~np.isfinite(a).reshape(len(a), -1).all(axis=1) if a.ndim == 2 else np.zeros(0, bool)
+            if bad.any():
+                k = int(np.flatnonzero(bad)[0])
+                raise ValueError(f"trace_shadow_rays: {name} of ray {k} is not finite: {a[k].tolist()}")
+        if np.isnan(t).any():
+            k = int(np.flatnonzero(np.isnan(t))[0])
+            raise ValueError(f"trace_shadow_rays: t_max of ray {k} is NaN")
         blocked, seconds = self._m.trace_shadow_rays(o, d, t)
         return np.asarray(blocked), float(seconds)
 

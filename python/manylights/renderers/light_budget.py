@@ -86,8 +86,12 @@ round gets the same factor times the first attempt's rows and columns (at most h
 attempt's MRCS stopped at its pilot (after more rounds its estimate rests on many rows; a floor of 4x their
 thousands of rows and columns made the window room's second attempts 4x slower), and the
 scene is rendered and probed again with fresh probes; the first attempt is set aside
-(``budget['escalation']``: its counts, MRCS rows and columns, bound, seconds and why;
-``timings['escalation']``). The
+(``budget['escalation']``, ``kind`` "lights": its counts, MRCS rows and columns, bound, seconds and why;
+``timings['escalation']``). Where the probes' point estimate and lower bound are both 0 -- no error beyond
+their own noise, so more lights could not be shown to help (the window room at 64 x 36: 16,384 -> 32,768
+strata, 19 s, a second bound as high, the image 0.5% off) -- the image is kept instead and a fresh probe set
+with ``PROBE_ESCALATION`` = 2 x the probes and 2 x the paths per probe decides (``kind`` "probes": the first
+bound, the probes, paths, seconds and why). The
 claim rests on the second attempt's probes alone. Deciding to go on from one probe set and then claiming
 from another keeps each claim's 90% bound; the time grows about 3-5x where it happens.
 
@@ -160,7 +164,7 @@ DETERMINISTIC = ("environment",)
 #: A kind grows by at most this factor per step of the count phase, (7).
 MAX_GROWTH = 8
 _STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5, "compensation": 6, "model_probes": 7,
-           "escalation": 8}
+           "escalation": 8, "probe_escalation": 9}
 #: Paths per pixel of each of the two bias-compensation estimates a clamped-VPL model is offered with.
 COMPENSATION_SPP = 1
 #: Retracing the probes that carry an unreliable estimate may take this share of the render so far, and at
@@ -171,6 +175,9 @@ REFINE_SHARE = 0.15
 #: within ESCALATION_REACH x the target.
 ESCALATION_FACTOR = 4
 ESCALATION_REACH = 16.0
+#: (Module doc, "Escalation") When the probes see no error beyond their own noise, a fresh probe set with this
+#: many times the probes and the paths per probe instead of more lights.
+PROBE_ESCALATION = 2
 #: A light model with a known bias source must score this much better at the selection probes to be kept
 #: over one without (within the probes' noise the unbiased model wins).
 BIAS_MARGIN = 0.05
@@ -437,9 +444,11 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         ``shadow_map_size`` (value, reason), ``glossy`` (view_samples, bsdf_samples, reason), ``estimated_total_error`` (equation (5):
         sqrt(E_gen^2 + error_estimate^2)), ``target_reached`` (that total <= target_error and no known bias
         source active (``RenderResult.bias_sources``): the estimates cover variance only; None without a
-        target) and ``target_reason`` (a sentence: why it is or is not claimed), ``escalation`` (None, or the
-        first attempt that the probes sent back for 2x or 4x the lights: its counts, mrcs (its MRCS rows and
-        columns), error_estimate, seconds, reason; module doc); ``timings['light_counts']``, ``timings['lights']`` and ``timings['escalation']`` (the
+        target) and ``target_reason`` (a sentence: why it is or is not claimed), ``escalation`` (None; or, kind
+        "lights", the first attempt that the probes sent back for 2x or 4x the lights: its counts, mrcs (its MRCS
+        rows and columns), error_estimate, seconds, reason; or, kind "probes", the fresh probe set that replaced
+        a bound with no error beyond the probes' noise: the first bound as error_estimate, probes, spp, seconds,
+        reason; module doc); ``timings['light_counts']``, ``timings['lights']`` and ``timings['escalation']`` (the
         first attempt's seconds, where there was one).
         With probes ``error_estimate`` is their upper bound on the error against the converged scene,
         ``variance_estimate`` the variance part (equation (5)), ``bias_estimate`` the rest, ``budget['probes']``
@@ -534,7 +543,31 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     # map that 16,384 strata place badly). Then every kind gets 2x or ESCALATION_FACTOR x its lights (at most
     # max_lights), once, with fresh probes, when the probes' bound is within ESCALATION_REACH x the target.
     escalation = None
-    if (error_probes and target_error is not None and est is not None
+    noise_only = est is not None and est["error_mean"] == 0.0 and est["error_lower"] == 0.0
+    if (error_probes and target_error is not None and noise_only and res.error_estimate > target_error
+            and not res.bias_sources and not _mrcs_stopped_at_pilot(res)
+            and res.error_estimate <= ESCALATION_REACH * target_error):
+        # (Module doc, "Escalation") The probes see no error beyond their own noise: more lights could not be
+        # shown to help (the window room at 64 x 36: 16,384 -> 32,768 strata, 19 s, a second bound as high and
+        # the image 0.5% off). A fresh probe set with PROBE_ESCALATION x the probes and the paths decides it;
+        # the image is kept and the claim rests on the fresh set alone.
+        first_bound = float(res.error_estimate)
+        spent = float(sum(res.timings.values())) + counts["seconds"] + t_lights
+        n2 = min(PROBE_ESCALATION * error_probes, scene.width * scene.height)
+        try:
+            est = probe_error(res.image, scene, n2, spp=PROBE_ESCALATION * probe_spp, max_depth=max_depth,
+                              seed=derived_seed(seed, _STREAM["probe_escalation"]),
+                              variance_estimate=res.variance_estimate,
+                              refine_seconds=max(REFINE_MIN_SECONDS, REFINE_SHARE * spent), refine_target=target_error)
+            attach_probe_error(res, scene, n2, seed, variance=res.variance_estimate, estimate=est)
+            escalation = {"kind": "probes", "error_estimate": first_bound, "probes": int(n2),
+                          "spp": int(PROBE_ESCALATION * probe_spp), "seconds": float(est["seconds"]), "reason": (
+                              f"the probes' bound {first_bound:.3g} > target {target_error:g} with no error beyond "
+                              f"their own noise (point estimate and lower bound 0): a fresh set of {n2} probes at "
+                              f"{PROBE_ESCALATION * probe_spp} paths, the image kept")}
+        except ValueError as e:  # as in attempt(): the result stands with the first probes
+            res.budget["probes"]["escalation_error"] = str(e)
+    elif (error_probes and target_error is not None and est is not None
             and (est["reliable"] or est["error_lower"] > target_error)
             and res.error_estimate > target_error and not res.bias_sources
             and (res.error_estimate <= ESCALATION_REACH * target_error or _mrcs_stopped_at_pilot(res))
@@ -565,7 +598,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
                 floor = {k: factor * v for k, v in first["mrcs"].items()}
         res, A, est, t_lights, failed = attempt(grown, derived_seed(seed, _STREAM["escalation"]), floor)
         counts = grown
-        escalation = {**first, "reason": (
+        escalation = {**first, "kind": "lights", "reason": (
             f"the probes' bound {first['error_estimate']:.3g} > target {target_error:g} at "
             f"{sum(first['counts'].values())} lights, no known bias source: {factor}x the lights of "
             f"every kind (at most max_lights {max_lights})"
