@@ -249,6 +249,21 @@ def test_an_mrcs_pilot_miss_escalates_beyond_the_reach():
     assert res.error_estimate >= true / 2 and (res.error_estimate <= 0.02) == res.budget["target_reached"]
 
 
+def test_a_bound_of_probe_noise_gets_fresh_probes_not_lights():
+    """The window room at 64 x 36, seed 3, 2%: the first probes' point estimate and lower bound are 0 (no
+    error beyond their own noise) and their bound 2.65% is above the target. More lights could not be shown
+    to help (they were doubled before: 19 s, a second bound as high, the image 0.5% off); a fresh probe set with
+    2x the probes and paths decides instead, on the same image."""
+    res = ml.render(REPO / "scenes" / "window-room" / "scene.xml", target_error=0.02, seed=3,
+                    params={"resx": 64, "resy": 36}, max_depth=2, progress=False, device="cpu")
+    esc = res.budget["escalation"]
+    assert esc is not None and esc["kind"] == "probes", esc
+    assert esc["probes"] == 2 * 256 and esc["spp"] == 2 * 256 and esc["error_estimate"] > 0.02, esc
+    assert "escalated" not in res.budget["light_counts"]["environment"]["reason"]
+    assert res.budget["probes"]["probes"] == 512 and "escalation" not in res.timings
+    assert res.budget["target_reached"] == (res.error_estimate <= 0.02)
+
+
 def test_probes_that_find_the_target_missed_escalate_the_lights():
     """Glossy plates under an environment map with a small bright sun (``tests/data/veach_plates_env.xml``),
     seed 6: the halving is satisfied at 8,192 strata while the probes find the target missed (no known bias
