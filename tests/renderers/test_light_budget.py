@@ -250,12 +250,14 @@ def test_an_mrcs_pilot_miss_escalates_beyond_the_reach():
 
 
 def test_a_bound_of_probe_noise_gets_fresh_probes_not_lights():
-    """The window room at 64 x 36, seed 3, 2%: the first probes' point estimate and lower bound are 0 (no
-    error beyond their own noise) and their bound 2.65% is above the target. More lights could not be shown
+    """The window room at 64 x 36, seed 1, 2%: the first probes' point estimate and lower bound are 0 (no
+    error beyond their own noise) and their bound is above the target. More lights could not be shown
     to help (they were doubled before: 19 s, a second bound as high, the image 0.5% off); a fresh probe set with
-    2x the probes and paths decides instead, on the same image."""
-    res = ml.render(REPO / "scenes" / "window-room" / "scene.xml", target_error=0.02, seed=3,
-                    params={"resx": 64, "resy": 36}, max_depth=2, progress=False, device="cpu")
+    2x the probes and paths decides instead, on the same image (measured: first bound 2.20%, then 1.65%,
+    claimed). ``rows_per_column`` fixes MRCS's budget, and the probes' retracing is counted in paths, so the
+    render is the same on any machine."""
+    res = ml.render(REPO / "scenes" / "window-room" / "scene.xml", target_error=0.02, seed=1,
+                    params={"resx": 64, "resy": 36}, max_depth=2, progress=False, device="cpu", rows_per_column=0.5)
     esc = res.budget["escalation"]
     assert esc is not None and esc["kind"] == "probes", esc
     assert esc["probes"] == 2 * 256 and esc["spp"] == 2 * 256 and esc["error_estimate"] > 0.02, esc

@@ -168,8 +168,13 @@ _STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5, "c
 #: Paths per pixel of each of the two bias-compensation estimates a clamped-VPL model is offered with.
 COMPENSATION_SPP = 1
 #: Retracing the probes that carry an unreliable estimate may take this share of the render so far, and at
-#: least REFINE_MIN_SECONDS (on short renders the estimate's accuracy comes first).
+#: least REFINE_MIN_PATHS (on short renders the estimate's accuracy comes first). Counted in work, not
+#: seconds, so that a seed gives the same result on any machine: the render's matrix elements (MRCS's rows
+#: and columns, the count phase's rows) at ELEMENTS_PER_PATH elements per probe path (measured on the 2-core
+#: development machine: about 18M elements and 2.6M direct-light paths per second on the window room).
 REFINE_SHARE = 0.15
+ELEMENTS_PER_PATH = 7.0
+REFINE_MIN_PATHS = 1 << 21
 #: (Module doc, "Escalation") Lights per kind are multiplied by 2 (a bound within sqrt(2) x the target) or by
 #: ESCALATION_FACTOR once when the probes find the target missed with no known bias source and their bound
 #: within ESCALATION_REACH x the target.
@@ -181,7 +186,19 @@ PROBE_ESCALATION = 2
 #: A light model with a known bias source must score this much better at the selection probes to be kept
 #: over one without (within the probes' noise the unbiased model wins).
 BIAS_MARGIN = 0.05
-REFINE_MIN_SECONDS = 1.0
+
+
+def _refine_paths(res, A, counts: dict) -> int:
+    """The probes' retracing budget in paths (``REFINE_SHARE``): deterministic for a seed."""
+    m, n = A.shape
+    b = res.budget
+    if res.method == "brute_force":
+        elements = m * n
+    else:
+        elements = int(b.get("rows", 0)) * n + int(b.get("columns", 0)) * m
+    h = int(counts.get("rows", 0))
+    elements += sum(h * c for k in KINDS for c, _ in counts.get(k, {}).get("estimates", []))
+    return max(REFINE_MIN_PATHS, int(REFINE_SHARE * elements / ELEMENTS_PER_PATH))
 
 
 def _mrcs_stopped_at_pilot(res) -> bool:
@@ -326,7 +343,7 @@ def choose_light_counts(scene, target_error: Optional[float], time_budget: Optio
 
 
 def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_depth: int, variance: float,
-                       refine_seconds: Optional[float] = None, target_error: Optional[float] = None) -> dict:
+                       refine_paths: Optional[int] = None, target_error: Optional[float] = None) -> dict:
     """The light model of the rendered image ``res`` (from ``A``), chosen by probe residuals (module doc,
     "Light models"), and the chosen model's error from FRESH probes that took no part in the choice.
 
@@ -339,7 +356,7 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     ``probe_error`` on the same probes, the smallest wins (a model with a known bias source must be
     ``BIAS_MARGIN`` better), and a second, fresh probe set estimates the winner's error (so the reported
     bound is not the minimum of noisy scores); where few probes carry that estimate they are retraced with
-    more paths for at most ``refine_seconds`` (``probe_error.refine_probes``), and likewise
+    more paths, at most ``refine_paths`` of them (``probe_error.refine_probes``), and likewise
     while ``target_error`` lies between its lower and upper confidence bounds. Both candidates' scores are
     relative to one estimate of ||I*|| (the generated image's, (7)). The compensated candidate is
     scored with a third, independent compensation estimate of 2 ``COMPENSATION_SPP`` paths (the noise of the
@@ -398,7 +415,7 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     else:
         chosen, reason = generated, "one light model for this scene: no choice"
     est = probe_error(chosen["image"], scene, probes, spp=spp, max_depth=max_depth, seed=seed,
-                      variance_estimate=chosen["variance"], refine_seconds=refine_seconds,
+                      variance_estimate=chosen["variance"], refine_paths=refine_paths,
                       refine_target=target_error)
     res.image = chosen["image"]
     res.bias_sources = chosen["bias_sources"]
@@ -526,9 +543,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         est, failed = None, None
         if error_probes:
             try:
-                spent = float(sum(res.timings.values())) + counts["seconds"] + t_lights
                 est = choose_light_model(res, A, scene, error_probes, probe_seed, spp=probe_spp, max_depth=max_depth,
-                                         variance=total, refine_seconds=max(REFINE_MIN_SECONDS, REFINE_SHARE * spent),
+                                         variance=total, refine_paths=_refine_paths(res, A, counts),
                                          target_error=target_error)
             except ValueError as e:  # a scene the probes do not support: the result stands, without them
                 failed = str(e)
@@ -552,13 +568,12 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         # the image 0.5% off). A fresh probe set with PROBE_ESCALATION x the probes and the paths decides it;
         # the image is kept and the claim rests on the fresh set alone.
         first_bound = float(res.error_estimate)
-        spent = float(sum(res.timings.values())) + counts["seconds"] + t_lights
         n2 = min(PROBE_ESCALATION * error_probes, scene.width * scene.height)
         try:
             est = probe_error(res.image, scene, n2, spp=PROBE_ESCALATION * probe_spp, max_depth=max_depth,
                               seed=derived_seed(seed, _STREAM["probe_escalation"]),
                               variance_estimate=res.variance_estimate,
-                              refine_seconds=max(REFINE_MIN_SECONDS, REFINE_SHARE * spent), refine_target=target_error)
+                              refine_paths=_refine_paths(res, A, counts), refine_target=target_error)
             attach_probe_error(res, scene, n2, seed, variance=res.variance_estimate, estimate=est)
             escalation = {"kind": "probes", "error_estimate": first_bound, "probes": int(n2),
                           "spp": int(PROBE_ESCALATION * probe_spp), "seconds": float(est["seconds"]), "reason": (

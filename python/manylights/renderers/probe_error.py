@@ -87,8 +87,10 @@ REFINE_MASS = 0.8
 REFINE_CAP = 8
 #: (5') The factor on the paths of every probe when the point estimate is within the probes' own noise.
 NOISE_FACTOR = 4
-#: ``probe_error``'s default limit on retracing: this many times the first pass's seconds, at least the minimum.
+#: ``probe_error``'s default limit on retracing: this many times the first pass's paths (its pilot included),
+#: at least REFINE_MIN_PATHS -- counted in paths, so a seed retraces the same probes on any machine.
 REFINE_TIMES = 4.0
+REFINE_MIN_PATHS = 1 << 20
 REFINE_MIN_SECONDS = 0.5
 #: A target's "missed" (the lower bound above it) is retraced like an undecided one before a first round of
 #: retracing and while fewer than this share of the probes carry the estimate (``refine_probes``).
@@ -122,7 +124,7 @@ def integrator_depth(scene) -> tuple[str, int]:
 def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_depth: Optional[int] = None,
                 seed: int = 0, confidence: float = 0.9, variance_estimate: Optional[float] = None,
                 lights=None, refine: bool = True, refine_seconds: Optional[float] = None,
-                refine_target: Optional[float] = None) -> dict:
+                refine_target: Optional[float] = None, refine_paths: Optional[int] = None) -> dict:
     """Estimate the relative L2 of ``image`` against the converged scene from unbiased probe pixels
     (module doc: (1), (2)): ``probe_estimate(image, probe_sample(image, scene, ...))``.
 
@@ -140,8 +142,10 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
             of the scene under those lights (``DirectToIndirect.relight``); None: the scene's emitters.
         refine: retrace the probes that carry an unreliable estimate with more, fresh paths
             (``refine_probes``, (5)); False: one pass of ``spp`` paths per probe.
-        refine_seconds: at most this many seconds of retracing (None: ``REFINE_TIMES`` x the first pass's,
-            and at least ``REFINE_MIN_SECONDS``).
+        refine_seconds: at most this many seconds of retracing instead of a number of paths (then the result
+            depends on the machine's speed; at least ``REFINE_MIN_SECONDS``).
+        refine_paths: at most this many paths of retracing (None, and no ``refine_seconds``: ``REFINE_TIMES``
+            x the first pass's paths, at least ``REFINE_MIN_PATHS``): the result depends on the seed alone.
         refine_target: a target relative L2: retrace also while it lies between the lower and the upper
             bound (``refine_probes``' target); None: only while the estimate is unreliable.
 
@@ -164,16 +168,18 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
         TypeError: scene not a Scene; a non-numeric image.
     """
     sample = probe_sample(image, scene, probes, spp=spp, max_depth=max_depth, seed=seed, lights=lights)
-    if refine:
-        limit = refine_seconds if refine_seconds is not None else max(REFINE_MIN_SECONDS,
-                                                                      REFINE_TIMES * sample["seconds"])
-        sample = refine_probes(image, sample, seed=seed, lights=lights, max_seconds=limit, target=refine_target)
+    if refine and refine_seconds is not None and refine_paths is None:
+        sample = refine_probes(image, sample, seed=seed, lights=lights, max_seconds=max(REFINE_MIN_SECONDS, refine_seconds),
+                               target=refine_target)
+    elif refine:
+        limit = refine_paths if refine_paths is not None else max(REFINE_MIN_PATHS, int(REFINE_TIMES * sample["traced"]))
+        sample = refine_probes(image, sample, seed=seed, lights=lights, max_paths=limit, target=refine_target)
     return probe_estimate(image, sample, confidence=confidence, variance_estimate=variance_estimate)
 
 
 def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Optional[int] = None,
                   factor: Optional[int] = None, max_seconds: Optional[float] = None,
-                  target: Optional[float] = None) -> dict:
+                  target: Optional[float] = None, max_paths: Optional[int] = None) -> dict:
     """Retrace the probes that carry an unreliable or undecided estimate (5): while fewer than
     min(N / 4, ``MIN_EFFECTIVE``) probes carry (2) (or N itself is below it), or while a ``target`` lies between the lower and the upper
     confidence bound (more paths can decide it) or below the lower bound before a first round of retracing
@@ -183,7 +189,8 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     replace their mean and variance -- or, with a ``target`` and a lower confidence bound at 0 (the error
     not told from the probes' own noise, which all of them carry), every probe with ``NOISE_FACTOR`` x the
     most paths behind any (5'); at most ``rounds`` times, and no round that would take the retracing
-    past ``max_seconds`` (predicted from the paths per second of the sample).
+    past ``max_seconds`` (predicted from the paths per second of the sample) or past ``max_paths`` paths
+    (deterministic: the same seed retraces the same probes on any machine).
 
     Which probes are retraced depends on their earlier paths only, and their new paths are independent of
     those, so each retraced probe's mean and variance are unbiased given that choice and (1) still holds
@@ -200,6 +207,7 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
         factor: paths of a retraced probe, as a multiple of the paths behind its mean (>= 2; None:
             ``REFINE_FACTOR``).
         max_seconds: seconds the retracing may take in all (None: no limit).
+        max_paths: paths the retracing may trace in all (None: no limit).
 
     Returns:
         a copy of ``sample`` with the retraced probes' ``mean`` / ``variance``, ``seconds`` including the
@@ -213,6 +221,9 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     factor = _v.integer("factor", REFINE_FACTOR if factor is None else factor, 2, 1 << 16)
     if max_seconds is not None and not (float(max_seconds) > 0.0):
         raise ValueError(f"max_seconds must be > 0 (or None), got {max_seconds}")
+    if max_paths is not None:
+        max_paths = _v.integer("max_paths", max_paths, 1, 1 << 62)
+    traced = 0
     n = len(sample["index"])
     out = dict(sample)
     out["mean"], out["variance"] = sample["mean"].copy(), sample["variance"].copy()
@@ -242,13 +253,16 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
         # 1.3-1.4% where the heaviest probes alone reached 1.9-2.8%); else the heaviest probes only.
         which = np.arange(n)
         spp = int(min(out["paths"].max() * NOISE_FACTOR, 1 << 30))
-        fits = max_seconds is None or time.perf_counter() - t + n * spp / rate <= max_seconds
+        fits = ((max_seconds is None or time.perf_counter() - t + n * spp / rate <= max_seconds)
+                and (max_paths is None or traced + n * spp <= max_paths))
         if not (target is not None and est["error_lower"] == 0.0 and fits):
             order = np.argsort(-mag, kind="stable")
             take = int(np.searchsorted(np.cumsum(mag[order]) / mag.sum(), REFINE_MASS) + 1)
             which = np.sort(order[:max(1, min(take, n // REFINE_CAP))])
             spp = int(min(out["paths"][which].max() * factor, 1 << 30))
             if max_seconds is not None and time.perf_counter() - t + len(which) * spp / rate > max_seconds:
+                break
+            if max_paths is not None and traced + len(which) * spp > max_paths:
                 break
             checked = True
         mean, var = probe_pixels(out["scene"], out["pixels"][which], spp=spp, max_depth=out["max_depth"],
@@ -257,6 +271,7 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
         out["refined"][which] += 1
         out["paths"][which] = spp
         out["traced"] += len(which) * spp
+        traced += len(which) * spp
     out["seconds"] = sample["seconds"] + time.perf_counter() - t
     return out
 
