@@ -1,6 +1,7 @@
 //! The mask table of `tests/data/mask_leaves.xml` (a constant and a checkerboard opacity), and the GPU
 //! backend's light matrix of that scene against the CPU backend's at max_depth 2, 3 and -1: brute-force
-//! images in every visibility mode, and columns and rows with exact rays.
+//! images in every visibility mode, and columns and rows with exact rays; with bitmap opacities; and without
+//! the floor, where masked camera paths escape (P_valid < 1, `direct_factor`).
 use super::*;
 use crate::cpu::CpuBackend;
 use crate::gpu::GpuContext;
@@ -164,5 +165,64 @@ fn gpu_matches_cpu_with_bitmap_opacities() {
         let err = relative_l2(&gpu.weighted_sum(&js, &ones, &mut |_, _| {}).unwrap(), &reference);
         println!("{filter:?} / {wrap:?}: GPU vs CPU relative L2 {err:.2e}");
         assert!(err <= GPU_VS_CPU_TOL, "{filter:?} / {wrap:?}: relative L2 {err}");
+    }
+}
+
+#[test]
+fn gpu_matches_cpu_where_masked_paths_escape() {
+    // mask_leaves.xml without its floor: camera rays through the quads escape, so their view samples have
+    // P_valid = opacity < 1 and the direct light is weighted by `direct_factor` (P + (1 - P) w_B, w_B from
+    // the BSDF-sampling density: a diffuse quad, and a roughplastic one for the microfacet branch).
+    let text = std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mask_leaves.xml")).unwrap();
+    let floor_start = text.find("<shape type=\"rectangle\" id=\"floor\">").unwrap();
+    let floor_end = floor_start + text[floor_start..].find("</shape>").unwrap() + "</shape>".len();
+    let mut xml = format!("{}{}", &text[..floor_start], &text[floor_end..]);
+    let blue = "<bsdf type=\"diffuse\">\n                <rgb name=\"reflectance\" value=\"0.2, 0.5, 0.8\"/>\n            </bsdf>";
+    assert!(xml.contains(blue));
+    xml = xml.replace(
+        blue,
+        "<bsdf type=\"roughplastic\"><string name=\"distribution\" value=\"ggx\"/><float name=\"alpha\" value=\"0.3\"/>\
+         <rgb name=\"diffuse_reflectance\" value=\"0.2, 0.5, 0.8\"/></bsdf>",
+    );
+    let dir = std::env::temp_dir().join(format!("ml-gpu-mask-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("escape.xml");
+    std::fs::write(&path, &xml).unwrap();
+    let scene = Arc::new(load_scene(&path, &LoadOptions::default()).unwrap());
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(scene.meshes.iter().all(|m| m.id != "floor"));
+    let lights = Arc::new(generate_lights(&scene, &GenerateOptions { area: 64, ..Default::default() }).unwrap());
+    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let js: Vec<usize> = (0..lights.len()).collect();
+    let ones = vec![[1.0f32; 3]; js.len()];
+    for depth in [2, -1] {
+        let mut view = crate::testing::scenes::cast_view(&scene);
+        trace_chains(&scene, &mut view, &ChainOptions::with_max_depth(depth).unwrap()).unwrap();
+        let escaping = view.mask_valid.iter().filter(|&&v| v < 1.0).count();
+        assert!(escaping > 100, "max_depth {depth}: {escaping} samples with P_valid < 1");
+        // The BSDF-sampling weight w_B takes part: the factor exceeds P_valid by 0.01 for some (sample, light)
+        // pairs (measured 178: the light is small, so w_B is mostly below that).
+        let raised = (0..view.len())
+            .filter(|&i| view.mask_valid[i] < 1.0)
+            .flat_map(|i| (0..lights.len()).map(move |j| (i, j)))
+            .filter(|&(i, j)| {
+                let sp = crate::cpu::ShadingPoint::new(&view, i);
+                let wo = (lights.position[j] - sp.p).normalize();
+                let wo_local = glam::Vec3::new(wo.dot(sp.s), wo.dot(sp.t), wo.dot(sp.n));
+                crate::raytrace::mask::direct_factor(&view, &lights, i, sp.p, sp.wi_local, wo_local, j) > view.mask_valid[i] + 0.01
+            })
+            .count();
+        assert!(raised > 100, "max_depth {depth}: {raised} pairs with w_B > 0.01");
+        let view = Arc::new(view);
+        let cpu = CpuBackend::new(Arc::new(RayTracer::new(&scene).unwrap()), view.clone(), lights.clone()).unwrap();
+        let reference = cpu.weighted_sum(&js, &ones, &mut |_, _| {}).unwrap();
+        let opts = ColumnOptions { visibility: Visibility::RayTraced, ..Default::default() };
+        let gpu = GpuBackend::new(ctx.clone(), scene.clone(), view.clone(), lights.clone(), opts).unwrap();
+        let img = gpu.weighted_sum(&js, &ones, &mut |_, _| {}).unwrap();
+        let err = relative_l2(&img, &reference);
+        println!(
+            "max_depth {depth}: {escaping} samples with P_valid < 1, {raised} pairs with w_B > 0.01; GPU vs CPU relative L2 {err:.2e}"
+        );
+        assert!(err <= GPU_VS_CPU_TOL, "max_depth {depth}: relative L2 {err}");
     }
 }
