@@ -178,10 +178,41 @@ fn mask_mean(v: vec3<f32>) -> f32 {
     return (v.x + v.y + v.z) / 3.0;
 }
 
+// `pdf_roughdielectric` of lights::generate::sampling: the microfacet lobe's reflection or refraction
+// density toward wo.
+fn mask_pdf_roughdielectric(b: Bsdf, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    if wi.z == 0.0 || wo.z == 0.0 {
+        return 0.0;
+    }
+    let ggx = (b.flags & BSDF_FLAG_GGX) != 0u;
+    let alpha = sqrt(b.alpha_u * b.alpha_v);
+    let reflect = wi.z * wo.z > 0.0;
+    let eta = select(b.eta.y, b.eta.x, wi.z > 0.0);
+    var h = normalize(wi + wo * select(eta, 1.0, reflect));
+    if h.z < 0.0 {
+        h = -h;
+    }
+    let wi_h = dot(wi, h);
+    let wo_h = dot(wo, h);
+    if !positive(wi_h * wi.z) || (reflect && wo_h * wi_h <= 0.0) || (!reflect && wo_h * wi_h >= 0.0) {
+        return 0.0;
+    }
+    let d = bsdf_microfacet_d(ggx, alpha, alpha, h) * h.z;
+    let f = bsdf_fresnel(wi_h, b.eta.x);
+    if reflect {
+        return d * f / (4.0 * abs(wo_h));
+    }
+    let denom = wi_h + eta * wo_h;
+    return d * (1.0 - f) * eta * eta * abs(wo_h) / (denom * denom);
+}
+
 // The density with which this crate's BSDF sampling returns wo (`lights::generate::sampling::pdf_bsdf`)
-// for the records a mask can hold on the GPU (bump and normal maps and rough dielectrics are refused on
-// the host: src/gpu/mask.rs `unsupported`); principled records are 0, as there.
+// for the records a mask can hold (bump and normal maps inside a mask are refused by the loader);
+// principled records are 0, as there.
 fn mask_pdf_bsdf(b: Bsdf, wi_in: vec3<f32>, wo_in: vec3<f32>) -> f32 {
+    if b.kind == BSDF_KIND_ROUGHDIELECTRIC {
+        return mask_pdf_roughdielectric(b, wi_in, wo_in);
+    }
     var wi = wi_in;
     var wo = wo_in;
     if (b.flags & BSDF_FLAG_TWOSIDED) != 0u && wi.z < 0.0 {

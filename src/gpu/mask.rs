@@ -24,8 +24,9 @@
 //! Limits: a shadow ray crosses at most `MAX_CROSSINGS` masked surfaces (as the CPU's loop); the column
 //! pass gives each mask ray `MASK_RAY_COST` rays' share of the BVH step budget (`gpu::bvh`), so a masked
 //! view's dispatches shade fewer lights each. The BSDF-sampling density of `direct_factor` is ported for
-//! the records a mask can hold except bump / normal maps and rough dielectrics (`unsupported` names them;
-//! the GPU backend refuses such scenes).
+//! every record a loaded mask can hold; a bump or normal map inside a mask (which the loader refuses, but
+//! a scene built in code may hold) has no WGSL twin of its density (`unsupported` names it; the GPU
+//! backend refuses such scenes).
 use crate::lights::{LightKind, LightSet};
 use crate::raytrace::mask::{eval_opacity, mask_opacity_param};
 use crate::scene::types::{Bsdf, FilterType, Param, Texture, WrapMode};
@@ -187,7 +188,7 @@ pub fn light_fields(view: &ViewSamples, lights: &LightSet, j: usize, directional
 
 /// Why the GPU cannot shade `scene`'s masks, or None: a mask around a BSDF whose sampling density
 /// (`lights::generate::sampling::pdf_bsdf`, in `direct_factor`) has no WGSL twin (bump and normal maps,
-/// rough dielectrics).
+/// `shading::perturb::pdf`; the XML loader refuses them inside a mask).
 pub fn unsupported(scene: &Scene) -> Option<String> {
     fn needs_cpu(bsdfs: &[Bsdf], i: usize, depth: u32) -> Option<&'static str> {
         if depth > 8 {
@@ -196,7 +197,6 @@ pub fn unsupported(scene: &Scene) -> Option<String> {
         match bsdfs.get(i)? {
             Bsdf::BumpMap { .. } => Some("bumpmap"),
             Bsdf::NormalMap { .. } => Some("normalmap"),
-            Bsdf::RoughDielectric { .. } => Some("roughdielectric"),
             Bsdf::TwoSided { front, back } => {
                 needs_cpu(bsdfs, *front, depth + 1).or_else(|| if back != front { needs_cpu(bsdfs, *back, depth + 1) } else { None })
             }

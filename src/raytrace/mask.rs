@@ -57,8 +57,9 @@
 //! (shadow maps hold masked surfaces as opaque, which is what emitter sampling sees). In hybrid and
 //! shadow-map visibility a map that is certain the segment is empty answers 1 without a ray. P_valid, the
 //! opacity and the budget travel in the view samples, the area-emitter density and whether a light
-//! crosses masks in the light records. Not ported: the BSDF-sampling density of a rough dielectric inside a
-//! mask (`direct_factor`'s w_B), so such scenes stay on the CPU (`matrix::backend::gpu_unsupported`).
+//! crosses masks in the light records. Not ported: the BSDF-sampling density of a bump or normal map inside a
+//! mask (`direct_factor`'s w_B), which the loader refuses; a scene built in code with one stays on the CPU
+//! (`matrix::backend::gpu_unsupported`).
 //!
 //! Validation (`tests/scene/test_mask.py`, `tests/data/mask_leaves.xml`: quads of opacity 0.5 and a
 //! 0.1 / 0.85 checkerboard over a floor, an area light, 64 x 48, pixel-centre `llvm_ad_rgb` references):

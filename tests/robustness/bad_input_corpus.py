@@ -675,11 +675,6 @@ cases_for("LightMatrix", [
 ], subprocess=True)
 cases_for("device_info", [
     ("unknown device", lambda c: c.ml.device_info("npu"), ["npu", "'gpu'"]),
-    # The GPU backend has no twin of a rough dielectric's sampling density inside a mask.
-    ("gpu for a mask around a rough dielectric", lambda c: c.ml.device_info("gpu", scene=c.ml.load_scene(c.scene_with(
-        "mask-rough", '<shape type="sphere"><bsdf type="mask"><float name="opacity" value="0.5"/>'
-        '<bsdf type="roughdielectric"/></bsdf></shape>'))),
-     ['device "gpu"', "mask BSDF around a roughdielectric", 'device="cpu"']),
 ])
 # No GPU adapter at all (Vulkan pointed at no driver, the only backend allowed): "gpu" says what to install.
 cases_for("LightMatrix", [
