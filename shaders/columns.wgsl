@@ -2,7 +2,8 @@
 // (<= 256 per dispatch: far below Mesa 22.3's 65,535-iteration limit), shades each with bsdf_eval and
 // shadow-map visibility, writes the individual columns if asked and adds sum_j w_j column_j to a
 // GPU-resident accumulator. Needs common/bsdf.wgsl, common/light.wgsl, common/shadow_layer.wgsl,
-// common/bvh.wgsl. Visibility: shadow map, exact BVH ray, or the hybrid of both (see `visibility`).
+// common/bvh.wgsl, common/mask.wgsl. Visibility: shadow map, exact BVH ray, or the hybrid of both (see
+// `visibility`); in a scene with masked surfaces `visibility_masked`.
 
 const WORKGROUP_SIZE: u32 = 64u;
 
@@ -44,6 +45,8 @@ struct ColumnParams {
 @group(0) @binding(12) var<storage, read_write> stats: array<atomic<u32>, 6>;
 // Projected textures of spot lights (common/light.wgsl `spot_texture_eval`).
 @group(0) @binding(13) var<storage, read> spot_textures: array<f32>;
+// The mask table (common/mask.wgsl, src/gpu/mask.rs); a few unused words without masks.
+@group(0) @binding(14) var<storage, read> masks: array<u32>;
 
 
 // A texel of the shadow maps (for common/visibility.wgsl).
@@ -156,6 +159,32 @@ fn visibility(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f32 {
     return visibility_biased(l, p, n_g, wo);
 }
 
+// Visibility of light l from view sample s (direction wo) in a scene with masked surfaces
+// (`cpu::mask_visibility_crossed`): (expected transmittance, 1 when the ray crossed a masked surface).
+// Lights whose shadow rays stop at masks, and samples without budget, take `visibility` (the shadow maps
+// hold masked surfaces as opaque ones); the others an exact mask ray (common/mask.wgsl), unless the
+// shadow map is certain that nothing lies between (SM_LIT in hybrid mode, lit in shadow-map mode).
+fn visibility_masked(l: Light, s: ViewSample, wo: vec3<f32>) -> vec2<f32> {
+    let budget = select(0u, mask_budget(s), mask_light_passes(l));
+    if budget == 0u {
+        return vec2<f32>(visibility(l, s.position, s.geo_normal, wo), 0.0);
+    }
+    count_tests = count_tests + 1u;
+    var fallback = 1.0;
+    if params.visibility == VISIBILITY_HYBRID {
+        if shadow_map_decide(l, s.position, s.geo_normal, wo) == SM_LIT {
+            return vec2<f32>(1.0, 0.0);
+        }
+        fallback = visibility_biased(l, s.position, s.geo_normal, wo);
+    } else if params.visibility == VISIBILITY_SHADOW_MAP {
+        fallback = visibility_biased(l, s.position, s.geo_normal, wo);
+        if fallback == 1.0 {
+            return vec2<f32>(1.0, 0.0);
+        }
+    }
+    return mask_transmittance(s.position, s.geo_normal, l, wo, budget, fallback);
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = params.first_sample + gid.y * params.dispatch_width + gid.x;
@@ -180,9 +209,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if e.valid && ((s.flags & VIEW_FLAG_GEO_FRONT) == 0u || dot(e.wo, s.geo_normal) > 0.0) {
                 let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
                 let w = glossy_light_weight(b, s.bsdf_samples, l, s.position, wi_local, wo_local);
-                let f = light_shade(l, s.position, e, fs, ft, n, wi_local, b) * s.throughput * w;
+                var f = light_shade(l, s.position, e, fs, ft, n, wi_local, b) * s.throughput * w;
+                let masked = (s.flags & VIEW_FLAG_MASKS) != 0u;
+                if masked && s.mask_valid < 1.0 && l.kind != LIGHT_VPL {
+                    // Mitsuba's `valid_ray` factor of a masked sample: direct light only.
+                    f = f * mask_direct_factor(s, b, l, wi_local, wo_local);
+                }
                 if any(f != vec3<f32>(0.0)) {
-                    contribution = f * visibility(l, s.position, s.geo_normal, e.wo);
+                    if masked {
+                        let v = visibility_masked(l, s, e.wo);
+                        contribution = f * v.x;
+                        if v.y > 0.0 && s.bsdf_samples > 0u && w > 0.0 {
+                            // Through a mask only Mitsuba's BSDF sampling reaches the light (weight 1), and the
+                            // glossy BSDF rays stop at masks: the light column carries it all.
+                            contribution = contribution / w;
+                        }
+                    } else {
+                        contribution = f * visibility(l, s.position, s.geo_normal, e.wo);
+                    }
                 }
             }
         }

@@ -3,10 +3,11 @@
 // one thread per (row, light) evaluates A(i, j) = bsdf_eval(...) * light_emitted(l_j, p_i, n_i) * V(i, j)
 // exactly as columns.wgsl does (same light.wgsl / bsdf.wgsl), with V read from the row's cube map: the
 // roles of `shadow_map_decide` are swapped (the map is centred at the receiver, the light end is tested).
-// Needs common/bsdf.wgsl, common/light.wgsl, common/shadow_layer.wgsl, common/bvh.wgsl.
+// Needs common/bsdf.wgsl, common/light.wgsl, common/shadow_layer.wgsl, common/bvh.wgsl, common/mask.wgsl.
 //
-// Loops per invocation: 4 footprint taps and at most one BVH ray (<= BVH_MAX_RAY_STEPS = 2048 steps):
-// far below Mesa 22.3's 65,535 iterations.
+// Loops per invocation: 4 footprint taps and at most one BVH ray (<= BVH_MAX_RAY_STEPS = 2048 steps), or
+// in a scene with masked surfaces one mask ray (its traversals share BVH_INVOCATION_BUDGET): below Mesa
+// 22.3's 65,535 iterations.
 
 const WORKGROUP_SIZE: u32 = 64u;
 
@@ -59,6 +60,8 @@ struct RowInfo {
 @group(0) @binding(11) var<storage, read_write> stats: array<atomic<u32>, 6>;
 // Projected textures of spot lights (common/light.wgsl `spot_texture_eval`).
 @group(0) @binding(12) var<storage, read> spot_textures: array<f32>;
+// The mask table (common/mask.wgsl, src/gpu/mask.rs); a few unused words without masks.
+@group(0) @binding(13) var<storage, read> masks: array<u32>;
 
 const ROW_NO_MAP: u32 = 0xffffffffu;
 
@@ -186,6 +189,30 @@ fn row_visibility(row: RowInfo, s: ViewSample, l: Light, wo: vec3<f32>) -> f32 {
     return row_visibility_biased(row, l, wo);
 }
 
+// `row_visibility` in a scene with masked surfaces, as columns.wgsl's `visibility_masked`: (expected
+// transmittance, 1 when the ray crossed a masked surface); the exact mask ray is cast from the view
+// sample unless the row's cube map is certain that nothing lies between.
+fn row_visibility_masked(row: RowInfo, s: ViewSample, l: Light, wo: vec3<f32>) -> vec2<f32> {
+    let budget = select(0u, mask_budget(s), mask_light_passes(l));
+    if budget == 0u {
+        return vec2<f32>(row_visibility(row, s, l, wo), 0.0);
+    }
+    count_tests = count_tests + 1u;
+    var fallback = 1.0;
+    if params.visibility == VISIBILITY_HYBRID {
+        if row_map_decide(row, s, l, wo) == SM_LIT {
+            return vec2<f32>(1.0, 0.0);
+        }
+        fallback = row_visibility_biased(row, l, wo);
+    } else if params.visibility == VISIBILITY_SHADOW_MAP {
+        fallback = row_visibility_biased(row, l, wo);
+        if fallback == 1.0 {
+            return vec2<f32>(1.0, 0.0);
+        }
+    }
+    return mask_transmittance(s.position, s.geo_normal, l, wo, budget, fallback);
+}
+
 // Per-workgroup visibility counters, added to `stats` by one thread (one global atomic per workgroup).
 var<workgroup> wg_stats: array<atomic<u32>, 3>;
 
@@ -208,9 +235,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation
                 let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
                 let b = bsdfs[row.sample];
                 let w = glossy_light_weight(b, s.bsdf_samples, l, s.position, wi_local, wo_local);
-                let f = light_shade(l, s.position, e, fs, ft, n, wi_local, b) * s.throughput * w;
+                var f = light_shade(l, s.position, e, fs, ft, n, wi_local, b) * s.throughput * w;
+                let masked = (s.flags & VIEW_FLAG_MASKS) != 0u;
+                if masked && s.mask_valid < 1.0 && l.kind != LIGHT_VPL {
+                    f = f * mask_direct_factor(s, b, l, wi_local, wo_local);
+                }
                 if any(f != vec3<f32>(0.0)) {
-                    contribution = f * row_visibility(row, s, l, e.wo);
+                    if masked {
+                        let v = row_visibility_masked(row, s, l, e.wo);
+                        contribution = f * v.x;
+                        if v.y > 0.0 && s.bsdf_samples > 0u && w > 0.0 {
+                            contribution = contribution / w;
+                        }
+                    } else {
+                        contribution = f * row_visibility(row, s, l, e.wo);
+                    }
                 }
             }
         }

@@ -215,8 +215,8 @@ def device_info(device: str = "auto", scene: Scene | None = None) -> dict[str, A
     """The device ``device`` resolves to: kind ("cpu"/"gpu"), name, backend, is_software, threads,
     "reason" (why "auto" took the CPU, else None) and "gpu": the adapter wgpu would use (name, backend,
     device_type, driver, driver_info, is_software) or None. With ``scene``, the device a ``LightMatrix``
-    of that scene takes: "auto" falls back to the CPU for a scene the GPU backend does not support
-    (masked surfaces, ``<bsdf type="mask">``), with the reason.
+    of that scene takes: "auto" falls back to the CPU for a scene the GPU backend does not support,
+    with the reason (none that the XML loader accepts: masked surfaces run on both backends).
 
     Raises:
         ValueError: an unknown device name or MANYLIGHTS_DEVICE; device="gpu" with a ``scene`` the GPU

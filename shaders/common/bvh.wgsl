@@ -40,9 +40,11 @@ struct BvhPrim {
     v0: vec3<f32>,
     kind: u32,
     v1: vec3<f32>,
-    _pad0: u32,
+    // Offset of its mesh's record in the mask table (common/mask.wgsl), MASK_NONE when not masked.
+    mask: u32,
     v2: vec3<f32>,
-    _pad1: u32,
+    // The triangle's index in its mesh (0 for a sphere).
+    index: u32,
 }
 
 // Steps left for this invocation (shared by all its rays).
@@ -213,8 +215,14 @@ fn edge_function(a: f32, b: f32, c: f32, d: f32) -> f32 {
 // starts in the ceiling's plane) the sign of t is rounding noise, and the GPU's rounding (fused
 // multiply-adds) differs from the CPU's. Hits closer than about 1e-6 relative to the origin's magnitude
 // (100x below Mitsuba's ray offset) are treated as that degenerate case and ignored.
-// src/gpu/watertight.rs mirrors this function line for line (its tests contract every a*b +- c*d).
+// src/gpu/watertight.rs mirrors `triangle_hit` line for line (its tests contract every a*b +- c*d).
+// `triangle_hit` returns (t, b1, b2): the hit distance and the barycentric weights of p1 and p2 (as the
+// CPU's `WatertightRay::intersect_triangle`), t = -1 for a miss; `hit_triangle` whether it hit.
 fn hit_triangle(r: WatertightRay, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, t_max: f32) -> bool {
+    return triangle_hit(r, p0, p1, p2, t_max).x > 0.0;
+}
+
+fn triangle_hit(r: WatertightRay, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, t_max: f32) -> vec3<f32> {
     let a = p0 - r.o;
     let b = p1 - r.o;
     let c = p2 - r.o;
@@ -227,23 +235,33 @@ fn hit_triangle(r: WatertightRay, p0: vec3<f32>, p1: vec3<f32>, p2: vec3<f32>, t
     let u = edge_function(cx, by, cy, bx);
     let v = edge_function(ax, cy, ay, cx);
     let w = edge_function(bx, ay, by, ax);
+    let miss = vec3<f32>(-1.0, 0.0, 0.0);
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return false;
+        return miss;
     }
     let det = u + v + w;
     if det == 0.0 {
-        return false;
+        return miss;
     }
     let t_scaled = u * (r.sz * a[r.kz]) + v * (r.sz * b[r.kz]) + w * (r.sz * c[r.kz]);
-    let t = t_scaled * (1.0 / det);
+    let inv_det = 1.0 / det;
+    let t = t_scaled * inv_det;
     // A NaN t (degenerate or non-finite vertices) misses, tested on the bits (bsdf.wgsl's `is_nan_f32`
     // is not in every module that includes this file).
-    return t > r.t_min && t < t_max && (bitcast<u32>(t) & 0x7fffffffu) <= 0x7f800000u;
+    if t > r.t_min && t < t_max && (bitcast<u32>(t) & 0x7fffffffu) <= 0x7f800000u {
+        return vec3<f32>(t, v * inv_det, w * inv_det);
+    }
+    return miss;
 }
 
 // Ray-sphere test as Mitsuba's sphere.cpp: the origin is moved to the foot of the perpendicular from the
 // centre before solving the quadratic (in f32 here; the CPU tracer uses f64). Hit when 0 < t < t_max.
 fn hit_sphere(center: vec3<f32>, radius: f32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
+    return sphere_hit(center, radius, o, d, 0.0, t_max) > 0.0;
+}
+
+// The nearest t of the sphere with t_min < t < t_max (t_min >= 0), -1 when there is none.
+fn sphere_hit(center: vec3<f32>, radius: f32, o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> f32 {
     let l = o - center;
     let dd = dot(d, d);
     let plane_t = -dot(l, d) / dd;
@@ -253,14 +271,20 @@ fn hit_sphere(center: vec3<f32>, radius: f32, o: vec3<f32>, d: vec3<f32>, t_max:
     let qc = dot(o_plane, o_plane) - radius * radius;
     let discrim = qb * qb - 4.0 * qa * qc;
     if discrim < 0.0 {
-        return false;
+        return -1.0;
     }
     let temp = -0.5 * (qb + select(-sqrt(discrim), sqrt(discrim), qb >= 0.0));
     let x0 = temp / qa;
     let x1 = select(x0, qc / temp, temp != 0.0);
     let near = min(x0, x1) + plane_t;
     let far = max(x0, x1) + plane_t;
-    return (near > 0.0 && near < t_max) || (far > 0.0 && far < t_max);
+    if near > t_min && near < t_max {
+        return near;
+    }
+    if far > t_min && far < t_max {
+        return far;
+    }
+    return -1.0;
 }
 
 // Entry distance of the ray into a node's box, or -1 when it misses [0, t_max]. Boxes are padded on the
@@ -392,4 +416,124 @@ fn trace_to_point(p: vec3<f32>, n_g: vec3<f32>, q: vec3<f32>) -> u32 {
 // Mitsuba's spawn_ray + ray_test: from surface point p along unit direction wo, unbounded.
 fn trace_direction(p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> u32 {
     return trace_occlusion(offset_p(p, n_g, wo), wo, BVH_T_INF);
+}
+
+// ---- Closest hits (masked surfaces, common/mask.wgsl): the same traversal, the ray shortened to each hit.
+
+// The closest hit of a ray: status BVH_FREE (none), BVH_BLOCKED (a hit) or BVH_GAVE_UP; the primitive
+// (index into bvh_prims), its t and, for a triangle, the barycentric weights b1, b2 of v1 and v2.
+struct BvhHit {
+    status: u32,
+    prim: u32,
+    t: f32,
+    b1: f32,
+    b2: f32,
+}
+
+// Shortens `best` to the leaf's closest primitive hit with t < best.t; false when out of steps.
+fn leaf_closest(node: BvhNode, r: WatertightRay, d: vec3<f32>, best: ptr<function, BvhHit>) -> bool {
+    for (var k = 0u; k < node.prim_count; k = k + 1u) {
+        if !bvh_step() {
+            return false;
+        }
+        let index = node.first_index + k;
+        let prim = bvh_prims[index];
+        if prim.kind == PRIM_SPHERE {
+            let t = sphere_hit(prim.v0, prim.v1.x, r.o, d, r.t_min, (*best).t);
+            if t > 0.0 {
+                *best = BvhHit(BVH_BLOCKED, index, t, 0.0, 0.0);
+            }
+        } else {
+            let h = triangle_hit(r, prim.v0, prim.v1, prim.v2, (*best).t);
+            if h.x > 0.0 {
+                *best = BvhHit(BVH_BLOCKED, index, h.x, h.y, h.z);
+            }
+        }
+    }
+    return true;
+}
+
+// The closest primitive on o + t d for t_floor < t < t_max (the CPU's `RayTracer::intersect`, t_floor
+// = (1 + max |o|) 2^-20 for triangles and spheres alike, as `SceneBvh::closest` floors its queries).
+fn trace_closest(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> BvhHit {
+    bvh_ray_steps = 0u;
+    let tiny = vec3<f32>(1e-30);
+    let d_safe = select(d, select(tiny, -tiny, d < vec3<f32>(0.0)), abs(d) < tiny);
+    let inv_d = 1.0 / d_safe;
+    let r = watertight_ray(o, d);
+    var best = BvhHit(BVH_FREE, 0u, t_max, 0.0, 0.0);
+    let root = bvh_nodes[0];
+    if box_entry(root.aabb_min, root.aabb_max, o, inv_d, t_max) < 0.0 {
+        return best;
+    }
+    if root.prim_count > 0u {
+        if !leaf_closest(root, r, d, &best) {
+            best.status = BVH_GAVE_UP;
+        }
+        return best;
+    }
+    var stack: array<u32, BVH_STACK_SIZE>;
+    var sp = 0u;
+    var current = root.first_index;
+    loop {
+        if !bvh_step() {
+            best.status = BVH_GAVE_UP;
+            return best;
+        }
+        var near_node = bvh_nodes[current];
+        var far_node = bvh_nodes[current + 1u];
+        var t_near = box_entry(near_node.aabb_min, near_node.aabb_max, o, inv_d, best.t);
+        var t_far = box_entry(far_node.aabb_min, far_node.aabb_max, o, inv_d, best.t);
+        if t_far >= 0.0 && (t_near < 0.0 || t_far < t_near) {
+            let tn = near_node;
+            near_node = far_node;
+            far_node = tn;
+            let tt = t_near;
+            t_near = t_far;
+            t_far = tt;
+        }
+        var go_near = false;
+        if t_near >= 0.0 {
+            if near_node.prim_count > 0u {
+                if !leaf_closest(near_node, r, d, &best) {
+                    best.status = BVH_GAVE_UP;
+                    return best;
+                }
+            } else {
+                go_near = true;
+            }
+        }
+        var go_far = false;
+        // The near leaf may have shortened the ray past the far child's box.
+        if t_far >= 0.0 && t_far <= best.t {
+            if far_node.prim_count > 0u {
+                if !leaf_closest(far_node, r, d, &best) {
+                    best.status = BVH_GAVE_UP;
+                    return best;
+                }
+            } else {
+                go_far = true;
+            }
+        }
+        if go_near && go_far {
+            if sp >= BVH_STACK_SIZE {
+                best.status = BVH_GAVE_UP;
+                return best;
+            }
+            stack[sp] = far_node.first_index;
+            sp = sp + 1u;
+            current = near_node.first_index;
+        } else if go_near {
+            current = near_node.first_index;
+        } else if go_far {
+            current = far_node.first_index;
+        } else {
+            if sp == 0u {
+                return best;
+            }
+            sp = sp - 1u;
+            current = stack[sp];
+        }
+    }
+    return best;
 }

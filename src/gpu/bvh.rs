@@ -64,9 +64,12 @@ pub struct GpuPrimitive {
     pub v0: [f32; 3],
     pub kind: u32,
     pub v1: [f32; 3],
-    pub _pad0: u32,
+    /// Offset of its mesh's record in the mask table (`crate::gpu::mask`), `mask::NO_MASK` when the mesh is
+    /// not masked.
+    pub mask: u32,
     pub v2: [f32; 3],
-    pub _pad1: u32,
+    /// The triangle's index in its mesh (0 for a sphere).
+    pub index: u32,
 }
 
 impl Boundable for GpuPrimitive {
@@ -90,16 +93,19 @@ pub struct PackedBvh {
     pub depth: u32,
 }
 
-/// Every primitive of `scene`: triangles, and spheres as (centre, radius).
+/// Every primitive of `scene`: triangles, and spheres as (centre, radius), each with its mesh's mask
+/// record (`crate::gpu::mask::mesh_records`).
 fn scene_primitives(scene: &Scene) -> Result<Vec<GpuPrimitive>> {
     let mut prims = Vec::new();
+    let masks = super::mask::mesh_records(scene);
     for (index, mesh) in scene.meshes.iter().enumerate() {
+        let mask = masks.get(index).copied().unwrap_or(super::mask::NO_MASK);
         let at = |what: String| Error::scene(&mesh.loc, format!("mesh {index} ('{}'): {what}", mesh.id));
         if let ShapeKind::Sphere { center, radius, .. } = mesh.kind {
             if !center.is_finite() || !(radius > 0.0 && radius.is_finite()) {
                 return Err(at(format!("sphere needs a finite center and a radius > 0, got {center}, {radius}")));
             }
-            prims.push(GpuPrimitive { v0: center.to_array(), kind: PRIM_SPHERE, v1: [radius, 0.0, 0.0], _pad0: 0, v2: [0.0; 3], _pad1: 0 });
+            prims.push(GpuPrimitive { v0: center.to_array(), kind: PRIM_SPHERE, v1: [radius, 0.0, 0.0], mask, v2: [0.0; 3], index: 0 });
             continue;
         }
         let n = mesh.positions.len();
@@ -111,7 +117,14 @@ fn scene_primitives(scene: &Scene) -> Result<Vec<GpuPrimitive>> {
             if !(v0.is_finite() && v1.is_finite() && v2.is_finite()) {
                 return Err(at(format!("triangle {k} has a non-finite vertex ({v0}, {v1}, {v2})")));
             }
-            prims.push(GpuPrimitive { v0: v0.to_array(), kind: PRIM_TRIANGLE, v1: v1.to_array(), _pad0: 0, v2: v2.to_array(), _pad1: 0 });
+            prims.push(GpuPrimitive {
+                v0: v0.to_array(),
+                kind: PRIM_TRIANGLE,
+                v1: v1.to_array(),
+                mask,
+                v2: v2.to_array(),
+                index: k as u32,
+            });
         }
     }
     Ok(prims)
@@ -136,7 +149,8 @@ impl PackedBvh {
     pub fn from_primitives(prims: Vec<GpuPrimitive>) -> Result<PackedBvh> {
         if prims.is_empty() {
             // One leaf holding a degenerate triangle (never hit), so the arrays bind and the root exists.
-            let nothing = GpuPrimitive { v0: [0.0; 3], kind: PRIM_TRIANGLE, v1: [0.0; 3], _pad0: 0, v2: [0.0; 3], _pad1: 0 };
+            let nothing =
+                GpuPrimitive { v0: [0.0; 3], kind: PRIM_TRIANGLE, v1: [0.0; 3], mask: super::mask::NO_MASK, v2: [0.0; 3], index: 0 };
             let root = GpuBvhNode { aabb_min: [0.0; 3], prim_count: 1, aabb_max: [0.0; 3], first_index: 0 };
             return Ok(PackedBvh { nodes: vec![root], primitives: vec![nothing], depth: 1 });
         }

@@ -82,8 +82,10 @@ impl ClusteredVisibilityPass {
 /// matrix, rays and per-stage seconds.
 ///
 /// Errors: `InvalidParameter` when a buffer exceeds the storage binding limit or the pair count
-/// exceeds 2^32; GPU errors; `Interrupted` on Ctrl-C between dispatches.
+/// exceeds 2^32, and for a view of a scene with masked surfaces (as the CPU's render); GPU errors;
+/// `Interrupted` on Ctrl-C between dispatches.
 pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredImage> {
+    crate::cluster::visibility::cpu::refuse_masks(&backend.view)?;
     let ctx = &backend.ctx;
     let device = &ctx.device;
     let view = &backend.view;

@@ -109,15 +109,33 @@ pub struct GpuViewSample {
     /// n_B of a glossy view sample (`ViewSamples::bsdf_samples`), 0 for the others.
     pub bsdf_samples: u32,
     pub wi: [f32; 3],
-    pub _pad2: u32,
+    /// Mitsuba's `valid_ray` factor of a masked sample (`ViewSamples::mask_valid`), 1 for the others.
+    pub mask_valid: f32,
     /// RGB throughput of the sample's delta chain (1 for the camera's own hits).
     pub throughput: [f32; 3],
-    pub _pad3: u32,
+    /// The opacity of a masked sample (`ViewSamples::mask_opacity`), 1 for the others.
+    pub mask_opacity: f32,
 }
 
 /// `GpuViewSample::flags`: light only from the front side of the geometric normal counts (`wo . n_g > 0`,
 /// as `lights::animated::irradiance` demands of gather samples). Keep in sync with `view_sample.wgsl`.
 pub const VIEW_FLAG_GEO_FRONT: u32 = 1;
+/// `GpuViewSample::flags`: the view belongs to a scene with masked surfaces (`ViewSamples::mask_budget` is
+/// not empty); the sample's mask budget, clamped to `VIEW_MASK_BUDGET_UNLIMITED`, is in the bits from
+/// `VIEW_MASK_BUDGET_SHIFT` up (`crate::gpu::mask`). Keep in sync with `view_sample.wgsl`.
+pub const VIEW_FLAG_MASKS: u32 = 2;
+pub const VIEW_MASK_BUDGET_SHIFT: u32 = 16;
+/// The stored mask budget that means unlimited (`u32::MAX` in `ViewSamples::mask_budget`). A shadow ray
+/// crosses at most `crate::gpu::mask::MAX_CROSSINGS` (< this) masked surfaces either way.
+pub const VIEW_MASK_BUDGET_UNLIMITED: u32 = 0xffff;
+
+/// `GpuViewSample::flags` of view sample i: `VIEW_FLAG_MASKS` and its budget when the view has masks.
+pub fn view_flags(view: &ViewSamples, i: usize) -> u32 {
+    match view.mask_budget.get(i) {
+        Some(&b) => VIEW_FLAG_MASKS | b.min(VIEW_MASK_BUDGET_UNLIMITED) << VIEW_MASK_BUDGET_SHIFT,
+        None => 0,
+    }
+}
 
 /// Keep in sync with `struct ColumnParams` in `shaders/columns.wgsl` (48 bytes).
 #[repr(C)]
@@ -156,13 +174,13 @@ impl ViewBuffers {
                 position: view.position[i].to_array(),
                 shape_index: view.shape_index[i],
                 normal: view.normal[i].to_array(),
-                flags: 0,
+                flags: view_flags(view, i),
                 geo_normal: view.geo_normal[i].to_array(),
                 bsdf_samples: view.bsdf_samples.get(i).copied().unwrap_or(0),
                 wi: view.wi[i].to_array(),
-                _pad2: 0,
+                mask_valid: view.mask_valid.get(i).copied().unwrap_or(1.0),
                 throughput: view.throughput_of(i).to_array(),
-                _pad3: 0,
+                mask_opacity: view.mask_opacity.get(i).copied().unwrap_or(1.0),
             })
             .collect();
         ViewBuffers::from_parts(device, &samples, &view.bsdf, bsdf_tables)
@@ -218,6 +236,8 @@ pub struct ColumnsInputs<'a> {
     pub spot_textures: &'a wgpu::Buffer,
     /// Six u32 (64-bit counters as lo, hi): shadow tests, ray casts, rays that gave up.
     pub stats: &'a wgpu::Buffer,
+    /// The mask table (`crate::gpu::mask::MaskTable`; 16 unused bytes without masks).
+    pub masks: &'a wgpu::Buffer,
 }
 
 pub struct ColumnsPass {
@@ -254,6 +274,7 @@ impl ColumnsPass {
                 storage(11, true),
                 storage(12, false),
                 storage(13, true),
+                storage(14, true),
             ],
         );
         ColumnsPass { pipeline, bind_group_layout }
@@ -282,6 +303,7 @@ impl ColumnsPass {
                 inputs.bvh_prims.as_entire_binding(),
                 inputs.stats.as_entire_binding(),
                 inputs.spot_textures.as_entire_binding(),
+                inputs.masks.as_entire_binding(),
             ],
             (gx, gy),
         );

@@ -10,6 +10,7 @@ pub mod dispatch;
 pub mod gbuffer;
 pub mod kmeans;
 pub mod mapping;
+pub mod mask;
 pub mod needs;
 pub mod pipeline;
 pub mod reconstruction;

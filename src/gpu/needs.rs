@@ -47,7 +47,7 @@ const fn needs(
 pub const PASSES: &[PassNeeds] = &[
     needs("BsdfEvalPass", 4, 1, 0, 5, [64, 1, 1], 0),
     needs("ClusteredVisibilityPass", 13, 1, 0, 14, [64, 1, 1], 0),
-    needs("ColumnsPass", 12, 1, 1, 14, [64, 1, 1], 0),
+    needs("ColumnsPass", 13, 1, 1, 15, [64, 1, 1], 0),
     needs("GBufferPass", 0, 2, 0, 2, [0, 0, 0], 0),
     needs("KMeansPass", 11, 1, 0, 12, [256, 1, 1], 2048),
     needs("MappingPass", 3, 1, 0, 4, [64, 1, 1], 0),
@@ -55,7 +55,7 @@ pub const PASSES: &[PassNeeds] = &[
     needs("ReconstructionPass", 7, 1, 0, 8, [64, 1, 1], 0),
     // One layout per kernel: the largest kernel's.
     needs("RelightPasses", 7, 1, 0, 18, [64, 1, 1], 0),
-    needs("RowsPass", 11, 1, 1, 13, [64, 1, 1], 12),
+    needs("RowsPass", 12, 1, 1, 14, [64, 1, 1], 12),
     needs("ShadowMapPass", 0, 1, 0, 1, [0, 0, 0], 0),
 ];
 

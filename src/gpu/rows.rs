@@ -78,6 +78,8 @@ pub struct RowsInputs<'a> {
     pub stats: &'a wgpu::Buffer,
     /// The spot-texture records (`crate::lights::spot_texture::gpu_table`).
     pub spot_textures: &'a wgpu::Buffer,
+    /// The mask table (`crate::gpu::mask::MaskTable`; 16 unused bytes without masks).
+    pub masks: &'a wgpu::Buffer,
 }
 
 /// The row evaluation pass: pipeline and bind group layout, compiled once.
@@ -106,6 +108,7 @@ impl RowsPass {
                 storage(10, true),
                 storage(11, false),
                 storage(12, true),
+                storage(13, true),
             ],
         );
         RowsPass { pipeline, bind_group_layout }
@@ -134,6 +137,7 @@ impl RowsPass {
                 inputs.bvh_prims.as_entire_binding(),
                 inputs.stats.as_entire_binding(),
                 inputs.spot_textures.as_entire_binding(),
+                inputs.masks.as_entire_binding(),
             ],
             (gx, inputs.params.num_rows.max(1)),
         );

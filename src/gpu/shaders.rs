@@ -16,6 +16,7 @@ macro_rules! light_pass {
             include_str!("../../shaders/common/bvh.wgsl"),
             include_str!("../../shaders/common/view_sample.wgsl"),
             include_str!("../../shaders/common/visibility.wgsl"),
+            include_str!("../../shaders/common/mask.wgsl"),
             include_str!($pass),
         )
     };

@@ -204,14 +204,11 @@ impl Device {
     }
 }
 
-/// Why the GPU backend cannot compute `scene`'s light matrix, or None when it can: masked surfaces
-/// (`mask` BSDF) are implemented on the CPU backend only (`crate::raytrace::mask`).
+/// Why the GPU backend cannot compute `scene`'s light matrix, or None when it can: a mask BSDF around a
+/// BSDF whose sampling density the GPU's masked shading lacks (`crate::gpu::mask::unsupported`; masked
+/// surfaces themselves are implemented on both backends, `crate::raytrace::mask`).
 pub fn gpu_unsupported(scene: &crate::scene::Scene) -> Option<String> {
-    crate::raytrace::mask::scene_has_masks(scene).then(|| {
-        "the scene uses the mask BSDF (opacity cut-outs), which only the CPU backend implements (its shadow rays \
-         cross masked surfaces with Mitsuba's null-lobe transmittance)"
-            .to_string()
-    })
+    crate::gpu::mask::unsupported(scene)
 }
 
 impl Device {

@@ -50,6 +50,12 @@ pub struct GpuBackend {
     pub(crate) row_scratch: std::sync::Mutex<Option<super::rows::RowScratch>>,
     /// CPU ray tracer of the exact oracle (`oracle.rs`), built on first use (or given).
     pub(crate) oracle: std::sync::OnceLock<Arc<RayTracer>>,
+    /// The mask table (`crate::gpu::mask`; 16 unused bytes when the scene has no masked surfaces).
+    pub(crate) masks: wgpu::Buffer,
+    /// Whether the view has masks (`ViewSamples::mask_budget` not empty) and the scene's directional
+    /// lights are environment strata whose shadow rays cross them (`gpu::mask::light_fields`).
+    pub(crate) has_masks: bool,
+    pub(crate) directional_crosses_masks: bool,
 }
 
 /// The GPU memory of one light matrix, by part (bytes): what `GpuBackend::new` allocates up front, and
@@ -177,6 +183,10 @@ impl GpuBackend {
         crate::memory::check_gpu(&ctx, &atlas_what, crate::memory::product(&[max_layers as u64, res, res, 4]), false)?;
         let triangles = scene.meshes.iter().map(|mesh| mesh.indices.len() as u64).sum::<u64>();
         let mut est = estimate_gpu_bytes(m as u64, lights.len() as u64, triangles, &opts);
+        if opts.visibility == Visibility::ShadowMap && !view.mask_budget.is_empty() {
+            // Masked surfaces need the BVH in every mode.
+            est.bvh = estimate_gpu_bytes(m as u64, 0, triangles, &ColumnOptions { visibility: Visibility::RayTraced, ..opts.clone() }).bvh;
+        }
         est.shadow_atlas = max_layers as u64 * opts.shadow_resolution as u64 * opts.shadow_resolution as u64 * 4;
         let what = format!("a light matrix of {m} view samples, {} lights and {triangles} triangles on the GPU", lights.len());
         check_gpu_estimate(&ctx, &est, &what)?;
@@ -191,8 +201,19 @@ impl GpuBackend {
             Error::OutOfMemory(m) => Error::OutOfMemory(format!("{atlas_what}: {m}")),
             e => e,
         })?;
-        let bvh =
-            if opts.visibility == Visibility::ShadowMap { GpuBvh::empty(device)? } else { GpuBvh::upload(device, &scene, max_binding)? };
+        // Masked surfaces need exact rays in every mode (`visibility_masked` in columns.wgsl).
+        let has_masks = !view.mask_budget.is_empty();
+        let bvh = if opts.visibility == Visibility::ShadowMap && !has_masks {
+            GpuBvh::empty(device)?
+        } else {
+            GpuBvh::upload(device, &scene, max_binding)?
+        };
+        let table = if has_masks { crate::gpu::mask::MaskTable::build(&scene) } else { Default::default() };
+        let table_what = "the mask table (the masked surfaces' opacities and textures)";
+        crate::gpu::alloc::check_buffer(limits, table_what, table.bytes() as u128, true)?;
+        crate::memory::check_gpu(&ctx, table_what, table.bytes() as u128, false)?;
+        let masks = storage_buffer(device, "LightMatrix::masks", &table.words, wgpu::BufferUsages::STORAGE)?;
+        let directional_crosses_masks = crate::raytrace::mask::Masks::new(&scene).directional_is_environment;
         let stats = storage_buffer::<u32>(
             device,
             "LightMatrix::stats",
@@ -221,6 +242,9 @@ impl GpuBackend {
             row_lights: std::sync::OnceLock::new(),
             row_scratch: std::sync::Mutex::new(None),
             oracle: std::sync::OnceLock::new(),
+            masks,
+            has_masks,
+            directional_crosses_masks,
             ctx,
             scene,
             view,
@@ -257,12 +281,24 @@ impl GpuBackend {
         let mut gpu_lights = Vec::with_capacity(batch.end - batch.start);
         let mut layers = Vec::with_capacity(batch.num_layers as usize);
         for (k, &j) in js[batch.start..batch.end].iter().enumerate() {
-            gpu_lights.push(GpuLight::new(&self.lights, j, batch.layers[k], uses_cube(&self.lights, j), self.spot_texture_offsets[j]));
+            gpu_lights.push(self.gpu_light(j, batch.layers[k]));
             layers.extend(light_layers(&self.lights, j, res));
         }
         let layers_buf = storage_buffer(device, "LightMatrix::layers", &layers, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE)?;
         let lights_buf = storage_buffer(device, "LightMatrix::lights", &gpu_lights, wgpu::BufferUsages::STORAGE)?;
         Ok((lights_buf, layers_buf, gpu_lights.len()))
+    }
+
+    /// Light j as a `GpuLight` whose shadow map starts at `first_layer`, with its mask fields
+    /// (`gpu::mask::light_fields`) when the view has masks.
+    pub(crate) fn gpu_light(&self, j: usize, first_layer: u32) -> GpuLight {
+        let mut l = GpuLight::new(&self.lights, j, first_layer, uses_cube(&self.lights, j), self.spot_texture_offsets[j]);
+        if self.has_masks {
+            let [pdf, passes] = crate::gpu::mask::light_fields(&self.view, &self.lights, j, self.directional_crosses_masks);
+            l.patch[1][3] = pdf;
+            l.patch[2][3] = passes;
+        }
+        l
     }
 
     /// Record the batch's shadow maps (none with exact rays only).
@@ -294,13 +330,15 @@ impl GpuBackend {
                 &dummy
             }
         };
-        // With rays, few enough lights per dispatch that an invocation's loops stay bounded (module doc).
-        let per_dispatch = match self.opts.visibility {
-            Visibility::ShadowMap => num_lights,
-            Visibility::Hybrid | Visibility::RayTraced => RAYS_PER_INVOCATION as usize,
+        // With rays, few enough lights per dispatch that an invocation's loops stay bounded (module doc);
+        // a mask ray may take several traversals (`gpu::mask::MASK_RAY_COST`).
+        let per_dispatch = match (self.opts.visibility, self.has_masks) {
+            (Visibility::ShadowMap, false) => num_lights,
+            (_, true) => (RAYS_PER_INVOCATION / crate::gpu::mask::MASK_RAY_COST).max(1) as usize,
+            (Visibility::Hybrid | Visibility::RayTraced, false) => RAYS_PER_INVOCATION as usize,
         };
         // And few enough (sample, light) pairs per dispatch for the work budget (`gpu::dispatch`).
-        let rays = self.opts.visibility != Visibility::ShadowMap;
+        let rays = self.opts.visibility != Visibility::ShadowMap || self.has_masks;
         for d in crate::gpu::dispatch::plan_columns(view.num_samples, num_lights as u32, per_dispatch as u32, rays) {
             let (_, _, dispatch_width) = dispatch_size(d.num_samples);
             let params = ColumnParams {
@@ -334,6 +372,7 @@ impl GpuBackend {
                     bvh_prims: &self.bvh.primitives,
                     stats: &self.stats,
                     spot_textures: &self.spot_textures,
+                    masks: &self.masks,
                 },
                 d.num_samples,
             );

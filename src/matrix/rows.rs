@@ -48,7 +48,7 @@ use super::Visibility;
 use crate::error::{Error, Result};
 use crate::gpu::columns::{storage_buffer, GpuLight};
 use crate::gpu::rows::{row_cube_layers, GpuRowInfo, RowParams, RowsInputs, RowsPass, MAX_LIGHTS_PER_DISPATCH, ROW_NO_MAP};
-use crate::gpu::shadow::{uses_cube, ShadowAtlas};
+use crate::gpu::shadow::ShadowAtlas;
 use std::time::Instant;
 
 /// Most cubes in one depth array texture (2048 layers / 6).
@@ -159,9 +159,7 @@ impl GpuBackend {
             let chunks = (0..n)
                 .step_by(light_chunk)
                 .map(|first| {
-                    let gpu: Vec<GpuLight> = (first..(first + light_chunk).min(n))
-                        .map(|j| GpuLight::new(&self.lights, j, 0, uses_cube(&self.lights, j), self.spot_texture_offsets[j]))
-                        .collect();
+                    let gpu: Vec<GpuLight> = (first..(first + light_chunk).min(n)).map(|j| self.gpu_light(j, 0)).collect();
                     Ok((first, storage_buffer(device, "LightMatrix::row_lights", &gpu, wgpu::BufferUsages::STORAGE)?))
                 })
                 .collect::<Result<Vec<_>>>()?;
@@ -281,6 +279,7 @@ impl GpuBackend {
                             bvh_prims: &self.bvh.primitives,
                             stats: &self.stats,
                             spot_textures: &self.spot_textures,
+                            masks: &self.masks,
                         },
                     )?;
                 }

@@ -466,8 +466,8 @@ pub fn device_dict<'py>(py: Python<'py>, i: &DeviceInfo) -> PyResult<Bound<'py, 
 /// "auto" took the CPU, else None), plus "gpu": the adapter wgpu would use (name, backend, device_type,
 /// driver, driver_info, is_software, only_software, adapters: every adapter found, unmet: the passes'
 /// needs its limits do not meet, lost) or None when there is none. With `scene`: the device a light
-/// matrix of that scene takes (`Device::choose_for_scene`: "auto" takes the CPU for a masked scene, with
-/// the reason; "gpu" is a ValueError for one).
+/// matrix of that scene takes (`Device::choose_for_scene`: "auto" takes the CPU for a scene the GPU backend
+/// does not support, with the reason; "gpu" is a ValueError for one).
 #[pyfunction]
 #[pyo3(signature = (device="auto", scene=None))]
 pub fn device_info<'py>(py: Python<'py>, device: &str, scene: Option<&Scene>) -> PyResult<Bound<'py, PyDict>> {

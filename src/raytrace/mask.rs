@@ -50,6 +50,17 @@
 //! with MIS weight 1, and the glossy BSDF rays stop at masks, so `cpu::shade` gives a light column whose
 //! shadow ray crossed a mask its full value (w_L divided out).
 //!
+//! GPU backend (`crate::gpu::mask`, `shaders/common/mask.wgsl`): the same rules per element. A shadow ray
+//! toward a light that may cross masks, from a sample with budget left, is an exact closest-hit walk over
+//! the GPU BVH (the loop of [`RayTracer::mask_transmittance_crossed`], opacities from a mask table of
+//! constants, per-triangle uvs and the opacity textures); every other shadow test is the GPU's usual one
+//! (shadow maps hold masked surfaces as opaque, which is what emitter sampling sees). In hybrid and
+//! shadow-map visibility a map that is certain the segment is empty answers 1 without a ray. P_valid, the
+//! opacity and the budget travel in the view samples, the area-emitter density and whether a light
+//! crosses masks in the light records. Not ported: the BSDF-sampling density of a bump or normal map inside a
+//! mask (`direct_factor`'s w_B), which the loader refuses; a scene built in code with one stays on the CPU
+//! (`matrix::backend::gpu_unsupported`).
+//!
 //! Validation (`tests/scene/test_mask.py`, `tests/data/mask_leaves.xml`: quads of opacity 0.5 and a
 //! 0.1 / 0.85 checkerboard over a floor, an area light, 64 x 48, pixel-centre `llvm_ad_rgb` references):
 //! the brute-force light matrix is within 0.402% / 0.398% / 0.218% relative L2 of the references at
@@ -153,7 +164,7 @@ pub fn refuse_masks(scene: &Scene, what: &str) -> crate::error::Result<()> {
     if scene_has_masks(scene) {
         return Err(crate::error::Error::invalid(format!(
             "{what} does not support the mask BSDF (opacity cut-outs) yet: its shadow rays would treat masked \
-             surfaces as opaque; the light matrix's CPU backend (LightMatrix(device=\"cpu\"), brute force, MRCS, \
+             surfaces as opaque; the light matrix's shading (LightMatrix on either backend: brute force, MRCS, \
              lightcuts) implements them"
         )));
     }

@@ -259,9 +259,9 @@ impl GpuRelight {
                 geo_normal: c.geo_normal[g].to_array(),
                 bsdf_samples: 0,
                 wi: c.normal[g].to_array(),
-                _pad2: 0,
+                mask_valid: 1.0,
                 throughput: c.k_d[g].to_array(),
-                _pad3: 0,
+                mask_opacity: 1.0,
             })
             .collect();
         let white = GpuBsdf { diffuse: [1.0; 3], kind: crate::shading::bsdf::KIND_DIFFUSE, ..bytemuck::Zeroable::zeroed() };

@@ -675,10 +675,6 @@ cases_for("LightMatrix", [
 ], subprocess=True)
 cases_for("device_info", [
     ("unknown device", lambda c: c.ml.device_info("npu"), ["npu", "'gpu'"]),
-    # The GPU backend does not implement the mask BSDF.
-    ("gpu for a masked scene", lambda c: c.ml.device_info(
-        "gpu", scene=c.ml.load_scene(REPO / "tests" / "data" / "mask_leaves.xml", width=8, height=6)),
-     ['device "gpu"', "mask BSDF", 'device="cpu"']),
 ])
 # No GPU adapter at all (Vulkan pointed at no driver, the only backend allowed): "gpu" says what to install.
 cases_for("LightMatrix", [

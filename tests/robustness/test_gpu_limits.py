@@ -77,7 +77,7 @@ def test_unmet_pass_needs_fall_back_or_refuse(scene, lights, monkeypatch, fresh_
     fresh_device()
     info = ml.device_info("auto")
     assert info["kind"] == "cpu"
-    assert "ColumnsPass needs max_storage_buffers_per_shader_stage >= 12, the device allows 8" in info["reason"]
+    assert "ColumnsPass needs max_storage_buffers_per_shader_stage >= 13, the device allows 8" in info["reason"]
     assert len(info["gpu"]["unmet"]) == 4, info["gpu"]["unmet"]
     auto = ml.LightMatrix(scene, lights)
     assert auto.device["kind"] == "cpu"

@@ -66,8 +66,9 @@ class LightMatrix:
         ValueError: an unknown ``device`` or ``visibility`` (or an invalid ``MANYLIGHTS_DEVICE``), shadow-map
             visibility with ``device="cpu"``, a bad ``shadow_map_size`` or ``max_depth`` (0, 1 or < -1), a
             ``glossy_roughness`` outside [0, 1] or a ``bsdf_samples`` outside 1..65536; ``device="gpu"`` for a
-            scene with masked surfaces (``<bsdf type="mask">``: the CPU backend only; ``device="auto"`` takes
-            the CPU for one, and ``device_info(scene=scene)`` says why).
+            scene the GPU backend does not support (``device="auto"`` takes the CPU for one, and
+            ``device_info(scene=scene)`` says why; every scene the XML loader accepts runs on both backends,
+            masked surfaces included).
         GpuUnavailableError: ``device="gpu"`` on a machine without any GPU adapter (the message says what
             to install).
     """

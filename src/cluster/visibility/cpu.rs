@@ -101,17 +101,24 @@ pub fn shade(view: &ViewSamples, job: &ClusteredShading, vis: &VisibilityMatrix)
     Ok(if m == view.num_pixels() { out } else { view.fold(&out, 3) })
 }
 
-/// The whole clustered render on the CPU: visibility matrix, then shading, each timed.
-///
-/// Errors also: `InvalidParameter` for a view of a scene with masked surfaces (a visibility bit cannot hold
-/// their fractional transmittance).
-pub fn render(tracer: &RayTracer, view: &ViewSamples, job: &ClusteredShading) -> Result<ClusteredImage> {
+/// `InvalidParameter` for a view of a scene with masked surfaces: a visibility bit cannot hold their
+/// fractional transmittance (the CPU and GPU clustered renders both refuse them).
+pub fn refuse_masks(view: &ViewSamples) -> Result<()> {
     if !view.mask_budget.is_empty() {
         return Err(crate::error::Error::invalid(
             "clustered visibility does not support the mask BSDF (opacity cut-outs) yet: a visibility bit cannot hold \
              a masked surface's fractional transmittance",
         ));
     }
+    Ok(())
+}
+
+/// The whole clustered render on the CPU: visibility matrix, then shading, each timed.
+///
+/// Errors also: `InvalidParameter` for a view of a scene with masked surfaces (a visibility bit cannot hold
+/// their fractional transmittance).
+pub fn render(tracer: &RayTracer, view: &ViewSamples, job: &ClusteredShading) -> Result<ClusteredImage> {
+    refuse_masks(view)?;
     let t0 = Instant::now();
     let visibility = visibility_matrix(tracer, view, job)?;
     let visibility_seconds = seconds(t0);

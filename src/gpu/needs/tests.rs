@@ -98,7 +98,7 @@ fn lowered_limits_name_the_pass_and_the_limit() {
     let over: Vec<&str> = PASSES.iter().filter(|p| p.storage_buffers > 8).map(|p| p.pass).collect();
     assert_eq!(over, ["ClusteredVisibilityPass", "ColumnsPass", "KMeansPass", "RowsPass"]);
     assert_eq!(msgs.len(), over.len());
-    assert_eq!(msgs[1], "ColumnsPass needs max_storage_buffers_per_shader_stage >= 12, the device allows 8");
+    assert_eq!(msgs[1], "ColumnsPass needs max_storage_buffers_per_shader_stage >= 13, the device allows 8");
     let down = apply_override(adapter.clone(), Some("downlevel")).unwrap();
     assert_eq!(down.max_storage_buffers_per_shader_stage, 4);
     let down_unmet = unmet(&down);
