@@ -59,6 +59,39 @@ fn spot_tex_wrap(i: i32, res: i32, mode: u32) -> i32 {
     return ((i % res) + res) % res;
 }
 
+// The texels a bitmap lookup at uv reads and their weights (Mitsuba's bilinear filter: texel centres at
+// half-integers; nearest: the texel under uv, weight 1), wrapped by `spot_tex_wrap`; shared by the spot
+// textures and the mask opacities (`mask.wgsl`), which fetch the texels from their own buffers.
+struct TexTaps {
+    x0: i32,
+    x1: i32,
+    y0: i32,
+    y1: i32,
+    w: vec4<f32>,
+}
+
+fn tex_taps(uv: vec2<f32>, w: i32, h: i32, mode: u32, nearest: bool) -> TexTaps {
+    let wf = f32(w);
+    let hf = f32(h);
+    if nearest {
+        let x = spot_tex_wrap(i32(floor(uv.x * wf)), w, mode);
+        let y = spot_tex_wrap(i32(floor(uv.y * hf)), h, mode);
+        return TexTaps(x, x, y, y, vec4<f32>(1.0, 0.0, 0.0, 0.0));
+    }
+    let px = uv.x * wf - 0.5;
+    let py = uv.y * hf - 0.5;
+    let fx = floor(px);
+    let fy = floor(py);
+    let wx1 = px - fx;
+    let wy1 = py - fy;
+    let wx0 = 1.0 - wx1;
+    let wy0 = 1.0 - wy1;
+    let ix = i32(fx);
+    let iy = i32(fy);
+    return TexTaps(spot_tex_wrap(ix, w, mode), spot_tex_wrap(ix + 1, w, mode), spot_tex_wrap(iy, h, mode),
+                   spot_tex_wrap(iy + 1, h, mode), vec4<f32>(wx0 * wy0, wx1 * wy0, wx0 * wy1, wx1 * wy1));
+}
+
 fn spot_texel(o: u32, w: i32, x: i32, y: i32) -> vec3<f32> {
     let k = o + 16u + 3u * u32(y * w + x);
     return vec3<f32>(spot_textures[k], spot_textures[k + 1u], spot_textures[k + 2u]);
@@ -82,34 +115,11 @@ fn spot_texture_eval(l: Light, v: vec3<f32>) -> vec3<f32> {
         let b = (uv.y - floor(uv.y)) > 0.5;
         return spot_texel(o, 1, select(1, 0, a == b), 0);
     }
-    let hf = spot_textures[o + 1u];
     let w = i32(wf);
-    let h = i32(hf);
-    let mode = u32(spot_textures[o + 2u]);
-    if spot_textures[o + 3u] != 0.0 {
-        let x = i32(floor(uv.x * wf));
-        let y = i32(floor(uv.y * hf));
-        return spot_texel(o, w, spot_tex_wrap(x, w, mode), spot_tex_wrap(y, h, mode));
-    }
-    let px = uv.x * wf - 0.5;
-    let py = uv.y * hf - 0.5;
-    let fx = floor(px);
-    let fy = floor(py);
-    let wx1 = px - fx;
-    let wy1 = py - fy;
-    let wx0 = 1.0 - wx1;
-    let wy0 = 1.0 - wy1;
-    let ix = i32(fx);
-    let iy = i32(fy);
-    let x0 = spot_tex_wrap(ix, w, mode);
-    let x1 = spot_tex_wrap(ix + 1, w, mode);
-    let y0 = spot_tex_wrap(iy, h, mode);
-    let y1 = spot_tex_wrap(iy + 1, h, mode);
-    var out = spot_texel(o, w, x0, y0) * (wx0 * wy0);
-    out += spot_texel(o, w, x1, y0) * (wx1 * wy0);
-    out += spot_texel(o, w, x0, y1) * (wx0 * wy1);
-    out += spot_texel(o, w, x1, y1) * (wx1 * wy1);
-    return out;
+    let h = i32(spot_textures[o + 1u]);
+    let t = tex_taps(uv, w, h, u32(spot_textures[o + 2u]), spot_textures[o + 3u] != 0.0);
+    return spot_texel(o, w, t.x0, t.y0) * t.w.x + spot_texel(o, w, t.x1, t.y0) * t.w.y
+        + spot_texel(o, w, t.x0, t.y1) * t.w.z + spot_texel(o, w, t.x1, t.y1) * t.w.w;
 }
 
 // ---- Patches of oriented points: the near field without 1 / d^2 (twin of src/lights/patch.rs) ----

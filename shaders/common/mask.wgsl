@@ -35,35 +35,9 @@ fn mask_texture_eval_1(o: u32, uv_in: vec2<f32>) -> f32 {
         return select(mask_f(o + MASK_TEXTURE_HEADER + 1u), mask_f(o + MASK_TEXTURE_HEADER), a == b);
     }
     let w = i32(masks[o + 1u]);
-    let h = i32(masks[o + 2u]);
-    let wf = f32(w);
-    let hf = f32(h);
-    let mode = masks[o + 3u];
-    var c = vec3<f32>(0.0);
-    if masks[o + 4u] != 0u {
-        let x = i32(floor(uv.x * wf));
-        let y = i32(floor(uv.y * hf));
-        c = mask_texel(o, w, spot_tex_wrap(x, w, mode), spot_tex_wrap(y, h, mode));
-    } else {
-        let px = uv.x * wf - 0.5;
-        let py = uv.y * hf - 0.5;
-        let fx = floor(px);
-        let fy = floor(py);
-        let wx1 = px - fx;
-        let wy1 = py - fy;
-        let wx0 = 1.0 - wx1;
-        let wy0 = 1.0 - wy1;
-        let ix = i32(fx);
-        let iy = i32(fy);
-        let x0 = spot_tex_wrap(ix, w, mode);
-        let x1 = spot_tex_wrap(ix + 1, w, mode);
-        let y0 = spot_tex_wrap(iy, h, mode);
-        let y1 = spot_tex_wrap(iy + 1, h, mode);
-        c = mask_texel(o, w, x0, y0) * (wx0 * wy0);
-        c += mask_texel(o, w, x1, y0) * (wx1 * wy0);
-        c += mask_texel(o, w, x0, y1) * (wx0 * wy1);
-        c += mask_texel(o, w, x1, y1) * (wx1 * wy1);
-    }
+    let t = tex_taps(uv, w, i32(masks[o + 2u]), masks[o + 3u], masks[o + 4u] != 0u);
+    let c = mask_texel(o, w, t.x0, t.y0) * t.w.x + mask_texel(o, w, t.x1, t.y0) * t.w.y
+        + mask_texel(o, w, t.x0, t.y1) * t.w.z + mask_texel(o, w, t.x1, t.y1) * t.w.w;
     return c.x * 0.212671 + c.y * 0.715160 + c.z * 0.072169;
 }
 
