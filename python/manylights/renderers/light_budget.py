@@ -560,8 +560,9 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     # max_lights), once, with fresh probes, when the probes' bound is within ESCALATION_REACH x the target.
     escalation = None
     noise_only = est is not None and est["error_mean"] == 0.0 and est["error_lower"] == 0.0
+    pilot = _mrcs_stopped_at_pilot(res)
     if (error_probes and target_error is not None and noise_only and res.error_estimate > target_error
-            and not res.bias_sources and not _mrcs_stopped_at_pilot(res)
+            and not res.bias_sources and not pilot
             and res.error_estimate <= ESCALATION_REACH * target_error):
         # (Module doc, "Escalation") The probes see no error beyond their own noise: more lights could not be
         # shown to help (the window room at 64 x 36: 16,384 -> 32,768 strata, 19 s, a second bound as high and
@@ -585,8 +586,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     elif (error_probes and target_error is not None and est is not None
             and (est["reliable"] or est["error_lower"] > target_error)
             and res.error_estimate > target_error and not res.bias_sources
-            and (res.error_estimate <= ESCALATION_REACH * target_error or _mrcs_stopped_at_pilot(res))
-            and (any(0 < counts[k]["count"] < max_lights for k in KINDS) or _mrcs_stopped_at_pilot(res))
+            and (res.error_estimate <= ESCALATION_REACH * target_error or pilot)
+            and (any(0 < counts[k]["count"] < max_lights for k in KINDS) or pilot)
             and (time_budget is None or time.perf_counter() - t_start < time_budget / (1 + ESCALATION_FACTOR))):
         # The first attempt's own seconds: the count phase stays in timings['light_counts'].
         first = {"counts": {k: counts[k]["count"] for k in KINDS}, "error_estimate": float(res.error_estimate),
@@ -609,7 +610,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
             first["mrcs"] = {"rows": int(res.budget["rows"]), "columns": int(res.budget["columns"])}
             # Only a pilot can be that blind: after more rounds MRCS's estimate rests on many rows, and a floor of
             # factor x thousands of rows and columns made the window room's second attempts 4x slower.
-            if _mrcs_stopped_at_pilot(res):
+            if pilot:
                 floor = {k: factor * v for k, v in first["mrcs"].items()}
         res, A, est, t_lights, failed = attempt(grown, derived_seed(seed, _STREAM["escalation"]), floor)
         counts = grown
