@@ -232,6 +232,12 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     rate = out["traced"] / max(sample["seconds"], 1e-9)
     t = time.perf_counter()
     checked = False  # a round of the heaviest probes has run (a "missed" before it is retraced)
+
+    def within(count: int, spp: int) -> bool:
+        """Whether retracing ``count`` more probes at ``spp`` paths stays within both limits."""
+        return ((max_seconds is None or time.perf_counter() - t + count * spp / rate <= max_seconds)
+                and (max_paths is None or traced + count * spp <= max_paths))
+
     for r in range(rounds):
         est = probe_estimate(image, out)
         # Undecided: the target between the bounds, or a "missed" (lower bound above it) that no retracing of
@@ -253,16 +259,12 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
         # 1.3-1.4% where the heaviest probes alone reached 1.9-2.8%); else the heaviest probes only.
         which = np.arange(n)
         spp = int(min(out["paths"].max() * NOISE_FACTOR, 1 << 30))
-        fits = ((max_seconds is None or time.perf_counter() - t + n * spp / rate <= max_seconds)
-                and (max_paths is None or traced + n * spp <= max_paths))
-        if not (target is not None and est["error_lower"] == 0.0 and fits):
+        if not (target is not None and est["error_lower"] == 0.0 and within(n, spp)):
             order = np.argsort(-mag, kind="stable")
             take = int(np.searchsorted(np.cumsum(mag[order]) / mag.sum(), REFINE_MASS) + 1)
             which = np.sort(order[:max(1, min(take, n // REFINE_CAP))])
             spp = int(min(out["paths"][which].max() * factor, 1 << 30))
-            if max_seconds is not None and time.perf_counter() - t + len(which) * spp / rate > max_seconds:
-                break
-            if max_paths is not None and traced + len(which) * spp > max_paths:
+            if not within(len(which), spp):
                 break
             checked = True
         mean, var = probe_pixels(out["scene"], out["pixels"][which], spp=spp, max_depth=out["max_depth"],
