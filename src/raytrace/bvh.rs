@@ -4,8 +4,8 @@
 //!
 //! Primitives are the triangles of every mesh, except `ShapeKind::Sphere` meshes, which are one
 //! analytic sphere primitive each (their tessellation is for rasterisers only). Primitives are stored
-//! in BVH leaf order so a leaf's primitives are contiguous in memory. Closest hits use obvhs's
-//! traversal; shadow rays (`SceneBvh::any`) use `occlusion.rs` over the same nodes.
+//! in BVH leaf order so a leaf's primitives are contiguous in memory. Shadow rays (`SceneBvh::any`) and
+//! closest hits use `occlusion.rs`'s traversal over obvhs's nodes; obvhs's own traversal is the fallback.
 use super::intersect::{intersect_sphere, WatertightRay};
 use super::occlusion::TriangleSoa;
 use crate::scene::{Scene, ShapeKind};
@@ -116,9 +116,24 @@ impl SceneBvh {
         SceneBvh { soa: TriangleSoa::new(&primitives), primitives, bvh: Some(bvh) }
     }
 
-    /// Closest primitive hit by `o + t d` with `t_min < t < t_max` (obvhs's traversal, and its near
-    /// stretch again: `OBVHS_BOX_T_MIN`).
+    /// Closest primitive hit by `o + t d` with `t_min < t < t_max`: `occlusion.rs`'s AVX2 traversal, whose
+    /// box tests are the shadow rays' (no 1e-4 clamp, the exit widened so a ray through the edge of two
+    /// faces hits one), or [`SceneBvh::closest_reference`] without AVX2.
     pub fn closest(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<PrimitiveHit> {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(bvh) = self.bvh.as_ref() {
+            let t_min = t_floor(o, d, t_min);
+            if let Some(hit) = super::occlusion::closest_hit(bvh, &self.soa, &self.primitives, o, d, t_min, t_max) {
+                return hit.map(|h| PrimitiveHit { index: h.index, t: h.t, b1: h.b1, b2: h.b2 });
+            }
+        }
+        self.closest_reference(o, d, t_min, t_max)
+    }
+
+    /// [`SceneBvh::closest`] through obvhs's traversal, and its near stretch again (`OBVHS_BOX_T_MIN`):
+    /// the path of targets without AVX2 and of trees too deep for `occlusion.rs`'s stack, and a reference
+    /// of the tests.
+    pub fn closest_reference(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<PrimitiveHit> {
         let t_min = t_floor(o, d, t_min);
         let far = self.closest_obvhs(o, d, t_min, t_max);
         if t_min >= OBVHS_BOX_T_MIN {

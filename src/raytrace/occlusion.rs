@@ -1,26 +1,31 @@
-//! Any-hit (shadow ray) traversal of the compressed wide BVH, with the same answers as obvhs's own
-//! `CwBvh::ray_traverse_miss` bit for bit, 1.5-2x faster (docs/validation/backends.md).
+//! Traversal of the compressed wide BVH for shadow rays (any hit) and, with AVX2, closest hits, with the
+//! answers of testing every primitive (`SceneBvh::closest_brute_force`), 1.5-2x faster than obvhs's own
+//! `CwBvh::ray_traverse_miss` (docs/validation/backends.md).
 //!
-//! Why the answer is the same: a ray is blocked iff some primitive that the traversal reaches passes the
-//! watertight test. The order of the tests does not matter for "any", so only two things must match:
-//! which primitives are reached, and the primitive test.
+//! Why the answer is the brute force's: a ray is blocked iff some primitive that the traversal reaches
+//! passes the watertight test, and the closest hit is the least t among those. So two things must hold:
+//! every primitive that the test would hit is reached, and the primitive test is the scalar one.
 //! - Reached: each node's 8 child boxes are tested with obvhs's arithmetic of
 //!   `CwBvhNode::intersect_ray_simd` (Ylitie, Karras and Laine, HPG 2017, Sec. 3: quantised child planes
-//!   `p + e * q`, the ray moved into the node's grid): the same products and sums in the same order, SSE
-//!   `max`/`min` with the same operand order (their NaN rule), the same lower clamp `1e-4` and upper
-//!   `t_max`. What differs is cost: the 48 quantised planes are widened to f32 with 4 SSE2 unpacks and
-//!   2 conversions per 8 (obvhs converts them one at a time), the children come out as a plain 8-bit
+//!   `p + e * q`, the ray moved into the node's grid), with three differences that only keep more boxes:
+//!   the lower clamp is the ray's own `t_min` (obvhs clamps at `1e-4`), the exit is widened by a few ulps
+//!   (`BOX_T_MAX_SCALE`), and every slab distance and the entry by a bound on their rounding and on the
+//!   rounding of the triangle test's t (`SLAB_SLACK`, `TRIANGLE_SLACK`). obvhs's box test left 6.8% of the
+//!   rays aimed at a closed cube's edges out of it. The rest is cost: the 48 quantised planes are widened
+//!   to f32 with SSE2 unpacks (obvhs converts them one at a time), the children come out as a plain 8-bit
 //!   mask, leaves are tested before the node's internal children are pushed (a shadow ray can stop
 //!   early), and the stack holds (first child, internal mask, children left) words, not obvhs's groups.
+//!   Closest hits shrink the boxes' upper bound to the nearest hit so far.
 //! - Test: the watertight test of `intersect.rs` (Woop, Benthin and Wald, JCGT 2013) on the up to 3
-//!   triangles of a leaf at once, in 4 SSE lanes, from a struct-of-arrays copy of the triangles (one f32
-//!   array per vertex and axis, in leaf order). The lanes compute each scalar operation of
-//!   `WatertightRay::intersect_triangle` in the same order; the one-hot products there (`v[kx] ==
-//!   v.dot(ex)`) can differ from the direct component only in the sign of a zero, which no comparison
-//!   sees. A leaf where an edge function is exactly 0 in a valid lane (the f64 fallback) and every sphere
-//!   go through the scalar tests.
+//!   triangles of a leaf at once in 4 SSE lanes, or on all the leaves a node keeps 8 at a time with AVX2,
+//!   from a struct-of-arrays copy of the triangles (one f32 array per vertex and axis, in leaf order). The
+//!   lanes compute each scalar operation of `WatertightRay::intersect_triangle` in the same order; the
+//!   one-hot products there (`v[kx] == v.dot(ex)`) can differ from the direct component only in the sign
+//!   of a zero, which no comparison sees. A leaf where an edge function is exactly 0 in a valid lane (the
+//!   f64 fallback) and every sphere go through the scalar tests.
 //!
-//! Targets without SSE2 (not x86_64) use obvhs's traversal.
+//! Targets without SSE2 (not x86_64) use obvhs's traversal for both queries, and x86_64 without AVX2 for
+//! closest hits.
 use super::bvh::{Geometry, Primitive};
 use super::intersect::{intersect_sphere, WatertightRay};
 use glam::Vec3;
@@ -55,6 +60,30 @@ impl TriangleSoa {
 #[cfg(target_arch = "x86_64")]
 pub(crate) use sse::any_hit;
 
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx2::LaneHit;
+
+/// The closest hit on `o + t d` with `t_min < t < t_max` through the AVX2 traversal: `None` where AVX2 is
+/// missing or the stack overflowed (the caller then takes obvhs's traversal). Its box tests clamp at the
+/// ray's own `t_min` and widen the exit (`BOX_T_MAX_SCALE`) as the shadow rays' do, so a camera or bounce
+/// ray through the edge where two faces meet hits one of them; the hit is the brute force's up to ties.
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn closest_hit(
+    bvh: &obvhs::cwbvh::CwBvh,
+    tris: &TriangleSoa,
+    prims: &[Primitive],
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Option<Option<LaneHit>> {
+    if !std::is_x86_feature_detected!("avx2") {
+        return None;
+    }
+    // SAFETY: AVX2 is checked above (the check is cached); every node and primitive index comes from the BVH.
+    unsafe { avx2::traverse::<true>(bvh, tris, prims, o, d, t_min, t_max) }
+}
+
 /// The SSE2 traversal even where AVX2 is available (for tests of both paths).
 #[cfg(all(test, target_arch = "x86_64"))]
 pub(crate) fn any_hit_sse(
@@ -84,6 +113,17 @@ mod sse {
     /// widens by 1 + 2 gamma(3) for the same reason). Only more boxes are visited; hits are the triangle
     /// test's.
     pub(super) const BOX_T_MAX_SCALE: f32 = 1.0 + 8.0 * f32::EPSILON;
+    /// The box tests' margin for rounding, in two parts, both only making boxes larger (more visits, the
+    /// same hits as testing every primitive): each slab distance `q * adj_inv + adj_orig` of a child box is
+    /// widened on both sides by `SLAB_SLACK` units of `|255 adj_inv| + |adj_orig|` on its axis (a bound on
+    /// its own rounding: `p - o`, the product with the inverse direction and the sum each round by half an
+    /// ulp), and by `TRIANGLE_SLACK` units of the node's L1 reach from the origin over the direction's
+    /// largest component (the rounding of the watertight test's t, whose sheared coordinates are as large
+    /// as the vertices' distance from the origin). Without them a box whose entry lay within that rounding
+    /// of the ray's `t_max` (or of the nearest hit so far) was culled although the primitive test hits
+    /// before `t_max`: about 1 in 1,000 rays aimed just past a surface on the Cornell box.
+    pub(super) const SLAB_SLACK: f32 = 4.0 * f32::EPSILON;
+    pub(super) const TRIANGLE_SLACK: f32 = 8.0 * f32::EPSILON;
     /// Stack words; deeper trees (never seen: a CWBVH is about a third as deep as its BVH2) fall back to
     /// obvhs's traversal.
     pub(super) const STACK: usize = 64;
@@ -94,11 +134,22 @@ mod sse {
         // primitive index comes from the BVH.
         unsafe {
             if std::is_x86_feature_detected!("avx2") {
-                super::avx2::traverse(bvh, tris, prims, o, d, t_min, t_max)
+                super::avx2::traverse::<false>(bvh, tris, prims, o, d, t_min, t_max).map(|hit| hit.is_some())
             } else {
                 traverse(bvh, tris, prims, o, d, t_min, t_max)
             }
         }
+    }
+
+    /// The widening of a node's child boxes: per axis for each slab distance (`SLAB_SLACK`), and for the
+    /// entry alone (`TRIANGLE_SLACK`: a box is culled when its entry passes `t_max`, never kept because its
+    /// exit reaches back before `t_min`, so a shadow ray leaving its own surface tests no more leaves),
+    /// from the node's quantisation step `extent`, `p - o` of its origin `p` and the ray's `adj_inv`,
+    /// `adj_orig` (obvhs's inverse direction is finite: it clamps near-zero components).
+    #[inline(always)]
+    pub(super) fn slab_slack(extent: Vec3A, rel: Vec3A, adj_inv: Vec3A, adj_orig: Vec3A, inv_max_d: f32) -> (Vec3A, f32) {
+        let entry = (extent * 255.0 + rel.abs()).element_sum() * (inv_max_d * TRIANGLE_SLACK);
+        ((adj_inv.abs() * 255.0 + adj_orig.abs()) * SLAB_SLACK, entry)
     }
 
     /// The ray in obvhs's form, broadcast for the box tests.
@@ -106,6 +157,8 @@ mod sse {
         origin: Vec3A,
         inv_direction: Vec3A,
         neg: [bool; 3],
+        /// `1 / max_i |d_i|` (the dominant axis of the watertight test).
+        inv_max_d: f32,
         t_min: __m128,
         t_max: __m128,
     }
@@ -122,25 +175,29 @@ mod sse {
     /// Mask of the child slots whose boxes the ray hits (slot i = bit i), as `intersect_ray_simd` decides.
     #[inline(always)]
     unsafe fn child_hits(node: &obvhs::cwbvh::node::CwBvhNode, ray: &BoxRay) -> u32 {
-        let adj_inv = node.compute_extent() * ray.inv_direction;
-        let adj_orig = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
+        let extent = node.compute_extent();
+        let rel = Vec3A::from(node.p) - ray.origin;
+        let (adj_inv, adj_orig) = (extent * ray.inv_direction, rel * ray.inv_direction);
         let pick = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| if neg { (widen(hi), widen(lo)) } else { (widen(lo), widen(hi)) };
         let (x_near, x_far) = pick(ray.neg[0], &node.child_min_x, &node.child_max_x);
         let (y_near, y_far) = pick(ray.neg[1], &node.child_min_y, &node.child_max_y);
         let (z_near, z_far) = pick(ray.neg[2], &node.child_min_z, &node.child_max_z);
         let (ix, iy, iz) = (_mm_set1_ps(adj_inv.x), _mm_set1_ps(adj_inv.y), _mm_set1_ps(adj_inv.z));
         let (ox, oy, oz) = (_mm_set1_ps(adj_orig.x), _mm_set1_ps(adj_orig.y), _mm_set1_ps(adj_orig.z));
+        let (e, entry) = slab_slack(extent, rel, adj_inv, adj_orig, ray.inv_max_d);
+        let (ex, ey, ez) = (_mm_set1_ps(e.x), _mm_set1_ps(e.y), _mm_set1_ps(e.z));
+        let entry = _mm_set1_ps(entry);
         let mut mask = 0;
         for h in 0..2 {
-            let tmin_x = _mm_add_ps(_mm_mul_ps(x_near[h], ix), ox);
-            let tmax_x = _mm_add_ps(_mm_mul_ps(x_far[h], ix), ox);
-            let tmin_y = _mm_add_ps(_mm_mul_ps(y_near[h], iy), oy);
-            let tmax_y = _mm_add_ps(_mm_mul_ps(y_far[h], iy), oy);
-            let tmin_z = _mm_add_ps(_mm_mul_ps(z_near[h], iz), oz);
-            let tmax_z = _mm_add_ps(_mm_mul_ps(z_far[h], iz), oz);
+            let tmin_x = _mm_sub_ps(_mm_add_ps(_mm_mul_ps(x_near[h], ix), ox), ex);
+            let tmax_x = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x_far[h], ix), ox), ex);
+            let tmin_y = _mm_sub_ps(_mm_add_ps(_mm_mul_ps(y_near[h], iy), oy), ey);
+            let tmax_y = _mm_add_ps(_mm_add_ps(_mm_mul_ps(y_far[h], iy), oy), ey);
+            let tmin_z = _mm_sub_ps(_mm_add_ps(_mm_mul_ps(z_near[h], iz), oz), ez);
+            let tmax_z = _mm_add_ps(_mm_add_ps(_mm_mul_ps(z_far[h], iz), oz), ez);
             let tmin = _mm_max_ps(tmin_x, _mm_max_ps(tmin_y, tmin_z));
             let tmax = _mm_min_ps(tmax_x, _mm_min_ps(tmax_y, tmax_z));
-            let tmin = _mm_max_ps(tmin, ray.t_min);
+            let tmin = _mm_max_ps(_mm_sub_ps(tmin, entry), ray.t_min);
             let tmax = _mm_min_ps(_mm_mul_ps(tmax, _mm_set1_ps(BOX_T_MAX_SCALE)), ray.t_max);
             mask |= (_mm_movemask_ps(_mm_cmple_ps(tmin, tmax)) as u32) << (4 * h);
         }
@@ -254,6 +311,7 @@ mod sse {
             // The ray's own t_min: obvhs clamps at 1e-4 and misses what is nearer (`bvh::OBVHS_BOX_T_MIN`).
             t_min: _mm_set1_ps(r.tmin.max(0.0)),
             t_max: _mm_set1_ps(r.tmax),
+            inv_max_d: 1.0 / d.abs().max_element(),
         };
         // obvhs orders children by the octant of the ray direction.
         let oct = (ray.neg[0] as u32) << 2 | (ray.neg[1] as u32) << 1 | ray.neg[2] as u32;
@@ -313,184 +371,4 @@ mod sse {
 /// all the leaves a node's box test keeps tested together, 8 lanes at a time (a CWBVH node's leaf children
 /// own one run of up to 24 primitives from `primitive_base_idx`).
 #[cfg(target_arch = "x86_64")]
-mod avx2 {
-    use super::sse::{leaf_hit_scalar, obvhs_ray, permute, Primitive, BOX_T_MAX_SCALE, STACK};
-    use super::{TriangleSoa, WatertightRay};
-    use glam::{Vec3, Vec3A};
-    use obvhs::cwbvh::node::CwBvhNode;
-    use obvhs::cwbvh::CwBvh;
-    use std::arch::x86_64::*;
-
-    struct BoxRay {
-        origin: Vec3A,
-        inv_direction: Vec3A,
-        neg: [bool; 3],
-        t_min: __m256,
-        t_max: __m256,
-    }
-
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn widen(q: &[u8; 8]) -> __m256 {
-        _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(q.as_ptr() as *const __m128i)))
-    }
-
-    /// `sse::child_hits` in one 8-lane pass.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn child_hits(node: &CwBvhNode, ray: &BoxRay) -> u32 {
-        let adj_inv = node.compute_extent() * ray.inv_direction;
-        let adj_orig = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
-        let (x_near, x_far) = if ray.neg[0] { (&node.child_max_x, &node.child_min_x) } else { (&node.child_min_x, &node.child_max_x) };
-        let (y_near, y_far) = if ray.neg[1] { (&node.child_max_y, &node.child_min_y) } else { (&node.child_min_y, &node.child_max_y) };
-        let (z_near, z_far) = if ray.neg[2] { (&node.child_max_z, &node.child_min_z) } else { (&node.child_min_z, &node.child_max_z) };
-        let (ix, iy, iz) = (_mm256_set1_ps(adj_inv.x), _mm256_set1_ps(adj_inv.y), _mm256_set1_ps(adj_inv.z));
-        let (ox, oy, oz) = (_mm256_set1_ps(adj_orig.x), _mm256_set1_ps(adj_orig.y), _mm256_set1_ps(adj_orig.z));
-        let tmin_x = _mm256_add_ps(_mm256_mul_ps(widen(x_near), ix), ox);
-        let tmax_x = _mm256_add_ps(_mm256_mul_ps(widen(x_far), ix), ox);
-        let tmin_y = _mm256_add_ps(_mm256_mul_ps(widen(y_near), iy), oy);
-        let tmax_y = _mm256_add_ps(_mm256_mul_ps(widen(y_far), iy), oy);
-        let tmin_z = _mm256_add_ps(_mm256_mul_ps(widen(z_near), iz), oz);
-        let tmax_z = _mm256_add_ps(_mm256_mul_ps(widen(z_far), iz), oz);
-        let tmin = _mm256_max_ps(tmin_x, _mm256_max_ps(tmin_y, tmin_z));
-        let tmax = _mm256_min_ps(tmax_x, _mm256_min_ps(tmax_y, tmax_z));
-        let tmin = _mm256_max_ps(tmin, ray.t_min);
-        let tmax = _mm256_min_ps(_mm256_mul_ps(tmax, _mm256_set1_ps(BOX_T_MAX_SCALE)), ray.t_max);
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tmin, tmax)) as u32
-    }
-
-    /// Whether one of the primitives `start + i` for the set bits `i` of `lanes` is hit (`sse::leaf_hit`
-    /// in 8 lanes).
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    #[allow(clippy::too_many_arguments)]
-    unsafe fn prims_hit(
-        tris: &TriangleSoa,
-        prims: &[Primitive],
-        wt: &WatertightRay,
-        o: &[__m256; 3],
-        d: Vec3,
-        start: usize,
-        lanes: u32,
-        t_min: f32,
-        t_max: f32,
-    ) -> bool {
-        let [kx, ky, kz] = wt.k;
-        let load = |vertex: usize, axis: usize, o: __m256| _mm256_sub_ps(_mm256_loadu_ps(tris.v[3 * vertex + axis].as_ptr().add(start)), o);
-        let (akx, aky, akz) = (load(0, kx, o[0]), load(0, ky, o[1]), load(0, kz, o[2]));
-        let (bkx, bky, bkz) = (load(1, kx, o[0]), load(1, ky, o[1]), load(1, kz, o[2]));
-        let (ckx, cky, ckz) = (load(2, kx, o[0]), load(2, ky, o[1]), load(2, kz, o[2]));
-        let (sx, sy, sz) = (_mm256_set1_ps(wt.sx), _mm256_set1_ps(wt.sy), _mm256_set1_ps(wt.sz));
-        let ax = _mm256_sub_ps(akx, _mm256_mul_ps(sx, akz));
-        let ay = _mm256_sub_ps(aky, _mm256_mul_ps(sy, akz));
-        let bx = _mm256_sub_ps(bkx, _mm256_mul_ps(sx, bkz));
-        let by = _mm256_sub_ps(bky, _mm256_mul_ps(sy, bkz));
-        let cx = _mm256_sub_ps(ckx, _mm256_mul_ps(sx, ckz));
-        let cy = _mm256_sub_ps(cky, _mm256_mul_ps(sy, ckz));
-        let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
-        let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
-        let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-        let zero = _mm256_setzero_ps();
-        let eq = |a| _mm256_cmp_ps::<_CMP_EQ_OQ>(a, zero);
-        let on_edge = _mm256_or_ps(_mm256_or_ps(eq(u), eq(v)), eq(w));
-        let scalar = _mm256_or_ps(on_edge, _mm256_cmp_ps::<_CMP_UNORD_Q>(u, u));
-        let scalar_lanes = _mm256_movemask_ps(scalar) as u32 & lanes;
-        if scalar_lanes != 0 {
-            let mut m = scalar_lanes;
-            while m != 0 {
-                if leaf_hit_scalar(prims, wt, d, start + m.trailing_zeros() as usize, 1, t_min, t_max) {
-                    return true;
-                }
-                m &= m - 1;
-            }
-        }
-        let lt = |a| _mm256_cmp_ps::<_CMP_LT_OS>(a, zero);
-        let gt = |a| _mm256_cmp_ps::<_CMP_GT_OS>(a, zero);
-        let neg = _mm256_or_ps(_mm256_or_ps(lt(u), lt(v)), lt(w));
-        let pos = _mm256_or_ps(_mm256_or_ps(gt(u), gt(v)), gt(w));
-        let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-        let az = _mm256_mul_ps(sz, akz);
-        let bz = _mm256_mul_ps(sz, bkz);
-        let cz = _mm256_mul_ps(sz, ckz);
-        let t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)), _mm256_mul_ps(w, cz));
-        let t = _mm256_mul_ps(t_scaled, _mm256_div_ps(_mm256_set1_ps(1.0), det));
-        let inside = _mm256_andnot_ps(_mm256_and_ps(neg, pos), _mm256_cmp_ps::<_CMP_NEQ_UQ>(det, zero));
-        let in_range =
-            _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OS>(t, _mm256_set1_ps(t_min)), _mm256_cmp_ps::<_CMP_LT_OS>(t, _mm256_set1_ps(t_max)));
-        _mm256_movemask_ps(_mm256_and_ps(inside, in_range)) as u32 & lanes & !scalar_lanes != 0
-    }
-
-    #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) unsafe fn traverse(
-        bvh: &CwBvh,
-        tris: &TriangleSoa,
-        prims: &[Primitive],
-        o: Vec3,
-        d: Vec3,
-        t_min: f32,
-        t_max: f32,
-    ) -> Option<bool> {
-        if bvh.nodes.is_empty() {
-            return Some(false);
-        }
-        let r = obvhs_ray(o, d, t_min, t_max);
-        let dir = r.direction;
-        let ray = BoxRay {
-            origin: r.origin,
-            inv_direction: r.inv_direction,
-            neg: [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0],
-            t_min: _mm256_set1_ps(r.tmin.max(0.0)),
-            t_max: _mm256_set1_ps(r.tmax),
-        };
-        let oct = (ray.neg[0] as u32) << 2 | (ray.neg[1] as u32) << 1 | ray.neg[2] as u32;
-        let wt = WatertightRay::new(o, d);
-        let [kx, ky, kz] = wt.k;
-        let op = [_mm256_set1_ps(o[kx]), _mm256_set1_ps(o[ky]), _mm256_set1_ps(o[kz])];
-        // Uninitialised (a zeroed stack was a memset per ray); only written words are read.
-        let mut stack = [std::mem::MaybeUninit::<u64>::uninit(); STACK];
-        let mut sp = 0;
-        let mut node = bvh.nodes.get_unchecked(0);
-        loop {
-            let hits = child_hits(node, &ray);
-            let imask = node.imask as u32;
-            // The primitives of the leaves hit, as obvhs's 24-bit primitive mask.
-            let mut leaves = hits & !imask;
-            let mut mask = 0u32;
-            while leaves != 0 {
-                let meta = *node.child_meta.get_unchecked(leaves.trailing_zeros() as usize) as u32;
-                leaves &= leaves - 1;
-                mask |= ((meta >> 5) & 7) << (meta & 31);
-            }
-            while mask != 0 {
-                let first = mask.trailing_zeros();
-                if prims_hit(tris, prims, &wt, &op, d, (node.primitive_base_idx + first) as usize, (mask >> first) & 0xff, t_min, t_max) {
-                    return Some(true);
-                }
-                mask &= !(0xffu32 << first);
-            }
-            let inner = hits & imask;
-            if inner != 0 {
-                if sp == STACK {
-                    return None;
-                }
-                stack.get_unchecked_mut(sp).write((node.child_base_idx as u64) << 16 | (imask as u64) << 8 | permute(inner, oct) as u64);
-                sp += 1;
-            }
-            if sp == 0 {
-                return Some(false);
-            }
-            let top = stack.get_unchecked_mut(sp - 1).assume_init_mut();
-            let left = (*top & 0xff) as u32;
-            let slot = left.trailing_zeros() ^ oct;
-            if left & (left - 1) == 0 {
-                sp -= 1;
-            } else {
-                *top &= !(1u64 << left.trailing_zeros());
-            }
-            let word = *top;
-            let (base, imask) = ((word >> 16) as u32, ((word >> 8) & 0xff) as u32);
-            node = bvh.nodes.get_unchecked((base + (imask & ((1 << slot) - 1)).count_ones()) as usize);
-        }
-    }
-}
+mod avx2;
