@@ -113,6 +113,10 @@ REFERENCES = {
     "mask-leaves": (HERE / "data" / "mask_leaves.xml", {"width": 64, "height": 48}, (64, 48), -1, 0.004, None),
     "mask-leaves-depth2": (HERE / "data" / "mask_leaves.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002, None),
     "mask-leaves-depth3": (HERE / "data" / "mask_leaves.xml", {"width": 64, "height": 48}, (64, 48), 3, 0.004, None),
+    # A public interior (tests/scene/test_public_living_room.py): Bitterli's "The Grey & White Room" (CC-BY,
+    # tests/data/scenes/living-room/LICENSE.txt), lit only through its windows by an environment map, with
+    # masked leaves, glass, rough plastics and conductors; a version 0.5 file. Direct light at 96 x 54.
+    "living-room-direct": (TEST_SCENES / "living-room" / "scene.xml", {}, (96, 54), 2, 0.0012, None),
 }
 
 # Integrator of the references that do not use ``path`` (with the max_depth above).

@@ -1,11 +1,13 @@
 """Public Mitsuba scenes (not written for this project) against Mitsuba 3.9.1: direct light, pixel-centre.
 
-The scenes are not bundled (too large, or no licence file): fetch the two repositories at the commits below
-into one folder, as ``<root>/<owner>+<name>/`` working trees, then
+The scenes are not bundled (too large, or no licence file), except a smaller copy of the living room that the
+tests render (``bundle``, ``tests/scene/test_public_living_room.py``): fetch the two repositories at the commits
+below into one folder, as ``<root>/<owner>+<name>/`` working trees, then
 
     .venv/bin/python tests/public_scenes.py --root <root> edit         # scene_edited.xml next to each scene
     .venv/bin/python tests/public_scenes.py --root <root> reference    # Mitsuba references under <root>/refs
     .venv/bin/python tests/public_scenes.py --root <root> compare      # manylights against them, one JSON line each
+    .venv/bin/python tests/public_scenes.py --root <root> bundle       # the small copies in tests/data/scenes
 
 Edits (the same edited XML goes to both renderers): shapes whose mesh file the repository lacks (Git LFS
 objects that are not in it) are removed, a missing bitmap becomes a constant 0.5 reflectance, and the film's
@@ -92,6 +94,95 @@ def edit(root: Path, name: str) -> dict:
     return {"scene": name, "removed_shapes": removed, "constant_textures": constant, "dropped": dropped}
 
 
+BUNDLED = {"bitterli-living-room": "living-room"}
+# Texture downsampling of the bundled copy: the environment map by 8 (block means keep its integral), the
+# colour textures by 4.
+ENV_DOWNSAMPLE, TEXTURE_DOWNSAMPLE = 8, 4
+
+
+def _write_ply(path: Path, positions, normals, uvs, faces) -> None:
+    """Binary little-endian PLY: float32 x y z (nx ny nz) (u v) per vertex, uchar + 3 uint32 per face."""
+    props = ["x", "y", "z"] + (["nx", "ny", "nz"] if normals is not None else []) + (["u", "v"] if uvs is not None else [])
+    vert = np.concatenate([a for a in (positions, normals, uvs) if a is not None], axis=1).astype("<f4")
+    face = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<u4", 3)])
+    face["n"], face["i"] = 3, faces
+    head = ["ply", "format binary_little_endian 1.0", f"element vertex {len(vert)}",
+            *[f"property float {p}" for p in props], f"element face {len(faces)}",
+            "property list uchar uint vertex_indices", "end_header"]
+    path.write_bytes(("\n".join(head) + "\n").encode() + vert.tobytes() + face.tobytes())
+
+
+def bundle(root: Path, name: str, dest: Path) -> dict:
+    """A small copy of a public scene for ``tests/data/scenes/<dest>``: the edited XML; every OBJ mesh as the
+    binary PLY of the mesh Mitsuba loads from it (the same vertices, normals, and texture coordinates where its
+    BSDF has a bitmap; Mitsuba's OBJ reader flips v, so the PLY stores the flipped value); the environment map
+    and colour textures block-averaged; opacity (mask) textures as they are; and the scene's licence with a
+    note of the changes. Needs Mitsuba."""
+    import imageio.v3 as iio
+
+    from manylights.testing import mitsuba as mitsuba_ref
+
+    mi = mitsuba_ref.mitsuba()
+    src = edited_xml(root, name)
+    tree = ET.parse(src)
+    top = tree.getroot()
+    (dest / "models").mkdir(parents=True, exist_ok=True)
+    (dest / "textures").mkdir(exist_ok=True)
+    textured = {b.get("id") for b in top.findall("bsdf") if any(t.get("type") == "bitmap" for t in b.iter("texture"))}
+    opacity = {s.get("value") for t in top.iter("texture") if t.get("name") == "opacity" for s in t.findall("string")}
+    meshes = 0
+    for shape in top.iter("shape"):
+        if shape.get("type") != "obj":
+            continue
+        fn = [s for s in shape.findall("string") if s.get("name") == "filename"][0]
+        out = Path(fn.get("value")).with_suffix(".ply")
+        params = mi.traverse(mi.load_dict({"type": "obj", "filename": str(src.parent / fn.get("value"))}))
+        keep_uv = any(r.get("id") in textured for r in shape.findall("ref"))
+        arr = {k: np.asarray(params[f"vertex_{k}"]) for k in ("positions", "normals", "texcoords")}
+        _write_ply(dest / out, arr["positions"].reshape(-1, 3),
+                   arr["normals"].reshape(-1, 3) if arr["normals"].size else None,
+                   arr["texcoords"].reshape(-1, 2) if keep_uv and arr["texcoords"].size else None,
+                   np.asarray(params["faces"]).reshape(-1, 3))
+        shape.set("type", "ply")
+        fn.set("value", out.as_posix())
+        meshes += 1
+    textures = {}
+    for s in top.iter("string"):
+        value = s.get("value", "")
+        if s.get("name") != "filename" or not value.startswith("textures/") or value in textures:
+            continue
+        target = dest / value
+        if value in opacity:
+            target.write_bytes((src.parent / value).read_bytes())
+        elif value.endswith(".exr"):
+            a = ml.read_exr(src.parent / value)[..., :3]
+            k = ENV_DOWNSAMPLE
+            a = a[: a.shape[0] // k * k, : a.shape[1] // k * k].reshape(a.shape[0] // k, k, a.shape[1] // k, k, 3)
+            ml.write_exr(target, a.mean(axis=(1, 3)))
+        else:
+            img = iio.imread(src.parent / value).astype(np.float64)
+            k = TEXTURE_DOWNSAMPLE
+            h, w = img.shape[0] // k * k, img.shape[1] // k * k
+            img = img[:h, :w].reshape(h // k, k, w // k, k, -1).mean(axis=(1, 3))
+            iio.imwrite(target, np.clip(img + 0.5, 0, 255).astype(np.uint8), quality=90)
+        textures[value] = target.stat().st_size
+    tree.write(dest / "scene.xml")
+    licence = (src.parent / "LICENSE.txt").read_text()
+    (dest / "LICENSE.txt").write_text(
+        licence.rstrip() + "\n\nChanges in this copy (made by tests/public_scenes.py, `bundle`, from the Mitsuba "
+        "conversion at https://github.com/jgarciapueyo/mitsuba2-transient-scenes): the meshes are stored as binary "
+        "PLY (texture coordinates kept only where the material has a texture); the environment map is block-"
+        f"averaged by {ENV_DOWNSAMPLE} and the colour textures by {TEXTURE_DOWNSAMPLE} in each direction; the "
+        "film's high-quality-edges flag is dropped.\n")
+    (repo, commit), rel, *_ = SCENES[name]
+    (dest / "SOURCE.txt").write_text(
+        f"Source: github.com/{repo.replace('+', '/')} @ {commit}: {rel} and the meshes and textures it names, made\n"
+        "smaller by tests/public_scenes.py (`bundle`; the changes are listed in LICENSE.txt). Licence: as the\n"
+        "original scene's, in LICENSE.txt here. Test data only, not part of the package.\n")
+    return {"scene": name, "dest": str(dest), "meshes": meshes, "textures": textures,
+            "bytes": sum(f.stat().st_size for f in dest.rglob("*") if f.is_file())}
+
+
 def reference(root: Path, name: str, out: Path, seconds: float) -> dict:
     from manylights.testing import mitsuba as mitsuba_ref
 
@@ -148,7 +239,7 @@ def compare(root: Path, name: str, out: Path, bsdf_samples=None, **overrides) ->
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("step", choices=["edit", "reference", "compare"])
+    ap.add_argument("step", choices=["edit", "reference", "compare", "bundle"])
     ap.add_argument("names", nargs="*", help=f"subset of {list(SCENES)}")
     ap.add_argument("--root", type=Path, required=True, help="folder holding the fetched repositories")
     ap.add_argument("--out", type=Path, help="references folder (default <root>/refs)")
@@ -158,8 +249,10 @@ def main(argv=None):
                     help="environment strata allocated by visibility (generate_lights(env_visibility=True))")
     a = ap.parse_args(argv)
     out = a.out or a.root / "refs"
-    for name in a.names or list(SCENES):
-        if a.step == "edit":
+    for name in a.names or list(BUNDLED if a.step == "bundle" else SCENES):
+        if a.step == "bundle":
+            res = bundle(a.root, name, Path(__file__).resolve().parent / "data" / "scenes" / BUNDLED[name])
+        elif a.step == "edit":
             res = edit(a.root, name)
         elif a.step == "reference":
             res = reference(a.root, name, out, SCENES[name][4])
