@@ -155,10 +155,10 @@ pub(crate) struct LaneHit {
     pub b2: f32,
 }
 
-/// Moves `best` to the nearest hit among the primitives `start + i` (set bits `i` of `lanes`) that is
-/// nearer than it. A lane's t and barycentrics are the scalar test's (`t_scaled * (1 / det)`, `v / det`
-/// as `v * (1 / det)`). Among equal t (a shared edge or vertex) the first found stays; testing every
-/// primitive in index order keeps the lowest index instead.
+/// Moves `best` to the first hit among the primitives `start + i` (set bits `i` of `lanes`) that comes
+/// before it: a smaller t, or the same t and a lower index. A lane's t and barycentrics are the scalar test's (`t_scaled * (1 / det)`, `v / det`
+/// as `v * (1 / det)`). So among equal t (a shared edge or vertex) the lowest index wins, as when testing
+/// every primitive in index order, and the hit does not depend on the order of the traversal.
 #[target_feature(enable = "avx2")]
 #[inline]
 #[allow(clippy::too_many_arguments)]
@@ -173,27 +173,31 @@ unsafe fn prims_closest(
     t_min: f32,
     best: &mut LaneHit,
 ) {
+    // Candidates: t < t_max before the first hit, t <= best.t after it (the next float up, exclusive).
+    let bound = if best.index == usize::MAX || !best.t.is_finite() { best.t } else { f32::from_bits(best.t.to_bits() + 1) };
     let e = edges(tris, wt, o, start);
-    let (scalar, hits, t) = lane_hits(&e, wt, lanes, t_min, best.t);
+    let (scalar, hits, t) = lane_hits(&e, wt, lanes, t_min, bound);
     let mut all = scalar | hits;
     if all == 0 {
         return;
     }
     let mut ts = [0f32; 8];
     _mm256_storeu_ps(ts.as_mut_ptr(), t);
+    let before = |t: f32, index: usize, best: &LaneHit| t < best.t || (t == best.t && index < best.index);
     while all != 0 {
         let lane = all.trailing_zeros() as usize;
         all &= all - 1;
         let index = start + lane;
         if scalar & (1 << lane) != 0 {
             let hit = match prims.get_unchecked(index).geometry {
-                Geometry::Triangle([p0, p1, p2]) => wt.intersect_triangle(p0, p1, p2, t_min, best.t).map(|h| (h.t, h.b1, h.b2)),
-                Geometry::Sphere { center, radius } => intersect_sphere(center, radius, wt.o, d, t_min, best.t).map(|t| (t, 0.0, 0.0)),
+                Geometry::Triangle([p0, p1, p2]) => wt.intersect_triangle(p0, p1, p2, t_min, bound).map(|h| (h.t, h.b1, h.b2)),
+                Geometry::Sphere { center, radius } => intersect_sphere(center, radius, wt.o, d, t_min, bound).map(|t| (t, 0.0, 0.0)),
             };
-            if let Some((t, b1, b2)) = hit {
-                *best = LaneHit { index, t, b1, b2 };
+            match hit {
+                Some((t, b1, b2)) if before(t, index, best) => *best = LaneHit { index, t, b1, b2 },
+                _ => {}
             }
-        } else if ts[lane] < best.t {
+        } else if before(ts[lane], index, best) {
             let lane_of = |x: __m256| {
                 let mut a = [0f32; 8];
                 _mm256_storeu_ps(a.as_mut_ptr(), x);
