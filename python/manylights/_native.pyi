@@ -330,8 +330,8 @@ def mrcs_row_variance(rows: npt.NDArray[np.float32], assignment: npt.NDArray[np.
     (assignment (n,) labels < num_clusters, probability (n,) of each light being its cluster's
     representative). Raises ValueError for bad shapes, labels or probabilities outside [0, 1]."""
 def probe_pixels(scene: Scene, pixels: npt.NDArray[np.int64], spp: int, max_depth: int, seed: int,
-                 progress: Optional[Callable[[int, int], None]] = None
-                 ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+                 progress: Optional[Callable[[int, int], None]] = None, lights: Optional[LightSet] = None,
+                 guided_env: bool = True) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
     """(mean, variance_of_mean), each (k, 3) float32, of the unbiased path tracer at k probe pixels
     ((k, 2) int64 (row, column)); ``spp`` >= 2 paths each, Mitsuba's ``max_depth`` (-1 or >= 1).
     Raises ValueError for bad arguments or a scene with a principled BSDF (``manylights.probe_pixels``)."""

@@ -27,8 +27,12 @@
 //! Point, spot and directional lights are evaluated exactly (`LightSet::emitted`, shadow ray
 //! `cpu::light_blocked`); an area emitter by a point uniform on its shape's area
 //! (`AreaEmitter::sample_point_uv`, p_A = 1 / A; spheres over the whole sphere), converted to solid
-//! angle p_L = s d^2 / (A |cos_y|); the environment by `EnvSampler` (0.9 luminance + 0.1 uniform over
-//! 16,384 equal-area cells), p_L = s p_env(w). The BSDF-hit side uses the same p_L for the emitter it
+//! angle p_L = s d^2 / (A |cos_y|); the environment by `EnvSampler` over 16,384 equal-area cells, p_L =
+//! s p_env(w): with `guided_env` (the default) a defensive mixture of 0.6 luminance x what a unit of
+//! radiance from the cell adds to the camera's pilot view (`env_visibility::camera_factor`: 256 coarse
+//! cells, exact shadow rays from about 1,024 pixel centres), 0.3 luminance and 0.1 uniform, so that in a
+//! room lit through a window the samples go through the window; else 0.9 luminance + 0.1 uniform. The
+//! BSDF-hit side uses the same p_L for the emitter it
 //! hits, so the MIS weights of the two strategies sum to 1 and the estimator is unbiased (Veach 1997,
 //! eq. 9.10) whatever the proposals.
 //!
@@ -98,11 +102,14 @@ pub struct ProbeOptions {
     /// Depth from which Russian roulette applies (Mitsuba's `rr_depth`).
     pub rr_depth: u32,
     pub seed: u64,
+    /// Sample the environment guided by what the camera sees of it (`EnvSampler` from
+    /// `Environment::sampler_guided` with `env_visibility::camera_factor`; module docs), else by luminance.
+    pub guided_env: bool,
 }
 
 impl Default for ProbeOptions {
     fn default() -> Self {
-        ProbeOptions { spp: 256, max_depth: -1, rr_depth: 5, seed: 0 }
+        ProbeOptions { spp: 256, max_depth: -1, rr_depth: 5, seed: 0, guided_env: true }
     }
 }
 
@@ -295,10 +302,18 @@ impl<'a> PathTracer<'a> {
         for (k, e) in area.iter().enumerate() {
             area_of_mesh[e.mesh] = Some(k);
         }
-        let env = Environment::from_scene(scene).map(|e| {
-            let s = e.sampler();
-            (e, s)
-        });
+        let env = match Environment::from_scene(scene) {
+            Some(e) => {
+                let guide =
+                    if opts.guided_env { crate::lights::generate::env_visibility::camera_factor(&e, scene, rt, opts.seed)? } else { None };
+                let s = match &guide {
+                    Some(f) => e.sampler_guided(Some(f)),
+                    None => e.sampler(),
+                };
+                Some((e, s))
+            }
+            None => None,
+        };
         let num_emitters = delta.len() + area.len() + usize::from(env.is_some());
         Ok(PathTracer {
             scene,

@@ -12,10 +12,11 @@ use pyo3::prelude::*;
 /// (`crate::pathtrace`; the Python wrapper `manylights.probe_pixels` documents it).
 ///
 /// Args: pixels (k, 2) int64 (row, column); spp >= 2; max_depth -1 or >= 1; seed; progress(done, total)
-/// in paths; lights: a LightSet lighting the scene instead of its emitters. Returns two (k, 3) float32 arrays. Raises ValueError for bad arguments or an unsupported
+/// in paths; lights: a LightSet lighting the scene instead of its emitters; guided_env: sample the environment
+/// guided by the camera's pilot view (else by luminance). Returns two (k, 3) float32 arrays. Raises ValueError for bad arguments or an unsupported
 /// scene (principled BSDFs), KeyboardInterrupt on Ctrl-C.
 #[pyfunction]
-#[pyo3(name = "probe_pixels", signature = (scene, pixels, spp, max_depth, seed, progress=None, lights=None))]
+#[pyo3(name = "probe_pixels", signature = (scene, pixels, spp, max_depth, seed, progress=None, lights=None, guided_env=true))]
 pub fn probe_pixels_py<'py>(
     py: Python<'py>,
     scene: &Scene,
@@ -25,6 +26,7 @@ pub fn probe_pixels_py<'py>(
     seed: u64,
     progress: Option<Py<PyAny>>,
     lights: Option<&LightSet>,
+    guided_env: bool,
 ) -> PyResult<(Bound<'py, PyArrayDyn<f32>>, Bound<'py, PyArrayDyn<f32>>)> {
     let a = pixels.as_array();
     if a.ncols() != 2 {
@@ -45,7 +47,7 @@ pub fn probe_pixels_py<'py>(
     if max_depth == 0 || max_depth < -1 {
         return Err(Error::invalid(format!("max_depth must be -1 (unlimited) or >= 1, got {max_depth}")).into());
     }
-    let opts = ProbeOptions { spp: spp as u32, max_depth: max_depth.min(i32::MAX as i64) as i32, seed, ..Default::default() };
+    let opts = ProbeOptions { spp: spp as u32, max_depth: max_depth.min(i32::MAX as i64) as i32, seed, guided_env, ..Default::default() };
     crate::pathtrace::check_supported(&scene.inner)?;
     let view = scene.camera_samples(py)?;
     let tracer = scene.tracer(py)?;

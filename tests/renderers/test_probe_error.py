@@ -312,15 +312,19 @@ def test_a_missed_target_that_a_few_glossy_probes_decide_is_retraced():
 
 def test_a_missed_target_is_retraced_once_before_it_stands():
     """A room lit only through a window (``scenes/window-room``, 256 x 144, direct light), its converged Mitsuba
-    reference as the image: the probes' sky paths are heavy-tailed, and probe seed 1 puts the lower bound at
-    1.5% and the upper at 13.5% with 83 probes carrying them (more than a quarter: the decision looked
-    settled). A "missed" now always gets a round of retracing its heaviest probes: within 2^23 paths the lower
-    bound falls to 0 and the upper to 1.3% (measured)."""
+    reference as the image: with the environment sampled by luminance alone (``guided_env=False``) the probes'
+    sky paths are heavy-tailed, and probe seed 1 puts the lower bound at 1.5% and the upper at 13.5% with 83
+    probes carrying them (more than a quarter: the decision looked settled). A "missed" always gets a round of
+    retracing its heaviest probes: within 2^23 paths the lower bound falls to 0 and the upper to 1.3%
+    (measured). Sampled through the window (the default), the same probes read a lower bound of 0 and an upper
+    bound of 5.3% before any retracing."""
     from manylights.renderers.probe_error import DECIDE_SHARE, probe_estimate, probe_sample, refine_probes
 
     scene = ml.load_scene(REFERENCES.parent.parent / "scenes" / "window-room" / "scene.xml", resx=256, resy=144)
     ref = ml.read_exr(REFERENCES / "window-room-direct.exr")
-    sample = probe_sample(ref, scene, 256, spp=256, max_depth=2, seed=1)
+    guided = probe_estimate(ref, probe_sample(ref, scene, 256, spp=256, max_depth=2, seed=1))
+    assert guided["error_lower"] == 0.0 and guided["error_estimate"] < 0.08, guided
+    sample = probe_sample(ref, scene, 256, spp=256, max_depth=2, seed=1, guided_env=False)
     plain = probe_estimate(ref, sample)
     assert plain["error_lower"] > 0.01 and plain["error_estimate"] > 0.1
     assert plain["reliable"] and plain["effective_probes"] >= DECIDE_SHARE * 256

@@ -268,7 +268,8 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
                 break
             checked = True
         mean, var = probe_pixels(out["scene"], out["pixels"][which], spp=spp, max_depth=out["max_depth"],
-                                 seed=derived_seed(seed, PROBE_STREAM + 2 + r), progress=False, lights=lights)
+                                 seed=derived_seed(seed, PROBE_STREAM + 2 + r), progress=False, lights=lights,
+                                 guided_env=out.get("guided_env", True))
         out["mean"][which], out["variance"][which] = mean, var
         out["refined"][which] += 1
         out["paths"][which] = spp
@@ -294,7 +295,7 @@ def _check_image(image, scene: Scene) -> np.ndarray:
 
 
 def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth: Optional[int] = None,
-                 seed: int = 0, lights=None, pilot: bool = True) -> dict:
+                 seed: int = 0, lights=None, pilot: bool = True, guided_env: bool = True) -> dict:
     """Draw N probe pixels from the defensive mixture of ``image`` (module doc) and path-trace them: the part of
     ``probe_error`` that costs, reusable for several images of the same scene (``probe_estimate`` on each:
     the probabilities stay those of ``image``, so every estimate is unbiased; only its spread depends on how
@@ -302,11 +303,12 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
 
     Args: as ``probe_error``; ``pilot``: trace ``PILOT_SPP`` paths at every pixel (at most
     ``PILOT_MAX_PIXELS``, uniformly chosen) first and give the pixels where the image differs from them a share
-    of the mixture (6); False: uniform and squared-value shares only. Returns: dict ``pixels`` (N, 2) int64,
+    of the mixture (6); False: uniform and squared-value shares only; ``guided_env``: ``probe_pixels``' (the
+    environment sampled by what the camera sees of it), kept for ``refine_probes``. Returns: dict ``pixels`` (N, 2) int64,
     ``index`` (N,) flat pixel indices, ``p`` (N,) float64 their probabilities, ``mean`` / ``variance`` (N, 3)
     float32, ``spp``, ``paths`` (N,) int64 (the paths behind each mean: ``spp``), ``max_depth``, ``seconds``
     (pilot included), ``shape_index`` (N,) int64 (-1: background), ``scene`` (the Scene), ``traced`` (all
-    paths, the pilot's included). Raises: as ``probe_error``.
+    paths, the pilot's included), ``guided_env``. Raises: as ``probe_error``.
     """
     img = _check_image(image, scene)
     H, W = scene.height, scene.width
@@ -327,7 +329,7 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
         at = np.arange(M) if M <= PILOT_MAX_PIXELS else np.sort(rng.choice(M, PILOT_MAX_PIXELS, replace=False))
         pm, _ = probe_pixels(scene, np.stack([at // W, at % W], axis=1).astype(np.int64), spp=PILOT_SPP,
                              max_depth=max_depth, seed=derived_seed(seed, PROBE_STREAM + 9), progress=False,
-                             lights=lights)
+                             lights=lights, guided_env=guided_env)
         risk[at] = np.sum((flat[at] - pm.astype(np.float64)) ** 2, axis=1)
         pilot_paths = len(at) * PILOT_SPP
     prob = (1.0 - RISK_SHARE - PILOT_SHARE) / M + _share(sq, RISK_SHARE) + _share(risk, PILOT_SHARE)
@@ -336,11 +338,12 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     pk = prob[idx] / prob.sum()
     pixels = np.stack([idx // W, idx % W], axis=1).astype(np.int64)
     mean, var = probe_pixels(scene, pixels, spp=spp, max_depth=max_depth, seed=derived_seed(seed, PROBE_STREAM + 1),
-                             progress=False, lights=lights)
+                             progress=False, lights=lights, guided_env=guided_env)
     shape = np.asarray(scene.gbuffer(device="cpu")["shape_index"]).reshape(-1).astype(np.int64)[idx]
     return {"pixels": pixels, "index": idx, "p": pk, "mean": mean, "variance": var, "spp": int(spp),
             "max_depth": int(max_depth), "seconds": time.perf_counter() - t, "shape_index": shape, "scene": scene,
-            "paths": np.full(probes, int(spp), np.int64), "traced": probes * int(spp) + pilot_paths}
+            "paths": np.full(probes, int(spp), np.int64), "traced": probes * int(spp) + pilot_paths,
+            "guided_env": bool(guided_env)}
 
 
 def _share(weights: np.ndarray, share: float) -> np.ndarray:

@@ -88,6 +88,43 @@ pub fn visibility_strata_lights(env: &Environment, scene: &Scene, n: usize, seed
     Ok(set)
 }
 
+/// Coarse cells of the guide of the probes' environment sampling (`camera_factor`).
+pub const GUIDE_CELLS: usize = 256;
+
+/// Per direction, what a unit of the environment's radiance from there adds to the pilot view (module docs,
+/// 2, on `GUIDE_CELLS` coarse cells: I_c over the luminance of the cell's integral), for the probes' path
+/// tracer to sample the environment by (`Environment::sampler_guided`): in a room lit through a window its
+/// samples go to the window. `None` without a surface in the pilot view or without a cell the pilot sees.
+///
+/// Errors: the pilot view's; `Interrupted`.
+pub fn camera_factor(env: &Environment, scene: &Scene, rt: &RayTracer, seed: u64) -> Result<Option<impl Fn(Vec3) -> f64>> {
+    let pilot = PilotView::new(scene, rt, VIEW_SAMPLES)?;
+    if pilot.len() == 0 {
+        return Ok(None);
+    }
+    let (center, radius) = crate::lights::scene_sphere(scene);
+    let cells = equal_area_cells(GUIDE_CELLS);
+    let integrals = env.integrate_cells(&cells);
+    let importance = importance(&pilot, rt, &cells, &integrals, seed, center, radius)?;
+    let factor: Vec<f64> = importance
+        .iter()
+        .zip(&integrals)
+        .map(|(&i, (e, _))| {
+            let l = super::environment::luminance(*e) as f64;
+            if l > 0.0 {
+                i / l
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    if !factor.iter().any(|&f| f > 0.0) {
+        return Ok(None);
+    }
+    let index = super::environment::CellIndex::new(cells.len());
+    Ok(Some(move |d: Vec3| index.of(d).map_or(0.0, |c| factor[c])))
+}
+
 /// I_c of every coarse cell (module docs, 2): 0 for cells without radiance.
 fn importance(
     pilot: &PilotView,

@@ -56,7 +56,7 @@ const LOOKUP_BUDGET: f32 = 3.2e7;
 const MIN_SAMPLES_PER_TEXEL: f32 = 2.0;
 const MAX_SAMPLES_PER_TEXEL: f32 = 8.0;
 
-fn luminance(v: Vec3) -> f32 {
+pub(crate) fn luminance(v: Vec3) -> f32 {
     v.element_sum() / 3.0
 }
 
@@ -221,41 +221,97 @@ impl Environment {
         Ok(set)
     }
 
-    /// A sampler of directions for particle emission (`EnvSampler`).
+    /// A sampler of directions for particle emission (`EnvSampler`): 0.9 luminance + 0.1 uniform.
     pub fn sampler(&self) -> EnvSampler {
-        let cells = equal_area_cells(16_384);
+        self.sampler_guided(None)
+    }
+
+    /// `sampler`, or with `factor` (per direction, >= 0: how much a unit of radiance from there adds to what
+    /// the camera sees) the defensive mixture `GUIDED_MIX` of the cells' luminance times the factor at their
+    /// centres, their luminance, and uniform. Without a cell where both are positive, `sampler`'s mixture.
+    pub fn sampler_guided(&self, factor: Option<&dyn Fn(Vec3) -> f64>) -> EnvSampler {
+        let cells = equal_area_cells(ENV_SAMPLER_CELLS);
         let integrals = self.integrate_cells(&cells);
-        let total: f64 = integrals.iter().map(|(e, _)| luminance(*e) as f64).sum();
+        let lum: Vec<f64> = integrals.iter().map(|(e, _)| luminance(*e) as f64).collect();
+        let guided: Vec<f64> = match factor {
+            Some(f) => cells.iter().zip(&lum).map(|(c, &l)| if l > 0.0 { l * f(c.sample(0.5, 0.5)).max(0.0) } else { 0.0 }).collect(),
+            None => Vec::new(),
+        };
+        let (total, total_guided) = (lum.iter().sum::<f64>(), guided.iter().sum::<f64>());
         let power: Vec3 = integrals.iter().map(|(e, _)| *e).sum();
         let f = cells.len() as f64;
         let mut acc = 0.0;
         let mut cdf = Vec::with_capacity(cells.len());
         let mut prob = Vec::with_capacity(cells.len());
-        for (e, _) in &integrals {
-            let p = if total > 0.0 { 0.9 * luminance(*e) as f64 / total + 0.1 / f } else { 1.0 / f };
+        for (k, &l) in lum.iter().enumerate() {
+            let p = if total_guided > 0.0 {
+                let [g, w, u] = GUIDED_MIX;
+                g * guided[k] / total_guided + w * l / total + u / f
+            } else if total > 0.0 {
+                0.9 * l / total + 0.1 / f
+            } else {
+                1.0 / f
+            };
             acc += p;
             prob.push(p as f32);
             cdf.push(acc);
         }
-        let mut row_start = Vec::new();
-        let mut above = 0usize;
-        for k in super::sampling::equal_area_rows(cells.len()) {
-            row_start.push(above);
-            above += k;
-        }
-        EnvSampler { cells, cdf, prob, integral: power, row_start }
+        EnvSampler { cdf, prob, integral: power, index: CellIndex::new(cells.len()), cells }
     }
 }
 
-/// Direction sampling proportional to 0.9 luminance + 0.1 uniform over 16,384 equal-area cells.
+/// Cells of the environment samplers' equal-area partition.
+pub const ENV_SAMPLER_CELLS: usize = 16_384;
+/// A guided sampler's shares: luminance x the guide's factor, luminance, uniform.
+pub const GUIDED_MIX: [f64; 3] = [0.6, 0.3, 0.1];
+
+/// Which cell of the equal-area partition into n cells (`sampling::equal_area_cells`) holds a direction.
+#[derive(Debug, Clone)]
+pub struct CellIndex {
+    n: usize,
+    /// Index of the first cell of each row (`sampling::equal_area_rows`).
+    row_start: Vec<usize>,
+}
+
+impl CellIndex {
+    pub fn new(n: usize) -> CellIndex {
+        let mut row_start = Vec::new();
+        let mut above = 0usize;
+        for k in super::sampling::equal_area_rows(n) {
+            row_start.push(above);
+            above += k;
+        }
+        CellIndex { n, row_start }
+    }
+
+    /// The cell holding unit direction `d` (cells of `sampling::sphere_dir`: z = d.y from 1 down, phi =
+    /// atan2(d.x, d.z) in [0, 2 pi)); a direction on a cell boundary (measure zero) gets one of its
+    /// neighbours. `None` for n = 0.
+    pub fn of(&self, d: Vec3) -> Option<usize> {
+        let n = self.n;
+        if n == 0 {
+            return None;
+        }
+        // Row: the last one whose first cell is at or above the fraction of the sphere above d.
+        let above = ((1.0 - d.y.clamp(-1.0, 1.0) as f64) * 0.5 * n as f64).clamp(0.0, (n - 1) as f64);
+        let r = self.row_start.partition_point(|&s| s as f64 <= above).saturating_sub(1);
+        let start = self.row_start[r];
+        let end = self.row_start.get(r + 1).copied().unwrap_or(n);
+        let phi = (d.x.atan2(d.z) as f64).rem_euclid(2.0 * std::f64::consts::PI);
+        let c = ((phi / (2.0 * std::f64::consts::PI) * (end - start) as f64) as usize).min(end - start - 1);
+        Some(start + c)
+    }
+}
+
+/// Direction sampling over 16,384 equal-area cells, each with a probability (`Environment::sampler`: 0.9
+/// luminance + 0.1 uniform; `sampler_guided`: `GUIDED_MIX`), uniform within the cell.
 pub struct EnvSampler {
     cells: Vec<Cell>,
     cdf: Vec<f64>,
     prob: Vec<f32>,
     /// int_{S^2} L dw (per channel).
     pub integral: Vec3,
-    /// Index of the first cell of each row of the equal-area partition (`sampling::equal_area_rows`).
-    row_start: Vec<usize>,
+    index: CellIndex,
 }
 
 impl EnvSampler {
@@ -268,22 +324,9 @@ impl EnvSampler {
     }
 
     /// The solid-angle density with which `sample` returns the unit direction `d` (MIS weights): the
-    /// probability of the cell holding `d` over its solid angle (cells of `sampling::sphere_dir`: z =
-    /// d.y from 1 down, phi = atan2(d.x, d.z) in [0, 2 pi)). A direction on a cell boundary (measure
-    /// zero) gets one of its neighbours' densities.
+    /// probability of the cell holding `d` (`CellIndex::of`) over its solid angle.
     pub fn pdf(&self, d: Vec3) -> f32 {
-        let n = self.cells.len();
-        if n == 0 {
-            return 0.0;
-        }
-        // Row: the last one whose first cell is at or above the fraction of the sphere above d.
-        let above = ((1.0 - d.y.clamp(-1.0, 1.0) as f64) * 0.5 * n as f64).clamp(0.0, (n - 1) as f64);
-        let r = self.row_start.partition_point(|&s| s as f64 <= above).saturating_sub(1);
-        let start = self.row_start[r];
-        let end = self.row_start.get(r + 1).copied().unwrap_or(n);
-        let phi = (d.x.atan2(d.z) as f64).rem_euclid(2.0 * std::f64::consts::PI);
-        let c = ((phi / (2.0 * std::f64::consts::PI) * (end - start) as f64) as usize).min(end - start - 1);
-        let k = start + c;
+        let Some(k) = self.index.of(d) else { return 0.0 };
         let total = *self.cdf.last().unwrap_or(&1.0);
         (self.prob[k] as f64 / total) as f32 / self.cells[k].solid_angle()
     }
