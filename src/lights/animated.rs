@@ -35,7 +35,8 @@
 //! masks block), as the VPLs of `generate::vpl` pass them; a gather sample on a masked surface of opacity a
 //! (at its uv) reflects a times its nested BSDF: its flux is a E_i A_i (k_d the nested BSDF's). The photon
 //! pre-pass traces particles through masks as `vpl` does (a photon is stored on a masked surface only when
-//! it meets the nested BSDF, so its density carries the factor a already).
+//! it meets the nested BSDF, so its density carries the factor a already, and only after it met a BSDF
+//! before: light that crossed masks only is the direct light above, not counted twice).
 //!
 //! Order within each frame: delta, area, environment, indirect (as `generate_lights`).
 //!

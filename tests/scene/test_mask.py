@@ -257,10 +257,11 @@ def test_vpls_pass_masks_with_one_minus_opacity(tmp_path):
     assert p_floor < 0.1 * p_open
 
 
-def _gather_power(scene, max_depth, clamp=1e30):
+def _gather_power(scene, max_depth, clamp=1e30, photons=0):
     """(floor, quad) summed power (mean of RGB) of the indirect lights of ``generate_animation_lights`` on the
-    one frame ``scene`` (gather samples lit by the direct light, no photons)."""
-    lights = ml.generate_animation_lights([scene], area=1024, indirect=8192, max_depth=max_depth, clamp=clamp, seed=3)
+    one frame ``scene`` (gather samples lit by the direct light, and by ``photons`` of multiple bounces)."""
+    lights = ml.generate_animation_lights([scene], area=1024, indirect=8192, max_depth=max_depth, clamp=clamp,
+                                          photons=photons, seed=3)
     s = lights[0]
     kind = np.asarray(s.kind)
     power = np.asarray(s.power).mean(axis=1)[kind == 4]
@@ -272,7 +273,8 @@ def test_animation_lights_pass_masks_as_vpls_do(tmp_path):
     """The gather samples of animation lights see the direct light through masks as VPL particles do: the floor
     under a quad of opacity 0.3 gets (1 - 0.3) of the power it gets through a fully open mask, the quad reflects
     0.3 of a solid one's, each equal to the still scene's VPL power (``generate_lights``, max_depth 4: the first
-    bounce after at most one null event); nothing through the mask at max_depth 3 nor from a point light."""
+    bounce after at most one null event); nothing through the mask at max_depth 3 nor from a point light, and
+    photons of multiple bounces do not count the light through the mask again."""
     open_floor, open_quad = _gather_power(_vpl_scene(tmp_path, 0.0, "area"), 4)
     floor, quad = _gather_power(_vpl_scene(tmp_path, 0.3, "area"), 4)
     solid_quad = _gather_power(_vpl_scene(tmp_path, 1.0, "area"), 4)[1]
@@ -285,6 +287,9 @@ def test_animation_lights_pass_masks_as_vpls_do(tmp_path):
     assert floor == pytest.approx(still_floor, rel=VPL_REL)
     assert quad == pytest.approx(still_quad, rel=VPL_REL)
     assert _gather_power(_vpl_scene(tmp_path, 0.3, "area"), 3)[0] < 0.05 * open_floor
+    # Light that reaches the floor through the mask has met no BSDF: it is direct light, which the photons of
+    # multiple bounces must not count again (nothing bounces onto the floor in this scene).
+    assert _gather_power(_vpl_scene(tmp_path, 0.3, "area"), 6, photons=20000)[0] == pytest.approx(floor, rel=1e-6)
     p_open = _gather_power(_vpl_scene(tmp_path, None, "point"), 4)[0]
     assert p_open > 0.0 and _gather_power(_vpl_scene(tmp_path, 0.3, "point"), 4)[0] < 0.01 * p_open
 
