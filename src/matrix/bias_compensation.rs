@@ -9,8 +9,8 @@
 //! for: direct and indirect light, no emission). The clamped columns keep the factor min(1, c / G),
 //! G = |w . n_s(x)| |w . n_g(y)| / |x - y|^2 (`LightSet::emitted`, c = `vpl_clamp`), so the residual is
 //!     R(x) = int_Omega L_r(y(w), -w) f_r(x, w) |w . n_s(x)| max(0, 1 - c / G) dw.
-//! One sample: w from the BSDF at x (`sampling::sample_bsdf`, weight f_r cos / pdf; delta lobes carry no
-//! VPL light and count 0), the ray to y; if G > c, weight * (1 - c / G) * L^_r(y, -w) where L^_r is
+//! One sample: w from the BSDF at x (`pathtrace::vertex::Vertex::sample`, the probe path tracer's: weight
+//! f_r cos / pdf, a blend's by its mixture density; delta lobes carry no VPL light and count 0), the ray to y; if G > c, weight * (1 - c / G) * L^_r(y, -w) where L^_r is
 //! itself estimated by the light set at y -- every light's contribution with its shadow ray (point VPLs
 //! clamped) -- plus, recursively, the residual at y (Kollig and Keller's recursion). E[R^] = R whenever
 //! E[L^_r] = L_r, i.e. as the columns themselves: clamped columns + compensation is an unbiased estimate
