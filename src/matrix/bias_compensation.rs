@@ -44,7 +44,9 @@
 //! rays at y cross masked surfaces as the light matrix's do (`cpu::mask_visibility_at`: (1 - a) each,
 //! toward area samples, environment strata and VPLs), at most max_depth - 2 - k of them for a vertex after k
 //! bounces, null events included. A view sample on a mask is its nested BSDF (its throughput carries a; the
-//! surface behind is a view sample of its own). Measured on a box with a masked wall of opacity 0.4
+//! surface behind is a view sample of its own). With masks the estimate is exact for unlimited max_depth
+//! only: for a finite one the columns let a VPL's shadow ray cross max_depth - 2 - k masks (the budget of
+//! direct light), while a null event here costs the compensation's VPLs one unit of depth. Measured on a box with a masked wall of opacity 0.4
 //! (`tests::compensation_crosses_masks`, 128 VPL and compensation seeds): clamped columns + compensation
 //! within 1.42% relative L2 of the unclamped VPL image's mean against the mean's noise 1.52% (tree-sampled
 //! lights: 1.46% against 1.41%), the clamped columns alone 7.8%; treating the masks as opaque leaves
