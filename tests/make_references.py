@@ -113,6 +113,10 @@ REFERENCES = {
     "mask-leaves": (HERE / "data" / "mask_leaves.xml", {"width": 64, "height": 48}, (64, 48), -1, 0.004, None),
     "mask-leaves-depth2": (HERE / "data" / "mask_leaves.xml", {"width": 64, "height": 48}, (64, 48), 2, 0.002, None),
     "mask-leaves-depth3": (HERE / "data" / "mask_leaves.xml", {"width": 64, "height": 48}, (64, 48), 3, 0.004, None),
+    # A mask around delta BSDFs (tests/scene/test_mask.py): a half-opaque gold mirror facing the camera (the lit floor
+    # seen in it and through it; the light behind its plane, so no caustic) and a checkerboard-masked smooth plastic
+    # quad over the floor, 64 x 48, max_depth -1.
+    "mask-delta": (HERE / "data" / "mask_delta.xml", {"width": 64, "height": 48}, (64, 48), -1, 0.004, None),
 }
 
 # Integrator of the references that do not use ``path`` (with the max_depth above).

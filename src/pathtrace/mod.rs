@@ -47,7 +47,8 @@
 //!
 //! Masked surfaces (`mask`, Mitsuba's `mask.cpp`; semantics measured in `crate::raytrace::mask`): eval and
 //! pdf are the nested BSDF's times the opacity a; a BSDF sample passes straight through with probability
-//! 1 - a (weight 1, a delta event: the emitter it then hits has MIS weight 1, and it is one unit of depth);
+//! 1 - a (weight 1, a delta event: the emitter it then hits has MIS weight 1, and it is one unit of depth), else
+//! samples the nested BSDF (a nested delta BSDF's lobes as any delta BSDF's);
 //! shadow rays stop at masked surfaces as at any other (Mitsuba's `ray_test`). A path whose BSDF samples
 //! were all null events is worth 0 unless the scene has an environment (Mitsuba's `valid_ray`); as in
 //! `llvm_ad_rgb`, the vertex where the depth runs out also draws its null-or-not decision.
