@@ -117,6 +117,15 @@ REFERENCES = {
     # tests/data/scenes/living-room/LICENSE.txt), lit only through its windows by an environment map, with
     # masked leaves, glass, rough plastics and conductors; a version 0.5 file. Direct light at 96 x 54.
     "living-room-direct": (TEST_SCENES / "living-room" / "scene.xml", {}, (96, 54), 2, 0.0012, None),
+    # A mask around delta BSDFs (tests/scene/test_mask.py): a half-opaque gold mirror facing the camera (the lit floor
+    # seen in it and through it; the light behind its plane, so no caustic) and a checkerboard-masked smooth plastic
+    # quad over the floor, 64 x 48, max_depth -1.
+    "mask-delta": (HERE / "data" / "mask_delta.xml", {"width": 64, "height": 48}, (64, 48), -1, 0.004, None),
+    # A mask around a smooth glass sphere over a floor under a point light (no caustic), 48 x 36, max_depth -1;
+    # with opacity 1 (the glass alone) for the delta chains' own deviation on it.
+    "mask-glass": (HERE / "data" / "mask_glass.xml", {"width": 48, "height": 36}, (48, 36), -1, 0.002, None),
+    "mask-glass-opaque": (HERE / "data" / "mask_glass.xml", {"width": 48, "height": 36, "opacity": 1.0}, (48, 36), -1,
+                          0.002, None),
 }
 
 # Integrator of the references that do not use ``path`` (with the max_depth above).

@@ -197,6 +197,22 @@ pub fn mask_visibility_crossed(
     dist: f32,
     budget: u32,
 ) -> (f32, bool) {
+    mask_visibility_at(tracer, lights, j, sp.p, sp.n_g, wo, dist, budget)
+}
+
+/// [`mask_visibility_crossed`] from surface point `p` (geometric normal `n_g`), any path vertex.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn mask_visibility_at(
+    tracer: &RayTracer,
+    lights: &LightSet,
+    j: usize,
+    p: Vec3,
+    n_g: Vec3,
+    wo: Vec3,
+    dist: f32,
+    budget: u32,
+) -> (f32, bool) {
     use crate::lights::LightKind;
     let passes = match lights.kind[j] {
         LightKind::OrientedPoint | LightKind::Vpl => true,
@@ -204,7 +220,7 @@ pub fn mask_visibility_crossed(
         LightKind::Point | LightKind::Spot => false,
     };
     let q = dist.is_finite().then(|| lights.position[j]);
-    tracer.mask_transmittance_crossed(sp.p, sp.n_g, q, wo, if passes { budget } else { 0 })
+    tracer.mask_transmittance_crossed(p, n_g, q, wo, if passes { budget } else { 0 })
 }
 
 /// The CPU backend of one light matrix (module docs).

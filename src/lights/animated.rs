@@ -28,6 +28,16 @@
 //!   `generate_lights` applies. Gather samples whose k_d is 0 in frame 0 (black surfaces, glass, mirrors,
 //!   conductors) are left out.
 //!
+//! Masked surfaces (`mask`, `crate::raytrace::mask`): the direct light's shadow rays toward a gather
+//! sample cross masked surfaces toward area points and environment strata with (1 - opacity) each, at most
+//! max_depth - 3 of them (the depth of a still scene's VPL after as many null events), and never toward
+//! point, spot or directional emitters (Mitsuba reaches those only by emitter sampling, whose shadow rays
+//! masks block), as the VPLs of `generate::vpl` pass them; a gather sample on a masked surface of opacity a
+//! (at its uv) reflects a times its nested BSDF: its flux is a E_i A_i (k_d the nested BSDF's). The photon
+//! pre-pass traces particles through masks as `vpl` does (a photon is stored on a masked surface only when
+//! it meets the nested BSDF, so its density carries the factor a already, and only after it met a BSDF
+//! before: light that crossed masks only is the direct light above, not counted twice).
+//!
 //! Order within each frame: delta, area, environment, indirect (as `generate_lights`).
 //!
 //! Symbols: f frames, k a frame, j a light, E irradiance (W/m^2), Phi flux (W), A area (m^2), k_d diffuse
@@ -129,9 +139,12 @@ fn area_frame(scene: &Scene, tied: &TiedArea, areas: &[AreaEmitter], frame0: &Li
     Ok(())
 }
 
-/// Irradiance from `direct` at a surface point (p, shading normal n, geometric normal n_g), with exact
-/// visibility and the oriented points' G clamped at `clamp` (module docs).
-pub(crate) fn irradiance(rt: &RayTracer, direct: &LightSet, p: Vec3, n: Vec3, n_g: Vec3, clamp: f32) -> Vec3 {
+/// Irradiance (W/m^2, RGB) from `direct` at a surface point (p, shading normal n, geometric normal n_g), with
+/// exact visibility and the oriented points' G clamped at `clamp` (module docs). In a scene with masked
+/// surfaces a shadow ray toward an area sample or environment stratum crosses at most `mask_budget` of them
+/// with (1 - opacity) each (`cpu::mask_visibility_at`; point, spot and directional emitters are blocked by
+/// them); `mask_budget` is unused without masks.
+pub(crate) fn irradiance(rt: &RayTracer, direct: &LightSet, p: Vec3, n: Vec3, n_g: Vec3, clamp: f32, mask_budget: u32) -> Vec3 {
     let mut e = Vec3::ZERO;
     for j in 0..direct.len() {
         let Some((wo, mut radiance, dist)) = direct.emitted(j, p, n) else { continue };
@@ -145,11 +158,24 @@ pub(crate) fn irradiance(rt: &RayTracer, direct: &LightSet, p: Vec3, n: Vec3, n_
                 radiance *= clamp / g;
             }
         }
-        if !crate::cpu::light_blocked(rt, direct, j, p, n_g, wo, dist) {
+        if rt.masks().any() {
+            e += radiance * cos * crate::cpu::mask_visibility_at(rt, direct, j, p, n_g, wo, dist, mask_budget).0;
+        } else if !crate::cpu::light_blocked(rt, direct, j, p, n_g, wo, dist) {
             e += radiance * cos;
         }
     }
     e
+}
+
+/// The masked surfaces a direct light's shadow ray toward a one-bounce indirect light (a gather sample) may
+/// cross: j with 1 + j <= max_depth - 2, the depth of a VPL stored after j null events
+/// (`generate::vpl`); unlimited for `u32::MAX`.
+pub(crate) fn gather_mask_budget(max_depth: u32) -> u32 {
+    if max_depth == u32::MAX {
+        u32::MAX
+    } else {
+        max_depth.saturating_sub(3)
+    }
 }
 
 /// Lights for every frame of an animation (module docs). `frames[0]` fixes the area points, the gather
@@ -162,7 +188,6 @@ pub fn generate_animation_lights(frames: &[&Scene], opts: &AnimationLightOptions
     let Some(first) = frames.first() else {
         return Err(Error::invalid("the animation has no frames"));
     };
-    crate::raytrace::mask::refuse_masks(first, "animation light generation")?;
     for (name, v) in [("area", opts.area), ("environment", opts.environment), ("indirect", opts.indirect), ("photons", opts.photons)] {
         if v > MAX_LIGHTS {
             return Err(Error::invalid(format!("{name} must be at most {MAX_LIGHTS}, got {v}")));
@@ -230,13 +255,17 @@ pub fn generate_animation_lights(frames: &[&Scene], opts: &AnimationLightOptions
             } else {
                 vec![Vec3::ZERO; gather_lights.len()]
             };
+            let budget = gather_mask_budget(opts.max_depth);
             let flux: Vec<Vec3> = crate::interrupt::par_map_chunked(gather_lights.len(), 256, |a| {
                 let i = gather_lights[a];
                 let (p, n, n_g) = (cloud.position[i], cloud.normal[i], cloud.geo_normal[i]);
                 if n == Vec3::ZERO {
                     return Vec3::ZERO;
                 }
-                (irradiance(&rt, &direct, p, n, n_g, clamp) + photons[a]) * cloud.area[i]
+                // A masked sample reflects a times its nested BSDF (Mitsuba's `mask` eval); photons are
+                // stored on it only when they meet the nested BSDF (probability a), so theirs carry a already.
+                let opacity = rt.masks().opacity(cloud.shape[i] as usize, cloud.uv[i]).unwrap_or(1.0);
+                (irradiance(&rt, &direct, p, n, n_g, clamp, budget) * opacity + photons[a]) * cloud.area[i]
             })?;
             for (a, &i) in gather_lights.iter().enumerate() {
                 let mut b: GpuBsdf = bytemuck::Zeroable::zeroed();

@@ -9,8 +9,8 @@
 //! for: direct and indirect light, no emission). The clamped columns keep the factor min(1, c / G),
 //! G = |w . n_s(x)| |w . n_g(y)| / |x - y|^2 (`LightSet::emitted`, c = `vpl_clamp`), so the residual is
 //!     R(x) = int_Omega L_r(y(w), -w) f_r(x, w) |w . n_s(x)| max(0, 1 - c / G) dw.
-//! One sample: w from the BSDF at x (`sampling::sample_bsdf`, weight f_r cos / pdf; delta lobes carry no
-//! VPL light and count 0), the ray to y; if G > c, weight * (1 - c / G) * L^_r(y, -w) where L^_r is
+//! One sample: w from the BSDF at x (`pathtrace::vertex::Vertex::sample`, the probe path tracer's: weight
+//! f_r cos / pdf, a blend's by its mixture density; delta lobes carry no VPL light and count 0), the ray to y; if G > c, weight * (1 - c / G) * L^_r(y, -w) where L^_r is
 //! itself estimated by the light set at y -- every light's contribution with its shadow ray (point VPLs
 //! clamped) -- plus, recursively, the residual at y (Kollig and Keller's recursion). E[R^] = R whenever
 //! E[L^_r] = L_r, i.e. as the columns themselves: clamped columns + compensation is an unbiased estimate
@@ -35,17 +35,33 @@
 //! segments (deviation: a VPL does not know its bounce). Russian roulette from level 3 on (continue with
 //! probability min(0.95, luminance of the path weight)), so no recursion cap biases the estimate.
 //!
+//! Masked surfaces (`mask`, semantics in `crate::raytrace::mask`): the compensation paths are Mitsuba's
+//! `path` paths and use the probe path tracer's vertex (`pathtrace::vertex::Vertex`): a masked y reflects
+//! with the mask's eval (opacity a times the nested BSDF, so the light set's sum at y is a times the
+//! nested one's), and its BSDF sample is the null lobe with probability 1 - a, which continues the segment
+//! straight through y (one unit of depth) to the surface behind, still clamped by its G from x (the clamp of
+//! a VPL behind the mask seen from x); else the nested sample (weight unchanged, the recursion at y). Shadow
+//! rays at y cross masked surfaces as the light matrix's do (`cpu::mask_visibility_at`: (1 - a) each,
+//! toward area samples, environment strata and VPLs), at most max_depth - 2 - k of them for a vertex after k
+//! bounces, null events included. A view sample on a mask is its nested BSDF (its throughput carries a; the
+//! surface behind is a view sample of its own). With masks the estimate is exact for unlimited max_depth
+//! only: for a finite one the columns let a VPL's shadow ray cross max_depth - 2 - k masks (the budget of
+//! direct light), while a null event here costs the compensation's VPLs one unit of depth. Measured on a box with a masked wall of opacity 0.4
+//! (`tests::compensation_crosses_masks`, 128 VPL and compensation seeds): clamped columns + compensation
+//! within 1.42% relative L2 of the unclamped VPL image's mean against the mean's noise 1.52% (tree-sampled
+//! lights: 1.46% against 1.41%), the clamped columns alone 7.8%; treating the masks as opaque leaves
+//! 13% of the clamped energy uncompensated (3.5 standard errors).
+//!
 //! Symbols: x a view sample, y a compensation vertex, w a direction, f_r a BSDF, G the geometry term,
 //! c the clamp, L_r reflected radiance, R the residual, S `light_samples`, M `max_depth`.
-use crate::cpu::light_blocked;
+use crate::cpu::{light_blocked, mask_visibility_at};
 use crate::error::{Error, Result};
-use crate::lights::generate::sampling::{sample_bsdf, stream, to_local, to_world, uniform};
+use crate::lights::generate::sampling::{stream, uniform};
 use crate::lights::light_tree::LightTree;
 use crate::lights::{LightKind, LightSet};
+use crate::pathtrace::vertex::{Sampled, Vertex};
 use crate::raytrace::{spawn_ray, RayTracer};
 use crate::scene::Scene;
-use crate::shading::bsdf::{eval, resolve_records, FLAG_BLEND};
-use crate::shading::GpuBsdf;
 use crate::view::ViewSamples;
 use glam::Vec3;
 use rand_pcg::Pcg32;
@@ -54,6 +70,8 @@ use rand_pcg::Pcg32;
 const STREAM_BIAS: u64 = 7;
 /// Recursion level from which Russian roulette applies.
 const RR_LEVEL: u32 = 3;
+/// Most null events (masked surfaces passed straight through) along one compensation segment.
+const MAX_NULL_EVENTS: u32 = 1024;
 /// Sets of more than this many lights per light sample are sampled from the light tree (module docs).
 pub const TREE_LIGHTS_PER_SAMPLE: usize = 128;
 
@@ -77,37 +95,6 @@ impl Default for BiasCompensationOptions {
 
 fn luminance(v: Vec3) -> f32 {
     v.element_sum() / 3.0
-}
-
-/// A surface point's BSDF: one record or a blend of two (weight `w` of the second).
-#[derive(Clone, Copy)]
-struct Surface {
-    p: Vec3,
-    n: Vec3,
-    n_g: Vec3,
-    /// Direction toward the previous vertex (world).
-    wi: Vec3,
-    first: GpuBsdf,
-    second: Option<(GpuBsdf, f32)>,
-}
-
-impl Surface {
-    fn eval(&self, wo: Vec3) -> Vec3 {
-        let (wi_l, wo_l) = (to_local(self.n, self.wi), to_local(self.n, wo));
-        let v0 = eval(&self.first, wi_l, wo_l);
-        match &self.second {
-            Some((b, w)) => v0 * (1.0 - w) + eval(b, wi_l, wo_l) * *w,
-            None => v0,
-        }
-    }
-
-    /// One record, the second of a blend with its weight (unbiased: E[f] = (1 - w) f_0 + w f_1).
-    fn pick(&self, rng: &mut Pcg32) -> GpuBsdf {
-        match &self.second {
-            Some((b, w)) if uniform(rng) < *w => *b,
-            _ => self.first,
-        }
-    }
 }
 
 /// The light trees of a large set (module docs): over every light, and over the direct lights with their
@@ -139,23 +126,39 @@ impl Compensator<'_> {
         self.opts.max_depth == u32::MAX || segments <= self.opts.max_depth as u64
     }
 
-    /// The light set's contribution at `s` toward `s.wi`, VPLs included when `vpls` (module docs).
-    fn lights_at(&self, s: &Surface, vpls: bool, direct: bool, rng: &mut Pcg32) -> Vec3 {
+    /// Shadow-ray budget (masked surfaces a shadow ray may cross) of a vertex after `bounces` bounces, null
+    /// events included: Mitsuba's k + 1 + j < max_depth (`ChainOptions::mask_budget`).
+    fn budget(&self, bounces: u64) -> u32 {
+        if self.opts.max_depth == u32::MAX {
+            u32::MAX
+        } else {
+            (self.opts.max_depth as i64 - 2 - bounces as i64).clamp(0, u32::MAX as i64 - 1) as u32
+        }
+    }
+
+    /// The light set's contribution at `s` toward `s.wi`, VPLs included when `vpls` (module docs); shadow
+    /// rays cross at most `budget` masked surfaces (`cpu::mask_visibility_at`).
+    fn lights_at(&self, s: &Vertex, vpls: bool, direct: bool, budget: u32, rng: &mut Pcg32) -> Vec3 {
         let l = self.lights;
         let counts = |j: usize| if l.kind[j] == LightKind::Vpl { vpls } else { direct };
         let unshadowed = |j: usize| -> Option<(Vec3, Vec3, f32)> {
             if !counts(j) {
                 return None;
             }
-            let (wo, radiance, dist) = l.emitted(j, s.p, s.n)?;
+            let (wo, radiance, dist) = l.emitted(j, s.p, s.n_s)?;
             let v = s.eval(wo) * radiance;
             (v.max_element() > 0.0).then_some((v, wo, dist))
         };
-        let lit = |j: usize, wo: Vec3, dist: f32| !light_blocked(self.tracer, l, j, s.p, s.n_g, wo, dist);
+        let masked = self.tracer.masks().any();
+        let lit = |j: usize, wo: Vec3, dist: f32| -> f32 {
+            if masked {
+                mask_visibility_at(self.tracer, l, j, s.p, s.n_g, wo, dist, budget).0
+            } else {
+                !light_blocked(self.tracer, l, j, s.p, s.n_g, wo, dist) as u8 as f32
+            }
+        };
         if self.opts.light_samples == 0 {
-            return (0..l.len())
-                .filter_map(|j| unshadowed(j).filter(|&(_, wo, d)| lit(j, wo, d)).map(|(v, _, _)| v))
-                .fold(Vec3::ZERO, |a, b| a + b);
+            return (0..l.len()).filter_map(|j| unshadowed(j).map(|(v, wo, d)| v * lit(j, wo, d))).fold(Vec3::ZERO, |a, b| a + b);
         }
         let s_count = self.opts.light_samples;
         if let Some(trees) = &self.trees {
@@ -167,11 +170,11 @@ impl Compensator<'_> {
             };
             let mut sum = Vec3::ZERO;
             for _ in 0..s_count {
-                let Some((k, p)) = tree.sample(s.p, s.n, || uniform(rng) as f64) else { return Vec3::ZERO };
+                let Some((k, p)) = tree.sample(s.p, s.n_s, || uniform(rng) as f64) else { return Vec3::ZERO };
                 let j = map.map_or(k, |m| m[k]);
                 if let Some((v, wo, d)) = unshadowed(j) {
-                    if p > 0.0 && lit(j, wo, d) {
-                        sum += (v.as_dvec3() / p).as_vec3();
+                    if p > 0.0 {
+                        sum += (v.as_dvec3() * lit(j, wo, d) as f64 / p).as_vec3();
                     }
                 }
             }
@@ -196,59 +199,67 @@ impl Compensator<'_> {
             let k = cdf.partition_point(|&c| c <= u).min(vals.len() - 1);
             let (j, v, wo, d) = vals[k];
             let p = luminance(v) as f64 / total;
-            if p > 0.0 && lit(j, wo, d) {
-                sum += v / (p as f32);
+            if p > 0.0 {
+                sum += v * lit(j, wo, d) / (p as f32);
             }
         }
         sum / s_count as f32
     }
 
-    /// The residual at `x` (module docs), one BSDF sample; `level` is the level of the vertex it finds.
-    fn residual(&self, x: &Surface, level: u32, rng: &mut Pcg32) -> Vec3 {
+    /// The residual at `x` (module docs) along its BSDF sample `s` (not a null event); `level` is the
+    /// level of the vertex it finds and `nulls` the null events before `x`. Each masked surface on the
+    /// way draws its null lobe with `Vertex::sample` (module docs: masked surfaces).
+    fn residual(&self, x: &Vertex, s: &Sampled, level: u32, nulls: u32, rng: &mut Pcg32) -> Vec3 {
+        if s.delta {
+            return Vec3::ZERO;
+        }
         let c = self.lights.vpl_clamp;
-        let b = x.pick(rng);
-        let Some(sample) = sample_bsdf(&b, to_local(x.n, x.wi), rng) else { return Vec3::ZERO };
-        if sample.delta {
-            return Vec3::ZERO;
-        }
-        let w = to_world(x.n, sample.wo);
-        let Some(hit) = self.tracer.intersect(spawn_ray(x.p, x.n_g, w), w, 0.0, f32::INFINITY) else { return Vec3::ZERO };
-        let d2 = (hit.p - x.p).length_squared();
-        let g = w.dot(x.n).abs() * hit.wi.dot(hit.n_g).abs() / d2;
-        if !(g > c) {
-            return Vec3::ZERO;
-        }
-        let mut weight = sample.weight * (1.0 - c / g);
-        if level >= RR_LEVEL {
-            let q = luminance(weight).min(0.95);
-            if !(uniform(rng) < q) {
-                return Vec3::ZERO;
+        let w = s.w;
+        let mut o = spawn_ray(x.p, x.n_g, w);
+        let mut nulls = nulls;
+        let mut total = Vec3::ZERO;
+        for _ in 0..MAX_NULL_EVENTS {
+            let Some(hit) = self.tracer.intersect(o, w, 0.0, f32::INFINITY) else { break };
+            let d2 = (hit.p - x.p).length_squared();
+            // G is measured from x whatever null events lie between: the clamp of a VPL at y seen from x.
+            let g = w.dot(x.n_s).abs() * hit.wi.dot(hit.n_g).abs() / d2;
+            let bounces = level as u64 + nulls as u64;
+            let vpls = self.allows(bounces + 3);
+            let masked = self.tracer.masks().opacity(hit.mesh, hit.uv).is_some();
+            if !(g > c) && !(masked && vpls) {
+                break;
             }
-            weight /= q;
+            let y = Vertex::at_hit(self.scene, self.tracer, hit.mesh, hit.prim, hit.p, hit.n_s, hit.n_g, hit.wi, hit.uv);
+            let mut weight = None;
+            if g > c {
+                let mut wt = s.weight * (1.0 - c / g);
+                let mut alive = true;
+                if level >= RR_LEVEL {
+                    let q = luminance(wt).min(0.95);
+                    alive = uniform(rng) < q;
+                    wt /= q;
+                }
+                if alive {
+                    total += wt * self.lights_at(&y, vpls, self.allows(bounces + 2), self.budget(bounces), rng);
+                    weight = Some(wt);
+                }
+            }
+            if !vpls || (weight.is_none() && !masked) {
+                break;
+            }
+            let Some(next) = y.sample(rng) else { break };
+            if next.null {
+                // Straight through y (one unit of depth): what lies behind is still seen from x.
+                o = spawn_ray(hit.p, hit.n_g, w);
+                nulls += 1;
+                continue;
+            }
+            if let Some(wt) = weight {
+                total += wt * self.residual(&y, &next, level + 1, nulls, rng);
+            }
+            break;
         }
-        let mesh = &self.scene.meshes[hit.mesh];
-        let (mut first, second) = resolve_records(&self.scene.bsdfs, &self.scene.textures, mesh.bsdf, hit.uv);
-        crate::shading::perturb::apply(self.scene, hit.mesh, hit.prim, hit.p, hit.n_g, hit.n_s, hit.uv, &mut [&mut first]);
-        let strip = |mut r: GpuBsdf| {
-            r.flags &= !FLAG_BLEND;
-            (r.extra[2], r.extra[3]) = (0.0, 0.0);
-            r
-        };
-        let y = Surface {
-            p: hit.p,
-            n: hit.n_s,
-            n_g: hit.n_g,
-            wi: hit.wi,
-            second: second.map(|s| (s, first.extra[2])),
-            first: if second.is_some() { strip(first) } else { first },
-        };
-        let l = level as u64;
-        let vpls = self.allows(l + 3);
-        let mut radiance = self.lights_at(&y, vpls, self.allows(l + 2), rng);
-        if vpls {
-            radiance += self.residual(&y, level + 1, rng);
-        }
-        weight * radiance
+        total
     }
 }
 
@@ -267,7 +278,6 @@ pub fn bias_compensation(
     opts: &BiasCompensationOptions,
     pixels: Option<&[usize]>,
 ) -> Result<Vec<f32>> {
-    crate::raytrace::mask::refuse_masks(scene, "bias compensation")?;
     if opts.spp == 0 {
         return Err(Error::invalid("spp must be >= 1 BSDF samples per view sample, got 0"));
     }
@@ -307,17 +317,12 @@ pub fn bias_compensation(
             }
         }
         let mut rng = stream(opts.seed, STREAM_BIAS, i as u64);
-        let b = view.bsdf[i];
-        let second = (b.flags & FLAG_BLEND != 0).then(|| view.bsdf.get(b.extra[3].to_bits() as usize).map(|s| (*s, b.extra[2]))).flatten();
-        let mut first = b;
-        if second.is_some() {
-            first.flags &= !FLAG_BLEND;
-            (first.extra[2], first.extra[3]) = (0.0, 0.0);
-        }
-        let x = Surface { p: view.position[i], n: view.normal[i], n_g: view.geo_normal[i], wi: view.wi[i], first, second };
+        let x = Vertex::of_view_sample(view, i);
         let mut sum = Vec3::ZERO;
         for _ in 0..opts.spp {
-            sum += comp.residual(&x, 1, &mut rng);
+            if let Some(s) = x.sample(&mut rng) {
+                sum += comp.residual(&x, &s, 1, 0, &mut rng);
+            }
         }
         sum / opts.spp as f32 * view.throughput_of(i)
     })?;

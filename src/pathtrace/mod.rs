@@ -51,7 +51,8 @@
 //!
 //! Masked surfaces (`mask`, Mitsuba's `mask.cpp`; semantics measured in `crate::raytrace::mask`): eval and
 //! pdf are the nested BSDF's times the opacity a; a BSDF sample passes straight through with probability
-//! 1 - a (weight 1, a delta event: the emitter it then hits has MIS weight 1, and it is one unit of depth);
+//! 1 - a (weight 1, a delta event: the emitter it then hits has MIS weight 1, and it is one unit of depth), else
+//! samples the nested BSDF (a nested delta BSDF's lobes as any delta BSDF's);
 //! shadow rays stop at masked surfaces as at any other (Mitsuba's `ray_test`). A path whose BSDF samples
 //! were all null events is worth 0 unless the scene has an environment (Mitsuba's `valid_ray`); as in
 //! `llvm_ad_rgb`, the vertex where the depth runs out also draws its null-or-not decision.
@@ -72,18 +73,16 @@ use crate::cpu::light_blocked;
 use crate::error::{Error, Result};
 use crate::lights::generate::area::{area_emitters, AreaEmitter};
 use crate::lights::generate::environment::{EnvSampler, Environment};
-use crate::lights::generate::sampling::{has_smooth_lobe_only, is_dielectric, pdf_bsdf, sample_bsdf, stream, to_local, to_world, uniform};
+use crate::lights::generate::sampling::{stream, uniform};
 use crate::lights::LightSet;
 use crate::matrix::emitted::{sanitized, AreaRadiance};
 use crate::raytrace::{spawn_ray, RayTracer};
 use crate::scene::{Bsdf, Scene};
-use crate::shading::bsdf::KIND_ROUGHDIELECTRIC;
-use crate::shading::bsdf::{eval, resolve_records, FLAG_BLEND};
-use crate::shading::GpuBsdf;
 use crate::view::ViewSamples;
 use glam::{DVec3, Vec3};
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
+use vertex::{power_heuristic, Vertex};
 
 /// Random stream family of the path tracer (`sampling::stream`).
 pub const STREAM_PATH: u64 = 10;
@@ -160,117 +159,6 @@ fn uses(scene: &Scene, root: usize, target: usize) -> bool {
         Some(Bsdf::BumpMap { nested, .. } | Bsdf::NormalMap { nested, .. }) if *nested != root => uses(scene, *nested, target),
         Some(Bsdf::Blend { first, second, .. }) => uses(scene, *first, target) || uses(scene, *second, target),
         _ => false,
-    }
-}
-
-/// A path vertex: point, normals, direction back along the path, BSDF (one record or a blend).
-#[derive(Clone, Copy)]
-struct Vertex {
-    p: Vec3,
-    n_s: Vec3,
-    n_g: Vec3,
-    wi: Vec3,
-    first: GpuBsdf,
-    /// A blend's second record and its weight w.
-    second: Option<(GpuBsdf, f32)>,
-    /// The opacity a of a masked surface (`mask`): eval and pdf are the nested BSDF's times a, and
-    /// sampling passes straight through (a null event) with probability 1 - a.
-    opacity: Option<f32>,
-}
-
-/// A BSDF sample in world space.
-struct Sampled {
-    w: Vec3,
-    weight: Vec3,
-    /// Solid-angle density (0 for a delta lobe).
-    pdf: f32,
-    delta: bool,
-    /// Relative IOR crossed (1 unless refracted).
-    eta: f32,
-    /// A masked surface's null event (straight through; Mitsuba's `BSDFFlags::Null`, part of `Delta`).
-    null: bool,
-}
-
-impl Vertex {
-    fn eval(&self, w: Vec3) -> Vec3 {
-        let (wi, wo) = (to_local(self.n_s, self.wi), to_local(self.n_s, w));
-        let f = eval(&self.first, wi, wo);
-        let f = match &self.second {
-            Some((b, t)) => f * (1.0 - t) + eval(b, wi, wo) * *t,
-            None => f,
-        };
-        f * self.opacity.unwrap_or(1.0)
-    }
-
-    fn pdf(&self, w: Vec3) -> f32 {
-        let (wi, wo) = (to_local(self.n_s, self.wi), to_local(self.n_s, w));
-        let p = pdf_bsdf(&self.first, wi, wo);
-        let p = match &self.second {
-            Some((b, t)) => p * (1.0 - t) + pdf_bsdf(b, wi, wo) * *t,
-            None => p,
-        };
-        p * self.opacity.unwrap_or(1.0)
-    }
-
-    /// Whether some lobe is not delta (emitter sampling applies).
-    fn has_smooth(&self) -> bool {
-        // A roughdielectric carries no VPL (`has_smooth_lobe_only`) but its glossy lobes are sampled here.
-        let glossy = |b: &GpuBsdf| !has_smooth_lobe_only(b) || b.kind == KIND_ROUGHDIELECTRIC;
-        glossy(&self.first) || self.second.is_some_and(|(b, _)| glossy(&b))
-    }
-
-    fn sample(&self, rng: &mut Pcg32) -> Option<Sampled> {
-        // Mitsuba's `mask.cpp` `sample`: the null lobe with probability 1 - a (weight 1, pdf 1 - a).
-        let a = self.opacity.unwrap_or(1.0);
-        if self.opacity.is_some() && uniform(rng) >= a {
-            return Some(Sampled { w: -self.wi, weight: Vec3::ONE, pdf: 1.0 - a, delta: true, eta: 1.0, null: true });
-        }
-        let b = match &self.second {
-            Some((b, t)) if uniform(rng) < *t => *b,
-            _ => self.first,
-        };
-        let wi = to_local(self.n_s, self.wi);
-        let s = sample_bsdf(&b, wi, rng)?;
-        let w = to_world(self.n_s, s.wo);
-        if s.delta {
-            let mut weight = s.weight;
-            let mut eta = 1.0;
-            if is_dielectric(&b) && s.wo.z * wi.z < 0.0 {
-                // Radiance mode: Mitsuba's dielectric scales a refraction by eta_ti^2.
-                let eta_ti = if wi.z >= 0.0 { 1.0 / b.eta[0] } else { b.eta[0] };
-                weight *= eta_ti * eta_ti;
-                eta = 1.0 / eta_ti;
-            }
-            return Some(Sampled { w, weight, pdf: 0.0, delta: true, eta, null: false });
-        }
-        if self.second.is_none() {
-            // The nested BSDF of a mask: its weight unchanged, its pdf times a.
-            let pdf = a * pdf_bsdf(&b, wi, s.wo);
-            let (mut weight, mut eta) = (s.weight, 1.0);
-            if b.kind == KIND_ROUGHDIELECTRIC && s.wo.z * wi.z < 0.0 {
-                // Radiance mode: Mitsuba's roughdielectric scales a transmission by 1 / eta^2.
-                eta = if wi.z > 0.0 { b.eta[0] } else { b.eta[1] };
-                weight /= eta * eta;
-            }
-            return (pdf > 0.0).then_some(Sampled { w, weight, pdf, delta: false, eta, null: false });
-        }
-        let pdf = self.pdf(w);
-        if !(pdf > 0.0) {
-            return None;
-        }
-        let weight = self.eval(w) / pdf;
-        (weight.is_finite() && weight.max_element() > 0.0).then_some(Sampled { w, weight, pdf, delta: false, eta: 1.0, null: false })
-    }
-}
-
-fn power_heuristic(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 && a2.is_finite() {
-        a2 / (a2 + b2)
-    } else if a.is_infinite() {
-        1.0
-    } else {
-        0.0
     }
 }
 
@@ -369,15 +257,7 @@ impl<'a> PathTracer<'a> {
 
     #[allow(clippy::too_many_arguments)]
     fn vertex(&self, mesh: usize, prim: usize, p: Vec3, n_s: Vec3, n_g: Vec3, wi: Vec3, uv: glam::Vec2) -> Vertex {
-        let m = &self.scene.meshes[mesh];
-        let (mut first, second) = resolve_records(&self.scene.bsdfs, &self.scene.textures, m.bsdf, uv);
-        crate::shading::perturb::apply(self.scene, mesh, prim, p, n_g, n_s, uv, &mut [&mut first]);
-        let second = second.map(|s| (s, first.extra[2]));
-        if second.is_some() {
-            first.flags &= !FLAG_BLEND;
-            (first.extra[2], first.extra[3]) = (0.0, 0.0);
-        }
-        Vertex { p, n_s, n_g, wi, first, second, opacity: self.rt.masks().opacity(mesh, uv) }
+        Vertex::at_hit(self.scene, self.rt, mesh, prim, p, n_s, n_g, wi, uv)
     }
 
     /// Emitter `e` (module order) sampled at `x`: its MIS-weighted contribution / selection probability.
@@ -611,6 +491,8 @@ pub fn probe_pixels(
         })
         .collect())
 }
+
+pub(crate) mod vertex;
 
 #[cfg(test)]
 mod tests;

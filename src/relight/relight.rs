@@ -82,7 +82,7 @@ pub fn gather_irradiance(t: &Transfer, tracer: &RayTracer, lights: &LightSet) ->
         if c.normal[g] == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        irradiance(tracer, lights, c.position[g], c.normal[g], c.geo_normal[g], f32::INFINITY)
+        irradiance(tracer, lights, c.position[g], c.normal[g], c.geo_normal[g], f32::INFINITY, u32::MAX)
     })
 }
 

@@ -47,7 +47,9 @@
 //! Masked surfaces (`mask`, semantics and measurements in `crate::raytrace::mask`): a vertex on a masked
 //! surface of opacity a (at its uv) is a view sample of the nested BSDF with throughput times a, and the
 //! chain continues straight through (`-wi`, Mitsuba's null lobe) with throughput times 1 - a, one delta
-//! bounce deeper. Each sample records `ViewSamples::mask_budget` (max_depth - 2 - k: how many masked
+//! bounce deeper; a mask around a BSDF with delta lobes (conductor, dielectric, thindielectric, plastic's
+//! coating) also follows those lobes with throughput times a (its own sample, if any, times a as above).
+//! Each sample records `ViewSamples::mask_budget` (max_depth - 2 - k: how many masked
 //! surfaces its shadow rays toward area and environment lights and VPLs may cross; unlimited for
 //! max_depth -1) and a masked sample reached from the camera through null events only records
 //! `ViewSamples::mask_valid` (Mitsuba's `valid_ray` factor P_valid on its direct light).
@@ -145,33 +147,45 @@ pub struct ChainStats {
 /// The delta lobes of a BSDF.
 #[derive(Debug, Clone, Copy)]
 enum Delta {
-    Conductor {
-        eta: Vec3,
-        k: Vec3,
-        specular: Vec3,
-    },
-    Dielectric {
-        eta: f32,
-    },
-    Plastic {
-        eta: f32,
-        specular: Vec3,
-    },
-    Thin {
-        eta: f32,
-        specular: Vec3,
-        transmittance: Vec3,
-    },
-    /// A masked surface's null lobe: straight through with weight 1 - opacity.
-    Null {
-        opacity: f32,
-    },
+    Conductor { eta: Vec3, k: Vec3, specular: Vec3 },
+    Dielectric { eta: f32 },
+    Plastic { eta: f32, specular: Vec3 },
+    Thin { eta: f32, specular: Vec3, transmittance: Vec3 },
+}
+
+/// The lobes a chain follows at a vertex: a masked surface's null lobe (straight through with weight
+/// 1 - opacity) and the delta lobes of its BSDF (the nested one's for a mask, weighted by the opacity), with
+/// its two-sidedness.
+#[derive(Debug, Clone, Copy)]
+struct Lobes {
+    /// The opacity a of a masked surface.
+    null: Option<f32>,
+    delta: Option<(Delta, bool)>,
+}
+
+impl Lobes {
+    /// The branches (outgoing world direction, RGB weight, whether it is the null lobe) at a point with
+    /// shading normal `n` seen along `wi` (`branches`).
+    fn branches(&self, wi: Vec3, n: Vec3) -> Vec<(Vec3, Vec3, bool)> {
+        let a = self.null.unwrap_or(1.0);
+        let mut out: Vec<(Vec3, Vec3, bool)> = Vec::new();
+        if a < 1.0 {
+            out.push((-wi, Vec3::splat(1.0 - a), true));
+        }
+        if let Some((d, twosided)) = self.delta {
+            if a > 0.0 {
+                out.extend(branches(d, twosided, wi, n).into_iter().map(|(w, t)| (w, t * a, false)));
+            }
+        }
+        out
+    }
 }
 
 /// The delta lobes of scene BSDF `index` (resolved at the point as `b`), with its two-sidedness.
 fn delta_of(bsdfs: &[Bsdf], index: usize, b: &GpuBsdf, twosided: bool) -> Option<(Delta, bool)> {
     match bsdfs.get(index)? {
         Bsdf::TwoSided { front, .. } if *front != index => delta_of(bsdfs, *front, b, true),
+        Bsdf::Mask { nested, .. } if *nested != index => delta_of(bsdfs, *nested, b, twosided),
         Bsdf::Conductor { eta, k, .. } => Some((Delta::Conductor { eta: *eta, k: *k, specular: Vec3::from(b.specular) }, twosided)),
         Bsdf::Dielectric { int_ior, ext_ior } => Some((Delta::Dielectric { eta: int_ior / ext_ior }, twosided)),
         Bsdf::ThinDielectric { int_ior, ext_ior, .. } => {
@@ -213,16 +227,9 @@ fn branches(delta: Delta, twosided: bool, wi: Vec3, n: Vec3) -> Vec<(Vec3, Vec3)
                         * Vec3::new(fresnel_conductor(c, eta.x, k.x), fresnel_conductor(c, eta.y, k.y), fresnel_conductor(c, eta.z, k.z))
                 }
                 Delta::Plastic { eta, specular } => specular * fresnel(c, eta),
-                Delta::Dielectric { .. } | Delta::Thin { .. } | Delta::Null { .. } => unreachable!(),
+                Delta::Dielectric { .. } | Delta::Thin { .. } => unreachable!(),
             };
             vec![(reflect(n, c), w)]
-        }
-        Delta::Null { opacity } => {
-            if opacity < 1.0 {
-                vec![(-wi, Vec3::splat(1.0 - opacity))]
-            } else {
-                Vec::new()
-            }
         }
         Delta::Thin { eta, specular, transmittance } => {
             let r = fresnel(cos_i.abs(), eta);
@@ -302,10 +309,11 @@ struct PixelChains {
 impl Tracer<'_> {
     /// Follow the delta lobes at a vertex reached after `k` delta bounces.
     #[allow(clippy::too_many_arguments)]
-    fn follow(&self, out: &mut PixelChains, v: Vertex, delta: (Delta, bool), throughput: Vec3, k: u32, all_null: bool) {
+    fn follow(&self, out: &mut PixelChains, v: Vertex, lobes: Lobes, throughput: Vec3, k: u32, all_null: bool) {
         let Vertex { p, n_g, n_s, wi, mesh: from, medium } = v;
-        let all_null = all_null && matches!(delta.0, Delta::Null { .. });
-        for (wo, w) in branches(delta.0, delta.1, wi, n_s) {
+        for (wo, w, null) in lobes.branches(wi, n_s) {
+            // Reached from the camera through null events only (Mitsuba's `valid_ray` still false).
+            let all_null = all_null && null;
             let mut tp = throughput * w;
             let medium = self.scene.media.after(medium, from, wo, n_g);
             let k1 = k + 1;
@@ -410,13 +418,11 @@ impl Tracer<'_> {
     }
 }
 
-/// The delta lobes at a vertex of mesh `mesh` (BSDF resolved there as `b`, at `uv`): a masked surface's
-/// null lobe (the loader refuses delta BSDFs inside a mask), else `delta_of`.
-fn vertex_delta(scene: &Scene, masks: &Masks, mesh: usize, b: &GpuBsdf, uv: Vec2) -> Option<(Delta, bool)> {
-    if let Some(opacity) = masks.opacity(mesh, uv) {
-        return Some((Delta::Null { opacity }, false));
-    }
-    delta_of(&scene.bsdfs, scene.meshes.get(mesh)?.bsdf, b, false)
+/// The lobes at a vertex of mesh `mesh` (BSDF resolved there as `b`, at `uv`): a masked surface's null
+/// lobe and `delta_of` its BSDF (the nested one's delta lobes for a mask), None when it has neither.
+fn vertex_delta(scene: &Scene, masks: &Masks, mesh: usize, b: &GpuBsdf, uv: Vec2) -> Option<Lobes> {
+    let lobes = Lobes { null: masks.opacity(mesh, uv), delta: delta_of(&scene.bsdfs, scene.meshes.get(mesh)?.bsdf, b, false) };
+    (lobes.null.is_some() || lobes.delta.is_some()).then_some(lobes)
 }
 
 /// Whether any BSDF of the scene has a delta lobe or a null lobe (`mask`; then `trace_chains` has work to do).
@@ -453,7 +459,7 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
         view.mask_opacity = vec![1.0; m];
         view.mask_emitter_pdf = crate::raytrace::mask::emitter_area_pdfs(scene);
     }
-    let starts: Vec<(usize, (Delta, bool))> = (0..m)
+    let starts: Vec<(usize, Lobes)> = (0..m)
         .filter_map(|i| {
             let s = view.shape_index[i];
             if s < 0 {
@@ -489,13 +495,10 @@ pub fn trace_chains(scene: &Scene, view: &mut ViewSamples, opts: &ChainOptions) 
             };
             tracer.follow(&mut out, v, d, Vec3::ONE, 0, true);
             // A masked camera hit: its own sample is weighted by the opacity (module docs).
-            let own = match d.0 {
-                Delta::Null { opacity } => {
-                    let valid = if opts.samples(0) { tracer.valid_probability(v.p, v.n_g, v.wi, opacity, 0) } else { 1.0 };
-                    Some((opacity, valid))
-                }
-                _ => None,
-            };
+            let own = d.null.map(|opacity| {
+                let valid = if opts.samples(0) { tracer.valid_probability(v.p, v.n_g, v.wi, opacity, 0) } else { 1.0 };
+                (opacity, valid)
+            });
             (i, out, own)
         })
         .collect();

@@ -347,8 +347,7 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     """The light model of the rendered image ``res`` (from ``A``), chosen by probe residuals (module doc,
     "Light models"), and the chosen model's error from FRESH probes that took no part in the choice.
 
-    Candidates: the lights as generated; with clamped VPLs (``bias`` source ``vpl_clamp``, in a scene without
-    ``mask`` BSDFs, which bias compensation refuses) also the same image
+    Candidates: the lights as generated; with clamped VPLs (``bias`` source ``vpl_clamp``) also the same image
     plus the clamp's energy (``LightMatrix.bias_compensation``, two independent estimates of ``COMPENSATION_SPP``
     paths per pixel averaged: their half difference is the compensation's own variance, added to
     ``variance`` in quadrature). With one candidate no choice is made and one probe set estimates the error;
@@ -377,9 +376,7 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
                  "bias_sources": list(res.bias_sources)}
     candidates = [generated]
     t_models = select_seconds = 0.0
-    # Bias compensation does not cross masked surfaces (it refuses a scene with ``mask`` BSDFs): no candidate.
-    masked = any(b.get("type") == "mask" for b in scene.bsdfs)
-    if any(b["source"] == "vpl_clamp" for b in res.bias_sources) and not masked:
+    if any(b["source"] == "vpl_clamp" for b in res.bias_sources):
         compensated = {"model": "VPLs + bias compensation",
                        "bias_sources": [b for b in res.bias_sources if b["source"] != "vpl_clamp"]}
         candidates.append(compensated)

@@ -178,7 +178,9 @@ impl<'a> Tracer<'a> {
 
 /// Follows one particle leaving `o` along `d` with flux `phi_0` through the scene's BSDFs (module docs:
 /// tracing, Russian roulette), calling `store` with the record of every hit whose bounce index lies in
-/// `min_depth ..= max_depth` (1 = the first hit); the path ends after bounce `max_depth`. Shared by the
+/// `min_depth ..= max_depth` (1 = the first hit); the path ends after bounce `max_depth`. A masked surface
+/// passed straight through is a bounce for `max_depth` (Mitsuba's depth) but not for `min_depth`: a record
+/// with `min_depth` 2 has met at least one BSDF before, whatever masks it crossed. Shared by the
 /// VPLs and photons of light sources and the photons of direct-to-indirect transfer's multi-bounce
 /// matrix (`relight::multibounce`, particles leaving the gather samples).
 #[allow(clippy::too_many_arguments)]
@@ -201,6 +203,8 @@ pub(crate) fn walk(
     let lum_0 = luminance(phi_0);
     let mut phi = phi_0;
     let mut depth = 0u32;
+    // Null events so far (`depth - nulls` is the index of the BSDF interaction).
+    let mut nulls = 0u32;
     loop {
         let Some(hit) = rt.intersect(o, d, 0.0, f32::INFINITY) else { return };
         depth += 1;
@@ -211,6 +215,7 @@ pub(crate) fn walk(
                 if (depth == 1 && delta_source) || depth >= max_depth {
                     return;
                 }
+                nulls += 1;
                 o = spawn_ray(hit.p, hit.n_g, d);
                 continue;
             }
@@ -240,7 +245,7 @@ pub(crate) fn walk(
                 return;
             }
             let phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
-            if depth <= max_depth && depth >= min_depth {
+            if depth <= max_depth && depth - nulls >= min_depth {
                 store(Vpl { position: offset_p(hit.p, n_g, w_in), n_s, n_g, incident: w_in, flux: phi_vpl, bsdf: b });
             }
         }

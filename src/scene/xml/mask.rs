@@ -5,9 +5,9 @@
 //!
 //! Where it may sit: at the top of a shape's BSDF, or inside a `twosided` (the leaf idiom
 //! `<bsdf type="twosided"><bsdf type="mask">...`). A mask inside a `blendbsdf`, `bumpmap`, `normalmap` or
-//! another mask is refused, and so is a nested BSDF with a delta lobe (conductor, dielectric,
-//! thindielectric, smooth plastic with a specular layer): a delta-chain vertex follows one kind of lobe.
-//! A constant opacity outside [0, 1] is refused (Mitsuba would clip it silently); a textured one is
+//! another mask is refused. A nested BSDF with delta lobes (conductor, dielectric, thindielectric, smooth
+//! plastic's coating) is followed by the delta chains along its lobes times the opacity and along the null
+//! lobe times 1 - opacity (`crate::view::chains`). A constant opacity outside [0, 1] is refused (Mitsuba would clip it silently); a textured one is
 //! clipped as Mitsuba does.
 use super::plugins::Builder;
 use super::props::Props;
@@ -59,21 +59,6 @@ impl Builder<'_> {
         };
         if self.is_mask(inner) {
             return Err(Error::scene(&r.loc, format!("{what}: a mask inside a mask is not supported")));
-        }
-        let delta = match &self.bsdfs[inner] {
-            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => true,
-            Bsdf::Plastic { specular_reflectance, .. } => !matches!(specular_reflectance, Param::Value(v) if *v == Vec3::ZERO),
-            _ => false,
-        };
-        if delta {
-            return Err(Error::scene(
-                &r.loc,
-                format!(
-                    "{what}: a nested BSDF with a delta lobe (conductor, dielectric, thindielectric, plastic) is not \
-                     supported (a delta-chain vertex follows either the null lobe or the nested delta lobes); use a \
-                     rough variant"
-                ),
-            ));
         }
         Ok(Bsdf::Mask { opacity, nested: n })
     }
