@@ -439,13 +439,9 @@ fn hits_closer_than_obvhs_box_clamp_are_found() {
     }
 }
 
-/// A ray through the exact edge where two faces of a closed cube meet is blocked (every ray from inside
-/// must be): the box test's exit distance is widened by a few ulps (`occlusion::BOX_T_MAX_SCALE`), as the
-/// float slab test can put the entry a rounding step past the exit for both faces' flat boxes. Rays from
-/// inside through the edges, on them and 1e-7 off them.
-#[test]
-fn rays_through_cube_edges_are_blocked() {
-    let dir = std::env::temp_dir().join(format!("ml-cube-edge-{}", std::process::id()));
+/// Mitsuba's `cube` shape alone ([-1, 1]^3, 12 triangles), as a ray tracer.
+fn closed_cube() -> RayTracer {
+    let dir = std::env::temp_dir().join(format!("ml-cube-edge-{}-{:?}", std::process::id(), std::thread::current().id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("cube.xml");
     std::fs::write(
@@ -454,21 +450,39 @@ fn rays_through_cube_edges_are_blocked() {
         <shape type="cube"><bsdf type="diffuse"/></shape></scene>"#,
     )
     .unwrap();
-    let scene = crate::scene::load_scene(&path, &Default::default()).unwrap();
-    let rt = RayTracer::new(&scene).unwrap();
+    RayTracer::new(&crate::scene::load_scene(&path, &Default::default()).unwrap()).unwrap()
+}
+
+/// `n` origins inside `closed_cube` (uniform in [-0.8, 0.8]^3), each with a point on one of the cube's 12
+/// edges (two coordinates at +-1), from stream `seed`.
+fn cube_edge_points(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
+    let mut rng = crate::lights::generate::sampling::stream(5, seed, 0);
+    let mut u = || crate::lights::generate::sampling::uniform(&mut rng);
+    (0..n)
+        .map(|k| {
+            let o = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 1.6;
+            let (a, b) = ((k % 3), (k % 3 + 1) % 3);
+            let mut p = Vec3::splat(2.0 * u() - 1.0);
+            p[a] = if u() < 0.5 { -1.0 } else { 1.0 };
+            p[b] = if u() < 0.5 { -1.0 } else { 1.0 };
+            (o, p)
+        })
+        .collect()
+}
+
+/// A ray through the exact edge where two faces of a closed cube meet is blocked (every ray from inside
+/// must be): the box test's exit distance is widened by a few ulps (`occlusion::BOX_T_MAX_SCALE`), as the
+/// float slab test can put the entry a rounding step past the exit for both faces' flat boxes. Rays from
+/// inside through the edges, on them and 1e-7 off them.
+#[test]
+fn rays_through_cube_edges_are_blocked() {
+    let rt = closed_cube();
     let o = Vec3::new(-0.44, 0.06, -0.02);
     let d = Vec3::new(0.629_365_8, 0.526_632_1, 0.571_451_9);
     assert!(rt.occluded_ray(o, d, 10.0), "the reported ray");
-    let mut rng = crate::lights::generate::sampling::stream(5, 99, 0);
-    let mut u = || crate::lights::generate::sampling::uniform(&mut rng);
     let mut leaks = 0;
-    for k in 0..20_000 {
-        let o = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 1.6;
-        // A point on one of the 12 edges (two coordinates at +-1), nudged by 0 or 1e-7.
-        let (a, b) = ((k % 3), (k % 3 + 1) % 3);
-        let mut p = Vec3::splat(2.0 * u() - 1.0);
-        p[a] = if u() < 0.5 { -1.0 } else { 1.0 };
-        p[b] = if u() < 0.5 { -1.0 } else { 1.0 };
+    for (k, (o, p)) in cube_edge_points(20_000, 99).into_iter().enumerate() {
+        // Through the edge point, nudged by 0 or 1e-7.
         let nudge = if k % 2 == 0 { 0.0 } else { 1e-7 };
         let d = (p - o + Vec3::splat(nudge)).normalize();
         if !rt.occluded_ray(o, d, 10.0) {
@@ -522,26 +536,9 @@ fn closest_hits_are_the_brute_force_hits() {
 /// of them (the closest-hit twin of `rays_through_cube_edges_are_blocked`).
 #[test]
 fn closest_hits_through_cube_edges_are_found() {
-    let dir = std::env::temp_dir().join(format!("ml-cube-edge-closest-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("cube.xml");
-    std::fs::write(
-        &path,
-        r#"<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film></sensor>
-        <shape type="cube"><bsdf type="diffuse"/></shape></scene>"#,
-    )
-    .unwrap();
-    let scene = crate::scene::load_scene(&path, &Default::default()).unwrap();
-    let rt = RayTracer::new(&scene).unwrap();
-    let mut rng = crate::lights::generate::sampling::stream(5, 98, 0);
-    let mut u = || crate::lights::generate::sampling::uniform(&mut rng);
+    let rt = closed_cube();
     let (mut leaks, mut reference_leaks) = (0, 0);
-    for k in 0..20_000 {
-        let o = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 1.6;
-        let (a, b) = ((k % 3), (k % 3 + 1) % 3);
-        let mut p = Vec3::splat(2.0 * u() - 1.0);
-        p[a] = if u() < 0.5 { -1.0 } else { 1.0 };
-        p[b] = if u() < 0.5 { -1.0 } else { 1.0 };
+    for (o, p) in cube_edge_points(20_000, 98) {
         let d = (p - o).normalize();
         match rt.intersect(o, d, 0.0, f32::INFINITY) {
             None => leaks += 1,
