@@ -33,6 +33,7 @@ def test_a_cell_keeps_its_word_only_within_the_tolerances():
     assert not v["keeps_its_word"] and (v["unclaimed_estimate_below_half"], v["unclaimed_estimate_above_2x"]) == (1, 0)
     edges = run(0, True, 0.08, 0.045) | {"true_without_edges": 0.04}  # judged without the edge pixels
     assert judge([edges], 0.05)["claimed_over_1_25x"] == 0
+    assert judge(ok, 0.05)["bound_covers"] == 7 and judge([edges], 0.05)["bound_covers"] == 1
 
 
 def test_every_cell_has_its_reference():

@@ -177,6 +177,7 @@ def judge(runs: list[dict], target: float) -> dict:
     return {"claimed": len(claimed), "seeds": len(runs), "claimed_over_1_25x": over, "claimed_over_2x": far,
             "unclaimed_estimate_off_2x": off, "unclaimed_estimate_below_half": low,
             "unclaimed_estimate_above_2x": high, "keeps_its_word": ok,
+            "bound_covers": sum(r["estimate"] >= r["true"] for r in runs),
             "median_true": float(np.median([r["true"] for r in runs])),
             "median_estimate": float(np.median([r["estimate"] for r in runs])),
             "mean_seconds": float(np.mean([r["seconds"] for r in runs])),
@@ -205,9 +206,9 @@ def mitsuba_ladder(xml: Path, params: dict, size, max_depth: int, max_spp: int, 
 def table(summary: dict) -> str:
     """The cells as a Markdown table."""
     lines = ["| cell | target | claimed | true error (median, max of claimed) | estimate (median) "
-             "| not claimed: estimate < truth/2, > 2 truth | keeps its word | render s (mean) | probes "
-             "| Mitsuba s to the same error |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "| estimate >= true error | not claimed: estimate < truth/2, > 2 truth | keeps its word "
+             "| render s (mean) | probes | Mitsuba s to the same error |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in summary["cells"]:
         j = c["verdict"]
         claimed_true = [truth(r) for r in c["runs"] if r["claimed"]]
@@ -221,7 +222,8 @@ def table(summary: dict) -> str:
         else:
             mit_s = "-"
         lines.append(f"| {c['cell']} | {c['target']:.0%} | {j['claimed']}/{j['seeds']} | {j['median_true']:.2%}, {mx} "
-                     f"| {j['median_estimate']:.2%} | {j.get('unclaimed_estimate_below_half', '-')}, "
+                     f"| {j['median_estimate']:.2%} | {j.get('bound_covers', '-')}/{j['seeds']} "
+                     f"| {j.get('unclaimed_estimate_below_half', '-')}, "
                      f"{j.get('unclaimed_estimate_above_2x', '-')} | {'yes' if j['keeps_its_word'] else '**no**'} "
                      f"| {j['mean_seconds']:.1f} | {j['probe_share']:.0%} | {mit_s} |")
     return "\n".join(lines) + "\n"

@@ -33,6 +33,11 @@ its own ``v_k`` and its ``d_k`` can dominate (2); ``effective_probes`` = (sum |d
 how many probes carry the estimate (of the terms d_k / p_k), and below min(N / 4, 16), or with fewer than 16
 probes, the estimate is marked unreliable. Then the probes that carry it are traced again with more, fresh paths (``refine_probes``)    (5)
 
+Retracing (5) chooses probes by their own residuals, so what a probe reports must come from paths that
+no choice has seen: every batch of a probe's paths is traced as two independent halves, the choices read
+the ``screen`` halves and the probes report their ``keep`` halves (9). Without it the probes left alone are
+those that missed the rare bright paths, and the estimate falls short of (1) where paths are heavy-tailed.
+
 The probes' path tracer itself: a probe's per-path variance is ``spp v_k``, so an image of ``S`` paths per
 pixel from the same tracer has the expected squared relative L2
 
@@ -59,6 +64,7 @@ and the point estimate reads 0 (``bench bias``: seeds of the compensated stairca
 | ``Q_i``, ``r_i`` | the pilot's mean at pixel i (``PILOT_SPP`` paths), the pilot residual |
 | ``d_k``, ``w_k``, ``SE`` | probe k's residual (1), its weight, the estimated total squared error (2) |
 | ``z_q`` | normal quantile of the confidence (one-sided) |
+| screen, keep | the two independent halves of a probe's latest batch of paths (9) |
 | ``sigma``, ``q`` | the renderer's own relative error from variance, its lower-bound factor (8) |
 """
 from __future__ import annotations
@@ -132,7 +138,7 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
         image: (H, W, 3) the rendered image of ``scene`` (float; what the camera sees included).
         scene: the Scene it renders.
         probes: N, probe pixels (the defensive mixture of the module doc, with replacement), 1 <= N <= M.
-        spp: paths per probe (>= 2).
+        spp: paths per probe (>= 4: two independent halves of >= 2, (9)).
         max_depth: the path depth of the converged image; None = the scene's integrator (``integrator_depth``).
         seed: seeds the probes' pixels and paths (a stream apart from the renderers').
         confidence: one-sided confidence of the upper bound, in (0, 1).
@@ -192,10 +198,15 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     past ``max_seconds`` (predicted from the paths per second of the sample) or past ``max_paths`` paths
     (deterministic: the same seed retraces the same probes on any machine).
 
-    Which probes are retraced depends on their earlier paths only, and their new paths are independent of
-    those, so each retraced probe's mean and variance are unbiased given that choice and (1) still holds
-    for it: a firefly that made a probe's residual large (or a bright path it missed, which made its own
-    variance small) is averaged out instead of deciding the estimate.
+    Every batch of paths comes in two independent halves (9). Once a round retraces anything, every choice
+    (which probes, whether to go on) reads the ``screen`` halves alone, and every probe reports the ``keep``
+    half of its latest batch, which no choice has seen: so each probe's mean and variance stay unbiased
+    given all the choices, retraced or not, and (1) holds for all of them. A firefly that made a probe's
+    residual large (or a bright path it missed, which made its own variance small) is averaged out instead
+    of deciding the estimate. Reporting the probes' earlier paths where they were not retraced is what a
+    choice by their own residuals biases: the probes left alone are those whose paths missed the rare
+    bright ones, and on Veach Ajar (full GI, heavy-tailed paths) the estimate of the squared error fell to
+    0.52x its expectation.
 
     Args:
         image: (H, W, 3) the image the residuals are taken against (the one whose error is estimated).
@@ -210,9 +221,10 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
         max_paths: paths the retracing may trace in all (None: no limit).
 
     Returns:
-        a copy of ``sample`` with the retraced probes' ``mean`` / ``variance``, ``seconds`` including the
-        retracing, ``refined`` (N,) int64: how many times each probe was retraced, ``paths`` (N,) int64:
-        the paths behind each probe's mean now, ``traced``: all paths traced.
+        a copy of ``sample``: where a round retraced anything, every probe's ``mean`` / ``variance`` are the
+        ``keep`` half of its latest batch (else ``sample``'s own), ``halves`` each probe's latest batch,
+        ``seconds`` including the retracing, ``refined`` (N,) int64: how many times each probe was retraced,
+        ``paths`` (N,) int64: the paths behind each probe's mean now, ``traced``: all paths traced.
 
     Raises:
         ValueError: rounds < 0, factor < 2, max_seconds <= 0, what ``probe_pixels`` refuses.
@@ -229,6 +241,13 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     out["mean"], out["variance"] = sample["mean"].copy(), sample["variance"].copy()
     out["refined"] = np.zeros(n, np.int64)
     out["paths"] = sample["paths"].copy()
+    # (9) Each probe's latest batch of paths in two independent halves: once a round has retraced anything,
+    # the decisions (which probes, whether to go on) read the ``screen`` halves and the probes report their
+    # ``keep`` halves, which no decision has seen.
+    halves = {k: tuple(np.array(a, copy=True) for a in v) for k, v in sample["halves"].items()}
+    screen = dict(out)
+    screen["mean"], screen["variance"], screen["paths"] = halves["screen"]
+    batch = sample["paths"].copy()  # the paths of each probe's latest batch, both halves
     rate = out["traced"] / max(sample["seconds"], 1e-9)
     t = time.perf_counter()
     checked = False  # a round of the heaviest probes has run (a "missed" before it is retraced)
@@ -239,7 +258,7 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
                 and (max_paths is None or traced + count * spp <= max_paths))
 
     for r in range(rounds):
-        est = probe_estimate(image, out)
+        est = probe_estimate(image, screen if r > 0 else out)
         # Undecided: the target between the bounds, or a "missed" (lower bound above it) that no retracing of
         # the heaviest probes has checked yet (a round of all probes at 4x leaves a few of them several sigma
         # off where paths rarely find the sky through a window) or that rests on fewer than ``DECIDE_SHARE`` of the probes -- heavy residuals of noisy
@@ -250,6 +269,8 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
             target < est["error_lower"] and (not checked or est["effective_probes"] < DECIDE_SHARE * n)))
         if (est["reliable"] and not undecided) or n < 2:
             break
+        if r == 0:
+            est = probe_estimate(image, screen)  # which probes: read from the screen halves alone (9)
         mag = np.abs(est["residuals"] / out["p"])
         if not np.any(mag):
             break
@@ -258,24 +279,29 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
         # (the noise of (2) falls as 1 / paths there: measured on the window room's 1.2% image, bounds of
         # 1.3-1.4% where the heaviest probes alone reached 1.9-2.8%); else the heaviest probes only.
         which = np.arange(n)
-        spp = int(min(out["paths"].max() * NOISE_FACTOR, 1 << 30))
+        spp = int(min(batch.max() * NOISE_FACTOR, 1 << 30))
         if not (target is not None and est["error_lower"] == 0.0 and within(n, spp)):
             order = np.argsort(-mag, kind="stable")
             take = int(np.searchsorted(np.cumsum(mag[order]) / mag.sum(), REFINE_MASS) + 1)
             which = np.sort(order[:max(1, min(take, n // REFINE_CAP))])
-            spp = int(min(out["paths"][which].max() * factor, 1 << 30))
+            spp = int(min(batch[which].max() * factor, 1 << 30))
             if not within(len(which), spp):
                 break
             checked = True
-        mean, var = probe_pixels(out["scene"], out["pixels"][which], spp=spp, max_depth=out["max_depth"],
-                                 seed=derived_seed(seed, PROBE_STREAM + 2 + r), progress=False, lights=lights,
-                                 guided_env=out.get("guided_env", True))
-        out["mean"][which], out["variance"][which] = mean, var
+        fresh = _trace_halves(out["scene"], out["pixels"][which], spp, out["max_depth"],
+                              (derived_seed(seed, PROBE_STREAM + 2 + r), derived_seed(seed, PROBE_STREAM + 32 + r)),
+                              lights, out.get("guided_env", True))
+        for k in ("screen", "keep"):
+            for a, b in zip(halves[k], fresh[k]):
+                a[which] = b
+        screen["mean"], screen["variance"], screen["paths"] = halves["screen"]
+        out["mean"], out["variance"], out["paths"] = halves["keep"]
         out["refined"][which] += 1
-        out["paths"][which] = spp
+        batch[which] = spp
         out["traced"] += len(which) * spp
         traced += len(which) * spp
     out["seconds"] = sample["seconds"] + time.perf_counter() - t
+    out["halves"] = halves
     return out
 
 
@@ -308,12 +334,15 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     ``index`` (N,) flat pixel indices, ``p`` (N,) float64 their probabilities, ``mean`` / ``variance`` (N, 3)
     float32, ``spp``, ``paths`` (N,) int64 (the paths behind each mean: ``spp``), ``max_depth``, ``seconds``
     (pilot included), ``shape_index`` (N,) int64 (-1: background), ``scene`` (the Scene), ``traced`` (all
-    paths, the pilot's included), ``guided_env``. Raises: as ``probe_error``.
+    paths, the pilot's included), ``guided_env``, ``halves`` (the ``spp`` paths as two independent halves, whose
+    combination ``mean`` / ``variance`` are: ``screen`` / ``keep``, each (mean, variance, paths), (9)). Raises: as
+    ``probe_error``; ValueError for spp < 4.
     """
     img = _check_image(image, scene)
     H, W = scene.height, scene.width
     M = H * W
     probes = _v.integer("probes", probes, 1, M)
+    spp = _v.integer("spp", spp, 4, 2**32 - 1)
     seed = _v.seed(seed)
     if max_depth is None:
         _, max_depth = integrator_depth(scene)
@@ -337,13 +366,34 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     idx = np.sort(rng.choice(M, size=probes, p=prob / prob.sum()))
     pk = prob[idx] / prob.sum()
     pixels = np.stack([idx // W, idx % W], axis=1).astype(np.int64)
-    mean, var = probe_pixels(scene, pixels, spp=spp, max_depth=max_depth, seed=derived_seed(seed, PROBE_STREAM + 1),
-                             progress=False, lights=lights, guided_env=guided_env)
+    halves = _trace_halves(scene, pixels, spp, max_depth, (derived_seed(seed, PROBE_STREAM + 1),
+                                                          derived_seed(seed, PROBE_STREAM + 10)), lights, guided_env)
+    mean, var = _combine(halves)
     shape = np.asarray(scene.gbuffer(device="cpu")["shape_index"]).reshape(-1).astype(np.int64)[idx]
     return {"pixels": pixels, "index": idx, "p": pk, "mean": mean, "variance": var, "spp": int(spp),
             "max_depth": int(max_depth), "seconds": time.perf_counter() - t, "shape_index": shape, "scene": scene,
             "paths": np.full(probes, int(spp), np.int64), "traced": probes * int(spp) + pilot_paths,
-            "guided_env": bool(guided_env)}
+            "guided_env": bool(guided_env), "halves": halves}
+
+
+def _trace_halves(scene: Scene, pixels: np.ndarray, spp: int, max_depth: int, seeds: tuple, lights,
+                  guided_env: bool) -> dict:
+    """Two independent batches of paths at ``pixels``, ``spp // 2`` and ``spp - spp // 2`` paths each (9):
+    ``screen`` decides which probes ``refine_probes`` retraces, ``keep`` is what a probe reports once such a
+    decision was taken. Returns dict ``screen`` / ``keep``: (mean, variance of the mean, paths)."""
+    out = {}
+    for name, n, s in (("screen", spp // 2, seeds[0]), ("keep", spp - spp // 2, seeds[1])):
+        m, v = probe_pixels(scene, pixels, spp=n, max_depth=max_depth, seed=s, progress=False, lights=lights,
+                            guided_env=guided_env)
+        out[name] = (m, v, np.full(len(pixels), n, np.int64))
+    return out
+
+
+def _combine(halves: dict) -> tuple:
+    """The mean and variance of the mean of both halves' paths together."""
+    (ma, va, na), (mb, vb, nb) = halves["screen"], halves["keep"]
+    wa, wb = (na / (na + nb))[:, None], (nb / (na + nb))[:, None]
+    return ((wa * ma + wb * mb).astype(np.float32), (wa * wa * va + wb * wb * vb).astype(np.float32))
 
 
 def _share(weights: np.ndarray, share: float) -> np.ndarray:
