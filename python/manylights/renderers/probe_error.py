@@ -34,9 +34,11 @@ how many probes carry the estimate (of the terms d_k / p_k), and below min(N / 4
 probes, the estimate is marked unreliable. Then the probes that carry it are traced again with more, fresh paths (``refine_probes``)    (5)
 
 Retracing (5) chooses probes by their own residuals, so what a probe reports must come from paths that
-no choice has seen: every batch of a probe's paths is traced as two independent halves, the choices read
-the ``screen`` halves and the probes report their ``keep`` halves (9). Without it the probes left alone are
-those that missed the rare bright paths, and the estimate falls short of (1) where paths are heavy-tailed.
+no choice of probes has seen: every batch of a probe's paths is traced as two independent parts, the choice
+reads the ``screen`` part (a quarter) and the probes report their ``keep`` part (9). Without it the probes
+left alone are those that missed the rare bright paths, and the estimate falls short of (1) where paths are
+heavy-tailed. Whether to go on retracing reads the reported estimate itself (a stopping rule, not a choice
+among probes).
 
 The probes' path tracer itself: a probe's per-path variance is ``spp v_k``, so an image of ``S`` paths per
 pixel from the same tracer has the expected squared relative L2
@@ -64,7 +66,7 @@ and the point estimate reads 0 (``bench bias``: seeds of the compensated stairca
 | ``Q_i``, ``r_i`` | the pilot's mean at pixel i (``PILOT_SPP`` paths), the pilot residual |
 | ``d_k``, ``w_k``, ``SE`` | probe k's residual (1), its weight, the estimated total squared error (2) |
 | ``z_q`` | normal quantile of the confidence (one-sided) |
-| screen, keep | the two independent halves of a probe's latest batch of paths (9) |
+| screen, keep | the two independent parts of a probe's latest batch of paths (9) |
 | ``sigma``, ``q`` | the renderer's own relative error from variance, its lower-bound factor (8) |
 """
 from __future__ import annotations
@@ -101,6 +103,9 @@ REFINE_MIN_SECONDS = 0.5
 #: A target's "missed" (the lower bound above it) is retraced like an undecided one before a first round of
 #: retracing and while fewer than this share of the probes carry the estimate (``refine_probes``).
 DECIDE_SHARE = 0.25
+#: (9) 1 / SCREEN_PART of every batch of a probe's paths (at least 2) is the part that retracing's choice of
+#: probes reads; the rest is what the probe reports once a choice was made.
+SCREEN_PART = 4
 #: Share of the probes' distribution proportional to the image's squared value (the rest uniform).
 RISK_SHARE = 0.25
 #: (6) Share of the mixture proportional to the pilot residual sum_ch (I_i - Q_i)^2, Q_i the mean of PILOT_SPP
@@ -138,7 +143,7 @@ def probe_error(image, scene: Scene, probes: int = 64, *, spp: int = 1024, max_d
         image: (H, W, 3) the rendered image of ``scene`` (float; what the camera sees included).
         scene: the Scene it renders.
         probes: N, probe pixels (the defensive mixture of the module doc, with replacement), 1 <= N <= M.
-        spp: paths per probe (>= 4: two independent halves of >= 2, (9)).
+        spp: paths per probe (>= 4: two independent parts of >= 2, (9)).
         max_depth: the path depth of the converged image; None = the scene's integrator (``integrator_depth``).
         seed: seeds the probes' pixels and paths (a stream apart from the renderers').
         confidence: one-sided confidence of the upper bound, in (0, 1).
@@ -198,10 +203,11 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     past ``max_seconds`` (predicted from the paths per second of the sample) or past ``max_paths`` paths
     (deterministic: the same seed retraces the same probes on any machine).
 
-    Every batch of paths comes in two independent halves (9). Once a round retraces anything, every choice
-    (which probes, whether to go on) reads the ``screen`` halves alone, and every probe reports the ``keep``
-    half of its latest batch, which no choice has seen: so each probe's mean and variance stay unbiased
-    given all the choices, retraced or not, and (1) holds for all of them. A firefly that made a probe's
+    Every batch of paths comes in two independent parts (9). The choice of probes reads the ``screen`` parts
+    alone, and once a round retraced anything every probe reports the ``keep`` part of its latest batch,
+    which no choice of probes has seen: so each probe's mean and variance stay unbiased given those choices,
+    retraced or not, and (1) holds for all of them (whether to go on reads the reported estimate: a stopping
+    rule). A firefly that made a probe's
     residual large (or a bright path it missed, which made its own variance small) is averaged out instead
     of deciding the estimate. Reporting the probes' earlier paths where they were not retraced is what a
     choice by their own residuals biases: the probes left alone are those whose paths missed the rare
@@ -222,7 +228,7 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
 
     Returns:
         a copy of ``sample``: where a round retraced anything, every probe's ``mean`` / ``variance`` are the
-        ``keep`` half of its latest batch (else ``sample``'s own), ``halves`` each probe's latest batch,
+        ``keep`` part of its latest batch (else ``sample``'s own), ``parts`` each probe's latest batch,
         ``seconds`` including the retracing, ``refined`` (N,) int64: how many times each probe was retraced,
         ``paths`` (N,) int64: the paths behind each probe's mean now, ``traced``: all paths traced.
 
@@ -241,13 +247,12 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     out["mean"], out["variance"] = sample["mean"].copy(), sample["variance"].copy()
     out["refined"] = np.zeros(n, np.int64)
     out["paths"] = sample["paths"].copy()
-    # (9) Each probe's latest batch of paths in two independent halves: once a round has retraced anything,
-    # the decisions (which probes, whether to go on) read the ``screen`` halves and the probes report their
-    # ``keep`` halves, which no decision has seen.
-    halves = {k: tuple(np.array(a, copy=True) for a in v) for k, v in sample["halves"].items()}
+    # (9) Each probe's latest batch of paths in two independent parts: the choice of probes reads the
+    # ``screen`` parts, and once a round has retraced anything the probes report their ``keep`` parts.
+    parts = {k: tuple(np.array(a, copy=True) for a in v) for k, v in sample["parts"].items()}
     screen = dict(out)
-    screen["mean"], screen["variance"], screen["paths"] = halves["screen"]
-    batch = sample["paths"].copy()  # the paths of each probe's latest batch, both halves
+    screen["mean"], screen["variance"], screen["paths"] = parts["screen"]
+    batch = sample["paths"].copy()  # the paths of each probe's latest batch, both parts
     rate = out["traced"] / max(sample["seconds"], 1e-9)
     t = time.perf_counter()
     checked = False  # a round of the heaviest probes has run (a "missed" before it is retraced)
@@ -258,7 +263,7 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
                 and (max_paths is None or traced + count * spp <= max_paths))
 
     for r in range(rounds):
-        est = probe_estimate(image, screen if r > 0 else out)
+        est = probe_estimate(image, out)
         # Undecided: the target between the bounds, or a "missed" (lower bound above it) that no retracing of
         # the heaviest probes has checked yet (a round of all probes at 4x leaves a few of them several sigma
         # off where paths rarely find the sky through a window) or that rests on fewer than ``DECIDE_SHARE`` of the probes -- heavy residuals of noisy
@@ -269,9 +274,8 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
             target < est["error_lower"] and (not checked or est["effective_probes"] < DECIDE_SHARE * n)))
         if (est["reliable"] and not undecided) or n < 2:
             break
-        if r == 0:
-            est = probe_estimate(image, screen)  # which probes: read from the screen halves alone (9)
-        mag = np.abs(est["residuals"] / out["p"])
+        # Which probes: read from the screen parts alone (9).
+        mag = np.abs(probe_estimate(image, screen)["residuals"] / out["p"])
         if not np.any(mag):
             break
         # (5') A lower bound at 0 says the error cannot be told from the probes' own noise, which every
@@ -288,20 +292,20 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
             if not within(len(which), spp):
                 break
             checked = True
-        fresh = _trace_halves(out["scene"], out["pixels"][which], spp, out["max_depth"],
+        fresh = _trace_parts(out["scene"], out["pixels"][which], spp, out["max_depth"],
                               (derived_seed(seed, PROBE_STREAM + 2 + r), derived_seed(seed, PROBE_STREAM + 32 + r)),
                               lights, out.get("guided_env", True))
         for k in ("screen", "keep"):
-            for a, b in zip(halves[k], fresh[k]):
+            for a, b in zip(parts[k], fresh[k]):
                 a[which] = b
-        screen["mean"], screen["variance"], screen["paths"] = halves["screen"]
-        out["mean"], out["variance"], out["paths"] = halves["keep"]
+        screen["mean"], screen["variance"], screen["paths"] = parts["screen"]
+        out["mean"], out["variance"], out["paths"] = parts["keep"]
         out["refined"][which] += 1
         batch[which] = spp
         out["traced"] += len(which) * spp
         traced += len(which) * spp
     out["seconds"] = sample["seconds"] + time.perf_counter() - t
-    out["halves"] = halves
+    out["parts"] = parts
     return out
 
 
@@ -334,7 +338,7 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     ``index`` (N,) flat pixel indices, ``p`` (N,) float64 their probabilities, ``mean`` / ``variance`` (N, 3)
     float32, ``spp``, ``paths`` (N,) int64 (the paths behind each mean: ``spp``), ``max_depth``, ``seconds``
     (pilot included), ``shape_index`` (N,) int64 (-1: background), ``scene`` (the Scene), ``traced`` (all
-    paths, the pilot's included), ``guided_env``, ``halves`` (the ``spp`` paths as two independent halves, whose
+    paths, the pilot's included), ``guided_env``, ``parts`` (the ``spp`` paths as two independent parts, whose
     combination ``mean`` / ``variance`` are: ``screen`` / ``keep``, each (mean, variance, paths), (9)). Raises: as
     ``probe_error``; ValueError for spp < 4.
     """
@@ -366,32 +370,33 @@ def probe_sample(image, scene: Scene, probes: int, *, spp: int = 1024, max_depth
     idx = np.sort(rng.choice(M, size=probes, p=prob / prob.sum()))
     pk = prob[idx] / prob.sum()
     pixels = np.stack([idx // W, idx % W], axis=1).astype(np.int64)
-    halves = _trace_halves(scene, pixels, spp, max_depth, (derived_seed(seed, PROBE_STREAM + 1),
+    parts = _trace_parts(scene, pixels, spp, max_depth, (derived_seed(seed, PROBE_STREAM + 1),
                                                           derived_seed(seed, PROBE_STREAM + 10)), lights, guided_env)
-    mean, var = _combine(halves)
+    mean, var = _combine(parts)
     shape = np.asarray(scene.gbuffer(device="cpu")["shape_index"]).reshape(-1).astype(np.int64)[idx]
     return {"pixels": pixels, "index": idx, "p": pk, "mean": mean, "variance": var, "spp": int(spp),
             "max_depth": int(max_depth), "seconds": time.perf_counter() - t, "shape_index": shape, "scene": scene,
             "paths": np.full(probes, int(spp), np.int64), "traced": probes * int(spp) + pilot_paths,
-            "guided_env": bool(guided_env), "halves": halves}
+            "guided_env": bool(guided_env), "parts": parts}
 
 
-def _trace_halves(scene: Scene, pixels: np.ndarray, spp: int, max_depth: int, seeds: tuple, lights,
+def _trace_parts(scene: Scene, pixels: np.ndarray, spp: int, max_depth: int, seeds: tuple, lights,
                   guided_env: bool) -> dict:
-    """Two independent batches of paths at ``pixels``, ``spp // 2`` and ``spp - spp // 2`` paths each (9):
-    ``screen`` decides which probes ``refine_probes`` retraces, ``keep`` is what a probe reports once such a
-    decision was taken. Returns dict ``screen`` / ``keep``: (mean, variance of the mean, paths)."""
+    """Two independent batches of paths at ``pixels``, ``max(spp // 4, 2)`` and the rest (9): ``screen``
+    decides which probes ``refine_probes`` retraces, ``keep`` is what a probe reports once such a choice was
+    made. Returns dict ``screen`` / ``keep``: (mean, variance of the mean, paths)."""
     out = {}
-    for name, n, s in (("screen", spp // 2, seeds[0]), ("keep", spp - spp // 2, seeds[1])):
+    n_screen = max(spp // SCREEN_PART, 2)
+    for name, n, s in (("screen", n_screen, seeds[0]), ("keep", spp - n_screen, seeds[1])):
         m, v = probe_pixels(scene, pixels, spp=n, max_depth=max_depth, seed=s, progress=False, lights=lights,
                             guided_env=guided_env)
         out[name] = (m, v, np.full(len(pixels), n, np.int64))
     return out
 
 
-def _combine(halves: dict) -> tuple:
-    """The mean and variance of the mean of both halves' paths together."""
-    (ma, va, na), (mb, vb, nb) = halves["screen"], halves["keep"]
+def _combine(parts: dict) -> tuple:
+    """The mean and variance of the mean of both parts' paths together."""
+    (ma, va, na), (mb, vb, nb) = parts["screen"], parts["keep"]
     wa, wb = (na / (na + nb))[:, None], (nb / (na + nb))[:, None]
     return ((wa * ma + wb * mb).astype(np.float32), (wa * wa * va + wb * wb * vb).astype(np.float32))
 
