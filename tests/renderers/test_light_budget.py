@@ -250,14 +250,14 @@ def test_an_mrcs_pilot_miss_escalates_beyond_the_reach():
 
 
 def test_a_bound_of_probe_noise_gets_fresh_probes_not_lights():
-    """The window room at 64 x 36, seed 0, 1%, probes of 16 paths: the first probes' point estimate and lower
+    """The window room at 64 x 36, seed 2, 1%, probes of 16 paths: the first probes' point estimate and lower
     bound are 0 (no error beyond their own noise) and their bound is above the target. More lights could not
     be shown to help (they were doubled before: 19 s, a second bound as high, the image 0.5% off); a fresh probe
-    set with 2x the probes and paths decides instead, on the same image (measured: first bound 1.32%, then
-    1.27%, not claimed). ``rows_per_column`` fixes MRCS's budget, and the probes' retracing is counted in paths,
+    set with 2x the probes and paths decides instead, on the same image (measured: first bound 1.27%, then
+    2.19%, not claimed). ``rows_per_column`` fixes MRCS's budget, and the probes' retracing is counted in paths,
     so the render is the same on any machine. (At 256 paths per probe, the default, the probes sample the sky
     through the window and all 8 seeds claim 2% at once.)"""
-    res = ml.render(REPO / "scenes" / "window-room" / "scene.xml", target_error=0.01, seed=0,
+    res = ml.render(REPO / "scenes" / "window-room" / "scene.xml", target_error=0.01, seed=2,
                     params={"resx": 64, "resy": 36}, max_depth=2, progress=False, device="cpu", rows_per_column=0.5,
                     probe_spp=16)
     esc = res.budget["escalation"]
