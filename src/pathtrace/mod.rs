@@ -30,7 +30,8 @@
 //! angle p_L = s d^2 / (A |cos_y|); the environment by `EnvSampler` over 16,384 equal-area cells, p_L =
 //! s p_env(w): with `guided_env` (the default) a defensive mixture of 0.6 luminance x what a unit of
 //! radiance from the cell adds to the camera's pilot view (`env_visibility::camera_factor`: 256 coarse
-//! cells, exact shadow rays from about 1,024 pixel centres), 0.3 luminance and 0.1 uniform, so that in a
+//! cells, exact shadow rays from about 1,024 pixel centres, its pilot seeded by `GUIDE_SEED` so that one
+//! guide serves every probe set of a scene), 0.3 luminance and 0.1 uniform, so that in a
 //! room lit through a window the samples go through the window; else 0.9 luminance + 0.1 uniform. The
 //! BSDF-hit side uses the same p_L for the emitter it
 //! hits, so the MIS weights of the two strategies sum to 1 and the estimator is unbiased (Veach 1997,
@@ -72,6 +73,7 @@
 use crate::cpu::light_blocked;
 use crate::error::{Error, Result};
 use crate::lights::generate::area::{area_emitters, AreaEmitter};
+use crate::lights::generate::env_visibility::{camera_factor, CameraFactor};
 use crate::lights::generate::environment::{EnvSampler, Environment};
 use crate::lights::generate::sampling::{stream, uniform};
 use crate::lights::LightSet;
@@ -88,6 +90,9 @@ use vertex::{power_heuristic, Vertex};
 pub const STREAM_PATH: u64 = 10;
 /// Paths per block (the unit of parallel work and of the random streams).
 pub const BLOCK: u32 = 64;
+/// The seed of the environment guide's pilot (`camera_factor`): the guide is a sampling density, any fixed
+/// one keeps the estimate unbiased, so it is a function of the scene alone and built once per scene.
+pub const GUIDE_SEED: u64 = 0x6775_6964_65;
 /// Scenes with at most this many emitters sample every emitter at every vertex.
 pub const ALL_EMITTERS: usize = 8;
 
@@ -182,6 +187,12 @@ pub struct PathTracer<'a> {
 impl<'a> PathTracer<'a> {
     /// Errors: `check_supported`, bad options, the delta lights' checks of `LightSet::from_scene`.
     pub fn new(scene: &'a Scene, rt: &'a RayTracer, opts: &ProbeOptions) -> Result<PathTracer<'a>> {
+        PathTracer::new_guided(scene, rt, opts, None)
+    }
+
+    /// `new` with the environment's guide (`camera_factor`) built beforehand, for several tracers of one
+    /// scene (`None`: built here when `opts.guided_env` and the scene has an environment). Errors: as `new`.
+    pub fn new_guided(scene: &'a Scene, rt: &'a RayTracer, opts: &ProbeOptions, guide: Option<&CameraFactor>) -> Result<PathTracer<'a>> {
         opts.check()?;
         check_supported(scene)?;
         let delta = LightSet::from_scene(scene)?;
@@ -192,10 +203,12 @@ impl<'a> PathTracer<'a> {
         }
         let env = match Environment::from_scene(scene) {
             Some(e) => {
-                let guide =
-                    if opts.guided_env { crate::lights::generate::env_visibility::camera_factor(&e, scene, rt, opts.seed)? } else { None };
-                let s = match &guide {
-                    Some(f) => e.sampler_guided(Some(f)),
+                let built = match (opts.guided_env, guide) {
+                    (true, None) => camera_factor(&e, scene, rt, GUIDE_SEED)?,
+                    _ => None,
+                };
+                let s = match guide.filter(|_| opts.guided_env).or(built.as_ref()) {
+                    Some(f) => e.sampler_guided(Some(&|d| f.of(d))),
                     None => e.sampler(),
                 };
                 Some((e, s))
@@ -430,9 +443,24 @@ pub fn probe_pixels(
     lights: Option<LightSet>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Vec<ProbeEstimate>> {
+    probe_pixels_guided(scene, rt, view, pixels, opts, lights, None, progress)
+}
+
+/// `probe_pixels` with the environment's guide built beforehand (`PathTracer::new_guided`).
+#[allow(clippy::too_many_arguments)]
+pub fn probe_pixels_guided(
+    scene: &Scene,
+    rt: &RayTracer,
+    view: &ViewSamples,
+    pixels: &[(u32, u32)],
+    opts: &ProbeOptions,
+    lights: Option<LightSet>,
+    guide: Option<&CameraFactor>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Vec<ProbeEstimate>> {
     let tracer = match lights {
         Some(l) => PathTracer::with_lights(scene, rt, l, opts)?,
-        None => PathTracer::new(scene, rt, opts)?,
+        None => PathTracer::new_guided(scene, rt, opts, guide)?,
     };
     let (w, h) = (view.width, view.height);
     if view.len() < view.num_pixels() || w != scene.camera.width || h != scene.camera.height {

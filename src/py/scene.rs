@@ -20,6 +20,9 @@ pub struct Scene {
     /// The scene's CPU ray tracer (BVH), built on first use: the CPU backend's G-buffer and shadow rays,
     /// and the exact oracle of every light matrix of this scene.
     tracer: std::sync::OnceLock<Arc<RayTracer>>,
+    /// The probes' environment guide (`env_visibility::camera_factor` with `pathtrace::GUIDE_SEED`), built
+    /// on first use: None without an environment or without a cell the pilot view sees.
+    env_guide: std::sync::OnceLock<Option<Arc<crate::lights::generate::env_visibility::CameraFactor>>>,
 }
 
 impl Scene {
@@ -37,6 +40,24 @@ impl Scene {
         let scene = self.inner.clone();
         let t = Arc::new(super::signals::detach(py, move || RayTracer::new(&scene))?);
         Ok(self.tracer.get_or_init(|| t).clone())
+    }
+
+    /// The probes' environment guide, built once (released GIL); None where the scene has no environment
+    /// or the pilot view sees none of it.
+    pub fn env_guide(&self, py: Python<'_>) -> PyResult<Option<Arc<crate::lights::generate::env_visibility::CameraFactor>>> {
+        if let Some(g) = self.env_guide.get() {
+            return Ok(g.clone());
+        }
+        let tracer = self.tracer(py)?;
+        let scene = self.inner.clone();
+        let g = super::signals::detach(py, move || -> crate::error::Result<_> {
+            match crate::lights::generate::environment::Environment::from_scene(&scene) {
+                Some(e) => Ok(crate::lights::generate::env_visibility::camera_factor(&e, &scene, &tracer, crate::pathtrace::GUIDE_SEED)?
+                    .map(Arc::new)),
+                None => Ok(None),
+            }
+        })?;
+        Ok(self.env_guide.get_or_init(|| g).clone())
     }
 
     /// The camera's own view samples (the first `width * height`, which do not depend on the delta-chain
@@ -443,7 +464,12 @@ pub fn load_scene(py: Python<'_>, path: PathBuf, params: Vec<(String, String)>, 
         // stacklevel 2: reported at the caller of `manylights.load_scene`.
         PyErr::warn(py, &py.get_type::<pyo3::exceptions::PyUserWarning>(), &msg, 2)?;
     }
-    Ok(Scene { inner: Arc::new(s), view: Mutex::new(Vec::new()), tracer: std::sync::OnceLock::new() })
+    Ok(Scene {
+        inner: Arc::new(s),
+        view: Mutex::new(Vec::new()),
+        tracer: std::sync::OnceLock::new(),
+        env_guide: std::sync::OnceLock::new(),
+    })
 }
 
 fn info_dict<'py>(py: Python<'py>, i: &DeviceInfo) -> PyResult<Bound<'py, PyDict>> {

@@ -97,7 +97,7 @@ pub const GUIDE_CELLS: usize = 256;
 /// samples go to the window. `None` without a surface in the pilot view or without a cell the pilot sees.
 ///
 /// Errors: the pilot view's; `Interrupted`.
-pub fn camera_factor(env: &Environment, scene: &Scene, rt: &RayTracer, seed: u64) -> Result<Option<impl Fn(Vec3) -> f64>> {
+pub fn camera_factor(env: &Environment, scene: &Scene, rt: &RayTracer, seed: u64) -> Result<Option<CameraFactor>> {
     let pilot = PilotView::new(scene, rt, VIEW_SAMPLES)?;
     if pilot.len() == 0 {
         return Ok(None);
@@ -121,8 +121,23 @@ pub fn camera_factor(env: &Environment, scene: &Scene, rt: &RayTracer, seed: u64
     if !factor.iter().any(|&f| f > 0.0) {
         return Ok(None);
     }
-    let index = super::environment::CellIndex::new(cells.len());
-    Ok(Some(move |d: Vec3| index.of(d).map_or(0.0, |c| factor[c])))
+    Ok(Some(CameraFactor { index: super::environment::CellIndex::new(cells.len()), factor }))
+}
+
+/// `camera_factor`'s result: per coarse cell, what a unit of radiance from there adds to the pilot view
+/// over the cell's luminance. A function of the scene alone (and the pilot's seed): the probes' path tracer
+/// builds it once per scene (`PathTracer::new_guided`, the Python `Scene`'s cache).
+#[derive(Debug, Clone)]
+pub struct CameraFactor {
+    index: super::environment::CellIndex,
+    factor: Vec<f64>,
+}
+
+impl CameraFactor {
+    /// The factor of direction `d` (0 outside every cell).
+    pub fn of(&self, d: Vec3) -> f64 {
+        self.index.of(d).map_or(0.0, |c| self.factor[c])
+    }
 }
 
 /// I_c of every coarse cell (module docs, 2): 0 for cells without radiance.
