@@ -304,6 +304,7 @@ mod sse {
         }
         let r = obvhs_ray(o, d, t_min, t_max);
         let dir = r.direction;
+        let wt = WatertightRay::new(o, d);
         let ray = BoxRay {
             origin: r.origin,
             inv_direction: r.inv_direction,
@@ -311,11 +312,11 @@ mod sse {
             // The ray's own t_min: obvhs clamps at 1e-4 and misses what is nearer (`bvh::OBVHS_BOX_T_MIN`).
             t_min: _mm_set1_ps(r.tmin.max(0.0)),
             t_max: _mm_set1_ps(r.tmax),
-            inv_max_d: 1.0 / d.abs().max_element(),
+            // `|1 / d[kz]|` of the watertight test, kz the dominant axis: 1 / max_i |d_i| exactly.
+            inv_max_d: wt.sz.abs(),
         };
         // obvhs orders children by the octant of the ray direction.
         let oct = (ray.neg[0] as u32) << 2 | (ray.neg[1] as u32) << 1 | ray.neg[2] as u32;
-        let wt = WatertightRay::new(o, d);
         let [kx, ky, kz] = wt.k;
         let op = [_mm_set1_ps(o[kx]), _mm_set1_ps(o[ky]), _mm_set1_ps(o[kz])];
         // A word: first child node index << 16 | internal-child mask << 8 | children left (permuted).

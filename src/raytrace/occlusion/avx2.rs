@@ -229,16 +229,17 @@ pub(super) unsafe fn traverse<const CLOSEST: bool>(
     }
     let r = obvhs_ray(o, d, t_min, t_max);
     let dir = r.direction;
+    let wt = WatertightRay::new(o, d);
     let mut ray = BoxRay {
         origin: r.origin,
         inv_direction: r.inv_direction,
         neg: [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0],
         t_min: _mm256_set1_ps(r.tmin.max(0.0)),
         t_max: _mm256_set1_ps(r.tmax),
-        inv_max_d: 1.0 / d.abs().max_element(),
+        // `|1 / d[kz]|` of the watertight test, kz the dominant axis: 1 / max_i |d_i| exactly.
+        inv_max_d: wt.sz.abs(),
     };
     let oct = (ray.neg[0] as u32) << 2 | (ray.neg[1] as u32) << 1 | ray.neg[2] as u32;
-    let wt = WatertightRay::new(o, d);
     let [kx, ky, kz] = wt.k;
     let op = [_mm256_set1_ps(o[kx]), _mm256_set1_ps(o[ky]), _mm256_set1_ps(o[kz])];
     let mut best = LaneHit { index: usize::MAX, t: t_max, b1: 0.0, b2: 0.0 };
