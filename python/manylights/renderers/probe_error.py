@@ -196,7 +196,7 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     confidence bound (more paths can decide it) or below the lower bound before a first round of retracing
     the heaviest probes or while fewer than ``DECIDE_SHARE`` x N probes carry it (a "missed" that a few heavy residuals decide),
     the fewest probes whose terms |d_k / p_k| make up
-    ``REFINE_MASS`` of the sum (at most N / ``REFINE_CAP``) are traced again with ``factor`` x the paths behind their mean, all FRESH, which
+    ``REFINE_MASS`` of the sum (at most N / ``REFINE_CAP``) are traced again with ``factor`` x the paths of their latest batch, all FRESH, which
     replace their mean and variance -- or, with a ``target`` and a lower confidence bound at 0 (the error
     not told from the probes' own noise, which all of them carry), every probe with ``NOISE_FACTOR`` x the
     most paths behind any (5'); at most ``rounds`` times, and no round that would take the retracing
@@ -207,12 +207,11 @@ def refine_probes(image, sample: dict, *, seed: int = 0, lights=None, rounds: Op
     alone, and once a round retraced anything every probe reports the ``keep`` part of its latest batch,
     which no choice of probes has seen: so each probe's mean and variance stay unbiased given those choices,
     retraced or not, and (1) holds for all of them (whether to go on reads the reported estimate: a stopping
-    rule). A firefly that made a probe's
-    residual large (or a bright path it missed, which made its own variance small) is averaged out instead
-    of deciding the estimate. Reporting the probes' earlier paths where they were not retraced is what a
-    choice by their own residuals biases: the probes left alone are those whose paths missed the rare
-    bright ones, and on Veach Ajar (full GI, heavy-tailed paths) the estimate of the squared error fell to
-    0.52x its expectation.
+    rule). A firefly that made a probe's residual large (or a bright path it missed, which made its own
+    variance small) is averaged out instead of deciding the estimate. Reporting the probes' earlier paths
+    where they were not retraced is what a choice by their own residuals biases: the probes left alone are
+    those whose paths missed the rare bright ones, and on Veach Ajar (full GI, heavy-tailed paths) the
+    estimate of the squared error fell to 0.45-0.52x its expectation.
 
     Args:
         image: (H, W, 3) the image the residuals are taken against (the one whose error is estimated).
