@@ -66,7 +66,7 @@ fn run(path: &std::path::Path, spp: u32, max_depth: i32, seed: u64) -> (ViewSamp
     let (scene, view, rt) = scene_view_tracer(path, 16);
     let px = probes(&view);
     let opts = ProbeOptions { spp, max_depth, seed, ..Default::default() };
-    let est = probe_pixels(&scene, &rt, &view, &px, &opts, None, &mut |_, _| {}).unwrap();
+    let est = probe_pixels(&scene, &rt, &view, &px, &opts, None, None, &mut |_, _| {}).unwrap();
     (view, px, est)
 }
 
@@ -129,7 +129,7 @@ fn seeded_and_deterministic() {
 fn bad_options_and_pixels_are_refused() {
     let path = plane_scene("pt-bad", r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#);
     let (scene, view, rt) = scene_view_tracer(&path, 16);
-    let go = |px: &[(u32, u32)], o: ProbeOptions| probe_pixels(&scene, &rt, &view, px, &o, None, &mut |_, _| {});
+    let go = |px: &[(u32, u32)], o: ProbeOptions| probe_pixels(&scene, &rt, &view, px, &o, None, None, &mut |_, _| {});
     assert!(go(&[(16, 0)], ProbeOptions::default()).unwrap_err().to_string().contains("outside"));
     assert!(go(&[(0, 0)], ProbeOptions { spp: 1, ..Default::default() }).unwrap_err().to_string().contains("spp"));
     assert!(go(&[(0, 0)], ProbeOptions { max_depth: 0, ..Default::default() }).unwrap_err().to_string().contains("max_depth"));
@@ -150,7 +150,7 @@ fn a_light_set_replaces_the_scene_emitters() {
     lights.push_point(p, Vec3::splat(10.0)).unwrap();
     let px = probes(&view);
     let opts = ProbeOptions { spp: 8, max_depth: 2, seed: 3, ..Default::default() };
-    let est = probe_pixels(&scene, &rt, &view, &px, &opts, Some(lights), &mut |_, _| {}).unwrap();
+    let est = probe_pixels(&scene, &rt, &view, &px, &opts, Some(lights), None, &mut |_, _| {}).unwrap();
     for (&(x, y), e) in px.iter().zip(&est) {
         let i = (y * 16 + x) as usize;
         let d = p - view.position[i];

@@ -4,7 +4,7 @@ use super::scene::Scene;
 use super::signals::{self, progress_callback};
 use super::util::array;
 use crate::error::Error;
-use crate::pathtrace::{probe_pixels_guided, ProbeOptions};
+use crate::pathtrace::{probe_pixels, ProbeOptions};
 use numpy::{PyArrayDyn, PyReadonlyArray2};
 use pyo3::prelude::*;
 
@@ -56,7 +56,7 @@ pub fn probe_pixels_py<'py>(
     let lights = lights.map(|l| (*l.inner).clone());
     let est = signals::detach(py, move || {
         let mut cb = progress_callback(progress);
-        probe_pixels_guided(&inner, &tracer, &view, &px, &opts, lights, guide.as_deref(), &mut cb)
+        probe_pixels(&inner, &tracer, &view, &px, &opts, lights, guide.as_deref(), &mut cb)
     })?;
     let k = est.len();
     let mean = est.iter().flat_map(|e| e.mean.to_array()).collect();
