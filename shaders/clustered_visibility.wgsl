@@ -3,8 +3,9 @@
 // into a bit-packed visibility matrix) and step 6 (every view sample shaded by every cluster light with
 // the visibility interpolated over its F nearest view clusters, Eq. 6 / Eq. 9).
 // Needs common/bsdf.wgsl, common/principled.wgsl, common/light.wgsl, common/bvh.wgsl,
-// common/view_sample.wgsl (shading as shaders/columns.wgsl, rays as common/bvh.wgsl's trace_to_point /
-// trace_direction, the columns' exact rays).
+// common/view_sample.wgsl, common/mask.wgsl (shading as shaders/columns.wgsl, rays as common/bvh.wgsl's
+// trace_to_point / trace_direction, the columns' exact rays; through masked surfaces common/mask.wgsl's
+// mask_transmittance, as the columns' `visibility_masked` with exact rays).
 //
 // Loop bounds (Mesa 22.3 stops an invocation after 65,535 loop iterations): the visibility stage traces
 // one ray per invocation (<= BVH_MAX_RAY_STEPS steps); the shading stage loops over params.count
@@ -36,7 +37,9 @@ struct ClusteredParams {
     // Shading: the view samples [first_sample, first_sample + num_dispatch_samples) of this dispatch.
     first_sample: u32,
     num_dispatch_samples: u32,
-    _pad2: u32,
+    // 1 in a scene with masked surfaces: the visibility buffer also holds the crossings and the
+    // transmittances (see `visibility`).
+    masked: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: ClusteredParams;
@@ -53,11 +56,33 @@ struct ClusteredParams {
 // Each view sample's F view clusters and weights, row-major (num_samples x F).
 @group(0) @binding(9) var<storage, read> membership_clusters: array<u32>;
 @group(0) @binding(10) var<storage, read> membership_weights: array<f32>;
-// num_view_clusters x words u32: bit c of row k = cluster light c visible from view cluster k.
+// num_view_clusters x words u32: bit c of row k = cluster light c visible from view cluster k (V > 0);
+// with params.masked, then the same bits for the rays that crossed a masked surface, then
+// num_view_clusters x num_lights f32 bit patterns, the transmittances V(k, c); last, one word: the rays
+// that ran out of traversal steps (counted as visible; must stay 0).
 @group(0) @binding(11) var<storage, read_write> visibility: array<atomic<u32>>;
 @group(0) @binding(12) var<storage, read_write> accum: array<vec4<f32>>;
-// Rays that ran out of traversal steps (counted as visible; must stay 0).
-@group(0) @binding(13) var<storage, read_write> gave_up: array<atomic<u32>>;
+// The mask table (common/mask.wgsl, src/gpu/mask.rs); a few unused words without masks.
+@group(0) @binding(13) var<storage, read> masks: array<u32>;
+
+// common/mask.wgsl's ray counters (the columns' statistics; unused here but for the rays that gave up).
+var<private> count_rays: u32 = 0u;
+var<private> count_gave_up: u32 = 0u;
+
+fn crossed_base() -> u32 {
+    return params.num_view_clusters * params.words;
+}
+
+fn transmittance_base() -> u32 {
+    return 2u * params.num_view_clusters * params.words;
+}
+
+fn gave_up_word() -> u32 {
+    if params.masked != 0u {
+        return transmittance_base() + params.num_view_clusters * params.num_lights;
+    }
+    return params.num_view_clusters * params.words;
+}
 
 fn bsdf_record(i: u32) -> Bsdf {
     return bsdfs[i];
@@ -67,7 +92,8 @@ fn bsdf_table(i: u32) -> f32 {
     return bsdf_tables[i];
 }
 
-// One ray from view cluster `row`'s representative toward cluster light c; sets the bit when free.
+// One ray from view cluster `row`'s representative toward cluster light c: sets the bit when V > 0 and,
+// with params.masked, stores V and whether the ray crossed a masked surface (`cpu::mask_visibility_at`).
 fn trace_pair(row: u32, c: u32) {
     let rep = representatives[row];
     if rep == NO_REPRESENTATIVE {
@@ -75,30 +101,56 @@ fn trace_pair(row: u32, c: u32) {
     }
     let s = samples[rep];
     let l = lights[c];
-    var res = BVH_FREE;
-    if l.kind == LIGHT_DIRECTIONAL {
-        res = trace_direction(s.position, s.geo_normal, -l.direction);
+    var v = vec2<f32>(0.0);
+    let budget = select(0u, mask_budget(s), mask_light_passes(l));
+    if (s.flags & VIEW_FLAG_MASKS) != 0u && budget > 0u {
+        v = mask_transmittance(s.position, s.geo_normal, l, -l.direction, budget, 1.0);
     } else {
-        res = trace_to_point(s.position, s.geo_normal, l.position);
+        var res = BVH_FREE;
+        if l.kind == LIGHT_DIRECTIONAL {
+            res = trace_direction(s.position, s.geo_normal, -l.direction);
+        } else {
+            res = trace_to_point(s.position, s.geo_normal, l.position);
+        }
+        if res == BVH_GAVE_UP {
+            count_gave_up = count_gave_up + 1u;
+        }
+        v.x = select(1.0, 0.0, res == BVH_BLOCKED);
     }
-    if res == BVH_GAVE_UP {
-        atomicAdd(&gave_up[0], 1u);
+    if count_gave_up > 0u {
+        atomicAdd(&visibility[gave_up_word()], count_gave_up);
     }
-    if res != BVH_BLOCKED {
-        atomicOr(&visibility[row * params.words + c / 32u], 1u << (c % 32u));
+    let word = row * params.words + c / 32u;
+    let bit = 1u << (c % 32u);
+    if v.x > 0.0 {
+        atomicOr(&visibility[word], bit);
+    }
+    if params.masked != 0u {
+        atomicStore(&visibility[transmittance_base() + row * params.num_lights + c], bitcast<u32>(v.x));
+        if v.y > 0.0 {
+            atomicOr(&visibility[crossed_base() + word], bit);
+        }
     }
 }
 
-// Eq. 9: sum_f w_f V(k_f, c) for view sample i.
-fn interpolated_visibility(i: u32, c: u32) -> f32 {
-    var v = 0.0;
+// Eq. 9: sum_f w_f V(k_f, c) for view sample i, split into the entries whose rays crossed no masked
+// surface (x) and those that did (y).
+fn interpolated_visibility(i: u32, c: u32) -> vec2<f32> {
+    var v = vec2<f32>(0.0);
     let word = c / 32u;
     let bit = 1u << (c % 32u);
     for (var f = 0u; f < params.fuzziness; f = f + 1u) {
         let e = i * params.fuzziness + f;
         let k = membership_clusters[e];
-        if (atomicLoad(&visibility[k * params.words + word]) & bit) != 0u {
-            v = v + membership_weights[e];
+        if params.masked != 0u {
+            let t = bitcast<f32>(atomicLoad(&visibility[transmittance_base() + k * params.num_lights + c]));
+            if (atomicLoad(&visibility[crossed_base() + k * params.words + word]) & bit) != 0u {
+                v.y = v.y + membership_weights[e] * t;
+            } else {
+                v.x = v.x + membership_weights[e] * t;
+            }
+        } else if (atomicLoad(&visibility[k * params.words + word]) & bit) != 0u {
+            v.x = v.x + membership_weights[e];
         }
     }
     return v;
@@ -122,9 +174,19 @@ fn shade_sample(i: u32) {
         if e.valid {
             let wo_local = vec3<f32>(dot(e.wo, fs), dot(e.wo, ft), dot(e.wo, n));
             let w = glossy_light_weight(b, s.bsdf_samples, lights[c], s.position, wi_local, wo_local);
-            let f = light_shade(lights[c], s.position, e, fs, ft, n, wi_local, b) * s.throughput * w;
+            var f = light_shade(lights[c], s.position, e, fs, ft, n, wi_local, b) * s.throughput * w;
+            if (s.flags & VIEW_FLAG_MASKS) != 0u && s.mask_valid < 1.0 && lights[c].kind != LIGHT_VPL {
+                // Mitsuba's `valid_ray` factor of a masked sample: direct light only (as the columns).
+                f = f * mask_direct_factor(s, b, lights[c], wi_local, wo_local);
+            }
             if any(f != vec3<f32>(0.0)) {
-                acc = acc + f * interpolated_visibility(i, c);
+                let v = interpolated_visibility(i, c);
+                var through_mask = v.y;
+                if through_mask > 0.0 && s.bsdf_samples > 0u && w > 0.0 {
+                    // Through a mask only Mitsuba's BSDF sampling reaches the light (weight 1; the columns).
+                    through_mask = through_mask / w;
+                }
+                acc = acc + f * (v.x + through_mask);
             }
         }
     }

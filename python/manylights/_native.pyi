@@ -316,8 +316,9 @@ def clustered_shading(A: LightMatrix, light_labels: npt.NDArray[np.uint32], ligh
     light_labels (n,), light_centroids (k_light, 3), view_centroids / view_normals (k_view, 3),
     membership_clusters / membership_weights (m, F).
 
-    Returns a dict: image (H, W, 3) float32 (no emitters), visibility (k_view, ceil(K / 32)) uint32 bit rows,
-    rays, gave_up (int), visibility_seconds, shading_seconds (float), light_representatives,
+    Returns a dict: image (H, W, 3) float32 (no emitters), visibility (k_view, ceil(K / 32)) uint32 bit rows
+    (V > 0), transmittance (k_view, K) float32 and crossed (k_view, ceil(K / 32)) uint32 bit rows in a scene
+    with masked surfaces (None otherwise), rays, gave_up (int), visibility_seconds, shading_seconds (float), light_representatives,
     light_cluster_labels, light_cluster_sizes (K,) int64, view_representatives (k_view,) int64 (-1: none),
     light_clusters K, view_clusters k_view (int).
 

@@ -84,7 +84,8 @@ impl ShadingPoint {
         }
     }
 
-    fn local(&self, v: Vec3) -> Vec3 {
+    /// `v` (world space) in the sample's shading frame (s, t, n).
+    pub fn local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
     }
 }

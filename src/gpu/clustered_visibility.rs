@@ -3,8 +3,11 @@
 //! (`matrix::gpu::GpuBackend`: view-sample and BSDF buffers, the scene BVH):
 //! 1. visibility: one thread per (view cluster, cluster light) pair casts the exact shadow ray
 //!    (common/bvh.wgsl, the columns' rays) from the view cluster's representative and `atomicOr`s its
-//!    bit into the bit-packed K_view x ceil(K_light / 32) u32 matrix, which stays on the GPU;
-//!    pairs go in dispatches of at most `PAIRS_PER_DISPATCH`, each waited for (interruptible).
+//!    bit into the bit-packed K_view x ceil(K_light / 32) u32 matrix, which stays on the GPU; in a scene
+//!    with masked surfaces the ray walks through them (common/mask.wgsl's `mask_transmittance`, the
+//!    columns' exact masked rays) and the same buffer also holds the crossings (bits) and the K_view x
+//!    K_light transmittances (f32); pairs go in dispatches of at most `PAIRS_PER_DISPATCH`, each waited
+//!    for (interruptible).
 //! 2. shading: one thread per view sample loops over a range of cluster lights (Eq. 6) with the
 //!    visibility interpolated over its F view clusters (Eq. 9) and adds to an RGBA f32 accumulator;
 //!    ranges hold at most `SHADE_LOOP_BUDGET / (F + 1)` lights, so an invocation's loops stay below
@@ -14,8 +17,8 @@
 //! set-up (uploads, the pipeline compiled on a matrix's first call).
 //!
 //! GPU memory besides the backend's: cluster lights (256 B each), membership (8 B per sample and
-//! column), representatives (4 B per view cluster), the visibility matrix (4 B per word) and the
-//! accumulator (16 B per sample). A backend made with shadow-map-only visibility has no BVH; one is
+//! column), representatives (4 B per view cluster), the visibility matrix (4 B per word; masked scenes
+//! twice that plus 4 B per pair) and the accumulator (16 B per sample). A backend made with shadow-map-only visibility has no BVH; one is
 //! built and uploaded here then.
 use super::bvh::GpuBvh;
 use super::columns::{dispatch_size, storage_buffer, GpuLight};
@@ -59,7 +62,8 @@ pub struct ClusteredParams {
     /// dispatch (`gpu::dispatch::plan_clustered_shading`).
     pub first_sample: u32,
     pub num_dispatch_samples: u32,
-    pub _pad: u32,
+    /// 1 in a scene with masked surfaces (the visibility buffer's layout: `shaders/clustered_visibility.wgsl`).
+    pub masked: u32,
 }
 
 /// The compiled pipeline.
@@ -72,7 +76,8 @@ impl ClusteredVisibilityPass {
     pub fn new(device: &wgpu::Device) -> ClusteredVisibilityPass {
         let mut entries = vec![uniform(0)];
         entries.extend((1..=10).map(|b| storage(b, true)));
-        entries.extend((11..=13).map(|b| storage(b, false)));
+        entries.extend((11..=12).map(|b| storage(b, false)));
+        entries.push(storage(13, true));
         let (pipeline, bind_group_layout) = compute_pipeline(device, "ClusteredVisibilityPass", shaders::CLUSTERED_VISIBILITY, &entries);
         ClusteredVisibilityPass { pipeline, bind_group_layout }
     }
@@ -82,10 +87,8 @@ impl ClusteredVisibilityPass {
 /// matrix, rays and per-stage seconds.
 ///
 /// Errors: `InvalidParameter` when a buffer exceeds the storage binding limit or the pair count
-/// exceeds 2^32, and for a view of a scene with masked surfaces (as the CPU's render); GPU errors;
-/// `Interrupted` on Ctrl-C between dispatches.
+/// exceeds 2^32; GPU errors; `Interrupted` on Ctrl-C between dispatches.
 pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredImage> {
-    crate::cluster::visibility::cpu::refuse_masks(&backend.view)?;
     let ctx = &backend.ctx;
     let device = &ctx.device;
     let view = &backend.view;
@@ -93,6 +96,10 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     let lights = &job.lights.lights;
     let (k_view, k_light, f) = (job.view_reps.len(), lights.len(), job.membership.f);
     let words = words_per_row(k_light);
+    let masked = backend.has_masks;
+    // The visibility buffer: bits, then (masked) crossing bits and transmittances, then the rays that gave up.
+    let bit_words = k_view * words;
+    let vis_words = bit_words + if masked { bit_words + k_view * k_light } else { 0 } + 1;
     let pairs = k_view as u64 * k_light as u64;
     if pairs >= u32::MAX as u64 {
         return Err(Error::invalid(format!(
@@ -102,7 +109,7 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     let sizes = [
         ("the cluster lights", k_light as u64 * std::mem::size_of::<GpuLight>() as u64),
         ("the membership", (m * f) as u64 * 4),
-        ("the visibility matrix", (k_view * words) as u64 * 4),
+        ("the visibility matrix", vis_words as u64 * 4),
         ("the accumulator", m as u64 * 16),
     ];
     for (what, bytes) in sizes {
@@ -112,14 +119,23 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     }
     crate::memory::check_gpu(ctx, "clustered visibility buffers", sizes.iter().map(|s| s.1 as u128).sum(), false)?;
     let own_bvh;
-    let bvh = if backend.opts.visibility == Visibility::ShadowMap {
+    let bvh = if backend.opts.visibility == Visibility::ShadowMap && !masked {
         own_bvh = GpuBvh::upload(device, &backend.scene, backend.max_binding)?;
         &own_bvh
     } else {
         &backend.bvh
     };
     let (texels, offsets) = crate::lights::spot_texture::gpu_table(lights);
-    let gpu_lights: Vec<GpuLight> = (0..k_light).map(|c| GpuLight::new(lights, c, 0, false, offsets[c])).collect();
+    let gpu_lights: Vec<GpuLight> = (0..k_light)
+        .map(|c| {
+            let mut l = GpuLight::new(lights, c, 0, false, offsets[c]);
+            if masked {
+                let [pdf, passes] = crate::gpu::mask::light_fields(view, lights, c, backend.directional_crosses_masks);
+                (l.patch[1][3], l.patch[2][3]) = (pdf, passes);
+            }
+            l
+        })
+        .collect();
     let usage = wgpu::BufferUsages::STORAGE;
     let lights_buf = storage_buffer(device, "ClusteredVisibility::lights", &gpu_lights, usage)?;
     let spot_buf = storage_buffer(device, "ClusteredVisibility::spot_textures", &texels, usage)?;
@@ -127,8 +143,7 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     let reps_buf = storage_buffer(device, "ClusteredVisibility::representatives", &reps, usage)?;
     let clusters_buf = storage_buffer(device, "ClusteredVisibility::membership_clusters", &job.membership.clusters, usage)?;
     let weights_buf = storage_buffer(device, "ClusteredVisibility::membership_weights", &job.membership.weights, usage)?;
-    let vis_buf =
-        storage_buffer(device, "ClusteredVisibility::visibility", &vec![0u32; k_view * words], usage | wgpu::BufferUsages::COPY_SRC)?;
+    let vis_buf = storage_buffer(device, "ClusteredVisibility::visibility", &vec![0u32; vis_words], usage | wgpu::BufferUsages::COPY_SRC)?;
     let accum = crate::gpu::alloc::buffer(
         device,
         &wgpu::BufferDescriptor {
@@ -138,7 +153,6 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
             mapped_at_creation: false,
         },
     )?;
-    let gave_up_buf = storage_buffer(device, "ClusteredVisibility::gave_up", &[0u32; 4], usage | wgpu::BufferUsages::COPY_SRC)?;
     let pass = super::pipeline::shared_pass(device, ClusteredVisibilityPass::new);
     let base = ClusteredParams {
         stage: STAGE_VISIBILITY,
@@ -152,7 +166,7 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
         count: 0,
         first_sample: 0,
         num_dispatch_samples: 0,
-        _pad: 0,
+        masked: masked as u32,
     };
     let run = |params: ClusteredParams, threads: u32, label: &str| -> Result<()> {
         crate::interrupt::check()?;
@@ -179,7 +193,7 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
                 weights_buf.as_entire_binding(),
                 vis_buf.as_entire_binding(),
                 accum.as_entire_binding(),
-                gave_up_buf.as_entire_binding(),
+                backend.masks.as_entire_binding(),
             ],
             (gx, gy),
         );
@@ -213,11 +227,18 @@ pub fn render(backend: &GpuBackend, job: &ClusteredShading) -> Result<ClusteredI
     let rgb: Vec<f32> = rgba.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
     let image = if m == view.num_pixels() { rgb } else { view.fold(&rgb, 3) };
     let shading_seconds = seconds(t1);
-    let bits = ctx.read_buffer::<u32>(&vis_buf, 0, k_view * words)?;
-    let gave_up = ctx.read_buffer::<u32>(&gave_up_buf, 0, 1)?[0] as u64;
+    let mut bits = ctx.read_buffer::<u32>(&vis_buf, 0, vis_words)?;
+    let gave_up = bits.pop().unwrap_or(0) as u64;
+    let (transmittance, crossed) = if masked {
+        let rest = bits.split_off(bit_words);
+        let (crossed, transmittance) = rest.split_at(bit_words);
+        (transmittance.iter().map(|&w| f32::from_bits(w)).collect(), crossed.to_vec())
+    } else {
+        (Vec::new(), Vec::new())
+    };
     Ok(ClusteredImage {
         image,
-        visibility: VisibilityMatrix { rows: k_view, cols: k_light, bits },
+        visibility: VisibilityMatrix { rows: k_view, cols: k_light, bits, transmittance, crossed },
         rays: job.rays(),
         gave_up,
         visibility_seconds,

@@ -40,6 +40,7 @@ pub const CLUSTERED_VISIBILITY: &str = concat!(
     include_str!("../../shaders/common/glossy.wgsl"),
     include_str!("../../shaders/common/bvh.wgsl"),
     include_str!("../../shaders/common/view_sample.wgsl"),
+    include_str!("../../shaders/common/mask.wgsl"),
     include_str!("../../shaders/clustered_visibility.wgsl"),
 );
 /// `shaders/columns.wgsl`: light columns (`gpu::columns`).

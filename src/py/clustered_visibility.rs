@@ -1,5 +1,5 @@
 //! `clustered_shading`: clustered visibility with given clusterings (src/cluster/visibility); the public
-//! wrapper with argument checks is `manylights.clustered_shading` (python/manylights/clustered.py).
+//! wrapper with argument checks is `manylights.clustered_shading` (python/manylights/renderers/clustered_visibility.py).
 use super::matrix::LightMatrix;
 use super::util::array;
 use crate::cluster::visibility::{LightClustering, Membership, ViewClustering};
@@ -29,8 +29,10 @@ fn rows3(name: &str, a: &PyReadonlyArray2<'_, f32>) -> PyResult<Vec<[f32; 3]>> {
 ///     membership_weights: (m, F) float32, rows summing to 1.
 ///
 /// Returns:
-///     dict: image (H, W, 3) float32 (no emitters), visibility (k_view, ceil(K/32)) uint32 bit rows,
-///     rays, gave_up (int), visibility_seconds, shading_seconds (float), light_representatives (K,) int64,
+///     dict: image (H, W, 3) float32 (no emitters), visibility (k_view, ceil(K/32)) uint32 bit rows
+///     (bit c set when V(k, c) > 0), transmittance (k_view, K) float32 V(k, c) in [0, 1] in a scene with
+///     masked surfaces (None otherwise), crossed (k_view, ceil(K/32)) uint32 bit rows of the rays that
+///     crossed a masked surface (None without masks), rays, gave_up (int), visibility_seconds, shading_seconds (float), light_representatives (K,) int64,
 ///     light_cluster_labels (K,) int64, light_cluster_sizes (K,) int64, view_representatives (k_view,)
 ///     int64 (-1 = none), light_clusters K and view_clusters k_view (int).
 ///
@@ -75,7 +77,15 @@ pub fn clustered_shading_py<'py>(
     let d = PyDict::new(py);
     d.set_item("image", array(py, out.image, &[h, w, 3])?)?;
     let words = crate::cluster::visibility::words_per_row(kl);
-    d.set_item("visibility", array(py, out.visibility.bits, &[kv, words])?)?;
+    let vis = out.visibility;
+    if vis.transmittance.is_empty() {
+        d.set_item("transmittance", py.None())?;
+        d.set_item("crossed", py.None())?;
+    } else {
+        d.set_item("transmittance", array(py, vis.transmittance, &[kv, kl])?)?;
+        d.set_item("crossed", array(py, vis.crossed, &[kv, words])?)?;
+    }
+    d.set_item("visibility", array(py, vis.bits, &[kv, words])?)?;
     d.set_item("rays", out.rays)?;
     d.set_item("gave_up", out.gave_up)?;
     d.set_item("visibility_seconds", out.visibility_seconds)?;

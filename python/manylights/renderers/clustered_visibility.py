@@ -40,9 +40,10 @@ def clustered_shading(A, light_labels, light_centroids, view_centroids, view_nor
     light clusters K can exceed the labels used; directional lights cluster by direction). View clusters:
     the representative is the surface view sample nearest the centroid among the cluster's hard members
     (membership column 0). One exact shadow ray per (view cluster, light cluster) pair gives the
-    visibility V; every view sample i is shaded by every light cluster c with its own BSDF and geometry
-    term and the visibility ``sum_f weights[i, f] * V(clusters[i, f], c)`` (Eq. 6 with Eq. 9). With every
-    light its own label and every view sample its own cluster (F = 1) this is the brute-force image.
+    visibility V (in a scene with masked surfaces the ray's expected transmittance through them, as the
+    light matrix's element); every view sample i is shaded by every light cluster c with its own BSDF and
+    geometry term and the visibility ``sum_f weights[i, f] * V(clusters[i, f], c)`` (Eq. 6 with Eq. 9). With
+    every light its own label and every view sample its own cluster (F = 1) this is the brute-force image.
 
     Args:
         A: a ``LightMatrix`` (its device, GPU or CPU, runs both stages).

@@ -1,10 +1,10 @@
 //! Clustered visibility on the CPU (rayon): the visibility matrix by exact BVH rays
-//! (`cpu::light_blocked`, the CPU backend's shadow ray) and shading by Eq. 6/9 with the CPU backend's
-//! shading (`cpu::ShadingPoint`, `LightSet::emitted`, `shading::bsdf::eval_records`): the reference of
+//! (`cpu::light_blocked`, the CPU backend's shadow ray; `cpu::mask_visibility_at` through masked surfaces)
+//! and shading by Eq. 6/9 with the CPU backend's unshadowed elements (`cpu::shade_unshadowed`): the reference of
 //! the GPU pass `gpu::clustered_visibility` and the CPU backend's implementation (module docs of
 //! `cluster::visibility`).
 use super::{seconds, words_per_row, ClusteredImage, ClusteredShading, VisibilityMatrix};
-use crate::cpu::{light_blocked, ShadingPoint};
+use crate::cpu::{light_blocked, mask_visibility_at, shade_unshadowed, ShadingPoint};
 use crate::error::Result;
 use crate::lights::LightSet;
 use crate::raytrace::RayTracer;
@@ -16,49 +16,77 @@ use std::time::Instant;
 /// View samples per parallel task of the shading.
 const SAMPLE_CHUNK: usize = 64;
 
-/// One exact ray per (view cluster with a representative, cluster light): the bit-packed matrix.
+/// One exact ray per (view cluster with a representative, cluster light): the bit-packed matrix, and in a
+/// scene with masked surfaces the transmittance and crossing of every entry (module docs of
+/// `cluster::visibility`).
 pub fn visibility_matrix(tracer: &RayTracer, view: &ViewSamples, job: &ClusteredShading) -> Result<VisibilityMatrix> {
     let lights = &job.lights.lights;
     let (rows, cols) = (job.view_reps.len(), lights.len());
     let words = words_per_row(cols);
-    crate::memory::check_host(
-        &format!("the visibility matrix: {rows} view clusters x {cols} cluster lights, bit-packed"),
-        crate::memory::product(&[rows as u64, words as u64, 4]),
-    )?;
-    let mut bits = vec![0u32; rows * words];
+    let masked = !view.mask_budget.is_empty();
+    let bytes = crate::memory::product(&[rows as u64, words as u64, 4])
+        + if masked { crate::memory::product(&[rows as u64, cols as u64, 5]) } else { 0 };
+    crate::memory::check_host(&format!("the visibility matrix: {rows} view clusters x {cols} cluster lights"), bytes)?;
+    let mut out = VisibilityMatrix {
+        rows,
+        cols,
+        bits: vec![0u32; rows * words],
+        transmittance: if masked { vec![0f32; rows * cols] } else { Vec::new() },
+        crossed: if masked { vec![0u32; rows * words] } else { Vec::new() },
+    };
     // Rows in blocks between interruption checks.
     let rows_per_block = ((1usize << 20) / cols.max(1)).max(1);
-    for (b, block) in bits.chunks_mut(rows_per_block * words).enumerate() {
+    for first in (0..rows).step_by(rows_per_block) {
         crate::interrupt::check()?;
-        block.par_chunks_mut(words).enumerate().for_each(|(r, row)| {
-            let Some(i) = job.view_reps.sample[b * rows_per_block + r] else { return };
-            let (p, n_g) = (view.position[i], view.geo_normal[i]);
-            for c in 0..cols {
-                if ray_visible(tracer, lights, c, p, n_g) {
-                    row[c / 32] |= 1 << (c % 32);
+        let block: Vec<Vec<(f32, bool)>> = (first..rows.min(first + rows_per_block))
+            .into_par_iter()
+            .map(|k| match job.view_reps.sample[k] {
+                Some(i) => (0..cols).map(|c| entry(tracer, view, lights, i, c)).collect(),
+                None => Vec::new(),
+            })
+            .collect();
+        for (k, row) in (first..).zip(block) {
+            for (c, (v, crossed)) in row.into_iter().enumerate() {
+                let (word, bit) = (k * words + c / 32, 1u32 << (c % 32));
+                if v > 0.0 {
+                    out.bits[word] |= bit;
+                }
+                if masked {
+                    out.transmittance[k * cols + c] = v;
+                    if crossed {
+                        out.crossed[word] |= bit;
+                    }
                 }
             }
-        });
+        }
     }
-    Ok(VisibilityMatrix { rows, cols, bits })
+    Ok(out)
 }
 
-/// Whether cluster light c is visible from surface point p (geometric normal n_g): toward its
-/// representative's position, or along its reversed direction for a directional light.
-pub fn ray_visible(tracer: &RayTracer, lights: &LightSet, c: usize, p: Vec3, n_g: Vec3) -> bool {
+/// V of cluster light c from view sample i (a representative) and whether its ray crossed a masked
+/// surface: 0 or 1 (`light_blocked`), or in a masked scene the expected transmittance with the sample's
+/// mask budget (`cpu::mask_visibility_at`, as the light matrix's element (i, c)). Rays toward the light's
+/// position, or along its reversed direction for a directional light.
+pub fn entry(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, i: usize, c: usize) -> (f32, bool) {
+    let (p, n_g) = (view.position[i], view.geo_normal[i]);
     let (wo, dist) = match lights.kind[c] {
         crate::lights::LightKind::Directional => (-lights.direction[c], f32::INFINITY),
         _ => (Vec3::ZERO, 1.0),
     };
-    !light_blocked(tracer, lights, c, p, n_g, wo, dist)
+    match view.mask_budget.get(i) {
+        Some(&budget) => mask_visibility_at(tracer, lights, c, p, n_g, wo, dist, budget),
+        None => (!light_blocked(tracer, lights, c, p, n_g, wo, dist) as u8 as f32, false),
+    }
 }
 
-/// Eq. 6/9 for every view sample with the visibility matrix `vis`: H * W * 3 floats (pixels).
+/// Eq. 6/9 for every view sample with the visibility matrix `vis`: H * W * 3 floats (pixels). The light's
+/// value at a sample is the light matrix's unshadowed element (`cpu::shade_unshadowed`); in a masked scene
+/// an entry whose ray crossed a mask counts without the glossy light weight, as `cpu::shade` does.
 pub fn shade(view: &ViewSamples, job: &ClusteredShading, vis: &VisibilityMatrix) -> Result<Vec<f32>> {
     let m = view.len();
     let lights = &job.lights.lights;
     let f = job.membership.f;
-    let words = words_per_row(vis.cols);
+    let glossy = !view.bsdf_samples.is_empty();
     let mut out = vec![0f32; m * 3];
     let samples_per_block = ((1usize << 20) / lights.len().max(1)).max(SAMPLE_CHUNK);
     for (b, block) in out.chunks_mut(samples_per_block * 3).enumerate() {
@@ -67,32 +95,25 @@ pub fn shade(view: &ViewSamples, job: &ClusteredShading, vis: &VisibilityMatrix)
             for (e, px) in dst.chunks_exact_mut(3).enumerate() {
                 let i = b * samples_per_block + t * SAMPLE_CHUNK + e;
                 let sp = ShadingPoint::new(view, i);
-                if !sp.surface {
-                    continue;
-                }
                 let ks = &job.membership.clusters[i * f..(i + 1) * f];
                 let ws = &job.membership.weights[i * f..(i + 1) * f];
                 let mut sum = Vec3::ZERO;
                 for c in 0..lights.len() {
-                    let Some((wo, radiance, _)) = lights.emitted(c, sp.p, sp.n) else { continue };
-                    let local = Vec3::new(wo.dot(sp.s), wo.dot(sp.t), wo.dot(sp.n));
-                    let receiver = |w: Vec3| {
-                        crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, Vec3::new(w.dot(sp.s), w.dot(sp.t), w.dot(sp.n)))
-                    };
-                    let mut v = lights.shade_receiver(c, sp.p, wo, radiance, receiver) * sp.throughput;
-                    if !view.bsdf_samples.is_empty() {
-                        v *= crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, local, c);
-                    }
-                    if v == Vec3::ZERO {
-                        continue;
-                    }
-                    let mut visible = 0.0f32;
+                    let Some((v, wo, _)) = shade_unshadowed(view, lights, &sp, i, c) else { continue };
+                    let (mut visible, mut through_mask) = (0.0f32, 0.0f32);
                     for (&k, &w) in ks.iter().zip(ws) {
-                        if vis.bits[k as usize * words + c / 32] >> (c % 32) & 1 == 1 {
-                            visible += w;
+                        match vis.value(k as usize, c) {
+                            (value, true) if glossy => through_mask += w * value,
+                            (value, _) => visible += w * value,
                         }
                     }
-                    sum += v * visible;
+                    if through_mask > 0.0 {
+                        let w = crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, sp.local(wo), c);
+                        if w > 0.0 {
+                            through_mask /= w;
+                        }
+                    }
+                    sum += v * (visible + through_mask);
                 }
                 px.copy_from_slice(&sum.to_array());
             }
@@ -101,24 +122,10 @@ pub fn shade(view: &ViewSamples, job: &ClusteredShading, vis: &VisibilityMatrix)
     Ok(if m == view.num_pixels() { out } else { view.fold(&out, 3) })
 }
 
-/// `InvalidParameter` for a view of a scene with masked surfaces: a visibility bit cannot hold their
-/// fractional transmittance (the CPU and GPU clustered renders both refuse them).
-pub fn refuse_masks(view: &ViewSamples) -> Result<()> {
-    if !view.mask_budget.is_empty() {
-        return Err(crate::error::Error::invalid(
-            "clustered visibility does not support the mask BSDF (opacity cut-outs) yet: a visibility bit cannot hold \
-             a masked surface's fractional transmittance",
-        ));
-    }
-    Ok(())
-}
-
 /// The whole clustered render on the CPU: visibility matrix, then shading, each timed.
 ///
-/// Errors also: `InvalidParameter` for a view of a scene with masked surfaces (a visibility bit cannot hold
-/// their fractional transmittance).
+/// Errors: what `visibility_matrix` and `shade` raise (host memory, `Interrupted`).
 pub fn render(tracer: &RayTracer, view: &ViewSamples, job: &ClusteredShading) -> Result<ClusteredImage> {
-    refuse_masks(view)?;
     let t0 = Instant::now();
     let visibility = visibility_matrix(tracer, view, job)?;
     let visibility_seconds = seconds(t0);

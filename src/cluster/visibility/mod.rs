@@ -31,13 +31,20 @@
 //!   representative, cluster light), from the view representative toward the light representative
 //!   (`spawn_ray_to`), or unbounded along the light's reversed direction for a directional one. Stored
 //!   bit-packed: row k (view cluster) holds `words = ceil(K_light / 32)` u32, bit c of the row = 1 when
-//!   cluster light c is visible: `K_view * words * 4` bytes (8000 x 1000 clusters: 1 MiB).
+//!   cluster light c is visible: `K_view * words * 4` bytes (8000 x 1000 clusters: 1 MiB). In a scene with
+//!   masked surfaces (Mitsuba's `mask`, `raytrace::mask`) an entry is the ray's expected transmittance,
+//!   exactly as the light matrix's element from the representative (`cpu::mask_visibility_at`: the
+//!   representative's mask budget, the lights whose shadow rays cross masks), stored beside the bits as
+//!   `K_view * K_light` f32, with a second bit matrix of the rays that crossed a mask.
 //! - Shading (item 4, Eq. 6 with Eq. 9): for every surface view sample i and cluster light c,
 //!   `L_i += bsdf_i(wi, wo_c) * F_c(p_i) * throughput_i * sum_f w_if V(k_if, c)`, where `F_c` is the
 //!   cluster light's emission at p_i (`LightSet::emitted` with the summed intensity: the same formula and
 //!   code as the light matrix's columns), `k_if` and `w_if` the sample's F nearest view clusters and their
 //!   weights (Eq. 10, normalised inverse distances; F = 1 is hard clustering, Eq. 8's mean is the
-//!   special case of equal weights). Per-sample values are folded into pixels as the light matrix does
+//!   special case of equal weights). In a masked scene V is the transmittance, a light whose ray from
+//!   cluster k crossed a mask counts without the glossy light weight (`cpu::shade`), and F_c carries
+//!   Mitsuba's `valid_ray` factor of a masked sample (`cpu::shade_unshadowed`, the columns' code).
+//!   Per-sample values are folded into pixels as the light matrix does
 //!   (delta-chain samples add into their pixel). What the camera sees of emitters is not included
 //!   (`LightMatrix::emitted`, added by the Python renderer as MRCS does).
 //!
@@ -338,13 +345,20 @@ impl ClusteredShading {
     }
 }
 
-/// The bit-packed visibility matrix (module docs): `rows` view clusters x `cols` cluster lights.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// The visibility matrix (module docs): `rows` view clusters x `cols` cluster lights, bit-packed, and in a
+/// scene with masked surfaces also the fractional transmittance of every entry.
+#[derive(Debug, Clone, PartialEq)]
 pub struct VisibilityMatrix {
     pub rows: usize,
     pub cols: usize,
-    /// `rows * words_per_row(cols)` u32.
+    /// `rows * words_per_row(cols)` u32: bit c of row k set when V(k, c) > 0.
     pub bits: Vec<u32>,
+    /// Masked scenes only (empty otherwise): `rows * cols` f32, V(k, c) in [0, 1], the expected
+    /// transmittance of the ray through masked surfaces (`cpu::mask_visibility_at`).
+    pub transmittance: Vec<f32>,
+    /// Masked scenes only (empty otherwise): bit-packed as `bits`, set when the ray of (k, c) crossed a
+    /// masked surface (only Mitsuba's BSDF sampling then reaches the light: `cpu::shade`).
+    pub crossed: Vec<u32>,
 }
 
 /// u32 words of one row of the visibility matrix.
@@ -353,9 +367,20 @@ pub fn words_per_row(cols: usize) -> usize {
 }
 
 impl VisibilityMatrix {
-    /// V(row, col): 1 when the representatives see each other.
+    /// Whether V(row, col) > 0 (the representatives see each other, through masks perhaps).
     pub fn get(&self, row: usize, col: usize) -> bool {
         self.bits[row * words_per_row(self.cols) + col / 32] >> (col % 32) & 1 == 1
+    }
+
+    /// V(row, col) and whether its ray crossed a masked surface: the transmittance in a masked scene, else
+    /// 0 or 1 (and false).
+    #[inline]
+    pub fn value(&self, row: usize, col: usize) -> (f32, bool) {
+        if self.transmittance.is_empty() {
+            return (self.get(row, col) as u8 as f32, false);
+        }
+        let crossed = self.crossed[row * words_per_row(self.cols) + col / 32] >> (col % 32) & 1 == 1;
+        (self.transmittance[row * self.cols + col], crossed)
     }
 }
 

@@ -229,3 +229,90 @@ fn shading_in_several_gpu_dispatches_still_equals_brute_force() {
     assert_eq!(out_sm.visibility, out.visibility);
     assert_eq!(out_sm.image, out.image);
 }
+
+/// `tests/data/mask_leaves.xml` (two masked quads over a floor) with its floor made a rough plastic of
+/// alpha 0.05 (glossy view samples, so the rule of a ray through a mask applies), chains traced to
+/// `max_depth` and its area light as 48 samples, at 24 x 18: the CPU and GPU light matrices and the tracer.
+fn masked_pair(max_depth: i64) -> (LightMatrix, LightMatrix, Arc<crate::raytrace::RayTracer>) {
+    use crate::matrix::backend::Chosen;
+    use crate::matrix::glossy::GlossyOptions;
+    use crate::raytrace::RayTracer;
+    use crate::view::chains::{trace_chains, ChainOptions};
+    let leaves = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mask_leaves.xml");
+    let src = std::fs::read_to_string(leaves).unwrap();
+    let floor = "<bsdf type=\"diffuse\">\n            <rgb name=\"reflectance\" value=\"0.6, 0.6, 0.55\"/>\n        </bsdf>";
+    assert!(src.contains(floor));
+    let rough = "<bsdf type=\"roughplastic\"><float name=\"alpha\" value=\"0.05\"/></bsdf>";
+    let dir = crate::testing::scratch_dir("clustered-masks");
+    let xml = dir.join("mask_leaves_rough.xml");
+    std::fs::write(&xml, src.replace(floor, rough)).unwrap();
+    let opts = LoadOptions { params: vec![("width".into(), "24".into()), ("height".into(), "18".into())], ..Default::default() };
+    let scene = Arc::new(load_scene(&xml, &opts).unwrap());
+    let lights = Arc::new(generate_lights(&scene, &GenerateOptions { area: 48, ..Default::default() }).unwrap());
+    let mut view = crate::testing::scenes::cast_view(&scene);
+    trace_chains(&scene, &mut view, &ChainOptions::with_max_depth(max_depth).unwrap()).unwrap();
+    view.set_glossy(&GlossyOptions::default()).unwrap();
+    assert!(!view.mask_budget.is_empty() && !view.bsdf_samples.is_empty());
+    let view = Arc::new(view);
+    let tracer = Arc::new(RayTracer::new(&scene).unwrap());
+    let ctx = GpuContext::shared().unwrap();
+    let copts = ColumnOptions { visibility: Visibility::RayTraced, ..Default::default() };
+    let gpu = LightMatrix::new(ctx, scene.clone(), view.clone(), lights.clone(), copts.clone()).unwrap();
+    let cpu = LightMatrix::with_device(&Chosen::Cpu, scene, view, lights, copts, Some(tracer.clone())).unwrap();
+    (cpu, gpu, tracer)
+}
+
+#[test]
+fn masked_scene_singletons_equal_brute_force_and_entries_are_transmittances() {
+    for max_depth in [3, -1] {
+        let (cpu, gpu, tracer) = masked_pair(max_depth);
+        let (view, lights) = (&cpu.view, &cpu.lights);
+        let (lc, vc) = (light_singletons(lights), view_singletons(view));
+        let mut fractional = 0;
+        for a in [&cpu, &gpu] {
+            let brute = a.column_sum(None, &mut |_, _| {}).unwrap();
+            let (job, out) = a.clustered_shading(&lc, &vc).unwrap();
+            assert_eq!(out.gave_up, 0);
+            let e = rel_l2(&out.image, &brute);
+            eprintln!("max_depth {max_depth}, {}: singletons against brute force {e:.2e}", a.device().kind);
+            let tol = if a.device().kind == "cpu" { 1e-6 } else { 1e-5 };
+            assert!(e < tol, "max_depth {max_depth}, {}: relative L2 against brute force {e}", a.device().kind);
+            // Every entry is the transmittance of the light matrix's element (i, c), crossings included.
+            let vis = &out.visibility;
+            assert_eq!(vis.transmittance.len(), vis.rows * vis.cols);
+            for (k, rep) in job.view_reps.sample.iter().enumerate().step_by(7) {
+                let Some(i) = *rep else { continue };
+                for c in 0..vis.cols {
+                    let (v, crossed) = vis.value(k, c);
+                    let (want, want_crossed) = cpu::entry(&tracer, view, lights, i, c);
+                    assert!((v - want).abs() <= 1e-6, "{} entry ({k}, {c}): {v} against {want}", a.device().kind);
+                    assert_eq!((crossed, vis.get(k, c)), (want_crossed, want > 0.0), "{} entry ({k}, {c})", a.device().kind);
+                    fractional += (want > 0.0 && want < 1.0) as usize;
+                }
+            }
+        }
+        // Both masks (0.5, and the 0.1 / 0.85 checkerboard) lie between some samples and the light.
+        assert!(fractional > 20, "max_depth {max_depth}: {fractional} fractional entries");
+    }
+}
+
+#[test]
+fn masked_scene_clusters_beat_visibility_bits() {
+    // Pixel blocks of 3 x 3 with F = 3 against the brute force: the transmittances weigh the light through
+    // the masks, which a visibility bit (V = 1 wherever some light gets through) overstates.
+    let (cpu, gpu, _) = masked_pair(-1);
+    let brute = cpu.column_sum(None, &mut |_, _| {}).unwrap();
+    let lc = light_grid(&cpu.lights);
+    let vc = view_blocks(&cpu.view, 3, 3);
+    let (_, c_out) = cpu.clustered_shading(&lc, &vc).unwrap();
+    let (_, g_out) = gpu.clustered_shading(&lc, &vc).unwrap();
+    let e = rel_l2(&c_out.image, &brute);
+    let mut as_bits = c_out.visibility.clone();
+    as_bits.transmittance = as_bits.transmittance.iter().map(|&t| (t > 0.0) as u8 as f32).collect();
+    let (job, _) = cpu.clustered_shading(&lc, &vc).unwrap();
+    let e_bits = rel_l2(&cpu::shade(&cpu.view, &job, &as_bits).unwrap(), &brute);
+    let e_gpu = rel_l2(&g_out.image, &c_out.image);
+    eprintln!("clusters against brute force {e:.4}, with bits instead of transmittances {e_bits:.4}; GPU against CPU {e_gpu:.2e}");
+    assert!(e < 0.5 * e_bits, "{e} against {e_bits}");
+    assert!(e_gpu < 1e-5, "GPU against CPU {e_gpu}");
+}
