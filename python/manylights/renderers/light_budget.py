@@ -65,9 +65,22 @@ variance from two independent estimates). A selection probe set scores both, the
 the draws that happened to miss the compensation's rare bright paths), and fresh probes that took no part in
 the choice give the reported error (``budget['light_model']``). The probes' per-path variance also prices
 the alternative: the paths per pixel an unbiased path tracer needs for the target and their time on this
-machine (``probe_error``'s (3)); ``budget['advice']`` says so when that is less than this render took. Not
-offered as models yet: virtual spherical lights, importance-sampled VPLs and the glossy threshold (they are
-chosen by the caller through ``generate_lights`` / ``LightMatrix``).
+machine (``probe_error``'s (3)); ``budget['advice']`` says so when that is less than this render took.
+
+Where clamped VPLs miss the target by more than their probes' noise (the lower bound above it), no count or
+compensation chosen so far gets there, and virtual spherical lights are offered next (``ALTERNATIVE_MODELS``,
+``_other_light_models``): VSLs (Hašan et al. 2009: no clamp; their bias, the blur of the sphere, shrinks as
+the lights grow, so they get ``max_lights`` indirect lights), then, while those miss by more than their noise
+too, VSLs importance-sampled by the camera (Georgiev and Slusallek 2010). Each is a whole attempt (lights,
+matrix, render, fresh probes). The last one is kept when its own probes claim the target (every one before
+it having missed by more than its noise); otherwise a separate selection probe set scores all of them and the
+smallest point estimate is kept, with the bound of its own probes, which took no part in the choice
+(``budget['light_model']['tried']``; the others' seconds in ``timings['other_light_models']``). Measured
+(one seed): Veach Ajar 32 x 18 at 5%, full GI: clamped VPLs 24% true error (bound 25%), VSLs bound 15%,
+importance-sampled VSLs 4.9% true error (bound 7.9%, not claimed), 60 s in all; the staircase at 64^2 and
+``max_lights`` 4,096: clamped VPLs 18%, VSLs 4.4% (bound 6.2%, an 8% target claimed) in 4.5 s. Still the
+caller's choice: importance-sampled VPLs (clamped, they keep the clamp's bias: 21% on Veach Ajar), the VSLs'
+radius and the glossy threshold (``generate_lights`` / ``LightMatrix``).
 
 Escalation
 ----------
@@ -143,7 +156,7 @@ from ..lights.generate import generate_lights
 from ..matrix.light_matrix import LightMatrix
 from ..matrix.rows import stratified_rows
 from ..scene import load_scene
-from .bias import describe
+from .bias import bias_sources, describe
 from .budget import check_targets, render_matrix
 from .probe_error import (
     attach_probe_error,
@@ -166,7 +179,13 @@ DETERMINISTIC = ("environment",)
 #: A kind grows by at most this factor per step of the count phase, (7).
 MAX_GROWTH = 8
 _STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5, "compensation": 6, "model_probes": 7,
-           "escalation": 8, "probe_escalation": 9}
+           "escalation": 8, "probe_escalation": 9, "models": 10}
+#: The light models offered, in this order, while clamped VPLs (and then the previous model) miss the target by
+#: more than their probes' noise (module doc, "Light models"): (name, ``generate_lights`` keywords).
+ALTERNATIVE_MODELS = (
+    ("VSLs", {"indirect_kind": "vsl"}),
+    ("VSLs, importance-sampled", {"indirect_kind": "vsl", "vpl_importance": True}),
+)
 #: Paths per pixel of each of the two bias-compensation estimates a clamped-VPL model is offered with.
 COMPENSATION_SPP = 1
 #: Retracing the probes that carry an unreliable estimate may take this share of the render so far, and at
@@ -427,6 +446,69 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     return est
 
 
+def _other_light_models(first: dict, attempt, scene, target_error: float, time_budget: Optional[float],
+                        t_start: float, seed: int, *, max_lights: int, probes: int, spp: int, max_depth: int):
+    """Clamped VPLs whose probes' lower bound is above ``target_error``: render ``ALTERNATIVE_MODELS`` in turn
+    (``attempt`` with their ``generate_lights`` keywords, ``max_lights`` indirect lights, fresh probes) while the
+    last one's lower bound stays above the target (and, with a ``time_budget``, less than half of it is spent);
+    keep the last one if its own probes claim the target, else the one with the smallest point estimate (2) at
+    a separate selection probe set (so the kept one's reported bound took no part in the choice). ``first``
+    and the return value: res, A, est, t_lights, counts of an attempt. Records every model tried in
+    ``budget['light_model']['tried']`` (model, indirect lights, bound, lower bound, seconds, selection
+    estimate) and the seconds of those set aside in ``timings['other_light_models']``."""
+    tried = [{**first, "model": first["res"].budget["light_model"]["chosen"]}]
+    for k, (name, keywords) in enumerate(ALTERNATIVE_MODELS):
+        last = tried[-1]["est"]
+        if last["error_lower"] <= target_error:
+            break
+        if time_budget is not None and time.perf_counter() - t_start > time_budget / 2:
+            break
+        counts = copy.deepcopy(first["counts"])
+        was = counts["indirect"]["count"]
+        counts["indirect"]["count"] = max_lights
+        counts["indirect"]["reason"] = (f"{name}: max_lights ({max_lights}); a VSL's radius (its bias) shrinks as "
+                                        f"the lights grow (the clamped VPLs had {was})")
+        res, A, est, t_lights, failed = attempt(counts, derived_seed(seed, 100 * _STREAM["models"] + k), model=keywords)
+        if failed or est is None:
+            break
+        tried.append({"res": res, "A": A, "est": est, "t_lights": t_lights, "counts": counts, "model": name})
+    for t in tried:
+        t["seconds"] = float(sum(t["res"].timings.values())) + t["t_lights"]
+    last = tried[-1]
+    if len(tried) == 1:
+        chosen, reason = last, None
+    elif last["est"]["reliable"] and last["res"].error_estimate <= target_error:
+        chosen, reason = last, f"{last['model']}: its own probes' bound {last['res'].error_estimate:.3g} <= target"
+    else:
+        sample = probe_sample(first["res"].image, scene, probes, spp=spp, max_depth=max_depth,
+                              seed=derived_seed(seed, 100 * _STREAM["models"] + 99))
+        # Relative to one estimate of ||I*||^2 (the first image's, probe_error's (7)), as choose_light_model.
+        norm2 = (first["est"]["reference_norm_ratio"] * float(np.linalg.norm(first["res"].image.astype(np.float64)))) ** 2
+        for t in tried:
+            se = float(np.mean(probe_estimate(t["res"].image, sample)["residuals"] / sample["p"]))
+            t["selection"] = float(np.sqrt(max(se, 0.0) / norm2)) if norm2 > 0 else 0.0
+        chosen = min(tried, key=lambda t: t["selection"])
+        reason = f"{chosen['model']}: the smallest point estimate at {probes} selection probes"
+        chosen["res"].timings["probes"] += sample["seconds"]
+    res = chosen["res"]
+    model = res.budget["light_model"]
+    model["chosen"] = chosen["model"]
+    for c in model["candidates"]:
+        if chosen is not tried[0] and c["model"] == "lights as generated":
+            c["model"] = chosen["model"]
+    if reason:
+        model["reason"] = (f"{reason} (of {', '.join(t['model'] for t in tried)}; each tried while the one before "
+                           f"missed the target by more than its probes' noise)")
+    model["tried"] = [{"model": t["model"], "indirect": int(t["counts"]["indirect"]["count"]),
+                       "error_estimate": float(t["res"].error_estimate), "error_lower": float(t["est"]["error_lower"]),
+                       "seconds": t["seconds"], **({"selection": t["selection"]} if "selection" in t else {})}
+                      for t in tried]
+    res.timings["other_light_models"] = float(sum(t["seconds"] for t in tried if t is not chosen))
+    if chosen is not tried[0]:
+        res.budget["escalation"] = None
+    return res, chosen["A"], chosen["est"], chosen["t_lights"], chosen["counts"]
+
+
 def render_scene(path, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
                  params: Optional[dict] = None, size=None, device: str = "auto", max_depth: Optional[int] = None,
                  first_lights: int = 256, max_lights: int = 1 << 16, count_rows: int = 256,
@@ -470,7 +552,9 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         ``variance_estimate`` the variance part (equation (5)), ``bias_estimate`` the rest, ``budget['probes']``
         the details and ``timings['probes']`` their cost, ``budget['light_model']`` the light model chosen
         (``choose_light_model``: ``timings['light_model']`` the choice, ``timings['compensation']`` the
-        compensation image where it is chosen); without, ``error_estimate`` stays the MRCS
+        compensation image where it is chosen; ``tried``: the models rendered when clamped VPLs missed by more
+        than their probes' noise, module doc; ``timings['other_light_models']``); without, ``error_estimate``
+        stays the MRCS
         estimate against the brute force of the generated lights.
 
     Raises:
@@ -515,14 +599,15 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     counts = choose_light_counts(scene, target_error, time_budget, seed, max_depth=max_depth,
                                  first_lights=first_lights, max_lights=max_lights, count_rows=count_rows,
                                  generation_share=generation_share, matrix_options=matrix_options)
-    def attempt(counts: dict, probe_seed: int, mrcs_floor: Optional[dict] = None):
-        """Lights at ``counts``, the matrix, its render (MRCS's first round at least ``mrcs_floor``'s rows and
-        columns when given) and its probes: (res, A, est, t_lights, probes_failed)."""
+    def attempt(counts: dict, probe_seed: int, mrcs_floor: Optional[dict] = None, model: Optional[dict] = None):
+        """Lights at ``counts`` (``model``: more ``generate_lights`` keywords), the matrix, its render (MRCS's
+        first round at least ``mrcs_floor``'s rows and columns when given) and its probes: (res, A, est,
+        t_lights, probes_failed)."""
         t = time.perf_counter()
         n = {k: counts[k]["count"] for k in KINDS}
         lights = generate_lights(scene, area=n["area"], environment=n["environment"], indirect=n["indirect"],
                                  max_depth=max_depth if n["indirect"] else 5, seed=derived_seed(seed, _STREAM["final"]),
-                                 env_visibility=True)
+                                 env_visibility=True, **(model or {}))
         A = LightMatrix(scene, lights, **matrix_options)
         t_lights = time.perf_counter() - t
         left = None if time_budget is None else max(time_budget - (time.perf_counter() - t_start), 1e-3)
@@ -627,6 +712,12 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
             probes_failed, error_probes = failed, 0
         res.timings["escalation"] = first["seconds"]  # the first attempt, whose image was set aside
     res.budget["escalation"] = escalation
+    if (error_probes and target_error is not None and est is not None and est["error_lower"] > target_error
+            and counts["indirect"]["count"] > 0 and any(b["source"] == "vpl_clamp" for b in bias_sources(A))):
+        res, A, est, t_lights, counts = _other_light_models(
+            {"res": res, "A": A, "est": est, "t_lights": t_lights, "counts": counts}, attempt, scene, target_error,
+            time_budget, t_start, seed, max_lights=max_lights, probes=error_probes, spp=probe_spp,
+            max_depth=max_depth)
     total = res.budget["estimated_total_error"]
     probe = res.budget.get("probes")
     res.budget["integrator"] = {"type": integ, "max_depth": max_depth}
