@@ -70,12 +70,14 @@ machine (``probe_error``'s (3)); ``budget['advice']`` says so when that is less 
 Where clamped VPLs miss the target by more than their probes' noise (the lower bound above it), no count or
 compensation chosen so far gets there, and virtual spherical lights are offered next (``ALTERNATIVE_MODELS``,
 ``_other_light_models``): VSLs (Hašan et al. 2009: no clamp; their bias, the blur of the sphere, shrinks as
-the lights grow, so they get ``max_lights`` indirect lights), then, while those miss by more than their noise
-too, VSLs importance-sampled by the camera (Georgiev and Slusallek 2010). Each is a whole attempt (lights,
-matrix, render, fresh probes). The last one is kept when its own probes claim the target (every one before
-it having missed by more than its noise); otherwise a separate selection probe set scores all of them and the
+the lights grow, so they get ``max_lights`` indirect lights), then, while their probes neither claim the
+target nor put their point estimate within it, VSLs importance-sampled by the camera (Georgiev and Slusallek
+2010). Each is a whole attempt (lights, matrix, render, fresh probes). The last one is kept when its own
+probes claim the target (no one before it claimed, nor had its point estimate within it); otherwise a separate selection probe set scores all of them and the
 smallest point estimate is kept, with the bound of its own probes, which took no part in the choice
-(``budget['light_model']['tried']``; the others' seconds in ``timings['other_light_models']``). Measured
+(``budget['light_model']['tried']``; the others' seconds in ``timings['other_light_models']``); where too few
+of its probes carry that bound, a fresh probe set with twice the probes and paths decides (as in
+"Escalation", ``budget['escalation']`` kind "probes"). Measured
 (one seed): Veach Ajar 32 x 18 at 5%, full GI: clamped VPLs 24% true error (bound 25%), VSLs bound 15%,
 importance-sampled VSLs 4.9% true error (bound 7.9%, not claimed), 60 s in all; the staircase at 64^2 and
 ``max_lights`` 4,096: clamped VPLs 18%, VSLs 4.4% (bound 6.2%, an 8% target claimed) in 4.5 s. Still the
@@ -446,11 +448,38 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     return est
 
 
+def _fresh_probes(res, A, counts: dict, est: dict, scene, target_error: float, probe_seed: int, seed: int, *,
+                  probes: int, spp: int, max_depth: int):
+    """(Module doc, "Escalation") A fresh probe set with ``PROBE_ESCALATION`` x the probes and the paths per probe
+    for ``res`` (the image kept), whose first probes ``est`` saw no error beyond their own noise or were carried by
+    too few probes; the claim then rests on the fresh set alone. Returns (the fresh estimate, the ``escalation``
+    record of kind "probes"), or (``est``, None) where the probes cannot run (recorded in ``budget['probes']``)."""
+    noise_only = est["error_mean"] == 0.0 and est["error_lower"] == 0.0
+    first_bound = float(res.error_estimate)
+    why = ("with no error beyond their own noise (point estimate and lower bound 0)" if noise_only else
+           f"carried by {est['effective_probes']:.1f} of {est['probes']} probes, too few to bound the error")
+    n2 = min(PROBE_ESCALATION * probes, scene.width * scene.height)
+    try:
+        fresh = probe_error(res.image, scene, n2, spp=PROBE_ESCALATION * spp, max_depth=max_depth, seed=probe_seed,
+                            variance_estimate=res.variance_estimate, refine_paths=_refine_paths(res, A, counts),
+                            refine_target=target_error)
+    except ValueError as e:  # as in render_scene's attempt(): the result stands with the first probes
+        res.budget["probes"]["escalation_error"] = str(e)
+        return est, None
+    attach_probe_error(res, scene, n2, seed, variance=res.variance_estimate, estimate=fresh)
+    side = ">" if first_bound > target_error else "<="
+    return fresh, {"kind": "probes", "error_estimate": first_bound, "probes": int(n2),
+                   "spp": int(PROBE_ESCALATION * spp), "seconds": float(fresh["seconds"]), "reason": (
+                       f"the probes' bound {first_bound:.3g} {side} target {target_error:g} {why}: a fresh set "
+                       f"of {n2} probes at {PROBE_ESCALATION * spp} paths, the image kept")}
+
+
 def _other_light_models(first: dict, attempt, scene, target_error: float, time_budget: Optional[float],
                         t_start: float, seed: int, *, max_lights: int, probes: int, spp: int, max_depth: int):
     """Clamped VPLs whose probes' lower bound is above ``target_error``: render ``ALTERNATIVE_MODELS`` in turn
     (``attempt`` with their ``generate_lights`` keywords, ``max_lights`` indirect lights, fresh probes) while the
-    last one's lower bound stays above the target (and, with a ``time_budget``, less than half of it is spent);
+    last one's point estimate (2) stays above the target (and, with a ``time_budget``, less than half of it is
+    spent);
     keep the last one if its own probes claim the target, else the one with the smallest point estimate (2) at
     a separate selection probe set (so the kept one's reported bound took no part in the choice). ``first``
     and the return value: res, A, est, t_lights, counts of an attempt. Records every model tried in
@@ -459,7 +488,8 @@ def _other_light_models(first: dict, attempt, scene, target_error: float, time_b
     tried = [{**first, "model": first["res"].budget["light_model"]["chosen"]}]
     for k, (name, keywords) in enumerate(ALTERNATIVE_MODELS):
         last = tried[-1]["est"]
-        if last["error_lower"] <= target_error:
+        # The next model while the last one's point estimate (2) misses: it did not claim (its bound is above).
+        if k > 0 and (last["error_mean"] <= target_error or tried[-1]["res"].error_estimate <= target_error):
             break
         if time_budget is not None and time.perf_counter() - t_start > time_budget / 2:
             break
@@ -497,16 +527,24 @@ def _other_light_models(first: dict, attempt, scene, target_error: float, time_b
         if chosen is not tried[0] and c["model"] == "lights as generated":
             c["model"] = chosen["model"]
     if reason:
-        model["reason"] = (f"{reason} (of {', '.join(t['model'] for t in tried)}; each tried while the one before "
-                           f"missed the target by more than its probes' noise)")
+        model["reason"] = (f"{reason} (of {', '.join(t['model'] for t in tried)}: the clamped VPLs missed the target "
+                           f"by more than their probes' noise, each later model tried while the point estimate of "
+                           f"the one before missed it)")
     model["tried"] = [{"model": t["model"], "indirect": int(t["counts"]["indirect"]["count"]),
                        "error_estimate": float(t["res"].error_estimate), "error_lower": float(t["est"]["error_lower"]),
                        "seconds": t["seconds"], **({"selection": t["selection"]} if "selection" in t else {})}
                       for t in tried]
     res.timings["other_light_models"] = float(sum(t["seconds"] for t in tried if t is not chosen))
+    est = chosen["est"]
     if chosen is not tried[0]:
         res.budget["escalation"] = None
-    return res, chosen["A"], chosen["est"], chosen["t_lights"], chosen["counts"]
+        if not est["reliable"] and est["error_lower"] <= target_error:
+            # Too few probes carry the kept model's estimate: a fresh, larger probe set decides, as for the
+            # first attempt (module doc, "Escalation").
+            est, res.budget["escalation"] = _fresh_probes(
+                res, chosen["A"], chosen["counts"], est, scene, target_error,
+                derived_seed(seed, 100 * _STREAM["models"] + 98), seed, probes=probes, spp=spp, max_depth=max_depth)
+    return res, chosen["A"], est, chosen["t_lights"], chosen["counts"]
 
 
 def render_scene(path, target_error: Optional[float] = None, time_budget: Optional[float] = None, seed: int = 0, *,
@@ -655,22 +693,8 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
         # their estimate: more lights could not be shown to help (the window room at 64 x 36: 16,384 -> 32,768
         # strata, 19 s, a second bound as high and the image 0.5% off). A fresh probe set with PROBE_ESCALATION
         # x the probes and the paths decides it; the image is kept and the claim rests on the fresh set alone.
-        first_bound = float(res.error_estimate)
-        why = ("with no error beyond their own noise (point estimate and lower bound 0)" if noise_only else
-               f"carried by {est['effective_probes']:.1f} of {est['probes']} probes, too few to bound the error")
-        n2 = min(PROBE_ESCALATION * error_probes, scene.width * scene.height)
-        try:
-            est = probe_error(res.image, scene, n2, spp=PROBE_ESCALATION * probe_spp, max_depth=max_depth,
-                              seed=derived_seed(seed, _STREAM["probe_escalation"]),
-                              variance_estimate=res.variance_estimate,
-                              refine_paths=_refine_paths(res, A, counts), refine_target=target_error)
-            attach_probe_error(res, scene, n2, seed, variance=res.variance_estimate, estimate=est)
-            escalation = {"kind": "probes", "error_estimate": first_bound, "probes": int(n2),
-                          "spp": int(PROBE_ESCALATION * probe_spp), "seconds": float(est["seconds"]), "reason": (
-                              f"the probes' bound {first_bound:.3g} > target {target_error:g} {why}: a fresh set "
-                              f"of {n2} probes at {PROBE_ESCALATION * probe_spp} paths, the image kept")}
-        except ValueError as e:  # as in attempt(): the result stands with the first probes
-            res.budget["probes"]["escalation_error"] = str(e)
+        est, escalation = _fresh_probes(res, A, counts, est, scene, target_error, derived_seed(seed, _STREAM["probe_escalation"]),
+                                        seed, probes=error_probes, spp=probe_spp, max_depth=max_depth)
     elif (error_probes and target_error is not None and est is not None
             and (est["reliable"] or est["error_lower"] > target_error)
             and res.error_estimate > target_error and not res.bias_sources
