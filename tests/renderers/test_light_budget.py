@@ -283,8 +283,8 @@ def test_probes_that_find_the_target_missed_escalate_the_lights():
 def test_clamped_vpls_that_miss_by_more_than_their_noise_are_replaced_by_vsls():
     """The staircase (``tests/data/staircase_recessed.xml``, twosided walls, small recessed lights) with full GI at
     64^2, target 8%, ``max_lights`` 4,096, seed 2 (``rows_per_column`` fixed: no timing steers MRCS): the clamped
-    VPLs' probes (here with bias compensation) put even their lower bound above the target (the clamp's bias:
-    about 18% true error), so the render tries VSLs at ``max_lights`` indirect lights, whose own probes claim the
+    VPLs' probes (here with bias compensation) find the target missed (the clamp's bias: about 18% true error;
+    even their lower bound is above it), so the render tries VSLs at ``max_lights`` indirect lights, whose own probes claim the
     target; the true error against the converged Mitsuba reference is within it and below the claimed bound
     (measured 3.6%, bound 4.3%, 9 s)."""
     from manylights.bench.targets import load_reference, true_error

@@ -67,13 +67,13 @@ the choice give the reported error (``budget['light_model']``). The probes' per-
 the alternative: the paths per pixel an unbiased path tracer needs for the target and their time on this
 machine (``probe_error``'s (3)); ``budget['advice']`` says so when that is less than this render took.
 
-Where clamped VPLs miss the target by more than their probes' noise (the lower bound above it), no count or
-compensation chosen so far gets there, and virtual spherical lights are offered next (``ALTERNATIVE_MODELS``,
+Where clamped VPLs miss the target (their probes' point estimate above it, with or without the compensation),
+virtual spherical lights are offered next (``ALTERNATIVE_MODELS``,
 ``_other_light_models``): VSLs (Hašan et al. 2009: no clamp; their bias, the blur of the sphere, shrinks as
-the lights grow, so they get ``max_lights`` indirect lights), then, while their probes neither claim the
-target nor put their point estimate within it, VSLs importance-sampled by the camera (Georgiev and Slusallek
-2010). Each is a whole attempt (lights, matrix, render, fresh probes). The last one is kept when its own
-probes claim the target (no one before it claimed, nor had its point estimate within it); otherwise a separate selection probe set scores all of them and the
+the lights grow, so they get ``max_lights`` indirect lights), then, while their probes' point estimate also
+misses, VSLs importance-sampled by the camera (Georgiev and Slusallek 2010). Each is a whole attempt (lights,
+matrix, render, fresh probes). The last one is kept when its own probes claim the target (none before it
+claimed: a point estimate above the target puts the bound above it too); otherwise a separate selection probe set scores all of them and the
 smallest point estimate is kept, with the bound of its own probes, which took no part in the choice
 (``budget['light_model']['tried']``; the others' seconds in ``timings['other_light_models']``); where too few
 of its probes carry that bound, a fresh probe set with twice the probes and paths decides (as in
@@ -476,20 +476,20 @@ def _fresh_probes(res, A, counts: dict, est: dict, scene, target_error: float, p
 
 def _other_light_models(first: dict, attempt, scene, target_error: float, time_budget: Optional[float],
                         t_start: float, seed: int, *, max_lights: int, probes: int, spp: int, max_depth: int):
-    """Clamped VPLs whose probes' lower bound is above ``target_error``: render ``ALTERNATIVE_MODELS`` in turn
-    (``attempt`` with their ``generate_lights`` keywords, ``max_lights`` indirect lights, fresh probes) while the
-    last one's point estimate (2) stays above the target (and, with a ``time_budget``, less than half of it is
-    spent);
+    """Clamped VPLs whose probes' point estimate (2) is above ``target_error`` (not claimed): render
+    ``ALTERNATIVE_MODELS`` in turn (``attempt`` with their ``generate_lights`` keywords, ``max_lights`` indirect
+    lights, fresh probes) while the last one neither claims the target nor has its point estimate within it (and,
+    with a ``time_budget``, less than half of it is spent);
     keep the last one if its own probes claim the target, else the one with the smallest point estimate (2) at
     a separate selection probe set (so the kept one's reported bound took no part in the choice). ``first``
     and the return value: res, A, est, t_lights, counts of an attempt. Records every model tried in
     ``budget['light_model']['tried']`` (model, indirect lights, bound, lower bound, seconds, selection
     estimate) and the seconds of those set aside in ``timings['other_light_models']``."""
     tried = [{**first, "model": first["res"].budget["light_model"]["chosen"]}]
-    for k, (name, keywords) in enumerate(ALTERNATIVE_MODELS):
+    for name, keywords in ALTERNATIVE_MODELS:
         last = tried[-1]["est"]
-        # The next model while the last one's point estimate (2) misses: it did not claim (its bound is above).
-        if k > 0 and (last["error_mean"] <= target_error or tried[-1]["res"].error_estimate <= target_error):
+        # The next model while the last one's point estimate (2) misses: then it did not claim (its bound is above).
+        if last["error_mean"] <= target_error:
             break
         if time_budget is not None and time.perf_counter() - t_start > time_budget / 2:
             break
@@ -498,7 +498,8 @@ def _other_light_models(first: dict, attempt, scene, target_error: float, time_b
         counts["indirect"]["count"] = max_lights
         counts["indirect"]["reason"] = (f"{name}: max_lights ({max_lights}); a VSL's radius (its bias) shrinks as "
                                         f"the lights grow (the clamped VPLs had {was})")
-        res, A, est, t_lights, failed = attempt(counts, derived_seed(seed, 100 * _STREAM["models"] + k), model=keywords)
+        res, A, est, t_lights, failed = attempt(counts, derived_seed(seed, 100 * _STREAM["models"] + len(tried)),
+                                                model=keywords)
         if failed or est is None:
             break
         tried.append({"res": res, "A": A, "est": est, "t_lights": t_lights, "counts": counts, "model": name})
@@ -527,9 +528,8 @@ def _other_light_models(first: dict, attempt, scene, target_error: float, time_b
         if chosen is not tried[0] and c["model"] == "lights as generated":
             c["model"] = chosen["model"]
     if reason:
-        model["reason"] = (f"{reason} (of {', '.join(t['model'] for t in tried)}: the clamped VPLs missed the target "
-                           f"by more than their probes' noise, each later model tried while the point estimate of "
-                           f"the one before missed it)")
+        model["reason"] = (f"{reason} (of {', '.join(t['model'] for t in tried)}: each tried while the point "
+                           f"estimate of the one before missed the target)")
     model["tried"] = [{"model": t["model"], "indirect": int(t["counts"]["indirect"]["count"]),
                        "error_estimate": float(t["res"].error_estimate), "error_lower": float(t["est"]["error_lower"]),
                        "seconds": t["seconds"], **({"selection": t["selection"]} if "selection" in t else {})}
@@ -736,7 +736,7 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
             probes_failed, error_probes = failed, 0
         res.timings["escalation"] = first["seconds"]  # the first attempt, whose image was set aside
     res.budget["escalation"] = escalation
-    if (error_probes and target_error is not None and est is not None and est["error_lower"] > target_error
+    if (error_probes and target_error is not None and est is not None and est["error_mean"] > target_error
             and counts["indirect"]["count"] > 0 and any(b["source"] == "vpl_clamp" for b in bias_sources(A))):
         res, A, est, t_lights, counts = _other_light_models(
             {"res": res, "A": A, "est": est, "t_lights": t_lights, "counts": counts}, attempt, scene, target_error,
