@@ -129,7 +129,7 @@ def test_bad_input(cbox, kwargs, match):
 def test_the_compensated_light_model_is_chosen_where_the_clamp_costs(cbox):
     """VPLs clamped 10x harder than the default: the clamp's energy is a visible bias (1.41% against the
     reference), which ``choose_light_model`` finds at its selection probes and removes (1.20%)."""
-    from manylights.renderers.light_budget import choose_light_model
+    from manylights.renderers.light_model import choose_light_model
 
     scene, ref, _ = cbox
     A = ml.LightMatrix(scene, ml.generate_lights(scene, area=1024, indirect=4000, clamp=1e-5, seed=1), device="cpu")
@@ -151,7 +151,7 @@ def test_the_light_model_is_scored_with_a_compensation_it_does_not_add(cbox):
     missed its rare bright paths (the staircase's seeds that chose it were 2.7% +- 0.8% off, 1.4% too
     dark, over 64 seeds). The score's compensation is a third estimate with its own seed, at the selection
     probes only; the image adds the mean of two others, computed only when the compensation wins."""
-    from manylights.renderers.light_budget import choose_light_model
+    from manylights.renderers.light_model import choose_light_model
 
     scene, ref, _ = cbox
     A = ml.LightMatrix(scene, ml.generate_lights(scene, area=1024, indirect=4000, clamp=1e-5, seed=1), device="cpu")

@@ -1,0 +1,253 @@
+"""The light model of ``render("scene.xml", target_error=e)``: which model's image is kept, chosen by the probes'
+error against the converged scene (``probe_error``), and the virtual spherical lights tried where clamped VPLs
+miss the target. The light counts, the escalation and the claim are ``light_budget``'s.
+
+Counts are not the whole choice: a light model can converge to the wrong image (``bias``), and no count removes
+that. With probes (``render``'s ``error_probes``) the rendered image's light model is chosen by its error against
+the converged scene (``choose_light_model``): the lights as generated, and where the VPLs are clamped, the same
+image plus the clamp's energy by ``LightMatrix.bias_compensation`` (unbiased, cheap: short BSDF paths; its own
+variance from two independent estimates). A selection probe set scores both, the smaller point estimate wins (the
+compensated image scored with a third, independent compensation estimate, so the choice does not keep the draws that
+happened to miss the compensation's rare bright paths), and fresh probes that took no part in the choice give the
+reported error (``budget['light_model']``). The probes' per-path variance also prices the alternative: the paths per
+pixel an unbiased path tracer needs for the target and their time on this machine (``probe_error``'s (3));
+``budget['advice']`` says so when that is less than this render took.
+
+Where clamped VPLs miss the target (their probes' point estimate above it, with or without the compensation),
+virtual spherical lights are offered next (``ALTERNATIVE_MODELS``, ``other_light_models``): VSLs (Hašan et al. 2009:
+no clamp; their bias, the blur of the sphere, shrinks as the lights grow, so they get ``max_lights`` indirect
+lights), then, while their probes' point estimate also misses, VSLs importance-sampled by the camera (Georgiev and
+Slusallek 2010). Each is a whole attempt (lights, matrix, render, fresh probes). The last one is kept when its own
+probes claim the target (none before it claimed: a point estimate above the target puts the bound above it too);
+otherwise a separate selection probe set scores all of them and the smallest point estimate is kept, with the bound
+of its own probes, which took no part in the choice (``budget['light_model']['tried']``; the others' seconds in
+``timings['other_light_models']``); where too few of its probes carry that bound, a fresh probe set with twice the
+probes and paths decides (as in ``light_budget``'s "Escalation", ``budget['escalation']`` kind "probes"). Measured
+(one seed): Veach Ajar 32 x 18 at 5%, full GI: clamped VPLs 24% true error (bound 25%), VSLs bound 15%,
+importance-sampled VSLs 4.9% true error (bound 7.9%, not claimed), 60 s in all; the staircase at 64^2 and
+``max_lights`` 4,096: clamped VPLs 18%, VSLs 4.4% (bound 6.2%, an 8% target claimed) in 4.5 s. Still the caller's
+choice: importance-sampled VPLs (clamped, they keep the clamp's bias: 21% on Veach Ajar), the VSLs' radius and the
+glossy threshold (``generate_lights`` / ``LightMatrix``).
+
+Symbols
+-------
+| here | meaning |
+|---|---|
+| ``e`` | ``target_error``, relative L2 of the whole image |
+| (2), (7), (9) | ``probe_error``'s point estimate of the squared error, its estimate of ``||I*||``, its retracing |
+| VPL, VSL | virtual point light (clamped), virtual spherical light (Hašan et al. 2009) |
+"""
+from __future__ import annotations
+
+import copy
+import time
+from typing import Optional
+
+import numpy as np
+
+from .._utils.seeds import derived_seed
+from .probe_error import attach_probe_error, probe_error, probe_estimate, probe_sample
+
+#: Seed streams of ``render`` (``derived_seed(seed, STREAM[...])``), shared with ``light_budget``.
+STREAM = {"area": 1, "environment": 2, "indirect": 3, "final": 4, "rows": 5, "compensation": 6, "model_probes": 7,
+           "escalation": 8, "probe_escalation": 9, "models": 10}
+#: The light models offered, in this order, while clamped VPLs (and then the previous model) miss the target
+#: (module doc): (name, ``generate_lights`` keywords).
+ALTERNATIVE_MODELS = (
+    ("VSLs", {"indirect_kind": "vsl"}),
+    ("VSLs, importance-sampled", {"indirect_kind": "vsl", "vpl_importance": True}),
+)
+#: Paths per pixel of each of the two bias-compensation estimates a clamped-VPL model is offered with.
+COMPENSATION_SPP = 1
+#: (``light_budget`` module doc, "Escalation") When the probes see no error beyond their own noise, or too few
+#: carry their estimate, a fresh probe set with this many times the probes and the paths per probe.
+PROBE_ESCALATION = 2
+#: A light model with a known bias source must score this much better at the selection probes to be kept
+#: over one without (within the probes' noise the unbiased model wins).
+BIAS_MARGIN = 0.05
+
+
+def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_depth: int, variance: float,
+                       refine_paths: Optional[int] = None, target_error: Optional[float] = None) -> dict:
+    """The light model of the rendered image ``res`` (from ``A``), chosen by probe residuals (module doc), and the
+    chosen model's error from FRESH probes that took no part in the choice.
+
+    Candidates: the lights as generated; with clamped VPLs (``bias`` source ``vpl_clamp``) also the same image
+    plus the clamp's energy (``LightMatrix.bias_compensation``, two independent estimates of ``COMPENSATION_SPP``
+    paths per pixel averaged: their half difference is the compensation's own variance, added to
+    ``variance`` in quadrature). With one candidate no choice is made and one probe set estimates the error;
+    with more, a selection probe set (its own stream) scores every candidate by the point estimate (2) of
+    ``probe_error`` on the same probes, the smallest wins (a model with a known bias source must be
+    ``BIAS_MARGIN`` better), and a second, fresh probe set estimates the winner's error (so the reported
+    bound is not the minimum of noisy scores); where few probes carry that estimate they are retraced with
+    more paths, at most ``refine_paths`` of them (``probe_error.refine_probes``), and likewise
+    while ``target_error`` lies between its lower and upper confidence bounds. Both candidates' scores are
+    relative to one estimate of ||I*|| (the generated image's, (7)). The compensated candidate is
+    scored with a third, independent compensation estimate of 2 ``COMPENSATION_SPP`` paths (the noise of the
+    pair's mean) computed at the selection probes alone, and the pair is computed only when it wins; never is
+    it scored with the pair it adds: the compensation is heavy-tailed, and a choice made on its own
+    draws keeps the draws that missed its rare bright paths, a mean too dark (measured on the staircase,
+    4,096 VPLs, 64 seeds: the mean of the seeds that chose it was 2.7% +- 0.8% (relative L2) from the
+    converged image and 1.4% too dark; all seeds' compensated images 0.0% +- 0.7%; scored independently,
+    the seeds that chose it 0.0% +- 1.0%).
+
+    Sets ``res.image``, ``res.bias_sources`` (the winner's), the error fields (``attach_probe_error``),
+    ``budget['light_model']`` (``chosen``, ``candidates``: model, variance (the compensated one's only when
+    chosen), selection error, ``reason``),
+    ``timings['light_model']`` (the choice: the scoring compensation at the selection probes),
+    ``timings['compensation']`` (the chosen compensation's image, when it wins) and adds the selection probes to
+    ``timings['probes']``. Returns the fresh ``probe_estimate``. Raises: what ``probe_error`` raises."""
+    generated = {"model": "lights as generated", "image": res.image, "variance": float(variance),
+                 "bias_sources": list(res.bias_sources)}
+    candidates = [generated]
+    t_models = select_seconds = 0.0
+    if any(b["source"] == "vpl_clamp" for b in res.bias_sources):
+        compensated = {"model": "VPLs + bias compensation",
+                       "bias_sources": [b for b in res.bias_sources if b["source"] != "vpl_clamp"]}
+        candidates.append(compensated)
+        sample = probe_sample(res.image, scene, probes, spp=spp, max_depth=max_depth,
+                              seed=derived_seed(seed, STREAM["model_probes"]))
+        select_seconds = sample["seconds"]
+        t = time.perf_counter()
+        # The score's own compensation estimate, at the selection probes only (their values are those of
+        # the whole image: every view sample draws from its own stream).
+        scored = res.image + A.bias_compensation(max_depth, spp=2 * COMPENSATION_SPP, light_samples=64,
+                                                 seed=derived_seed(seed, 100 * STREAM["compensation"] + 2),
+                                                 pixels=sample["index"])
+        t_models += time.perf_counter() - t
+        # Both scored by the point estimate (2) of their squared error at the same probes, relative to one
+        # estimate of ||I*||^2 (the generated image's, (7)).
+        est_g, est_c = probe_estimate(res.image, sample), probe_estimate(scored, sample)
+        norm2 = (est_g["reference_norm_ratio"] * float(np.linalg.norm(res.image.astype(np.float64)))) ** 2
+        for c, e in ((generated, est_g), (compensated, est_c)):
+            se = float(np.mean(e["residuals"] / sample["p"]))
+            c["selection"] = float(np.sqrt(max(se, 0.0) / norm2)) if norm2 > 0 else 0.0
+        chosen = min(candidates, key=lambda c: c["selection"] * (1.0 + BIAS_MARGIN * bool(c["bias_sources"])))
+        reason = (f"smallest error at {probes} selection probes: " + ", ".join(
+            f"{c['model']} {c['selection']:.3g}" for c in candidates))
+        if chosen is compensated:
+            t = time.perf_counter()
+            comp = [A.bias_compensation(max_depth, spp=COMPENSATION_SPP, light_samples=64,
+                                        seed=derived_seed(seed, 100 * STREAM["compensation"] + h)) for h in (0, 1)]
+            norm = float(np.linalg.norm(res.image.astype(np.float64)))
+            spread = float(np.linalg.norm(comp[0].astype(np.float64) - comp[1])) / 2.0 / norm if norm > 0 else 0.0
+            compensated["image"] = res.image + 0.5 * (comp[0] + comp[1])
+            compensated["variance"] = float(np.hypot(variance, spread))
+            res.timings["compensation"] = time.perf_counter() - t
+    else:
+        chosen, reason = generated, "one light model for this scene: no choice"
+    est = probe_error(chosen["image"], scene, probes, spp=spp, max_depth=max_depth, seed=seed,
+                      variance_estimate=chosen["variance"], refine_paths=refine_paths,
+                      refine_target=target_error)
+    res.image = chosen["image"]
+    res.bias_sources = chosen["bias_sources"]
+    attach_probe_error(res, scene, probes, seed, variance=chosen["variance"], estimate=est)
+    res.timings["probes"] += select_seconds
+    res.timings["light_model"] = t_models
+    res.budget["light_model"] = {
+        "chosen": chosen["model"], "reason": reason,
+        "candidates": [{k: c[k] for k in ("model", "variance", "selection") if k in c} for c in candidates]}
+    return est
+
+
+def fresh_probes(res, est: dict, scene, target_error: float, probe_seed: int, seed: int, *, probes: int, spp: int,
+                 max_depth: int, refine_paths: int):
+    """(``light_budget`` module doc, "Escalation") A fresh probe set with ``PROBE_ESCALATION`` x the probes and the
+    paths per probe for ``res`` (the image kept), whose first probes ``est`` saw no error beyond their own noise
+    or were carried by too few probes; the claim then rests on the fresh set alone. Returns (the fresh estimate,
+    the ``escalation`` record of kind "probes"), or (``est``, None) where the probes cannot run (recorded in
+    ``budget['probes']``). ``refine_paths``: the retracing's budget in paths (``probe_error.refine_probes``)."""
+    noise_only = est["error_mean"] == 0.0 and est["error_lower"] == 0.0
+    first_bound = float(res.error_estimate)
+    why = ("with no error beyond their own noise (point estimate and lower bound 0)" if noise_only else
+           f"carried by {est['effective_probes']:.1f} of {est['probes']} probes, too few to bound the error")
+    n2 = min(PROBE_ESCALATION * probes, scene.width * scene.height)
+    try:
+        fresh = probe_error(res.image, scene, n2, spp=PROBE_ESCALATION * spp, max_depth=max_depth, seed=probe_seed,
+                            variance_estimate=res.variance_estimate, refine_paths=refine_paths,
+                            refine_target=target_error)
+    except ValueError as e:  # as in render_scene's attempt(): the result stands with the first probes
+        res.budget["probes"]["escalation_error"] = str(e)
+        return est, None
+    attach_probe_error(res, scene, n2, seed, variance=res.variance_estimate, estimate=fresh)
+    side = ">" if first_bound > target_error else "<="
+    return fresh, {"kind": "probes", "error_estimate": first_bound, "probes": int(n2),
+                   "spp": int(PROBE_ESCALATION * spp), "seconds": float(fresh["seconds"]), "reason": (
+                       f"the probes' bound {first_bound:.3g} {side} target {target_error:g} {why}: a fresh set "
+                       f"of {n2} probes at {PROBE_ESCALATION * spp} paths, the image kept")}
+
+
+def other_light_models(first: dict, attempt, scene, target_error: float, time_budget: Optional[float],
+                       t_start: float, seed: int, *, max_lights: int, probes: int, spp: int, max_depth: int,
+                       refine_paths) -> tuple:
+    """Clamped VPLs whose probes' point estimate (2) is above ``target_error`` (not claimed): render
+    ``ALTERNATIVE_MODELS`` in turn (``attempt`` with their ``generate_lights`` keywords, ``max_lights`` indirect
+    lights, fresh probes) while the last one neither claims the target nor has its point estimate within it (and,
+    with a ``time_budget``, less than half of it is spent);
+    keep the last one if its own probes claim the target, else the one with the smallest point estimate (2) at
+    a separate selection probe set (so the kept one's reported bound took no part in the choice). ``first``
+    and the return value: res, A, est, t_lights, counts of an attempt. Records every model tried in
+    ``budget['light_model']['tried']`` (model, indirect lights, bound, lower bound, seconds, selection
+    estimate) and the seconds of those set aside in ``timings['other_light_models']``. ``refine_paths(res, A,
+    counts)``: an attempt's retracing budget in paths."""
+    tried = [{**first, "model": first["res"].budget["light_model"]["chosen"]}]
+    for name, keywords in ALTERNATIVE_MODELS:
+        last = tried[-1]["est"]
+        # The next model while the last one's point estimate (2) misses: then it did not claim (its bound is above).
+        if last["error_mean"] <= target_error:
+            break
+        if time_budget is not None and time.perf_counter() - t_start > time_budget / 2:
+            break
+        counts = copy.deepcopy(first["counts"])
+        was = counts["indirect"]["count"]
+        counts["indirect"]["count"] = max_lights
+        counts["indirect"]["reason"] = (f"{name}: max_lights ({max_lights}); a VSL's radius (its bias) shrinks as "
+                                        f"the lights grow (the clamped VPLs had {was})")
+        res, A, est, t_lights, failed = attempt(counts, derived_seed(seed, 100 * STREAM["models"] + len(tried)),
+                                                model=keywords)
+        if failed or est is None:
+            break
+        tried.append({"res": res, "A": A, "est": est, "t_lights": t_lights, "counts": counts, "model": name})
+    for t in tried:
+        t["seconds"] = float(sum(t["res"].timings.values())) + t["t_lights"]
+    last = tried[-1]
+    if len(tried) == 1:
+        chosen, reason = last, None
+    elif last["est"]["reliable"] and last["res"].error_estimate <= target_error:
+        chosen, reason = last, f"{last['model']}: its own probes' bound {last['res'].error_estimate:.3g} <= target"
+    else:
+        sample = probe_sample(first["res"].image, scene, probes, spp=spp, max_depth=max_depth,
+                              seed=derived_seed(seed, 100 * STREAM["models"] + 99))
+        # Relative to one estimate of ||I*||^2 (the first image's, probe_error's (7)), as choose_light_model.
+        norm = float(np.linalg.norm(first["res"].image.astype(np.float64)))
+        norm2 = (first["est"]["reference_norm_ratio"] * norm) ** 2
+        for t in tried:
+            se = float(np.mean(probe_estimate(t["res"].image, sample)["residuals"] / sample["p"]))
+            t["selection"] = float(np.sqrt(max(se, 0.0) / norm2)) if norm2 > 0 else 0.0
+        chosen = min(tried, key=lambda t: t["selection"])
+        reason = f"{chosen['model']}: the smallest point estimate at {probes} selection probes"
+        chosen["res"].timings["probes"] += sample["seconds"]
+    res = chosen["res"]
+    model = res.budget["light_model"]
+    model["chosen"] = chosen["model"]
+    for c in model["candidates"]:
+        if chosen is not tried[0] and c["model"] == "lights as generated":
+            c["model"] = chosen["model"]
+    if reason:
+        model["reason"] = (f"{reason} (of {', '.join(t['model'] for t in tried)}: each tried while the point "
+                           f"estimate of the one before missed the target)")
+    model["tried"] = [{"model": t["model"], "indirect": int(t["counts"]["indirect"]["count"]),
+                       "error_estimate": float(t["res"].error_estimate), "error_lower": float(t["est"]["error_lower"]),
+                       "seconds": t["seconds"], **({"selection": t["selection"]} if "selection" in t else {})}
+                      for t in tried]
+    res.timings["other_light_models"] = float(sum(t["seconds"] for t in tried if t is not chosen))
+    est = chosen["est"]
+    if chosen is not tried[0]:
+        res.budget["escalation"] = None
+        if not est["reliable"] and est["error_lower"] <= target_error:
+            # Too few probes carry the kept model's estimate: a fresh, larger probe set decides, as for the
+            # first attempt (``light_budget`` module doc, "Escalation").
+            est, res.budget["escalation"] = fresh_probes(
+                res, est, scene, target_error, derived_seed(seed, 100 * STREAM["models"] + 98), seed, probes=probes,
+                spp=spp, max_depth=max_depth, refine_paths=refine_paths(res, chosen["A"], chosen["counts"]))
+    return res, chosen["A"], est, chosen["t_lights"], chosen["counts"]
