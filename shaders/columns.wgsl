@@ -160,7 +160,7 @@ fn visibility(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f32 {
 }
 
 // Visibility of light l from view sample s (direction wo) in a scene with masked surfaces
-// (`cpu::mask_visibility_crossed`): (expected transmittance, 1 when the ray crossed a masked surface).
+// (`cpu::mask_visibility_at`): (expected transmittance, 1 when the ray crossed a masked surface).
 // Lights whose shadow rays stop at masks, and samples without budget, take `visibility` (the shadow maps
 // hold masked surfaces as opaque ones); the others an exact mask ray (common/mask.wgsl), unless the
 // shadow map is certain that nothing lies between (SM_LIT in hybrid mode, lit in shadow-map mode).

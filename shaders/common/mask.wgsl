@@ -1,5 +1,5 @@
 // Masked surfaces (Mitsuba's `mask` BSDF): the WGSL twin of src/raytrace/mask.rs
-// (`RayTracer::mask_transmittance_crossed`, `direct_factor`, with `cpu::mask_visibility_crossed`'s choice
+// (`RayTracer::mask_transmittance_crossed`, `direct_factor`, with `cpu::mask_visibility_at`'s choice
 // of which lights cross masks) over the mask table of src/gpu/mask.rs (layout there). Needs, declared by
 // the including module, `masks: array<u32>` (storage, read), and common/bsdf.wgsl, common/light.wgsl,
 // common/bvh.wgsl, common/view_sample.wgsl and common/visibility.wgsl (its ray counters).

@@ -40,7 +40,7 @@ pub fn ris(a: &LightMatrix, tree: &LightTree, samples: usize, candidates: usize,
         };
         *rays += 1;
         // 0 / 1, or a masked scene's expected transmittance.
-        let v = crate::cpu::visibility(&tracer, view, lights, i, j, sp, wo, dist);
+        let v = crate::cpu::visibility_crossed(&tracer, view, lights, i, j, sp.p, sp.n_g, wo, dist).0;
         if v == 0.0 {
             return Vec3::ZERO;
         }

@@ -141,7 +141,7 @@ pub fn ris_spatial(
                 Some((j, f, wo, dist, p_hat)) => {
                     r += 1;
                     // 0 / 1, or a masked scene's expected transmittance.
-                    let v = crate::cpu::visibility(&tracer, view, lights, q, j, &sp, wo, dist);
+                    let v = crate::cpu::visibility_crossed(&tracer, view, lights, q, j, sp.p, sp.n_g, wo, dist).0;
                     if v == 0.0 {
                         Vec3::ZERO
                     } else {

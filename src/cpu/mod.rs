@@ -129,24 +129,20 @@ pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &Sha
     let Some((f, wo, dist)) = shade_unshadowed(view, lights, sp, i, j) else {
         return Shaded::default();
     };
-    if let Some(&budget) = view.mask_budget.get(i) {
-        let (v, crossed) = mask_visibility_crossed(tracer, lights, j, sp, wo, dist, budget);
-        let mut value = f * v;
-        if crossed && !view.bsdf_samples.is_empty() {
-            // Through a mask only Mitsuba's BSDF sampling reaches the light (weight 1), and the glossy
-            // BSDF rays (`matrix::glossy::bsdf_image`) stop at masks: the light column carries it all.
-            let w = crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, sp.local(wo), j);
-            if w > 0.0 {
-                value /= w;
-            }
+    let (v, crossed) = visibility_crossed(tracer, view, lights, i, j, sp.p, sp.n_g, wo, dist);
+    if v == 0.0 {
+        return Shaded { value: Vec3::ZERO, tested: true, lit: false };
+    }
+    let mut value = if v == 1.0 { f } else { f * v };
+    if crossed && !view.bsdf_samples.is_empty() {
+        // Through a mask only Mitsuba's BSDF sampling reaches the light (weight 1), and the glossy
+        // BSDF rays (`matrix::glossy::bsdf_image`) stop at masks: the light column carries it all.
+        let w = crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, sp.local(wo), j);
+        if w > 0.0 {
+            value /= w;
         }
-        return Shaded { value, tested: true, lit: v > 0.0 };
     }
-    if light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) {
-        Shaded { value: Vec3::ZERO, tested: true, lit: false }
-    } else {
-        Shaded { value: f, tested: true, lit: true }
-    }
+    Shaded { value, tested: true, lit: true }
 }
 
 /// Whether light j, seen from surface point `p` (geometric normal `n_g`) in direction `wo` at distance
@@ -161,47 +157,36 @@ pub fn light_blocked(tracer: &RayTracer, lights: &LightSet, j: usize, p: Vec3, n
     }
 }
 
-/// Visibility of light j from view sample i (prepared as `sp`) toward `wo` at distance `dist` (as
-/// `LightSet::emitted` returns them): 0 or 1 (`light_blocked`), or in a scene with masked surfaces (the
-/// view has `mask_budget`) the expected transmittance of [`mask_visibility_crossed`].
+/// Visibility of light j from view sample i at surface point `p` (geometric normal `n_g`; the sample's
+/// own point, or a cluster representative's) toward `wo` at distance `dist` (as `LightSet::emitted`
+/// returns them), and whether the ray crossed a masked surface: 0 or 1 (`light_blocked`, never crossed),
+/// or in a scene with masked surfaces (the view has `mask_budget`) the expected transmittance of
+/// [`mask_visibility_at`] with the sample's budget.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-pub fn visibility(
+pub fn visibility_crossed(
     tracer: &RayTracer,
     view: &ViewSamples,
     lights: &LightSet,
     i: usize,
     j: usize,
-    sp: &ShadingPoint,
+    p: Vec3,
+    n_g: Vec3,
     wo: Vec3,
     dist: f32,
-) -> f32 {
+) -> (f32, bool) {
     match view.mask_budget.get(i) {
-        Some(&budget) => mask_visibility_crossed(tracer, lights, j, sp, wo, dist, budget).0,
-        None => !light_blocked(tracer, lights, j, sp.p, sp.n_g, wo, dist) as u8 as f32,
+        Some(&budget) => mask_visibility_at(tracer, lights, j, p, n_g, wo, dist, budget),
+        None => (!light_blocked(tracer, lights, j, p, n_g, wo, dist) as u8 as f32, false),
     }
 }
 
-/// Expected visibility of light j from view sample `sp` in a scene with masked surfaces
-/// (`crate::raytrace::mask`), and whether the shadow ray crossed a masked surface: the product of
-/// (1 - opacity) over the masked surfaces crossed, at most `budget` of them (the sample's
-/// `ViewSamples::mask_budget`), for lights BSDF sampling can reach (area light samples, environment
-/// strata, VPLs); 0 or 1 for point and spot lights and directional emitters, which masks block as any
-/// surface (Mitsuba's `ray_test`).
-#[inline]
-pub fn mask_visibility_crossed(
-    tracer: &RayTracer,
-    lights: &LightSet,
-    j: usize,
-    sp: &ShadingPoint,
-    wo: Vec3,
-    dist: f32,
-    budget: u32,
-) -> (f32, bool) {
-    mask_visibility_at(tracer, lights, j, sp.p, sp.n_g, wo, dist, budget)
-}
-
-/// [`mask_visibility_crossed`] from surface point `p` (geometric normal `n_g`), any path vertex.
+/// Expected visibility of light j from surface point `p` (geometric normal `n_g`, any path vertex) in a
+/// scene with masked surfaces (`crate::raytrace::mask`), and whether the shadow ray crossed a masked
+/// surface: the product of (1 - opacity) over the masked surfaces crossed, at most `budget` of them (a view
+/// sample's `ViewSamples::mask_budget`), for lights BSDF sampling can reach (area light samples,
+/// environment strata, VPLs); 0 or 1 for point and spot lights and directional emitters, which masks block
+/// as any surface (Mitsuba's `ray_test`).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn mask_visibility_at(

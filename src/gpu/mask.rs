@@ -1,6 +1,6 @@
 //! Masked surfaces (Mitsuba's `mask` BSDF) on the GPU: the mask table that `shaders/common/mask.wgsl`
 //! reads, and the per-light fields it needs. The semantics are `crate::raytrace::mask`'s (module docs
-//! there); the WGSL is the twin of `RayTracer::mask_transmittance_crossed`, `cpu::mask_visibility_crossed`
+//! there); the WGSL is the twin of `RayTracer::mask_transmittance_crossed`, `cpu::mask_visibility_at`
 //! and `raytrace::mask::direct_factor`.
 //!
 //! Table (one storage binding of u32 words; floats stored as their bits):

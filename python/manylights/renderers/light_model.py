@@ -67,6 +67,17 @@ PROBE_ESCALATION = 2
 BIAS_MARGIN = 0.05
 
 
+def selection_errors(images: list, sample: dict) -> list:
+    """The selection score of each image in ``images`` (H x W x 3 float32 arrays of one scene) at the same
+    selection probes ``sample`` (``probe_error.probe_sample``): the square root of the point estimate (2) of its
+    squared error, relative to one estimate of ||I*||^2 (the first image's (7) at these probes), so the scores
+    differ only by the residuals. Returns floats (0 where that norm is 0); ranks models, not a bound."""
+    ests = [probe_estimate(image, sample) for image in images]
+    norm2 = (ests[0]["reference_norm_ratio"] * float(np.linalg.norm(images[0].astype(np.float64)))) ** 2
+    return [float(np.sqrt(max(float(np.mean(e["residuals"] / sample["p"])), 0.0) / norm2)) if norm2 > 0 else 0.0
+            for e in ests]
+
+
 def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_depth: int, variance: float,
                        refine_paths: Optional[int] = None, target_error: Optional[float] = None) -> dict:
     """The light model of the rendered image ``res`` (from ``A``), chosen by probe residuals (module doc), and the
@@ -82,7 +93,7 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
     bound is not the minimum of noisy scores); where few probes carry that estimate they are retraced with
     more paths, at most ``refine_paths`` of them (``probe_error.refine_probes``), and likewise
     while ``target_error`` lies between its lower and upper confidence bounds. Both candidates' scores are
-    relative to one estimate of ||I*|| (the generated image's, (7)). The compensated candidate is
+    ``selection_errors``. The compensated candidate is
     scored with a third, independent compensation estimate of 2 ``COMPENSATION_SPP`` paths (the noise of the
     pair's mean) computed at the selection probes alone, and the pair is computed only when it wins; never is
     it scored with the pair it adds: the compensation is heavy-tailed, and a choice made on its own
@@ -115,13 +126,7 @@ def choose_light_model(res, A, scene, probes: int, seed: int, *, spp: int, max_d
                                                  seed=derived_seed(seed, 100 * STREAM["compensation"] + 2),
                                                  pixels=sample["index"])
         t_models += time.perf_counter() - t
-        # Both scored by the point estimate (2) of their squared error at the same probes, relative to one
-        # estimate of ||I*||^2 (the generated image's, (7)).
-        est_g, est_c = probe_estimate(res.image, sample), probe_estimate(scored, sample)
-        norm2 = (est_g["reference_norm_ratio"] * float(np.linalg.norm(res.image.astype(np.float64)))) ** 2
-        for c, e in ((generated, est_g), (compensated, est_c)):
-            se = float(np.mean(e["residuals"] / sample["p"]))
-            c["selection"] = float(np.sqrt(max(se, 0.0) / norm2)) if norm2 > 0 else 0.0
+        generated["selection"], compensated["selection"] = selection_errors([res.image, scored], sample)
         chosen = min(candidates, key=lambda c: c["selection"] * (1.0 + BIAS_MARGIN * bool(c["bias_sources"])))
         reason = (f"smallest error at {probes} selection probes: " + ", ".join(
             f"{c['model']} {c['selection']:.3g}" for c in candidates))
@@ -185,7 +190,8 @@ def other_light_models(first: dict, attempt, scene, target_error: float, time_bu
     lights, fresh probes) while the last one neither claims the target nor has its point estimate within it (and,
     with a ``time_budget``, less than half of it is spent);
     keep the last one if its own probes claim the target, else the one with the smallest point estimate (2) at
-    a separate selection probe set (so the kept one's reported bound took no part in the choice). ``first``
+    a separate selection probe set (``selection_errors``; so the kept one's reported bound took no part in the
+    choice). ``first``
     and the return value: res, A, est, t_lights, counts of an attempt. Records every model tried in
     ``budget['light_model']['tried']`` (model, indirect lights, bound, lower bound, seconds, selection
     estimate) and the seconds of those set aside in ``timings['other_light_models']``. ``refine_paths(res, A,
@@ -218,12 +224,8 @@ def other_light_models(first: dict, attempt, scene, target_error: float, time_bu
     else:
         sample = probe_sample(first["res"].image, scene, probes, spp=spp, max_depth=max_depth,
                               seed=derived_seed(seed, 100 * STREAM["models"] + 99))
-        # Relative to one estimate of ||I*||^2 (the first image's, probe_error's (7)), as choose_light_model.
-        norm = float(np.linalg.norm(first["res"].image.astype(np.float64)))
-        norm2 = (first["est"]["reference_norm_ratio"] * norm) ** 2
-        for t in tried:
-            se = float(np.mean(probe_estimate(t["res"].image, sample)["residuals"] / sample["p"]))
-            t["selection"] = float(np.sqrt(max(se, 0.0) / norm2)) if norm2 > 0 else 0.0
+        for t, e in zip(tried, selection_errors([t["res"].image for t in tried], sample)):
+            t["selection"] = e
         chosen = min(tried, key=lambda t: t["selection"])
         reason = f"{chosen['model']}: the smallest point estimate at {probes} selection probes"
         chosen["res"].timings["probes"] += sample["seconds"]

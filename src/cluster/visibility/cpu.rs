@@ -1,10 +1,10 @@
 //! Clustered visibility on the CPU (rayon): the visibility matrix by exact BVH rays
-//! (`cpu::light_blocked`, the CPU backend's shadow ray; `cpu::mask_visibility_at` through masked surfaces)
+//! (`cpu::visibility_crossed`, the CPU backend's shadow ray, through masked surfaces where the scene has them)
 //! and shading by Eq. 6/9 with the CPU backend's unshadowed elements (`cpu::shade_unshadowed`): the reference of
 //! the GPU pass `gpu::clustered_visibility` and the CPU backend's implementation (module docs of
 //! `cluster::visibility`).
 use super::{seconds, words_per_row, ClusteredImage, ClusteredShading, VisibilityMatrix};
-use crate::cpu::{light_blocked, mask_visibility_at, shade_unshadowed, ShadingPoint};
+use crate::cpu::{shade_unshadowed, visibility_crossed, ShadingPoint};
 use crate::error::Result;
 use crate::lights::LightSet;
 use crate::raytrace::RayTracer;
@@ -64,8 +64,7 @@ pub fn visibility_matrix(tracer: &RayTracer, view: &ViewSamples, job: &Clustered
 }
 
 /// V of cluster light c from view sample i (a representative) and whether its ray crossed a masked
-/// surface: 0 or 1 (`light_blocked`), or in a masked scene the expected transmittance with the sample's
-/// mask budget (`cpu::mask_visibility_at`, as the light matrix's element (i, c)). Rays toward the light's
+/// surface (`cpu::visibility_crossed`, as the light matrix's element (i, c) has it). Rays toward the light's
 /// position, or along its reversed direction for a directional light.
 pub fn entry(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, i: usize, c: usize) -> (f32, bool) {
     let (p, n_g) = (view.position[i], view.geo_normal[i]);
@@ -73,10 +72,7 @@ pub fn entry(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, i: usize
         crate::lights::LightKind::Directional => (-lights.direction[c], f32::INFINITY),
         _ => (Vec3::ZERO, 1.0),
     };
-    match view.mask_budget.get(i) {
-        Some(&budget) => mask_visibility_at(tracer, lights, c, p, n_g, wo, dist, budget),
-        None => (!light_blocked(tracer, lights, c, p, n_g, wo, dist) as u8 as f32, false),
-    }
+    visibility_crossed(tracer, view, lights, i, c, p, n_g, wo, dist)
 }
 
 /// Eq. 6/9 for every view sample with the visibility matrix `vis`: H * W * 3 floats (pixels). The light's
