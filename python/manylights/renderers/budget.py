@@ -49,7 +49,8 @@ After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total
    further round (another ``t_0``) gets unlikely (on cbox 128^2 a round's clustering of 100k lights costs
    0.4-1 s, its 16-200 columns 0.1-1.5 s). Without a target (time budget only) each round doubles the columns,
    cut to what the time left allows.
-4. **All lights**: when the next round would pass n columns, brute force (exact; said in ``stopped``).
+4. **All lights**: when the next round would pass n columns, brute force (exact; said in ``stopped``; the
+   seconds of the rounds it replaces in ``timings['mrcs_rounds']``).
 
 Every round stays the unbiased round of ``mrcs_progressive`` (weights from rows only), so the estimate is
 (3) unchanged, and the schedule is reported: ``budget['chosen']['rows']`` / ``['columns']`` (cumulative
@@ -288,6 +289,9 @@ def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional
             t = time.perf_counter()
             image = A.column_sum(progress=progress)
             timings = {"columns": time.perf_counter() - t}
+            if last is not None:
+                # The MRCS rounds whose image brute force replaces: their seconds were spent too.
+                timings["mrcs_rounds"] = elapsed
             if add_emitted:
                 image = image + A.emitted()
             last = RenderResult(image=image, method="brute_force", seed=seed, timings=timings,

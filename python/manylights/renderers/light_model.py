@@ -15,17 +15,21 @@ pixel an unbiased path tracer needs for the target and their time on this machin
 
 Where clamped VPLs miss the target (their probes' point estimate above it, with or without the compensation),
 virtual spherical lights are offered next (``ALTERNATIVE_MODELS``, ``other_light_models``): VSLs (Hašan et al. 2009:
-no clamp; their bias, the blur of the sphere, shrinks as the lights grow, so they get ``max_lights`` indirect
-lights), then, while their probes' point estimate also misses, VSLs importance-sampled by the camera (Georgiev and
-Slusallek 2010). Each is a whole attempt (lights, matrix, render, fresh probes). The last one is kept when its own
-probes claim the target (none before it claimed: a point estimate above the target puts the bound above it too);
-otherwise a separate selection probe set scores all of them and the smallest point estimate is kept, with the bound
-of its own probes, which took no part in the choice (``budget['light_model']['tried']``; the others' seconds in
+no clamp; their bias, the blur of the sphere, shrinks as the lights grow), then, while VSLs at ``max_lights`` also
+miss, VSLs importance-sampled by the camera (Georgiev and Slusallek 2010) at that count. Each model climbs a count
+ladder: the first rung at ``max_lights`` / ``LADDER_START`` indirect lights (at least the clamped VPLs' count),
+each next rung where the bias of the rung before, falling as 1 / sqrt(count), would bring its bound to
+``LADDER_AIM`` x the target (``vsl_count``; measured on the staircase at 64^2: 4.7% at 4,096 VSLs, 1.18% at
+65,536). Each rung is a whole attempt (lights, matrix, render, fresh probes); the first whose own probes claim the
+target is kept (a rung that claims ends the ladder, so a claim is always the last attempt's); otherwise a
+separate selection probe set scores all of them and the smallest point estimate is kept, with the bound of its own
+probes, which took no part in the choice (``budget['light_model']['tried']``; the others' seconds in
 ``timings['other_light_models']``); where too few of its probes carry that bound, a fresh probe set with twice the
 probes and paths decides (as in ``light_budget``'s "Escalation", ``budget['escalation']`` kind "probes"). Measured
-(one seed): Veach Ajar 32 x 18 at 5%, full GI: clamped VPLs 24% true error (bound 25%), VSLs bound 15%,
-importance-sampled VSLs 4.9% true error (bound 7.9%, not claimed), 60 s in all; the staircase at 64^2 and
-``max_lights`` 4,096: clamped VPLs 18%, VSLs 4.4% (bound 6.2%, an 8% target claimed) in 4.5 s. Still the caller's
+(one seed each): the staircase at 64^2, full GI, 5%: VSLs at 4,096 claim (true 4.0%) in 8 s, or 4,096 (bound
+5.9%) then 12,288 (true 2.6%) in 16 s, where a single attempt at 65,536 took 65-78 s; Veach Ajar 32 x 18 at 5%:
+the clamped VPLs are at 65,536 already, so VSLs there (bound 12%), then importance-sampled VSLs (true 5.4%, bound
+6.8%, not claimed), 43 s in all. Still the caller's
 choice: importance-sampled VPLs (clamped, they keep the clamp's bias: 21% on Veach Ajar), the VSLs' radius and the
 glossy threshold (``generate_lights`` / ``LightMatrix``).
 
@@ -36,6 +40,7 @@ Symbols
 | ``e`` | ``target_error``, relative L2 of the whole image |
 | (2), (7), (9) | ``probe_error``'s point estimate of the squared error, its estimate of ``||I*||``, its retracing |
 | VPL, VSL | virtual point light (clamped), virtual spherical light (Hašan et al. 2009) |
+| rung | one attempt of a light model at one indirect-light count (``vsl_count``) |
 """
 from __future__ import annotations
 
@@ -57,6 +62,13 @@ ALTERNATIVE_MODELS = (
     ("VSLs", {"indirect_kind": "vsl"}),
     ("VSLs, importance-sampled", {"indirect_kind": "vsl", "vpl_importance": True}),
 )
+#: The first rung of a model's count ladder: ``max_lights`` / LADDER_START indirect lights (at least the clamped
+#: VPLs' count).
+LADDER_START = 16
+#: A next rung aims its bound at this fraction of the target (``vsl_count``).
+LADDER_AIM = 0.7
+#: Rungs are multiples of this many lights.
+LADDER_STEP = 1024
 #: Paths per pixel of each of the two bias-compensation estimates a clamped-VPL model is offered with.
 COMPENSATION_SPP = 1
 #: (``light_budget`` module doc, "Escalation") When the probes see no error beyond their own noise, or too few
@@ -182,38 +194,64 @@ def fresh_probes(res, est: dict, scene, target_error: float, probe_seed: int, se
                        f"of {n2} probes at {PROBE_ESCALATION * spp} paths, the image kept")}
 
 
+def vsl_count(count: int, est: dict, bound: float, target_error: float, max_lights: int) -> int:
+    """The next rung of a model's count ladder (module doc): the indirect lights that bring the error of an
+    attempt at ``count`` (its probes' point estimate (2) ``est['error_mean']`` and upper bound ``bound``) to
+    ``LADDER_AIM`` x ``target_error``, with the VSLs' bias falling as 1 / sqrt(count) (measured on the
+    staircase at 64^2: 4.7% at 4,096 VSLs, 1.18% at 65,536): ``count (e / (LADDER_AIM target))^2`` with e the
+    bound where it is finite (the point estimate otherwise), at least 2 x ``count``, rounded up to a multiple
+    of ``LADDER_STEP`` and at most ``max_lights``."""
+    e = bound if np.isfinite(bound) else float(est["error_mean"])
+    want = count * (e / (LADDER_AIM * target_error)) ** 2 if np.isfinite(e) else float(max_lights)
+    want = max(want, 2.0 * count)
+    return int(min(max_lights, LADDER_STEP * np.ceil(min(want, float(max_lights)) / LADDER_STEP)))
+
+
 def other_light_models(first: dict, attempt, scene, target_error: float, time_budget: Optional[float],
                        t_start: float, seed: int, *, max_lights: int, probes: int, spp: int, max_depth: int,
                        refine_paths) -> tuple:
     """Clamped VPLs whose probes' point estimate (2) is above ``target_error`` (not claimed): render
-    ``ALTERNATIVE_MODELS`` in turn (``attempt`` with their ``generate_lights`` keywords, ``max_lights`` indirect
-    lights, fresh probes) while the last one neither claims the target nor has its point estimate within it (and,
-    with a ``time_budget``, less than half of it is spent);
-    keep the last one if its own probes claim the target, else the one with the smallest point estimate (2) at
-    a separate selection probe set (``selection_errors``; so the kept one's reported bound took no part in the
-    choice). ``first``
-    and the return value: res, A, est, t_lights, counts of an attempt. Records every model tried in
-    ``budget['light_model']['tried']`` (model, indirect lights, bound, lower bound, seconds, selection
-    estimate) and the seconds of those set aside in ``timings['other_light_models']``. ``refine_paths(res, A,
-    counts)``: an attempt's retracing budget in paths."""
+    ``ALTERNATIVE_MODELS`` in turn, each up its count ladder (``attempt`` with the model's ``generate_lights``
+    keywords, fresh probes each): the first rung at ``max_lights`` / ``LADDER_START`` indirect lights (at
+    least the clamped VPLs' count), each next rung at ``vsl_count``; a model at ``max_lights`` whose point
+    estimate still misses hands over to the next model at that count. It stops at the first attempt whose
+    own probes claim the target, at a point estimate within the target at ``max_lights``, or (with a
+    ``time_budget``) once half of it is spent. The last attempt is kept if it claims, else the one with the
+    smallest point estimate (2) at a separate selection probe set (``selection_errors``; so the kept one's
+    reported bound took no part in the choice). ``first`` and the return value: res, A, est, t_lights, counts
+    of an attempt. Records every attempt in ``budget['light_model']['tried']`` (model, indirect lights, bound,
+    lower bound, seconds, selection estimate) and the seconds of those set aside in
+    ``timings['other_light_models']``. ``refine_paths(res, A, counts)``: an attempt's retracing budget in paths."""
     tried = [{**first, "model": first["res"].budget["light_model"]["chosen"]}]
-    for name, keywords in ALTERNATIVE_MODELS:
-        last = tried[-1]["est"]
-        # The next model while the last one's point estimate (2) misses: then it did not claim (its bound is above).
-        if last["error_mean"] <= target_error:
-            break
+    clamped = int(first["counts"]["indirect"]["count"])
+    count = min(max_lights, max(clamped, max_lights // LADDER_START))
+    models = list(ALTERNATIVE_MODELS)
+    why = f"the first rung of its ladder, max_lights / {LADDER_START} (the clamped VPLs had {clamped})"
+    while models:
+        name, keywords = models[0]
         if time_budget is not None and time.perf_counter() - t_start > time_budget / 2:
             break
         counts = copy.deepcopy(first["counts"])
-        was = counts["indirect"]["count"]
-        counts["indirect"]["count"] = max_lights
-        counts["indirect"]["reason"] = (f"{name}: max_lights ({max_lights}); a VSL's radius (its bias) shrinks as "
-                                        f"the lights grow (the clamped VPLs had {was})")
+        counts["indirect"]["count"] = count
+        counts["indirect"]["reason"] = f"{name}: {why}"
         res, A, est, t_lights, failed = attempt(counts, derived_seed(seed, 100 * STREAM["models"] + len(tried)),
                                                 model=keywords)
         if failed or est is None:
             break
         tried.append({"res": res, "A": A, "est": est, "t_lights": t_lights, "counts": counts, "model": name})
+        if est["reliable"] and res.error_estimate <= target_error:
+            break
+        if count < max_lights:
+            new = vsl_count(count, est, float(res.error_estimate), target_error, max_lights)
+            why = (f"the ladder's next rung: {count} gave bound {res.error_estimate:.3g}; a VSL's bias falls as "
+                   f"1 / sqrt(count)")
+            count = new
+        elif est["error_mean"] <= target_error:
+            # Within the target at max_lights and not claimed: another model would not be claimed sooner.
+            break
+        else:
+            models.pop(0)
+            why = f"{name} missed the target at max_lights ({max_lights}): the next model at that count"
     for t in tried:
         t["seconds"] = float(sum(t["res"].timings.values())) + t["t_lights"]
     last = tried[-1]
@@ -236,8 +274,8 @@ def other_light_models(first: dict, attempt, scene, target_error: float, time_bu
         if chosen is not tried[0] and c["model"] == "lights as generated":
             c["model"] = chosen["model"]
     if reason:
-        model["reason"] = (f"{reason} (of {', '.join(t['model'] for t in tried)}: each tried while the point "
-                           f"estimate of the one before missed the target)")
+        model["reason"] = (f"{reason} (of {', '.join(t['model'] + ' at ' + str(t['counts']['indirect']['count']) for t in tried)}: "
+                           "each tried while the one before did not claim the target)")
     model["tried"] = [{"model": t["model"], "indirect": int(t["counts"]["indirect"]["count"]),
                        "error_estimate": float(t["res"].error_estimate), "error_lower": float(t["est"]["error_lower"]),
                        "seconds": t["seconds"], **({"selection": t["selection"]} if "selection" in t else {})}
