@@ -311,12 +311,14 @@ def test_clamped_vpls_that_miss_by_more_than_their_noise_are_replaced_by_vsls_up
 
 def test_vsl_count_ladder_rungs():
     """``vsl_count``: count (e / (0.7 target))^2 with e the bound (the point estimate where the bound is not
-    finite), at least twice the count, rounded up to a multiple of 1,024, at most max_lights."""
+    finite), at least twice the count, rounded up to a multiple of 1,024; max_lights above half of it."""
     vc = light_model.vsl_count
     assert vc(4096, {"error_mean": 0.04}, 0.069, 0.05, 65536) == 16384  # 15,919 rounded up
     assert vc(4096, {"error_mean": 0.04}, 0.0701, 0.05, 65536) == 17408  # 16,431: past 16 x 1,024
     assert vc(4096, {"error_mean": 0.04}, 0.04, 0.05, 65536) == 8192  # 5,350 < 2 x 4,096
     assert vc(4096, {"error_mean": 0.04}, 0.5, 0.05, 65536) == 65536  # capped
+    assert vc(4096, {"error_mean": 0.04}, 0.132, 0.05, 65536) == 65536  # 58,260 > max_lights / 2: max_lights
+    assert vc(4096, {"error_mean": 0.04}, 0.098, 0.05, 65536) == 32768  # 32,113 rounded up: not above half
     assert vc(1024, {"error_mean": 0.069}, math.inf, 0.05, 65536) == 4096  # the point estimate: 3,982
     assert vc(1024, {"error_mean": math.inf}, math.inf, 0.05, 65536) == 65536
 

@@ -19,7 +19,7 @@ no clamp; their bias, the blur of the sphere, shrinks as the lights grow), then,
 miss, VSLs importance-sampled by the camera (Georgiev and Slusallek 2010) at that count. Each model climbs a count
 ladder: the first rung at ``max_lights`` / ``LADDER_START`` indirect lights (at least the clamped VPLs' count),
 each next rung where the bias of the rung before, falling as 1 / sqrt(count), would bring its bound to
-``LADDER_AIM`` x the target (``vsl_count``; measured on the staircase at 64^2: 4.7% at 4,096 VSLs, 1.18% at
+``LADDER_AIM`` x the target (``vsl_count``: at least twice the count, ``max_lights`` above half of it; measured on the staircase at 64^2: 4.7% at 4,096 VSLs, 1.18% at
 65,536). Each rung is a whole attempt (lights, matrix, render, fresh probes); the first whose own probes claim the
 target is kept (a rung that claims ends the ladder, so a claim is always the last attempt's); otherwise a
 separate selection probe set scores all of them and the smallest point estimate is kept, with the bound of its own
@@ -200,11 +200,15 @@ def vsl_count(count: int, est: dict, bound: float, target_error: float, max_ligh
     ``LADDER_AIM`` x ``target_error``, with the VSLs' bias falling as 1 / sqrt(count) (measured on the
     staircase at 64^2: 4.7% at 4,096 VSLs, 1.18% at 65,536): ``count (e / (LADDER_AIM target))^2`` with e the
     bound where it is finite (the point estimate otherwise), at least 2 x ``count``, rounded up to a multiple
-    of ``LADDER_STEP`` and at most ``max_lights``."""
+    of ``LADDER_STEP``; ``max_lights`` itself where that is above half of it (measured: a rung at 62,464 of
+    65,536 VSLs that missed was followed by one at 65,536, 63 s each)."""
     e = bound if np.isfinite(bound) else float(est["error_mean"])
     want = count * (e / (LADDER_AIM * target_error)) ** 2 if np.isfinite(e) else float(max_lights)
     want = max(want, 2.0 * count)
-    return int(min(max_lights, LADDER_STEP * np.ceil(min(want, float(max_lights)) / LADDER_STEP)))
+    if want > max_lights / 2:
+        # A rung just below max_lights would cost nearly as much as max_lights and leave one more rung there.
+        return int(max_lights)
+    return int(min(max_lights, LADDER_STEP * np.ceil(want / LADDER_STEP)))
 
 
 def other_light_models(first: dict, attempt, scene, target_error: float, time_budget: Optional[float],
