@@ -177,10 +177,12 @@ def test_render_schedule_reproduces_the_image(small):
 def test_render_unreachable_target_falls_back_to_brute_force(small):
     A, truth = small
     res = ml.render(A, target_error=1e-9, first_columns=256, rows_per_column=0.25, progress=False)
-    # Rounds of 256 and 1024 columns (at most GROWTH = 4x the columns so far), then the predicted round
-    # passes n = 2041 lights: brute force, exact.
+    # A round of 256 columns, then the predicted round (1,024 more: at most GROWTH = 4x the columns so far)
+    # would pass half of the n = 2,041 lights (budget.BRUTE_FORCE_SHARE): brute force, exact.
     assert res.method == "brute_force" and res.budget["stopped"] == "all lights: brute force"
-    assert res.budget["chosen"]["columns"] == [256, 1280] and res.error_estimate == 0.0
+    assert res.budget["chosen"]["columns"] == [256] and res.error_estimate == 0.0
+    assert "1280 columns, more than 0.5 x the 2041 lights" in res.budget["chosen"]["why"][-1]
+    assert res.timings["mrcs_rounds"] > 0
     np.testing.assert_array_equal(res.image, truth)
 
 

@@ -49,8 +49,15 @@ After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total
    further round (another ``t_0``) gets unlikely (on cbox 128^2 a round's clustering of 100k lights costs
    0.4-1 s, its 16-200 columns 0.1-1.5 s). Without a target (time budget only) each round doubles the columns,
    cut to what the time left allows.
-4. **All lights**: when the next round would pass n columns, brute force (exact; said in ``stopped``; the
-   seconds of the rounds it replaces in ``timings['mrcs_rounds']``).
+4. **All lights**: when the next round would pass ``BRUTE_FORCE_SHARE`` (1/2) of the n columns (with a
+   target; n without), brute force (exact; said in ``stopped``; the seconds of the rounds it replaces in
+   ``timings['mrcs_rounds']``): it costs at most about twice that round's columns and has no rows or
+   clustering (the staircase's 65,536 VSLs at 64^2: a round to 58,510 columns, then brute force all the same,
+   49 s of rounds before a 41 s brute force). Sooner (after the second round, without
+   ``rows_per_column``) when the prediction of step 3 without the ``GROWTH`` cap needs all n columns and the
+   rounds' seconds with the next one would pass ``BRUTE_FORCE_SHARE`` (1/2) of brute force's (n t_c): the
+   prediction is trusted only once it would cost that much (on veach-ajar the variance collapses later than
+   predicted: there early rounds predict more than n columns and still end at 4,000-20,000).
 
 Every round stays the unbiased round of ``mrcs_progressive`` (weights from rows only), so the estimate is
 (3) unchanged, and the schedule is reported: ``budget['chosen']['rows']`` / ``['columns']`` (cumulative
@@ -102,6 +109,11 @@ AIM = 0.85
 GROWTH = 4
 #: Rows of the pilot round (round 0) and the fewest new rows of any later round.
 FIRST_ROWS = 8
+#: (Step 4) Brute force before the columns reach n: when a round would pass this share of the n columns, or
+#: when the uncapped prediction needs all the lights and MRCS's seconds with its next round would pass this
+#: share of brute force's (the staircase's 65,536 VSLs at 64^2: rounds of 32-20,000 columns whose estimate
+#: stayed at 13-83% spent 20-27 s before the 41 s brute force).
+BRUTE_FORCE_SHARE = 0.5
 #: Exponents of the prediction (step 3): Monte Carlo's 1 for the columns, 1/2 for the rows.
 E_COLUMNS = 1.0
 E_ROWS = 0.5
@@ -244,6 +256,19 @@ def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional
             V_req = 1.0 / (1.0 / goal ** 2 - 1.0 / eps ** 2)
             dc = _solve_columns(V_t, V_req, R_t, dc_t, E_ROWS, E_COLUMNS, rows_of, lo, hi)
             why = f"estimate {eps:.3%} > {SAFETY:g} x target: {dc} columns predicted to bring it to {goal:.3%}"
+            if rows_per_column is None and len(chosen["estimates"]) >= 2:
+                # (Step 4) Brute force sooner: the prediction, uncapped, needs all the lights, and MRCS's seconds
+                # with the next round would pass BRUTE_FORCE_SHARE of brute force's (n columns at t_c each).
+                need = _solve_columns(V_t, V_req, R_t, dc_t, E_ROWS, E_COLUMNS, rows_of, lo, max(hi, n))
+                spent = time.perf_counter() - start
+                next_round = max(rows_of(dc) - R_t, 0) * t_r + dc * t_c + t_0
+                if C_t + need >= n and spent + next_round > BRUTE_FORCE_SHARE * n * t_c:
+                    chosen["why"].append(
+                        f"estimate {eps:.3%}: the target needs more than the {n} lights, and {spent:.3g} s spent + "
+                        f"{next_round:.3g} s for the next round > {BRUTE_FORCE_SHARE:g} x brute force "
+                        f"({n * t_c:.3g} s): brute force now")
+                    stopped = "all lights"
+                    break
             # A round costs its overhead t_0 whatever its size: buy at least as many columns as t_0 pays
             # for (the round costs at most 2x, and another round, t_0 again, becomes unlikely). A timing:
             # not with rows_per_column given (then nothing depends on one).
@@ -269,6 +294,14 @@ def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional
                     break
                 dc = fit
                 why += f"; cut to {dc} columns by the time budget"
+        if (target_error is not None and C_t + dc > BRUTE_FORCE_SHARE * n
+                and (time_budget is None or time.perf_counter() - start + n * t_c <= time_budget)):
+            # (Step 4) A round past half the lights' columns: brute force costs at most about twice its columns,
+            # with no rows to render or clusters to build, and is exact (where the time budget allows it).
+            chosen["why"].append(f"{why}: {C_t + dc} columns, more than {BRUTE_FORCE_SHARE:g} x the {n} lights: "
+                                 "brute force now")
+            stopped = "all lights"
+            break
         dr = int(max(0, round(rows_of(dc) - R_t)))
         chosen["seconds_per_row"].append(t_row)
         chosen["seconds_per_column"].append(t_c)
