@@ -55,7 +55,8 @@ After each round t with combined estimate ``eps_t`` (3) at ``R_t`` rows in total
    clustering (the staircase's 65,536 VSLs at 64^2: a round to 58,510 columns, then brute force all the same,
    49 s of rounds before a 41 s brute force). Sooner (after the second round, without
    ``rows_per_column``) when the prediction of step 3 without the ``GROWTH`` cap needs all n columns and the
-   rounds' seconds with the next one would pass ``BRUTE_FORCE_SHARE`` (1/2) of brute force's (n t_c): the
+   rounds' seconds with the next one would pass ``BRUTE_FORCE_SHARE`` (1/2) of brute force's (n t_c, where
+   that is at least ``BRUTE_FORCE_MIN_SECONDS``, 2 s): the
    prediction is trusted only once it would cost that much (on veach-ajar the variance collapses later than
    predicted: there early rounds predict more than n columns and still end at 4,000-20,000).
 
@@ -114,6 +115,9 @@ FIRST_ROWS = 8
 #: share of brute force's (the staircase's 65,536 VSLs at 64^2: rounds of 32-20,000 columns whose estimate
 #: stayed at 13-83% spent 20-27 s before the 41 s brute force).
 BRUTE_FORCE_SHARE = 0.5
+#: ... the timed form only where brute force costs at least this many seconds (n t_c): below, a round's fixed
+#: overhead dominates the comparison, and the saving is small.
+BRUTE_FORCE_MIN_SECONDS = 2.0
 #: Exponents of the prediction (step 3): Monte Carlo's 1 for the columns, 1/2 for the rows.
 E_COLUMNS = 1.0
 E_ROWS = 0.5
@@ -262,7 +266,8 @@ def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional
                 need = _solve_columns(V_t, V_req, R_t, dc_t, E_ROWS, E_COLUMNS, rows_of, lo, max(hi, n))
                 spent = time.perf_counter() - start
                 next_round = max(rows_of(dc) - R_t, 0) * t_r + dc * t_c + t_0
-                if C_t + need >= n and spent + next_round > BRUTE_FORCE_SHARE * n * t_c:
+                if (C_t + need >= n and n * t_c >= BRUTE_FORCE_MIN_SECONDS
+                        and spent + next_round > BRUTE_FORCE_SHARE * n * t_c):
                     chosen["why"].append(
                         f"estimate {eps:.3%}: the target needs more than the {n} lights, and {spent:.3g} s spent + "
                         f"{next_round:.3g} s for the next round > {BRUTE_FORCE_SHARE:g} x brute force "
