@@ -102,8 +102,10 @@ fn trace_pair(row: u32, c: u32) {
     let s = samples[rep];
     let l = lights[c];
     var v = vec2<f32>(0.0);
-    let budget = select(0u, mask_budget(s), mask_light_passes(l));
-    if (s.flags & VIEW_FLAG_MASKS) != 0u && budget > 0u {
+    let budget = mask_light_budget(s, l);
+    if mask_vpl_out_of_depth(s, l) {
+        v = vec2<f32>(0.0);
+    } else if (s.flags & VIEW_FLAG_MASKS) != 0u && budget > 0u {
         v = mask_transmittance(s.position, s.geo_normal, l, -l.direction, budget, 1.0);
     } else {
         var res = BVH_FREE;

@@ -165,7 +165,10 @@ fn visibility(l: Light, p: vec3<f32>, n_g: vec3<f32>, wo: vec3<f32>) -> f32 {
 // hold masked surfaces as opaque ones); the others an exact mask ray (common/mask.wgsl), unless the
 // shadow map is certain that nothing lies between (SM_LIT in hybrid mode, lit in shadow-map mode).
 fn visibility_masked(l: Light, s: ViewSample, wo: vec3<f32>) -> vec2<f32> {
-    let budget = select(0u, mask_budget(s), mask_light_passes(l));
+    if mask_vpl_out_of_depth(s, l) {
+        return vec2<f32>(0.0, 0.0);
+    }
+    let budget = mask_light_budget(s, l);
     if budget == 0u {
         return vec2<f32>(visibility(l, s.position, s.geo_normal, wo), 0.0);
     }

@@ -193,7 +193,10 @@ fn row_visibility(row: RowInfo, s: ViewSample, l: Light, wo: vec3<f32>) -> f32 {
 // transmittance, 1 when the ray crossed a masked surface); the exact mask ray is cast from the view
 // sample unless the row's cube map is certain that nothing lies between.
 fn row_visibility_masked(row: RowInfo, s: ViewSample, l: Light, wo: vec3<f32>) -> vec2<f32> {
-    let budget = select(0u, mask_budget(s), mask_light_passes(l));
+    if mask_vpl_out_of_depth(s, l) {
+        return vec2<f32>(0.0, 0.0);
+    }
+    let budget = mask_light_budget(s, l);
     if budget == 0u {
         return vec2<f32>(row_visibility(row, s, l, wo), 0.0);
     }

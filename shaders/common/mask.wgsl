@@ -87,14 +87,30 @@ fn mask_hit(hit: BvhHit, o: vec3<f32>, d: vec3<f32>) -> MaskHit {
     return out;
 }
 
-// Whether light l's shadow rays cross masked surfaces (src/gpu/mask.rs `light_fields`).
-fn mask_light_passes(l: Light) -> bool {
-    return l.patch_corners[2].w != 0.0;
-}
-
 // The mask budget of view sample s (its shadow rays cross at most this many masked surfaces).
 fn mask_budget(s: ViewSample) -> u32 {
     return s.flags >> VIEW_MASK_BUDGET_SHIFT;
+}
+
+// Whether VPL l cannot light view sample s at all in a scene with masked surfaces: the sample's budget
+// is 0, so the VPL's own bounce would pass Mitsuba's max_depth (src/cpu/mod.rs `mask_visibility_at`).
+fn mask_vpl_out_of_depth(s: ViewSample, l: Light) -> bool {
+    return (s.flags & VIEW_FLAG_MASKS) != 0u && l.patch_corners[2].w > 1.5 && mask_budget(s) == 0u;
+}
+
+// How many masked surfaces the shadow ray from view sample s toward light l may cross
+// (src/cpu/mod.rs `mask_visibility_at`; src/gpu/mask.rs `light_fields`): 0 for lights whose rays masks
+// block, one fewer than the sample's budget for a VPL (the VPL is one more bounce), else the budget.
+fn mask_light_budget(s: ViewSample, l: Light) -> u32 {
+    let kind = l.patch_corners[2].w;
+    let budget = mask_budget(s);
+    if kind == 0.0 {
+        return 0u;
+    }
+    if kind > 1.5 && budget > 0u {
+        return budget - 1u;
+    }
+    return budget;
 }
 
 // Expected transmittance of the shadow ray from surface point p (geometric normal n_g) toward light l

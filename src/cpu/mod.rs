@@ -186,7 +186,10 @@ pub fn visibility_crossed(
 /// surface: the product of (1 - opacity) over the masked surfaces crossed, at most `budget` of them (a view
 /// sample's `ViewSamples::mask_budget`), for lights BSDF sampling can reach (area light samples,
 /// environment strata, VPLs); 0 or 1 for point and spot lights and directional emitters, which masks block
-/// as any surface (Mitsuba's `ray_test`).
+/// as any surface (Mitsuba's `ray_test`). A VPL crosses one fewer: it is a bounce of its own, which must
+/// still sample the light (Mitsuba's depth: view sample at k, VPL vertex at k + 1 + j after j null events,
+/// its light sampled while k + 2 + j < max_depth, so none from a sample whose budget is 0; exact for
+/// first-bounce VPLs, the only ones at max_depth 3, and within the budget of deeper ones otherwise).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn mask_visibility_at(
@@ -200,13 +203,15 @@ pub fn mask_visibility_at(
     budget: u32,
 ) -> (f32, bool) {
     use crate::lights::LightKind;
-    let passes = match lights.kind[j] {
-        LightKind::OrientedPoint | LightKind::Vpl => true,
-        LightKind::Directional => tracer.masks().directional_is_environment,
-        LightKind::Point | LightKind::Spot => false,
+    let budget = match lights.kind[j] {
+        LightKind::OrientedPoint => budget,
+        LightKind::Vpl if budget == 0 => return (0.0, false),
+        LightKind::Vpl => budget - 1,
+        LightKind::Directional if tracer.masks().directional_is_environment => budget,
+        LightKind::Directional | LightKind::Point | LightKind::Spot => 0,
     };
     let q = dist.is_finite().then(|| lights.position[j]);
-    tracer.mask_transmittance_crossed(p, n_g, q, wo, if passes { budget } else { 0 })
+    tracer.mask_transmittance_crossed(p, n_g, q, wo, budget)
 }
 
 /// The CPU backend of one light matrix (module docs).

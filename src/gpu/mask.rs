@@ -169,7 +169,8 @@ fn push_texture(out: &mut Vec<u32>, tex: &Texture) {
 }
 
 /// Light j's mask fields (module docs): (Mitsuba's area-emitter density of its mesh, 0 for other kinds;
-/// 1 when its shadow rays cross masked surfaces, else 0). `directional_passes`: whether the scene's
+/// 1 when its shadow rays cross masked surfaces, 2 for a VPL, whose rays cross one fewer than the view
+/// sample's budget (`cpu::mask_visibility_at`), 0 when masks block them). `directional_passes`: whether the scene's
 /// directional lights are environment strata (`raytrace::mask::Masks::directional_is_environment`).
 pub fn light_fields(view: &ViewSamples, lights: &LightSet, j: usize, directional_passes: bool) -> [f32; 2] {
     let pdf = match lights.kind[j] {
@@ -179,11 +180,12 @@ pub fn light_fields(view: &ViewSamples, lights: &LightSet, j: usize, directional
         _ => 0.0,
     };
     let passes = match lights.kind[j] {
-        LightKind::OrientedPoint | LightKind::Vpl => true,
-        LightKind::Directional => directional_passes,
-        LightKind::Point | LightKind::Spot => false,
+        LightKind::OrientedPoint => 1.0,
+        LightKind::Vpl => 2.0,
+        LightKind::Directional => directional_passes as u8 as f32,
+        LightKind::Point | LightKind::Spot => 0.0,
     };
-    [pdf, passes as u8 as f32]
+    [pdf, passes]
 }
 
 /// Why the GPU cannot shade `scene`'s masks, or None: a mask around a BSDF whose sampling density

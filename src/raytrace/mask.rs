@@ -46,6 +46,11 @@
 //! p_L is the area density (Mitsuba samples its visible cone). Exact when P_valid = 1 (a surface or an
 //! environment behind every masked pixel).
 //!
+//! VPLs (`cpu::mask_visibility_at`): a VPL is a bounce of its own that must still sample the light, so
+//! from a view sample of budget b its shadow ray crosses at most b - 1 masks and none reaches a sample with
+//! b = 0 (a surface seen through a mask at max_depth 3 gets no VPL light); exact for first-bounce VPLs.
+//! Direct-to-indirect relighting's gather samples follow the same rule (`relight::transfer`).
+//!
 //! Glossy view samples (`matrix::glossy`): light through a mask reaches Mitsuba only by BSDF sampling,
 //! with MIS weight 1, and the glossy BSDF rays stop at masks, so `cpu::shade` gives a light column whose
 //! shadow ray crossed a mask its full value (w_L divided out).
@@ -156,19 +161,6 @@ pub fn mask_opacity_param(bsdfs: &[Bsdf], index: usize) -> Option<&Param> {
 /// Whether any mesh of the scene has a masked BSDF.
 pub fn scene_has_masks(scene: &Scene) -> bool {
     scene.meshes.iter().any(|m| mask_opacity_param(&scene.bsdfs, m.bsdf).is_some())
-}
-
-/// `InvalidParameter` naming `what` when the scene has masked surfaces: for the methods whose shadow
-/// rays do not implement them (a mask would silently block as an opaque surface there).
-pub fn refuse_masks(scene: &Scene, what: &str) -> crate::error::Result<()> {
-    if scene_has_masks(scene) {
-        return Err(crate::error::Error::invalid(format!(
-            "{what} does not support the mask BSDF (opacity cut-outs) yet: its shadow rays would treat masked \
-             surfaces as opaque; the light matrix's shading (LightMatrix on either backend: brute force, MRCS, \
-             lightcuts) implements them"
-        )));
-    }
-    Ok(())
 }
 
 /// Mitsuba's opacity `clip(eval_1(opacity, uv), 0, 1)`.

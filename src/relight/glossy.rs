@@ -8,7 +8,9 @@
 //! `diffuse`, smooth `plastic`, `conductor` and `dielectric` (delta lobes: no gather sample reaches
 //! them), and `principled` (its specular lobes share a Fresnel term with the diffuse ones and are not
 //! separated here; principled view samples keep their diffuse part through F_d only). Delta-chain samples
-//! (seen through mirrors or glass) get no glossy indirect light either, as they get no diffuse.
+//! (seen through mirrors or glass) get no glossy indirect light either, as they get no diffuse, except in
+//! a scene with masked surfaces, where every view sample is a candidate and V is the transmittance through
+//! the masks (`transfer` module docs).
 //!
 //! The camera is fixed, so each glossy view sample's BSDF toward its viewer is baked into its row. With
 //! wi the direction to the viewer, wo = (q_g - p) / d toward gather sample g (emitting at q_g), and
@@ -108,13 +110,15 @@ pub struct GlossyRows {
     pub links: u64,
 }
 
-/// Computes the F_g rows of every glossy pixel of `view` (module docs); `progress(done, total)` over
-/// the pixels. Returns empty `rows` and `color` when no pixel is glossy.
+/// Computes the F_g rows of every glossy view sample among the first `samples` of `view` (the camera
+/// hits, or every view sample in a scene with masks: `transfer::row_samples`; module docs);
+/// `progress(done, total)` over them. Returns empty `rows` and `color` when none is glossy.
 ///
 /// Errors: `Interrupted`.
 #[allow(clippy::too_many_arguments)]
 pub fn glossy_rows(
     view: &ViewSamples,
+    samples: usize,
     tracer: &RayTracer,
     cloud: &GatherCloud,
     hierarchy: &ClusterHierarchy,
@@ -123,7 +127,8 @@ pub fn glossy_rows(
     opts: &TransferOptions,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<GlossyRows> {
-    let pixels = view.num_pixels();
+    let pixels = samples.min(view.len());
+    let masked = tracer.masks().any();
     let glossy: Vec<bool> = (0..pixels).map(|i| view.shape_index[i] >= 0 && !glossy_lobes(&view.bsdf, i).is_empty()).collect();
     let count = glossy.iter().filter(|&&g| g).count();
     if count == 0 {
@@ -149,7 +154,12 @@ pub fn glossy_rows(
             let sp = ShadingPoint::new(view, i);
             let twosided = view.bsdf[i].flags & FLAG_TWOSIDED != 0;
             let mut dense = vec![0f32; n];
-            let (rays, l) = ctx.gather(tracer, &sp, twosided, &lobes, &mut dense);
+            // Through masks: the view sample's budget less the gather sample's own bounce (`transfer`).
+            let masks = if masked { view.mask_budget.get(i).map(|&b| b.checked_sub(1)) } else { None };
+            if masks == Some(None) {
+                return Ok((SparseRow::default(), Vec3::ZERO, 0, 0));
+            }
+            let (rays, l) = ctx.gather(tracer, &sp, twosided, &lobes, masks.flatten(), &mut dense);
             let mut image = hierarchy.to_image(&dense, 1);
             haar::forward(&mut image, side, 1)?;
             let wi = sp.wi_local;
@@ -202,7 +212,16 @@ impl Gather<'_> {
     }
 
     /// Fills the dense row F_g(i, .) (sample order); returns (rays, links).
-    fn gather(&self, tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, lobes: &[(GpuBsdf, f32)], dense: &mut [f32]) -> (u64, u64) {
+    #[allow(clippy::too_many_arguments)]
+    fn gather(
+        &self,
+        tracer: &RayTracer,
+        sp: &ShadingPoint,
+        twosided: bool,
+        lobes: &[(GpuBsdf, f32)],
+        masks: Option<u32>,
+        dense: &mut [f32],
+    ) -> (u64, u64) {
         let side_n = if twosided && sp.wi_local.z < 0.0 { -sp.n } else { sp.n };
         // The lobe's peak: wi mirrored about the shading normal (world space).
         let wi_world = sp.s * sp.wi_local.x + sp.t * sp.wi_local.y + sp.n * sp.wi_local.z;
@@ -258,6 +277,7 @@ impl Gather<'_> {
                 self.cloud.geo_normal[r],
                 self.opts.clamp,
                 area,
+                masks,
             );
             rays += tested as u64;
             if g > 0.0 {
@@ -280,7 +300,7 @@ fn representative(seed: u64, depth: u32, c: usize, size: usize) -> usize {
     (x % size as u64) as usize
 }
 
-/// Adds the glossy indirect radiance k_g(i) sum_j F_g^w(i, j) b^w_j to `out` (per pixel RGB) from the
+/// Adds the glossy indirect radiance k_g(i) sum_j F_g^w(i, j) b^w_j to `out` (per row sample RGB) from the
 /// projected gather radiance `bw` (gather image, 3 channels), skipping wavelet lights whose intensity
 /// times image norm (`image_norms` of F_g^w) is below `epsilon` (Sec. 3.5). Returns the lights culled.
 ///

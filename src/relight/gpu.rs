@@ -210,9 +210,16 @@ impl GpuRelight {
     /// Uploads `t` (computed for `view` of `scene`) to `ctx` (module docs). `opts`: the column pass's
     /// shadow maps and visibility.
     ///
-    /// Errors: `InvalidParameter` for a view of another size than the transfer's or rows above a storage
-    /// binding; what `GpuBackend::new` raises (shadow-map size, memory).
+    /// Errors: `InvalidParameter` for a scene with masked surfaces (their transmittance through the gather
+    /// rows and the gather samples' depth budget are the CPU's: `relight::transfer`), a view of another
+    /// size than the transfer's or rows above a storage binding; what `GpuBackend::new` raises (shadow-map size, memory).
     pub fn new(ctx: Arc<GpuContext>, scene: Arc<Scene>, view: Arc<ViewSamples>, t: &Transfer, opts: ColumnOptions) -> Result<GpuRelight> {
+        if crate::raytrace::mask::scene_has_masks(&scene) {
+            return Err(Error::invalid(format!(
+                "{}: relighting a scene with masked surfaces (the mask BSDF) runs on the CPU only",
+                scene.path.display()
+            )));
+        }
         if (view.width, view.height) != (t.width, t.height) || view.num_pixels() != t.rows.len() {
             return Err(Error::invalid(format!(
                 "the view is {}x{} but the transfer was precomputed for {}x{}",

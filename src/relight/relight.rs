@@ -3,7 +3,9 @@
 //!
 //! For a light set (any `LightSet`: point, spot, directional, oriented points, VPLs):
 //! 1. direct irradiance at every gather sample, E_g = sum_j L_j(p_g) max(0, n_g . w_j) V(p_g, j), exact
-//!    shadow rays (`lights::animated::irradiance`, no extra clamp on oriented points, as the light matrix);
+//!    shadow rays (`lights::animated::irradiance`, no extra clamp on oriented points, as the light matrix;
+//!    with masked surfaces the transmittance through them and E_g times the sample's opacity:
+//!    `transfer` module docs);
 //! 2. the gather samples' diffuse outgoing radiance B_g = k_d(g) / pi * E_g (RGB); with `bounces` b > 1,
 //!    b - 1 passes of the gather-to-gather transfer add the light bounced among gather samples:
 //!    B_{k+1}(h) = k_d(h) / pi * sum_j F_gg^w(h, j) (W B_k)_j, B = B_1 + ... + B_b (the paper's (M + I) g_d,
@@ -18,7 +20,8 @@
 //! 4b. glossy pixels (`glossy`): the same sparse product with the glossy rows F_g^w (culled against
 //!    their own image norms), times the pixel's glossy colour k_g(i), is added (Eq. 6, 8);
 //! 5. indirect radiance L_ind(i) = k_d(i) / pi * s_i, k_d(i) the camera hit's diffuse albedo
-//!    (`ViewSamples::albedo`; the transfer module derives the formula), plus the direct light of the same
+//!    (`ViewSamples::albedo`; the transfer module derives the formula; in a scene with masks every view
+//!    sample's, times its throughput, summed into its pixel), plus the direct light of the same
 //!    set: the light matrix's column sum on the CPU backend (all view samples of each pixel, delta chains
 //!    included). Light seen directly (emitters' own radiance) is not added: `LightMatrix::emitted` has it.
 //!
@@ -75,14 +78,18 @@ pub fn check_lights(lights: &LightSet) -> Result<()> {
     Ok(())
 }
 
-/// Direct irradiance E_g (W/m^2, RGB) at every gather sample of `t` from `lights` (step 1).
+/// Direct irradiance E_g (W/m^2, RGB) at every gather sample of `t` from `lights` (step 1). With masked
+/// surfaces, times the sample's opacity (`Transfer::opacity`: what its mask reflects), the shadow rays
+/// crossing at most `transfer::gather_mask_budget` of them (module docs).
 pub fn gather_irradiance(t: &Transfer, tracer: &RayTracer, lights: &LightSet) -> Result<Vec<Vec3>> {
     let c = &t.cloud;
+    let budget = super::transfer::gather_mask_budget(t.opts.bounces);
     crate::interrupt::par_map_chunked(c.len(), 256, |g| {
         if c.normal[g] == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        irradiance(tracer, lights, c.position[g], c.normal[g], c.geo_normal[g], f32::INFINITY, u32::MAX)
+        let e = irradiance(tracer, lights, c.position[g], c.normal[g], c.geo_normal[g], f32::INFINITY, budget);
+        e * t.opacity.get(g).copied().unwrap_or(1.0)
     })
 }
 
@@ -109,7 +116,7 @@ pub fn bounce(t: &Transfer, e: &[Vec3]) -> Result<Vec<f32>> {
                     let j = j as usize;
                     s += f * Vec3::new(bw[3 * j], bw[3 * j + 1], bw[3 * j + 2]);
                 }
-                t.cloud.k_d[h] * FRAC_1_PI * s
+                t.cloud.k_d[h] * t.opacity.get(h).copied().unwrap_or(1.0) * FRAC_1_PI * s
             })?;
             for (a, v) in total.iter_mut().zip(&b) {
                 *a += *v;
@@ -119,7 +126,9 @@ pub fn bounce(t: &Transfer, e: &[Vec3]) -> Result<Vec<f32>> {
     Ok(total.into_iter().flat_map(|v| v.to_array()).collect())
 }
 
-/// Indirect radiance (H * W * 3) of the camera hits from gather irradiance `e` (steps 2-5 without direct).
+/// Indirect radiance (H * W * 3) from gather irradiance `e` (steps 2-5 without direct): each row sample's
+/// (the camera hits, or with masks every view sample: `transfer::row_samples`) times its throughput,
+/// summed per pixel.
 pub fn indirect(t: &Transfer, view: &ViewSamples, e: &[Vec3], epsilon: f32, stats: &mut RelightStats) -> Result<Vec<f32>> {
     let n = t.cloud.len();
     if e.len() != n {
@@ -140,8 +149,12 @@ pub fn indirect(t: &Transfer, view: &ViewSamples, e: &[Vec3], epsilon: f32, stat
     stats.wavelet_lights_culled = (0..n).filter(|&j| !on[j] && bw[3 * j..3 * j + 3].iter().any(|&v| v != 0.0)).count();
     stats.seconds_wavelet = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let pixels = t.rows.len();
-    let out = crate::interrupt::par_map_chunked(pixels, 256, |i| {
+    let pixels = view.num_pixels();
+    let samples = t.rows.len();
+    if samples < pixels || samples > view.len() {
+        return Err(Error::invalid(format!("{samples} transfer rows for a view of {pixels} pixels and {} samples", view.len())));
+    }
+    let out = crate::interrupt::par_map_chunked(samples, 256, |i| {
         let row = &t.rows[i];
         let mut s = [0f32; 3];
         for (&j, &f) in row.index.iter().zip(&row.value) {
@@ -158,6 +171,19 @@ pub fn indirect(t: &Transfer, view: &ViewSamples, e: &[Vec3], epsilon: f32, stat
     // The glossy final gather (Eq. 6, 8): k_g F_g^w b^w added to the glossy pixels.
     stats.wavelet_lights_culled_glossy =
         super::glossy::add_glossy(&t.glossy_rows, &t.glossy_color, &t.glossy_image_norms, &bw, epsilon, &mut out)?;
+    if samples > pixels {
+        // Every view sample has a row (masks): each one's radiance times its throughput, into its pixel.
+        let throughput = |i: usize| view.throughput.get(i).copied().unwrap_or(Vec3::ONE);
+        for (i, o) in out.iter_mut().enumerate().take(pixels) {
+            *o = (throughput(i) * Vec3::from_array(*o)).to_array();
+        }
+        for i in pixels..samples {
+            let p = view.extra_pixel[i - pixels] as usize;
+            let v = throughput(i) * Vec3::from_array(out[i]);
+            out[p] = (Vec3::from_array(out[p]) + v).to_array();
+        }
+        out.truncate(pixels);
+    }
     stats.seconds_transfer = t1.elapsed().as_secs_f64();
     Ok(out.into_iter().flatten().collect())
 }
@@ -178,7 +204,7 @@ pub fn relight(
     if !(epsilon >= 0.0 && epsilon.is_finite()) {
         return Err(Error::invalid(format!("epsilon must be finite and >= 0, got {epsilon}")));
     }
-    if (view.width, view.height) != (t.width, t.height) || view.num_pixels() != t.rows.len() {
+    if (view.width, view.height) != (t.width, t.height) || super::transfer::row_samples(&view, tracer.masks().any()) != t.rows.len() {
         return Err(Error::invalid(format!(
             "the view is {}x{} but the transfer was precomputed for {}x{}",
             view.width, view.height, t.width, t.height

@@ -15,10 +15,10 @@
 //! - `emit_position`, `emit_normal` (n_g, 3): where each gather sample emits from;
 //! - sparse-row matrices, three arrays each: `<name>.offsets` (rows + 1,) u64 (row r is
 //!   `offsets[r] .. offsets[r + 1]` of the next two), `<name>.index` (nnz,) u32 wavelet coefficient,
-//!   `<name>.value` (nnz * channels,) float32: `final_gather` (F_d^w, one row per pixel), `multibounce`
+//!   `<name>.value` (nnz * channels,) float32: `final_gather` (F_d^w, one row per pixel; in a scene with masked surfaces one per view sample), `multibounce`
 //!   (the gather-to-gather rows; none with one bounce or photons), `photon_multibounce` (the photon-mapped
 //!   M_E^w, 3 channels, one row per gather sample; none with one bounce or the gather method), `glossy`
-//!   (F_g^w, one row per pixel, or none when no pixel is glossy); `glossy_color` (pixels or 0, 3) k_g;
+//!   (F_g^w, one row per `final_gather` row, or none when no pixel is glossy); `glossy_color` (as many, 3) k_g;
 //! - `stats.*` and `seconds.*`: what the precomputation cast and how long its stages took.
 //!
 //! A new matrix field of `Transfer` is one `w.rows(...)` line in `to_arrays` and one `r.rows(...)` line
@@ -370,21 +370,34 @@ pub fn from_arrays(scene: &Scene, width: u32, height: u32, arrays: Vec<NamedArra
     let emit_position = r.vec3s("emit_position", n)?;
     let emit_normal = r.vec3s("emit_normal", n)?;
     let pixels = width as usize * height as usize;
-    // Matrices: one line each (module docs).
-    let rows = r.rows("final_gather", pixels, n)?;
+    // Matrices: one line each (module docs). Final-gather rows: one per pixel, or with masked surfaces one
+    // per view sample (`transfer::row_samples`; the view, made after loading, is checked against them).
+    let masked = crate::raytrace::mask::scene_has_masks(scene);
+    let row_count = r.arrays.get("final_gather.offsets").map_or(pixels, |a| a.shape.first().copied().unwrap_or(1).saturating_sub(1));
+    if row_count != pixels && !(masked && row_count > pixels) {
+        return Err(Error::invalid(format!(
+            "'final_gather' has {row_count} rows; expected one per pixel ({pixels}){}",
+            if masked { " or more (one per view sample)" } else { "" }
+        )));
+    }
+    let rows = r.rows("final_gather", row_count, n)?;
     let photon = opts.bounces > 1 && opts.multibounce == Multibounce::Photons;
     let bounce_rows = r.rows("multibounce", if opts.bounces > 1 && !photon { n } else { 0 }, n)?;
     let photon_rows = r.rows_with("photon_multibounce", if photon { n } else { 0 }, n, 3)?;
-    // Glossy rows: one per pixel, or none (no glossy pixel, or F_g off).
+    // Glossy rows: one per final-gather row, or none (no glossy pixel, or F_g off).
     let glossy_count = r.arrays.get("glossy.offsets").map_or(0, |a| a.shape.first().copied().unwrap_or(1).saturating_sub(1));
-    if glossy_count != 0 && (glossy_count != pixels || !opts.glossy) {
-        return Err(Error::invalid(format!("'glossy' has {glossy_count} rows; expected 0 or one per pixel ({pixels}) with glossy on")));
+    if glossy_count != 0 && (glossy_count != row_count || !opts.glossy) {
+        return Err(Error::invalid(format!(
+            "'glossy' has {glossy_count} rows; expected 0 or one per final-gather row ({row_count}) with glossy on"
+        )));
     }
     let glossy_rows = r.rows("glossy", glossy_count, n)?;
     let glossy_color = r.vec3s("glossy_color", glossy_count)?;
     let glossy_image_norms = if glossy_rows.is_empty() { Vec::new() } else { haar::column_norms(&glossy_rows, n, 1)? };
     let image_norms = haar::column_norms(&rows, n, 1)?;
+    let opacity = super::transfer::gather_opacity(&crate::raytrace::mask::Masks::new(scene), &cloud);
     let t = Transfer {
+        opacity,
         cloud,
         hierarchy,
         emit_position,

@@ -3,7 +3,8 @@
 //!
 //! View samples: the camera hit of every pixel (`ViewSamples`, pixel centres), one per pixel; the extra
 //! samples of delta chains (mirrors, glass) get no indirect light (their direct light still comes from the
-//! light matrix in `relight`). Gather samples: a `GatherCloud` of n_g = 4^k samples with its
+//! light matrix in `relight`), except in a scene with masked surfaces (below), where every view sample has
+//! a row. Gather samples: a `GatherCloud` of n_g = 4^k samples with its
 //! `ClusterHierarchy` (the gather image).
 //!
 //! Each gather sample g is a diffuse emitter of outgoing radiance B_g (RGB, W/m^2/sr) over its area A_g,
@@ -23,7 +24,8 @@
 //!
 //! cos_g = -wo . n_g(g) > 0 (front side; also -wo . n_s(g) > 0 as the VPL's Lambertian BSDF needs),
 //! cos_i = |wo . n| with wo on the same side of n as wi (the diffuse BSDF's `cos theta_o > 0` after a
-//! two-sided flip), V one exact shadow ray through the BVH (`RayTracer::occluded`, Mitsuba's offsets),
+//! two-sided flip), V one exact shadow ray through the BVH (`RayTracer::occluded`, Mitsuba's offsets; the
+//! transmittance through masked surfaces in a scene with masks, below),
 //! clamp the geometry-term bound (1/m^2; infinite = none; the paper's "clamp F_d at 0.1", 4.3, in the units
 //! of the light set's `vpl_clamp`). F_d is scalar (no colour); the indirect radiance of view sample i is
 //!
@@ -52,6 +54,23 @@
 //! Glossy view samples (3.3 Eq. 6, 4.3): with `glossy` (default on) the pixels whose BSDF has a glossy
 //! lobe also get a row of the glossy final gather F_g (`glossy` module), the view direction's BSDF baked
 //! in; relighting adds k_g(i) F_g^w b^w.
+//!
+//! Masked surfaces (Mitsuba's `mask`, semantics in `crate::raytrace::mask`): the view samples are traced to
+//! Mitsuba's depth, max_depth = bounces + 2 (`chain_options`), so a camera ray splits at a mask into the
+//! masked surface (throughput a) and the surface behind (1 - a), and every view sample gets a row
+//! (`row_samples`), summed into its pixel with its throughput by `relight`. A segment from view sample i to
+//! a gather sample crosses masked surfaces with (1 - a) each (`geometry_patch`'s transmittance), at most
+//! b - 1 of them for the sample's `ViewSamples::mask_budget` b: the gather sample is one more bounce and
+//! must still sample the light (Mitsuba's depth: i at k, the gather sample at k + 1 + j after j null
+//! events, its light sampled while k + 2 + j < max_depth); a sample with b = 0 gets no row. A gather sample
+//! on a mask of opacity a reflects a times its nested BSDF (`Transfer::opacity`, applied to its irradiance
+//! and to what the gather-to-gather bounce brings it; photons of multiple bounces are stored on it only
+//! when they meet the nested BSDF, so theirs carry a already). The direct light's shadow rays toward a
+//! gather sample cross at most `gather_mask_budget` masks (toward area points and environment strata only,
+//! as everywhere: `lights::animated::irradiance`), a gather-to-gather segment one fewer. Each segment's
+//! budget is counted as if the path's other segments crossed no mask: exact for paths that cross masks on
+//! one segment, and whenever a budget is not the binding limit. Relighting a masked scene runs on the CPU
+//! (`relight::gpu` refuses it).
 //!
 //! Compression (3.3, 4.3): each row F_d(i, .) is laid out as the gather image, projected by the 2D Haar
 //! transform (`haar::forward`) and culled to its `coefficients` most important coefficients
@@ -206,6 +225,9 @@ pub struct Transfer {
     pub glossy_image_norms: Vec<f32>,
     /// Glossy pixels.
     pub glossy_pixels: usize,
+    /// Each gather sample's opacity (`gather_opacity`; empty without masked surfaces): the gather sample
+    /// reflects opacity x k_d.
+    pub opacity: Vec<f32>,
     /// Shadow rays cast by the precomputation.
     pub shadow_rays: u64,
     /// Links (cluster evaluations) made by the hierarchical gather.
@@ -223,14 +245,16 @@ pub struct Transfer {
 /// shadow ray was cast.
 #[inline]
 pub fn geometry(tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, q: Vec3, n_s: Vec3, n_g: Vec3, clamp: f32) -> (f32, bool) {
-    geometry_patch(tracer, sp, twosided, q, n_s, n_g, clamp, 0.0)
+    geometry_patch(tracer, sp, twosided, q, n_s, n_g, clamp, 0.0, None)
 }
 
 /// `geometry` for an emitter that is a patch of area `area` (m^2) rather than a point, in the near field:
 /// G = cos_g cos_i / (d^2 + area / pi), the point-to-disc form factor of a disc of that area facing the
 /// receiver (Wallace, Elmquist, Haines, "A Ray Tracing Algorithm for Progressive Radiosity", 1989), so
 /// A G <= pi cos_g cos_i stays bounded where the point's 1/d^2 spikes; the same as the point form beyond
-/// a few patch sizes (relative change area / (pi d^2)). `area` = 0 is `geometry`.
+/// a few patch sizes (relative change area / (pi d^2)). `area` = 0 is `geometry`. `masks`: None, V is one
+/// exact shadow ray (`RayTracer::occluded`); Some(j) in a scene with masked surfaces, V is the
+/// transmittance prod(1 - a) through at most j of them (`RayTracer::mask_transmittance`; module docs).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn geometry_patch(
@@ -242,6 +266,7 @@ pub fn geometry_patch(
     n_g: Vec3,
     clamp: f32,
     area: f32,
+    masks: Option<u32>,
 ) -> (f32, bool) {
     if !sp.surface {
         return (0.0, false);
@@ -261,11 +286,66 @@ pub fn geometry_patch(
         return (0.0, false);
     }
     let g = (cos_g * cos_i / (dist2 + area * std::f32::consts::FRAC_1_PI)).min(clamp);
-    if tracer.occluded(sp.p, sp.n_g, q) {
-        (0.0, true)
-    } else {
-        (g, true)
+    match masks {
+        Some(budget) => (g * tracer.mask_transmittance(sp.p, sp.n_g, Some(q), wo, budget), true),
+        None if tracer.occluded(sp.p, sp.n_g, q) => (0.0, true),
+        None => (g, true),
     }
+}
+
+/// The view samples that get rows of F_d (and F_g): the camera hits, and in a scene with masked surfaces
+/// every view sample (module docs: the G-buffer follows camera rays through masks).
+pub fn row_samples(view: &ViewSamples, masked: bool) -> usize {
+    if masked {
+        view.len()
+    } else {
+        view.num_pixels()
+    }
+}
+
+/// How the view samples of a relighting precomputation are made for `scene` with `bounces` bounces: in a
+/// scene with masked surfaces Mitsuba's depth (max_depth = bounces + 2, which bounds the masks a path may
+/// cross), otherwise the default delta chains.
+///
+/// Errors: none in practice (bounces + 2 >= 3 is a valid max_depth).
+pub fn chain_options(scene: &Scene, bounces: u32) -> Result<crate::view::chains::ChainOptions> {
+    if crate::raytrace::mask::scene_has_masks(scene) {
+        crate::view::chains::ChainOptions::with_max_depth(bounces as i64 + 2)
+    } else {
+        Ok(crate::view::chains::ChainOptions::default())
+    }
+}
+
+/// The masks a segment from view sample i to a gather sample may cross (module docs): None without
+/// masks; Some(b - 1) for the sample's `ViewSamples::mask_budget` b (the gather sample it reaches must
+/// still sample the light), and None as well for a sample whose budget is 0 (`receives_indirect` is
+/// false for it).
+fn view_mask_budget(view: &ViewSamples, masked: bool, i: usize) -> Option<u32> {
+    if !masked {
+        return None;
+    }
+    view.mask_budget.get(i).map(|&b| b.saturating_sub(1))
+}
+
+/// Whether view sample i of a masked scene may receive light bounced once (its depth leaves room for a
+/// gather sample that samples the light: `ViewSamples::mask_budget` >= 1); always true without masks.
+fn receives_indirect(view: &ViewSamples, masked: bool, i: usize) -> bool {
+    !masked || view.mask_budget.get(i).is_none_or(|&b| b >= 1)
+}
+
+/// The masks the direct light's shadow ray toward a gather sample may cross with `bounces` bounces
+/// (Mitsuba's max_depth = bounces + 2: `lights::animated::gather_mask_budget`).
+pub fn gather_mask_budget(bounces: u32) -> u32 {
+    crate::lights::animated::gather_mask_budget(bounces + 2)
+}
+
+/// Each gather sample's opacity (a masked surface reflects a times its nested BSDF: Mitsuba's `mask`
+/// eval), 1 elsewhere; empty when the scene has no masks.
+pub fn gather_opacity(masks: &crate::raytrace::mask::Masks, cloud: &GatherCloud) -> Vec<f32> {
+    if !masks.any() {
+        return Vec::new();
+    }
+    (0..cloud.len()).map(|g| masks.opacity(cloud.shape[g] as usize, cloud.uv[g]).unwrap_or(1.0)).collect()
 }
 
 /// Whether the box [lo, hi] lies wholly behind the plane through `p` with normal `side_n` (its corner
@@ -303,7 +383,6 @@ impl Transfer {
         opts: &TransferOptions,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Transfer> {
-        crate::raytrace::mask::refuse_masks(scene, "direct-to-indirect relighting")?;
         crate::lights::gather::gather_levels(opts.gather)?;
         if !(1..=opts.gather).contains(&opts.coefficients) {
             return Err(Error::invalid(format!(
@@ -341,7 +420,9 @@ impl Transfer {
         // Bounds of every cluster's emitting points, per depth (Morton order).
         let levels = hierarchy.levels;
         let bounds: Vec<Vec<(Vec3, Vec3)>> = (0..=levels).map(|d| hierarchy.cluster_bounds(d, &emit_position)).collect();
-        let pixels = view.num_pixels();
+        let masked = tracer.masks().any();
+        let opacity = gather_opacity(tracer.masks(), &cloud);
+        let pixels = row_samples(view, masked);
         let ctx = RowContext {
             cloud: &cloud,
             hierarchy: &hierarchy,
@@ -356,7 +437,11 @@ impl Transfer {
             tracer,
             pixels,
             opts.coefficients,
-            |i| (ShadingPoint::new(view, i), view.bsdf[i].flags & FLAG_TWOSIDED != 0),
+            |i| {
+                let mut sp = ShadingPoint::new(view, i);
+                sp.surface &= receives_indirect(view, masked, i);
+                (sp, view.bsdf[i].flags & FLAG_TWOSIDED != 0, view_mask_budget(view, masked, i))
+            },
             &mut |d, _| progress(d, total),
         )?;
         let seconds_rows = t2.elapsed().as_secs_f64();
@@ -371,7 +456,9 @@ impl Transfer {
             (Vec::new(), 0)
         };
         let bounce_rows = if opts.bounces > 1 && !photon {
-            // Each gather sample as a receiver: its surface point, lit from its front side.
+            // Each gather sample as a receiver: its surface point, lit from its front side; through masks
+            // the one more bounce costs one more unit of depth.
+            let budget = masked.then(|| gather_mask_budget(opts.bounces).saturating_sub(1));
             let (r, rays, l) = ctx.rows(
                 tracer,
                 n,
@@ -389,7 +476,7 @@ impl Transfer {
                         throughput: Vec3::ONE,
                         surface: nn != Vec3::ZERO && cloud.k_d[h].max_element() > 0.0,
                     };
-                    (sp, false)
+                    (sp, false, budget)
                 },
                 &mut |d, _| progress(pixels + d, total),
             )?;
@@ -404,7 +491,7 @@ impl Transfer {
         // The glossy rows report no progress of their own (their time is `seconds_glossy_rows`): their
         // count is known only here, after the caller sized its progress display.
         let glossy = if opts.glossy {
-            super::glossy::glossy_rows(view, tracer, &cloud, &hierarchy, &emit_position, &emit_normal, opts, &mut |_, _| {})?
+            super::glossy::glossy_rows(view, pixels, tracer, &cloud, &hierarchy, &emit_position, &emit_normal, opts, &mut |_, _| {})?
         } else {
             super::glossy::GlossyRows { rows: Vec::new(), color: Vec::new(), pixels: 0, shadow_rays: 0, links: 0 }
         };
@@ -437,6 +524,7 @@ impl Transfer {
             glossy_image_norms,
             glossy_pixels: glossy.pixels,
             seconds_glossy_rows,
+            opacity,
         })
     }
 
@@ -479,14 +567,14 @@ struct RowContext<'a> {
 
 impl RowContext<'_> {
     /// Culled wavelet rows (`keep` coefficients each) of `count` receivers, `receiver(i)` giving each one's
-    /// shading point and two-sidedness; returns (rows, rays, links). Parallel, in blocks with
+    /// shading point, two-sidedness and mask budget (`geometry_patch`); returns (rows, rays, links). Parallel, in blocks with
     /// interruption checks and `progress(done, count)` after each.
     fn rows(
         &self,
         tracer: &RayTracer,
         count: usize,
         keep: usize,
-        receiver: impl Fn(usize) -> (ShadingPoint, bool) + Sync,
+        receiver: impl Fn(usize) -> (ShadingPoint, bool, Option<u32>) + Sync,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<(Vec<SparseRow>, u64, u64)> {
         let n = self.cloud.len();
@@ -497,12 +585,12 @@ impl RowContext<'_> {
         while start < count {
             let end = (start + ROW_BLOCK).min(count);
             let part = crate::interrupt::par_map_chunked(end - start, ROW_CHUNK, |k| -> Result<(SparseRow, u64, u64)> {
-                let (sp, twosided) = receiver(start + k);
+                let (sp, twosided, masks) = receiver(start + k);
                 if !sp.surface {
                     return Ok((SparseRow::default(), 0, 0));
                 }
                 let mut dense = vec![0f32; n];
-                let (rays, l) = self.gather(tracer, &sp, twosided, &mut dense);
+                let (rays, l) = self.gather(tracer, &sp, twosided, masks, &mut dense);
                 let mut image = self.hierarchy.to_image(&dense, 1);
                 haar::forward(&mut image, side, 1)?;
                 Ok((haar::cull_area_weighted(&image, side, 1, keep)?, rays, l))
@@ -520,7 +608,7 @@ impl RowContext<'_> {
     }
 
     /// Fills the dense row F_d(i, .) (sample order) by the hierarchical gather; returns (rays, links).
-    fn gather(&self, tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, dense: &mut [f32]) -> (u64, u64) {
+    fn gather(&self, tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, masks: Option<u32>, dense: &mut [f32]) -> (u64, u64) {
         // The side of the tangent plane light may come from (module docs: two-sided flip).
         let side_n = if twosided && sp.wi_local.z < 0.0 { -sp.n } else { sp.n };
         let (mut rays, mut links) = (0u64, 0u64);
@@ -555,6 +643,7 @@ impl RowContext<'_> {
                 self.cloud.geo_normal[r],
                 self.opts.clamp,
                 area,
+                masks,
             );
             rays += tested as u64;
             links += 1;

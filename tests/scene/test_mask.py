@@ -25,8 +25,8 @@
   Mitsuba only by BSDF sampling, weight 1, and is carried whole by the light columns).
 - RIS (with and without spatial reuse) and clustered visibility (both backends) against the brute force; bias
   compensation runs on a masked box (its
-  unbiasedness through masks is measured in ``src/matrix/bias_compensation/tests.rs``); the methods whose shadow
-  rays do not cross masks refuse a masked scene.
+  unbiasedness through masks is measured in ``src/matrix/bias_compensation/tests.rs``). Direct-to-indirect
+  relighting through masks: ``tests/relight/test_relight_masks.py``.
 - The GPU backend's brute-force image against the CPU's (relative L2 within the project's GPU-vs-CPU tolerance)
   and against the same Mitsuba references (within the CPU's tolerance) at max_depth -1, 3 and 2; a mask around a
   rough dielectric runs on the GPU too (``device_info`` gives no reason to refuse it).
@@ -491,13 +491,6 @@ def test_clustered_visibility_crosses_masks(device):
     coarse = ml.clustered_visibility(A, light_clusters=48, view_clusters=300, fuzzy=4, seed=0)
     print(device, rel(every.image), rel(coarse.image))
     assert rel(coarse.image) < CLUSTERED_REL_L2
-
-
-def test_methods_without_masks_refuse_them():
-    """Paths whose shadow rays would treat masked surfaces as opaque say so instead."""
-    scene = ml.load_scene(DATA / "mask_leaves.xml")
-    with pytest.raises(ValueError, match="direct-to-indirect relighting does not support the mask BSDF"):
-        ml.DirectToIndirect(scene, gather=4**3, final_gather_coefficients=8)
 
 
 # RIS images (64 samples per view sample) against the brute force: relative L2 measured 2.9% (noise); one that

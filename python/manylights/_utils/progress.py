@@ -85,6 +85,9 @@ class progress_bar:
             self.bar = tqdm(total=self.total, desc=self.desc, unit=self.unit, leave=False)
 
             def callback(done: int, total: int) -> None:
+                # The native side knows the exact total (e.g. view samples behind masks).
+                if total > self.bar.total:
+                    self.bar.total = self.total = total
                 # update() honours tqdm's mininterval (refresh() would redraw on every batch).
                 self.bar.update(done - self.bar.n)
 

@@ -59,6 +59,16 @@ class DirectToIndirect:
     relighting adds k_g(i) F_g B, k_g the lobe's colour at its peak (unit mean). Light reflected by glossy
     surfaces onto others is not gathered (the paper's limitation, 4.3).
 
+    Masked surfaces (Mitsuba's ``mask``): the camera rays are followed through them to Mitsuba's depth
+    (max_depth = ``bounces`` + 2) and every view sample, the surface behind a mask included, gets its own rows,
+    summed into its pixel with its throughput; the rows' and the gather samples' shadow rays cross masks with
+    (1 - opacity) each within that depth (a gather sample is a bounce of its own), point, spot and directional
+    lights stop at them (Mitsuba reaches those only by emitter sampling), and a gather sample on a mask reflects
+    its opacity times the nested BSDF. Measured on the relighting box with a checkerboard-masked panel: 8.0% /
+    9.0% relative L2 against Mitsuba at one / two bounces, as close as the same box with the panel opaque gets
+    to its own reference (8.4% / 9.2%). A masked scene relights on the CPU (``device="auto"`` picks it;
+    ``"gpu"`` raises).
+
     Relighting (``relight``): E_g = direct irradiance at the gather samples (exact shadow rays), B_g =
     k_d(g) / pi E_g, wavelet-projected and culled on the fly with ``epsilon`` (3.5), indirect radiance
     k_d(i) / pi sum_g F_d(i, g) B_g at each pixel (Eq. 5), plus the direct light of the same lights
@@ -120,7 +130,8 @@ class DirectToIndirect:
             transform and culling), relight_transfer (sparse products, times k_d / pi, plus direct),
             relight_view_direct, relight_readback (GPU). On the GPU each stage is timed with a wait after it.
         device: dict: kind ("cpu" / "gpu"), name, backend, is_software, threads of the relighting device.
-        stats: dict: gather, pixels, coefficients_per_row, coefficients_kept, bounces,
+        stats: dict: gather, pixels (final-gather rows: one per pixel, or with masks one per view sample),
+            coefficients_per_row, coefficients_kept, bounces,
             multibounce_coefficients_per_row, multibounce_coefficients_kept, multibounce ("photons",
             "gather", or "none" with one bounce), photons (deposited), glossy_pixels,
             glossy_coefficients_kept, bytes (all matrices), shadow_rays (F_d, F_g and the gather-to-gather
@@ -132,7 +143,8 @@ class DirectToIndirect:
             sample emits (its VPL); gather_areas (n_g,) float32 m^2; gather_k_d (n_g, 3) float32.
 
     Raises:
-        ValueError: gather not a power of 4, final_gather_coefficients (or multibounce_coefficients with
+        ValueError: a scene with masked surfaces and device="gpu" or a shadow-map visibility, gather not a
+            power of 4, final_gather_coefficients (or multibounce_coefficients with
             bounces > 1) outside 1 ..= gather, bounces outside 1 ..= 64, multibounce not "photons" or
             "gather", near_field not "disc" or "point", photons_per_sample or photon_neighbours outside
             1 ..= 2^20, a negative or non-finite threshold, clamp <= 0, K <= 0, non-integer arguments, an
