@@ -13,6 +13,8 @@
 //   multiplying its channel of the light: the photon-mapped multiple-bounce rows M_E^w);
 // - finish_bounce: B_{k+1} = k_d / pi * partial, total += B_{k+1} (the multi-bounce passes);
 // - combine: radiance = albedo / pi * partial + direct (a pixel's delta-chain samples summed in), RGB f32;
+//   with masks (params.count > num_rows: every view sample has a row, its albedo uploaded times its
+//   throughput) the indirect light of the pixel's extra samples is summed in too;
 // - combine_glossy: the same plus the glossy final gather, albedo / pi * partial + k_g * partial_glossy +
 //   direct (the CPU's order of additions: relight::indirect, glossy::add_glossy).
 
@@ -31,6 +33,8 @@ struct RelightParams {
     row_offset: u32,
     // product: coefficients [first, first + count) of each row are summed by this dispatch.
     first: u32,
+    // product: see first; combine: the rows of the sparse products (num_rows, or more with masks: the
+    // extra view samples' rows follow the pixels').
     count: u32,
     // Threads per dispatch row (groups_x * WORKGROUP_SIZE); thread t = gid.y * dispatch_width + gid.x.
     dispatch_width: u32,
@@ -173,13 +177,28 @@ fn write_pixel(p: u32, v: vec3<f32>) {
     image[3u * p + 2u] = v.z;
 }
 
+// Indirect light of row r (a pixel, or with masks any view sample).
+fn row_indirect(r: u32) -> vec3<f32> {
+    return (albedo[r].xyz * RELIGHT_INV_PI) * partial[r].xyz;
+}
+
+fn row_indirect_glossy(r: u32) -> vec3<f32> {
+    return row_indirect(r) + glossy_color[r].xyz * partial_glossy[r].xyz;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn combine(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = thread_index(gid);
     if p >= params.num_rows {
         return;
     }
-    write_pixel(p, (albedo[p].xyz * RELIGHT_INV_PI) * partial[p].xyz + pixel_direct(p));
+    var indirect = row_indirect(p);
+    if params.count > params.num_rows {
+        for (var k = extra_start[p]; k < extra_start[p + 1u]; k = k + 1u) {
+            indirect = indirect + row_indirect(params.num_rows + k);
+        }
+    }
+    write_pixel(p, indirect + pixel_direct(p));
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -188,6 +207,11 @@ fn combine_glossy(@builtin(global_invocation_id) gid: vec3<u32>) {
     if p >= params.num_rows {
         return;
     }
-    let indirect = (albedo[p].xyz * RELIGHT_INV_PI) * partial[p].xyz + glossy_color[p].xyz * partial_glossy[p].xyz;
+    var indirect = row_indirect_glossy(p);
+    if params.count > params.num_rows {
+        for (var k = extra_start[p]; k < extra_start[p + 1u]; k = k + 1u) {
+            indirect = indirect + row_indirect_glossy(params.num_rows + k);
+        }
+    }
     write_pixel(p, indirect + pixel_direct(p));
 }

@@ -47,7 +47,7 @@ impl DirectToIndirect {
         visibility: Option<&str>,
         shadow_map_size: u32,
     ) -> PyResult<Self> {
-        let (chosen, columns) = relight_device(py, &scene.inner, device, visibility, shadow_map_size)?;
+        let (chosen, columns) = relight_device(py, device, visibility, shadow_map_size)?;
         let view = scene.view_samples_on(py, chain_options(&scene.inner, inner.opts.bounces)?, &Chosen::Cpu)?;
         let tracer = scene.tracer(py)?;
         let rows = crate::relight::transfer::row_samples(&view, tracer.masks().any());
@@ -132,7 +132,7 @@ impl DirectToIndirect {
         if !(1..=gather).contains(&coefficients) {
             return Err(Error::invalid(format!("final_gather_coefficients must be in 1 ..= gather ({gather}), got {coefficients}")).into());
         }
-        let (chosen, columns) = relight_device(py, &scene.inner, device, visibility, shadow_map_size)?;
+        let (chosen, columns) = relight_device(py, device, visibility, shadow_map_size)?;
         let view = scene.view_samples_on(py, chain_options(&scene.inner, bounces)?, &Chosen::Cpu)?;
         let tracer = scene.tracer(py)?;
         let s = scene.inner.clone();
@@ -250,31 +250,13 @@ impl DirectToIndirect {
 }
 
 /// The device relighting runs on and its column options (`relight::gpu::choose_device`).
-/// The relighting device and the GPU's column options. A scene with masked surfaces relights on the CPU
-/// (`relight::gpu` does not carry masks): "auto" picks it, "gpu" raises.
-fn relight_device(
-    py: Python<'_>,
-    scene: &crate::scene::Scene,
-    device: &str,
-    visibility: Option<&str>,
-    shadow_map_size: u32,
-) -> PyResult<(Chosen, ColumnOptions)> {
+/// The relighting device and the GPU's column options.
+fn relight_device(py: Python<'_>, device: &str, visibility: Option<&str>, shadow_map_size: u32) -> PyResult<(Chosen, ColumnOptions)> {
     if !(16..=8192).contains(&shadow_map_size) {
         return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());
     }
     let visibility = visibility.map(Visibility::parse).transpose()?;
     let mut device = Device::parse(device)?.with_env()?;
-    if crate::raytrace::mask::scene_has_masks(scene) {
-        if device == Device::Gpu || visibility.is_some_and(|v| v != Visibility::RayTraced) {
-            return Err(Error::invalid(format!(
-                "{}: relighting a scene with masked surfaces (the mask BSDF) runs on the CPU only (exact rays through \
-                 the masks); use device='cpu' or 'auto' and no shadow-map visibility",
-                scene.path.display()
-            ))
-            .into());
-        }
-        device = Device::Cpu;
-    }
     if device == Device::Auto && visibility.is_some_and(|v| v != Visibility::RayTraced) {
         // Shadow maps were asked for: only the GPU renders them.
         device = Device::Gpu;

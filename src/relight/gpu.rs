@@ -25,9 +25,16 @@
 //! 5. the Haar transform of the total, on-the-fly culling of wavelet lights by epsilon (3.5) against
 //!    F_d^w's image norms, and, with glossy pixels, a second culling of the same lights against F_g^w's
 //!    image norms into their own buffer (`glossy::add_glossy`);
-//! 6. the sparse product per pixel row, times the pixel's k_d / pi, plus (glossy pixels) k_g times the
-//!    glossy row's product, plus its direct light;
+//! 6. the sparse product per row, times the row sample's k_d / pi, plus (glossy samples) k_g times the
+//!    glossy row's product, summed per pixel (with masks, over the pixel's view samples), plus its direct
+//!    light;
 //! 7. one readback of the H x W x 3 image (and the three culling counters in the same copy).
+//!
+//! Masked surfaces (`relight::transfer` module docs): every view sample has a row; its albedo and glossy
+//! colour are uploaded times its throughput, and `combine` adds a pixel's extra samples' indirect light to
+//! its own (`RelightParams::count` > `num_rows`). The gather samples carry the mask flag and the gather
+//! budget (so the column pass crosses masks as the CPU's `irradiance` does) and the throughput k_d times
+//! their opacity; the gather-to-gather bounce reflects k_d times the opacity, the photon-mapped one k_d.
 //!
 //! Stage times are measured with a wait after each stage (`RelightStats`); the waits cost the overlap
 //! between stages, a few per cent here.
@@ -35,7 +42,9 @@ use super::haar::SparseRow;
 use super::relight::{check_lights, RelightStats};
 use super::transfer::Transfer;
 use crate::error::{Error, Result};
-use crate::gpu::columns::{storage_buffer, GpuViewSample, ViewBuffers, VIEW_FLAG_GEO_FRONT};
+use crate::gpu::columns::{
+    storage_buffer, GpuViewSample, ViewBuffers, VIEW_FLAG_GEO_FRONT, VIEW_FLAG_MASKS, VIEW_MASK_BUDGET_SHIFT, VIEW_MASK_BUDGET_UNLIMITED,
+};
 use crate::gpu::relight::{RelightParams, RelightPasses, ROW_CHUNK};
 use crate::gpu::GpuContext;
 use crate::lights::LightSet;
@@ -190,6 +199,8 @@ pub struct GpuRelight {
     buffers: Buffers,
     side: u32,
     pixels: u32,
+    /// Final-gather rows: `pixels`, or with masks every view sample (`transfer::row_samples`).
+    samples: u32,
     /// Gather-to-gather passes (b - 1, or 0).
     bounce_passes: u32,
 }
@@ -210,17 +221,11 @@ impl GpuRelight {
     /// Uploads `t` (computed for `view` of `scene`) to `ctx` (module docs). `opts`: the column pass's
     /// shadow maps and visibility.
     ///
-    /// Errors: `InvalidParameter` for a scene with masked surfaces (their transmittance through the gather
-    /// rows and the gather samples' depth budget are the CPU's: `relight::transfer`), a view of another
-    /// size than the transfer's or rows above a storage binding; what `GpuBackend::new` raises (shadow-map size, memory).
+    /// Errors: `InvalidParameter` for a view of another size than the transfer's (or, with masks, other
+    /// view samples) or rows above a storage binding; what `GpuBackend::new` raises (shadow-map size, memory).
     pub fn new(ctx: Arc<GpuContext>, scene: Arc<Scene>, view: Arc<ViewSamples>, t: &Transfer, opts: ColumnOptions) -> Result<GpuRelight> {
-        if crate::raytrace::mask::scene_has_masks(&scene) {
-            return Err(Error::invalid(format!(
-                "{}: relighting a scene with masked surfaces (the mask BSDF) runs on the CPU only",
-                scene.path.display()
-            )));
-        }
-        if (view.width, view.height) != (t.width, t.height) || view.num_pixels() != t.rows.len() {
+        let masked = crate::raytrace::mask::scene_has_masks(&scene);
+        if (view.width, view.height) != (t.width, t.height) || super::transfer::row_samples(&view, masked) != t.rows.len() {
             return Err(Error::invalid(format!(
                 "the view is {}x{} but the transfer was precomputed for {}x{}",
                 view.width, view.height, t.width, t.height
@@ -230,17 +235,20 @@ impl GpuRelight {
         if !t.photon_rows.is_empty() && t.photon_rows.len() != n {
             return Err(Error::invalid(format!("{} photon rows for {n} gather samples", t.photon_rows.len())));
         }
+        let samples = t.rows.len();
         if !t.glossy_rows.is_empty()
-            && (t.glossy_rows.len() != view.num_pixels() || t.glossy_color.len() != view.num_pixels() || t.glossy_image_norms.len() != n)
+            && (t.glossy_rows.len() != samples || t.glossy_color.len() != samples || t.glossy_image_norms.len() != n)
         {
             return Err(Error::invalid(format!(
-                "glossy rows: {} rows, {} colours, {} image norms for {} pixels and {n} gather samples",
+                "glossy rows: {} rows, {} colours, {} image norms for {samples} final-gather rows and {n} gather samples",
                 t.glossy_rows.len(),
                 t.glossy_color.len(),
                 t.glossy_image_norms.len(),
-                view.num_pixels()
             )));
         }
+        // Each row sample's throughput (masked scenes: the camera hit's opacity, the surfaces behind it),
+        // folded into its albedo and glossy colour.
+        let throughput = |i: usize| view.throughput.get(i).copied().unwrap_or(glam::Vec3::ONE);
         let side = t.hierarchy.side() as u32;
         let pixels = view.num_pixels();
         let (center, radius) = crate::lights::scene_sphere(&scene);
@@ -253,26 +261,35 @@ impl GpuRelight {
         let bytes = crate::memory::product(&[coefficients as u64, 8]);
         crate::memory::check_gpu(&ctx, "the transfer's sparse rows", bytes, false)?;
 
-        // Gather samples in gather-image order: pixel p holds sample sample_at_pixel[p].
+        // Gather samples in gather-image order: pixel p holds sample sample_at_pixel[p]. With masks each
+        // reflects its opacity times k_d, and its shadow rays cross masks within the gather budget.
         let c = &t.cloud;
         let order: Vec<usize> = t.hierarchy.sample_at_pixel.iter().map(|&g| g as usize).collect();
-        let samples: Vec<GpuViewSample> = order
+        let opacity = |g: usize| t.opacity.get(g).copied().unwrap_or(1.0);
+        let gather_flags = VIEW_FLAG_GEO_FRONT
+            | if masked {
+                VIEW_FLAG_MASKS
+                    | super::transfer::gather_mask_budget(t.opts.bounces).min(VIEW_MASK_BUDGET_UNLIMITED) << VIEW_MASK_BUDGET_SHIFT
+            } else {
+                0
+            };
+        let gather_samples: Vec<GpuViewSample> = order
             .iter()
             .map(|&g| GpuViewSample {
                 position: c.position[g].to_array(),
                 shape_index: if c.normal[g] == glam::Vec3::ZERO { -1 } else { 0 },
                 normal: c.normal[g].to_array(),
-                flags: VIEW_FLAG_GEO_FRONT,
+                flags: gather_flags,
                 geo_normal: c.geo_normal[g].to_array(),
                 bsdf_samples: 0,
                 wi: c.normal[g].to_array(),
                 mask_valid: 1.0,
-                throughput: c.k_d[g].to_array(),
+                throughput: (c.k_d[g] * opacity(g)).to_array(),
                 mask_opacity: 1.0,
             })
             .collect();
         let white = GpuBsdf { diffuse: [1.0; 3], kind: crate::shading::bsdf::KIND_DIFFUSE, ..bytemuck::Zeroable::zeroed() };
-        let gather_view = ViewBuffers::from_parts(device, &samples, &vec![white; n], &[0.0])?;
+        let gather_view = ViewBuffers::from_parts(device, &gather_samples, &vec![white; n], &[0.0])?;
 
         let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
         let vec4s = |label: &str, count: usize| {
@@ -281,7 +298,10 @@ impl GpuRelight {
                 &wgpu::BufferDescriptor { label: Some(label), size: (count as u64 * 16).max(16), usage: rw, mapped_at_creation: false },
             )
         };
-        let k_d_image: Vec<glam::Vec3> = order.iter().map(|&g| c.k_d[g]).collect();
+        // The bounce passes' reflectance: k_d times the opacity for the gather-to-gather rows; photons are
+        // stored on a masked sample only when they meet its nested BSDF, so theirs carry the opacity already.
+        let photons = !t.photon_rows.is_empty();
+        let k_d_image: Vec<glam::Vec3> = order.iter().map(|&g| if photons { c.k_d[g] } else { c.k_d[g] * opacity(g) }).collect();
         let mut extra_start = vec![0u32; pixels + 1];
         for &p in &view.extra_pixel {
             extra_start[p as usize + 1] += 1;
@@ -301,10 +321,15 @@ impl GpuRelight {
             let rows: Vec<&SparseRow> = t.glossy_rows.iter().collect();
             Some(GlossyBuffers {
                 rows: SparseParts::upload(device, &rows, 1, max_binding, "glossy final-gather rows")?,
-                color: storage_buffer(device, "GpuRelight::glossy_color", &rgba(&t.glossy_color), usage)?,
+                color: storage_buffer(
+                    device,
+                    "GpuRelight::glossy_color",
+                    &rgba(&t.glossy_color.iter().enumerate().map(|(i, &k)| throughput(i) * k).collect::<Vec<_>>()),
+                    usage,
+                )?,
                 norms: storage_buffer(device, "GpuRelight::glossy_norms", &t.glossy_image_norms, usage)?,
                 wavelet_lights: vec4s("GpuRelight::glossy_wavelet_lights", n)?,
-                partial: vec4s("GpuRelight::partial_glossy", pixels)?,
+                partial: vec4s("GpuRelight::partial_glossy", samples)?,
                 counters: crate::gpu::alloc::buffer(
                     device,
                     &wgpu::BufferDescriptor { label: Some("GpuRelight::glossy_counters"), size: 8, usage: rw, mapped_at_creation: false },
@@ -319,11 +344,16 @@ impl GpuRelight {
             scratch: [vec4s("GpuRelight::scratch0", n)?, vec4s("GpuRelight::scratch1", n)?],
             coeffs: vec4s("GpuRelight::coeffs", n)?,
             wavelet_lights: vec4s("GpuRelight::wavelet_lights", n)?,
-            partial_pixels: vec4s("GpuRelight::partial_pixels", pixels)?,
+            partial_pixels: vec4s("GpuRelight::partial_pixels", samples)?,
             partial_gather: vec4s("GpuRelight::partial_gather", n)?,
             norms: storage_buffer(device, "GpuRelight::norms", &t.image_norms, usage)?,
             gather_k_d: storage_buffer(device, "GpuRelight::gather_k_d", &rgba(&k_d_image), usage)?,
-            albedo: storage_buffer(device, "GpuRelight::albedo", &rgba(&view.albedo[..pixels]), usage)?,
+            albedo: storage_buffer(
+                device,
+                "GpuRelight::albedo",
+                &rgba(&(0..samples).map(|i| throughput(i) * view.albedo[i]).collect::<Vec<_>>()),
+                usage,
+            )?,
             extra_start: storage_buffer(device, "GpuRelight::extra_start", &extra_start, usage)?,
             image: crate::gpu::alloc::buffer(
                 device,
@@ -349,6 +379,7 @@ impl GpuRelight {
             buffers,
             side,
             pixels: pixels as u32,
+            samples: samples as u32,
             bounce_passes: if bounce_rows.is_empty() { 0 } else { t.opts.bounces - 1 },
             ctx,
         })
@@ -456,7 +487,7 @@ impl GpuRelight {
         let t0 = Instant::now();
         let mut enc = self.encoder();
         b.rows.encode(device, &mut enc, &self.passes, &b.wavelet_lights, &b.partial_pixels)?;
-        let p = RelightParams { num_rows: self.pixels, ..Default::default() };
+        let p = RelightParams { num_rows: self.pixels, count: self.samples, ..Default::default() };
         let tail = self.pixels as u64 * 12;
         enc.copy_buffer_to_buffer(&b.counters, 0, &b.image, tail, 8);
         if let Some(g) = &b.glossy {

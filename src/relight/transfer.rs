@@ -69,8 +69,7 @@
 //! gather sample cross at most `gather_mask_budget` masks (toward area points and environment strata only,
 //! as everywhere: `lights::animated::irradiance`), a gather-to-gather segment one fewer. Each segment's
 //! budget is counted as if the path's other segments crossed no mask: exact for paths that cross masks on
-//! one segment, and whenever a budget is not the binding limit. Relighting a masked scene runs on the CPU
-//! (`relight::gpu` refuses it).
+//! one segment, and whenever a budget is not the binding limit. `relight::gpu` relights masked scenes too.
 //!
 //! Compression (3.3, 4.3): each row F_d(i, .) is laid out as the gather image, projected by the 2D Haar
 //! transform (`haar::forward`) and culled to its `coefficients` most important coefficients
