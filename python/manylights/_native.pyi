@@ -65,6 +65,7 @@ class LightSet:
     """(n, 4, 3) float32: each oriented point's patch corners (m); all zero = none. Receivers within 8
     patch radii get the patch's projected solid angle instead of 1/d^2."""
     vsl_radius: npt.NDArray[np.float32]
+    vpl_depth: npt.NDArray[np.uint32]
     """(n,) float32: each VPL's virtual-spherical-light radius (m); 0 = a point VPL (clamped)."""
     scene_sphere: tuple[tuple[float, float, float], float]
     def __len__(self) -> int: ...
@@ -79,7 +80,8 @@ class LightSet:
                     cutoff_angle: Optional[npt.ArrayLike] = None, beam_width: Optional[npt.ArrayLike] = None,
                     bsdf: Optional[npt.ArrayLike] = None, albedo: Optional[npt.ArrayLike] = None,
                     vpl_clamp: Optional[float] = None, patch: Optional[npt.ArrayLike] = None,
-                    vsl_radius: Optional[npt.ArrayLike] = None) -> LightSet:
+                    vsl_radius: Optional[npt.ArrayLike] = None,
+                    vpl_depth: Optional[npt.ArrayLike] = None) -> LightSet:
         """A LightSet from per-light arrays (see the method's docstring: shapes, units, checks).
         Raises ValueError naming the argument, the expected and the actual shape or value."""
     @staticmethod

@@ -92,25 +92,31 @@ fn mask_budget(s: ViewSample) -> u32 {
     return s.flags >> VIEW_MASK_BUDGET_SHIFT;
 }
 
+// The depth d of VPL l (src/gpu/mask.rs `light_fields`: 1 + d in its mask field), 0 for other lights.
+fn mask_vpl_depth(l: Light) -> u32 {
+    let w = l.patch_corners[2].w;
+    return select(0u, u32(w + 0.5) - 1u, w > 1.5);
+}
+
 // Whether VPL l cannot light view sample s at all in a scene with masked surfaces: the sample's budget
-// is 0, so the VPL's own bounce would pass Mitsuba's max_depth (src/cpu/mod.rs `mask_visibility_at`).
+// is below the VPL's depth, so the VPL's path back to the light would pass Mitsuba's max_depth
+// (src/cpu/mod.rs `mask_visibility_at`).
 fn mask_vpl_out_of_depth(s: ViewSample, l: Light) -> bool {
-    return (s.flags & VIEW_FLAG_MASKS) != 0u && l.patch_corners[2].w > 1.5 && mask_budget(s) == 0u;
+    return (s.flags & VIEW_FLAG_MASKS) != 0u && mask_budget(s) < mask_vpl_depth(l);
 }
 
 // How many masked surfaces the shadow ray from view sample s toward light l may cross
 // (src/cpu/mod.rs `mask_visibility_at`; src/gpu/mask.rs `light_fields`): 0 for lights whose rays masks
-// block, one fewer than the sample's budget for a VPL (the VPL is one more bounce), else the budget.
+// block, the sample's budget less its depth for a VPL (0 when out of depth: `mask_vpl_out_of_depth`),
+// else the budget.
 fn mask_light_budget(s: ViewSample, l: Light) -> u32 {
     let kind = l.patch_corners[2].w;
     let budget = mask_budget(s);
     if kind == 0.0 {
         return 0u;
     }
-    if kind > 1.5 && budget > 0u {
-        return budget - 1u;
-    }
-    return budget;
+    let depth = mask_vpl_depth(l);
+    return select(0u, budget - depth, budget >= depth);
 }
 
 // Expected transmittance of the shadow ray from surface point p (geometric normal n_g) toward light l

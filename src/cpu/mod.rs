@@ -186,10 +186,10 @@ pub fn visibility_crossed(
 /// surface: the product of (1 - opacity) over the masked surfaces crossed, at most `budget` of them (a view
 /// sample's `ViewSamples::mask_budget`), for lights BSDF sampling can reach (area light samples,
 /// environment strata, VPLs); 0 or 1 for point and spot lights and directional emitters, which masks block
-/// as any surface (Mitsuba's `ray_test`). A VPL crosses one fewer: it is a bounce of its own, which must
-/// still sample the light (Mitsuba's depth: view sample at k, VPL vertex at k + 1 + j after j null events,
-/// its light sampled while k + 2 + j < max_depth, so none from a sample whose budget is 0; exact for
-/// first-bounce VPLs, the only ones at max_depth 3, and within the budget of deeper ones otherwise).
+/// as any surface (Mitsuba's `ray_test`). A VPL of depth d (`LightSet::vpl_depth`) crosses d fewer: its
+/// path back to the light has d more vertices, the last of which samples the light (Mitsuba's depth: view
+/// sample at k, VPL vertex at k + 1 + j after j null events, the light sampled at k + j + d while
+/// k + j + d + 1 < max_depth, i.e. j <= budget - d), so none reaches a sample whose budget is below d.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn mask_visibility_at(
@@ -205,8 +205,10 @@ pub fn mask_visibility_at(
     use crate::lights::LightKind;
     let budget = match lights.kind[j] {
         LightKind::OrientedPoint => budget,
-        LightKind::Vpl if budget == 0 => return (0.0, false),
-        LightKind::Vpl => budget - 1,
+        LightKind::Vpl => match budget.checked_sub(lights.vpl_depth[j].max(1)) {
+            Some(b) => b,
+            None => return (0.0, false),
+        },
         LightKind::Directional if tracer.masks().directional_is_environment => budget,
         LightKind::Directional | LightKind::Point | LightKind::Spot => 0,
     };

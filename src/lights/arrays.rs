@@ -14,7 +14,8 @@
 //!   the default)
 //! - VPL (4): position, normal n_s (unit), geo_normal n_g (unit), incident (unit), intensity = flux
 //!   Phi (W), bsdf; optional vsl_radius (m, finite and >= 0: a virtual spherical light, `lights::vsl`;
-//!   0 = a point VPL, the default; ignored for other kinds)
+//!   0 = a point VPL, the default; ignored for other kinds); optional vpl_depth (>= 1, the bounce it was
+//!   stored at, `LightSet::vpl_depth`; 1 by default; ignored for other kinds)
 //!
 //! Unit vectors must have length 1 within `UNIT_TOL`; positions finite; intensities finite, >= 0 and at most
 //! `MAX_INTENSITY` (so that contributions stay finite in float32).
@@ -44,6 +45,8 @@ pub struct LightArrays {
     pub patch: Option<Vec<[Vec3; 4]>>,
     /// VPLs' virtual-spherical-light radii (m, >= 0; 0 = a point VPL); None = all point VPLs.
     pub vsl_radius: Option<Vec<f32>>,
+    /// VPLs' depths (>= 1, `LightSet::vpl_depth`; ignored for other kinds); None = 1 for every VPL.
+    pub vpl_depth: Option<Vec<u32>>,
 }
 
 /// Light kind from its integer code.
@@ -108,11 +111,12 @@ impl LightSet {
     /// Errors: `InvalidParameter` naming the array, the light index, the expected and the actual value
     /// (array lengths other than n, unknown kinds, non-finite values, negative intensities, non-unit
     /// vectors, bad spot angles, a VPL without a BSDF, a patch with non-finite corners or zero area, a NaN, infinite or
-    /// negative vsl_radius).
+    /// negative vsl_radius, a VPL depth of 0).
     pub fn from_arrays(a: &LightArrays, scene_center: Vec3, scene_radius: f32, vpl_clamp: f32) -> Result<LightSet> {
         let n = a.kind.len();
-        let lens: [(&str, Option<usize>); 12] = [
+        let lens: [(&str, Option<usize>); 13] = [
             ("vsl_radius", a.vsl_radius.as_ref().map(Vec::len)),
+            ("vpl_depth", a.vpl_depth.as_ref().map(Vec::len)),
             ("patch", a.patch.as_ref().map(Vec::len)),
             ("position", a.position.as_ref().map(Vec::len)),
             ("direction", a.direction.as_ref().map(Vec::len)),
@@ -212,6 +216,13 @@ impl LightSet {
                     set.vsl_radius[j] = r;
                 }
             }
+            if let Some(depths) = &a.vpl_depth {
+                if kind == LightKind::Vpl {
+                    set.set_vpl_depth(j, depths[j]).map_err(|_| {
+                        Error::invalid(format!("vpl_depth[{j}] must be >= 1 for a VPL (its bounce from the light), got {}", depths[j]))
+                    })?;
+                }
+            }
         }
         Ok(set)
     }
@@ -244,6 +255,7 @@ impl LightSet {
         out.mis_measure = vec![0.0; idx.len()];
         out.mis_mesh = vec![-1; idx.len()];
         out.vsl_radius = idx.iter().map(|&j| self.vsl_radius[j]).collect();
+        out.vpl_depth = idx.iter().map(|&j| self.vpl_depth[j]).collect();
         Ok(out)
     }
 

@@ -114,6 +114,12 @@ pub struct LightSet {
     /// VPL: the radius r (m) of its virtual spherical light (`vsl` module), 0 = a point VPL (then the
     /// clamp applies); 0 for other kinds.
     pub vsl_radius: Vec<f32>,
+    /// VPL: its depth d >= 1, the bounce at which its particle was stored (`generate::vpl`: Mitsuba's depth
+    /// of its vertex, null events through masks included); 1 for VPLs made otherwise (`push_vpl`,
+    /// `from_arrays` without it); 0 for other kinds. In a scene with masked surfaces a VPL's shadow ray from a
+    /// view sample of mask budget b crosses at most b - d masks, and none reaches a sample with b < d
+    /// (`cpu::mask_visibility_at`).
+    pub vpl_depth: Vec<u32>,
     /// Bound on the VPL geometry term G = cos cos / d^2 (1/m^2); `f32::INFINITY` = no clamp. VSLs
     /// (`vsl_radius > 0`) are not clamped.
     pub vpl_clamp: f32,
@@ -163,6 +169,7 @@ impl LightSet {
             spot_texture,
             patch,
             vsl_radius,
+            vpl_depth,
             mis_measure,
             mis_mesh
         );
@@ -241,6 +248,7 @@ impl LightSet {
         self.bsdf.push(bytemuck::Zeroable::zeroed());
         self.patch.push([Vec3::ZERO; 4]);
         self.vsl_radius.push(0.0);
+        self.vpl_depth.push(0);
         self.mis_measure.push(0.0);
         self.mis_mesh.push(-1);
     }
@@ -287,6 +295,21 @@ impl LightSet {
         self.geo_normal[j] = n_g;
         self.incident[j] = incident;
         self.bsdf[j] = bsdf;
+        self.vpl_depth[j] = 1;
+        Ok(())
+    }
+
+    /// Set VPL j's depth (`vpl_depth`).
+    ///
+    /// Errors: `InvalidParameter` for another kind or a depth of 0.
+    pub fn set_vpl_depth(&mut self, j: usize, depth: u32) -> Result<()> {
+        if self.kind[j] != LightKind::Vpl || depth == 0 {
+            return Err(Error::invalid(format!(
+                "light {j}: vpl_depth must be >= 1 and only VPLs have one, got {depth} for a {:?}",
+                self.kind[j]
+            )));
+        }
+        self.vpl_depth[j] = depth;
         Ok(())
     }
 
@@ -310,6 +333,7 @@ impl LightSet {
         self.mis_measure.extend_from_slice(&other.mis_measure);
         self.mis_mesh.extend_from_slice(&other.mis_mesh);
         self.vsl_radius.extend_from_slice(&other.vsl_radius);
+        self.vpl_depth.extend_from_slice(&other.vpl_depth);
         Ok(())
     }
 

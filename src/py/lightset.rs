@@ -15,7 +15,7 @@ use std::sync::Arc;
 /// u32 words of one `GpuBsdf`.
 const BSDF_WORDS: usize = std::mem::size_of::<GpuBsdf>() / 4;
 /// Keyword arguments of `from_arrays`.
-const KEYS: [&str; 15] = [
+const KEYS: [&str; 16] = [
     "kind",
     "position",
     "direction",
@@ -31,6 +31,7 @@ const KEYS: [&str; 15] = [
     "vpl_clamp",
     "patch",
     "vsl_radius",
+    "vpl_depth",
 ];
 
 /// A set of lights (struct of arrays); numpy views via the properties.
@@ -139,6 +140,14 @@ impl LightSet {
     fn vsl_radius<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         array(py, self.inner.vsl_radius.clone(), &[self.inner.len()])
     }
+    /// (n,) uint32: each VPL's depth, the bounce its particle was stored at (``generate_lights``: Mitsuba's
+    /// depth of the vertex, null events through masked surfaces included; 1 for VPLs made otherwise); 0 for
+    /// other kinds. In a scene with masks a VPL lights a view sample only with depth to spare: its shadow
+    /// ray crosses at most the sample's budget minus this many masked surfaces.
+    #[getter]
+    fn vpl_depth<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<u32>>> {
+        array(py, self.inner.vpl_depth.clone(), &[self.inner.len()])
+    }
     /// Centre (3,) and radius of the scene's bounding sphere the set belongs to.
     #[getter]
     fn scene_sphere(&self) -> ([f32; 3], f32) {
@@ -168,6 +177,8 @@ impl LightSet {
     ///         or omitted = none (point formula everywhere); ignored for other kinds.
     ///     vsl_radius: (n,) or scalar VSL radii in m (the `vsl_radius` property), finite and >= 0;
     ///         0 or omitted = point VPLs; ignored for other kinds.
+    ///     vpl_depth: (n,) or scalar integer VPL depths >= 1 (the `vpl_depth` property); omitted = 1;
+    ///         ignored for other kinds.
     ///
     /// Fields a kind does not use are ignored and stored as 0, and unit vectors are stored as given
     /// (not renormalised), so ``LightSet.from_arrays(scene, kind=s.kind, position=s.position, ...)``
@@ -181,7 +192,7 @@ impl LightSet {
     ///         the expected one (both shapes given), a non-numeric dtype, NaN or infinite values,
     ///         negative intensity or power, a vector whose length is not 1 (within 1e-4), spot angles
     ///         out of range, an unknown kind, an unknown keyword, a patch with NaN/infinite corners or
-    ///         zero area, a NaN, infinite or negative vsl_radius.
+    ///         zero area, a NaN, infinite or negative vsl_radius, a VPL depth that is not an integer >= 1.
     #[staticmethod]
     #[pyo3(signature = (scene, **arrays))]
     fn from_arrays(py: Python<'_>, scene: &Scene, arrays: Option<&Bound<'_, PyDict>>) -> PyResult<LightSet> {
@@ -324,7 +335,16 @@ fn from_arrays_impl(py: Python<'_>, scene: &Scene, kwargs: Option<&Bound<'_, PyD
         bsdf: None,
         patch: None,
         vsl_radius: fl("vsl_radius")?,
+        vpl_depth: None,
     };
+    if let Some(d) = fl("vpl_depth")? {
+        // >= 1 for VPLs is checked by `LightSet::from_arrays` (other kinds' entries, 0 in the property, are ignored).
+        let bad = d.iter().position(|&x| !(x >= 0.0 && x.fract() == 0.0 && x <= u32::MAX as f32));
+        if let Some(j) = bad {
+            return Err(Error::invalid(format!("vpl_depth[{j}] must be an integer >= 1 for a VPL, got {}", d[j])).into());
+        }
+        arrays.vpl_depth = Some(d.iter().map(|&x| x as u32).collect());
+    }
     if let Some(p) = get("patch")? {
         let (a, shape) = numeric(py, "patch", &p, "float32", false)?;
         if shape != [n, 4, 3] {

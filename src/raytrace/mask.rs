@@ -46,10 +46,11 @@
 //! p_L is the area density (Mitsuba samples its visible cone). Exact when P_valid = 1 (a surface or an
 //! environment behind every masked pixel).
 //!
-//! VPLs (`cpu::mask_visibility_at`): a VPL is a bounce of its own that must still sample the light, so
-//! from a view sample of budget b its shadow ray crosses at most b - 1 masks and none reaches a sample with
-//! b = 0 (a surface seen through a mask at max_depth 3 gets no VPL light); exact for first-bounce VPLs.
-//! Direct-to-indirect relighting's gather samples follow the same rule (`relight::transfer`).
+//! VPLs (`cpu::mask_visibility_at`): a VPL stored at depth d (`LightSet::vpl_depth`) stands for d more
+//! vertices on the way back to the light, the last of which samples it, so from a view sample of budget b
+//! its shadow ray crosses at most b - d masks and none reaches a sample with b < d (a surface seen through a
+//! mask at max_depth 3 gets no VPL light). Direct-to-indirect relighting's gather samples follow the same
+//! rule as first-bounce VPLs (`relight::transfer`).
 //!
 //! Glossy view samples (`matrix::glossy`): light through a mask reaches Mitsuba only by BSDF sampling,
 //! with MIS weight 1, and the glossy BSDF rays stop at masks, so `cpu::shade` gives a light column whose

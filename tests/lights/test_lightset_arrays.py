@@ -34,7 +34,7 @@ def _arrays(s):
     return dict(kind=s.kind, position=s.position, direction=s.direction, normal=s.normal,
                 geo_normal=s.geo_normal, incident=s.incident, intensity=s.intensity,
                 cutoff_angle=s.cutoff_angle, beam_width=s.beam_width, bsdf=s.bsdf, vpl_clamp=s.vpl_clamp,
-                patch=s.patch, vsl_radius=s.vsl_radius)
+                patch=s.patch, vsl_radius=s.vsl_radius, vpl_depth=s.vpl_depth)
 
 
 def _bits(a):
@@ -45,7 +45,7 @@ def test_from_arrays_round_trip_is_bit_identical(scene, lights):
     t = ml.LightSet.from_arrays(scene, **_arrays(lights))
     assert len(t) == len(lights)
     for name in ["kind", "position", "direction", "normal", "geo_normal", "incident", "intensity",
-                 "cutoff_angle", "beam_width", "bsdf", "power"]:
+                 "cutoff_angle", "beam_width", "bsdf", "power", "vpl_depth"]:
         a, b = getattr(lights, name), getattr(t, name)
         assert a.shape == b.shape and np.array_equal(_bits(a), _bits(b)), name
     assert t.vpl_clamp == lights.vpl_clamp and t.scene_sphere == lights.scene_sphere
@@ -133,6 +133,10 @@ BAD = [
     (dict(kind=[0], position=[[0, 0, 0]], power=[[1, np.inf, 1]]), "power[0]", "finite"),
     (dict(kind=[4], position=[[0, 0, 0]], normal=[[0, 0, 1]], geo_normal=[[0, 0, 1]], incident=[[0, 0, 1]],
           intensity=[[1, 1, 1]], albedo=[[0.5, 1.5, 0.5]]), "albedo[0]", "[0, 1]"),
+    (dict(kind=[4, 4], position=[[0, 0, 0]] * 2, normal=[[0, 0, 1]] * 2, geo_normal=[[0, 0, 1]] * 2,
+          incident=[[0, 0, 1]] * 2, intensity=[[1, 1, 1]] * 2, albedo=[0.5, 0.5], vpl_depth=[2, 0]), "vpl_depth[1]", ">= 1"),
+    (dict(kind=[4], position=[[0, 0, 0]], normal=[[0, 0, 1]], geo_normal=[[0, 0, 1]], incident=[[0, 0, 1]],
+          intensity=[[1, 1, 1]], albedo=[0.5], vpl_depth=1.5), "vpl_depth[0]", "integer"),
 ]
 
 

@@ -244,10 +244,10 @@ fn unsupported_names_a_bump_map_inside_a_mask() {
 }
 
 #[test]
-fn a_vpl_crosses_one_mask_fewer_than_the_view_samples_budget() {
+fn a_vpl_crosses_its_depth_fewer_masks_than_the_view_samples_budget() {
     // A VPL above the constant leaf (opacity 0.5 at y = 0.8 over x in [-1.1, -0.1], z in [-0.2, 0.8]) and one
-    // above open floor; the shadow rays start on the floor below them. A VPL is a bounce of its own: budget b
-    // lets it cross b - 1 masks, and b = 0 none of its light at all (`cpu::mask_visibility_at`).
+    // above open floor; the shadow rays start on the floor below them. A VPL of depth d: budget b lets it
+    // cross b - d masks, and b < d none of its light at all (`cpu::mask_visibility_at`).
     let scene = leaves();
     let tracer = RayTracer::new(&scene).unwrap();
     let mut vpls = crate::lights::LightSet::new(glam::Vec3::ZERO, 10.0);
@@ -255,15 +255,23 @@ fn a_vpl_crosses_one_mask_fewer_than_the_view_samples_budget() {
     for q in [glam::Vec3::new(-0.6, 1.5, 0.3), glam::Vec3::new(2.0, 1.0, 2.0)] {
         vpls.push_vpl(q, down, down, down, glam::Vec3::ONE, bytemuck::Zeroable::zeroed()).unwrap();
     }
-    let visibility = |j: usize, budget: u32| {
+    let visibility = |vpls: &crate::lights::LightSet, j: usize, budget: u32| {
         let p = vpls.position[j] * glam::Vec3::new(1.0, 0.0, 1.0);
         let d = vpls.position[j] - p;
-        crate::cpu::mask_visibility_at(&tracer, &vpls, j, p, glam::Vec3::Y, d.normalize(), d.length(), budget).0
+        crate::cpu::mask_visibility_at(&tracer, vpls, j, p, glam::Vec3::Y, d.normalize(), d.length(), budget).0
     };
     for (budget, through_leaf, open) in [(0, 0.0, 0.0), (1, 0.0, 1.0), (2, 0.5, 1.0), (u32::MAX, 0.5, 1.0)] {
-        assert_eq!((visibility(0, budget), visibility(1, budget)), (through_leaf, open), "budget {budget}");
+        assert_eq!((visibility(&vpls, 0, budget), visibility(&vpls, 1, budget)), (through_leaf, open), "budget {budget}");
     }
     let mut view = crate::testing::scenes::cast_view(&scene);
     trace_chains(&scene, &mut view, &ChainOptions::with_max_depth(3).unwrap()).unwrap();
     assert_eq!(light_fields(&view, &vpls, 0, false), [0.0, 2.0]);
+    // A second-bounce VPL needs one more unit of depth.
+    vpls.set_vpl_depth(0, 2).unwrap();
+    vpls.set_vpl_depth(1, 2).unwrap();
+    for (budget, through_leaf, open) in [(1, 0.0, 0.0), (2, 0.0, 1.0), (3, 0.5, 1.0), (u32::MAX, 0.5, 1.0)] {
+        assert_eq!((visibility(&vpls, 0, budget), visibility(&vpls, 1, budget)), (through_leaf, open), "depth 2, budget {budget}");
+    }
+    assert_eq!(light_fields(&view, &vpls, 0, false), [0.0, 3.0]);
+    assert!(vpls.set_vpl_depth(0, 0).is_err());
 }

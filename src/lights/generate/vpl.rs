@@ -79,6 +79,16 @@ pub(crate) struct Vpl {
     pub incident: Vec3,
     pub flux: Vec3,
     pub bsdf: GpuBsdf,
+    /// The bounce it was stored at (`walk`'s depth, null events included): `LightSet::vpl_depth`.
+    pub depth: u32,
+}
+
+impl Vpl {
+    /// Appends this VPL to `set` with flux `flux` and its depth.
+    pub(crate) fn push_into(&self, set: &mut LightSet, flux: Vec3) -> Result<()> {
+        set.push_vpl(self.position, self.n_s, self.n_g, self.incident, flux, self.bsdf)?;
+        set.set_vpl_depth(set.len() - 1, self.depth.max(1))
+    }
 }
 
 pub(crate) struct Tracer<'a> {
@@ -246,7 +256,7 @@ pub(crate) fn walk(
             }
             let phi_vpl = phi * (cos_s_in.abs() / cos_g_in.abs());
             if depth <= max_depth && depth - nulls >= min_depth {
-                store(Vpl { position: offset_p(hit.p, n_g, w_in), n_s, n_g, incident: w_in, flux: phi_vpl, bsdf: b });
+                store(Vpl { position: offset_p(hit.p, n_g, w_in), n_s, n_g, incident: w_in, flux: phi_vpl, bsdf: b, depth });
             }
         }
         if depth >= max_depth {
@@ -406,7 +416,7 @@ fn trace_plain(tracer: &Tracer, opts: &GenerateOptions) -> Result<LightSet> {
     let n = ((opts.indirect as f64 / per_particle).ceil() as usize).max(1);
     let inv_n = 1.0 / n as f32;
     for v in run(STREAM_PARTICLE, n)?.into_iter().flatten() {
-        out.push_vpl(v.position, v.n_s, v.n_g, v.incident, v.flux * inv_n, v.bsdf)?;
+        v.push_into(&mut out, v.flux * inv_n)?;
     }
     Ok(out)
 }

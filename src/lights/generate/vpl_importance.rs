@@ -127,7 +127,7 @@ fn contributions(pilot: &PilotView, tracer: &Tracer, vpls: &[Vpl], clamp: f32) -
     let mut set = LightSet::new(tracer.center, tracer.radius);
     set.vpl_clamp = clamp;
     for v in vpls {
-        set.push_vpl(v.position, v.n_s, v.n_g, v.incident, v.flux, v.bsdf)?;
+        v.push_into(&mut set, v.flux)?;
     }
     Ok((0..vpls.len()).map(|j| pilot.contribution(&tracer.rt, &set, j)).collect())
 }
@@ -251,7 +251,7 @@ pub(crate) fn trace_importance(tracer: &Tracer, opts: &GenerateOptions, imp: &Vp
         n_candidates += total;
         n_accepted += kept.len();
         for v in kept {
-            out.push_vpl(v.position, v.n_s, v.n_g, v.incident, v.flux, v.bsdf)?;
+            v.push_into(&mut out, v.flux)?;
         }
     }
     let stats = ImportanceStats {
