@@ -10,8 +10,8 @@ use crate::matrix::backend::{Chosen, Device, DeviceInfo};
 use crate::matrix::{ColumnOptions, Visibility};
 use crate::raytrace::RayTracer;
 use crate::relight::gpu::{choose_device, GpuRelight};
+use crate::relight::masks::chain_options;
 use crate::relight::relight::{self as core, RelightStats};
-use crate::relight::transfer::chain_options;
 use crate::relight::transfer::{NearField, Transfer, TransferOptions};
 use crate::view::ViewSamples;
 use numpy::PyArrayDyn;
@@ -50,7 +50,7 @@ impl DirectToIndirect {
         let (chosen, columns) = relight_device(py, device, visibility, shadow_map_size)?;
         let view = scene.view_samples_on(py, chain_options(&scene.inner, inner.opts.bounces)?, &Chosen::Cpu)?;
         let tracer = scene.tracer(py)?;
-        let rows = crate::relight::transfer::row_samples(&view, tracer.masks().any());
+        let rows = crate::relight::masks::row_samples(&view, tracer.masks().any());
         if rows != inner.rows.len() {
             return Err(Error::invalid(format!(
                 "{}: the saved transfer has {} final-gather rows but this scene's view has {rows} samples that take one: \

@@ -111,7 +111,7 @@ pub struct GlossyRows {
 }
 
 /// Computes the F_g rows of every glossy view sample among the first `samples` of `view` (the camera
-/// hits, or every view sample in a scene with masks: `transfer::row_samples`; module docs);
+/// hits, or every view sample in a scene with masks: `masks::row_samples`; module docs);
 /// `progress(done, total)` over them. Returns empty `rows` and `color` when none is glossy.
 ///
 /// Errors: `Interrupted`.

@@ -199,7 +199,7 @@ pub struct GpuRelight {
     buffers: Buffers,
     side: u32,
     pixels: u32,
-    /// Final-gather rows: `pixels`, or with masks every view sample (`transfer::row_samples`).
+    /// Final-gather rows: `pixels`, or with masks every view sample (`masks::row_samples`).
     samples: u32,
     /// Gather-to-gather passes (b - 1, or 0).
     bounce_passes: u32,
@@ -225,7 +225,7 @@ impl GpuRelight {
     /// view samples) or rows above a storage binding; what `GpuBackend::new` raises (shadow-map size, memory).
     pub fn new(ctx: Arc<GpuContext>, scene: Arc<Scene>, view: Arc<ViewSamples>, t: &Transfer, opts: ColumnOptions) -> Result<GpuRelight> {
         let masked = crate::raytrace::mask::scene_has_masks(&scene);
-        if (view.width, view.height) != (t.width, t.height) || super::transfer::row_samples(&view, masked) != t.rows.len() {
+        if (view.width, view.height) != (t.width, t.height) || super::masks::row_samples(&view, masked) != t.rows.len() {
             return Err(Error::invalid(format!(
                 "the view is {}x{} but the transfer was precomputed for {}x{}",
                 view.width, view.height, t.width, t.height
@@ -268,8 +268,7 @@ impl GpuRelight {
         let opacity = |g: usize| t.opacity.get(g).copied().unwrap_or(1.0);
         let gather_flags = VIEW_FLAG_GEO_FRONT
             | if masked {
-                VIEW_FLAG_MASKS
-                    | super::transfer::gather_mask_budget(t.opts.bounces).min(VIEW_MASK_BUDGET_UNLIMITED) << VIEW_MASK_BUDGET_SHIFT
+                VIEW_FLAG_MASKS | super::masks::gather_mask_budget(t.opts.bounces).min(VIEW_MASK_BUDGET_UNLIMITED) << VIEW_MASK_BUDGET_SHIFT
             } else {
                 0
             };

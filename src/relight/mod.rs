@@ -22,6 +22,7 @@ pub mod glossy;
 pub mod gpu;
 pub mod haar;
 pub mod hierarchy;
+pub mod masks;
 pub mod multibounce;
 #[allow(clippy::module_inception)]
 pub mod relight;

@@ -80,10 +80,10 @@ pub fn check_lights(lights: &LightSet) -> Result<()> {
 
 /// Direct irradiance E_g (W/m^2, RGB) at every gather sample of `t` from `lights` (step 1). With masked
 /// surfaces, times the sample's opacity (`Transfer::opacity`: what its mask reflects), the shadow rays
-/// crossing at most `transfer::gather_mask_budget` of them (module docs).
+/// crossing at most `masks::gather_mask_budget` of them (module docs).
 pub fn gather_irradiance(t: &Transfer, tracer: &RayTracer, lights: &LightSet) -> Result<Vec<Vec3>> {
     let c = &t.cloud;
-    let budget = super::transfer::gather_mask_budget(t.opts.bounces);
+    let budget = super::masks::gather_mask_budget(t.opts.bounces);
     crate::interrupt::par_map_chunked(c.len(), 256, |g| {
         if c.normal[g] == Vec3::ZERO {
             return Vec3::ZERO;
@@ -127,7 +127,7 @@ pub fn bounce(t: &Transfer, e: &[Vec3]) -> Result<Vec<f32>> {
 }
 
 /// Indirect radiance (H * W * 3) from gather irradiance `e` (steps 2-5 without direct): each row sample's
-/// (the camera hits, or with masks every view sample: `transfer::row_samples`) times its throughput,
+/// (the camera hits, or with masks every view sample: `masks::row_samples`) times its throughput,
 /// summed per pixel.
 pub fn indirect(t: &Transfer, view: &ViewSamples, e: &[Vec3], epsilon: f32, stats: &mut RelightStats) -> Result<Vec<f32>> {
     let n = t.cloud.len();
@@ -204,7 +204,7 @@ pub fn relight(
     if !(epsilon >= 0.0 && epsilon.is_finite()) {
         return Err(Error::invalid(format!("epsilon must be finite and >= 0, got {epsilon}")));
     }
-    if (view.width, view.height) != (t.width, t.height) || super::transfer::row_samples(&view, tracer.masks().any()) != t.rows.len() {
+    if (view.width, view.height) != (t.width, t.height) || super::masks::row_samples(&view, tracer.masks().any()) != t.rows.len() {
         return Err(Error::invalid(format!(
             "the view is {}x{} but the transfer was precomputed for {}x{}",
             view.width, view.height, t.width, t.height

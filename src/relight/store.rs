@@ -371,7 +371,7 @@ pub fn from_arrays(scene: &Scene, width: u32, height: u32, arrays: Vec<NamedArra
     let emit_normal = r.vec3s("emit_normal", n)?;
     let pixels = width as usize * height as usize;
     // Matrices: one line each (module docs). Final-gather rows: one per pixel, or with masked surfaces one
-    // per view sample (`transfer::row_samples`; the view, made after loading, is checked against them).
+    // per view sample (`masks::row_samples`; the view, made after loading, is checked against them).
     let masked = crate::raytrace::mask::scene_has_masks(scene);
     let row_count = r.arrays.get("final_gather.offsets").map_or(pixels, |a| a.shape.first().copied().unwrap_or(1).saturating_sub(1));
     if row_count != pixels && !(masked && row_count > pixels) {
@@ -395,7 +395,7 @@ pub fn from_arrays(scene: &Scene, width: u32, height: u32, arrays: Vec<NamedArra
     let glossy_color = r.vec3s("glossy_color", glossy_count)?;
     let glossy_image_norms = if glossy_rows.is_empty() { Vec::new() } else { haar::column_norms(&glossy_rows, n, 1)? };
     let image_norms = haar::column_norms(&rows, n, 1)?;
-    let opacity = super::transfer::gather_opacity(&crate::raytrace::mask::Masks::new(scene), &cloud);
+    let opacity = super::masks::gather_opacity(&crate::raytrace::mask::Masks::new(scene), &cloud);
     let t = Transfer {
         opacity,
         cloud,
