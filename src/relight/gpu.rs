@@ -350,7 +350,7 @@ impl GpuRelight {
             albedo: storage_buffer(
                 device,
                 "GpuRelight::albedo",
-                &rgba(&(0..samples).map(|i| throughput(i) * view.albedo[i]).collect::<Vec<_>>()),
+                &rgba(&(0..samples).map(|i| throughput(i) * super::diffuse::albedo(&view, i)).collect::<Vec<_>>()),
                 usage,
             )?,
             extra_start: storage_buffer(device, "GpuRelight::extra_start", &extra_start, usage)?,

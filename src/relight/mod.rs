@@ -18,6 +18,7 @@
 //! | M^w | `photon_rows` (photons) | RGB, n_g x n_g | multi-bounce irradiance transfer M_E; M = diag(k_d / pi) M_E (`multibounce`) |
 //! | M (alternative) | `bounce_rows` (gather) | scalar, n_g x n_g | one-bounce gather-to-gather F_gg; M = K + ... + K^(b-1), K = diag(k_d / pi) F_gg |
 //! | W | `haar::forward` on the gather image (`hierarchy`) | n_g x n_g | orthonormal 2D Haar projection |
+pub mod diffuse;
 pub mod glossy;
 pub mod gpu;
 pub mod haar;

@@ -20,7 +20,8 @@
 //! 4b. glossy pixels (`glossy`): the same sparse product with the glossy rows F_g^w (culled against
 //!    their own image norms), times the pixel's glossy colour k_g(i), is added (Eq. 6, 8);
 //! 5. indirect radiance L_ind(i) = k_d(i) / pi * s_i, k_d(i) the camera hit's diffuse albedo
-//!    (`ViewSamples::albedo`; the transfer module derives the formula; in a scene with masks every view
+//!    (`ViewSamples::albedo`, or a plastic's diffuse colour: `diffuse::albedo`; the transfer module derives
+//!    the formula; in a scene with masks every view
 //!    sample's, times its throughput, summed into its pixel), plus the direct light of the same
 //!    set: the light matrix's column sum on the CPU backend (all view samples of each pixel, delta chains
 //!    included). Light seen directly (emitters' own radiance) is not added: `LightMatrix::emitted` has it.
@@ -165,7 +166,7 @@ pub fn indirect(t: &Transfer, view: &ViewSamples, e: &[Vec3], epsilon: f32, stat
                 }
             }
         }
-        (view.albedo[i] * FRAC_1_PI * Vec3::from_array(s)).to_array()
+        (super::diffuse::albedo(view, i) * FRAC_1_PI * Vec3::from_array(s)).to_array()
     })?;
     let mut out = out;
     // The glossy final gather (Eq. 6, 8): k_g F_g^w b^w added to the glossy pixels.

@@ -33,7 +33,9 @@
 //!
 //! k_d(i) the view sample's diffuse albedo. With B_g = k_d(g) / pi * E_g (E_g the direct irradiance at g)
 //! this is exactly the sum over VPLs of flux Phi_g = E_g A_g and albedo k_d(g) that the light matrix
-//! evaluates (`LightSet::emitted`, `cpu::shade`) for a diffuse view sample.
+//! evaluates (`LightSet::emitted`, `cpu::shade`) for a diffuse view sample. A plastic's diffuse lobe is
+//! not Lambertian: its scalar dependence on wo is baked into F_d(i, g) and k_d(i) becomes its colour
+//! (`diffuse` module), which keeps the identity for plastic receivers too.
 //!
 //! Hierarchical gather (4.3): from view sample i, the quad-tree is descended from the root; a cluster
 //! whose bounding box lies wholly behind the view sample's tangent plane is culled; a cluster with
@@ -372,7 +374,8 @@ impl Transfer {
             |i| {
                 let mut sp = ShadingPoint::new(view, i);
                 sp.surface &= receives_indirect(view, masked, i);
-                (sp, view.bsdf[i].flags & FLAG_TWOSIDED != 0, view_mask_budget(view, masked, i))
+                let lobe = super::diffuse::Lobe::of(view, i, sp.wi_local);
+                Receiver { sp, twosided: view.bsdf[i].flags & FLAG_TWOSIDED != 0, masks: view_mask_budget(view, masked, i), lobe }
             },
             &mut |d, _| progress(d, total),
         )?;
@@ -408,7 +411,7 @@ impl Transfer {
                         throughput: Vec3::ONE,
                         surface: nn != Vec3::ZERO && cloud.k_d[h].max_element() > 0.0,
                     };
-                    (sp, false, budget)
+                    Receiver { sp, twosided: false, masks: budget, lobe: None }
                 },
                 &mut |d, _| progress(pixels + d, total),
             )?;
@@ -488,6 +491,15 @@ impl Transfer {
     }
 }
 
+/// A receiver of the final gather: its shading point, two-sidedness, the masks its segments may cross
+/// (`geometry_patch`) and its diffuse lobe when that is not Lambertian (`diffuse::Lobe`).
+struct Receiver {
+    sp: ShadingPoint,
+    twosided: bool,
+    masks: Option<u32>,
+    lobe: Option<super::diffuse::Lobe>,
+}
+
 struct RowContext<'a> {
     cloud: &'a GatherCloud,
     hierarchy: &'a ClusterHierarchy,
@@ -498,15 +510,15 @@ struct RowContext<'a> {
 }
 
 impl RowContext<'_> {
-    /// Culled wavelet rows (`keep` coefficients each) of `count` receivers, `receiver(i)` giving each one's
-    /// shading point, two-sidedness and mask budget (`geometry_patch`); returns (rows, rays, links). Parallel, in blocks with
+    /// Culled wavelet rows (`keep` coefficients each) of `count` receivers, `receiver(i)` giving each one;
+    /// returns (rows, rays, links). Parallel, in blocks with
     /// interruption checks and `progress(done, count)` after each.
     fn rows(
         &self,
         tracer: &RayTracer,
         count: usize,
         keep: usize,
-        receiver: impl Fn(usize) -> (ShadingPoint, bool, Option<u32>) + Sync,
+        receiver: impl Fn(usize) -> Receiver + Sync,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<(Vec<SparseRow>, u64, u64)> {
         let n = self.cloud.len();
@@ -517,12 +529,12 @@ impl RowContext<'_> {
         while start < count {
             let end = (start + ROW_BLOCK).min(count);
             let part = crate::interrupt::par_map_chunked(end - start, ROW_CHUNK, |k| -> Result<(SparseRow, u64, u64)> {
-                let (sp, twosided, masks) = receiver(start + k);
-                if !sp.surface {
+                let rec = receiver(start + k);
+                if !rec.sp.surface {
                     return Ok((SparseRow::default(), 0, 0));
                 }
                 let mut dense = vec![0f32; n];
-                let (rays, l) = self.gather(tracer, &sp, twosided, masks, &mut dense);
+                let (rays, l) = self.gather(tracer, &rec, &mut dense);
                 let mut image = self.hierarchy.to_image(&dense, 1);
                 haar::forward(&mut image, side, 1)?;
                 Ok((haar::cull_area_weighted(&image, side, 1, keep)?, rays, l))
@@ -540,7 +552,9 @@ impl RowContext<'_> {
     }
 
     /// Fills the dense row F_d(i, .) (sample order) by the hierarchical gather; returns (rays, links).
-    fn gather(&self, tracer: &RayTracer, sp: &ShadingPoint, twosided: bool, masks: Option<u32>, dense: &mut [f32]) -> (u64, u64) {
+    fn gather(&self, tracer: &RayTracer, rec: &Receiver, dense: &mut [f32]) -> (u64, u64) {
+        let Receiver { sp, twosided, masks, lobe } = rec;
+        let (sp, twosided, masks) = (sp, *twosided, *masks);
         // The side of the tangent plane light may come from (module docs: two-sided flip).
         let side_n = if twosided && sp.wi_local.z < 0.0 { -sp.n } else { sp.n };
         let (mut rays, mut links) = (0u64, 0u64);
@@ -579,6 +593,11 @@ impl RowContext<'_> {
             );
             rays += tested as u64;
             links += 1;
+            // A plastic receiver's diffuse lobe toward the representative (`diffuse::Lobe::factor`).
+            let g = match lobe {
+                Some(lobe) if g > 0.0 => g * lobe.factor(sp.local((self.emit_position[r] - sp.p).normalize())),
+                _ => g,
+            };
             if g > 0.0 {
                 for &m in members {
                     dense[m as usize] = g * self.cloud.area[m as usize];

@@ -71,8 +71,10 @@ class DirectToIndirect:
 
     Relighting (``relight``): E_g = direct irradiance at the gather samples (exact shadow rays), B_g =
     k_d(g) / pi E_g, wavelet-projected and culled on the fly with ``epsilon`` (3.5), indirect radiance
-    k_d(i) / pi sum_g F_d(i, g) B_g at each pixel (Eq. 5), plus the direct light of the same lights
-    (``LightMatrix(...).column_sum()`` on the CPU backend).
+    k_d(i) / pi sum_g F_d(i, g) B_g at each pixel (Eq. 5; a plastic's diffuse lobe is not Lambertian: its
+    dependence on the direction to g is baked into F_d and k_d(i) is its colour, exact, so a plastic floor
+    relit with every coefficient equals its gather samples as VPLs to 1e-7), plus the direct light of the
+    same lights (``LightMatrix(...).column_sum()`` on the CPU backend).
 
     On the GPU (``device``; Sec. 5) the transfer rows are uploaded once; each relight renders the lights'
     shadow maps once and runs the light matrix's column pass over the gather samples (a diffuse BSDF of
