@@ -10,7 +10,7 @@
 //! separated here; principled view samples keep their diffuse part through F_d only). Delta-chain samples
 //! (seen through mirrors or glass) get no glossy indirect light either, as they get no diffuse, except in
 //! a scene with masked surfaces, where every view sample is a candidate and V is the transmittance through
-//! the masks (`transfer` module docs).
+//! the masks (`masks` module docs).
 //!
 //! The camera is fixed, so each glossy view sample's BSDF toward its viewer is baked into its row. With
 //! wi the direction to the viewer, wo = (q_g - p) / d toward gather sample g (emitting at q_g), and

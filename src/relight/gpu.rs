@@ -30,7 +30,7 @@
 //!    light;
 //! 7. one readback of the H x W x 3 image (and the three culling counters in the same copy).
 //!
-//! Masked surfaces (`relight::transfer` module docs): every view sample has a row; its albedo and glossy
+//! Masked surfaces (`relight::masks` module docs): every view sample has a row; its albedo and glossy
 //! colour are uploaded times its throughput, and `combine` adds a pixel's extra samples' indirect light to
 //! its own (`RelightParams::count` > `num_rows`). The gather samples carry the mask flag and the gather
 //! budget (so the column pass crosses masks as the CPU's `irradiance` does) and the throughput k_d times

@@ -4,8 +4,8 @@
 //! For a light set (any `LightSet`: point, spot, directional, oriented points, VPLs):
 //! 1. direct irradiance at every gather sample, E_g = sum_j L_j(p_g) max(0, n_g . w_j) V(p_g, j), exact
 //!    shadow rays (`lights::animated::irradiance`, no extra clamp on oriented points, as the light matrix;
-//!    with masked surfaces the transmittance through them and E_g times the sample's opacity:
-//!    `transfer` module docs);
+//!    with masked surfaces the transmittance through them and E_g times the sample's opacity: `masks`
+//!    module docs);
 //! 2. the gather samples' diffuse outgoing radiance B_g = k_d(g) / pi * E_g (RGB); with `bounces` b > 1,
 //!    b - 1 passes of the gather-to-gather transfer add the light bounced among gather samples:
 //!    B_{k+1}(h) = k_d(h) / pi * sum_j F_gg^w(h, j) (W B_k)_j, B = B_1 + ... + B_b (the paper's (M + I) g_d,
@@ -21,8 +21,8 @@
 //!    their own image norms), times the pixel's glossy colour k_g(i), is added (Eq. 6, 8);
 //! 5. indirect radiance L_ind(i) = k_d(i) / pi * s_i, k_d(i) the camera hit's diffuse albedo
 //!    (`ViewSamples::albedo`, or a plastic's diffuse colour: `diffuse::albedo`; the transfer module derives
-//!    the formula; in a scene with masks every view
-//!    sample's, times its throughput, summed into its pixel), plus the direct light of the same
+//!    the formula; in a scene with masks every view sample's, times its throughput, summed into its
+//!    pixel: `masks`), plus the direct light of the same
 //!    set: the light matrix's column sum on the CPU backend (all view samples of each pixel, delta chains
 //!    included). Light seen directly (emitters' own radiance) is not added: `LightMatrix::emitted` has it.
 //!
@@ -81,7 +81,7 @@ pub fn check_lights(lights: &LightSet) -> Result<()> {
 
 /// Direct irradiance E_g (W/m^2, RGB) at every gather sample of `t` from `lights` (step 1). With masked
 /// surfaces, times the sample's opacity (`Transfer::opacity`: what its mask reflects), the shadow rays
-/// crossing at most `masks::gather_mask_budget` of them (module docs).
+/// crossing at most `masks::gather_mask_budget` of them (`masks` module docs).
 pub fn gather_irradiance(t: &Transfer, tracer: &RayTracer, lights: &LightSet) -> Result<Vec<Vec3>> {
     let c = &t.cloud;
     let budget = super::masks::gather_mask_budget(t.opts.bounces);

@@ -273,8 +273,8 @@ class DirectToIndirect:
         return store.load(cls, path, scene, device, visibility, shadow_map_size)
 
     def gather_irradiance(self, lights: LightSet) -> np.ndarray:
-        """(n_g, 3) float32 direct irradiance (W/m^2) of ``lights`` at the gather samples (exact shadow rays).
-        Raises ValueError as ``relight``."""
+        """(n_g, 3) float32 direct irradiance (W/m^2) of ``lights`` at the gather samples (exact shadow rays;
+        on a masked surface times its opacity, what the mask reflects). Raises ValueError as ``relight``."""
         if not isinstance(lights, LightSet):
             raise TypeError(f"lights must be a manylights LightSet, got {type(lights).__name__}")
         return self._t.gather_irradiance(lights)
