@@ -170,8 +170,9 @@ fn push_texture(out: &mut Vec<u32>, tex: &Texture) {
 
 /// Light j's mask fields (module docs): (Mitsuba's area-emitter density of its mesh, 0 for other kinds;
 /// 1 when its shadow rays cross masked surfaces, 1 + d for a VPL of depth d >= 1, whose rays cross d fewer
-/// than the view sample's budget (`cpu::mask_visibility_at`), 0 when masks block them). `directional_passes`: whether the scene's
-/// directional lights are environment strata (`raytrace::mask::Masks::directional_is_environment`).
+/// than the view sample's budget (`cpu::mask_visibility_at`), 0 when masks block them).
+/// `directional_passes`: whether the scene's directional lights are environment strata
+/// (`raytrace::mask::Masks::directional_is_environment`).
 pub fn light_fields(view: &ViewSamples, lights: &LightSet, j: usize, directional_passes: bool) -> [f32; 2] {
     let pdf = match lights.kind[j] {
         LightKind::OrientedPoint => {

@@ -250,7 +250,6 @@ impl DirectToIndirect {
 }
 
 /// The device relighting runs on and its column options (`relight::gpu::choose_device`).
-/// The relighting device and the GPU's column options.
 fn relight_device(py: Python<'_>, device: &str, visibility: Option<&str>, shadow_map_size: u32) -> PyResult<(Chosen, ColumnOptions)> {
     if !(16..=8192).contains(&shadow_map_size) {
         return Err(Error::invalid(format!("shadow_map_size must be in 16..=8192, got {shadow_map_size}")).into());

@@ -34,10 +34,7 @@ impl Lobe {
     /// The lobe of view sample `i` (record `view.bsdf[i]`, viewer direction `wi` in its shading frame), or
     /// None where it is Lambertian or not a plastic (module docs).
     pub fn of(view: &ViewSamples, i: usize, wi: Vec3) -> Option<Lobe> {
-        let b = view.bsdf.get(i)?;
-        if !(b.kind == KIND_PLASTIC || b.kind == KIND_ROUGHPLASTIC) || b.flags & (FLAG_BLEND | FLAG_BUMP | FLAG_TWOSIDED_OUTER) != 0 {
-            return None;
-        }
+        let b = view.bsdf.get(i).filter(|b| factored(b))?;
         let mut record = *b;
         record.specular = [0.0; 3];
         let at_normal = eval(&record, wi, normal_on_side(wi)).element_sum() / 3.0;
@@ -64,6 +61,11 @@ impl Lobe {
     }
 }
 
+/// Whether record `b` has a diffuse lobe this module factors (a plastic, not blended or bump-mapped).
+fn factored(b: &GpuBsdf) -> bool {
+    (b.kind == KIND_PLASTIC || b.kind == KIND_ROUGHPLASTIC) && b.flags & (FLAG_BLEND | FLAG_BUMP | FLAG_TWOSIDED_OUTER) == 0
+}
+
 /// The shading normal on the side of `wi` (local frame).
 fn normal_on_side(wi: Vec3) -> Vec3 {
     if wi.z < 0.0 {
@@ -76,6 +78,10 @@ fn normal_on_side(wi: Vec3) -> Vec3 {
 /// The albedo a(i) relighting multiplies view sample i's F_d product by (module docs): the plastic lobe's
 /// `Lobe::albedo`, else `ViewSamples::albedo`.
 pub fn albedo(view: &ViewSamples, i: usize) -> Vec3 {
+    if !factored(&view.bsdf[i]) {
+        // The common case, on every relight's path: no shading frame to build.
+        return view.albedo[i];
+    }
     let sp = crate::cpu::ShadingPoint::new(view, i);
     match Lobe::of(view, i, sp.wi_local) {
         Some(lobe) => lobe.albedo(),

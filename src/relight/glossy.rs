@@ -38,6 +38,7 @@
 //! wavelets and culled to `coefficients` (final_gather_coefficients) like F_d.
 use super::haar::{self, SparseRow};
 use super::hierarchy::ClusterHierarchy;
+use super::masks::{receives_indirect, view_mask_budget};
 use super::transfer::{behind_tangent_plane, geometry_patch, TransferOptions};
 use crate::cpu::ShadingPoint;
 use crate::error::Result;
@@ -154,12 +155,11 @@ pub fn glossy_rows(
             let sp = ShadingPoint::new(view, i);
             let twosided = view.bsdf[i].flags & FLAG_TWOSIDED != 0;
             let mut dense = vec![0f32; n];
-            // Through masks: the view sample's budget less the gather sample's own bounce (`transfer`).
-            let masks = if masked { view.mask_budget.get(i).map(|&b| b.checked_sub(1)) } else { None };
-            if masks == Some(None) {
+            // Through masks: the view sample's budget less the gather sample's own bounce (`masks`).
+            if !receives_indirect(view, masked, i) {
                 return Ok((SparseRow::default(), Vec3::ZERO, 0, 0));
             }
-            let (rays, l) = ctx.gather(tracer, &sp, twosided, &lobes, masks.flatten(), &mut dense);
+            let (rays, l) = ctx.gather(tracer, &sp, twosided, &lobes, view_mask_budget(view, masked, i), &mut dense);
             let mut image = hierarchy.to_image(&dense, 1);
             haar::forward(&mut image, side, 1)?;
             let wi = sp.wi_local;

@@ -246,9 +246,6 @@ impl GpuRelight {
                 t.glossy_image_norms.len(),
             )));
         }
-        // Each row sample's throughput (masked scenes: the camera hit's opacity, the surfaces behind it),
-        // folded into its albedo and glossy colour.
-        let throughput = |i: usize| view.throughput.get(i).copied().unwrap_or(glam::Vec3::ONE);
         let side = t.hierarchy.side() as u32;
         let pixels = view.num_pixels();
         let (center, radius) = crate::lights::scene_sphere(&scene);
@@ -323,7 +320,7 @@ impl GpuRelight {
                 color: storage_buffer(
                     device,
                     "GpuRelight::glossy_color",
-                    &rgba(&t.glossy_color.iter().enumerate().map(|(i, &k)| throughput(i) * k).collect::<Vec<_>>()),
+                    &rgba(&t.glossy_color.iter().enumerate().map(|(i, &k)| view.throughput_of(i) * k).collect::<Vec<_>>()),
                     usage,
                 )?,
                 norms: storage_buffer(device, "GpuRelight::glossy_norms", &t.glossy_image_norms, usage)?,
@@ -347,10 +344,12 @@ impl GpuRelight {
             partial_gather: vec4s("GpuRelight::partial_gather", n)?,
             norms: storage_buffer(device, "GpuRelight::norms", &t.image_norms, usage)?,
             gather_k_d: storage_buffer(device, "GpuRelight::gather_k_d", &rgba(&k_d_image), usage)?,
+            // Each row sample's albedo times its throughput (masked scenes: the camera hit's opacity, the
+            // surfaces behind it); the glossy colours likewise.
             albedo: storage_buffer(
                 device,
                 "GpuRelight::albedo",
-                &rgba(&(0..samples).map(|i| throughput(i) * super::diffuse::albedo(&view, i)).collect::<Vec<_>>()),
+                &rgba(&(0..samples).map(|i| view.throughput_of(i) * super::diffuse::albedo(&view, i)).collect::<Vec<_>>()),
                 usage,
             )?,
             extra_start: storage_buffer(device, "GpuRelight::extra_start", &extra_start, usage)?,

@@ -174,13 +174,12 @@ pub fn indirect(t: &Transfer, view: &ViewSamples, e: &[Vec3], epsilon: f32, stat
         super::glossy::add_glossy(&t.glossy_rows, &t.glossy_color, &t.glossy_image_norms, &bw, epsilon, &mut out)?;
     if samples > pixels {
         // Every view sample has a row (masks): each one's radiance times its throughput, into its pixel.
-        let throughput = |i: usize| view.throughput.get(i).copied().unwrap_or(Vec3::ONE);
         for (i, o) in out.iter_mut().enumerate().take(pixels) {
-            *o = (throughput(i) * Vec3::from_array(*o)).to_array();
+            *o = (view.throughput_of(i) * Vec3::from_array(*o)).to_array();
         }
         for i in pixels..samples {
-            let p = view.extra_pixel[i - pixels] as usize;
-            let v = throughput(i) * Vec3::from_array(out[i]);
+            let p = view.pixel_of(i);
+            let v = view.throughput_of(i) * Vec3::from_array(out[i]);
             out[p] = (Vec3::from_array(out[p]) + v).to_array();
         }
         out.truncate(pixels);

@@ -15,8 +15,9 @@
 //! - `emit_position`, `emit_normal` (n_g, 3): where each gather sample emits from;
 //! - sparse-row matrices, three arrays each: `<name>.offsets` (rows + 1,) u64 (row r is
 //!   `offsets[r] .. offsets[r + 1]` of the next two), `<name>.index` (nnz,) u32 wavelet coefficient,
-//!   `<name>.value` (nnz * channels,) float32: `final_gather` (F_d^w, one row per pixel; in a scene with masked surfaces one per view sample), `multibounce`
-//!   (the gather-to-gather rows; none with one bounce or photons), `photon_multibounce` (the photon-mapped
+//!   `<name>.value` (nnz * channels,) float32: `final_gather` (F_d^w, one row per pixel; in a scene with
+//!   masked surfaces one per view sample), `multibounce` (the gather-to-gather rows; none with one bounce or
+//!   photons), `photon_multibounce` (the photon-mapped
 //!   M_E^w, 3 channels, one row per gather sample; none with one bounce or the gather method), `glossy`
 //!   (F_g^w, one row per `final_gather` row, or none when no pixel is glossy); `glossy_color` (as many, 3) k_g;
 //! - `stats.*` and `seconds.*`: what the precomputation cast and how long its stages took.

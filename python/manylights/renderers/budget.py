@@ -252,6 +252,11 @@ def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional
         else:
             def rows_of(dc, R_t=R_t):
                 return min(m, R_t + max(FIRST_ROWS, round(rows_per_column * dc)))
+
+        def round_seconds(c, R_t=R_t, t_r=t_r, t_c=t_c, rows_of=rows_of):
+            # A round of c new columns: the new rows it brings at t_r each plus c t_c (without its overhead t_0).
+            return max(rows_of(c) - R_t, 0) * t_r + c * t_c
+
         lo, hi = max(first_columns, C_t // 2), max(first_columns, GROWTH * C_t)
         if target_error is not None and 0.0 < eps < math.inf:
             v = np.array([r["v"] for r in state["rounds"]], np.float64)
@@ -265,7 +270,7 @@ def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional
                 # with the next round would pass BRUTE_FORCE_SHARE of brute force's (n columns at t_c each).
                 need = _solve_columns(V_t, V_req, R_t, dc_t, E_ROWS, E_COLUMNS, rows_of, lo, max(hi, n))
                 spent = time.perf_counter() - start
-                next_round = max(rows_of(dc) - R_t, 0) * t_r + dc * t_c + t_0
+                next_round = round_seconds(dc) + t_0
                 if (C_t + need >= n and n * t_c >= BRUTE_FORCE_MIN_SECONDS
                         and spent + next_round > BRUTE_FORCE_SHARE * n * t_c):
                     chosen["why"].append(
@@ -288,10 +293,6 @@ def render_matrix(A, target_error: Optional[float] = None, time_budget: Optional
         if time_budget is not None:
             now = time.perf_counter()
             left = time_budget - (now - start) - (now - t_dec)
-
-            def round_seconds(c, R_t=R_t, t_r=t_r, t_c=t_c, rows_of=rows_of):
-                return max(rows_of(c) - R_t, 0) * t_r + c * t_c
-
             if round_seconds(dc) > left:
                 fit = fit_columns(round_seconds, lo, dc, left)
                 if fit is None:

@@ -226,6 +226,10 @@ def other_light_models(first: dict, attempt, scene, target_error: float, time_bu
     of an attempt. Records every attempt in ``budget['light_model']['tried']`` (model, indirect lights, bound,
     lower bound, seconds, selection estimate) and the seconds of those set aside in
     ``timings['other_light_models']``. ``refine_paths(res, A, counts)``: an attempt's retracing budget in paths."""
+    def claims(t):
+        # Whether attempt t's own probes claim the target.
+        return t["est"]["reliable"] and t["res"].error_estimate <= target_error
+
     tried = [{**first, "model": first["res"].budget["light_model"]["chosen"]}]
     clamped = int(first["counts"]["indirect"]["count"])
     count = min(max_lights, max(clamped, max_lights // LADDER_START))
@@ -243,7 +247,7 @@ def other_light_models(first: dict, attempt, scene, target_error: float, time_bu
         if failed or est is None:
             break
         tried.append({"res": res, "A": A, "est": est, "t_lights": t_lights, "counts": counts, "model": name})
-        if est["reliable"] and res.error_estimate <= target_error:
+        if claims(tried[-1]):
             break
         if count < max_lights:
             new = vsl_count(count, est, float(res.error_estimate), target_error, max_lights)
@@ -261,7 +265,7 @@ def other_light_models(first: dict, attempt, scene, target_error: float, time_bu
     last = tried[-1]
     if len(tried) == 1:
         chosen, reason = last, None
-    elif last["est"]["reliable"] and last["res"].error_estimate <= target_error:
+    elif claims(last):
         chosen, reason = last, f"{last['model']}: its own probes' bound {last['res'].error_estimate:.3g} <= target"
     else:
         sample = probe_sample(first["res"].image, scene, probes, spp=spp, max_depth=max_depth,
