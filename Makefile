@@ -25,9 +25,13 @@ venv: $(VENV)/.deps
 
 setup: system venv
 
+# Shadow-ray packets through the system's Embree 3 (cargo feature `embree`) where its headers are installed
+# (`make system` installs Debian's libembree-dev): read when a recipe runs, after `system`.
+FEATURES = $$(test -e /usr/include/embree3/rtcore.h && echo '--features embree')
+
 # One release build serves the extension, cargo test and the benchmarks (wgpu is compiled once).
 build: setup
-	$(VENV)/bin/maturin develop --release -q
+	$(VENV)/bin/maturin develop --release -q $(FEATURES)
 	@$(PY) -c "import manylights; print('manylights', manylights.__version__, 'built')"
 
 demo: build
@@ -35,14 +39,14 @@ demo: build
 
 test-rust: setup
 	cargo fmt --check
-	cargo test --release
+	cargo test --release $(FEATURES)
 
 # The wheel, built once from the same cargo target (seconds after `build`); tests/layout/test_wheel.py installs it
 # into a fresh venv and runs the quick start there.
 WHEEL_DIR := target/wheel-test
 wheel: build
 	rm -rf $(WHEEL_DIR)
-	$(VENV)/bin/maturin build --release -q -o $(WHEEL_DIR) -i $(PY)
+	$(VENV)/bin/maturin build --release -q -o $(WHEEL_DIR) -i $(PY) $(FEATURES)
 
 test-python: build wheel
 	MANYLIGHTS_WHEEL="$$(ls $(WHEEL_DIR)/manylights-*.whl)" $(PY) -m pytest -q --durations=25 tests
@@ -65,9 +69,16 @@ bench: build
 # The GPU path on the first hardware adapter (scripts/gpu_check.py): GPU-path tests and small benchmarks into
 # one JSON (gpu-check.json), under 5 minutes, from the existing build (no `build` prerequisite, so a build made
 # beforehand can be carried to a GPU machine). Fails when the only adapter is a software one.
-.PHONY: gpu-check
+# A build with Embree links the system's libembree3 and libtbb: `make gpu-check-libs` copies them into
+# target/gpu-check/lib, which gpu-check puts on the loader's path, for a GPU machine without them (carry
+# that folder with the build).
+.PHONY: gpu-check gpu-check-libs
 gpu-check:
-	$(PY) scripts/gpu_check.py --out gpu-check.json
+	LD_LIBRARY_PATH=$(CURDIR)/target/gpu-check/lib$${LD_LIBRARY_PATH:+:$$LD_LIBRARY_PATH} $(PY) scripts/gpu_check.py --out gpu-check.json
+
+gpu-check-libs:
+	mkdir -p target/gpu-check/lib
+	ldd python/manylights/_native.abi3.so | awk '/embree|tbb/ {print $$3}' | xargs -r cp -L -t target/gpu-check/lib
 
 # Regenerate tests/regression/figures.json, the timing-independent figures the test suite guards
 # (tests/regression/README.md): run it and commit the file with any change that moves a figure.

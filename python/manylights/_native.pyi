@@ -214,7 +214,7 @@ def load_scene(path: str, params: list[tuple[str, str]], size: Optional[tuple[in
             medium under an integrator that ignores media, or one that scatters)."""
 
 def device_info(device: str = "auto", scene: Scene | None = None) -> dict[str, Any]:
-    """The device ``device`` resolves to: kind ("cpu"/"gpu"), name, backend, is_software, threads,
+    """The device ``device`` resolves to: kind ("cpu"/"gpu"), name, backend, is_software, threads, shadow_rays,
     "reason" (why "auto" took the CPU, else None) and "gpu": the adapter wgpu would use (name, backend,
     device_type, driver, driver_info, is_software) or None. With ``scene``, the device a ``LightMatrix``
     of that scene takes: "auto" falls back to the CPU for a scene the GPU backend does not support,

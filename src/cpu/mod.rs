@@ -12,9 +12,13 @@
 //! whose unshadowed value is 0 (lights behind the surface, outside a spot's cone, a zero BSDF) cast no
 //! ray. A pixel's row is the sum of its samples (its camera hit, then its delta-chain samples in order).
 //!
-//! Traversal is obvhs's compressed 8-wide BVH (`raytrace::bvh`): each ray tests 8 child boxes per node,
-//! the "wide traversal" that pays on a CPU without packets (shadow rays of a column scatter over the
-//! whole scene, so packets would rarely stay coherent).
+//! Shadow rays go in packets of up to 16 (`RayTracer::occluded_packet`): the elements of a group (16
+//! consecutive pixels of a column, or 16 consecutive lights of a pixel's row or weighted sum) are shaded
+//! unshadowed first, then the rays of the lit ones are traced together, through Embree's 16-wide packets
+//! where the build has the `embree` feature and the scene no analytic sphere (`raytrace::embree`: 2-3x the
+//! rays per second of one ray at a time on the benchmark's batches), else one at a time through the
+//! library's 8-wide BVH (`raytrace::bvh`, 8 child boxes per node per ray). In a scene with masked surfaces
+//! every element takes `shade` (transmittance, one ray walk at a time).
 //!
 //! Work layout (timed side by side with the GPU by `python -m manylights.bench backends`; docs/validation/backends.md):
 //! - `weighted_sum(J, w)` (the reconstruction of clustered renderers): lights in blocks, each block
@@ -34,7 +38,7 @@ use crate::lights::{coordinate_system, LightSet};
 use crate::matrix::backend::{Backend, DeviceInfo};
 use crate::matrix::rows::{RowOptions, RowTimings, TimedRows};
 use crate::matrix::VisibilityStats;
-use crate::raytrace::{spawn_ray, RayTracer};
+use crate::raytrace::{spawn_ray, spawn_ray_to, RayTracer, PACKET};
 use crate::view::ViewSamples;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -246,6 +250,47 @@ impl CpuBackend {
         s.value
     }
 
+    /// Elements `(i_k, j_k)` of up to [`PACKET`] pairs into `out[k]`, returning the shadow tests: each
+    /// element's unshadowed value first (`shade_unshadowed`), then the binary shadow rays of the lit ones
+    /// as one packet (`RayTracer::occluded_packet`); in a scene with masked surfaces element by element
+    /// (`shade`: transmittance). The values equal `shade`'s wherever the packet answers as `occluded_ray`.
+    #[inline]
+    fn elements(&self, pairs: &[(usize, usize)], out: &mut [Vec3]) -> u64 {
+        if !self.view.mask_budget.is_empty() {
+            let mut t = 0;
+            for (k, &(i, j)) in pairs.iter().enumerate() {
+                out[k] = self.element_counted(i, j, &mut t);
+            }
+            return t;
+        }
+        let (mut o, mut d, mut t_max) = ([Vec3::ZERO; PACKET], [Vec3::ZERO; PACKET], [0f32; PACKET]);
+        let (mut slot, mut value) = ([0usize; PACKET], [Vec3::ZERO; PACKET]);
+        let mut r = 0;
+        for (k, &(i, j)) in pairs.iter().enumerate() {
+            out[k] = Vec3::ZERO;
+            let sp = &self.points[i];
+            let Some((f, wo, dist)) = shade_unshadowed(&self.view, &self.lights, sp, i, j) else {
+                continue;
+            };
+            // `light_blocked`'s rays.
+            (o[r], d[r], t_max[r]) = if dist.is_finite() {
+                spawn_ray_to(sp.p, sp.n_g, self.lights.position[j])
+            } else {
+                (spawn_ray(sp.p, sp.n_g, wo), wo, f32::INFINITY)
+            };
+            (slot[r], value[r]) = (k, f);
+            r += 1;
+        }
+        let mut blocked = [false; PACKET];
+        self.tracer.occluded_packet(&o[..r], &d[..r], &t_max[..r], &mut blocked[..r]);
+        for q in 0..r {
+            if !blocked[q] {
+                out[slot[q]] = value[q];
+            }
+        }
+        r as u64
+    }
+
     /// Per-sample values `m * 3` folded into pixels (`width * height * 3`).
     fn fold(&self, per_sample: Vec<f32>) -> Vec<f32> {
         if self.view.len() == self.view.num_pixels() {
@@ -258,7 +303,7 @@ impl CpuBackend {
 
 impl Backend for CpuBackend {
     fn info(&self) -> DeviceInfo {
-        DeviceInfo::cpu()
+        DeviceInfo { shadow_rays: if self.tracer.packet_kernel() == "embree" { "embree" } else { "own" }, ..DeviceInfo::cpu() }
     }
 
     fn columns(&self, js: &[usize]) -> Result<Vec<f32>> {
@@ -283,9 +328,17 @@ impl Backend for CpuBackend {
                     .enumerate()
                     .map(|(c, dst)| {
                         let mut t = 0u64;
-                        for (e, px) in dst.chunks_exact_mut(3).enumerate() {
-                            let v = self.element_counted(c * PIXEL_CHUNK + e, j, &mut t);
-                            px.copy_from_slice(&v.to_array());
+                        let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
+                        for (g, group) in dst.chunks_mut(3 * PACKET).enumerate() {
+                            let first = c * PIXEL_CHUNK + g * PACKET;
+                            let n = group.len() / 3;
+                            for (k, pair) in pairs.iter_mut().enumerate().take(n) {
+                                *pair = (first + k, j);
+                            }
+                            t += self.elements(&pairs[..n], &mut v[..n]);
+                            for (px, value) in group.chunks_exact_mut(3).zip(&v) {
+                                px.copy_from_slice(&value.to_array());
+                            }
                         }
                         t
                     })
@@ -321,9 +374,15 @@ impl Backend for CpuBackend {
                             continue;
                         }
                         let mut sum = Vec3::from_array([px[0], px[1], px[2]]);
-                        for (&j, wk) in block.iter().zip(w) {
-                            let v = self.element_counted(i, j, &mut t);
-                            sum += v * Vec3::from_array(*wk);
+                        let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
+                        for (lights, wl) in block.chunks(PACKET).zip(w.chunks(PACKET)) {
+                            for (pair, &j) in pairs.iter_mut().zip(lights) {
+                                *pair = (i, j);
+                            }
+                            t += self.elements(&pairs[..lights.len()], &mut v[..lights.len()]);
+                            for (value, wk) in v.iter().zip(wl) {
+                                sum += *value * Vec3::from_array(*wk);
+                            }
                         }
                         px.copy_from_slice(&sum.to_array());
                     }
@@ -362,12 +421,20 @@ impl Backend for CpuBackend {
                 .map(|(k, c, dst)| {
                     let pixel = is[first + k];
                     let mut t = 0u64;
+                    let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
                     for i in self.view.samples_of_pixel(pixel) {
-                        for (e, px) in dst.chunks_exact_mut(3).enumerate() {
-                            let v = self.element_counted(i, c * LIGHT_CHUNK + e, &mut t);
-                            px[0] += v.x;
-                            px[1] += v.y;
-                            px[2] += v.z;
+                        for (g, group) in dst.chunks_mut(3 * PACKET).enumerate() {
+                            let first = c * LIGHT_CHUNK + g * PACKET;
+                            let n = group.len() / 3;
+                            for (k, pair) in pairs.iter_mut().enumerate().take(n) {
+                                *pair = (i, first + k);
+                            }
+                            t += self.elements(&pairs[..n], &mut v[..n]);
+                            for (px, value) in group.chunks_exact_mut(3).zip(&v) {
+                                px[0] += value.x;
+                                px[1] += value.y;
+                                px[2] += value.z;
+                            }
                         }
                     }
                     t

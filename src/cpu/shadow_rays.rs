@@ -12,7 +12,7 @@
 use super::{shade_unshadowed, ShadingPoint};
 use crate::error::{Error, Result};
 use crate::lights::LightSet;
-use crate::raytrace::{spawn_ray, spawn_ray_to, RayTracer};
+use crate::raytrace::{spawn_ray, spawn_ray_to, RayTracer, PACKET};
 use crate::view::ViewSamples;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -90,8 +90,9 @@ pub fn shadow_rays(view: &ViewSamples, lights: &LightSet, views: &[usize], light
     Ok(out)
 }
 
-/// Whether each ray `(o, d, t_max)` is blocked, traced by `tracer` in parallel (the backend's traversal
-/// and triangle tests alone), with the seconds the tracing took.
+/// Whether each ray `(o, d, t_max)` is blocked, traced by `tracer` in parallel in packets of consecutive
+/// rays (`RayTracer::occluded_packet`: the backend's traversal and triangle tests alone), with the seconds
+/// the tracing took.
 ///
 /// Errors: arrays of different lengths.
 pub fn trace(tracer: &RayTracer, origin: &[Vec3], direction: &[Vec3], t_max: &[f32]) -> Result<(Vec<bool>, f64)> {
@@ -104,8 +105,12 @@ pub fn trace(tracer: &RayTracer, origin: &[Vec3], direction: &[Vec3], t_max: &[f
         )));
     }
     let t = Instant::now();
-    let blocked: Vec<bool> =
-        (0..origin.len()).into_par_iter().with_min_len(256).map(|k| tracer.occluded_ray(origin[k], direction[k], t_max[k])).collect();
+    let mut blocked = vec![false; origin.len()];
+    blocked.par_chunks_mut(PACKET).enumerate().with_min_len(16).for_each(|(c, out)| {
+        let a = c * PACKET;
+        let b = a + out.len();
+        tracer.occluded_packet(&origin[a..b], &direction[a..b], &t_max[a..b], out);
+    });
     Ok((blocked, t.elapsed().as_secs_f64()))
 }
 

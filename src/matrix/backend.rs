@@ -49,22 +49,41 @@ pub struct DeviceInfo {
     pub is_software: bool,
     /// Worker threads of the CPU backend (rayon's pool); 0 for the GPU.
     pub threads: usize,
+    /// How the CPU backend traces its shadow rays: "embree" (16-ray packets through Embree,
+    /// `raytrace::embree`) or "own" (the library's traversal, a ray at a time: a build without the `embree`
+    /// feature, or a scene with analytic spheres); "gpu" on the GPU.
+    pub shadow_rays: &'static str,
 }
 
 impl DeviceInfo {
-    /// The CPU backend on this machine: model name from `/proc/cpuinfo` where it exists.
+    /// The CPU backend on this machine: model name from `/proc/cpuinfo` where it exists; `shadow_rays` as
+    /// built (a scene with analytic spheres still traces its own way: `CpuBackend::info`).
     pub fn cpu() -> DeviceInfo {
         let model = std::fs::read_to_string("/proc/cpuinfo")
             .ok()
             .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|m| m.trim().to_string()))
             .unwrap_or_else(|| std::env::consts::ARCH.to_string());
-        DeviceInfo { kind: "cpu", name: model, backend: "rayon".into(), is_software: false, threads: rayon::current_num_threads() }
+        DeviceInfo {
+            kind: "cpu",
+            name: model,
+            backend: "rayon".into(),
+            is_software: false,
+            threads: rayon::current_num_threads(),
+            shadow_rays: if cfg!(feature = "embree") { "embree" } else { "own" },
+        }
     }
 
     /// The GPU backend on `ctx`'s adapter.
     pub fn gpu(ctx: &GpuContext) -> DeviceInfo {
         let s = &ctx.summary;
-        DeviceInfo { kind: "gpu", name: s.name.clone(), backend: s.backend.clone(), is_software: s.is_software, threads: 0 }
+        DeviceInfo {
+            kind: "gpu",
+            name: s.name.clone(),
+            backend: s.backend.clone(),
+            is_software: s.is_software,
+            threads: 0,
+            shadow_rays: "gpu",
+        }
     }
 }
 

@@ -479,10 +479,11 @@ fn info_dict<'py>(py: Python<'py>, i: &DeviceInfo) -> PyResult<Bound<'py, PyDict
     d.set_item("backend", &i.backend)?;
     d.set_item("is_software", i.is_software)?;
     d.set_item("threads", i.threads)?;
+    d.set_item("shadow_rays", i.shadow_rays)?;
     Ok(d)
 }
 
-/// A `DeviceInfo` as a dict: kind ("cpu" / "gpu"), name, backend, is_software, threads.
+/// A `DeviceInfo` as a dict: kind ("cpu" / "gpu"), name, backend, is_software, threads, shadow_rays.
 pub fn device_dict<'py>(py: Python<'py>, i: &DeviceInfo) -> PyResult<Bound<'py, PyDict>> {
     info_dict(py, i)
 }

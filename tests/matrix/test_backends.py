@@ -38,6 +38,14 @@ def test_backends_report_themselves(pair):
     assert cpu.device["kind"] == "cpu" and cpu.device["backend"] == "rayon" and cpu.visibility == "ray_traced"
     assert gpu.device["kind"] == "gpu" and gpu.device["name"] == ml.device_info("gpu")["name"]
     assert "cpu" in repr(cpu) and "gpu" in repr(gpu)
+    # cbox-lights has an analytic sphere: its shadow rays take the library's own traversal in any build; the
+    # build's own answer ("embree" with the feature) holds for a scene of triangles only.
+    assert cpu.device["shadow_rays"] == "own" and gpu.device["shadow_rays"] == "gpu"
+    built = ml.device_info("cpu")["shadow_rays"]
+    assert built in ("embree", "own")
+    xml, params, _ = SCENE_CONFIGS["cbox"]
+    cbox = ml.load_scene(xml, size=(8, 8), **params)
+    assert ml.LightMatrix(cbox, ml.scene_lights(cbox), device="cpu").device["shadow_rays"] == built
 
 
 def test_columns_rows_and_elements_agree(pair):

@@ -98,7 +98,10 @@ class LightMatrix:
     @property
     def device(self) -> dict:
         """The device computing this matrix: ``kind`` ("cpu" or "gpu"), ``name`` (CPU model or GPU
-        adapter), ``backend`` ("rayon", "vulkan", ...), ``is_software``, ``threads`` (CPU workers)."""
+        adapter), ``backend`` ("rayon", "vulkan", ...), ``is_software``, ``threads`` (CPU workers),
+        ``shadow_rays``: "embree" (the CPU backend's shadow rays in 16-ray packets through Embree 3), "own"
+        (the library's traversal, a ray at a time: a build without Embree, or a scene with analytic
+        spheres) or "gpu"."""
         return dict(self._m.device)
 
     @property
