@@ -26,8 +26,11 @@ venv: $(VENV)/.deps
 setup: system venv
 
 # Shadow-ray packets through the system's Embree 3 (cargo feature `embree`) where its headers are installed
-# (`make system` installs Debian's libembree-dev): read when a recipe runs, after `system`.
-FEATURES = $$(test -e /usr/include/embree3/rtcore.h && echo '--features embree')
+# (`make system` installs Debian's libembree-dev): read when a recipe runs, after `system`. maturin's
+# --features replaces pyproject.toml's list, so it names those too.
+HAS_EMBREE = test -e /usr/include/embree3/rtcore.h
+CARGO_FEATURES = $$($(HAS_EMBREE) && echo '--features embree')
+FEATURES = --features python,pyo3/extension-module$$($(HAS_EMBREE) && echo ',embree')
 
 # One release build serves the extension, cargo test and the benchmarks (wgpu is compiled once).
 build: setup
@@ -39,7 +42,7 @@ demo: build
 
 test-rust: setup
 	cargo fmt --check
-	cargo test --release $(FEATURES)
+	cargo test --release $(CARGO_FEATURES)
 
 # The wheel, built once from the same cargo target (seconds after `build`); tests/layout/test_wheel.py installs it
 # into a fresh venv and runs the quick start there.
