@@ -22,14 +22,15 @@
 //! (`raytrace::tests::packets_answer_as_single_rays`).
 //!
 //! Only triangles: a scene with analytic spheres gets no Embree scene (its packets take the library's own
-//! traversal, one ray at a time). Masked surfaces are ordinary triangles here, as for the library's own
+//! traversal, one ray at a time). The scene is built from the tracer's own triangles on its first packet
+//! (`RayTracer::occluded_packet`), so a tracer used only for closest hits, or beside the GPU backend, never
+//! pays for it (2M triangles: about 3 s and 350 MB). Masked surfaces are ordinary triangles here, as for the library's own
 //! binary query; transmittance through masks never comes here (`mask.rs`).
 //!
 //! | here | meaning |
 //! |---|---|
 //! | `o`, `d`, `t_near`, `t_max` | ray origin, direction (any length), near and far ends in units of `d` |
 //! | `valid` | lanes of the packet that carry a ray |
-use crate::scene::{Scene, ShapeKind};
 use embree::sys::*;
 use glam::Vec3;
 use std::sync::OnceLock;
@@ -59,33 +60,36 @@ unsafe impl Send for EmbreeScene {}
 unsafe impl Sync for EmbreeScene {}
 
 impl EmbreeScene {
-    /// The scene's triangle meshes as one robust Embree scene; None for a scene with analytic spheres,
-    /// where Embree cannot start, or where its build reports an error (the caller then traces its own way).
-    pub fn new(scene: &Scene) -> Option<Self> {
-        if scene.meshes.iter().any(|m| matches!(m.kind, ShapeKind::Sphere { .. })) {
-            return None;
-        }
+    /// `triangles` (world-space vertices) as one robust Embree scene; None where Embree cannot start or its
+    /// build reports an error (the caller then traces its own way).
+    pub fn new(triangles: &[[Vec3; 3]]) -> Option<Self> {
         let device = device()?;
+        // SAFETY: every pointer comes from Embree and is checked before use; the buffers are written within
+        // the sizes asked for; the geometry is released once attached (the scene keeps its reference).
         unsafe {
             let rscene = rtcNewScene(device);
             rtcSetSceneFlags(rscene, RTCSceneFlags::ROBUST);
             rtcSetSceneBuildQuality(rscene, RTCBuildQuality::HIGH);
-            for m in scene.meshes.iter().filter(|m| !m.indices.is_empty()) {
+            if !triangles.is_empty() {
                 let g = rtcNewGeometry(device, RTCGeometryType::TRIANGLE);
-                let v = rtcSetNewGeometryBuffer(g, RTCBufferType::VERTEX, 0, RTCFormat::FLOAT3, 12, m.positions.len()) as *mut f32;
-                let ix = rtcSetNewGeometryBuffer(g, RTCBufferType::INDEX, 0, RTCFormat::UINT3, 12, m.indices.len()) as *mut u32;
-                if v.is_null() || ix.is_null() {
+                let n = triangles.len();
+                let v = rtcSetNewGeometryBuffer(g, RTCBufferType::VERTEX, 0, RTCFormat::FLOAT3, 12, 3 * n) as *mut f32;
+                let ix = rtcSetNewGeometryBuffer(g, RTCBufferType::INDEX, 0, RTCFormat::UINT3, 12, n) as *mut u32;
+                if v.is_null() || ix.is_null() || 3 * n > u32::MAX as usize {
                     rtcReleaseGeometry(g);
                     rtcReleaseScene(rscene);
                     return None;
                 }
-                let vs = std::slice::from_raw_parts_mut(v, 3 * m.positions.len());
-                for (dst, p) in vs.chunks_exact_mut(3).zip(&m.positions) {
-                    dst.copy_from_slice(&p.to_array());
+                let vs = std::slice::from_raw_parts_mut(v, 9 * n);
+                for (dst, t) in vs.chunks_exact_mut(9).zip(triangles) {
+                    for (k, p) in t.iter().enumerate() {
+                        dst[3 * k..3 * k + 3].copy_from_slice(&p.to_array());
+                    }
                 }
-                let is = std::slice::from_raw_parts_mut(ix, 3 * m.indices.len());
-                for (dst, t) in is.chunks_exact_mut(3).zip(&m.indices) {
-                    dst.copy_from_slice(t);
+                let is = std::slice::from_raw_parts_mut(ix, 3 * n);
+                for (k, dst) in is.chunks_exact_mut(3).enumerate() {
+                    let first = 3 * k as u32;
+                    dst.copy_from_slice(&[first, first + 1, first + 2]);
                 }
                 rtcCommitGeometry(g);
                 rtcAttachGeometry(rscene, g);

@@ -90,10 +90,10 @@ pub struct RayTracer {
     meshes: Vec<MeshShading>,
     /// The scene's masked surfaces (`mask` module).
     masks: mask::Masks,
-    /// The same triangles in Embree, for packets of shadow rays (`occluded_packet`); None for scenes with
-    /// analytic spheres or where Embree could not build.
+    /// The same triangles in Embree, for packets of shadow rays (`occluded_packet`), built on the first
+    /// packet; None for scenes with analytic spheres or where Embree could not build.
     #[cfg(feature = "embree")]
-    embree: Option<embree::EmbreeScene>,
+    embree: std::sync::OnceLock<Option<embree::EmbreeScene>>,
 }
 
 /// Rays per [`RayTracer::occluded_packet`] call.
@@ -171,7 +171,7 @@ impl RayTracer {
             meshes,
             masks: mask::Masks::new(scene),
             #[cfg(feature = "embree")]
-            embree: embree::EmbreeScene::new(scene),
+            embree: std::sync::OnceLock::new(),
         })
     }
 
@@ -200,7 +200,7 @@ impl RayTracer {
     /// graze a triangle's edge or vertex within rounding (module `embree`: the measured agreement).
     pub fn occluded_packet(&self, o: &[Vec3], d: &[Vec3], t_max: &[f32], out: &mut [bool]) {
         #[cfg(feature = "embree")]
-        if let Some(e) = &self.embree {
+        if let Some(e) = self.embree_scene() {
             let (mut valid, mut t_near) = ([false; PACKET], [0f32; PACKET]);
             for k in 0..o.len() {
                 valid[k] = ray_is_valid(o[k], d[k]);
@@ -217,10 +217,28 @@ impl RayTracer {
     /// How `occluded_packet` traces: "embree" (an Embree scene) or "scalar" (ray by ray).
     pub fn packet_kernel(&self) -> &'static str {
         #[cfg(feature = "embree")]
-        if self.embree.is_some() {
+        if self.embree_scene().is_some() {
             return "embree";
         }
         "scalar"
+    }
+
+    /// The tracer's triangles in Embree, built on first use; None with analytic spheres or where Embree
+    /// could not build.
+    #[cfg(feature = "embree")]
+    fn embree_scene(&self) -> Option<&embree::EmbreeScene> {
+        self.embree
+            .get_or_init(|| {
+                let mut triangles = Vec::with_capacity(self.bvh.primitives.len());
+                for p in &self.bvh.primitives {
+                    match p.geometry {
+                        Geometry::Triangle(v) => triangles.push(v),
+                        Geometry::Sphere { .. } => return None,
+                    }
+                }
+                embree::EmbreeScene::new(&triangles)
+            })
+            .as_ref()
     }
 
     /// [`RayTracer::occluded_ray`] through the reference traversal (obvhs's own, per ray).
