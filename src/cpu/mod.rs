@@ -115,6 +115,10 @@ pub fn shade_unshadowed(view: &ViewSamples, lights: &LightSet, sp: &ShadingPoint
     let wo_local = sp.local(wo);
     let receiver = |w: Vec3| crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, sp.local(w));
     let mut f = lights.shade_receiver(j, sp.p, wo, radiance, receiver) * sp.throughput;
+    if f == Vec3::ZERO {
+        // The receiver reflects nothing toward wo (wo below its surface): no MIS weight, no ray.
+        return None;
+    }
     if !view.bsdf_samples.is_empty() {
         f *= crate::matrix::glossy::light_weight(view, lights, i, sp.p, sp.wi_local, wo_local, j);
     }
