@@ -295,6 +295,26 @@ impl CpuBackend {
         r as u64
     }
 
+    /// Adds elements `pair(first + k)`, k < `dst.len() / 3`, into `dst` (RGB each), [`PACKET`] at a time
+    /// (`elements`): a column's pixels (`|i| (i, j)`) or a row's lights (`|l| (i, l)`). Returns the shadow tests.
+    fn add_elements(&self, dst: &mut [f32], first: usize, pair: impl Fn(usize) -> (usize, usize)) -> u64 {
+        let mut t = 0;
+        let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
+        for (g, group) in dst.chunks_mut(3 * PACKET).enumerate() {
+            let n = group.len() / 3;
+            for (k, p) in pairs.iter_mut().enumerate().take(n) {
+                *p = pair(first + g * PACKET + k);
+            }
+            t += self.elements(&pairs[..n], &mut v[..n]);
+            for (px, value) in group.chunks_exact_mut(3).zip(&v) {
+                px[0] += value.x;
+                px[1] += value.y;
+                px[2] += value.z;
+            }
+        }
+        t
+    }
+
     /// Per-sample values `m * 3` folded into pixels (`width * height * 3`).
     fn fold(&self, per_sample: Vec<f32>) -> Vec<f32> {
         if self.view.len() == self.view.num_pixels() {
@@ -330,22 +350,7 @@ impl Backend for CpuBackend {
                 total += col
                     .par_chunks_mut(PIXEL_CHUNK * 3)
                     .enumerate()
-                    .map(|(c, dst)| {
-                        let mut t = 0u64;
-                        let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
-                        for (g, group) in dst.chunks_mut(3 * PACKET).enumerate() {
-                            let first = c * PIXEL_CHUNK + g * PACKET;
-                            let n = group.len() / 3;
-                            for (k, pair) in pairs.iter_mut().enumerate().take(n) {
-                                *pair = (first + k, j);
-                            }
-                            t += self.elements(&pairs[..n], &mut v[..n]);
-                            for (px, value) in group.chunks_exact_mut(3).zip(&v) {
-                                px.copy_from_slice(&value.to_array());
-                            }
-                        }
-                        t
-                    })
+                    .map(|(c, dst)| self.add_elements(dst, c * PIXEL_CHUNK, |i| (i, j)))
                     .sum::<u64>();
             }
             self.shadow_tests.fetch_add(total, Ordering::Relaxed);
@@ -425,21 +430,8 @@ impl Backend for CpuBackend {
                 .map(|(k, c, dst)| {
                     let pixel = is[first + k];
                     let mut t = 0u64;
-                    let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
                     for i in self.view.samples_of_pixel(pixel) {
-                        for (g, group) in dst.chunks_mut(3 * PACKET).enumerate() {
-                            let first = c * LIGHT_CHUNK + g * PACKET;
-                            let n = group.len() / 3;
-                            for (k, pair) in pairs.iter_mut().enumerate().take(n) {
-                                *pair = (i, first + k);
-                            }
-                            t += self.elements(&pairs[..n], &mut v[..n]);
-                            for (px, value) in group.chunks_exact_mut(3).zip(&v) {
-                                px[0] += value.x;
-                                px[1] += value.y;
-                                px[2] += value.z;
-                            }
-                        }
+                        t += self.add_elements(dst, c * LIGHT_CHUNK, |l| (i, l));
                     }
                     t
                 })
