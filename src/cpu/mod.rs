@@ -327,7 +327,7 @@ impl CpuBackend {
 
 impl Backend for CpuBackend {
     fn info(&self) -> DeviceInfo {
-        DeviceInfo { shadow_rays: if self.tracer.packet_kernel() == "embree" { "embree" } else { "own" }, ..DeviceInfo::cpu() }
+        DeviceInfo { shadow_rays: self.tracer.packet_kernel(), ..DeviceInfo::cpu() }
     }
 
     fn columns(&self, js: &[usize]) -> Result<Vec<f32>> {

@@ -194,19 +194,24 @@ impl RayTracer {
         ray_is_valid(o, d) && self.bvh.any(o, d, 0.0, t_max)
     }
 
-    /// [`RayTracer::occluded_ray`] for up to [`PACKET`] rays at once: `out[k]` is ray k's answer. Through
-    /// Embree's 16-wide packet traversal where the tracer has an Embree scene (`embree` feature, a scene
-    /// without analytic spheres), otherwise one ray at a time. The two answer alike except on rays that
-    /// graze a triangle's edge or vertex within rounding (module `embree`: the measured agreement).
+    /// [`RayTracer::occluded_ray`] for many rays, [`PACKET`] at a time: `out[k]` is ray k's answer (all four
+    /// slices of one length). Through Embree's 16-wide packet traversal where the tracer has an Embree scene
+    /// (`embree` feature, a scene without analytic spheres), otherwise one ray at a time. The two answer
+    /// alike except on rays that end within rounding of a surface or pass exactly through an edge or a
+    /// vertex (module `embree`: the measured agreement).
     pub fn occluded_packet(&self, o: &[Vec3], d: &[Vec3], t_max: &[f32], out: &mut [bool]) {
         #[cfg(feature = "embree")]
         if let Some(e) = self.embree_scene() {
-            let (mut valid, mut t_near) = ([false; PACKET], [0f32; PACKET]);
-            for k in 0..o.len() {
-                valid[k] = ray_is_valid(o[k], d[k]);
-                t_near[k] = bvh::t_floor(o[k], d[k], 0.0);
+            for (c, out) in out.chunks_mut(PACKET).enumerate() {
+                let r = c * PACKET..c * PACKET + out.len();
+                let (o, d) = (&o[r.clone()], &d[r.clone()]);
+                let (mut valid, mut t_near) = ([false; PACKET], [0f32; PACKET]);
+                for k in 0..out.len() {
+                    valid[k] = ray_is_valid(o[k], d[k]);
+                    t_near[k] = bvh::t_floor(o[k], d[k], 0.0);
+                }
+                e.occluded16(o, d, &t_near, &t_max[r], &valid, out);
             }
-            e.occluded16(o, d, &t_near, t_max, &valid, out);
             return;
         }
         for k in 0..o.len() {
@@ -214,13 +219,13 @@ impl RayTracer {
         }
     }
 
-    /// How `occluded_packet` traces: "embree" (an Embree scene) or "scalar" (ray by ray).
+    /// How `occluded_packet` traces: "embree" (an Embree scene) or "own" (the library's traversal, ray by ray).
     pub fn packet_kernel(&self) -> &'static str {
         #[cfg(feature = "embree")]
         if self.embree_scene().is_some() {
             return "embree";
         }
-        "scalar"
+        "own"
     }
 
     /// The tracer's triangles in Embree, built on first use; None with analytic spheres or where Embree
@@ -229,7 +234,9 @@ impl RayTracer {
     fn embree_scene(&self) -> Option<&embree::EmbreeScene> {
         self.embree
             .get_or_init(|| {
-                let mut triangles = Vec::with_capacity(self.bvh.primitives.len());
+                // Where memory is short the packets trace their own way (no abort).
+                let mut triangles = Vec::new();
+                triangles.try_reserve_exact(self.bvh.primitives.len()).ok()?;
                 for p in &self.bvh.primitives {
                     match p.geometry {
                         Geometry::Triangle(v) => triangles.push(v),
