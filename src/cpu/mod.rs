@@ -116,7 +116,8 @@ pub fn shade_unshadowed(view: &ViewSamples, lights: &LightSet, sp: &ShadingPoint
     let receiver = |w: Vec3| crate::shading::bsdf::eval_records(&view.bsdf, i, sp.wi_local, sp.local(w));
     let mut f = lights.shade_receiver(j, sp.p, wo, radiance, receiver) * sp.throughput;
     if f == Vec3::ZERO {
-        // The receiver reflects nothing toward wo (wo below its surface): no MIS weight, no ray.
+        // Nothing reaches the receiver's eye from wo (its BSDF is 0 there, or the radiance or the
+        // throughput is): no MIS weight, no ray.
         return None;
     }
     if !view.bsdf_samples.is_empty() {

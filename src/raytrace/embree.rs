@@ -6,15 +6,15 @@
 //! Why: a packet of 16 rays traverses the BVH together, each box and triangle test vectorised across the
 //! rays. The library's own traversal (`occlusion.rs`) vectorises across the 8 children of a node for one
 //! ray at a time, and runs as fast as Embree's own single-ray query (`rtcOccluded1`); Embree's 16-wide
-//! packets (`rtcOccluded16`) ran 1.7-3.4x faster on the same rays (`python -m manylights.bench backends
+//! packets (`rtcOccluded16`) ran 1.6-3.0x faster on the same rays (`python -m manylights.bench backends
 //! --peer mitsuba`, docs/validation/backends.md). Columns (one light, consecutive pixels) and rows (one
 //! view sample, consecutive lights) are the coherent ray sets packets need.
 //!
 //! Exactness: the scene is built `RTC_SCENE_FLAG_ROBUST` (watertight triangle tests, conservative box
 //! tests), the rays are the library's own (Mitsuba's offsets, `t_max` shortened by `SHADOW_EPSILON`)
 //! with the library's floor on t (`bvh::t_floor`, as `tnear`: a shading point exactly on an edge, whose
-//! offset origin lies in the plane of the other face, is not blocked by that face at t = 0). Embree's triangle test is not the library's (Woop et al.'s watertight test,
-//! `intersect.rs`): the two may differ on rays that end within rounding of a surface or pass exactly
+//! offset origin lies in the plane of the other face, is not blocked by that face at t = 0). Embree's
+//! triangle test is not the library's (Woop et al.'s watertight test, `intersect.rs`): the two may differ on rays that end within rounding of a surface or pass exactly
 //! through an edge or a vertex. Measured on the light matrix's column and row batches of cbox, veach-ajar
 //! and the bunny (`bench backends --peer mitsuba`, 11.2M rays) and on the tracer's 46,000 random and
 //! surface-to-surface test rays no ray differs; rays aimed exactly at an edge or a vertex, or ending within
@@ -24,8 +24,8 @@
 //! Only triangles: a scene with analytic spheres gets no Embree scene (its packets take the library's own
 //! traversal, one ray at a time). The scene is built from the tracer's own triangles on its first packet
 //! (`RayTracer::occluded_packet`), so a tracer used only for closest hits, or beside the GPU backend, never
-//! pays for it (2M triangles: about 3 s and 350 MB). Masked surfaces are ordinary triangles here, as for the library's own
-//! binary query; transmittance through masks never comes here (`mask.rs`).
+//! pays for it (2M triangles: about 1 s and 0.22 GB). Masked surfaces are ordinary triangles here, as for
+//! the library's own binary query; transmittance through masks never comes here (`mask.rs`).
 //!
 //! | here | meaning |
 //! |---|---|
@@ -50,7 +50,7 @@ fn device() -> Option<RTCDevice> {
     (!d.is_null()).then_some(d)
 }
 
-/// One committed Embree scene of every triangle of a [`Scene`], queried from any number of threads.
+/// One committed Embree scene of a set of triangles, queried from any number of threads.
 pub struct EmbreeScene {
     scene: RTCScene,
 }
