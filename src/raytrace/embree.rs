@@ -19,7 +19,7 @@
 //! and the bunny (`bench backends --peer mitsuba`, 11.2M rays) and on the tracer's 46,000 random and
 //! surface-to-surface test rays no ray differs; rays aimed exactly at an edge or a vertex, or ending within
 //! 1e-6 of a hit, may (4.5% of those test rays), and none leaves a closed cube through its edges
-//! (`raytrace::tests::packets_answer_as_single_rays`).
+//! (`raytrace::tests::packets::packets_answer_as_single_rays`).
 //!
 //! Only triangles: a scene with analytic spheres gets no Embree scene (its packets take the library's own
 //! traversal, one ray at a time). The scene is built from the tracer's own triangles on its first packet
