@@ -159,10 +159,18 @@ pub fn shade(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, sp: &Sha
 /// toward a light at a finite distance, an unbounded one toward a directional light (module docs).
 #[inline]
 pub fn light_blocked(tracer: &RayTracer, lights: &LightSet, j: usize, p: Vec3, n_g: Vec3, wo: Vec3, dist: f32) -> bool {
+    let (o, d, t_max) = light_ray(lights, j, p, n_g, wo, dist);
+    tracer.occluded_ray(o, d, t_max)
+}
+
+/// The shadow ray `(o, d, t_max)` that [`light_blocked`] traces (module docs): `spawn_ray_to` the light's
+/// position at a finite distance, `(spawn_ray(p, n_g, wo), wo, inf)` toward a directional light.
+#[inline]
+pub fn light_ray(lights: &LightSet, j: usize, p: Vec3, n_g: Vec3, wo: Vec3, dist: f32) -> (Vec3, Vec3, f32) {
     if dist.is_finite() {
-        tracer.occluded(p, n_g, lights.position[j])
+        spawn_ray_to(p, n_g, lights.position[j])
     } else {
-        tracer.occluded_ray(spawn_ray(p, n_g, wo), wo, f32::INFINITY)
+        (spawn_ray(p, n_g, wo), wo, f32::INFINITY)
     }
 }
 
@@ -277,12 +285,7 @@ impl CpuBackend {
             let Some((f, wo, dist)) = shade_unshadowed(&self.view, &self.lights, sp, i, j) else {
                 continue;
             };
-            // `light_blocked`'s rays.
-            (o[r], d[r], t_max[r]) = if dist.is_finite() {
-                spawn_ray_to(sp.p, sp.n_g, self.lights.position[j])
-            } else {
-                (spawn_ray(sp.p, sp.n_g, wo), wo, f32::INFINITY)
-            };
+            (o[r], d[r], t_max[r]) = light_ray(&self.lights, j, sp.p, sp.n_g, wo, dist);
             (slot[r], value[r]) = (k, f);
             r += 1;
         }

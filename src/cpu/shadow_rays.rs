@@ -3,7 +3,7 @@
 //! `Scene::ray_test` so that both tracers answer the same visibility queries, and times side by side.
 //!
 //! For element (i, j) with a non-zero unshadowed value (`shade_unshadowed`), the ray is the one
-//! `light_blocked` traces: toward a light at a finite distance `spawn_ray_to(p, n_g, q)` (origin offset
+//! `light_blocked` traces (`light_ray`): toward a light at a finite distance `spawn_ray_to(p, n_g, q)` (origin offset
 //! along n_g, unit direction, `t_max = |q - o| (1 - SHADOW_EPSILON)`), toward a directional light
 //! `(spawn_ray(p, n_g, wo), wo, inf)`. Elements whose unshadowed value is 0 cast no ray and are left out.
 //!
@@ -12,7 +12,7 @@
 use super::{shade_unshadowed, ShadingPoint};
 use crate::error::{Error, Result};
 use crate::lights::LightSet;
-use crate::raytrace::{spawn_ray, spawn_ray_to, RayTracer, PACKET};
+use crate::raytrace::{RayTracer, PACKET};
 use crate::view::ViewSamples;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -43,7 +43,7 @@ pub struct ShadowRays {
 fn ray(view: &ViewSamples, lights: &LightSet, i: usize, j: usize) -> Option<(Vec3, Vec3, f32)> {
     let sp = ShadingPoint::new(view, i);
     let (_, wo, dist) = shade_unshadowed(view, lights, &sp, i, j)?;
-    Some(if dist.is_finite() { spawn_ray_to(sp.p, sp.n_g, lights.position[j]) } else { (spawn_ray(sp.p, sp.n_g, wo), wo, f32::INFINITY) })
+    Some(super::light_ray(lights, j, sp.p, sp.n_g, wo, dist))
 }
 
 /// The shadow rays of every element of `views` x `lights_idx`, in `order` (module docs).

@@ -31,12 +31,13 @@
 //! |---|---|
 //! | `o`, `d`, `t_near`, `t_max` | ray origin, direction (any length), near and far ends in units of `d` |
 //! | `valid` | lanes of the packet that carry a ray |
+use super::PACKET;
 use embree::sys::*;
 use glam::Vec3;
 use std::sync::OnceLock;
 
-/// Rays per packet.
-pub const WIDTH: usize = 16;
+// `rtcOccluded16` takes exactly 16 lanes.
+const _: () = assert!(PACKET == 16);
 
 /// The process's Embree device (its thread pool builds the scenes); null where Embree cannot start.
 struct Device(RTCDevice);
@@ -104,12 +105,12 @@ impl EmbreeScene {
         }
     }
 
-    /// Up to [`WIDTH`] rays `o + t d`, `t_near < t < t_max`, in one packet (`rtcOccluded16`): `out[k]` is
+    /// Up to [`PACKET`] rays `o + t d`, `t_near < t < t_max`, in one packet (`rtcOccluded16`): `out[k]` is
     /// whether ray k hits a triangle; lanes with `valid[k]` false answer false.
     pub fn occluded16(&self, o: &[Vec3], d: &[Vec3], t_near: &[f32], t_max: &[f32], valid: &[bool], out: &mut [bool]) {
-        let n = o.len().min(WIDTH);
+        let n = o.len().min(PACKET);
         let mut ctx = RTCIntersectContext { flags: RTCIntersectContextFlags::INCOHERENT, filter: None, instID: [u32::MAX] };
-        let mut lanes = [0i32; WIDTH];
+        let mut lanes = [0i32; PACKET];
         // SAFETY: RTCRay16 is plain old data (floats and integers); all zero is a valid value.
         let mut ray: RTCRay16 = unsafe { std::mem::zeroed() };
         for k in 0..n {
