@@ -3,6 +3,7 @@
 use crate::gpu::GpuContext;
 use crate::matrix::backend::{Chosen, Device};
 use crate::matrix::{ColumnOptions, LightMatrix};
+use glam::Vec3;
 
 /// Relative tolerance of "equal" between the backends.
 const REL: f32 = 1e-5;
@@ -110,4 +111,70 @@ fn choosing_devices() {
     .expect("hybrid visibility on the CPU must be refused")
     .to_string();
     assert!(e.contains("only the GPU backend") && e.contains("ray_traced"), "{e}");
+}
+
+/// `shade_unshadowed` skips a light whose direction its receiver's BSDF reflects nothing from before
+/// evaluating the light (`ShadingPoint::may_reflect`): wherever it does, the full evaluation gives exactly
+/// 0, on scenes with one-sided and `twosided` diffuse, plastic, rough plastic and rough conductor
+/// receivers and lights of every kind (area points with patches, VPLs, the environment's directions).
+#[test]
+fn receivers_skip_only_lights_they_reflect_nothing_from() {
+    use crate::lights::{generate_lights, GenerateOptions};
+    use crate::shading::bsdf::eval_records;
+    let mut skipped_total = 0;
+    for name in ["cbox-lights", "veach-ajar", "living-room"] {
+        let (scene, view, _) = crate::testing::scene_view_tracer(&crate::testing::scene_file(&format!("{name}/scene.xml")), 24);
+        let gen = GenerateOptions { area: 200, environment: 50, indirect: 400, seed: 3, ..Default::default() };
+        let lights = generate_lights(&scene, &gen).unwrap();
+        let (mut skipped, mut back) = (0usize, 0usize);
+        for i in 0..view.len() {
+            let sp = super::ShadingPoint::new(&view, i);
+            if !sp.surface {
+                continue;
+            }
+            back += (sp.side == -1.0) as usize;
+            for j in 0..lights.len() {
+                let Some((wo, _, _)) = lights.toward(j, sp.p) else { continue };
+                if sp.may_reflect(wo) || lights.vsl_radius[j] > 0.0 {
+                    continue;
+                }
+                skipped += 1;
+                assert!(super::shade_unshadowed(&view, &lights, &sp, i, j).is_none());
+                if let Some((wo, radiance, _)) = lights.emitted(j, sp.p, sp.n) {
+                    let receiver = |w: Vec3| eval_records(&view.bsdf, i, sp.wi_local, sp.local(w));
+                    let f = lights.shade_receiver(j, sp.p, wo, radiance, receiver);
+                    assert_eq!(f, Vec3::ZERO, "{name}: sample {i} (side {}), light {j}: skipped but {f}", sp.side);
+                }
+            }
+        }
+        println!("{name}: {skipped} elements skipped, {back} samples reflecting from below");
+        skipped_total += skipped;
+        assert!(skipped > 0, "{name}: no element skipped");
+    }
+    assert!(skipped_total > 10_000);
+}
+
+/// `bsdf::reflecting_side` of blends: the side both BSDFs share, the other one's where one reflects
+/// nothing, none where they differ or one may transmit.
+#[test]
+fn reflecting_side_of_blends() {
+    use crate::shading::bsdf::{reflecting_side, FLAG_BLEND, FLAG_TWOSIDED, KIND_DIFFUSE, KIND_ROUGHDIELECTRIC};
+    use crate::shading::GpuBsdf;
+    let rec = |kind: u32, flags: u32| GpuBsdf { kind, flags, ..bytemuck::Zeroable::zeroed() };
+    let blend = |a: GpuBsdf, b: GpuBsdf| {
+        let mut a = a;
+        a.flags |= FLAG_BLEND;
+        a.extra[3] = f32::from_bits(1);
+        vec![a, b]
+    };
+    let (up, down) = (Vec3::new(0.0, 0.6, 0.8), Vec3::new(0.0, 0.6, -0.8));
+    let d1 = rec(KIND_DIFFUSE, 0);
+    let d2 = rec(KIND_DIFFUSE, FLAG_TWOSIDED);
+    assert_eq!(reflecting_side(&[d1], 0, up), Some(1.0));
+    assert_eq!(reflecting_side(&[d1], 0, down), Some(0.0));
+    assert_eq!(reflecting_side(&[d2], 0, down), Some(-1.0));
+    assert_eq!(reflecting_side(&blend(d2, d2), 0, down), Some(-1.0));
+    assert_eq!(reflecting_side(&blend(d1, d2), 0, down), Some(-1.0));
+    assert_eq!(reflecting_side(&blend(d1, d1), 0, down), Some(0.0));
+    assert_eq!(reflecting_side(&blend(d2, rec(KIND_ROUGHDIELECTRIC, 0)), 0, up), None);
 }

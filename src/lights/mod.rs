@@ -436,19 +436,47 @@ impl LightSet {
     /// What light j sends to point p whose shading normal is `n` (used only by the VPL clamp):
     /// (wo, unit direction from p toward the light; radiance factor F (module docs); distance to the
     /// light, infinite for directional). `None` when it sends nothing (outside a spot cone, behind an
-    /// oriented point or VPL, or p at the light's position).
+    /// oriented point or VPL, or p at the light's position). `toward` then `emitted_toward`.
+    #[inline]
     pub fn emitted(&self, j: usize, p: Vec3, n: Vec3) -> Option<(Vec3, Vec3, f32)> {
+        self.emitted_toward(j, p, n, self.toward(j, p)?)
+    }
+
+    /// The direction `emitted` returns, before any of the light's emission is evaluated: (wo, unit
+    /// direction from p toward the light's point; squared distance; distance), both infinite for a
+    /// directional light. The point is the light's position, or for a light with a patch the point of
+    /// its emitter's surface beneath it (`patch::surface_point`). `None` where p is at that point. A
+    /// receiver can be tested against wo first (`cpu::shade_unshadowed`): its BSDF is evaluated at wo
+    /// alone except for a virtual spherical light (`shade_receiver`).
+    #[inline]
+    pub fn toward(&self, j: usize, p: Vec3) -> Option<(Vec3, f32, f32)> {
         let kind = self.kind[j];
         if kind == LightKind::Directional {
-            return Some((-self.direction[j], self.intensity[j], f32::INFINITY));
+            return Some((-self.direction[j], f32::INFINITY, f32::INFINITY));
         }
-        let d = self.position[j] - p;
+        let c = &self.patch[j];
+        let target = if kind == LightKind::OrientedPoint && !patch::is_none(c) {
+            patch::surface_point(c, self.position[j], self.normal[j])
+        } else {
+            self.position[j]
+        };
+        let d = target - p;
         let dist2 = d.length_squared();
         if !(dist2 > 0.0) {
             return None;
         }
         let dist = dist2.sqrt();
-        let wo = d / dist;
+        Some((d / dist, dist2, dist))
+    }
+
+    /// `emitted` from `toward(j, p)`'s answer.
+    #[inline]
+    pub fn emitted_toward(&self, j: usize, p: Vec3, n: Vec3, toward: (Vec3, f32, f32)) -> Option<(Vec3, Vec3, f32)> {
+        let kind = self.kind[j];
+        let (wo, dist2, dist) = toward;
+        if kind == LightKind::Directional {
+            return Some((wo, self.intensity[j], f32::INFINITY));
+        }
         let inv_d2 = 1.0 / dist2;
         let radiance = match kind {
             LightKind::Point | LightKind::Directional => self.intensity[j] * inv_d2,
@@ -465,7 +493,7 @@ impl LightSet {
             LightKind::OrientedPoint => {
                 let c = &self.patch[j];
                 if !patch::is_none(c) {
-                    return patch::surface_emitted(c, self.position[j], self.normal[j], self.intensity[j], p, n);
+                    return patch::surface_emitted_toward(c, self.normal[j], self.intensity[j], p, n, wo, dist2, dist);
                 }
                 let cos = -wo.dot(self.normal[j]);
                 if !(cos > 0.0) {

@@ -142,14 +142,35 @@ pub fn clipped_projected_solid_angle(c: &[Vec3; 4], p: Vec3, n: Vec3) -> (f32, f
 /// instead of h / d (o the offset): 11% dark at h = 0.8 mm, and 0 for h < o (a floor meeting a wall emitter).
 /// Twin of the oriented-point branch of `light_emitted` in light.wgsl.
 pub fn surface_emitted(c: &[Vec3; 4], position: Vec3, normal: Vec3, intensity: Vec3, p: Vec3, n: Vec3) -> Option<(Vec3, Vec3, f32)> {
-    let surface = position - normal * (position - c[0]).dot(normal);
-    let d = surface - p;
+    let d = surface_point(c, position, normal) - p;
     let dist2 = d.length_squared();
     if !(dist2 > 0.0) {
         return None;
     }
     let dist = dist2.sqrt();
-    let wo = d / dist;
+    surface_emitted_toward(c, normal, intensity, p, n, d / dist, dist2, dist)
+}
+
+/// The light at `position` moved onto its patch's plane along its `normal` (`surface_emitted`).
+#[inline]
+pub fn surface_point(c: &[Vec3; 4], position: Vec3, normal: Vec3) -> Vec3 {
+    position - normal * (position - c[0]).dot(normal)
+}
+
+/// `surface_emitted` given the unit direction `wo` from p toward `surface_point`, its squared distance and
+/// distance (`LightSet::toward`).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn surface_emitted_toward(
+    c: &[Vec3; 4],
+    normal: Vec3,
+    intensity: Vec3,
+    p: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    dist2: f32,
+    dist: f32,
+) -> Option<(Vec3, Vec3, f32)> {
     let cos = -wo.dot(normal);
     if !(cos > 0.0) {
         return None;

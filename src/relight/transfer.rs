@@ -410,6 +410,7 @@ impl Transfer {
                         wi_local: Vec3::Z,
                         throughput: Vec3::ONE,
                         surface: nn != Vec3::ZERO && cloud.k_d[h].max_element() > 0.0,
+                        side: f32::NAN,
                     };
                     Receiver { sp, twosided: false, masks: budget, lobe: None }
                 },
