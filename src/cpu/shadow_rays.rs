@@ -39,17 +39,34 @@ pub struct ShadowRays {
     pub seconds: f64,
 }
 
-/// The shadow ray of element (i, j), None where it casts none (module docs).
-fn ray(view: &ViewSamples, lights: &LightSet, i: usize, j: usize) -> Option<(Vec3, Vec3, f32)> {
+/// The shadow ray of element (i, j), None where it casts none (module docs), or with `every` where its view
+/// sample has no surface (a background sample) or lies at the light's point.
+fn ray(view: &ViewSamples, lights: &LightSet, i: usize, j: usize, every: bool) -> Option<(Vec3, Vec3, f32)> {
     let sp = ShadingPoint::new(view, i);
-    let (_, wo, dist) = shade_unshadowed(view, lights, &sp, i, j)?;
+    let (wo, dist) = if every {
+        let (wo, _, dist) = lights.toward(j, sp.p).filter(|_| sp.surface)?;
+        (wo, dist)
+    } else {
+        let (_, wo, dist) = shade_unshadowed(view, lights, &sp, i, j)?;
+        (wo, dist)
+    };
     Some(super::light_ray(lights, j, sp.p, sp.n_g, wo, dist))
 }
 
-/// The shadow rays of every element of `views` x `lights_idx`, in `order` (module docs).
+/// The shadow rays of the elements of `views` x `lights_idx`, in `order`: those `shade` casts (module docs),
+/// or with `every` one for every element of a surface view sample, lit or not, toward the same point of
+/// the light (the rays a renderer that shaded nothing first would trace; those `shade` casts among them,
+/// unchanged).
 ///
 /// Errors: an index out of range (view sample or light), more than 2^31 elements.
-pub fn shadow_rays(view: &ViewSamples, lights: &LightSet, views: &[usize], lights_idx: &[usize], order: Order) -> Result<ShadowRays> {
+pub fn shadow_rays(
+    view: &ViewSamples,
+    lights: &LightSet,
+    views: &[usize],
+    lights_idx: &[usize],
+    order: Order,
+    every: bool,
+) -> Result<ShadowRays> {
     let (m, n) = (view.len(), lights.len());
     if let Some(&i) = views.iter().find(|&&i| i >= m) {
         return Err(Error::invalid(format!("view sample index {i} out of range (m = {m})")));
@@ -73,7 +90,7 @@ pub fn shadow_rays(view: &ViewSamples, lights: &LightSet, views: &[usize], light
                 .iter()
                 .filter_map(|&b| {
                     let (i, j) = if order == Order::Columns { (b, a) } else { (a, b) };
-                    ray(view, lights, i, j).map(|(o, d, tm)| (i as u32, j as u32, o, d, tm))
+                    ray(view, lights, i, j, every).map(|(o, d, tm)| (i as u32, j as u32, o, d, tm))
                 })
                 .collect()
         })

@@ -274,17 +274,19 @@ impl LightMatrix {
     }
     /// The exact shadow rays of the elements `view_indices` x `light_indices` (`crate::cpu::shadow_rays`),
     /// light by light (`order="columns"`) or view sample by view sample (`"rows"`); elements whose
-    /// unshadowed value is 0 cast none and are left out. Dict: origin, direction (r, 3) float32 (world units,
+    /// unshadowed value is 0 cast none and are left out, unless `every_element` (then every element of a
+    /// surface view sample has its ray toward the light, lit or not). Dict: origin, direction (r, 3) float32 (world units,
     /// unit directions), t_max (r,) float32 (inf toward directional lights), view, light (r,) int64,
     /// elements (int), seconds (float: the set-up, unshadowed shading included). ValueError for an index out
     /// of range, an unknown order, more than 2^31 elements.
-    #[pyo3(signature = (view_indices, light_indices, order="columns"))]
+    #[pyo3(signature = (view_indices, light_indices, order="columns", every_element=false))]
     fn shadow_rays<'py>(
         &self,
         py: Python<'py>,
         view_indices: Vec<usize>,
         light_indices: Vec<usize>,
         order: &str,
+        every_element: bool,
     ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
         use crate::cpu::shadow_rays::{shadow_rays, Order};
         let order = match order {
@@ -293,7 +295,7 @@ impl LightMatrix {
             o => return Err(Error::invalid(format!("order must be 'columns' or 'rows', got {o:?}")).into()),
         };
         let m = self.inner.clone();
-        let r = signals::detach(py, move || shadow_rays(&m.view, &m.lights, &view_indices, &light_indices, order))?;
+        let r = signals::detach(py, move || shadow_rays(&m.view, &m.lights, &view_indices, &light_indices, order, every_element))?;
         let k = r.view.len();
         let flat = |a: &[glam::Vec3]| -> Vec<f32> { a.iter().flat_map(|x| [x.x, x.y, x.z]).collect() };
         let d = pyo3::types::PyDict::new(py);

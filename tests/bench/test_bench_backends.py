@@ -41,4 +41,10 @@ def test_the_peer_traces_the_same_rays_as_mitsuba_and_agrees(tmp_path):
         assert 0.05 < b["blocked_share"] < 0.95          # both answers occur
         assert b["agreement"] >= 0.999, b                 # the same queries, the same answers
         assert b["visibility_ratio"] == pytest.approx(b["seconds"]["mitsuba"] / b["seconds"]["ours"])
-        assert b["split"]["setup"] > 0 and b["split"]["traversal"] > 0
+        assert b["split"]["traversal"] > 0 and b["seconds"]["ray_arrays"] > 0
+        assert b["split"]["setup_shading_rest"] == pytest.approx(max(1 - b["split"]["traversal"], 0.0))
+        # every element's ray: a superset of the cast ones, one per element of a surface view sample
+        e = b["every_element"]
+        assert b["rays"] < e["rays"] <= b["elements"]
+        assert e["agreement"] >= 0.999, e
+        assert e["element_ratio"] == pytest.approx(e["seconds"]["mitsuba"] / b["seconds"]["element"])

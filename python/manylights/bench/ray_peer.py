@@ -17,11 +17,14 @@ none). Then, best of ``--repeats`` after a warm-up:
   rayon) against ``scene.ray_test`` of Mitsuba's fastest CPU variant (``llvm_ad_rgb``; ``scalar_rgb`` if
   LLVM is missing) on the same rays, in Mrays/s, with the share of rays on which the two agree;
 - **the whole element**: ``A.weighted_sum`` of the batch's lights (columns) or ``A.rows`` (rows): ray set-up,
-  unshadowed shading, visibility and accumulation, in Mrays/s of the rays it casts, with its split into
-  ray set-up (``shadow_rays``' seconds: the unshadowed shading decides which elements cast a ray),
-  traversal (the visibility-alone seconds) and the rest (shading and accumulation), each as a share of the
-  element's seconds (measured apart, so on tiny batches, where thread start-up dominates, they need not add
-  up to 1).
+  unshadowed shading, visibility and accumulation, in Mrays/s of the rays it casts, with the share of its
+  seconds that traversal alone takes (the visibility-alone seconds; the rest is ray set-up, shading and
+  accumulation). ``seconds["ray_arrays"]`` is ``shadow_rays``' own time to write the batch's rays into
+  arrays (unshadowed shading included), which the element does not do;
+- **every element's ray**: the same two measurements on one ray per element of the batch (every view sample
+  on a surface to every light, lit or not: ``shadow_rays(..., every_element=True)``), the rays a renderer
+  that traced before shading would cast, and the whole element's seconds against ``ray_test``'s on them
+  (the element's throughput in elements per second beside ``ray_test``'s in rays per second).
 
 Scenes: ``cbox`` (128^2), ``veach-ajar`` (128x72), ``bunny`` (the Stanford bunny, 128^2) and ``room-2m`` (the
 generated room of ``bench scale`` with a 2,097,152-triangle floor, 128x96). Mitsuba is needed only here
@@ -32,6 +35,7 @@ Symbols
 | here | meaning |
 |---|---|
 | ``r`` | rays cast by the batch (elements with a non-zero unshadowed value) |
+| ``e`` | the batch's elements; ``r_e``: their rays (elements of surface view samples) |
 | ``Mrays/s`` | r / seconds / 1e6 |
 """
 from __future__ import annotations
@@ -132,16 +136,31 @@ def measure(name: str, xml: Path, params: dict, size, lights: int, row_lights: i
                "agreement": float((blocked == their_blocked).mean()) if r else 1.0,
                "ours_mrays_s": r / ours / 1e6, "mitsuba_mrays_s": r / theirs / 1e6, "mitsuba_variant": variant,
                "element_mrays_s": r / whole / 1e6, "visibility_ratio": theirs / ours, "element_ratio": theirs / whole,
-               "split": {"setup": setup / whole, "traversal": ours / whole,
-                         "shading_rest": max(whole - setup - ours, 0.0) / whole},
-               "seconds": {"ours": ours, "mitsuba": theirs, "element": whole, "setup": setup}}
+               "split": {"traversal": ours / whole, "setup_shading_rest": max(whole - ours, 0.0) / whole},
+               "seconds": {"ours": ours, "mitsuba": theirs, "element": whole, "ray_arrays": setup}}
+        every = M.shadow_rays(views, ls, order=batch, every_element=True)
+        r_e = len(every["t_max"])
+        ours_e, blocked_e = _best(lambda M=M, rays=every: M.trace_shadow_rays(rays["origin"], rays["direction"],
+                                                                              rays["t_max"])[::-1], repeats)
+        theirs_e, their_blocked_e, _ = mitsuba_ray_test(peer, every, repeats)
+        res["every_element"] = {
+            "rays": r_e, "blocked_share": float(blocked_e.mean()) if r_e else 0.0,
+            "agreement": float((blocked_e == their_blocked_e).mean()) if r_e else 1.0,
+            "ours_mrays_s": r_e / ours_e / 1e6, "mitsuba_mrays_s": r_e / theirs_e / 1e6,
+            "visibility_ratio": theirs_e / ours_e, "element_melements_s": res["elements"] / whole / 1e6,
+            "element_ratio": theirs_e / whole, "seconds": {"ours": ours_e, "mitsuba": theirs_e}}
         out["batches"][batch] = res
         print(f"{name} {batch:>7}: {r:>9,} rays ({res['blocked_share']:.0%} blocked, agreement "
               f"{res['agreement']:.5f}): ours {res['ours_mrays_s']:6.1f} Mrays/s, Mitsuba ray_test "
               f"{res['mitsuba_mrays_s']:6.1f} ({variant}), ratio {res['visibility_ratio']:.2f}x; whole element "
-              f"{res['element_mrays_s']:6.1f} Mrays/s ({res['element_ratio']:.2f}x of ray_test; set-up "
-              f"{res['split']['setup']:.0%}, traversal {res['split']['traversal']:.0%}, shading and the rest "
-              f"{res['split']['shading_rest']:.0%})", flush=True)
+              f"{res['element_mrays_s']:6.1f} Mrays/s ({res['element_ratio']:.2f}x of ray_test; traversal "
+              f"{res['split']['traversal']:.0%}, set-up, shading and the rest "
+              f"{res['split']['setup_shading_rest']:.0%})", flush=True)
+        e = res["every_element"]
+        print(f"{name} {batch:>7}, every element's ray: {r_e:>9,} rays ({e['blocked_share']:.0%} blocked, agreement "
+              f"{e['agreement']:.5f}): ours {e['ours_mrays_s']:6.1f} Mrays/s, Mitsuba ray_test "
+              f"{e['mitsuba_mrays_s']:6.1f}, ratio {e['visibility_ratio']:.2f}x; whole element "
+              f"{e['element_melements_s']:6.1f} Melements/s ({e['element_ratio']:.2f}x of ray_test)", flush=True)
     return out
 
 

@@ -329,15 +329,18 @@ class LightMatrix:
         return self._m.column_exact(self._index("j", j, self.shape[1], "lights"))
 
     def shadow_rays(self, view_indices: Sequence[int], light_indices: Sequence[int], *,
-                    order: str = "columns") -> dict:
+                    order: str = "columns", every_element: bool = False) -> dict:
         """The exact shadow rays of the elements ``view_indices`` x ``light_indices`` as the CPU backend casts
         them (Mitsuba's ``spawn_ray_to`` offsets: the rays to hand a peer ray tracer, e.g. Mitsuba's
         ``ray_test``; ``bench backends --peer mitsuba``). Elements whose unshadowed value is 0 cast no ray and
-        are left out.
+        are left out, unless ``every_element``.
 
         Args:
             view_indices: view samples i in [0, m). light_indices: lights j in [0, n).
             order: ``"columns"`` (light by light) or ``"rows"`` (view sample by view sample).
+            every_element: one ray for every element whose view sample lies on a surface, lit or not, toward
+                the same point of the light (the rays of a renderer that tested visibility before shading;
+                the ones the backend casts are among them, unchanged).
 
         Returns:
             dict: ``origin``, ``direction`` (r, 3) float32 (world units; unit directions), ``t_max`` (r,)
@@ -351,7 +354,7 @@ class LightMatrix:
         m, n = self.shape
         views = [int(i) for i in _v.indices("view index", view_indices, m, f"m = {m} view samples")]
         lights = [int(j) for j in _v.indices("light index", light_indices, n, f"n = {n} lights")]
-        return dict(self._m.shadow_rays(views, lights, order))
+        return dict(self._m.shadow_rays(views, lights, order, bool(every_element)))
 
     def trace_shadow_rays(self, origin, direction, t_max) -> tuple[np.ndarray, float]:
         """Whether each ray ``o + t d``, ``t_0 < t < t_max``, is blocked, by this matrix's CPU ray tracer alone

@@ -11,7 +11,7 @@ fn traced_rays_reproduce_the_matrix_visibility_element_by_element() {
     let lights: Vec<usize> = crate::testing::lights_of_every_kind(&a.lights, 3);
     let tracer = a.tracer().unwrap();
     for order in [Order::Columns, Order::Rows] {
-        let rays = shadow_rays(&a.view, &a.lights, &views, &lights, order).unwrap();
+        let rays = shadow_rays(&a.view, &a.lights, &views, &lights, order, false).unwrap();
         assert_eq!(rays.elements, (views.len() * lights.len()) as u64);
         let (blocked, _) = trace(&tracer, &rays.origin, &rays.direction, &rays.t_max).unwrap();
         let mut cast = 0;
@@ -43,9 +43,35 @@ fn traced_rays_reproduce_the_matrix_visibility_element_by_element() {
                 .all(|w| lights.iter().position(|&l| l as u32 == w[0]) < lights.iter().position(|&l| l as u32 == w[1])));
         }
     }
-    assert!(shadow_rays(&a.view, &a.lights, &[m], &lights, Order::Rows).is_err());
-    assert!(shadow_rays(&a.view, &a.lights, &views, &[n], Order::Rows).is_err());
+    assert!(shadow_rays(&a.view, &a.lights, &[m], &lights, Order::Rows, false).is_err());
+    assert!(shadow_rays(&a.view, &a.lights, &views, &[n], Order::Rows, false).is_err());
     assert!(trace(&tracer, &[Vec3::ZERO], &[], &[1.0]).is_err());
+}
+
+/// `every_element`: one ray per element of a surface view sample, lit or not, and the rays `shade` casts
+/// among them bit for bit, in the same order.
+#[test]
+fn every_element_has_its_ray_and_the_cast_ones_are_unchanged() {
+    let p = crate::testing::backend_pair(16);
+    let a = &p.cpu;
+    let (m, _) = a.shape();
+    let views: Vec<usize> = (0..m).step_by(2).collect();
+    let lights: Vec<usize> = crate::testing::lights_of_every_kind(&a.lights, 4);
+    for order in [Order::Columns, Order::Rows] {
+        let cast = shadow_rays(&a.view, &a.lights, &views, &lights, order, false).unwrap();
+        let every = shadow_rays(&a.view, &a.lights, &views, &lights, order, true).unwrap();
+        let surface = views.iter().filter(|&&i| a.view.shape_index[i] >= 0).count();
+        assert_eq!(every.t_max.len(), surface * lights.len());
+        assert!(cast.t_max.len() < every.t_max.len() && !cast.t_max.is_empty());
+        let key = |r: &ShadowRays, k: usize| (r.view[k], r.light[k]);
+        let mut e = 0;
+        for k in 0..cast.t_max.len() {
+            while key(&every, e) != key(&cast, k) {
+                e += 1;
+            }
+            assert_eq!((every.origin[e], every.direction[e], every.t_max[e]), (cast.origin[k], cast.direction[k], cast.t_max[k]));
+        }
+    }
 }
 
 /// About `n` lights of the kinds the scene has (as the benchmark's `mixed_lights`): half area points, a
@@ -78,7 +104,7 @@ fn benchmark_shadow_rays_against_the_reference_traversal() {
                 Order::Rows => (crate::matrix::rows::stratified_rows(128, 128, 256, 0).unwrap(), mixed_lights(&scene, 16_384, 1)),
             };
             let js: Vec<usize> = (0..lights.len()).collect();
-            let rays = shadow_rays(&view, &lights, &views, &js, order).unwrap();
+            let rays = shadow_rays(&view, &lights, &views, &js, order, false).unwrap();
             let r = rays.t_max.len();
             let (mut old_best, mut new_best) = (f64::INFINITY, f64::INFINITY);
             for _ in 0..7 {
