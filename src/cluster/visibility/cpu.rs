@@ -1,5 +1,6 @@
-//! Clustered visibility on the CPU (rayon): the visibility matrix by exact BVH rays
-//! (`cpu::visibility_crossed`, the CPU backend's shadow ray, through masked surfaces where the scene has them)
+//! Clustered visibility on the CPU (rayon): the visibility matrix by exact rays (`cpu::light_ray`, traced in
+//! packets, `RayTracer::occluded_packet`; one at a time through masked surfaces,
+//! `cpu::visibility_crossed`: the CPU backend's shadow ray)
 //! and shading by Eq. 6/9 with the CPU backend's unshadowed elements (`cpu::shade_unshadowed`): the reference of
 //! the GPU pass `gpu::clustered_visibility` and the CPU backend's implementation (module docs of
 //! `cluster::visibility`).
@@ -41,7 +42,8 @@ pub fn visibility_matrix(tracer: &RayTracer, view: &ViewSamples, job: &Clustered
         let block: Vec<Vec<(f32, bool)>> = (first..rows.min(first + rows_per_block))
             .into_par_iter()
             .map(|k| match job.view_reps.sample[k] {
-                Some(i) => (0..cols).map(|c| entry(tracer, view, lights, i, c)).collect(),
+                Some(i) if masked => (0..cols).map(|c| entry(tracer, view, lights, i, c)).collect(),
+                Some(i) => row_in_packets(tracer, view, lights, i),
                 None => Vec::new(),
             })
             .collect();
@@ -67,12 +69,35 @@ pub fn visibility_matrix(tracer: &RayTracer, view: &ViewSamples, job: &Clustered
 /// surface (`cpu::visibility_crossed`, as the light matrix's element (i, c) has it). Rays toward the light's
 /// position, or along its reversed direction for a directional light.
 pub fn entry(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, i: usize, c: usize) -> (f32, bool) {
-    let (p, n_g) = (view.position[i], view.geo_normal[i]);
-    let (wo, dist) = match lights.kind[c] {
+    let (wo, dist) = toward(lights, c);
+    visibility_crossed(tracer, view, lights, i, c, view.position[i], view.geo_normal[i], wo, dist)
+}
+
+/// What `entry` hands `visibility_crossed` for cluster light c: (wo, distance), wo read only for a
+/// directional light.
+fn toward(lights: &LightSet, c: usize) -> (Vec3, f32) {
+    match lights.kind[c] {
         crate::lights::LightKind::Directional => (-lights.direction[c], f32::INFINITY),
         _ => (Vec3::ZERO, 1.0),
-    };
-    visibility_crossed(tracer, view, lights, i, c, p, n_g, wo, dist)
+    }
+}
+
+/// `entry` for every cluster light of representative i in a scene without masked surfaces: the same rays
+/// (`cpu::light_ray`), traced [`crate::raytrace::PACKET`] at a time (`RayTracer::occluded_packet`).
+fn row_in_packets(tracer: &RayTracer, view: &ViewSamples, lights: &LightSet, i: usize) -> Vec<(f32, bool)> {
+    let (p, n_g) = (view.position[i], view.geo_normal[i]);
+    let cols = lights.len();
+    let (mut o, mut d, mut t_max) = (Vec::with_capacity(cols), Vec::with_capacity(cols), Vec::with_capacity(cols));
+    for c in 0..cols {
+        let (wo, dist) = toward(lights, c);
+        let (oc, dc, tc) = crate::cpu::light_ray(lights, c, p, n_g, wo, dist);
+        o.push(oc);
+        d.push(dc);
+        t_max.push(tc);
+    }
+    let mut blocked = vec![false; cols];
+    tracer.occluded_packet(&o, &d, &t_max, &mut blocked);
+    blocked.into_iter().map(|b| (!b as u8 as f32, false)).collect()
 }
 
 /// Eq. 6/9 for every view sample with the visibility matrix `vis`: H * W * 3 floats (pixels). The light's
