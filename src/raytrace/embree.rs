@@ -11,7 +11,8 @@
 //! view sample, consecutive lights) are the coherent ray sets packets need.
 //!
 //! Exactness: the scene is built `RTC_SCENE_FLAG_ROBUST` (watertight triangle tests, conservative box
-//! tests), the rays are the library's own (Mitsuba's offsets, `t_max` shortened by `SHADOW_EPSILON`)
+//! tests; Mitsuba builds without it, 17-38% more rays per second on the benchmark's batches, and then 376
+//! of 20,000 rays aimed at a closed cube's edges leave it: docs/validation/backends.md), the rays are the library's own (Mitsuba's offsets, `t_max` shortened by `SHADOW_EPSILON`)
 //! with the library's floor on t (`bvh::t_floor`, as `tnear`: a shading point exactly on an edge, whose
 //! offset origin lies in the plane of the other face, is not blocked by that face at t = 0). Embree's
 //! triangle test is not the library's (Woop et al.'s watertight test, `intersect.rs`): the two may differ on rays that end within rounding of a surface or pass exactly
