@@ -68,7 +68,7 @@ pub struct ShadingPoint {
     pub throughput: Vec3,
     /// False for background samples (no surface): every element is 0.
     pub surface: bool,
-    /// Which side of the tangent plane the BSDF reflects light from (`bsdf::reflecting_side`): 1 above,
+    /// Which side of the tangent plane the BSDF reflects light from (`hemisphere::reflecting_side`): 1 above,
     /// -1 below, 0 neither; NaN where it may from both (transmission, perturbed normals).
     pub side: f32,
 }
@@ -89,7 +89,7 @@ impl ShadingPoint {
             wi_local,
             throughput: view.throughput_of(i),
             surface: view.shape_index[i] >= 0,
-            side: crate::shading::bsdf::reflecting_side(&view.bsdf, i, wi_local).unwrap_or(f32::NAN),
+            side: crate::shading::hemisphere::reflecting_side(&view.bsdf, i, wi_local).unwrap_or(f32::NAN),
         }
     }
 
