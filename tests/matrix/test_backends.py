@@ -104,6 +104,15 @@ def test_delta_chains_on_both_backends(tmp_path):
     assert a.max() > 0 and ml.relative_l2(a, b) < 1e-5
     r = ml.stratified_rows(scene, 20, seed=0)
     assert _differing(cpu.rows(r, progress=False), gpu.rows(r, progress=False)) <= 1e-4
+    # Columns fold a pixel's samples too, block by block (about 1M elements a block): 2,000 columns with
+    # repeats span two blocks, the second shorter, and each repeat is the same column bit for bit.
+    m, n = cpu.shape
+    assert 2000 * m > 1 << 20
+    js = np.arange(2000) % n
+    c = cpu.columns(js)
+    assert np.array_equal(c[:n], c[n:2 * n]) and np.array_equal(c[-16:], c[(2000 - 16) % n:][:16])
+    assert ml.relative_l2(c[:n].sum(0), a) < 1e-5
+    assert ml.relative_l2(c[:n], gpu.columns(js[:n])) < 1e-5
 
 
 @pytest.mark.parametrize("device", ["cpu", "gpu"])
