@@ -34,6 +34,8 @@ mod perturb;
 mod plugins;
 mod principled;
 mod props;
+mod sensor;
+mod shapes;
 mod spectrum;
 mod upgrade;
 

@@ -1,6 +1,7 @@
-//! Stage 2 of loading: object nodes -> `Bsdf`, `Texture`, `Mesh`, `Emitter`, `Camera`, with the
-//! defaults of Mitsuba 3.9.1's plugins (`src/bsdfs/*.cpp`, `src/textures/*.cpp`, `src/emitters/*.cpp`,
-//! `src/shapes/*.cpp`, `src/sensors/perspective.cpp`, `src/render/sensor.cpp`).
+//! Stage 2 of loading: object nodes -> `Bsdf`, `Texture`, `Emitter` here, `Mesh` in `shapes.rs`, `Camera`
+//! in `sensor.rs` (the `Builder` they all extend), with the defaults of Mitsuba 3.9.1's plugins
+//! (`src/bsdfs/*.cpp`, `src/textures/*.cpp`, `src/emitters/*.cpp`, `src/shapes/*.cpp`,
+//! `src/sensors/perspective.cpp`, `src/render/sensor.cpp`).
 //!
 //! BSDFs and textures are built once per node (memoised by node index), so shapes sharing a `<ref>` share
 //! one `Scene::bsdfs` entry. Deviations from Mitsuba:
@@ -12,15 +13,15 @@ use super::materials;
 use super::parse::{Document, Value};
 use super::props::{ObjectRef, Props};
 use crate::error::{Error, Location, Result};
+use crate::scene::texture;
 use crate::scene::transform;
 use crate::scene::types::*;
-use crate::scene::{mesh, texture};
-use glam::{DMat4, DVec3, Mat4, Vec3};
+use glam::{DMat4, DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::PathBuf;
 
 /// Film size when the file gives none (Mitsuba's `hdrfilm` defaults).
-const DEFAULT_FILM_SIZE: (i64, i64) = (768, 576);
+pub(super) const DEFAULT_FILM_SIZE: (i64, i64) = (768, 576);
 
 /// Everything built so far.
 pub struct Builder<'a> {
@@ -37,9 +38,9 @@ pub struct Builder<'a> {
     texture_memo: HashMap<usize, usize>,
     /// The image file of each bitmap texture (by texture index), for messages.
     texture_paths: HashMap<usize, PathBuf>,
-    default_bsdf: Option<usize>,
+    pub(super) default_bsdf: Option<usize>,
     /// Area emitter nodes already attached to a shape (node -> where).
-    attached: HashMap<usize, Location>,
+    pub(super) attached: HashMap<usize, Location>,
     /// Things Mitsuba only warns about (`Scene::warnings`).
     pub warnings: Vec<String>,
     /// How `<medium>`s are taken (`LoadOptions::media`).
@@ -72,7 +73,7 @@ fn check_emitter_texels(what: &str, path: &std::path::Path, loc: &Location, data
     Ok(())
 }
 
-fn unknown_plugin(p: &Props) -> Error {
+pub(super) fn unknown_plugin(p: &Props) -> Error {
     Error::scene(p.loc(), format!("unsupported {} plugin type=\"{}\"", p.node.class, p.node.plugin))
 }
 
@@ -180,7 +181,7 @@ impl<'a> Builder<'a> {
         Err(Error::FileNotFound { loc: loc.clone(), path: fallback })
     }
 
-    fn filename(&self, p: &mut Props, what: &str) -> Result<(PathBuf, Location)> {
+    pub(super) fn filename(&self, p: &mut Props, what: &str) -> Result<(PathBuf, Location)> {
         let Some((name, loc)) = p.string("filename")? else {
             return Err(Error::scene(p.loc(), format!("{what}: missing <string name=\"filename\">")));
         };
@@ -252,7 +253,7 @@ impl<'a> Builder<'a> {
     }
 
     /// Refuse an emitter's bitmap texture with NaN, infinite or negative texels (`check_emitter_texels`).
-    fn check_emitter_texture(&self, t: usize, what: &str) -> Result<()> {
+    pub(super) fn check_emitter_texture(&self, t: usize, what: &str) -> Result<()> {
         if let Texture::Bitmap { data, loc, .. } = &self.textures[t] {
             let path = self.texture_paths.get(&t).cloned().unwrap_or_default();
             check_emitter_texels(what, &path, loc, data)?;
@@ -448,201 +449,6 @@ impl<'a> Builder<'a> {
         Ok(i)
     }
 
-    // ---- shapes ----
-
-    /// Builds one top-level `<shape>` into `meshes` (and its area emitter into `area_emitters`);
-    /// `shapegroup` and `instance` are handled in `instancing.rs`.
-    pub fn shape(&mut self, node: usize) -> Result<()> {
-        match self.doc.nodes[node].plugin.as_str() {
-            "shapegroup" => self.shapegroup(node),
-            "instance" => self.instance(node),
-            _ => self.shape_in(node, &transform::Affine::IDENTITY, None),
-        }
-    }
-
-    /// Builds a shape placed by `outer * to_world`; `instance` names the instance it belongs to (its
-    /// mesh id becomes `"<instance>/<shape id>"`).
-    pub(super) fn shape_in(&mut self, node: usize, outer: &transform::Affine, instance: Option<&str>) -> Result<()> {
-        let mut p = Props::new(self.doc, node);
-        let loc = p.loc().clone();
-        let k = self.meshes.len();
-        let to_world_affine = *outer * p.affine("to_world")?.unwrap_or(transform::Affine::IDENTITY);
-        let to_world = to_world_affine.matrix;
-        let flip_normals = p.bool("flip_normals", false)?;
-        let plugin = p.node.plugin.as_str();
-        // Mitsuba 3.9.1 meshes (these read face_normals); sphere and disk are analytic there.
-        let is_mesh = matches!(plugin, "obj" | "ply" | "cube" | "rectangle" | "serialized");
-        let face_normals = if is_mesh { p.bool("face_normals", false)? } else { false };
-        let (kind, data, world_from_local) = match plugin {
-            "obj" | "ply" => {
-                let (path, floc) = self.filename(&mut p, &format!("{plugin} shape"))?;
-                let mut data = if plugin == "obj" { mesh::load_obj(&path, &floc)? } else { mesh::load_ply(&path, &floc)? };
-                // `load_*` apply Mitsuba's default (OBJ: flip, PLY: no flip); undo/apply on request.
-                let default_flip = plugin == "obj";
-                if p.bool("flip_tex_coords", default_flip)? != default_flip {
-                    data.uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
-                }
-                let kind = if plugin == "obj" { ShapeKind::Obj } else { ShapeKind::Ply };
-                (kind, data, to_world)
-            }
-            "rectangle" => (ShapeKind::Rectangle, mesh::rectangle(), to_world),
-            "cube" => (ShapeKind::Cube, mesh::cube(), to_world),
-            "disk" => (ShapeKind::Disk, mesh::disk(), to_world),
-            "sphere" => {
-                let center = p.vector("center")?.unwrap_or(DVec3::ZERO);
-                let radius = p.float("radius", 1.0)?;
-                let m = to_world * DMat4::from_translation(center) * DMat4::from_scale(DVec3::splat(radius));
-                let cols = [m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()];
-                let l = cols.map(|c| c.length());
-                let uniform = (l[1] - l[0]).abs() <= 1e-5 * l[0] && (l[2] - l[0]).abs() <= 1e-5 * l[0];
-                let orthogonal = (0..3).all(|i| cols[i].dot(cols[(i + 1) % 3]).abs() <= 1e-5 * l[0] * l[0]);
-                if !(uniform && orthogonal) || l[0] == 0.0 {
-                    return Err(Error::scene(
-                        &loc,
-                        format!(
-                            "sphere: to_world must be a similarity (uniform scale, no shear); axis lengths {:.6}, {:.6}, {:.6}",
-                            l[0], l[1], l[2]
-                        ),
-                    ));
-                }
-                let mirrored = glam::DMat3::from_mat4(m).determinant() < 0.0;
-                let kind = ShapeKind::Sphere {
-                    center: m.w_axis.truncate().as_vec3(),
-                    radius: l[0] as f32,
-                    flip_normals: flip_normals != mirrored,
-                };
-                (kind, mesh::sphere(), m)
-            }
-            "serialized" => {
-                let (path, floc) = self.filename(&mut p, "serialized shape")?;
-                let (shape_index, _) = p.int("shape_index", 0)?;
-                (ShapeKind::Serialized, mesh::load_serialized(&path, shape_index, &floc)?, to_world)
-            }
-            "cylinder" => {
-                let radius = p.float("radius", 1.0)?;
-                let p0 = p.vector("p0")?.unwrap_or(DVec3::ZERO);
-                let p1 = p.vector("p1")?.unwrap_or(DVec3::Z);
-                let m = mesh::cylinder_to_world(to_world, p0, p1, radius)
-                    .ok_or_else(|| Error::scene(&loc, format!("cylinder: p0 {p0} and p1 {p1} must differ")))?;
-                let mut data = mesh::cylinder();
-                if glam::DMat3::from_mat4(m).determinant() < 0.0 {
-                    // A mirroring to_world: Mitsuba flips its normals back outward (cylinder.cpp, `S[0][0] <= 0`).
-                    data.indices.iter_mut().for_each(|t| t.swap(1, 2));
-                }
-                (ShapeKind::Cylinder, data, m)
-            }
-            _ => return Err(unknown_plugin(&p)),
-        };
-        // Children: one BSDF and at most one area emitter.
-        let mut bsdf = None;
-        let mut emitter_node = None;
-        let (mut interior, mut exterior) = (None, None);
-        for r in p.objects()? {
-            let n = &self.doc.nodes[r.node];
-            match n.class.as_str() {
-                "medium" if self.media_policy == super::MediaPolicy::Follow => {
-                    let slot = match r.name.as_deref() {
-                        Some("interior") => &mut interior,
-                        Some("exterior") => &mut exterior,
-                        other => {
-                            return Err(Error::scene(
-                                &r.loc,
-                                format!("a medium inside a shape must be named \"interior\" or \"exterior\", got {other:?}"),
-                            ))
-                        }
-                    };
-                    if slot.is_some() {
-                        return Err(Error::scene(
-                            &r.loc,
-                            format!("only a single {} medium can be given per shape", r.name.as_deref().unwrap_or("")),
-                        ));
-                    }
-                    *slot = Some(self.medium(r.node)?);
-                }
-                "bsdf" if bsdf.is_none() => bsdf = Some(self.bsdf(r.node)?),
-                "bsdf" => return Err(Error::scene(&r.loc, "only a single BSDF can be given per shape")),
-                "emitter" if emitter_node.is_none() => emitter_node = Some(r),
-                "emitter" => return Err(Error::scene(&r.loc, "only a single emitter can be given per shape")),
-                other => {
-                    return Err(Error::scene(&r.loc, format!("unsupported <{other} type=\"{}\"> inside a shape", n.plugin)));
-                }
-            }
-        }
-        let id = p.node.id.clone().unwrap_or_else(|| format!("shape_{k}"));
-        let id = match instance {
-            Some(inst) => format!("{inst}/{id}"),
-            None => id,
-        };
-        p.finish()?;
-        let bsdf = match bsdf {
-            Some(b) => b,
-            None => *self.default_bsdf.get_or_insert_with(|| {
-                self.bsdfs.push(Bsdf::Diffuse { reflectance: Param::Value(Vec3::splat(0.5)) });
-                self.bsdfs.len() - 1
-            }),
-        };
-        // Normals as Mitsuba transforms them (`transform::Affine`); the sphere's and the cylinder's
-        // tessellations are ours, placed by their own matrix (radius, p0/p1 folded in): its inverse transpose.
-        let normal_from_local = match kind {
-            ShapeKind::Sphere { .. } | ShapeKind::Cylinder => glam::DMat3::from_mat4(world_from_local).inverse().transpose(),
-            _ => glam::DMat3::from_mat4(to_world_affine.inverse_transpose),
-        };
-        let world_from_local: Mat4 = transform::to_f32(&world_from_local);
-        let (positions, normals, uvs, indices) =
-            mesh::finalize_with_normal_matrix(data, world_from_local, normal_from_local.as_mat3(), face_normals, flip_normals, &loc)?;
-        if indices.is_empty() {
-            if let Some(r) = &emitter_node {
-                // Mitsuba fails too ("DiscreteDistribution: no probability mass found").
-                return Err(Error::scene(
-                    &r.loc,
-                    format!("area emitter on a degenerate shape \"{id}\" ({loc}): all its triangles have zero area"),
-                ));
-            }
-            self.warnings.push(format!("{loc}: shape \"{id}\": all triangles have zero area; the shape adds nothing (as in Mitsuba)"));
-        }
-        let emitter = match emitter_node {
-            Some(r) => {
-                let e = self.area_emitter(&r, k)?;
-                self.area_emitters.push(e);
-                Some(self.area_emitters.len() - 1)
-            }
-            None => None,
-        };
-        if interior.is_some() || exterior.is_some() {
-            self.shape_media.push((self.meshes.len(), interior, exterior));
-        }
-        self.meshes.push(Mesh { id, kind, positions, normals, uvs, indices, face_normals, bsdf, emitter, loc });
-        Ok(())
-    }
-
-    fn area_emitter(&mut self, r: &ObjectRef, mesh: usize) -> Result<Emitter> {
-        let mut p = Props::new(self.doc, r.node);
-        if p.node.plugin != "area" {
-            return Err(Error::scene(&r.loc, format!("a shape's emitter must be type=\"area\", got \"{}\"", p.node.plugin)));
-        }
-        if let Some(prev) = self.attached.insert(r.node, r.loc.clone()) {
-            return Err(Error::scene(&r.loc, format!("area emitter already attached to another shape at {prev}")));
-        }
-        if p.has("to_world") {
-            return Err(Error::scene(p.loc(), "area emitter: a to_world transform is not allowed (the shape's applies)"));
-        }
-        let (radiance, texture) = match self.unbounded_param(&mut p, "radiance", 1.0)? {
-            Param::Value(v) => (v, None),
-            Param::Texture(t) => {
-                self.check_emitter_texture(t, "area emitter radiance texture")?;
-                (Vec3::ONE, Some(t))
-            }
-        };
-        let loc = p.loc().clone();
-        p.finish()?;
-        Ok(Emitter::Area { mesh, radiance, texture, loc })
-    }
-
-    /// True if this top-level emitter node was attached to a shape.
-    pub fn is_attached(&self, node: usize) -> bool {
-        self.attached.contains_key(&node)
-    }
-
     // ---- emitters ----
 
     /// Builds a top-level, non-area `<emitter>` into `emitters`.
@@ -718,182 +524,4 @@ impl<'a> Builder<'a> {
         self.emitters.push(e);
         Ok(())
     }
-
-    // ---- sensor ----
-
-    /// The camera of a `<sensor type="perspective">` node.
-    pub fn sensor(&mut self, node: usize) -> Result<Camera> {
-        let mut p = Props::new(self.doc, node);
-        let loc = p.loc().clone();
-        if p.node.plugin != "perspective" {
-            return Err(unknown_plugin(&p));
-        }
-        let mut film = None;
-        for r in p.objects()? {
-            let n = &self.doc.nodes[r.node];
-            match n.class.as_str() {
-                "film" if film.is_none() => film = Some(r.node),
-                "film" => return Err(Error::scene(&r.loc, "only a single film can be given per sensor")),
-                "sampler" => {}
-                other => return Err(Error::scene(&r.loc, format!("unsupported <{other} type=\"{}\"> inside a sensor", n.plugin))),
-            }
-        }
-        let f = self.film(film, &loc)?;
-        let aspect = f.full.0 as f64 / f.full.1 as f64;
-        let mut fov_x = parse_fov(&mut p, aspect)?;
-        let near_clip = p.float("near_clip", 1e-2)?;
-        let far_clip = p.float("far_clip", 1e4)?;
-        if near_clip <= 0.0 || near_clip >= far_clip {
-            return Err(Error::scene(&loc, format!("near_clip ({near_clip}) must be > 0 and < far_clip ({far_clip})")));
-        }
-        let mut offset = glam::DVec2::new(p.float("principal_point_offset_x", 0.0)?, p.float("principal_point_offset_y", 0.0)?);
-        if !offset.is_finite() {
-            return Err(Error::scene(&loc, format!("principal_point_offset {offset} must be finite")));
-        }
-        if let Some((ox, oy, cw, ch)) = f.crop {
-            // The crop window as a camera of its own: the ray through crop position (px, py) is the full
-            // film's ray through (px + ox, py + oy) (Mitsuba's `sample_ray` with a crop window). A film of
-            // cw/W the width (tan(fov/2) scaled by it) whose principal point is shifted to match.
-            let (w, h) = (f.full.0 as f64, f.full.1 as f64);
-            let (cw, ch) = (cw as f64, ch as f64);
-            fov_x = 2.0 * ((fov_x.to_radians() * 0.5).tan() * cw / w).atan().to_degrees();
-            offset = glam::DVec2::new(
-                0.5 * (1.0 - w / cw * (1.0 - 2.0 * (ox as f64 / w + offset.x))),
-                0.5 * (1.0 - h / ch * (1.0 - 2.0 * (oy as f64 / h + offset.y))),
-            );
-        }
-        let principal_point_offset = offset.as_vec2();
-        let (width, height) = f.size;
-        let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
-        if transform::has_scale(&to_world) {
-            return Err(Error::scene(&loc, "scale factors in the camera to_world transformation are not allowed"));
-        }
-        p.finish()?;
-        Ok(Camera {
-            world_from_camera: transform::to_f32(&to_world),
-            fov_x: (fov_x as f32).to_radians(),
-            near_clip: near_clip as f32,
-            far_clip: far_clip as f32,
-            width,
-            height,
-            principal_point_offset,
-            loc,
-        })
-    }
-
-    /// Film of a sensor: `hdrfilm` width/height (default 768x576) and its crop window
-    /// (`crop_offset_x/y`, `crop_width/height`, as Mitsuba's `Film`: the image is the window); the image
-    /// size is replaced by `size_override` (the window then keeps its share of the film).
-    /// `banner` (Mitsuba 0.x's logo switch, any type) is accepted and ignored, as Mitsuba 3.9.1 does;
-    /// `gamma` (an `ldrfilm` property of Mitsuba 0.x) is refused, as Mitsuba 3.9.1 refuses it.
-    fn film(&mut self, film: Option<usize>, sensor_loc: &Location) -> Result<Film> {
-        let (mut w, mut h, mut loc) = (DEFAULT_FILM_SIZE.0, DEFAULT_FILM_SIZE.1, sensor_loc.clone());
-        let mut crop = None;
-        if let Some(node) = film {
-            let mut p = Props::new(self.doc, node);
-            if p.node.plugin != "hdrfilm" {
-                return Err(unknown_plugin(&p));
-            }
-            loc = p.loc().clone();
-            (w, _) = p.int("width", w)?;
-            (h, _) = p.int("height", h)?;
-            if ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"].iter().any(|n| p.has(n)) {
-                let (ox, _) = p.int("crop_offset_x", 0)?;
-                let (oy, _) = p.int("crop_offset_y", 0)?;
-                let (cw, _) = p.int("crop_width", w)?;
-                let (ch, _) = p.int("crop_height", h)?;
-                let inside = |o: i64, c: i64, n: i64| o >= 0 && c > 0 && n > 0 && o.checked_add(c).is_some_and(|e| e <= n);
-                if !inside(ox, cw, w) || !inside(oy, ch, h) || w > u32::MAX as i64 || h > u32::MAX as i64 {
-                    return Err(Error::scene(
-                        &loc,
-                        format!(
-                            "invalid crop window: offset ({ox}, {oy}), size {cw}x{ch} must lie inside the {w}x{h} film \
-                             (offsets >= 0, sizes > 0)"
-                        ),
-                    ));
-                }
-                if (ox, oy, cw, ch) != (0, 0, w, h) {
-                    crop = Some((ox as u32, oy as u32, cw as u32, ch as u32));
-                }
-            }
-            if let Some(g) = p.node.props.iter().find(|q| q.name == "gamma") {
-                return Err(Error::scene(
-                    &g.loc,
-                    "property \"gamma\" of the film is not supported: it belongs to Mitsuba 0.x's ldrfilm \
-                     (Mitsuba 3.9.1 refuses it in an hdrfilm too); remove it, the renders are linear",
-                ));
-            }
-            p.ignore(&["banner"]);
-            for r in p.objects()? {
-                let n = &self.doc.nodes[r.node];
-                if n.class != "rfilter" {
-                    return Err(Error::scene(&r.loc, format!("unsupported <{} type=\"{}\"> inside a film", n.class, n.plugin)));
-                }
-            }
-            p.finish()?;
-        }
-        let (mut iw, mut ih) = crop.map(|(_, _, cw, ch)| (cw as i64, ch as i64)).unwrap_or((w, h));
-        if let Some((ow, oh)) = self.size_override {
-            (iw, ih) = (ow as i64, oh as i64);
-        }
-        if iw <= 0 || ih <= 0 || iw > u32::MAX as i64 || ih > u32::MAX as i64 {
-            return Err(Error::scene(&loc, format!("film size {iw}x{ih}: width and height must be positive")));
-        }
-        let size = (iw as u32, ih as u32);
-        // A crop window is a share of the file's film (whose aspect sets fov_axis); else the image is the film.
-        let full = if crop.is_some() { (w as u32, h as u32) } else { size };
-        Ok(Film { full, crop, size })
-    }
-}
-
-/// A sensor's film: the full film size (the image size when there is no crop window), its crop window (offset x, y, width, height) when it is not the
-/// whole film, and the image size (the crop window's, or `size_override`).
-struct Film {
-    full: (u32, u32),
-    crop: Option<(u32, u32, u32, u32)>,
-    size: (u32, u32),
-}
-
-/// Horizontal field of view in degrees (Mitsuba's `parse_fov`, `src/render/sensor.cpp`).
-fn parse_fov(p: &mut Props, aspect: f64) -> Result<f64> {
-    let loc = p.loc().clone();
-    let (fov, axis) = match p.opt_float("fov")? {
-        Some(fov) => {
-            if p.has("focal_length") {
-                return Err(Error::scene(&loc, "give either fov or focal_length, not both"));
-            }
-            let axis = p.string("fov_axis")?.map(|(s, _)| s.to_lowercase()).unwrap_or_else(|| "x".into());
-            let axis = match axis.as_str() {
-                "smaller" => if aspect > 1.0 { "y" } else { "x" }.to_string(),
-                "larger" => if aspect > 1.0 { "x" } else { "y" }.to_string(),
-                _ => axis,
-            };
-            (fov, axis)
-        }
-        None => {
-            let f = p.string("focal_length")?.map(|(s, _)| s).unwrap_or("50mm");
-            let v = f.strip_suffix("mm").unwrap_or(f);
-            let v: f64 = v
-                .trim()
-                .parse()
-                .map_err(|_| Error::scene(&loc, format!("could not parse focal_length \"{f}\" (must be of the form <x>mm)")))?;
-            (2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * v)).atan().to_degrees(), "diagonal".to_string())
-        }
-    };
-    let fov_x = match axis.as_str() {
-        "x" => fov,
-        "y" => (2.0 * ((0.5 * fov).to_radians().tan() * aspect).atan()).to_degrees(),
-        "diagonal" => {
-            let diagonal = 2.0 * (0.5 * fov).to_radians().tan();
-            let width = diagonal / (1.0 + 1.0 / (aspect * aspect)).sqrt();
-            (2.0 * (width * 0.5).atan()).to_degrees()
-        }
-        other => {
-            return Err(Error::scene(&loc, format!("fov_axis \"{other}\" must be one of smaller, larger, diagonal, x, y")));
-        }
-    };
-    if !(fov_x > 0.0 && fov_x < 180.0) {
-        return Err(Error::scene(&loc, format!("the horizontal field of view ({fov_x} degrees) must be in (0, 180)")));
-    }
-    Ok(fov_x)
 }
