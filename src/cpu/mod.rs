@@ -329,7 +329,8 @@ impl CpuBackend {
     /// holds where `accumulate` (a pixel's later delta-chain samples), else written over it. Writing first
     /// matters for a freshly allocated output: a read before the first write maps the kernel's shared zero
     /// page, and each write after it then takes a copy-on-write fault with a TLB shoot-down across the
-    /// threads (measured: 40% of `rows`' time on a 50 MB output). Returns the shadow tests.
+    /// threads, a large share of `rows`' time on outputs of tens of MB (docs/validation/backends.md).
+    /// Returns the shadow tests.
     fn put_elements(&self, dst: &mut [f32], first: usize, pair: impl Fn(usize) -> (usize, usize), accumulate: bool) -> u64 {
         let mut t = 0;
         let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
