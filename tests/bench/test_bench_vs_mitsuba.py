@@ -14,6 +14,7 @@ import pytest
 
 import manylights as ml
 from manylights.bench import __main__ as bench
+from manylights.bench import time_to_error as tte
 from manylights.bench import vs_mitsuba as bvm
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
@@ -196,12 +197,12 @@ def test_scene_defaults_name_bundled_scenes():
 
 def test_time_to_error_exact():
     # log t is linear in log e between (1 s, 10%) and (4 s, 2.5%): 5% is reached at 2 s.
-    assert bvm.time_to_error([(4.0, 0.025), (1.0, 0.1)], 0.05) == (pytest.approx(2.0, rel=1e-12), "interpolated")
-    assert bvm.time_to_error([(1.0, 0.1), (4.0, 0.025)], 0.2) == (1.0, "at most")
-    assert bvm.time_to_error([(1.0, 0.1), (4.0, 0.025)], 0.01) == (None, "not reached")
-    assert bvm.time_to_error([], 0.01) == (None, "not reached")
+    assert tte.time_to_error([(4.0, 0.025), (1.0, 0.1)], 0.05) == (pytest.approx(2.0, rel=1e-12), "interpolated")
+    assert tte.time_to_error([(1.0, 0.1), (4.0, 0.025)], 0.2) == (1.0, "at most")
+    assert tte.time_to_error([(1.0, 0.1), (4.0, 0.025)], 0.01) == (None, "not reached")
+    assert tte.time_to_error([], 0.01) == (None, "not reached")
     # Not monotone: the first crossing in time order counts.
-    t, how = bvm.time_to_error([(8.0, 0.01), (1.0, 0.1), (2.0, 0.04), (4.0, 0.06)], 0.05)
+    t, how = tte.time_to_error([(8.0, 0.01), (1.0, 0.1), (2.0, 0.04), (4.0, 0.06)], 0.05)
     assert how == "interpolated" and t == pytest.approx(2.0 ** (math.log(2.0) / math.log(2.5)), rel=1e-12)
 
 

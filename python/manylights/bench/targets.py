@@ -25,7 +25,7 @@ Mitsuba is installed, also with ``--no-mitsuba``, which skips only its timing) w
 Beside each cell, Mitsuba's own path tracer (``--mitsuba``, the default; ``llvm_ad_rgb`` where it works,
 pixel-centre rays, spp 1, 2, 4, ... up to ``--max-spp``, each level warmed up once, then timed) gives the
 seconds it needs to reach the median true error of the cell's renders (interpolated log-log between the
-bracketing spp levels, ``vs_mitsuba.time_to_error``), measured in the same run.
+bracketing spp levels, ``time_to_error.time_to_error``), measured in the same run.
 
 Writes ``<out>/targets.json`` after every render (Ctrl-C keeps what was measured), ``<out>/targets.md``
 (the table, for the docs' validation page) and ``<out>/targets.png`` (estimate and true error against
@@ -57,7 +57,7 @@ import manylights as ml
 
 from .._utils.files import atomic_write, atomic_write_text
 from .common import REPO, display_path, references_dir
-from .vs_mitsuba import time_to_error
+from .time_to_error import time_to_error
 
 #: A claimed target must hold within this factor in all but one seed ...
 CLAIM_TOLERANCE = 1.25
