@@ -3,7 +3,8 @@
 //! Prefers a hardware adapter (discrete, then integrated, then virtual, then one of unknown type, GL
 //! ones of unknown type last among those) and falls back to a software one (lavapipe over Vulkan,
 //! llvmpipe over GL/EGL; any adapter whose name says it is software ranks as a CPU one, whatever type it
-//! reports). Overrides, read once per context:
+//! reports). An OpenGL adapter gets a device but runs none of the passes (`GL_UNVALIDATED` in `unmet`).
+//! Overrides, read once per context:
 //! - `MANYLIGHTS_ADAPTER=hardware|software|<substring of the adapter name>`
 //! - `WGPU_BACKEND=vulkan|gl|metal|dx12` (wgpu's own variable) restricts the backends tried (read once per
 //!   process: one wgpu instance serves every device).
@@ -65,8 +66,15 @@ pub struct GpuContext {
 
 /// The install hint given when no adapter exists.
 pub const INSTALL_HINT: &str = "no GPU adapter found. Install a software Vulkan driver \
-(Debian/Ubuntu: `apt-get install mesa-vulkan-drivers libvulkan1`) or Mesa's EGL/GL (`libegl1 libgl1-mesa-dri`), \
-or a driver for your GPU; MANYLIGHTS_ADAPTER and WGPU_BACKEND select among adapters";
+(Debian/Ubuntu: `apt-get install mesa-vulkan-drivers libvulkan1`) or a Vulkan, Metal or DX12 driver for your GPU \
+(OpenGL adapters are found but run none of the GPU passes); MANYLIGHTS_ADAPTER and WGPU_BACKEND select among \
+adapters";
+
+/// Why an OpenGL adapter runs none of the passes (kept in `GpuContext::unmet`: `device="auto"` takes the CPU,
+/// `"gpu"` is refused with it).
+pub const GL_UNVALIDATED: &str = "OpenGL: the GPU passes are not validated on it (on Mesa's llvmpipe over EGL the \
+columns pass does not compile, WGSL's `textureLoad` from depth textures having no GLSL form, and the fuzzy K-means \
+returned wrongly ordered candidates without an error); use a Vulkan, Metal or DX12 adapter";
 
 fn is_software(info: &wgpu::AdapterInfo) -> bool {
     let name = info.name.to_lowercase();
@@ -197,7 +205,10 @@ impl GpuContext {
         limits.max_bindings_per_bind_group = adapter_limits.max_bindings_per_bind_group;
         // Never more than the adapter (or the override) allows, whatever the defaults above say.
         let limits = limits.or_worse_values_from(&adapter_limits);
-        let unmet = crate::gpu::needs::unmet(&limits);
+        let mut unmet = crate::gpu::needs::unmet(&limits);
+        if info.backend == wgpu::Backend::Gl {
+            unmet.push(GL_UNVALIDATED.to_string());
+        }
         let mut features = wgpu::Features::empty();
         for f in [wgpu::Features::FLOAT32_FILTERABLE, wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES] {
             if adapter.features().contains(f) {

@@ -176,3 +176,36 @@ def test_glossy_blend_weights_on_both_backends(name):
     a = cpu.column_sum(progress=False) + cpu.emitted()
     b = gpu.column_sum(progress=False) + gpu.emitted()
     assert a.max() > 0 and ml.relative_l2(a, b) < 1e-5
+
+
+def test_opengl_adapters_run_no_gpu_pass():
+    """An OpenGL adapter (``WGPU_BACKEND=gl``; Mesa's llvmpipe over EGL here) gets a device but runs none of
+    the passes: ``device="auto"`` takes the CPU and says why, ``"gpu"`` is refused naming OpenGL. (On it the
+    columns pass does not compile and the fuzzy K-means returned wrongly ordered candidates.)"""
+    import json
+    import os
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent("""
+        import json, manylights as ml
+        info = ml.device_info("auto")
+        s = ml.load_scene(ml.scenes.scene_path("cbox"), size=(8, 8))
+        L = ml.generate_lights(s, area=8)
+        try:
+            ml.LightMatrix(s, L, device="gpu")
+            err = None
+        except Exception as e:
+            err = [type(e).__name__, str(e)]
+        print(json.dumps({"info": info, "err": err, "auto": ml.LightMatrix(s, L, device="auto").device["kind"]}))
+    """)
+    out = subprocess.run([sys.executable, "-c", code], env={**os.environ, "WGPU_BACKEND": "gl"}, capture_output=True,
+                         text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    r = json.loads(out.stdout.strip().splitlines()[-1])
+    if (r["info"].get("gpu") or {}).get("backend") != "gl":
+        pytest.skip(f"no OpenGL adapter on this machine: {r['info'].get('reason')}")
+    assert r["info"]["kind"] == "cpu" and "OpenGL" in r["info"]["reason"]
+    assert r["err"] is not None and r["err"][0] == "GpuUnavailableError" and "OpenGL" in r["err"][1]
+    assert r["auto"] == "cpu"
