@@ -40,6 +40,16 @@ use std::sync::OnceLock;
 // `rtcOccluded16` takes exactly 16 lanes.
 const _: () = assert!(PACKET == 16);
 
+/// Embree's `FLT_LARGE`: a packet ray whose origin or direction has a component beyond it fails Embree's
+/// validity check, an assertion that aborts the process in Debian's build (`RayK::valid`).
+const LARGE: f32 = 1.844e18;
+
+/// Whether Embree accepts the ray (`LARGE`; `t_max` not NaN); others must be traced another way.
+#[inline]
+pub fn in_range(o: Vec3, d: Vec3, t_max: f32) -> bool {
+    o.abs().max_element() <= LARGE && d.abs().max_element() <= LARGE && !t_max.is_nan()
+}
+
 /// The process's Embree device (its thread pool builds the scenes); null where Embree cannot start.
 struct Device(RTCDevice);
 // An Embree device is thread safe (Embree's API documentation, "Thread safety").
