@@ -6,6 +6,8 @@
 //! `light_blocked` traces (`light_ray`): toward a light at a finite distance `spawn_ray_to(p, n_g, q)` (origin offset
 //! along n_g, unit direction, `t_max = |q - o| (1 - SHADOW_EPSILON)`), toward a directional light
 //! `(spawn_ray(p, n_g, wo), wo, inf)`. Elements whose unshadowed value is 0 cast no ray and are left out.
+//! A batch names pixels; a pixel's elements are those of each of its view samples (its camera hit, then
+//! its delta-chain samples, `ViewSamples::samples_of_pixel`), as its row and its columns sum them.
 //!
 //! Symbols: i a view sample, j a light, p / n_g the sample's position and geometric normal, q the light's
 //! position, wo the direction to the light, o / d / t_max the ray.
@@ -31,9 +33,12 @@ pub struct ShadowRays {
     pub origin: Vec<Vec3>,
     pub direction: Vec<Vec3>,
     pub t_max: Vec<f32>,
+    /// The view sample of each ray (a pixel's own sample has the pixel's index; delta-chain samples come
+    /// after the W x H pixels) and the pixel it belongs to.
     pub view: Vec<u32>,
+    pub pixel: Vec<u32>,
     pub light: Vec<u32>,
-    /// Elements of the batch (with and without a ray).
+    /// Elements of the batch, with and without a ray: the pixels' view samples x the lights.
     pub elements: u64,
     /// Seconds to set the rays up (unshadowed shading included: it decides which elements cast one).
     pub seconds: f64,
@@ -53,7 +58,8 @@ fn ray(view: &ViewSamples, lights: &LightSet, i: usize, j: usize, every: bool) -
     Some(super::light_ray(lights, j, sp.p, sp.n_g, wo, dist))
 }
 
-/// The shadow rays of the elements of `views` x `lights_idx`, in `order`: those `shade` casts (module docs),
+/// The shadow rays of the elements of pixels `views` x lights `lights_idx`, in `order`, each pixel's view
+/// samples in turn (module docs): those `shade` casts,
 /// or with `every` one for every element of a surface view sample, lit or not, toward the same point of
 /// the light (the rays a renderer that shaded nothing first would trace; those `shade` casts among them,
 /// unchanged).
@@ -67,37 +73,33 @@ pub fn shadow_rays(
     order: Order,
     every: bool,
 ) -> Result<ShadowRays> {
-    let (m, n) = (view.len(), lights.len());
+    let (m, n) = (view.num_pixels(), lights.len());
     if let Some(&i) = views.iter().find(|&&i| i >= m) {
-        return Err(Error::invalid(format!("view sample index {i} out of range (m = {m})")));
+        return Err(Error::invalid(format!("pixel index {i} out of range (m = {m} pixels)")));
     }
     if let Some(&j) = lights_idx.iter().find(|&&j| j >= n) {
         return Err(Error::invalid(format!("light index {j} out of range (n = {n})")));
     }
-    let elements = views.len() as u64 * lights_idx.len() as u64;
+    if views.len() as u64 * lights_idx.len() as u64 > 1 << 31 {
+        return Err(Error::invalid(format!("{} elements in one batch: at most 2^31", views.len() as u64 * lights_idx.len() as u64)));
+    }
+    // (view sample, pixel) of every pixel's samples, in pixel order.
+    let samples: Vec<(usize, usize)> = views.iter().flat_map(|&p| view.samples_of_pixel(p).map(move |i| (i, p))).collect();
+    let elements = samples.len() as u64 * lights_idx.len() as u64;
     if elements > 1 << 31 {
         return Err(Error::invalid(format!("{elements} elements in one batch: at most 2^31")));
     }
     let t = Instant::now();
-    let (outer, inner) = match order {
-        Order::Columns => (lights_idx, views),
-        Order::Rows => (views, lights_idx),
+    let element =
+        |(i, p): (usize, usize), j: usize| ray(view, lights, i, j, every).map(|(o, d, tm)| (i as u32, p as u32, j as u32, o, d, tm));
+    let found: Vec<Vec<(u32, u32, u32, Vec3, Vec3, f32)>> = match order {
+        Order::Columns => lights_idx.par_iter().map(|&j| samples.iter().filter_map(|&s| element(s, j)).collect()).collect(),
+        Order::Rows => samples.par_iter().map(|&s| lights_idx.iter().filter_map(|&j| element(s, j)).collect()).collect(),
     };
-    let found: Vec<Vec<(u32, u32, Vec3, Vec3, f32)>> = outer
-        .par_iter()
-        .map(|&a| {
-            inner
-                .iter()
-                .filter_map(|&b| {
-                    let (i, j) = if order == Order::Columns { (b, a) } else { (a, b) };
-                    ray(view, lights, i, j, every).map(|(o, d, tm)| (i as u32, j as u32, o, d, tm))
-                })
-                .collect()
-        })
-        .collect();
     let mut out = ShadowRays { elements, ..Default::default() };
-    for (i, j, o, d, tm) in found.into_iter().flatten() {
+    for (i, p, j, o, d, tm) in found.into_iter().flatten() {
         out.view.push(i);
+        out.pixel.push(p);
         out.light.push(j);
         out.origin.push(o);
         out.direction.push(d);

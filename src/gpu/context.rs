@@ -279,7 +279,8 @@ impl GpuContext {
             return Ok(());
         }
         Err(Error::GpuUnavailable(format!(
-            "the GPU adapter {:?} cannot run every GPU pass: {}; use device=\"cpu\" (device=\"auto\" does)",
+            "the GPU adapter {:?} cannot run every GPU pass: {}; use device=\"cpu\" (device=\"auto\" does, unless \
+             MANYLIGHTS_ADAPTER or MANYLIGHTS_DEVICE asks for this adapter)",
             self.summary.name,
             self.unmet.join("; ")
         )))

@@ -272,11 +272,12 @@ impl LightMatrix {
         let (h, w) = self.inner.image_size();
         array(py, col.into_iter().flatten().collect(), &[h, w, 3])
     }
-    /// The exact shadow rays of the elements `view_indices` x `light_indices` (`crate::cpu::shadow_rays`),
+    /// The exact shadow rays of the elements of pixels `view_indices` x `light_indices` (each pixel's view
+    /// samples, its delta-chain samples included; `crate::cpu::shadow_rays`),
     /// light by light (`order="columns"`) or view sample by view sample (`"rows"`); elements whose
     /// unshadowed value is 0 cast none and are left out, unless `every_element` (then every element of a
     /// surface view sample has its ray toward the light, lit or not). Dict: origin, direction (r, 3) float32 (world units,
-    /// unit directions), t_max (r,) float32 (inf toward directional lights), view, light (r,) int64,
+    /// unit directions), t_max (r,) float32 (inf toward directional lights), view, pixel, light (r,) int64,
     /// elements (int), seconds (float: the set-up, unshadowed shading included). ValueError for an index out
     /// of range, an unknown order, more than 2^31 elements.
     #[pyo3(signature = (view_indices, light_indices, order="columns", every_element=false))]
@@ -303,6 +304,7 @@ impl LightMatrix {
         d.set_item("direction", array(py, flat(&r.direction), &[k, 3])?)?;
         d.set_item("t_max", array(py, r.t_max, &[k])?)?;
         d.set_item("view", array(py, r.view.iter().map(|&v| v as i64).collect(), &[k])?)?;
+        d.set_item("pixel", array(py, r.pixel.iter().map(|&v| v as i64).collect(), &[k])?)?;
         d.set_item("light", array(py, r.light.iter().map(|&v| v as i64).collect(), &[k])?)?;
         d.set_item("elements", r.elements)?;
         d.set_item("seconds", r.seconds)?;

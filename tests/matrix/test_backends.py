@@ -113,6 +113,13 @@ def test_delta_chains_on_both_backends(tmp_path):
     assert np.array_equal(c[:n], c[n:2 * n]) and np.array_equal(c[-16:], c[(2000 - 16) % n:][:16])
     assert ml.relative_l2(c[:n].sum(0), a) < 1e-5
     assert ml.relative_l2(c[:n], gpu.columns(js[:n])) < 1e-5
+    # shadow_rays names pixels and casts their delta-chain samples' rays too: exactly the backend's rays.
+    before = cpu.visibility_stats()["ray_casts"]
+    cpu.column_sum(progress=False)
+    casts = cpu.visibility_stats()["ray_casts"] - before
+    rays = cpu.shadow_rays(list(range(m)), list(range(n)))
+    assert len(rays["t_max"]) == casts and rays["view"].max() >= m and rays["elements"] > m * n
+    assert rays["pixel"].max() < m and np.all(rays["pixel"][rays["view"] < m] == rays["view"][rays["view"] < m])
 
 
 @pytest.mark.parametrize("device", ["cpu", "gpu"])

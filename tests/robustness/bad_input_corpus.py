@@ -712,11 +712,17 @@ cases_for("LightMatrix.shadow_rays", [
     ("unknown order", lambda c: c.A.shadow_rays([0], [0], order="diagonal"), ["order"]),
     ("float indices", lambda c: c.A.shadow_rays([0.5], [0]), ["integer"]),
 ])
+cases_for("LightMatrix.shadow_rays", [
+    ("every_element a string", lambda c: c.A.shadow_rays([0], [0], every_element="False"), ["every_element"]),
+    ("every_element None", lambda c: c.A.shadow_rays([0], [0], every_element=None), ["every_element"]),
+], raises=("TypeError",))
 cases_for("LightMatrix.trace_shadow_rays", [
     ("two columns", lambda c: c.A.trace_shadow_rays(np.zeros((2, 2)), np.zeros((2, 3)), np.ones(2)), ["shape"]),
     ("lengths differ", lambda c: c.A.trace_shadow_rays(np.zeros((2, 3)), np.zeros((3, 3)), np.ones(2)),
      ["one entry per ray"]),
     ("t_max 2-D", lambda c: c.A.trace_shadow_rays(np.zeros((2, 3)), np.zeros((2, 3)), np.ones((2, 1))), ["t_max"]),
+    ("1-D origin", lambda c: c.A.trace_shadow_rays(np.zeros(3), np.zeros((1, 3)), np.ones(1)), ["origin", "shape"]),
+    ("no rays, wrong shape", lambda c: c.A.trace_shadow_rays([], [], []), ["origin", "shape"]),
     ("NaN origin", lambda c: c.A.trace_shadow_rays(np.array([[0, 0, 0], [0, np.nan, 0]]), np.ones((2, 3)),
                                                    np.ones(2)), ["origin of ray 1"]),
     ("inf direction", lambda c: c.A.trace_shadow_rays(np.zeros((1, 3)), np.array([[np.inf, 0, 0]]), np.ones(1)),

@@ -332,27 +332,31 @@ class LightMatrix:
                     order: str = "columns", every_element: bool = False) -> dict:
         """The exact shadow rays of the elements ``view_indices`` x ``light_indices`` as the CPU backend casts
         them (Mitsuba's ``spawn_ray_to`` offsets: the rays to hand a peer ray tracer, e.g. Mitsuba's
-        ``ray_test``; ``bench backends --peer mitsuba``). Elements whose unshadowed value is 0 cast no ray and
-        are left out, unless ``every_element``.
+        ``ray_test``; ``bench backends --peer mitsuba``). A pixel's elements are those of each of its view
+        samples: its camera hit, then its delta-chain samples (mirrors, glass), as its row sums them.
+        Elements whose unshadowed value is 0 cast no ray and are left out, unless ``every_element``.
 
         Args:
-            view_indices: view samples i in [0, m). light_indices: lights j in [0, n).
+            view_indices: pixels i in [0, m) (``y * width + x``). light_indices: lights j in [0, n).
             order: ``"columns"`` (light by light) or ``"rows"`` (view sample by view sample).
-            every_element: one ray for every element whose view sample lies on a surface, lit or not, toward
-                the same point of the light (the rays of a renderer that tested visibility before shading;
-                the ones the backend casts are among them, unchanged).
+            every_element: bool; one ray for every element whose view sample lies on a surface, lit or not,
+                toward the same point of the light (the rays of a renderer that tested visibility before
+                shading; the ones the backend casts are among them, unchanged).
 
         Returns:
             dict: ``origin``, ``direction`` (r, 3) float32 (world units; unit directions), ``t_max`` (r,)
-            float32 (inf toward directional lights), ``view``, ``light`` (r,) int64 (the element of each
-            ray), ``elements`` (int: the batch's size), ``seconds`` (float: the set-up, unshadowed shading
-            included).
+            float32 (inf toward directional lights), ``view`` (r,) int64 (the view sample of each ray: a
+            pixel's own sample has the pixel's index, delta-chain samples come after the m pixels),
+            ``pixel``, ``light`` (r,) int64 (the element of each ray), ``elements`` (int: the batch's view
+            samples x lights), ``seconds`` (float: the set-up, unshadowed shading included).
 
         Raises:
             ValueError: indices that are not integers or out of range, an unknown order, more than 2^31
-                elements."""
+                elements. TypeError: ``every_element`` not a bool."""
         m, n = self.shape
-        views = [int(i) for i in _v.indices("view index", view_indices, m, f"m = {m} view samples")]
+        if not isinstance(every_element, (bool, np.bool_)):
+            raise TypeError(f"every_element must be True or False, got {every_element!r}")
+        views = [int(i) for i in _v.indices("view index", view_indices, m, f"m = {m} pixels")]
         lights = [int(j) for j in _v.indices("light index", light_indices, n, f"n = {n} lights")]
         return dict(self._m.shadow_rays(views, lights, order, bool(every_element)))
 
@@ -375,8 +379,16 @@ class LightMatrix:
         o = np.ascontiguousarray(origin, dtype=np.float32)
         d = np.ascontiguousarray(direction, dtype=np.float32)
         t = np.ascontiguousarray(t_max, dtype=np.float32)
+        for name, a in (("origin", o), ("direction", d)):
+            if a.ndim != 2 or a.shape[1] != 3:
+                raise ValueError(f"trace_shadow_rays: {name} must have shape (r, 3), got {a.shape}")
         if t.ndim != 1:
             raise ValueError(f"t_max must have shape (r,), got {t.shape}")
+        if not len(o) == len(d) == len(t):
+            raise ValueError(f"trace_shadow_rays: origin, direction and t_max must have one entry per ray, got "
+                             f"{len(o)}, {len(d)} and {len(t)}")
+        if len(t) == 0:
+            return np.zeros(0, bool), 0.0
         for name, a in (("origin", o), ("direction", d)):
             bad = ~np.isfinite(a).reshape(len(a), -1).all(axis=1) if a.ndim == 2 else np.zeros(0, bool)
             if bad.any():
