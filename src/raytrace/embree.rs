@@ -12,15 +12,16 @@
 //!
 //! Exactness: the scene is built `RTC_SCENE_FLAG_ROBUST` (watertight triangle tests, conservative box
 //! tests; Mitsuba builds without it, 17-38% more rays per second on the benchmark's batches, and then 376
-//! of 20,000 rays aimed at a closed cube's edges leave it: docs/validation/backends.md), the rays are the library's own (Mitsuba's offsets, `t_max` shortened by `SHADOW_EPSILON`)
-//! with the library's floor on t (`bvh::t_floor`, as `tnear`: a shading point exactly on an edge, whose
-//! offset origin lies in the plane of the other face, is not blocked by that face at t = 0). Embree's
-//! triangle test is not the library's (Woop et al.'s watertight test, `intersect.rs`): the two may differ on rays that end within rounding of a surface or pass exactly
-//! through an edge or a vertex. Measured on the light matrix's column and row batches of cbox, veach-ajar
-//! and the bunny (`bench backends --peer mitsuba`, 11.2M rays) and on the tracer's 46,000 random and
-//! surface-to-surface test rays no ray differs; rays aimed exactly at an edge or a vertex, or ending within
-//! 1e-6 of a hit, may (4.5% of those test rays), and none leaves a closed cube through its edges
-//! (`raytrace::tests::packets::packets_answer_as_single_rays`).
+//! of 20,000 rays aimed at a closed cube's edges leave it: docs/validation/backends.md), the rays are the
+//! library's own (Mitsuba's offsets, `t_max` shortened by `SHADOW_EPSILON`) with the library's floor on t
+//! (`bvh::t_floor`, as `tnear`: a shading point exactly on an edge, whose offset origin lies in the plane
+//! of the other face, is not blocked by that face at t = 0). Embree's triangle test is not the library's
+//! (Woop et al.'s watertight test, `intersect.rs`): the two may differ on rays that end within rounding of
+//! a surface or pass exactly through an edge or a vertex. Measured on the light matrix's column and row
+//! batches of cbox, veach-ajar and the bunny (`bench backends --peer mitsuba`, 11.2M rays) and on the
+//! tracer's 46,000 random and surface-to-surface test rays no ray differs; rays aimed exactly at an edge or
+//! a vertex, or ending within 1e-6 of a hit, may (4.5% of those test rays), and none leaves a closed cube
+//! through its edges (`raytrace::tests::packets::packets_answer_as_single_rays`).
 //!
 //! Only triangles: a scene with analytic spheres gets no Embree scene (its packets take the library's own
 //! traversal, one ray at a time). The scene is built from the tracer's own triangles on its first packet

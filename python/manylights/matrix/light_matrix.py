@@ -384,13 +384,8 @@ class LightMatrix:
                 raise ValueError(f"trace_shadow_rays: {name} must have shape (r, 3), got {a.shape}")
         if t.ndim != 1:
             raise ValueError(f"t_max must have shape (r,), got {t.shape}")
-        if not len(o) == len(d) == len(t):
-            raise ValueError(f"trace_shadow_rays: origin, direction and t_max must have one entry per ray, got "
-                             f"{len(o)}, {len(d)} and {len(t)}")
-        if len(t) == 0:
-            return np.zeros(0, bool), 0.0
         for name, a in (("origin", o), ("direction", d)):
-            bad = ~np.isfinite(a).reshape(len(a), -1).all(axis=1) if a.ndim == 2 else np.zeros(0, bool)
+            bad = ~np.isfinite(a).all(axis=1)
             if bad.any():
                 k = int(np.flatnonzero(bad)[0])
                 raise ValueError(f"trace_shadow_rays: {name} of ray {k} is not finite: {a[k].tolist()}")
