@@ -44,15 +44,15 @@ pub struct ShadowRays {
     pub seconds: f64,
 }
 
-/// The shadow ray of element (i, j), None where it casts none (module docs), or with `every` where its view
-/// sample has no surface (a background sample) or lies at the light's point.
-fn ray(view: &ViewSamples, lights: &LightSet, i: usize, j: usize, every: bool) -> Option<(Vec3, Vec3, f32)> {
-    let sp = ShadingPoint::new(view, i);
+/// The shadow ray of element (i, j) (view sample i prepared as `sp`), None where it casts none (module
+/// docs), or with `every` where its view sample has no surface (a background sample) or lies at the
+/// light's point.
+fn ray(view: &ViewSamples, lights: &LightSet, sp: &ShadingPoint, i: usize, j: usize, every: bool) -> Option<(Vec3, Vec3, f32)> {
     let (wo, dist) = if every {
         let (wo, _, dist) = lights.toward(j, sp.p).filter(|_| sp.surface)?;
         (wo, dist)
     } else {
-        let (_, wo, dist) = shade_unshadowed(view, lights, &sp, i, j)?;
+        let (_, wo, dist) = shade_unshadowed(view, lights, sp, i, j)?;
         (wo, dist)
     };
     Some(super::light_ray(lights, j, sp.p, sp.n_g, wo, dist))
@@ -90,11 +90,15 @@ pub fn shadow_rays(
         return Err(Error::invalid(format!("{elements} elements in one batch: at most 2^31")));
     }
     let t = Instant::now();
-    let element =
-        |(i, p): (usize, usize), j: usize| ray(view, lights, i, j, every).map(|(o, d, tm)| (i as u32, p as u32, j as u32, o, d, tm));
+    // Each sample prepared once, not once per light.
+    let points: Vec<ShadingPoint> = samples.par_iter().map(|&(i, _)| ShadingPoint::new(view, i)).collect();
+    let element = |k: usize, j: usize| {
+        let (i, p) = samples[k];
+        ray(view, lights, &points[k], i, j, every).map(|(o, d, tm)| (i as u32, p as u32, j as u32, o, d, tm))
+    };
     let found: Vec<Vec<(u32, u32, u32, Vec3, Vec3, f32)>> = match order {
-        Order::Columns => lights_idx.par_iter().map(|&j| samples.iter().filter_map(|&s| element(s, j)).collect()).collect(),
-        Order::Rows => samples.par_iter().map(|&s| lights_idx.iter().filter_map(|&j| element(s, j)).collect()).collect(),
+        Order::Columns => lights_idx.par_iter().map(|&j| (0..samples.len()).filter_map(|k| element(k, j)).collect()).collect(),
+        Order::Rows => (0..samples.len()).into_par_iter().map(|k| lights_idx.iter().filter_map(|&j| element(k, j)).collect()).collect(),
     };
     let mut out = ShadowRays { elements, ..Default::default() };
     for (i, p, j, o, d, tm) in found.into_iter().flatten() {
