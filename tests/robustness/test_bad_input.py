@@ -1,8 +1,8 @@
 """Bad-input corpus: every public function of manylights with malformed arguments and
 every file reader with truncated and foreign files must raise a Python exception naming the problem --
 never a panic (pyo3's PanicException, a BaseException, counts as a failure), an abort, a hang or a
-silently returned result. The cases live in ``tests/robustness/bad_input_corpus.py``; they run in a child process
-so that an abort or hang is pinned to its case (the rest continue in a fresh child).
+silently returned result. The cases live in ``tests/robustness/corpus/`` (run by ``bad_input_corpus.py``); they
+run in a child process so that an abort or hang is pinned to its case (the rest continue in a fresh child).
 """
 from __future__ import annotations
 
@@ -158,7 +158,7 @@ def test_every_public_function_has_bad_input_cases():
     it takes none)."""
     covered = {c.target.split("[")[0] for c in corpus.CASES}
     missing = sorted(public_functions() - covered - set(corpus.NOT_COVERED))
-    assert not missing, f"public functions without a bad-input case in tests/robustness/bad_input_corpus.py: {missing}"
+    assert not missing, f"public functions without a bad-input case in tests/robustness/corpus/: {missing}"
     # every case targets something that exists (a renamed function leaves no stale entry)
     stale = sorted(t for t in covered if t not in public_functions() and not t.startswith("native."))
     assert not stale, stale

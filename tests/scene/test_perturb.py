@@ -9,7 +9,7 @@
   relative L2 within 1.5x the reference's noise (measured 0.195% and 0.196% against 0.200%: 122k and 132k spp), CPU
   (and GPU for the normal map); without the perturbation 26% and 30%.
 - Loading: wrappers declared at the top level (used by reference, or by no shape at all, as in Bitterli's
-  staircase) and the refusals with file, line and value (more in ``tests/robustness/bad_input_corpus.py``).
+  staircase) and the refusals with file, line and value (more in ``tests/robustness/corpus/scene_files.py``).
 """
 from __future__ import annotations
 
