@@ -33,6 +33,7 @@ pub mod bias_compensation;
 pub mod emitted;
 pub mod glossy;
 pub mod gpu;
+mod gpu_memory;
 pub mod mapping;
 pub mod oracle;
 pub mod reconstruction;

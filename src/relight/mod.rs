@@ -19,6 +19,7 @@
 //! | M (alternative) | `bounce_rows` (gather) | scalar, n_g x n_g | one-bounce gather-to-gather F_gg; M = K + ... + K^(b-1), K = diag(k_d / pi) F_gg |
 //! | W | `haar::forward` on the gather image (`hierarchy`) | n_g x n_g | orthonormal 2D Haar projection |
 pub mod diffuse;
+mod form_factor;
 pub mod glossy;
 pub mod gpu;
 pub mod haar;
