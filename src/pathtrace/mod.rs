@@ -73,7 +73,7 @@
 use crate::cpu::light_blocked;
 use crate::error::{Error, Result};
 use crate::lights::generate::area::{area_emitters, AreaEmitter};
-use crate::lights::generate::env_visibility::{camera_factor, CameraFactor};
+use crate::lights::generate::env_visibility::camera_factor;
 use crate::lights::generate::environment::{EnvSampler, Environment};
 use crate::lights::generate::sampling::{stream, uniform};
 use crate::lights::LightSet;
@@ -84,6 +84,7 @@ use crate::view::ViewSamples;
 use glam::{DVec3, Vec3};
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
+use std::sync::Arc;
 use vertex::{power_heuristic, Vertex};
 
 /// Random stream family of the path tracer (`sampling::stream`).
@@ -167,6 +168,29 @@ fn uses(scene: &Scene, root: usize, target: usize) -> bool {
     }
 }
 
+/// The scene's environment as the path tracer samples it: its radiance and its sampler, guided by what the
+/// camera's pilot view sees of it (`env_visibility::camera_factor` with `GUIDE_SEED`) or by luminance. A
+/// function of the scene and the guide flag alone: built once per scene and shared by every tracer of it
+/// (the Python `Scene`'s cache); building the sampler integrates the map over every cell.
+pub struct SampledEnvironment {
+    pub env: Environment,
+    pub sampler: EnvSampler,
+}
+
+impl SampledEnvironment {
+    /// None where the scene has no environment. `guided`: `ProbeOptions::guided_env` (a guide that sees no
+    /// environment falls back to luminance). Errors: `camera_factor`'s (interruption).
+    pub fn build(scene: &Scene, rt: &RayTracer, guided: bool) -> Result<Option<SampledEnvironment>> {
+        let Some(env) = Environment::from_scene(scene) else { return Ok(None) };
+        let guide = if guided { camera_factor(&env, scene, rt, GUIDE_SEED)? } else { None };
+        let sampler = match &guide {
+            Some(f) => env.sampler_guided(Some(&|d| f.of(d))),
+            None => env.sampler(),
+        };
+        Ok(Some(SampledEnvironment { env, sampler }))
+    }
+}
+
 /// The scene prepared for tracing paths (module docs).
 pub struct PathTracer<'a> {
     scene: &'a Scene,
@@ -176,7 +200,7 @@ pub struct PathTracer<'a> {
     /// Per mesh: its index in `area` (None without an area emitter).
     area_of_mesh: Vec<Option<usize>>,
     area_radiance: AreaRadiance<'a>,
-    env: Option<(Environment, EnvSampler)>,
+    env: Option<Arc<SampledEnvironment>>,
     /// Emitters to sample: delta lights, area emitters, the environment (one), in that order.
     num_emitters: usize,
     /// False in the light-set mode (`with_lights`): the scene's own emitters neither emit nor are sampled.
@@ -190,9 +214,14 @@ impl<'a> PathTracer<'a> {
         PathTracer::new_guided(scene, rt, opts, None)
     }
 
-    /// `new` with the environment's guide (`camera_factor`) built beforehand, for several tracers of one
-    /// scene (`None`: built here when `opts.guided_env` and the scene has an environment). Errors: as `new`.
-    pub fn new_guided(scene: &'a Scene, rt: &'a RayTracer, opts: &ProbeOptions, guide: Option<&CameraFactor>) -> Result<PathTracer<'a>> {
+    /// `new` with the environment built beforehand (`SampledEnvironment::build` with `opts.guided_env`), for
+    /// several tracers of one scene (`None`: built here). Errors: as `new`.
+    pub fn new_guided(
+        scene: &'a Scene,
+        rt: &'a RayTracer,
+        opts: &ProbeOptions,
+        env: Option<Arc<SampledEnvironment>>,
+    ) -> Result<PathTracer<'a>> {
         opts.check()?;
         check_supported(scene)?;
         let delta = LightSet::from_scene(scene)?;
@@ -201,19 +230,9 @@ impl<'a> PathTracer<'a> {
         for (k, e) in area.iter().enumerate() {
             area_of_mesh[e.mesh] = Some(k);
         }
-        let env = match Environment::from_scene(scene) {
-            Some(e) => {
-                let built = match (opts.guided_env, guide) {
-                    (true, None) => camera_factor(&e, scene, rt, GUIDE_SEED)?,
-                    _ => None,
-                };
-                let s = match guide.filter(|_| opts.guided_env).or(built.as_ref()) {
-                    Some(f) => e.sampler_guided(Some(&|d| f.of(d))),
-                    None => e.sampler(),
-                };
-                Some((e, s))
-            }
-            None => None,
+        let env = match env {
+            Some(e) => Some(e),
+            None => SampledEnvironment::build(scene, rt, opts.guided_env)?.map(Arc::new),
         };
         let num_emitters = delta.len() + area.len() + usize::from(env.is_some());
         Ok(PathTracer {
@@ -306,12 +325,12 @@ impl<'a> PathTracer<'a> {
             let p_l = s * dist2 / (a.area * cos_y);
             return f * le * (power_heuristic(p_l, x.pdf(wo)) / p_l);
         }
-        let Some((env, sampler)) = &self.env else { return Vec3::ZERO };
-        let (wo, pdf) = sampler.sample(u0, u1, u2);
+        let Some(se) = &self.env else { return Vec3::ZERO };
+        let (wo, pdf) = se.sampler.sample(u0, u1, u2);
         if !(pdf > 0.0) {
             return Vec3::ZERO;
         }
-        let le = sanitized(env.radiance(wo));
+        let le = sanitized(se.env.radiance(wo));
         let f = x.eval(wo);
         if f.max_element() <= 0.0 || le.max_element() <= 0.0 || self.rt.occluded_ray(spawn_ray(x.p, x.n_g, wo), wo, f32::INFINITY) {
             return Vec3::ZERO;
@@ -335,7 +354,7 @@ impl<'a> PathTracer<'a> {
 
     /// Emitter-sampling density (selection included) of the environment toward `w`.
     fn env_pdf(&self, w: Vec3) -> f32 {
-        self.env.as_ref().map_or(0.0, |(_, s)| self.selection() * s.pdf(w))
+        self.env.as_ref().map_or(0.0, |se| self.selection() * se.sampler.pdf(w))
     }
 
     fn may_continue(&self, depth: u32) -> bool {
@@ -346,10 +365,10 @@ impl<'a> PathTracer<'a> {
     pub fn path(&self, view: &ViewSamples, i: usize, rng: &mut Pcg32) -> Vec3 {
         let shape = view.shape_index[i];
         if shape < 0 {
-            let Some((env, _)) = &self.env else { return Vec3::ZERO };
+            let Some(se) = &self.env else { return Vec3::ZERO };
             let w = view.width as usize;
             let (_, d) = self.scene.camera.ray((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
-            return sanitized(env.radiance(d));
+            return sanitized(se.env.radiance(d));
         }
         let mesh = shape as usize;
         let le = if self.scene_emission { self.area_radiance.at(mesh, view.uv[i]) } else { Vec3::ZERO };
@@ -397,9 +416,9 @@ impl<'a> PathTracer<'a> {
                 break;
             }
             let Some(si) = self.rt.intersect(spawn_ray(x.p, x.n_g, bs.w), bs.w, 0.0, f32::INFINITY) else {
-                if let Some((env, _)) = &self.env {
+                if let Some(se) = &self.env {
                     let mis = if bs.delta { 1.0 } else { power_heuristic(bs.pdf, self.env_pdf(bs.w)) };
-                    result += beta * sanitized(env.radiance(bs.w)) * mis;
+                    result += beta * sanitized(se.env.radiance(bs.w)) * mis;
                 }
                 break;
             };
@@ -433,8 +452,8 @@ impl<'a> PathTracer<'a> {
 ///
 /// Errors: `InvalidParameter` for bad options, a pixel outside the film, a view without the film's
 /// samples, or an unsupported scene (`check_supported`); `Interrupted`.
-/// With `lights`, the scene is lit by them alone (`PathTracer::with_lights`); `guide`: the environment's
-/// guide built beforehand for several calls on one scene (`PathTracer::new_guided`; None: built here).
+/// With `lights`, the scene is lit by them alone (`PathTracer::with_lights`); `env`: the environment built
+/// beforehand for several calls on one scene (`PathTracer::new_guided`; None: built here).
 #[allow(clippy::too_many_arguments)]
 pub fn probe_pixels(
     scene: &Scene,
@@ -443,12 +462,12 @@ pub fn probe_pixels(
     pixels: &[(u32, u32)],
     opts: &ProbeOptions,
     lights: Option<LightSet>,
-    guide: Option<&CameraFactor>,
+    env: Option<Arc<SampledEnvironment>>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Vec<ProbeEstimate>> {
     let tracer = match lights {
         Some(l) => PathTracer::with_lights(scene, rt, l, opts)?,
-        None => PathTracer::new_guided(scene, rt, opts, guide)?,
+        None => PathTracer::new_guided(scene, rt, opts, env)?,
     };
     let (w, h) = (view.width, view.height);
     if view.len() < view.num_pixels() || w != scene.camera.width || h != scene.camera.height {

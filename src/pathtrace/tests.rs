@@ -126,6 +126,25 @@ fn seeded_and_deterministic() {
 }
 
 #[test]
+fn an_environment_built_beforehand_traces_the_same_paths() {
+    // The Python Scene builds the sampled environment once and hands it to every probe call; the paths must
+    // be those of a tracer that builds its own, guided or not.
+    let path = plane_scene("pt-shared-env", r#"<emitter type="constant"><rgb name="radiance" value="0.5, 1.0, 2.0"/></emitter>"#);
+    let (scene, view, rt) = scene_view_tracer(&path, 16);
+    let px = probes(&view);
+    for guided_env in [true, false] {
+        let opts = ProbeOptions { spp: 64, max_depth: 3, seed: 3, guided_env, ..Default::default() };
+        let own = probe_pixels(&scene, &rt, &view, &px, &opts, None, None, &mut |_, _| {}).unwrap();
+        let env = SampledEnvironment::build(&scene, &rt, guided_env).unwrap().map(Arc::new);
+        assert!(env.is_some());
+        let shared = probe_pixels(&scene, &rt, &view, &px, &opts, None, env.clone(), &mut |_, _| {}).unwrap();
+        let again = probe_pixels(&scene, &rt, &view, &px, &opts, None, env, &mut |_, _| {}).unwrap();
+        assert_eq!(own, shared);
+        assert_eq!(own, again);
+    }
+}
+
+#[test]
 fn bad_options_and_pixels_are_refused() {
     let path = plane_scene("pt-bad", r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#);
     let (scene, view, rt) = scene_view_tracer(&path, 16);

@@ -51,12 +51,12 @@ pub fn probe_pixels_py<'py>(
     crate::pathtrace::check_supported(&scene.inner)?;
     let view = scene.camera_samples(py)?;
     let tracer = scene.tracer(py)?;
-    let guide = if guided_env && lights.is_none() { scene.env_guide(py)? } else { None };
+    let env = if lights.is_none() { scene.probe_env(py, guided_env)? } else { None };
     let inner = scene.inner.clone();
     let lights = lights.map(|l| (*l.inner).clone());
     let est = signals::detach(py, move || {
         let mut cb = progress_callback(progress);
-        probe_pixels(&inner, &tracer, &view, &px, &opts, lights, guide.as_deref(), &mut cb)
+        probe_pixels(&inner, &tracer, &view, &px, &opts, lights, env, &mut cb)
     })?;
     let k = est.len();
     let mean = est.iter().flat_map(|e| e.mean.to_array()).collect();

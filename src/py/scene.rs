@@ -20,9 +20,9 @@ pub struct Scene {
     /// The scene's CPU ray tracer (BVH), built on first use: the CPU backend's G-buffer and shadow rays,
     /// and the exact oracle of every light matrix of this scene.
     tracer: std::sync::OnceLock<Arc<RayTracer>>,
-    /// The probes' environment guide (`env_visibility::camera_factor` with `pathtrace::GUIDE_SEED`), built
-    /// on first use: None without an environment or without a cell the pilot view sees.
-    env_guide: std::sync::OnceLock<Option<Arc<crate::lights::generate::env_visibility::CameraFactor>>>,
+    /// The probes' environment, sampled by luminance ([0]) or guided by the camera's pilot view ([1])
+    /// (`pathtrace::SampledEnvironment`), each built on first use: None without an environment.
+    probe_env: [std::sync::OnceLock<Option<Arc<crate::pathtrace::SampledEnvironment>>>; 2],
 }
 
 impl Scene {
@@ -42,22 +42,17 @@ impl Scene {
         Ok(self.tracer.get_or_init(|| t).clone())
     }
 
-    /// The probes' environment guide, built once (released GIL); None where the scene has no environment
-    /// or the pilot view sees none of it.
-    pub fn env_guide(&self, py: Python<'_>) -> PyResult<Option<Arc<crate::lights::generate::env_visibility::CameraFactor>>> {
-        if let Some(g) = self.env_guide.get() {
-            return Ok(g.clone());
+    /// The probes' environment (`pathtrace::SampledEnvironment`, guided or not), built once per flag
+    /// (released GIL): every probe call of this scene samples the same one.
+    pub fn probe_env(&self, py: Python<'_>, guided: bool) -> PyResult<Option<Arc<crate::pathtrace::SampledEnvironment>>> {
+        let slot = &self.probe_env[usize::from(guided)];
+        if let Some(e) = slot.get() {
+            return Ok(e.clone());
         }
         let tracer = self.tracer(py)?;
         let scene = self.inner.clone();
-        let g = super::signals::detach(py, move || -> crate::error::Result<_> {
-            match crate::lights::generate::environment::Environment::from_scene(&scene) {
-                Some(e) => Ok(crate::lights::generate::env_visibility::camera_factor(&e, &scene, &tracer, crate::pathtrace::GUIDE_SEED)?
-                    .map(Arc::new)),
-                None => Ok(None),
-            }
-        })?;
-        Ok(self.env_guide.get_or_init(|| g).clone())
+        let e = super::signals::detach(py, move || crate::pathtrace::SampledEnvironment::build(&scene, &tracer, guided))?;
+        Ok(slot.get_or_init(|| e.map(Arc::new)).clone())
     }
 
     /// The camera's own view samples (the first `width * height`, which do not depend on the delta-chain
@@ -468,7 +463,7 @@ pub fn load_scene(py: Python<'_>, path: PathBuf, params: Vec<(String, String)>, 
         inner: Arc::new(s),
         view: Mutex::new(Vec::new()),
         tracer: std::sync::OnceLock::new(),
-        env_guide: std::sync::OnceLock::new(),
+        probe_env: [std::sync::OnceLock::new(), std::sync::OnceLock::new()],
     })
 }
 

@@ -126,7 +126,7 @@ pub fn camera_factor(env: &Environment, scene: &Scene, rt: &RayTracer, seed: u64
 
 /// `camera_factor`'s result: per coarse cell, what a unit of radiance from there adds to the pilot view
 /// over the cell's luminance. A function of the scene alone (and the pilot's seed): the probes' path tracer
-/// builds it once per scene (`PathTracer::new_guided`, the Python `Scene`'s cache).
+/// builds it once per scene (`pathtrace::SampledEnvironment`, the Python `Scene`'s cache).
 #[derive(Debug, Clone)]
 pub struct CameraFactor {
     index: super::environment::CellIndex,
