@@ -123,13 +123,15 @@ impl Scene {
     fn resolution(&self) -> (u32, u32) {
         (self.inner.camera.height, self.inner.camera.width)
     }
-    /// One dict per shape: id, type, triangles, vertices, bsdf (index), emitter (index or None), file/line.
+    /// One dict per shape: id, type, triangles, vertices, bsdf (index), emitter (index or None), file/line,
+    /// anisotropic_frame (an anisotropic BSDF whose shading frame differs from Mitsuba's: `shading::frame`).
     #[getter]
     fn shapes<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         self.inner
             .meshes
             .iter()
-            .map(|m| {
+            .enumerate()
+            .map(|(k, m)| {
                 let d = PyDict::new(py);
                 d.set_item("id", &m.id)?;
                 let kind = match &m.kind {
@@ -152,6 +154,7 @@ impl Scene {
                 d.set_item("bsdf", m.bsdf)?;
                 d.set_item("emitter", m.emitter)?;
                 d.set_item("face_normals", m.face_normals)?;
+                d.set_item("anisotropic_frame", crate::shading::frame::anisotropic_frame_differs(&self.inner, k))?;
                 let lo = m.positions.iter().fold(glam::Vec3::splat(f32::INFINITY), |a, p| a.min(*p));
                 let hi = m.positions.iter().fold(glam::Vec3::splat(f32::NEG_INFINITY), |a, p| a.max(*p));
                 let (lo, hi) = match &m.kind {

@@ -1,6 +1,7 @@
 //! Shading: BSDF evaluation (Rust reference, twin of `shaders/common/bsdf.wgsl`).
 pub mod bsdf;
 pub mod bsdf_tables;
+pub mod frame;
 pub mod hemisphere;
 pub mod perturb;
 pub mod principled;

@@ -139,3 +139,31 @@ def test_animation_results_list_the_bias_sources_of_their_light_model():
         assert [s["source"] for s in res.bias_sources] == ["vpl_clamp"] and res.bias_sources[0]["lights"] == n_vpl > 0
     direct = ml.generate_animation_lights(anim, area=64, environment=64, indirect=0, photons=0)
     assert ml.tensor_clustering(ml.LightTensor(anim, direct, device="cpu"), rows=16, columns=32).bias_sources == []
+
+
+ANISO = ('<bsdf type="roughconductor" id="floor"><float name="alpha_u" value="0.05"/>'
+         '<float name="alpha_v" value="0.3"/></bsdf>')
+
+
+def test_anisotropic_lobes_in_a_turned_frame_are_a_bias_source_no_probe_covers(tmp_path):
+    # The plate's floor: its rectangle's dp_du (the x axis) is coordinate_system(n)'s first tangent, the frame
+    # Mitsuba shades in: no source.
+    scene = plate(tmp_path, "aniso-floor", ANISO)
+    assert [s["anisotropic_frame"] for s in scene.shapes] == [False, False]
+    assert bias_sources(matrix(scene, area=16)) == []
+    # The same BSDF on a sphere, whose dp_du is its azimuth: the frames differ by a turn about n.
+    path = tmp_path / "aniso-sphere.xml"
+    path.write_text(PLATE.format(bsdfs=ANISO).replace(
+        '<shape type="rectangle">\n        <transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>',
+        '<shape type="sphere" id="ball"><float name="radius" value="0.5"/>', 1))
+    scene = ml.load_scene(path)
+    assert [s["type"] for s in scene.shapes] == ["sphere", "rectangle"]
+    assert [s["anisotropic_frame"] for s in scene.shapes] == [True, False]
+    src = bias_sources(matrix(scene, area=16))
+    assert [s["source"] for s in src] == ["anisotropic_frame"] and src[0]["shapes"] == ["ball"]
+    # The probes' path tracer shades in the same frame: their bound cannot cover it, so no claim.
+    res = ml.render(path, target_error=0.5, seed=0, max_depth=2, progress=False, first_lights=64, max_lights=256,
+                    error_probes=32, probe_spp=16)
+    assert [s["source"] for s in res.bias_sources] == ["anisotropic_frame"]
+    assert res.budget["target_reached"] is False
+    assert "cannot cover" in res.budget["target_reason"] and "anisotropic_frame" in res.budget["target_reason"]

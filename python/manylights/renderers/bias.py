@@ -12,6 +12,7 @@ and ``render("scene.xml", target_error=e)`` does not claim a target while any is
 |---|---|---|
 | ``vpl_clamp`` | VPLs whose geometry term cos cos / d^2 is clamped (``generate_lights``' ``clamp``) | the clamp removes energy near corners and contacts deterministically (Kollig and Keller 2004); ``LightMatrix.bias_compensation`` adds it back |
 | ``vsl_radius`` | virtual spherical lights (``indirect_kind="vsl"``) | each VPL's light is spread over a sphere: a blurred expectation that converges only as the radius goes to 0 (Hašan et al. 2009) |
+| ``anisotropic_frame`` | shapes with an anisotropic BSDF (``roughconductor`` / ``roughdielectric`` with ``alpha_u`` != ``alpha_v``, ``principled`` with ``anisotropic`` > 0) whose shading frame differs from Mitsuba's (``src/shading/frame.rs``: spheres, cubes, disks, most meshes) | the lobe is evaluated rotated about the normal: its highlight turns. The probes' path tracer shades in the same frame, so unlike the others no probe sees it (``PROBES_BLIND``) |
 | ``glossy_lobe_without_mis`` | view samples on a lobe narrower than ``glossy_roughness`` that the matrix's glossy MIS does not sample (``principled``'s clearcoat; rough plastic, rough conductor and principled's specular lobe are sampled, alone or in a ``blendbsdf``) | a few point lights on a sharp lobe: highlights of area and environment lights are missed by every draw but a rare one, a heavy tail that the estimates (a few draws) do not see |
 
 Symbols: alpha, the lobe's GGX / Beckmann roughness (principled's clearcoat: lerp(0.1, 0.001, gloss)); ``glossy_roughness``, the
@@ -23,6 +24,13 @@ import numpy as np
 
 #: Light kinds (``LightSet.kind``): virtual point lights (and VSLs, with ``vsl_radius`` > 0).
 VPL_KIND = 4
+#: Sources that the probes' path tracer shares, so that no probe estimate covers them either.
+PROBES_BLIND = frozenset({"anisotropic_frame"})
+
+
+def probes_blind(sources: list[dict]) -> list[dict]:
+    """The sources in ``sources`` that no probe estimate covers (``PROBES_BLIND``)."""
+    return [s for s in sources if s["source"] in PROBES_BLIND]
 
 
 def _value(v):
@@ -74,14 +82,15 @@ def skipped_lobes(bsdfs: list[dict], index: int, threshold: float, depth: int = 
 
 def bias_sources(A) -> list[dict]:
     """The known bias sources of ``A``'s column sum (module doc), in the order vpl_clamp, vsl_radius,
-    glossy_lobe_without_mis; empty when the light model is unbiased as far as this package knows.
+    anisotropic_frame, glossy_lobe_without_mis; empty when the light model is unbiased as far as this package knows.
 
     Args:
         A: a ``LightMatrix``.
 
     Returns:
         list of dicts with ``source`` and ``reason`` (a sentence), and per source: ``lights`` and ``clamp``
-        (1/m^2, scene units) for ``vpl_clamp``; ``lights`` and ``max_radius`` for ``vsl_radius``;
+        (1/m^2, scene units) for ``vpl_clamp``; ``lights`` and ``max_radius`` for ``vsl_radius``; ``shapes``
+        (their ids) for ``anisotropic_frame``;
         ``view_samples`` (pixels on such a lobe) and ``lobes`` for ``glossy_lobe_without_mis``."""
     out = []
     lights = A.lights
@@ -100,6 +109,13 @@ def bias_sources(A) -> list[dict]:
                     "reason": f"{int(np.count_nonzero(vsl))} virtual spherical lights spread each VPL over a sphere "
                               f"(radius up to {float(radius[vsl].max()):.4g}): a blurred expectation"})
     scene = A.scene
+    turned = [(i, s) for i, s in enumerate(scene.shapes) if s.get("anisotropic_frame")]
+    if turned:
+        names = [str(s.get("id") or f"shape {i}") for i, s in turned]
+        out.append({"source": "anisotropic_frame", "shapes": names, "reason": (
+            f"{len(names)} shapes with an anisotropic BSDF are shaded in a frame rotated about the normal from "
+            f"Mitsuba's ({', '.join(names[:4])}{', ...' if len(names) > 4 else ''}): their highlights turn, and "
+            "the probes' path tracer shares the frame, so no estimate covers it")})
     threshold = A.glossy_roughness
     per_bsdf = {i: skipped_lobes(scene.bsdfs, i, threshold) for i in range(len(scene.bsdfs))}
     if any(per_bsdf.values()):

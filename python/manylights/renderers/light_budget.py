@@ -134,7 +134,7 @@ from ..lights.generate import generate_lights
 from ..matrix.light_matrix import LightMatrix
 from ..matrix.rows import stratified_rows
 from ..scene import load_scene
-from .bias import bias_sources, describe
+from .bias import bias_sources, describe, probes_blind
 from .budget import check_targets, render_matrix
 from .light_model import STREAM as _STREAM
 from .light_model import choose_light_model, fresh_probes, other_light_models
@@ -543,6 +543,11 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
     if target_error is None:
         res.budget["target_reached"] = None
         res.budget["target_reason"] = "no target given"
+    elif error_probes and probes_blind(res.bias_sources):
+        res.budget["target_reached"] = False
+        res.budget["target_reason"] = (
+            f"not claimed: the probes' bound {res.error_estimate:.3g} cannot cover bias that their path tracer "
+            f"shares: {describe(probes_blind(res.bias_sources))}")
     elif error_probes and not probe["reliable"]:
         res.budget["target_reached"] = False
         res.budget["target_reason"] = (
