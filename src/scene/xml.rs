@@ -211,11 +211,24 @@ fn scene_media(
 /// Mitsuba 3.9.1's integrators with a `max_depth` (default -1: unbounded).
 const PATH_INTEGRATORS: &[&str] = &["path", "volpath", "volpathmis", "ptracer", "prb", "prb_basic", "prbvolpath"];
 
-/// The integrator's type and path depth (see [`Integrator`]); only `max_depth` is read (the other
-/// properties choose how Mitsuba samples, not what the converged image is).
+/// The integrator's type and path depth (see [`Integrator`]); only `max_depth` and `hide_emitters` are read
+/// (the other properties choose how Mitsuba samples, not what the converged image is).
+///
+/// Errors: `hide_emitters` true (any integrator): Mitsuba's camera rays then pass through area emitters and
+/// see no environment, an image this crate does not render; refused rather than rendered with the emitters.
 fn read_integrator(doc: &parse::Document, node: usize) -> Result<Integrator> {
     let mut p = props::Props::new(doc, node);
     let plugin = p.node.plugin.clone();
+    if p.bool("hide_emitters", false)? {
+        return Err(Error::scene(
+            p.loc(),
+            format!(
+                "integrator \"{plugin}\": hide_emitters=true is not supported (Mitsuba's camera rays then pass \
+                 through area emitters and see no environment; this library renders what the camera sees): \
+                 remove it or set it to false"
+            ),
+        ));
+    }
     let max_depth = if PATH_INTEGRATORS.contains(&plugin.as_str()) {
         let (d, loc) = p.int("max_depth", -1)?;
         if d < -1 {

@@ -48,6 +48,10 @@ cases_for("load_scene", [
      ["nan"]),
     ("NaN sphere radius", lambda c: c.ml.load_scene(c.scene_with(
         "nanr", '<shape type="sphere"><float name="radius" value="nan"/></shape>')), ["nan", "scene.xml:8"]),
+    # Mitsuba's camera rays would pass through area emitters: refused, not rendered with the emitters.
+    ("integrator hiding emitters", lambda c: c.ml.load_scene(c.scene_with(
+        "hide", '<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>')),
+     ["hide_emitters", "scene.xml:8"]),
 ], raises=FILE_ERRORS + ("FileNotFoundError",))
 _GLASS = '<shape type="sphere"><bsdf type="dielectric"/>{}</shape>'
 cases_for("load_scene[medium]", [
