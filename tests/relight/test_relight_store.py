@@ -268,7 +268,7 @@ def test_nan_lights_never_reach_relight(box, rel, tmp_path):
     """Lights with a NaN intensity are refused on every way in: the scene file, LightSet.from_arrays, the
     CLI's light specs (and relight checks again in Rust: relight::relight::tests)."""
     p = _variant(tmp_path, "nan", '<rgb name="intensity" value="3, 3, 2.5"/>', '<rgb name="intensity" value="nan, 3, 2.5"/>')
-    with pytest.raises(ml.SceneError, match=r"nan\.xml:\d+: light 0: intensity must be finite"):
+    with pytest.raises(ml.SceneError, match=r"nan\.xml:\d+: emitter \"spot\": intensity must be finite"):
         ml.scene_lights(ml.load_scene(p))
     with pytest.raises(ValueError, match="intensity"):
         ml.LightSet.from_arrays(box, kind=1, position=[[0, 0.9, 0]], direction=[[0, -1, 0]],

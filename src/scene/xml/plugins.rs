@@ -52,6 +52,17 @@ pub struct Builder<'a> {
     pub shape_media: Vec<(usize, Option<usize>, Option<usize>)>,
 }
 
+/// An emitted value `v` of property `name`, refused with the property's file and line unless every channel is
+/// finite and >= 0 as float32 (a NaN, negative or overflowing radiance would otherwise drop the emitter, or
+/// reach the light set's checks without a location).
+pub(super) fn emitted_value(p: &mut Props, name: &str, v: Vec3) -> Result<Vec3> {
+    if v.is_finite() && v.min_element() >= 0.0 {
+        return Ok(v);
+    }
+    let loc = p.prop(name).map(|q| q.loc.clone()).unwrap_or_else(|| p.loc().clone());
+    Err(Error::scene(&loc, format!("{}: {name} must be finite and >= 0 in every channel (float32), got {:?}", p.what(), v.to_array())))
+}
+
 /// Refuse an emitter texture with NaN, infinite or negative texels (radiance must be finite and >= 0;
 /// reading them as 0 would silently change the lighting): the error names the file, how many texels are
 /// bad and the first one (index in row-major order and its value).
@@ -286,6 +297,8 @@ impl<'a> Builder<'a> {
     }
 
     /// A colour that must be constant (emitters, checkerboard colours).
+    /// An emitter's constant colour `name` (`intensity`, `irradiance`, a `constant`'s `radiance`): finite and
+    /// >= 0 in every channel as float32 (`emitted_value`).
     fn constant_color(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Vec3> {
         if let Some(r) = p.named_object(name)? {
             return Err(Error::scene(
@@ -293,7 +306,8 @@ impl<'a> Builder<'a> {
                 format!("\"{name}\" of {} must be a constant colour (textures are not supported here)", p.what()),
             ));
         }
-        Ok(p.color_prop(name)?.unwrap_or(Vec3::splat(default)))
+        let v = p.color_prop(name)?.unwrap_or(Vec3::splat(default));
+        emitted_value(p, name, v)
     }
 
     // ---- BSDFs ----

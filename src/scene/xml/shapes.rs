@@ -187,7 +187,7 @@ impl Builder<'_> {
             return Err(Error::scene(p.loc(), "area emitter: a to_world transform is not allowed (the shape's applies)"));
         }
         let (radiance, texture) = match self.unbounded_param(&mut p, "radiance", 1.0)? {
-            Param::Value(v) => (v, None),
+            Param::Value(v) => (super::plugins::emitted_value(&mut p, "radiance", v)?, None),
             Param::Texture(t) => {
                 self.check_emitter_texture(t, "area emitter radiance texture")?;
                 (Vec3::ONE, Some(t))

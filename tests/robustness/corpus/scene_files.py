@@ -48,6 +48,17 @@ cases_for("load_scene", [
      ["nan"]),
     ("NaN sphere radius", lambda c: c.ml.load_scene(c.scene_with(
         "nanr", '<shape type="sphere"><float name="radius" value="nan"/></shape>')), ["nan", "scene.xml:8"]),
+    # Emitted values that are NaN, negative or overflow float32: refused where they are written (they had
+    # dropped area and constant emitters silently).
+    ("NaN area radiance", lambda c: c.ml.load_scene(c.scene_with(
+        "nanarea", '<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="nan, 1, 1"/>'
+        '</emitter></shape>')), ["radiance", "nan", "scene.xml:8"]),
+    ("negative constant radiance", lambda c: c.ml.load_scene(c.scene_with(
+        "negconst", '<emitter type="constant"><rgb name="radiance" value="-0.5"/></emitter>')),
+     ["radiance", "-0.5", "scene.xml:8"]),
+    ("area radiance overflowing float32", lambda c: c.ml.load_scene(c.scene_with(
+        "hugearea", '<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1e40"/>'
+        '</emitter></shape>')), ["radiance", "inf", "scene.xml:8"]),
     # Mitsuba's camera rays would pass through area emitters: refused, not rendered with the emitters.
     ("integrator hiding emitters", lambda c: c.ml.load_scene(c.scene_with(
         "hide", '<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>')),
