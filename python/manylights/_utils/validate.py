@@ -98,7 +98,14 @@ def indices(name: str, values, size: int, what: str) -> np.ndarray:
         raise ValueError(f"{name} {arr[k]} (at position {k}) is out of range for {what}")
     if arr.dtype.kind not in "iu":
         raise ValueError(f"{name} values must be integers, got dtype {arr.dtype} (e.g. {arr.reshape(-1)[0]!r})")
-    arr = arr.astype(np.int64, copy=False).reshape(-1)
+    arr = arr.reshape(-1)
+    if arr.dtype.kind == "u" and arr.dtype.itemsize == 8:
+        # uint64 above int64's range would wrap to negative numbers: name the value as given.
+        big = np.flatnonzero(arr >= np.uint64(size))
+        if big.size:
+            k = int(big[0])
+            raise ValueError(f"{name} {int(arr[k])} (at position {k}) is out of range for {what}")
+    arr = arr.astype(np.int64, copy=False)
     bad = np.flatnonzero((arr < 0) | (arr >= size))
     if bad.size:
         k = int(bad[0])

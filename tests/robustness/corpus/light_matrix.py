@@ -71,6 +71,9 @@ cases_for("LightMatrix.shadow_rays", [
     ("view sample out of range", lambda c: c.A.shadow_rays([c.m], [0]), ["range"]),
     ("light out of range", lambda c: c.A.shadow_rays([0], [c.n]), ["range"]),
     ("negative light", lambda c: c.A.shadow_rays([0], [-1]), ["range"]),
+    # uint64 above int64's range: the value as given, not wrapped to a negative one.
+    ("view sample 2**63 as uint64", lambda c: c.A.shadow_rays(np.array([2**63], np.uint64), [0]),
+     ["9223372036854775808", "range"]),
     ("unknown order", lambda c: c.A.shadow_rays([0], [0], order="diagonal"), ["order"]),
     ("float indices", lambda c: c.A.shadow_rays([0.5], [0]), ["integer"]),
 ])
