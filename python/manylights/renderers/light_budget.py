@@ -342,7 +342,9 @@ def render_scene(path, target_error: Optional[float] = None, time_budget: Option
             (``probe_error``): the error against the converged scene, bias included, at a 90% upper
             confidence bound; ``target_reached`` is claimed only when that bound is <= target_error and the
             probes are reliable. 0: no probes (then the estimates cover variance only, and any known bias
-            source makes ``target_reached`` False).
+            source makes ``target_reached`` False). More than the image's pixels: the pixel count (the default
+            of 256 on a smaller image; ``budget['probes']['probes']`` says how many ran), where the renderers
+            that take ``error_probes`` directly refuse it.
         **render_options: passed to ``auto_budget.render`` (first_columns, max_rounds, rows_per_column,
             add_emitted, progress).
 
