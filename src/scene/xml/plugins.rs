@@ -495,7 +495,9 @@ impl<'a> Builder<'a> {
                 };
                 let intensity = self.constant_color(&mut p, "intensity", 1.0)?;
                 let cutoff = p.float("cutoff_angle", 20.0)?;
-                let beam = p.float("beam_width", cutoff * 0.75)?;
+                // Mitsuba accepts a beam wider than the cutoff: every direction inside the cutoff is then in the
+                // beam (falloff 1), which is the beam at the cutoff here.
+                let beam = p.float("beam_width", cutoff * 0.75)?.min(cutoff);
                 Emitter::Spot {
                     world_from_light: transform::to_f32(&to_world.unwrap_or(DMat4::IDENTITY)),
                     intensity,

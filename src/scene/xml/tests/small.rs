@@ -436,3 +436,22 @@ fn version_06_film_properties() {
     // Other Mitsuba 0.6 film properties that Mitsuba 3.9.1 refuses are refused here too.
     assert_err(load06("film06-hq", r#"<boolean name="highQualityEdges" value="true"/>"#, None), 5, &["high_quality_edges"]);
 }
+
+#[test]
+fn a_spot_beam_wider_than_its_cutoff_is_the_beam_at_the_cutoff() {
+    // Mitsuba accepts it: every direction inside the cutoff is in the beam (falloff 1), so the image is that
+    // of beam_width = cutoff_angle (a pixel-centre Mitsuba render of such a spot matched to 2e-7).
+    let s = load_str(
+        "spot-wide-beam",
+        r#"<shape type="rectangle"/><emitter type="spot"><float name="cutoff_angle" value="25"/><float name="beam_width" value="30"/></emitter>"#,
+    )
+    .unwrap();
+    match &s.emitters[0] {
+        Emitter::Spot { cutoff_angle, beam_width, .. } => assert_eq!(*beam_width, *cutoff_angle),
+        e => panic!("{e:?}"),
+    }
+    for cos in [1.0f32, 0.95, 24.9f32.to_radians().cos()] {
+        assert_eq!(crate::lights::spot_falloff(cos, 25f32.to_radians(), 25f32.to_radians()), 1.0);
+    }
+    assert_eq!(crate::lights::spot_falloff(25.1f32.to_radians().cos(), 25f32.to_radians(), 25f32.to_radians()), 0.0);
+}
