@@ -51,6 +51,10 @@ impl Builder<'_> {
             "sphere" => {
                 let center = p.vector("center")?.unwrap_or(DVec3::ZERO);
                 let radius = p.float("radius", 1.0)?;
+                if radius == 0.0 || !radius.is_finite() {
+                    let at = p.prop("radius").map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
+                    return Err(Error::scene(&at, format!("sphere: radius must be finite and non-zero, got {radius}")));
+                }
                 let m = to_world * DMat4::from_translation(center) * DMat4::from_scale(DVec3::splat(radius));
                 let cols = [m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()];
                 let l = cols.map(|c| c.length());

@@ -48,6 +48,8 @@ cases_for("load_scene", [
      ["nan"]),
     ("NaN sphere radius", lambda c: c.ml.load_scene(c.scene_with(
         "nanr", '<shape type="sphere"><float name="radius" value="nan"/></shape>')), ["nan", "scene.xml:8"]),
+    ("zero sphere radius", lambda c: c.ml.load_scene(c.scene_with(
+        "zeror", '<shape type="sphere"><float name="radius" value="0"/></shape>')), ["radius", "scene.xml:8"]),
     # Emitted values that are NaN, negative or overflow float32: refused where they are written (they had
     # dropped area and constant emitters silently).
     ("NaN area radiance", lambda c: c.ml.load_scene(c.scene_with(
