@@ -12,8 +12,9 @@
 //! - Emission seen through delta BSDF chains (mirrors, glass: `crate::view::chains`) is added per pixel
 //!   from `ViewSamples::chain_emitted`, computed when the chains were traced.
 //!
-//! Bad input gives zero contributions, never NaN: non-finite or negative area radiance counts as 0
-//! per channel; non-finite env-map texels or scale count as 0 (as `Environment` does for the lights).
+//! Bad input gives zero contributions, never NaN: the loader refuses non-finite or negative emitted values
+//! and texels; a `Scene` built another way still gets 0 per channel for them here (and non-finite env-map
+//! texels or scale count as 0, as `Environment` does for the lights).
 use super::LightMatrix;
 use crate::lights::generate::environment::Environment;
 use crate::scene::{Emitter, Scene, Texture};
