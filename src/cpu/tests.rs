@@ -1,6 +1,5 @@
 //! The CPU backend against the exact oracle (the same arithmetic: bit-equal) and against the GPU backend
 //! with exact rays (`Visibility::RayTraced`: the same rays, f32 rounding of the GPU's shading apart).
-use crate::gpu::GpuContext;
 use crate::matrix::backend::{Chosen, Device};
 use crate::matrix::{ColumnOptions, LightMatrix};
 use glam::Vec3;
@@ -92,7 +91,7 @@ fn cpu_and_gpu_backends_agree_on_columns_rows_and_sums() {
 fn choosing_devices() {
     // An explicit CPU never touches the GPU; "auto" on a machine whose only adapter is software is the CPU.
     assert!(Device::Cpu.choose().unwrap().is_cpu());
-    let ctx = GpuContext::shared().unwrap();
+    let ctx = crate::testing::gpu_context();
     if std::env::var(crate::matrix::backend::DEVICE_ENV).is_err() {
         assert_eq!(Device::Auto.choose().unwrap().is_cpu(), ctx.summary.is_software);
     }

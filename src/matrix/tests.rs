@@ -70,7 +70,7 @@ fn setup(size: u32, emitters: Vec<Emitter>, opts: ColumnOptions) -> Setup {
     let view = cast_view(&scene);
     let lights = LightSet::from_scene(&scene).unwrap();
     let reference = CpuReference::new(&scene);
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let matrix = LightMatrix::new(ctx, Arc::new(scene), Arc::new(view), Arc::new(lights), opts).unwrap();
     Setup { matrix, reference }
 }
@@ -323,7 +323,7 @@ fn bias_sweep() {
     let reference = CpuReference::new(&scene);
     let cpu: Vec<Vec<f32>> = (0..3).map(|j| reference.column(&view, &lights, j)).collect();
     let scene = Arc::new(scene);
-    let ctx = GpuContext::shared().unwrap();
+    let ctx = crate::testing::gpu_context();
     let m = (size * size) as usize;
     for res in [256u32, 512, 1024] {
         for (no, db, sb) in [(1.0, 0.0, 0.0), (1.0, 0.5, 0.0), (1.0, 0.25, 0.1), (1.5, 0.25, 0.1), (0.75, 0.25, 0.1), (1.0, 0.25, 0.25)] {

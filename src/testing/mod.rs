@@ -16,6 +16,19 @@ pub fn scene_file(rel: &str) -> PathBuf {
         .unwrap_or_else(|| panic!("test scene {rel:?}: no folder {folder:?} in scenes/ or tests/data/scenes/"))
 }
 
+/// The shared GPU context for the tests that run GPU passes (software adapters are fine). Panics, saying
+/// what to install, where no adapter exists or the one chosen cannot run every pass (an OpenGL adapter:
+/// `GpuContext::unmet`'s `GL_UNVALIDATED`, or limits below the passes' needs), instead of running the
+/// passes there (on Mesa's llvmpipe over EGL they gave wrong answers, then an abort).
+pub fn gpu_context() -> std::sync::Arc<crate::gpu::GpuContext> {
+    const INSTALL: &str = "the GPU tests need an adapter that runs every pass (Vulkan; `make system` installs Mesa's lavapipe)";
+    let ctx = crate::gpu::GpuContext::shared().unwrap_or_else(|e| panic!("{INSTALL}: {e}"));
+    if let Err(e) = ctx.check_needs() {
+        panic!("{INSTALL}: {e}");
+    }
+    ctx
+}
+
 pub mod light_scenes;
 pub mod raytrace_scenes;
 pub mod scenes;
@@ -93,7 +106,7 @@ pub fn backend_pair(res: u32) -> BackendPair {
     let scene = Arc::new(load_scene(&xml, &opts).unwrap());
     let gen = GenerateOptions { area: 24, environment: 24, indirect: 300, seed: 5, ..Default::default() };
     let lights = Arc::new(generate_lights(&scene, &gen).unwrap());
-    let ctx = crate::gpu::GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let view = Arc::new(crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap());
     let tracer = Arc::new(crate::raytrace::RayTracer::new(&scene).unwrap());
     let copts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 256, ..Default::default() };

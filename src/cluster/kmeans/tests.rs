@@ -6,7 +6,7 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
 fn ctx() -> std::sync::Arc<GpuContext> {
-    GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests")
+    crate::testing::gpu_context()
 }
 
 fn unit(v: [f32; 3]) -> [f32; 3] {

@@ -1,7 +1,6 @@
 //! Clustered visibility against the brute-force light matrix (singleton clusters: equal), against
 //! explicit single rays (every matrix entry), GPU against CPU, and the representatives' definitions.
 use super::*;
-use crate::gpu::GpuContext;
 use crate::lights::{generate_lights, GenerateOptions};
 use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
 use crate::raytrace::spawn_ray;
@@ -206,7 +205,7 @@ fn shading_in_several_gpu_dispatches_still_equals_brute_force() {
     let lights = Arc::new(generate_lights(&scene, &gen).unwrap());
     let per = crate::gpu::clustered_visibility::lights_per_dispatch(MAX_FUZZINESS);
     assert!(lights.len() > per && lights.len() < 2 * per, "{} lights, {per} per dispatch", lights.len());
-    let ctx = GpuContext::shared().unwrap();
+    let ctx = crate::testing::gpu_context();
     let view = Arc::new(crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap());
     let copts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 64, ..Default::default() };
     let a = LightMatrix::new(ctx.clone(), scene.clone(), view.clone(), lights.clone(), copts.clone()).unwrap();
@@ -255,7 +254,7 @@ fn masked_pair(max_depth: i64) -> (LightMatrix, LightMatrix, Arc<crate::raytrace
     assert!(!view.mask_budget.is_empty() && !view.bsdf_samples.is_empty());
     let view = Arc::new(view);
     let tracer = Arc::new(RayTracer::new(&scene).unwrap());
-    let ctx = GpuContext::shared().unwrap();
+    let ctx = crate::testing::gpu_context();
     let copts = ColumnOptions { visibility: Visibility::RayTraced, ..Default::default() };
     let gpu = LightMatrix::new(ctx, scene.clone(), view.clone(), lights.clone(), copts.clone()).unwrap();
     let cpu = LightMatrix::with_device(&Chosen::Cpu, scene, view, lights, copts, Some(tracer.clone())).unwrap();

@@ -1,5 +1,4 @@
 use super::*;
-use crate::gpu::GpuContext;
 
 #[test]
 fn requests_over_the_limits_are_refused_before_allocating() {
@@ -18,7 +17,7 @@ fn requests_over_the_limits_are_refused_before_allocating() {
 
 #[test]
 fn a_refused_request_leaves_the_device_working() {
-    let ctx = GpuContext::shared().unwrap();
+    let ctx = crate::testing::gpu_context();
     let max = ctx.device.limits().max_storage_buffer_binding_size;
     let desc = wgpu::BufferDescriptor {
         label: Some("test::too_big"),

@@ -106,7 +106,7 @@ fn cpu_occluded(tracer: &RayTracer, q: &OcclusionQuery) -> bool {
 
 #[test]
 fn gpu_occluded_matches_cpu_ray_tracer_on_shared_scenes() {
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let pass = OccludedPass::new(&ctx.device);
     let max_binding = ctx.limits.max_storage_buffer_binding_size as u64;
     for (k, name) in ["cbox-lights", "veach-ajar", "bunny"].iter().enumerate() {
@@ -143,7 +143,7 @@ fn gpu_occluded_matches_cpu_ray_tracer_on_shared_scenes() {
 
 #[test]
 fn empty_scene_blocks_nothing() {
-    let ctx = GpuContext::shared().unwrap();
+    let ctx = crate::testing::gpu_context();
     let mut scene = load_shared("cbox-lights");
     scene.meshes.clear();
     let bvh = GpuBvh::upload(&ctx.device, &scene, 1 << 27).unwrap();
@@ -156,7 +156,7 @@ fn empty_scene_blocks_nothing() {
 /// 3.9.1 and the CPU tracer say free; so must the GPU (it needed the t_min of `hit_triangle`).
 #[test]
 fn contact_edge_rays_are_free() {
-    let ctx = GpuContext::shared().unwrap();
+    let ctx = crate::testing::gpu_context();
     let scene = load_shared("cbox-lights");
     let tracer = RayTracer::new(&scene).unwrap();
     let bvh = GpuBvh::upload(&ctx.device, &scene, 1 << 27).unwrap();
@@ -174,7 +174,7 @@ fn contact_edge_rays_are_free() {
 #[test]
 fn split_dispatches_give_identical_results() {
     // A tiny ray budget sends 3,000 queries out in dispatches of 64: the same hits and the same steps.
-    let ctx = GpuContext::shared().unwrap();
+    let ctx = crate::testing::gpu_context();
     let scene = load_shared("cbox-lights");
     let tracer = RayTracer::new(&scene).unwrap();
     let bvh = GpuBvh::upload(&ctx.device, &scene, 1 << 27).unwrap();

@@ -11,7 +11,7 @@ const MAX_MISMATCH_FRACTION: f64 = 1e-3;
 const POSITION_TOLERANCE: f32 = 1e-5;
 
 fn ctx() -> Arc<GpuContext> {
-    GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests")
+    crate::testing::gpu_context()
 }
 
 struct Comparison {

@@ -15,7 +15,7 @@ fn mapping(w: u32, h: u32, seed: u32) -> PixelMapping {
 
 #[test]
 fn gpu_gather_equals_cpu_for_maps_and_chains() {
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let (w, h) = (37, 23);
     let (a, b, c) = (mapping(w, h, 1), mapping(w, h, 2), mapping(w, h, 3));
     let m = (w * h) as usize;
@@ -32,7 +32,7 @@ fn gpu_gather_equals_cpu_for_maps_and_chains() {
 
 #[test]
 fn weighted_accumulation_on_the_gpu() {
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let (w, h) = (16, 8);
     let m = (w * h) as usize;
     let a = mapping(w, h, 4);

@@ -5,7 +5,6 @@
 //! inside a mask.
 use super::*;
 use crate::cpu::CpuBackend;
-use crate::gpu::GpuContext;
 use crate::lights::generate::{generate_lights, GenerateOptions};
 use crate::matrix::backend::Backend;
 use crate::matrix::gpu::GpuBackend;
@@ -92,7 +91,7 @@ fn light_fields_follow_which_lights_cross_masks() {
 fn gpu_matches_cpu_on_mask_leaves() {
     let scene = Arc::new(leaves());
     let lights = Arc::new(generate_lights(&scene, &GenerateOptions { area: 64, ..Default::default() }).unwrap());
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let tracer = Arc::new(RayTracer::new(&scene).unwrap());
     let js: Vec<usize> = (0..lights.len()).collect();
     let ones = vec![[1.0f32; 3]; js.len()];
@@ -139,7 +138,7 @@ fn gpu_matches_cpu_on_mask_leaves() {
 fn gpu_matches_cpu_with_bitmap_opacities() {
     // The checkerboard replaced by a 5 x 3 RGB bitmap (bilinear with repeat, then nearest with mirror): the
     // GPU's texel lookups and luminance against the CPU's `eval_1`.
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     for (filter, wrap) in [(FilterType::Bilinear, WrapMode::Repeat), (FilterType::Nearest, WrapMode::Mirror)] {
         let mut scene = leaves();
         let data: Vec<glam::Vec3> =
@@ -197,7 +196,7 @@ fn gpu_matches_cpu_where_masked_paths_escape() {
     std::fs::remove_dir_all(&dir).ok();
     assert!(scene.meshes.iter().all(|m| m.id != "floor"));
     let lights = Arc::new(generate_lights(&scene, &GenerateOptions { area: 64, ..Default::default() }).unwrap());
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let js: Vec<usize> = (0..lights.len()).collect();
     let ones = vec![[1.0f32; 3]; js.len()];
     for depth in [2, -1] {

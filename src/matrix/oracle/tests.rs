@@ -1,5 +1,4 @@
 use super::*;
-use crate::gpu::GpuContext;
 use crate::lights::{generate_lights, GenerateOptions};
 use crate::matrix::{ColumnOptions, Visibility};
 use crate::scene::{load_scene, LoadOptions};
@@ -20,7 +19,7 @@ fn matrix(visibility: Visibility) -> LightMatrix {
     let scene = load_scene(&xml, &opts).unwrap();
     let gen = GenerateOptions { area: 16, environment: 16, indirect: 200, seed: 3, ..Default::default() };
     let lights = generate_lights(&scene, &gen).unwrap();
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let view = crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap();
     let opts = ColumnOptions { visibility, shadow_resolution: 256, ..Default::default() };
     LightMatrix::new(ctx, Arc::new(scene), Arc::new(view), Arc::new(lights), opts).unwrap()

@@ -48,7 +48,7 @@ struct Setup {
 fn setup(size: u32, gen: GenerateOptions) -> Setup {
     let scene = lit_box(size);
     let lights = generate_lights(&scene, &gen).unwrap();
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let view = crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap();
     Setup { scene: Arc::new(scene), view: Arc::new(view), lights: Arc::new(lights), ctx }
 }
@@ -293,7 +293,7 @@ fn bench_rows_cbox() {
     let opts = crate::scene::LoadOptions { params: vec![("res".to_string(), "128".to_string())], size: None, ..Default::default() };
     let scene = crate::scene::load_scene(&path, &opts).unwrap();
     let lights = generate_lights(&scene, &GenerateOptions { area: 50_000, indirect: 50_000, seed: 1, ..Default::default() }).unwrap();
-    let ctx = GpuContext::shared().unwrap();
+    let ctx = crate::testing::gpu_context();
     let view = crate::gpu::gbuffer::render_view_samples(&ctx, &scene).unwrap();
     let n = lights.len();
     let visibility = Visibility::parse(&std::env::var("ML_ROWS_VIS").unwrap_or("hybrid".into())).unwrap();

@@ -35,7 +35,7 @@ fn lights(scene: &Scene) -> Arc<LightSet> {
 }
 
 fn ctx() -> Arc<GpuContext> {
-    GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests")
+    crate::testing::gpu_context()
 }
 
 fn rel_l2(a: &[f32], b: &[f32]) -> f64 {

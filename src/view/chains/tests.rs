@@ -2,7 +2,6 @@
 //! matrix over chain samples (GPU columns = exact oracle; rows = columns; image = folded samples).
 use super::*;
 use crate::error::Location;
-use crate::gpu::GpuContext;
 use crate::lights::LightSet;
 use crate::matrix::{ColumnOptions, LightMatrix, Visibility};
 use crate::scene::{Emitter, Param};
@@ -171,7 +170,7 @@ fn matrix_over_chain_samples_matches_oracle_and_rows() {
     let mut lights = LightSet::from_scene(&scene).unwrap();
     lights.push_point(Vec3::new(-0.3, 0.5, -0.2), Vec3::new(0.5, 1.0, 0.7)).unwrap();
     let lights = Arc::new(lights);
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let opts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 128, ..Default::default() };
     let a = LightMatrix::new(ctx, scene.clone(), view.clone(), lights.clone(), opts).unwrap();
     assert_eq!(a.shape(), (m, lights.len()));
@@ -226,7 +225,7 @@ fn gpu_tensor_reconstruction_folds_chain_samples_like_the_cpu() {
     lights.push_point(Vec3::new(-0.3, 0.5, -0.2), Vec3::new(0.5, 1.0, 0.7)).unwrap();
     lights.push_point(Vec3::new(0.3, 0.7, 0.1), Vec3::new(0.9, 0.4, 0.7)).unwrap();
     let n = lights.len();
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let opts = ColumnOptions { visibility: Visibility::RayTraced, shadow_resolution: 128, ..Default::default() };
     let a = LightMatrix::new(ctx, scene.clone(), view.clone(), Arc::new(lights), opts).unwrap();
     let frames = [&a, &a, &a];

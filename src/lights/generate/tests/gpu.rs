@@ -1,7 +1,6 @@
 //! GPU columns against the CPU ray-cast reference (`matrix::reference::CpuReference`) for every generated
 //! light kind (oriented points, environment directionals, VPLs on diffuse, roughplastic and
 //! roughconductor surfaces) on the open box of `testing::light_scenes`.
-use crate::gpu::GpuContext;
 use crate::lights::generate::*;
 use crate::lights::LightKind;
 use crate::matrix::reference::CpuReference;
@@ -38,7 +37,7 @@ fn gpu_columns_match_cpu_for_generated_lights() {
         assert!(vpls.len() >= 2, "need VPLs on BSDF kind {bsdf_kind}, got {}", vpls.len());
         js.extend(vpls.iter().step_by(vpls.len() / 2).take(2));
     }
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let matrix = LightMatrix::new(
         ctx,
         Arc::new(scene),

@@ -1,6 +1,5 @@
 //! Virtual spherical lights (`lights::vsl`) as generated lights: radius -> 0 gives the unclamped VPL
 //! column, the GPU column pass equals the CPU reference (near field included), bad radii are refused.
-use crate::gpu::GpuContext;
 use crate::lights::generate::*;
 use crate::lights::LightKind;
 use crate::matrix::reference::CpuReference;
@@ -95,7 +94,7 @@ fn gpu_vsl_columns_match_cpu() {
         assert!(v.len() >= 2, "need VSLs on BSDF kind {bsdf_kind}");
         js.extend(v.iter().step_by(v.len() / 2).take(2));
     }
-    let ctx = GpuContext::shared().expect("a GPU adapter (software is fine) must exist in tests");
+    let ctx = crate::testing::gpu_context();
     let matrix = LightMatrix::new(
         ctx,
         Arc::new(scene),
