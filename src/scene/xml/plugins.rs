@@ -296,9 +296,7 @@ impl<'a> Builder<'a> {
         Ok(Param::Value(p.color_prop(name)?.unwrap_or(Vec3::splat(default))))
     }
 
-    /// A colour that must be constant (emitters, checkerboard colours).
-    /// An emitter's constant colour `name` (`intensity`, `irradiance`, a `constant`'s `radiance`): finite and
-    /// >= 0 in every channel as float32 (`emitted_value`).
+    /// A colour that must be constant (emitters, checkerboard colours, conductor eta and k).
     fn constant_color(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Vec3> {
         if let Some(r) = p.named_object(name)? {
             return Err(Error::scene(
@@ -306,7 +304,13 @@ impl<'a> Builder<'a> {
                 format!("\"{name}\" of {} must be a constant colour (textures are not supported here)", p.what()),
             ));
         }
-        let v = p.color_prop(name)?.unwrap_or(Vec3::splat(default));
+        Ok(p.color_prop(name)?.unwrap_or(Vec3::splat(default)))
+    }
+
+    /// An emitter's constant colour `name` (`intensity`, `irradiance`, a `constant`'s `radiance`): finite and
+    /// >= 0 in every channel as float32 (`emitted_value`).
+    fn emitted_color(&mut self, p: &mut Props, name: &str, default: f32) -> Result<Vec3> {
+        let v = self.constant_color(p, name, default)?;
         emitted_value(p, name, v)
     }
 
@@ -479,7 +483,7 @@ impl<'a> Builder<'a> {
                     (Some(v), None) => v.as_vec3(),
                     (None, m) => m.unwrap_or(DMat4::IDENTITY).w_axis.truncate().as_vec3(),
                 };
-                Emitter::Point { position, intensity: self.constant_color(&mut p, "intensity", 1.0)?, loc }
+                Emitter::Point { position, intensity: self.emitted_color(&mut p, "intensity", 1.0)?, loc }
             }
             "spot" => {
                 // Mitsuba requires a spatially varying projected texture (a bitmap or checkerboard).
@@ -493,7 +497,7 @@ impl<'a> Builder<'a> {
                     }
                     Param::Value(_) => None,
                 };
-                let intensity = self.constant_color(&mut p, "intensity", 1.0)?;
+                let intensity = self.emitted_color(&mut p, "intensity", 1.0)?;
                 let cutoff = p.float("cutoff_angle", 20.0)?;
                 // Mitsuba accepts a beam wider than the cutoff: every direction inside the cutoff is then in the
                 // beam (falloff 1), which is the beam at the cutoff here.
@@ -518,7 +522,7 @@ impl<'a> Builder<'a> {
                 if direction.length_squared() == 0.0 {
                     return Err(Error::scene(&loc, "directional: direction must not be zero"));
                 }
-                let irradiance = self.constant_color(&mut p, "irradiance", 1.0)?;
+                let irradiance = self.emitted_color(&mut p, "irradiance", 1.0)?;
                 Emitter::Directional { direction: direction.normalize().as_vec3(), irradiance, loc }
             }
             "envmap" => {
@@ -533,7 +537,7 @@ impl<'a> Builder<'a> {
                 let world_from_env = DMat4::from_mat3(env_t.inverse_linear().inverse()).as_mat4();
                 Emitter::EnvMap { map: EnvMap { width, height, data, scale, world_from_env }, loc }
             }
-            "constant" => Emitter::Constant { radiance: self.constant_color(&mut p, "radiance", 1.0)?, loc },
+            "constant" => Emitter::Constant { radiance: self.emitted_color(&mut p, "radiance", 1.0)?, loc },
             _ => return Err(unknown_plugin(&p)),
         };
         p.finish()?;
