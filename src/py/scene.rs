@@ -23,6 +23,9 @@ pub struct Scene {
     /// The probes' environment, sampled by luminance ([0]) or guided by the camera's pilot view ([1])
     /// (`pathtrace::SampledEnvironment`), each built on first use: None without an environment.
     probe_env: [std::sync::OnceLock<Option<Arc<crate::pathtrace::SampledEnvironment>>>; 2],
+    /// Per shape, `shading::frame::anisotropic_frame_differs`, computed on first use (it reads every
+    /// triangle of a shape with an anisotropic BSDF; `shapes` is read often).
+    anisotropic_frame: std::sync::OnceLock<Vec<bool>>,
 }
 
 impl Scene {
@@ -127,6 +130,9 @@ impl Scene {
     /// anisotropic_frame (an anisotropic BSDF whose shading frame differs from Mitsuba's: `shading::frame`).
     #[getter]
     fn shapes<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let turned = self.anisotropic_frame.get_or_init(|| {
+            (0..self.inner.meshes.len()).map(|k| crate::shading::frame::anisotropic_frame_differs(&self.inner, k)).collect()
+        });
         self.inner
             .meshes
             .iter()
@@ -154,7 +160,7 @@ impl Scene {
                 d.set_item("bsdf", m.bsdf)?;
                 d.set_item("emitter", m.emitter)?;
                 d.set_item("face_normals", m.face_normals)?;
-                d.set_item("anisotropic_frame", crate::shading::frame::anisotropic_frame_differs(&self.inner, k))?;
+                d.set_item("anisotropic_frame", turned[k])?;
                 let lo = m.positions.iter().fold(glam::Vec3::splat(f32::INFINITY), |a, p| a.min(*p));
                 let hi = m.positions.iter().fold(glam::Vec3::splat(f32::NEG_INFINITY), |a, p| a.max(*p));
                 let (lo, hi) = match &m.kind {
@@ -467,6 +473,7 @@ pub fn load_scene(py: Python<'_>, path: PathBuf, params: Vec<(String, String)>, 
         view: Mutex::new(Vec::new()),
         tracer: std::sync::OnceLock::new(),
         probe_env: [std::sync::OnceLock::new(), std::sync::OnceLock::new()],
+        anisotropic_frame: std::sync::OnceLock::new(),
     })
 }
 

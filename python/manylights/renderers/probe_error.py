@@ -483,11 +483,12 @@ def error_by_shape(scene: Scene, shape_index: np.ndarray, terms: np.ndarray, top
     keys, inv = np.unique(np.asarray(shape_index), return_inverse=True)
     mass = np.bincount(inv, weights=pos)
     order = np.argsort(-mass)[:top]
+    shapes = scene.shapes  # one read: the property builds every shape's dict
     out = []
     for k in order:
         i = int(keys[k])
-        if 0 <= i < len(scene.shapes):
-            name = scene.shapes[i].get("id") or f"shape {i}"
+        if 0 <= i < len(shapes):
+            name = shapes[i].get("id") or f"shape {i}"
         else:
             name = "background"
         out.append({"shape": str(name), "share": float(mass[k] / total)})
