@@ -41,6 +41,28 @@ use std::sync::OnceLock;
 // `rtcOccluded16` takes exactly 16 lanes.
 const _: () = assert!(PACKET == 16);
 
+/// A packet goes to Embree as coherent when every ray's direction is within this cosine of its first ray's
+/// (`EmbreeScene::occluded16`; the threshold measured in docs/validation/backends.md).
+pub const COHERENT_COS: f32 = 0.8;
+
+/// Scenes of more triangles trace every packet as incoherent: coherent (frustum) traversal gained 7-29% on
+/// the columns of cbox and veach-ajar and up to 18% on the bunny's rows (69,451 triangles), and lost
+/// 20-30% on the 2,097,152-triangle room, whose rays start on a floor of tiny triangles
+/// (docs/validation/backends.md). Between the two sizes it is not measured.
+pub const COHERENT_MAX_TRIANGLES: usize = 1 << 20;
+
+/// Whether every direction of `d` lies within [`COHERENT_COS`] of the first one (then `occluded16` traces
+/// the packet as coherent). Directions may have any length; a zero direction is never within.
+#[inline]
+pub fn coherent(d: &[Vec3]) -> bool {
+    let axis = d.first().copied().unwrap_or(Vec3::ZERO);
+    let axis_len2 = axis.length_squared();
+    d.iter().all(|dk| {
+        let c = dk.dot(axis);
+        c > 0.0 && c * c >= COHERENT_COS * COHERENT_COS * dk.length_squared() * axis_len2
+    })
+}
+
 /// Embree's `FLT_LARGE`: a packet ray whose origin or direction has a component beyond it fails Embree's
 /// validity check, an assertion that aborts the process in Debian's build (`RayK::valid`).
 const LARGE: f32 = 1.844e18;
@@ -66,6 +88,9 @@ fn device() -> Option<RTCDevice> {
 /// One committed Embree scene of a set of triangles, queried from any number of threads.
 pub struct EmbreeScene {
     scene: RTCScene,
+    /// Whether packets in a narrow cone are traced as coherent: scenes of at most
+    /// [`COHERENT_MAX_TRIANGLES`].
+    coherent_packets: bool,
 }
 
 // Committed Embree scenes may be queried from several threads at once (Embree's API documentation).
@@ -113,36 +138,53 @@ impl EmbreeScene {
                 rtcReleaseScene(rscene);
                 return None;
             }
-            Some(EmbreeScene { scene: rscene })
+            Some(EmbreeScene { scene: rscene, coherent_packets: triangles.len() <= COHERENT_MAX_TRIANGLES })
         }
     }
 
-    /// Up to [`PACKET`] rays `o + t d`, `t_near < t < t_max`, in one packet (`rtcOccluded16`): `out[k]` is
-    /// whether ray k hits a triangle; lanes with `valid[k]` false answer false.
-    pub fn occluded16(&self, o: &[Vec3], d: &[Vec3], t_near: &[f32], t_max: &[f32], valid: &[bool], out: &mut [bool]) {
+    /// Up to [`PACKET`] rays `o + t d`, `t_floor < t < t_max`, in one packet (`rtcOccluded16`): `out[k]` is
+    /// whether ray k hits a triangle, with `t_floor` the library's floor on t (`bvh::t_floor`). Returns the
+    /// lanes Embree cannot take (bit k: ray k beyond [`LARGE`] or with a NaN `t_max`); their `out` is left
+    /// false for the caller to trace another way. A ray with a zero direction answers false.
+    ///
+    /// The packet is traced as coherent (`RTC_INTERSECT_CONTEXT_FLAG_COHERENT`: Embree's frustum traversal)
+    /// when its directions lie within a cone of half-angle 37 degrees ([`coherent`]: a column's rays toward
+    /// one light from neighbouring pixels, a row's toward neighbouring lights) in a scene of at most
+    /// [`COHERENT_MAX_TRIANGLES`], as incoherent otherwise.
+    pub fn occluded16(&self, o: &[Vec3], d: &[Vec3], t_max: &[f32], out: &mut [bool]) -> u32 {
         let n = o.len().min(PACKET);
-        let mut ctx = RTCIntersectContext { flags: RTCIntersectContextFlags::INCOHERENT, filter: None, instID: [u32::MAX] };
         let mut lanes = [0i32; PACKET];
         // SAFETY: RTCRay16 is plain old data (floats and integers); all zero is a valid value.
         let mut ray: RTCRay16 = unsafe { std::mem::zeroed() };
+        let mut outside = 0u32;
         for k in 0..n {
-            lanes[k] = if valid[k] { -1 } else { 0 };
-            ray.org_x[k] = o[k].x;
-            ray.org_y[k] = o[k].y;
-            ray.org_z[k] = o[k].z;
-            ray.dir_x[k] = d[k].x;
-            ray.dir_y[k] = d[k].y;
-            ray.dir_z[k] = d[k].z;
-            ray.tnear[k] = t_near[k];
+            let (ok, dk) = (o[k], d[k]);
+            let in_range = in_range(ok, dk, t_max[k]);
+            outside |= (!in_range as u32) << k;
+            lanes[k] = if in_range && dk != Vec3::ZERO { -1 } else { 0 };
+            ray.org_x[k] = ok.x;
+            ray.org_y[k] = ok.y;
+            ray.org_z[k] = ok.z;
+            ray.dir_x[k] = dk.x;
+            ray.dir_y[k] = dk.y;
+            ray.dir_z[k] = dk.z;
+            ray.tnear[k] = super::bvh::t_floor(ok, dk, 0.0);
             ray.tfar[k] = t_max[k];
             ray.mask[k] = u32::MAX;
         }
+        let flags = if self.coherent_packets && coherent(&d[..n]) {
+            RTCIntersectContextFlags::COHERENT
+        } else {
+            RTCIntersectContextFlags::INCOHERENT
+        };
+        let mut ctx = RTCIntersectContext { flags, filter: None, instID: [u32::MAX] };
         // SAFETY: the scene is committed and lives as long as self; lanes, ctx and ray are valid for the call.
         unsafe { rtcOccluded16(lanes.as_ptr(), self.scene, &mut ctx, &mut ray) };
         for k in 0..n {
             // Embree marks an occluded ray by setting its tfar to -inf.
-            out[k] = valid[k] && ray.tfar[k] == f32::NEG_INFINITY;
+            out[k] = lanes[k] != 0 && ray.tfar[k] == f32::NEG_INFINITY;
         }
+        outside
     }
 }
 

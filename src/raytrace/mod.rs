@@ -205,19 +205,12 @@ impl RayTracer {
             for (c, out) in out.chunks_mut(PACKET).enumerate() {
                 let r = c * PACKET..c * PACKET + out.len();
                 let (o, d, t_max) = (&o[r.clone()], &d[r.clone()], &t_max[r]);
-                let (mut valid, mut t_near, mut outside) = ([false; PACKET], [0f32; PACKET], false);
-                for k in 0..out.len() {
-                    // Embree asserts (aborting the process) on a ray beyond its range; those go one at a time.
-                    let in_range = embree::in_range(o[k], d[k], t_max[k]);
-                    valid[k] = ray_is_valid(o[k], d[k]) && in_range;
-                    outside |= !in_range;
-                    t_near[k] = bvh::t_floor(o[k], d[k], 0.0);
-                }
-                e.occluded16(o, d, &t_near, t_max, &valid, out);
-                if outside {
-                    for k in (0..out.len()).filter(|&k| !valid[k]) {
-                        out[k] = self.occluded_ray(o[k], d[k], t_max[k]);
-                    }
+                // Embree asserts (aborting the process) on a ray beyond its range; those go one at a time.
+                let mut outside = e.occluded16(o, d, t_max, out);
+                while outside != 0 {
+                    let k = outside.trailing_zeros() as usize;
+                    out[k] = self.occluded_ray(o[k], d[k], t_max[k]);
+                    outside &= outside - 1;
                 }
             }
             return;
