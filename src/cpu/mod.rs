@@ -13,7 +13,7 @@
 //! ray. A pixel's row is the sum of its samples (its camera hit, then its delta-chain samples in order).
 //!
 //! Shadow rays go in packets of up to 16 (`RayTracer::occluded_packet`): the elements of a group (16
-//! consecutive pixels of a column, or 16 consecutive lights of a pixel's row or weighted sum) are shaded
+//! consecutive pixels of a column or a weighted sum, or 16 lights of a row, neighbours in space) are shaded
 //! unshadowed first, then the rays of the lit ones are traced together, through Embree's 16-wide packets
 //! where the build has the `embree` feature and the scene no analytic sphere (`raytrace::embree`: 2-3x the
 //! rays per second of one ray at a time on the benchmark's batches), else one at a time through the
@@ -22,10 +22,13 @@
 //!
 //! Work layout (timed side by side with the GPU by `python -m manylights.bench backends`; docs/validation/backends.md):
 //! - `weighted_sum(J, w)` (the reconstruction of clustered renderers): lights in blocks, each block
-//!   parallel over pixel chunks; a pixel loops over the block's lights and accumulates in registers
-//!   (no atomics, no per-column buffers), in light order, so the result does not depend on threads.
+//!   parallel over pixel chunks; within a chunk light by light, PACKET neighbouring pixels at a time (a
+//!   piece of a column: coherent rays), each pixel adding its lights in the block's order (no atomics,
+//!   no per-column buffers), so the result does not depend on threads.
 //! - `columns(J)`: column by column, each parallel over pixel chunks.
-//! - `rows(I)`: parallel over (row, light chunk); a pixel's delta-chain samples add into its row.
+//! - `rows(I)`: parallel over (row, light chunk); a row's lights in `spatial_order` (neighbours in space
+//!   together, so a packet's rays leave the view sample in similar directions), each element written at
+//!   its light's place; a pixel's delta-chain samples add into its row.
 //! Interruption (`crate::interrupt`) is checked between blocks; progress after each block.
 //!
 //! Symbols: m = view samples (pixels + delta-chain samples), n = lights, i a view sample, j a light,
@@ -190,7 +193,7 @@ pub fn light_blocked(tracer: &RayTracer, lights: &LightSet, j: usize, p: Vec3, n
 
 /// The shadow ray `(o, d, t_max)` that [`light_blocked`] traces (module docs): `spawn_ray_to` the light's
 /// position at a finite distance, `(spawn_ray(p, n_g, wo), wo, inf)` toward a directional light.
-#[inline]
+#[inline(always)]
 pub fn light_ray(lights: &LightSet, j: usize, p: Vec3, n_g: Vec3, wo: Vec3, dist: f32) -> (Vec3, Vec3, f32) {
     if dist.is_finite() {
         spawn_ray_to(p, n_g, lights.position[j])
@@ -258,6 +261,53 @@ pub fn mask_visibility_at(
     tracer.mask_transmittance_crossed(p, n_g, q, wo, budget)
 }
 
+/// The light indices 0..n in Morton order of the lights' positions (10 bits per axis over their bounding
+/// box), directional lights last in Morton order of their directions: neighbours in this order are
+/// neighbours in space, so a view sample's rays to consecutive lights of it form coherent packets. `rows`
+/// trace in this order: 1.6-1.9x the rays per second of the lights' own order on the benchmark's row
+/// batches (docs/validation/backends.md); each element is computed alone, so the values do not change.
+pub fn spatial_order(lights: &LightSet) -> Vec<u32> {
+    let n = lights.len();
+    let at_infinity = |j: usize| lights.kind[j] == crate::lights::LightKind::Directional;
+    let point = |j: usize| if at_infinity(j) { lights.direction[j] } else { lights.position[j] };
+    let (mut lo, mut hi) = ([Vec3::INFINITY; 2], [Vec3::NEG_INFINITY; 2]);
+    for j in 0..n {
+        let (p, g) = (point(j), at_infinity(j) as usize);
+        if p.is_finite() {
+            lo[g] = lo[g].min(p);
+            hi[g] = hi[g].max(p);
+        }
+    }
+    let key = |j: usize| -> u64 {
+        let (p, g) = (point(j), at_infinity(j) as usize);
+        let cell = ((p - lo[g]) / (hi[g] - lo[g]).max(Vec3::splat(1e-30)) * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+        let (x, y, z) = if p.is_finite() { (cell.x as u64, cell.y as u64, cell.z as u64) } else { (1023, 1023, 1023) };
+        let mut m = 0u64;
+        for b in 0..10 {
+            m |= ((x >> b) & 1) << (3 * b) | ((y >> b) & 1) << (3 * b + 1) | ((z >> b) & 1) << (3 * b + 2);
+        }
+        (g as u64) << 32 | m
+    };
+    let mut keyed: Vec<(u64, u32)> = (0..n).map(|j| (key(j), j as u32)).collect();
+    keyed.par_sort_unstable();
+    keyed.into_iter().map(|(_, j)| j).collect()
+}
+
+/// A row block's output shared by the tasks that write disjoint lights of it (`CpuBackend::rows`).
+#[derive(Clone, Copy)]
+struct SharedOut(*mut f32);
+// SAFETY: the tasks write disjoint elements (`CpuBackend::put_row_elements`' contract).
+unsafe impl Send for SharedOut {}
+unsafe impl Sync for SharedOut {}
+
+impl SharedOut {
+    /// Row k of a block of rows of n lights (RGB).
+    fn row(self, k: usize, n: usize) -> *mut f32 {
+        // SAFETY (of the callers): k < the block's rows.
+        unsafe { self.0.add(k * n * 3) }
+    }
+}
+
 /// The CPU backend of one light matrix (module docs).
 pub struct CpuBackend {
     tracer: Arc<RayTracer>,
@@ -265,6 +315,8 @@ pub struct CpuBackend {
     lights: Arc<LightSet>,
     /// Every view sample prepared (`ShadingPoint::new`).
     points: Vec<ShadingPoint>,
+    /// The lights in the order rows trace them ([`spatial_order`]).
+    light_order: Vec<u32>,
     shadow_tests: AtomicU64,
 }
 
@@ -277,7 +329,8 @@ impl CpuBackend {
             crate::memory::product(&[m as u64, std::mem::size_of::<ShadingPoint>() as u64]),
         )?;
         let points = (0..m).into_par_iter().with_min_len(1024).map(|i| ShadingPoint::new(&view, i)).collect();
-        Ok(CpuBackend { tracer, view, lights, points, shadow_tests: AtomicU64::new(0) })
+        let light_order = spatial_order(&lights);
+        Ok(CpuBackend { tracer, view, lights, points, light_order, shadow_tests: AtomicU64::new(0) })
     }
 
     /// Element (sample i, light j), counting its shadow test.
@@ -353,6 +406,36 @@ impl CpuBackend {
         t
     }
 
+    /// Light matrix row `i` at the lights `light_order[positions]`, [`PACKET`] at a time (`elements`), into
+    /// `row` (n * 3 floats, light j at `3 j`): written over, or added to what it holds where `accumulate` (a
+    /// pixel's later delta-chain samples). Lights in `light_order` are neighbours in space, so a packet's rays
+    /// leave the view sample in similar directions (docs/validation/backends.md). Returns the shadow tests.
+    ///
+    /// # Safety
+    /// `row` points to n * 3 floats that no other thread reads or writes at the lights of `positions`.
+    unsafe fn put_row_elements(&self, row: *mut f32, positions: std::ops::Range<usize>, i: usize, accumulate: bool) -> u64 {
+        let mut t = 0;
+        let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
+        for g in positions.clone().step_by(PACKET) {
+            let n = PACKET.min(positions.end - g);
+            for (k, p) in pairs.iter_mut().enumerate().take(n) {
+                *p = (i, self.light_order[g + k] as usize);
+            }
+            t += self.elements(&pairs[..n], &mut v[..n]);
+            for (&(_, j), value) in pairs[..n].iter().zip(&v) {
+                let px = std::slice::from_raw_parts_mut(row.add(3 * j), 3);
+                if accumulate {
+                    px[0] += value.x;
+                    px[1] += value.y;
+                    px[2] += value.z;
+                } else {
+                    px.copy_from_slice(&value.to_array());
+                }
+            }
+        }
+        t
+    }
+
     /// Per-sample values `m * 3` folded into pixels (`width * height * 3`).
     fn fold(&self, per_sample: Vec<f32>) -> Vec<f32> {
         if self.view.len() == self.view.num_pixels() {
@@ -414,24 +497,34 @@ impl Backend for CpuBackend {
                 .par_chunks_mut(PIXEL_CHUNK * 3)
                 .enumerate()
                 .map(|(c, dst)| {
+                    // Light by light, each over the chunk's pixels PACKET at a time: a packet is a piece of
+                    // a column (neighbouring pixels toward one light, coherent rays), and each pixel still
+                    // adds its lights in the block's order.
+                    let first = c * PIXEL_CHUNK;
+                    let count = dst.len() / 3;
+                    let mut sum = [Vec3::ZERO; PIXEL_CHUNK];
+                    for (e, px) in dst.chunks_exact(3).enumerate() {
+                        sum[e] = Vec3::from_array([px[0], px[1], px[2]]);
+                    }
                     let mut t = 0u64;
-                    for (e, px) in dst.chunks_exact_mut(3).enumerate() {
-                        let i = c * PIXEL_CHUNK + e;
-                        if !self.points[i].surface {
-                            continue;
-                        }
-                        let mut sum = Vec3::from_array([px[0], px[1], px[2]]);
-                        let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
-                        for (lights, wl) in block.chunks(PACKET).zip(w.chunks(PACKET)) {
-                            for (pair, &j) in pairs.iter_mut().zip(lights) {
-                                *pair = (i, j);
+                    let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
+                    for (&j, wk) in block.iter().zip(w) {
+                        let wk = Vec3::from_array(*wk);
+                        for g in (0..count).step_by(PACKET) {
+                            let n = PACKET.min(count - g);
+                            for (k, pair) in pairs.iter_mut().enumerate().take(n) {
+                                *pair = (first + g + k, j);
                             }
-                            t += self.elements(&pairs[..lights.len()], &mut v[..lights.len()]);
-                            for (value, wk) in v.iter().zip(wl) {
-                                sum += *value * Vec3::from_array(*wk);
+                            t += self.elements(&pairs[..n], &mut v[..n]);
+                            for (k, value) in v.iter().enumerate().take(n) {
+                                if self.points[first + g + k].surface {
+                                    sum[g + k] += *value * wk;
+                                }
                             }
                         }
-                        px.copy_from_slice(&sum.to_array());
+                    }
+                    for (px, s) in dst.chunks_exact_mut(3).zip(&sum) {
+                        px.copy_from_slice(&s.to_array());
                     }
                     t
                 })
@@ -461,15 +554,19 @@ impl Backend for CpuBackend {
         for (b, block) in out.chunks_mut(rows_per_block * n * 3).enumerate() {
             crate::interrupt::check()?;
             let first = b * rows_per_block;
-            let tests: u64 = block
-                .par_chunks_mut(n * 3)
-                .enumerate()
-                .flat_map_iter(|(k, row)| row.chunks_mut(LIGHT_CHUNK * 3).enumerate().map(move |(c, dst)| (k, c, dst)))
-                .map(|(k, c, dst)| {
+            let rows_here = block.len() / (n * 3);
+            let base = SharedOut(block.as_mut_ptr());
+            let tests: u64 = (0..rows_here * n.div_ceil(LIGHT_CHUNK))
+                .into_par_iter()
+                .map(|task| {
+                    let (k, c) = (task / n.div_ceil(LIGHT_CHUNK), task % n.div_ceil(LIGHT_CHUNK));
+                    let positions = c * LIGHT_CHUNK..((c + 1) * LIGHT_CHUNK).min(n);
                     let pixel = is[first + k];
                     let mut t = 0u64;
                     for (s, i) in self.view.samples_of_pixel(pixel).enumerate() {
-                        t += self.put_elements(dst, c * LIGHT_CHUNK, |l| (i, l), s > 0);
+                        // SAFETY: `light_order` is a permutation of 0..n, so the tasks of row k write disjoint
+                        // elements of its n * 3 floats, and rows are disjoint; `block` outlives the tasks.
+                        t += unsafe { self.put_row_elements(base.row(k, n), positions.clone(), i, s > 0) };
                     }
                     t
                 })

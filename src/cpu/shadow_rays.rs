@@ -20,7 +20,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// The order of a batch's elements: light by light (columns) or view sample by view sample (rows).
+/// The order of a batch's elements: light by light (columns, the lights in the order given), or view sample
+/// by view sample (rows, each view sample's lights in the order `CpuBackend::rows` traces them:
+/// `spatial_order`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Order {
     Columns,
@@ -98,7 +100,16 @@ pub fn shadow_rays(
     };
     let found: Vec<Vec<(u32, u32, u32, Vec3, Vec3, f32)>> = match order {
         Order::Columns => lights_idx.par_iter().map(|&j| (0..samples.len()).filter_map(|k| element(k, j)).collect()).collect(),
-        Order::Rows => (0..samples.len()).into_par_iter().map(|k| lights_idx.iter().filter_map(|&j| element(k, j)).collect()).collect(),
+        Order::Rows => {
+            // A row's lights in the order `CpuBackend::rows` traces them (`spatial_order`).
+            let mut rank = vec![0u32; n];
+            for (r, &j) in super::spatial_order(lights).iter().enumerate() {
+                rank[j as usize] = r as u32;
+            }
+            let mut row_lights = lights_idx.to_vec();
+            row_lights.sort_by_key(|&j| rank[j]);
+            (0..samples.len()).into_par_iter().map(|k| row_lights.iter().filter_map(|&j| element(k, j)).collect()).collect()
+        }
     };
     let mut out = ShadowRays { elements, ..Default::default() };
     for (i, p, j, o, d, tm) in found.into_iter().flatten() {

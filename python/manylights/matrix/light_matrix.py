@@ -338,7 +338,10 @@ class LightMatrix:
 
         Args:
             view_indices: pixels i in [0, m) (``y * width + x``). light_indices: lights j in [0, n).
-            order: ``"columns"`` (light by light) or ``"rows"`` (view sample by view sample).
+            order: ``"columns"`` (light by light, in the order given) or ``"rows"`` (view sample by view
+                sample; each sample's lights in the order the CPU backend's ``rows`` traces them: neighbours
+                in space next to each other, so consecutive rays leave in similar directions; the
+                ``light`` array names each ray's light).
             every_element: bool; one ray for every element whose view sample lies on a surface, lit or not,
                 toward the same point of the light (the rays of a renderer that tested visibility before
                 shading; the ones the backend casts are among them, unchanged).
