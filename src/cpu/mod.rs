@@ -264,7 +264,7 @@ pub fn mask_visibility_at(
 /// The light indices 0..n in Morton order of the lights' positions (10 bits per axis over their bounding
 /// box), directional lights last in Morton order of their directions: neighbours in this order are
 /// neighbours in space, so a view sample's rays to consecutive lights of it form coherent packets. `rows`
-/// trace in this order: 1.6-1.9x the rays per second of the lights' own order on the benchmark's row
+/// trace in this order: 1.3-2.6x the rays per second of the lights' own order on the benchmark's row
 /// batches (docs/validation/backends.md); each element is computed alone, so the values do not change.
 pub fn spatial_order(lights: &LightSet) -> Vec<u32> {
     let n = lights.len();
@@ -329,6 +329,10 @@ impl CpuBackend {
             crate::memory::product(&[m as u64, std::mem::size_of::<ShadingPoint>() as u64]),
         )?;
         let points = (0..m).into_par_iter().with_min_len(1024).map(|i| ShadingPoint::new(&view, i)).collect();
+        if u32::try_from(lights.len()).is_err() {
+            // `spatial_order` and the rows' disjoint writes index lights as u32.
+            return Err(crate::error::Error::invalid(format!("{} lights: the CPU backend takes at most 2^32 - 1", lights.len())));
+        }
         let light_order = spatial_order(&lights);
         Ok(CpuBackend { tracer, view, lights, points, light_order, shadow_tests: AtomicU64::new(0) })
     }

@@ -31,8 +31,8 @@
 //!
 //! | here | meaning |
 //! |---|---|
-//! | `o`, `d`, `t_near`, `t_max` | ray origin, direction (any length), near and far ends in units of `d` |
-//! | `valid` | lanes of the packet that carry a ray |
+//! | `o`, `d`, `t_max` | ray origin, direction (any length), far end in units of `d` (the near end is the library's floor on t, `bvh::t_floor`) |
+//! | `lanes` | lanes of the packet that carry a ray Embree can take (-1) or none (0) |
 use super::PACKET;
 use embree::sys::*;
 use glam::Vec3;
@@ -45,9 +45,9 @@ const _: () = assert!(PACKET == 16);
 /// (`EmbreeScene::occluded16`; the threshold measured in docs/validation/backends.md).
 pub const COHERENT_COS: f32 = 0.8;
 
-/// Scenes of more triangles trace every packet as incoherent: coherent (frustum) traversal gained 7-29% on
-/// the columns of cbox and veach-ajar and up to 18% on the bunny's rows (69,451 triangles), and lost
-/// 20-30% on the 2,097,152-triangle room, whose rays start on a floor of tiny triangles
+/// Scenes of more triangles trace every packet as incoherent: coherent (frustum) traversal gained 9-13% on
+/// cbox's columns, 15-26% on veach-ajar's and 18% on the bunny's rows (69,451 triangles), and lost
+/// 17-29% on the 2,097,152-triangle room, whose rays start on a floor of tiny triangles
 /// (docs/validation/backends.md). Between the two sizes it is not measured.
 pub const COHERENT_MAX_TRIANGLES: usize = 1 << 20;
 
@@ -145,7 +145,8 @@ impl EmbreeScene {
     /// Up to [`PACKET`] rays `o + t d`, `t_floor < t < t_max`, in one packet (`rtcOccluded16`): `out[k]` is
     /// whether ray k hits a triangle, with `t_floor` the library's floor on t (`bvh::t_floor`). Returns the
     /// lanes Embree cannot take (bit k: ray k beyond [`LARGE`] or with a NaN `t_max`); their `out` is left
-    /// false for the caller to trace another way. A ray with a zero direction answers false.
+    /// false for the caller to trace another way. A ray with a zero or non-finite direction or origin, or a
+    /// `t_max` that is not positive, answers false (as `RayTracer::occluded_ray`).
     ///
     /// The packet is traced as coherent (`RTC_INTERSECT_CONTEXT_FLAG_COHERENT`: Embree's frustum traversal)
     /// when its directions lie within a cone of half-angle 37 degrees ([`coherent`]: a column's rays toward
@@ -161,7 +162,9 @@ impl EmbreeScene {
             let (ok, dk) = (o[k], d[k]);
             let in_range = in_range(ok, dk, t_max[k]);
             outside |= (!in_range as u32) << k;
-            lanes[k] = if in_range && dk != Vec3::ZERO { -1 } else { 0 };
+            // Embree asserts on a NaN in any component (a partly NaN ray passes `in_range`'s maxima), and a
+            // lane whose t_max is not positive would keep its -inf (the occluded mark): those answer false.
+            lanes[k] = if in_range && super::ray_is_valid(ok, dk) && t_max[k] > 0.0 { -1 } else { 0 };
             ray.org_x[k] = ok.x;
             ray.org_y[k] = ok.y;
             ray.org_z[k] = ok.z;

@@ -340,7 +340,7 @@ fn sorts_first(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> bool {
     ka.iter().zip(kb.iter()).find(|(x, y)| x != y).is_none_or(|(x, y)| x < y)
 }
 
-fn ray_is_valid(o: Vec3, d: Vec3) -> bool {
+pub(crate) fn ray_is_valid(o: Vec3, d: Vec3) -> bool {
     o.is_finite() && d.is_finite() && d != Vec3::ZERO
 }
 
