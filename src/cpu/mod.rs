@@ -293,6 +293,18 @@ pub fn spatial_order(lights: &LightSet) -> Vec<u32> {
     keyed.into_iter().map(|(_, j)| j).collect()
 }
 
+/// `value` into the RGB triple `px`: added to it where `accumulate`, else written over it.
+#[inline]
+fn store(px: &mut [f32], value: Vec3, accumulate: bool) {
+    if accumulate {
+        px[0] += value.x;
+        px[1] += value.y;
+        px[2] += value.z;
+    } else {
+        px.copy_from_slice(&value.to_array());
+    }
+}
+
 /// A row block's output shared by the tasks that write disjoint lights of it (`CpuBackend::rows`).
 #[derive(Clone, Copy)]
 struct SharedOut(*mut f32);
@@ -398,13 +410,7 @@ impl CpuBackend {
             }
             t += self.elements(&pairs[..n], &mut v[..n]);
             for (px, value) in group.chunks_exact_mut(3).zip(&v) {
-                if accumulate {
-                    px[0] += value.x;
-                    px[1] += value.y;
-                    px[2] += value.z;
-                } else {
-                    px.copy_from_slice(&value.to_array());
-                }
+                store(px, *value, accumulate);
             }
         }
         t
@@ -427,14 +433,7 @@ impl CpuBackend {
             }
             t += self.elements(&pairs[..n], &mut v[..n]);
             for (&(_, j), value) in pairs[..n].iter().zip(&v) {
-                let px = std::slice::from_raw_parts_mut(row.add(3 * j), 3);
-                if accumulate {
-                    px[0] += value.x;
-                    px[1] += value.y;
-                    px[2] += value.z;
-                } else {
-                    px.copy_from_slice(&value.to_array());
-                }
+                store(std::slice::from_raw_parts_mut(row.add(3 * j), 3), *value, accumulate);
             }
         }
         t
