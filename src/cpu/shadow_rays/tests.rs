@@ -41,6 +41,18 @@ fn traced_rays_reproduce_the_matrix_visibility_element_by_element() {
             assert!(first
                 .windows(2)
                 .all(|w| lights.iter().position(|&l| l as u32 == w[0]) < lights.iter().position(|&l| l as u32 == w[1])));
+        } else {
+            // view sample by view sample, each one's lights in the order `rows` traces them (`spatial_order`)
+            let order = crate::cpu::spatial_order(&a.lights);
+            let rank = |j: u32| order.iter().position(|&l| l == j).unwrap();
+            let mut pairs = 0;
+            for k in 1..rays.view.len() {
+                if rays.view[k] == rays.view[k - 1] {
+                    assert!(rank(rays.light[k - 1]) < rank(rays.light[k]), "rays {} and {k} out of order", k - 1);
+                    pairs += 1;
+                }
+            }
+            assert!(pairs > 100, "{pairs} pairs of rays of one view sample");
         }
     }
     assert!(shadow_rays(&a.view, &a.lights, &[m], &lights, Order::Rows, false).is_err());
