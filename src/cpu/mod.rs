@@ -35,6 +35,9 @@
 //! p position, n shading normal, n_g geometric normal, wi direction to the viewer, wo direction to the
 //! light, L the light's emitted radiance (or irradiance factor) at p, V visibility.
 pub mod shadow_rays;
+mod spatial_order;
+
+pub use spatial_order::spatial_order;
 
 use crate::error::Result;
 use crate::lights::{coordinate_system, LightSet};
@@ -259,38 +262,6 @@ pub fn mask_visibility_at(
     };
     let q = dist.is_finite().then(|| lights.position[j]);
     tracer.mask_transmittance_crossed(p, n_g, q, wo, budget)
-}
-
-/// The light indices 0..n in Morton order of the lights' positions (10 bits per axis over their bounding
-/// box), directional lights last in Morton order of their directions: neighbours in this order are
-/// neighbours in space, so a view sample's rays to consecutive lights of it form coherent packets. `rows`
-/// trace in this order: 1.3-2.6x the rays per second of the lights' own order on the benchmark's row
-/// batches (docs/validation/backends.md); each element is computed alone, so the values do not change.
-pub fn spatial_order(lights: &LightSet) -> Vec<u32> {
-    let n = lights.len();
-    let at_infinity = |j: usize| lights.kind[j] == crate::lights::LightKind::Directional;
-    let point = |j: usize| if at_infinity(j) { lights.direction[j] } else { lights.position[j] };
-    let (mut lo, mut hi) = ([Vec3::INFINITY; 2], [Vec3::NEG_INFINITY; 2]);
-    for j in 0..n {
-        let (p, g) = (point(j), at_infinity(j) as usize);
-        if p.is_finite() {
-            lo[g] = lo[g].min(p);
-            hi[g] = hi[g].max(p);
-        }
-    }
-    let key = |j: usize| -> u64 {
-        let (p, g) = (point(j), at_infinity(j) as usize);
-        let cell = ((p - lo[g]) / (hi[g] - lo[g]).max(Vec3::splat(1e-30)) * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
-        let (x, y, z) = if p.is_finite() { (cell.x as u64, cell.y as u64, cell.z as u64) } else { (1023, 1023, 1023) };
-        let mut m = 0u64;
-        for b in 0..10 {
-            m |= ((x >> b) & 1) << (3 * b) | ((y >> b) & 1) << (3 * b + 1) | ((z >> b) & 1) << (3 * b + 2);
-        }
-        (g as u64) << 32 | m
-    };
-    let mut keyed: Vec<(u64, u32)> = (0..n).map(|j| (key(j), j as u32)).collect();
-    keyed.par_sort_unstable();
-    keyed.into_iter().map(|(_, j)| j).collect()
 }
 
 /// `value` into the RGB triple `px`: added to it where `accumulate`, else written over it.
