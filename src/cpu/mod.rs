@@ -264,18 +264,6 @@ pub fn mask_visibility_at(
     tracer.mask_transmittance_crossed(p, n_g, q, wo, budget)
 }
 
-/// `value` into the RGB triple `px`: added to it where `accumulate`, else written over it.
-#[inline]
-fn store(px: &mut [f32], value: Vec3, accumulate: bool) {
-    if accumulate {
-        px[0] += value.x;
-        px[1] += value.y;
-        px[2] += value.z;
-    } else {
-        px.copy_from_slice(&value.to_array());
-    }
-}
-
 /// A row block's output shared by the tasks that write disjoint lights of it (`CpuBackend::rows`).
 #[derive(Clone, Copy)]
 struct SharedOut(*mut f32);
@@ -364,24 +352,19 @@ impl CpuBackend {
         r as u64
     }
 
-    /// Elements `pair(first + k)`, k < `dst.len() / 3`, into `dst` (RGB each), [`PACKET`] at a time
-    /// (`elements`): a column's pixels (`|i| (i, j)`) or a row's lights (`|l| (i, l)`); added to what `dst`
-    /// holds where `accumulate` (a pixel's later delta-chain samples), else written over it. Writing first
-    /// matters for a freshly allocated output: a read before the first write maps the kernel's shared zero
-    /// page, and each write after it then takes a copy-on-write fault with a TLB shoot-down across the
-    /// threads, a large share of `rows`' time on outputs of tens of MB (docs/validation/backends.md).
-    /// Returns the shadow tests.
-    fn put_elements(&self, dst: &mut [f32], first: usize, pair: impl Fn(usize) -> (usize, usize), accumulate: bool) -> u64 {
+    /// Column j at the view samples `first + k`, k < `dst.len() / 3`, written over `dst` (RGB each),
+    /// [`PACKET`] at a time (`elements`). Returns the shadow tests.
+    fn put_column(&self, dst: &mut [f32], first: usize, j: usize) -> u64 {
         let mut t = 0;
         let (mut pairs, mut v) = ([(0, 0); PACKET], [Vec3::ZERO; PACKET]);
         for (g, group) in dst.chunks_mut(3 * PACKET).enumerate() {
             let n = group.len() / 3;
             for (k, p) in pairs.iter_mut().enumerate().take(n) {
-                *p = pair(first + g * PACKET + k);
+                *p = (first + g * PACKET + k, j);
             }
             t += self.elements(&pairs[..n], &mut v[..n]);
             for (px, value) in group.chunks_exact_mut(3).zip(&v) {
-                store(px, *value, accumulate);
+                px.copy_from_slice(&value.to_array());
             }
         }
         t
@@ -390,7 +373,10 @@ impl CpuBackend {
     /// Light matrix row `i` at the lights `light_order[positions]`, [`PACKET`] at a time (`elements`), into
     /// `row` (n * 3 floats, light j at `3 j`): written over, or added to what it holds where `accumulate` (a
     /// pixel's later delta-chain samples). Lights in `light_order` are neighbours in space, so a packet's rays
-    /// leave the view sample in similar directions (docs/validation/backends.md). Returns the shadow tests.
+    /// leave the view sample in similar directions (docs/validation/backends.md). Writing first matters for a
+    /// freshly allocated output: a read before the first write maps the kernel's shared zero page, and each
+    /// write after it then takes a copy-on-write fault with a TLB shoot-down across the threads, a large
+    /// share of `rows`' time on outputs of tens of MB (docs/validation/backends.md). Returns the shadow tests.
     ///
     /// # Safety
     /// `row` points to n * 3 floats that no other thread reads or writes at the lights of `positions`.
@@ -404,7 +390,14 @@ impl CpuBackend {
             }
             t += self.elements(&pairs[..n], &mut v[..n]);
             for (&(_, j), value) in pairs[..n].iter().zip(&v) {
-                store(std::slice::from_raw_parts_mut(row.add(3 * j), 3), *value, accumulate);
+                let px = std::slice::from_raw_parts_mut(row.add(3 * j), 3);
+                if accumulate {
+                    px[0] += value.x;
+                    px[1] += value.y;
+                    px[2] += value.z;
+                } else {
+                    px.copy_from_slice(&value.to_array());
+                }
             }
         }
         t
@@ -444,11 +437,8 @@ impl Backend for CpuBackend {
             let mut total = 0u64;
             for (k, &j) in block.iter().enumerate() {
                 let col = &mut data[k * m * 3..(k + 1) * m * 3];
-                total += col
-                    .par_chunks_mut(PIXEL_CHUNK * 3)
-                    .enumerate()
-                    .map(|(c, dst)| self.put_elements(dst, c * PIXEL_CHUNK, |i| (i, j), false))
-                    .sum::<u64>();
+                total +=
+                    col.par_chunks_mut(PIXEL_CHUNK * 3).enumerate().map(|(c, dst)| self.put_column(dst, c * PIXEL_CHUNK, j)).sum::<u64>();
             }
             self.shadow_tests.fetch_add(total, Ordering::Relaxed);
             if m != pixels {
@@ -530,10 +520,11 @@ impl Backend for CpuBackend {
             let first = b * rows_per_block;
             let rows_here = block.len() / (n * 3);
             let base = SharedOut(block.as_mut_ptr());
-            let tests: u64 = (0..rows_here * n.div_ceil(LIGHT_CHUNK))
+            let chunks = n.div_ceil(LIGHT_CHUNK);
+            let tests: u64 = (0..rows_here * chunks)
                 .into_par_iter()
                 .map(|task| {
-                    let (k, c) = (task / n.div_ceil(LIGHT_CHUNK), task % n.div_ceil(LIGHT_CHUNK));
+                    let (k, c) = (task / chunks, task % chunks);
                     let positions = c * LIGHT_CHUNK..((c + 1) * LIGHT_CHUNK).min(n);
                     let pixel = is[first + k];
                     let mut t = 0u64;
