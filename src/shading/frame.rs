@@ -72,10 +72,11 @@ pub fn anisotropic_frame_differs(scene: &Scene, m: usize) -> bool {
             _ => n_g,
         };
         let (dp_du, _) = tangents(mesh, prim, centroid, n_g);
+        let ours = coordinate_system(n).0;
         let s = dp_du - n * n.dot(dp_du);
-        let s = if s.length_squared() > 0.0 { s.normalize() } else { coordinate_system(n).0 };
+        let s = if s.length_squared() > 0.0 { s.normalize() } else { ours };
         // The lobes depend on (h . s)^2 and (h . t)^2 alone: a half turn (s -> -s) is the same frame.
-        s.dot(coordinate_system(n).0).abs() < SAME_FRAME
+        s.dot(ours).abs() < SAME_FRAME
     })
 }
 

@@ -30,7 +30,7 @@ impl Builder<'_> {
         let what = p.what();
         let opacity = self.unbounded_param(p, "opacity", 0.5)?;
         if let Param::Value(v) = opacity {
-            let loc = p.prop("opacity").map(|q| q.loc.clone()).unwrap_or_else(|| p.loc().clone());
+            let loc = p.loc_of("opacity");
             if !(v.min_element() >= 0.0 && v.max_element() <= 1.0) {
                 return Err(Error::scene(&loc, format!("{what}: opacity must be in [0, 1], got {}", v.x.min(v.min_element()))));
             }

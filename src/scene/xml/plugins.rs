@@ -59,7 +59,7 @@ pub(super) fn emitted_value(p: &mut Props, name: &str, v: Vec3) -> Result<Vec3> 
     if v.is_finite() && v.min_element() >= 0.0 {
         return Ok(v);
     }
-    let loc = p.prop(name).map(|q| q.loc.clone()).unwrap_or_else(|| p.loc().clone());
+    let loc = p.loc_of(name);
     Err(Error::scene(&loc, format!("{}: {name} must be finite and >= 0 in every channel (float32), got {:?}", p.what(), v.to_array())))
 }
 

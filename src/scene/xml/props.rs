@@ -58,6 +58,12 @@ impl<'a> Props<'a> {
         &self.node.loc
     }
 
+    /// Where property `name` is given (its last occurrence, marked as used), else where the node is: the
+    /// location an error about the property's value names.
+    pub fn loc_of(&mut self, name: &str) -> Location {
+        self.prop(name).map(|q| q.loc.clone()).unwrap_or_else(|| self.loc().clone())
+    }
+
     /// The last property named `name` (a later one replaces an earlier one), marked as used.
     pub fn prop(&mut self, name: &str) -> Option<&'a Prop> {
         let node = self.node;

@@ -52,8 +52,7 @@ impl Builder<'_> {
                 let center = p.vector("center")?.unwrap_or(DVec3::ZERO);
                 let radius = p.float("radius", 1.0)?;
                 if radius == 0.0 || !radius.is_finite() {
-                    let at = p.prop("radius").map(|q| q.loc.clone()).unwrap_or_else(|| loc.clone());
-                    return Err(Error::scene(&at, format!("sphere: radius must be finite and non-zero, got {radius}")));
+                    return Err(Error::scene(&p.loc_of("radius"), format!("sphere: radius must be finite and non-zero, got {radius}")));
                 }
                 let m = to_world * DMat4::from_translation(center) * DMat4::from_scale(DVec3::splat(radius));
                 let cols = [m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()];
